@@ -1,0 +1,3 @@
+//! OpenVDB for Brume, behind a narrow C ABI.
+pub mod types;
+pub use types::*;

@@ -1,0 +1,2 @@
+//! Brume: an offline volumetric renderer for OpenVDB media in glTF scenes.
+pub mod volume;

@@ -1,0 +1,1 @@
+//! Brume's sparse volume layout, per-leaf bounds and the majorant DDA.
