@@ -1,2 +1,3 @@
 //! Brume: an offline volumetric renderer for OpenVDB media in glTF scenes.
+pub mod math;
 pub mod volume;

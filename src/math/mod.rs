@@ -1,0 +1,75 @@
+//! Small geometric types shared by every module. glam does the linear algebra.
+pub use glam::{Affine3A, DAffine3, DMat4, DVec3, Mat4, Vec3, Vec3A};
+
+/// A ray `o + t * d`. `d` is not necessarily normalised: transforms keep the parameter `t`
+/// meaningful across spaces (world and medium index space share `t`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub o: Vec3,
+    pub d: Vec3,
+}
+
+impl Ray {
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        Self { o, d }
+    }
+
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + t * self.d
+    }
+}
+
+/// Axis-aligned box, `min <= max` componentwise unless empty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Self { min, max }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    pub fn union_point(&self, p: Vec3) -> Aabb {
+        Aabb { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    pub fn union(&self, o: &Aabb) -> Aabb {
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    /// Slab test: the parameter interval of `ray` inside the box, clipped to `[t0, t1]`.
+    /// Axis-parallel rays (including `-0.0` components) are handled by the IEEE infinities of
+    /// `1/d`; a NaN from `0 * inf` (origin on a slab plane) is ignored by `max`/`min` ordering.
+    pub fn intersect(&self, ray: &Ray, t0: f32, t1: f32) -> Option<(f32, f32)> {
+        let mut t_near = t0;
+        let mut t_far = t1;
+        for axis in 0..3 {
+            let inv = 1.0 / ray.d[axis];
+            let mut ta = (self.min[axis] - ray.o[axis]) * inv;
+            let mut tb = (self.max[axis] - ray.o[axis]) * inv;
+            if ta > tb {
+                std::mem::swap(&mut ta, &mut tb);
+            }
+            // `x > NaN` is false, so a NaN bound never shrinks the interval.
+            if ta > t_near {
+                t_near = ta;
+            }
+            if tb < t_far {
+                t_far = tb;
+            }
+            if t_near > t_far {
+                return None;
+            }
+        }
+        Some((t_near, t_far))
+    }
+}
