@@ -1,0 +1,435 @@
+// Brume's C ABI over OpenVDB. See brume_vdb.h for the contract.
+//
+// Every entry point runs its body through `guarded`, which turns any exception into a status
+// and an owned copy of its message: OpenVDB throws freely (IoError on bad magic, ValueError,
+// std::bad_alloc on corrupt sizes, std::ios_base::failure on truncation) and an exception that
+// unwound into Rust would abort the process.
+#include "brume_vdb.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/Stream.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/LevelSetUtil.h>
+#include <openvdb/tools/Prune.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <new>
+#include <sstream>
+#include <string>
+#include <vector>
+
+struct BrumeVdbFile {
+    openvdb::GridPtrVecPtr grids;
+    openvdb::MetaMap::Ptr metadata;
+};
+
+struct BrumeVdbFloatGrid {
+    openvdb::FloatGrid::Ptr grid;
+};
+
+namespace {
+
+struct Failure {
+    int32_t status;
+    std::string message;
+};
+
+char *owned_copy(const std::string &s) {
+    char *out = static_cast<char *>(std::malloc(s.size() + 1));
+    if (out) std::memcpy(out, s.c_str(), s.size() + 1);
+    return out;
+}
+
+void set_error(char **error, const std::string &message) {
+    if (error) *error = owned_copy(message);
+}
+
+void ensure_initialized() {
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+template <typename F> int32_t guarded(char **error, F &&body) {
+    if (error) *error = nullptr;
+    try {
+        ensure_initialized();
+        body();
+        return BRUME_VDB_OK;
+    } catch (const Failure &f) {
+        set_error(error, f.message);
+        return f.status;
+    } catch (const openvdb::IoError &e) {
+        set_error(error, e.what());
+        return BRUME_VDB_FORMAT_ERROR;
+    } catch (const openvdb::TypeError &e) {
+        set_error(error, e.what());
+        return BRUME_VDB_TYPE_ERROR;
+    } catch (const openvdb::Exception &e) {
+        set_error(error, e.what());
+        return BRUME_VDB_FORMAT_ERROR;
+    } catch (const std::ios_base::failure &e) {
+        set_error(error, std::string("read failed (truncated or unreadable file): ") + e.what());
+        return BRUME_VDB_IO_ERROR;
+    } catch (const std::bad_alloc &) {
+        set_error(error, "out of memory (a corrupt file can ask for absurd sizes)");
+        return BRUME_VDB_OUT_OF_MEMORY;
+    } catch (const std::exception &e) {
+        set_error(error, e.what());
+        return BRUME_VDB_INTERNAL;
+    } catch (...) {
+        set_error(error, "unknown C++ exception");
+        return BRUME_VDB_INTERNAL;
+    }
+}
+
+void require(bool ok, int32_t status, const char *message) {
+    if (!ok) throw Failure{status, message};
+}
+
+int32_t grid_class_of(openvdb::GridClass c) {
+    switch (c) {
+    case openvdb::GRID_LEVEL_SET: return BRUME_VDB_CLASS_LEVEL_SET;
+    case openvdb::GRID_FOG_VOLUME: return BRUME_VDB_CLASS_FOG_VOLUME;
+    case openvdb::GRID_STAGGERED: return BRUME_VDB_CLASS_STAGGERED;
+    default: return BRUME_VDB_CLASS_UNKNOWN;
+    }
+}
+
+// OpenVDB multiplies row vectors (p' = p * M); Brume's matrices act on column vectors.
+void world_from_index_of(const openvdb::math::Transform &xform, double out[16]) {
+    const openvdb::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) out[r * 4 + c] = m(c, r);
+}
+
+// Upper-level values worth reporting: active tiles, and inactive ones that differ from the
+// background (a level set's interior, say), since lookups read them.
+template <typename F> void for_each_tile(const openvdb::FloatTree &tree, F &&visit) {
+    const float background = tree.background();
+    for (auto it = tree.cbeginValueAll(); it; ++it) {
+        if (it.isVoxelValue()) continue;
+        const float v = *it;
+        if (it.isValueOn() || !(v == background)) visit(it);
+    }
+}
+
+uint64_t count_tiles(const openvdb::FloatTree &tree) {
+    uint64_t n = 0;
+    for_each_tile(tree, [&](const auto &) { ++n; });
+    return n;
+}
+
+std::vector<std::string> metadata_triples(const openvdb::MetaMap &meta) {
+    std::vector<std::string> out;
+    for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
+        out.push_back(it->first);
+        out.push_back(it->second ? it->second->typeName() : std::string("null"));
+        out.push_back(it->second ? it->second->str() : std::string());
+    }
+    return out;
+}
+
+char **owned_strings(const std::vector<std::string> &v) {
+    char **out = static_cast<char **>(std::calloc(v.size() ? v.size() : 1, sizeof(char *)));
+    if (!out) throw std::bad_alloc();
+    for (size_t i = 0; i < v.size(); ++i) out[i] = owned_copy(v[i]);
+    return out;
+}
+
+void fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out) {
+    std::memset(out, 0, sizeof(*out));
+    const auto &xform = grid.transform();
+    out->is_affine = xform.isLinear() ? 1 : 0;
+    const openvdb::Vec3d vs = xform.voxelSize();
+    for (int i = 0; i < 3; ++i) out->voxel_size[i] = vs[i];
+    if (out->is_affine) world_from_index_of(xform, out->world_from_index);
+    const openvdb::CoordBBox bbox = grid.evalActiveVoxelBoundingBox();
+    if (!bbox.empty()) {
+        out->has_active_bbox = 1;
+        for (int i = 0; i < 3; ++i) {
+            out->active_bbox_min[i] = bbox.min()[i];
+            out->active_bbox_max[i] = bbox.max()[i];
+        }
+    }
+    out->active_voxel_count = grid.activeVoxelCount();
+    out->leaf_count = grid.baseTree().leafCount();
+    out->grid_class = grid_class_of(grid.getGridClass());
+    if (const auto *fg = dynamic_cast<const openvdb::FloatGrid *>(&grid)) {
+        out->tile_count = count_tiles(fg->tree());
+        out->has_background = 1;
+        out->background = fg->background();
+    } else if (const auto *dg = dynamic_cast<const openvdb::DoubleGrid *>(&grid)) {
+        out->tile_count = dg->tree().activeTileCount();
+        out->has_background = 1;
+        out->background = dg->background();
+    } else {
+        out->tile_count = grid.baseTree().activeTileCount();
+    }
+    const auto meta = metadata_triples(grid);
+    out->metadata_count = meta.size() / 3;
+    out->metadata = owned_strings(meta);
+    // Strings last: everything that can throw has run, so nothing leaks on failure.
+    out->name = owned_copy(grid.getName());
+    out->value_type = owned_copy(grid.valueType());
+}
+
+openvdb::math::Transform::Ptr transform_from(const double m[16]) {
+    openvdb::Mat4d vdb;
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) vdb(c, r) = m[r * 4 + c];
+    return openvdb::math::Transform::createLinearTransform(vdb);
+}
+
+template <typename GridT, typename ValueOf>
+typename GridT::Ptr build_grid(const BrumeVdbGridSpec &spec, ValueOf value_of) {
+    auto grid = GridT::create(value_of(spec.background));
+    auto acc = grid->getAccessor();
+    for (size_t i = 0; i < spec.count; ++i) {
+        const openvdb::Coord ijk(spec.coords[3 * i], spec.coords[3 * i + 1], spec.coords[3 * i + 2]);
+        acc.setValue(ijk, value_of(spec.values[i]));
+    }
+    if (spec.prune) openvdb::tools::prune(grid->tree());
+    return grid;
+}
+
+} // namespace
+
+extern "C" {
+
+void brume_vdb_string_free(char *s) { std::free(s); }
+
+void brume_vdb_strings_free(char **strings, size_t n) {
+    if (!strings) return;
+    for (size_t i = 0; i < n; ++i) std::free(strings[i]);
+    std::free(strings);
+}
+
+int32_t brume_vdb_open(const char *path, BrumeVdbFile **out, char **error) {
+    return guarded(error, [&] {
+        require(path && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        *out = nullptr;
+        std::error_code ec;
+        const std::filesystem::path p(path);
+        require(std::filesystem::exists(p, ec), BRUME_VDB_IO_ERROR, "no such file");
+        require(!std::filesystem::is_directory(p, ec), BRUME_VDB_IO_ERROR,
+                "is a directory, not a .vdb file");
+        require(std::filesystem::is_regular_file(p, ec), BRUME_VDB_IO_ERROR, "not a regular file");
+        require(std::filesystem::file_size(p, ec) > 0, BRUME_VDB_FORMAT_ERROR, "empty file");
+        std::ifstream is(p, std::ios::in | std::ios::binary);
+        require(is.good(), BRUME_VDB_IO_ERROR, "cannot open for reading");
+        // With exceptions on, a truncated file fails at the short read instead of handing
+        // OpenVDB zero-filled sizes.
+        is.exceptions(std::ios::badbit | std::ios::failbit);
+        // Stream, not io::File: no delayed loading or memory mapping, so everything is read
+        // (and every error raised) here, inside the guard.
+        openvdb::io::Stream stream(is, /*delayLoad=*/false);
+        auto file = std::make_unique<BrumeVdbFile>();
+        file->metadata = stream.getMetadata();
+        file->grids = stream.getGrids();
+        require(file->grids != nullptr, BRUME_VDB_FORMAT_ERROR, "no grids could be read");
+        *out = file.release();
+    });
+}
+
+void brume_vdb_file_free(BrumeVdbFile *file) { delete file; }
+
+int32_t brume_vdb_grid_count(const BrumeVdbFile *file, size_t *count, char **error) {
+    return guarded(error, [&] {
+        require(file && count, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        *count = file->grids->size();
+    });
+}
+
+int32_t brume_vdb_grid_info(const BrumeVdbFile *file, size_t index, BrumeVdbGridInfo *out,
+                            char **error) {
+    return guarded(error, [&] {
+        require(file && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        require(index < file->grids->size(), BRUME_VDB_NOT_FOUND, "grid index out of range");
+        const auto &grid = (*file->grids)[index];
+        require(grid != nullptr, BRUME_VDB_FORMAT_ERROR, "null grid in file");
+        fill_info(*grid, out);
+    });
+}
+
+void brume_vdb_grid_info_free(BrumeVdbGridInfo *info) {
+    if (!info) return;
+    std::free(info->name);
+    std::free(info->value_type);
+    brume_vdb_strings_free(info->metadata, 3 * info->metadata_count);
+    std::memset(info, 0, sizeof(*info));
+}
+
+int32_t brume_vdb_file_metadata(const BrumeVdbFile *file, size_t *count, char ***triples,
+                                char **error) {
+    return guarded(error, [&] {
+        require(file && count && triples, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        std::vector<std::string> meta;
+        if (file->metadata) meta = metadata_triples(*file->metadata);
+        *triples = owned_strings(meta);
+        *count = meta.size() / 3;
+    });
+}
+
+int32_t brume_vdb_float_grid_open(const BrumeVdbFile *file, const char *name, uint32_t flags,
+                                  BrumeVdbFloatGrid **out, char **error) {
+    return guarded(error, [&] {
+        require(file && name && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        *out = nullptr;
+        openvdb::GridBase::Ptr found;
+        for (const auto &g : *file->grids)
+            if (g && g->getName() == name) {
+                found = g;
+                break;
+            }
+        if (!found) throw Failure{BRUME_VDB_NOT_FOUND, std::string("no grid named '") + name + "'"};
+        auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(found);
+        if (!grid)
+            throw Failure{BRUME_VDB_TYPE_ERROR, std::string("grid '") + name + "' holds " +
+                                                    found->valueType() + " values, not float"};
+        require(grid->transform().isLinear(), BRUME_VDB_TYPE_ERROR,
+                "grid has a non-affine (frustum) transform, which Brume does not support");
+        auto copy = grid->deepCopy();
+        if ((flags & BRUME_VDB_LEVEL_SET_TO_FOG) && copy->getGridClass() == openvdb::GRID_LEVEL_SET)
+            openvdb::tools::sdfToFogVolume(*copy);
+        *out = new BrumeVdbFloatGrid{copy};
+    });
+}
+
+void brume_vdb_float_grid_free(BrumeVdbFloatGrid *grid) { delete grid; }
+
+int32_t brume_vdb_float_grid_info(const BrumeVdbFloatGrid *grid, BrumeVdbGridInfo *out,
+                                  char **error) {
+    return guarded(error, [&] {
+        require(grid && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        fill_info(*grid->grid, out);
+    });
+}
+
+int32_t brume_vdb_float_grid_counts(const BrumeVdbFloatGrid *grid, size_t *leaf_count,
+                                    size_t *tile_count, float *background, char **error) {
+    return guarded(error, [&] {
+        require(grid && leaf_count && tile_count && background, BRUME_VDB_INVALID_ARGUMENT,
+                "null argument");
+        const auto &tree = grid->grid->tree();
+        *leaf_count = tree.leafCount();
+        *tile_count = count_tiles(tree);
+        *background = tree.background();
+    });
+}
+
+int32_t brume_vdb_float_grid_copy_leaves(const BrumeVdbFloatGrid *grid, int32_t *origins,
+                                         float *values, uint64_t *masks, size_t capacity,
+                                         char **error) {
+    return guarded(error, [&] {
+        require(grid && origins && values && masks, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        const auto &tree = grid->grid->tree();
+        require(capacity == tree.leafCount(), BRUME_VDB_INVALID_ARGUMENT,
+                "leaf buffer size does not match the leaf count");
+        size_t n = 0;
+        for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf, ++n) {
+            const openvdb::Coord o = leaf->origin();
+            for (int a = 0; a < 3; ++a) origins[3 * n + a] = o[a];
+            using Leaf = openvdb::FloatTree::LeafNodeType;
+            for (openvdb::Index i = 0; i < Leaf::SIZE; ++i)
+                values[Leaf::SIZE * n + i] = leaf->getValue(i);
+            const auto &mask = leaf->getValueMask();
+            for (openvdb::Index w = 0; w < 8; ++w) masks[8 * n + w] = mask.getWord<uint64_t>(w);
+        }
+    });
+}
+
+int32_t brume_vdb_float_grid_copy_tiles(const BrumeVdbFloatGrid *grid, int32_t *origins,
+                                        uint32_t *dims, float *values, uint8_t *active,
+                                        size_t capacity, char **error) {
+    return guarded(error, [&] {
+        require(grid && origins && dims && values && active, BRUME_VDB_INVALID_ARGUMENT,
+                "null argument");
+        const auto &tree = grid->grid->tree();
+        require(capacity == count_tiles(tree), BRUME_VDB_INVALID_ARGUMENT,
+                "tile buffer size does not match the tile count");
+        size_t n = 0;
+        for_each_tile(tree, [&](const auto &it) {
+            const openvdb::CoordBBox box = it.getBoundingBox();
+            for (int a = 0; a < 3; ++a) origins[3 * n + a] = box.min()[a];
+            dims[n] = static_cast<uint32_t>(box.dim()[0]);
+            values[n] = *it;
+            active[n] = it.isValueOn() ? 1 : 0;
+            ++n;
+        });
+    });
+}
+
+int32_t brume_vdb_float_grid_sample(const BrumeVdbFloatGrid *grid, const double *points, size_t n,
+                                    int32_t order, float *out, char **error) {
+    return guarded(error, [&] {
+        require(grid && (points || n == 0) && (out || n == 0), BRUME_VDB_INVALID_ARGUMENT,
+                "null argument");
+        require(order == 0 || order == 1, BRUME_VDB_INVALID_ARGUMENT, "order must be 0 or 1");
+        auto acc = grid->grid->getConstAccessor();
+        if (order == 0) {
+            for (size_t i = 0; i < n; ++i)
+                out[i] = openvdb::tools::PointSampler::sample(
+                    acc, openvdb::Vec3R(points[3 * i], points[3 * i + 1], points[3 * i + 2]));
+        } else {
+            for (size_t i = 0; i < n; ++i)
+                out[i] = openvdb::tools::BoxSampler::sample(
+                    acc, openvdb::Vec3R(points[3 * i], points[3 * i + 1], points[3 * i + 2]));
+        }
+    });
+}
+
+int32_t brume_vdb_write_float_grids(const char *path, const BrumeVdbGridSpec *grids, size_t n,
+                                    char **error) {
+    return guarded(error, [&] {
+        require(path && (grids || n == 0), BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        openvdb::GridPtrVec out;
+        for (size_t g = 0; g < n; ++g) {
+            const BrumeVdbGridSpec &spec = grids[g];
+            require(spec.name && (spec.count == 0 || (spec.coords && spec.values)),
+                    BRUME_VDB_INVALID_ARGUMENT, "grid spec has null pointers");
+            openvdb::GridBase::Ptr grid;
+            if (spec.value_kind == 0) {
+                grid = build_grid<openvdb::FloatGrid>(spec, [](float v) { return v; });
+            } else if (spec.value_kind == 1) {
+                grid = build_grid<openvdb::Vec3SGrid>(
+                    spec, [](float v) { return openvdb::Vec3s(v, v, v); });
+            } else {
+                throw Failure{BRUME_VDB_INVALID_ARGUMENT, "value_kind must be 0 or 1"};
+            }
+            grid->setName(spec.name);
+            switch (spec.grid_class) {
+            case BRUME_VDB_CLASS_LEVEL_SET: grid->setGridClass(openvdb::GRID_LEVEL_SET); break;
+            case BRUME_VDB_CLASS_FOG_VOLUME: grid->setGridClass(openvdb::GRID_FOG_VOLUME); break;
+            default: grid->setGridClass(openvdb::GRID_UNKNOWN); break;
+            }
+            grid->setTransform(transform_from(spec.world_from_index));
+            grid->setSaveFloatAsHalf(spec.save_as_half != 0);
+            grid->insertMeta("creator", openvdb::StringMetadata("brume"));
+            out.push_back(grid);
+        }
+        // Write next to the target and rename, so a failed write never leaves half a file.
+        const std::string tmp = std::string(path) + ".tmp";
+        {
+            openvdb::io::File file(tmp);
+            file.setCompression(openvdb::io::Archive::hasBloscCompression()
+                                    ? openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK
+                                    : openvdb::io::COMPRESS_ZIP | openvdb::io::COMPRESS_ACTIVE_MASK);
+            openvdb::MetaMap meta;
+            meta.insertMeta("creator", openvdb::StringMetadata("brume"));
+            file.write(out, meta);
+            file.close();
+        }
+        std::error_code ec;
+        std::filesystem::rename(tmp, path, ec);
+        if (ec) {
+            std::filesystem::remove(tmp, ec);
+            throw Failure{BRUME_VDB_IO_ERROR, "cannot rename the written file into place"};
+        }
+    });
+}
+
+} // extern "C"
