@@ -1,0 +1,142 @@
+//! Writes Brume's procedural example grids through OpenVDB (`scenes/make_vdbs.sh` runs it).
+//!
+//! The shapes are deterministic (a hash-based value noise, no RNG state), so rerunning the
+//! script reproduces the committed files. Each grid sits around the origin inside about
+//! [-1, 1]^3 in world units, as the example scenes expect.
+use brume_ffi::{write_float_grids, GridSpec};
+use std::path::PathBuf;
+
+fn hash3(x: i32, y: i32, z: i32, seed: u32) -> f32 {
+    let mut h = (x as u32).wrapping_mul(0x8da6_b343)
+        ^ (y as u32).wrapping_mul(0xd816_3841)
+        ^ (z as u32).wrapping_mul(0xcb1a_b31f)
+        ^ seed.wrapping_mul(0x9e37_79b9);
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x7feb_352d);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x846c_a68b);
+    h ^= h >> 16;
+    h as f32 / u32::MAX as f32
+}
+
+fn smooth(t: f32) -> f32 {
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Value noise in [0, 1].
+fn noise(p: [f32; 3], seed: u32) -> f32 {
+    let i = p.map(|c| c.floor() as i32);
+    let f = [p[0] - i[0] as f32, p[1] - i[1] as f32, p[2] - i[2] as f32].map(smooth);
+    let mut acc = 0.0;
+    for corner in 0..8 {
+        let (dx, dy, dz) = (corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+        let w = (if dx == 1 { f[0] } else { 1.0 - f[0] })
+            * (if dy == 1 { f[1] } else { 1.0 - f[1] })
+            * (if dz == 1 { f[2] } else { 1.0 - f[2] });
+        acc += w * hash3(i[0] + dx, i[1] + dy, i[2] + dz, seed);
+    }
+    acc
+}
+
+/// Fractal sum of 4 octaves, centred on 0, roughly in [-0.5, 0.5].
+fn fbm(p: [f32; 3], seed: u32) -> f32 {
+    let (mut sum, mut amp, mut freq) = (0.0, 0.5, 1.0);
+    for o in 0..4 {
+        sum += amp * (noise(p.map(|c| c * freq), seed + o) - 0.5);
+        amp *= 0.5;
+        freq *= 2.03;
+    }
+    sum * 1.9
+}
+
+fn len(v: [f32; 3]) -> f32 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Samples `f` at voxel centres of a cube of `half` voxels around the origin and keeps the
+/// non-zero values.
+fn voxelize(spec: &mut GridSpec, half: i32, voxel: f32, f: impl Fn([f32; 3]) -> f32) {
+    for x in -half..half {
+        for y in -half..half {
+            for z in -half..half {
+                let v = f([x as f32 * voxel, y as f32 * voxel, z as f32 * voxel]);
+                if v > 0.0 {
+                    spec.voxels.push(([x, y, z], v));
+                }
+            }
+        }
+    }
+}
+
+fn cloud() -> GridSpec {
+    let voxel = 1.0 / 48.0;
+    let mut g = GridSpec::fog("density", voxel as f64, [0.0; 3]);
+    let blobs = [([0.0, -0.1, 0.0], 0.55), ([0.45, -0.25, 0.1], 0.4), ([-0.45, -0.2, -0.1], 0.42), ([0.1, 0.3, 0.05], 0.4), ([-0.2, 0.15, 0.3], 0.3)];
+    voxelize(&mut g, 48, voxel, |p| {
+        let sd = blobs.iter().map(|(c, r)| len([p[0] - c[0], p[1] - c[1], p[2] - c[2]]) - r).fold(f32::MAX, f32::min);
+        // A flat base, as cumulus have.
+        let sd = sd.max(-0.45 - p[1]);
+        let d = -sd + 0.22 * fbm(p.map(|c| c * 3.5), 7);
+        (d * 6.0).clamp(0.0, 1.0)
+    });
+    g
+}
+
+fn smoke() -> GridSpec {
+    let voxel = 1.0 / 40.0;
+    let mut g = GridSpec::fog("density", voxel as f64, [0.0; 3]);
+    voxelize(&mut g, 40, voxel, |p| {
+        let h = (p[1] + 1.0) * 0.5; // 0 at the bottom, 1 at the top
+        let twist = 0.25 * (3.0 * p[1]).sin();
+        let r = len([p[0] - twist, 0.0, p[2] - 0.15 * (2.0 * p[1]).cos()]);
+        let radius = 0.12 + 0.35 * h;
+        let d = (1.0 - r / radius) + 0.5 * fbm([p[0] * 4.0, p[1] * 2.5, p[2] * 4.0], 11);
+        (d * 1.2).clamp(0.0, 1.0) * (1.0 - h).powf(0.5) * 0.8
+    });
+    g
+}
+
+fn fire() -> [GridSpec; 3] {
+    let voxel = 1.0 / 40.0;
+    let field = |p: [f32; 3]| {
+        let r = len([p[0], (p[1] + 0.3) * 0.8, p[2]]);
+        (1.0 - r / 0.8) + 0.45 * fbm(p.map(|c| c * 3.0), 23)
+    };
+    let mut density = GridSpec::fog("density", voxel as f64, [0.0; 3]);
+    voxelize(&mut density, 40, voxel, |p| (field(p) * 2.0).clamp(0.0, 1.0) * 0.6);
+    let mut temperature = GridSpec::fog("temperature", voxel as f64, [0.0; 3]);
+    voxelize(&mut temperature, 40, voxel, |p| (field(p) * 1.6 - 0.2).clamp(0.0, 1.0));
+    let mut flame = GridSpec::fog("flame", voxel as f64, [0.0; 3]);
+    voxelize(&mut flame, 40, voxel, |p| ((field(p) - 0.45) * 2.5).clamp(0.0, 1.0));
+    [density, temperature, flame]
+}
+
+/// A 128^3 block of constant density that OpenVDB stores as one upper-level tile, beside a
+/// ramp held in leaves: the case where leaf-only readers see an almost empty grid.
+fn tiles() -> GridSpec {
+    let voxel = 1.0 / 80.0;
+    let mut g = GridSpec::fog("density", voxel as f64, [-1.0, -0.8, -0.8]);
+    for x in 0..160 {
+        for y in 0..128 {
+            for z in 0..128 {
+                let v = if x < 128 { 0.3 } else { 0.3 * (1.0 - (x - 127) as f32 / 33.0) * (1.0 + 0.1 * ((y + z) % 3) as f32) };
+                g.voxels.push(([x, y, z], v));
+            }
+        }
+    }
+    g
+}
+
+fn main() {
+    let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "scenes/vdb".to_string()));
+    std::fs::create_dir_all(&out).expect("cannot create the output folder");
+    let write = |name: &str, grids: &[GridSpec]| {
+        let path = out.join(name);
+        write_float_grids(&path, grids).unwrap_or_else(|e| panic!("{e}"));
+        println!("wrote {}", path.display());
+    };
+    write("cloud.vdb", &[cloud()]);
+    write("smoke.vdb", &[smoke()]);
+    write("fire.vdb", &fire());
+    write("tiles.vdb", &[tiles()]);
+}
