@@ -163,7 +163,16 @@ impl Iterator for DdaMajorantIterator<'_> {
             // final plane crossing a hair before it.
             let leaving = self.next_crossing[axis] >= self.t_exit || next_cell < 0 || next_cell >= self.dims[axis];
             let t_min = self.t;
-            let t_max = if leaving { self.t_exit } else { self.next_crossing[axis].max(t_min) };
+            // Never move backwards, and keep t_min's own bits when the crossing merely equals
+            // it (`-0.0 == 0.0`), so consecutive segments share their ends bit for bit.
+            let crossing = self.next_crossing[axis];
+            let t_max = if leaving {
+                self.t_exit
+            } else if crossing > t_min {
+                crossing
+            } else {
+                t_min
+            };
             let b = self.cell_bounds();
             if leaving {
                 self.done = true;
