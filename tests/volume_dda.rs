@@ -11,7 +11,8 @@ const RAYS: usize = 100_000;
 fn ray_check(name: &str, data: &brume_ffi::FloatGridData, seed: u64) {
     let grid = common::convert(data);
     let bounds = LeafBounds::build(&grid);
-    let stats = check_ray_bounds(&grid, &bounds, RAYS, seed).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let stats =
+        check_ray_bounds(&grid, &bounds, RAYS, seed).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert_eq!(stats.rays, RAYS as u64);
     if !grid.cells.is_empty() {
         // The generator must actually exercise the grid.
@@ -34,7 +35,11 @@ fn rays_respect_bounds_with_tiles() {
 
 #[test]
 fn rays_respect_bounds_with_nonzero_background() {
-    ray_check("sparse_with_background", &common::sparse_with_background(), 3);
+    ray_check(
+        "sparse_with_background",
+        &common::sparse_with_background(),
+        3,
+    );
 }
 
 #[test]
@@ -79,7 +84,10 @@ fn axis_parallel_ray_with_negative_zeros_walks_one_row() {
     let ray = Ray::new(Vec3::new(-20.0, 0.0, 0.0), Vec3::new(1.0, -0.0, -0.0));
     let segs = segments(&bounds, ray, 0.0, f32::INFINITY);
     let ends: Vec<(f32, f32)> = segs.iter().map(|s| (s.t_min, s.t_max)).collect();
-    assert_eq!(ends, vec![(12.0, 20.0), (20.0, 28.0), (28.0, 36.0), (36.0, 44.0)]);
+    assert_eq!(
+        ends,
+        vec![(12.0, 20.0), (20.0, 28.0), (28.0, 36.0), (36.0, 44.0)]
+    );
     // Padding cell, then the two data cells (each reaching a voxel into its neighbours).
     let maj: Vec<f32> = segs.iter().map(|s| s.sigma_maj).collect();
     assert_eq!(maj, vec![1.0, 2.0, 2.0, 2.0]);
@@ -87,7 +95,10 @@ fn axis_parallel_ray_with_negative_zeros_walks_one_row() {
     assert_eq!(min, vec![0.0, 0.0, 0.0, 0.0]);
     // Reversed, starting inside.
     let back = Ray::new(Vec3::new(10.0, 0.0, 0.0), Vec3::new(-2.0, 0.0, -0.0));
-    let ends: Vec<(f32, f32)> = segments(&bounds, back, 0.0, 100.0).iter().map(|s| (s.t_min, s.t_max)).collect();
+    let ends: Vec<(f32, f32)> = segments(&bounds, back, 0.0, 100.0)
+        .iter()
+        .map(|s| (s.t_min, s.t_max))
+        .collect();
     assert_eq!(ends, vec![(0.0, 1.0), (1.0, 5.0), (5.0, 9.0)]);
 }
 
@@ -95,7 +106,9 @@ fn axis_parallel_ray_with_negative_zeros_walks_one_row() {
 fn density_scale_multiplies_both_bounds() {
     let (_, bounds) = row();
     let ray = Ray::new(Vec3::new(-20.0, 0.5, 0.5), Vec3::X);
-    for s in DdaMajorantIterator::new(&bounds, &ray, 0.0, 100.0, 3.0).zip(segments(&bounds, ray, 0.0, 100.0)) {
+    for s in DdaMajorantIterator::new(&bounds, &ray, 0.0, 100.0, 3.0)
+        .zip(segments(&bounds, ray, 0.0, 100.0))
+    {
         assert_eq!(s.0.sigma_maj, 3.0 * s.1.sigma_maj);
         assert_eq!(s.0.sigma_min, 3.0 * s.1.sigma_min);
     }
@@ -108,7 +121,10 @@ fn degenerate_intervals_and_misses_yield_nothing() {
     assert!(segments(&bounds, ray, 30.0, 20.0).is_empty(), "t0 > t1");
     assert!(segments(&bounds, ray, 25.0, 25.0).is_empty(), "zero length");
     assert!(segments(&bounds, ray, f32::NAN, 25.0).is_empty(), "NaN t0");
-    assert!(segments(&bounds, ray, 0.0, 5.0).is_empty(), "ends before the box");
+    assert!(
+        segments(&bounds, ray, 0.0, 5.0).is_empty(),
+        "ends before the box"
+    );
     let miss = Ray::new(Vec3::new(-20.0, 50.0, 0.0), Vec3::X);
     assert!(segments(&bounds, miss, 0.0, f32::INFINITY).is_empty());
     let still = Ray::new(Vec3::new(-20.0, 0.0, 0.0), Vec3::ZERO);
@@ -119,7 +135,15 @@ fn degenerate_intervals_and_misses_yield_nothing() {
     assert_eq!(segs.len(), 1);
     assert_eq!((segs[0].t_min, segs[0].t_max), (-1.0, 2.0));
     let global: Vec<_> = DdaMajorantIterator::global(&bounds, &ray, 0.0, 1e9, 1.0).collect();
-    assert_eq!(global, vec![MajorantSegment { t_min: 12.0, t_max: 44.0, sigma_maj: 2.0, sigma_min: 0.0 }]);
+    assert_eq!(
+        global,
+        vec![MajorantSegment {
+            t_min: 12.0,
+            t_max: 44.0,
+            sigma_maj: 2.0,
+            sigma_min: 0.0
+        }]
+    );
 }
 
 #[test]
@@ -131,7 +155,10 @@ fn ray_along_a_cell_edge_is_bounded_on_both_sides() {
         for k in 0..=16 {
             let t = s.t_min + (s.t_max - s.t_min) * k as f32 / 16.0;
             let v = grid.sample_trilinear(ray.at(t).as_dvec3());
-            assert!(s.sigma_min <= v && v <= s.sigma_maj, "{v} at {t} outside {s:?}");
+            assert!(
+                s.sigma_min <= v && v <= s.sigma_maj,
+                "{v} at {t} outside {s:?}"
+            );
         }
     }
 }

@@ -5,7 +5,8 @@ mod common;
 use brume::math::DVec3;
 use brume::volume::check::check_lookups;
 use brume::volume::{
-    dense_to_vdb, synthetic_info, ConversionPolicy, LeafBounds, SparseGrid, VolumeError, CONSTANT_BIT,
+    dense_to_vdb, synthetic_info, ConversionPolicy, LeafBounds, SparseGrid, VolumeError,
+    CONSTANT_BIT,
 };
 use brume_ffi::{FloatGridData, Leaf, Tile};
 
@@ -13,7 +14,8 @@ use brume_ffi::{FloatGridData, Leaf, Tile};
 fn lookups_match_reference_on_every_synthetic_grid() {
     for (name, data) in common::all_grids() {
         let grid = common::convert(&data);
-        let stats = check_lookups(&grid, &data, 60_000, 0x5eed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let stats =
+            check_lookups(&grid, &data, 60_000, 0x5eed).unwrap_or_else(|e| panic!("{name}: {e}"));
         // Brume mirrors OpenVDB's arithmetic, so agreement is exact, not just within 1e-6.
         assert_eq!(stats.exact, stats.points, "{name}: {stats:?}");
     }
@@ -28,7 +30,11 @@ fn bricks_are_transposed_from_openvdb_leaf_order() {
     let data = FloatGridData {
         info: synthetic_info("order"),
         background: 0.0,
-        leaves: vec![Leaf { origin: [-8, 16, 0], values, active: [0; 8] }],
+        leaves: vec![Leaf {
+            origin: [-8, 16, 0],
+            values,
+            active: [0; 8],
+        }],
         tiles: vec![],
     };
     let grid = common::convert(&data);
@@ -50,8 +56,16 @@ fn trilinear_blends_z_then_y_then_x_like_openvdb() {
     let f = DVec3::new(0.25, 0.5, 0.75);
     let v = |x: usize, y: usize, z: usize| values[x + 2 * y + 4 * z];
     let lerp = |a: f32, b: f32, w: f64| a + ((b - a) as f64 * w) as f32;
-    let a = lerp(lerp(v(0, 0, 0), v(0, 0, 1), f.z), lerp(v(0, 1, 0), v(0, 1, 1), f.z), f.y);
-    let b = lerp(lerp(v(1, 0, 0), v(1, 0, 1), f.z), lerp(v(1, 1, 0), v(1, 1, 1), f.z), f.y);
+    let a = lerp(
+        lerp(v(0, 0, 0), v(0, 0, 1), f.z),
+        lerp(v(0, 1, 0), v(0, 1, 1), f.z),
+        f.y,
+    );
+    let b = lerp(
+        lerp(v(1, 0, 0), v(1, 0, 1), f.z),
+        lerp(v(1, 1, 0), v(1, 1, 1), f.z),
+        f.y,
+    );
     assert_eq!(grid.sample_trilinear(f), lerp(a, b, f.x));
     // The exact trilinear value for this linear field is 1 + x + 2y + 4z.
     assert!((grid.sample_trilinear(f) - (1.0 + 0.25 + 1.0 + 3.0)).abs() < 1e-6);
@@ -60,19 +74,31 @@ fn trilinear_blends_z_then_y_then_x_like_openvdb() {
     // Outside the box and at NaN: the background.
     assert_eq!(grid.sample_trilinear(DVec3::new(1e9, 0.0, 0.0)), 0.0);
     assert_eq!(grid.sample_trilinear(DVec3::new(f64::NAN, 0.0, 0.0)), 0.0);
-    assert_eq!(grid.sample_nearest(DVec3::new(0.0, f64::NEG_INFINITY, 0.0)), 0.0);
+    assert_eq!(
+        grid.sample_nearest(DVec3::new(0.0, f64::NEG_INFINITY, 0.0)),
+        0.0
+    );
 }
 
 #[test]
 fn uniform_leaves_and_tiles_become_constant_cells() {
     let mut data = dense_to_vdb([8, 8, 8], [0, 0, 0], &[1.5; 512], 0.0).unwrap();
-    data.tiles.push(Tile { origin: [128, 0, 0], dim: 128, value: 1.5, active: true });
+    data.tiles.push(Tile {
+        origin: [128, 0, 0],
+        dim: 128,
+        value: 1.5,
+        active: true,
+    });
     let (grid, report) = SparseGrid::from_vdb(&data, ConversionPolicy::default()).unwrap();
     assert_eq!(grid.brick_count(), 0);
     assert_eq!(report.uniform_leaves, 1);
     // Background and one shared constant.
     assert_eq!(grid.constants, vec![0.0, 1.5]);
-    let tile_cells = grid.cells.iter().filter(|&&e| e == (CONSTANT_BIT | 1)).count();
+    let tile_cells = grid
+        .cells
+        .iter()
+        .filter(|&&e| e == (CONSTANT_BIT | 1))
+        .count();
     assert_eq!(tile_cells, 16 * 16 * 16 + 1);
     // The box spans the leaf and the tile, padded by a cell: x cells -1..33, y and z -1..17.
     assert_eq!(grid.cell_origin, [-1, -1, -1]);
@@ -99,13 +125,25 @@ fn nan_and_inf_are_rejected_with_count_and_first_index() {
         other => panic!("unexpected error {other:?}"),
     }
     let message = err.to_string();
-    assert!(message.contains('2') && message.contains("[5, 5, 6]"), "{message}");
+    assert!(
+        message.contains('2') && message.contains("[5, 5, 6]"),
+        "{message}"
+    );
 
     let mut data = common::empty();
-    data.tiles.push(Tile { origin: [0, 0, 0], dim: 128, value: f32::NEG_INFINITY, active: true });
+    data.tiles.push(Tile {
+        origin: [0, 0, 0],
+        dim: 128,
+        value: f32::NEG_INFINITY,
+        active: true,
+    });
     assert!(matches!(
         SparseGrid::from_vdb(&data, ConversionPolicy::default()),
-        Err(VolumeError::NonFinite { count: 1, first: [0, 0, 0], .. })
+        Err(VolumeError::NonFinite {
+            count: 1,
+            first: [0, 0, 0],
+            ..
+        })
     ));
 }
 
@@ -115,7 +153,12 @@ fn negatives_are_clamped_to_zero_with_a_warning() {
     values[3] = -0.5;
     values[5] = -2.0;
     let mut data = dense_to_vdb([2, 2, 2], [0, 0, 0], &values, 0.0).unwrap();
-    data.tiles.push(Tile { origin: [8, 0, 0], dim: 8, value: -1.0, active: true });
+    data.tiles.push(Tile {
+        origin: [8, 0, 0],
+        dim: 8,
+        value: -1.0,
+        active: true,
+    });
     let (grid, report) = SparseGrid::from_vdb(&data, ConversionPolicy::default()).unwrap();
     assert_eq!(report.negative_voxels, 2);
     assert_eq!(report.negative_tiles, 1);
@@ -126,46 +169,85 @@ fn negatives_are_clamped_to_zero_with_a_warning() {
     assert!(report.warnings[0].contains("clamped"));
     assert_eq!(grid.voxel(1, 1, 0), 0.0);
     assert_eq!(grid.voxel(9, 0, 0), 0.0);
-    assert!(grid.bricks.iter().chain(grid.constants.iter()).all(|&v| v >= 0.0));
+    assert!(grid
+        .bricks
+        .iter()
+        .chain(grid.constants.iter())
+        .all(|&v| v >= 0.0));
 }
 
 #[test]
 fn oversized_index_is_refused_with_counts() {
     let mut data = common::empty();
     // A root-level tile: 512^3 cells before padding.
-    data.tiles.push(Tile { origin: [0, 0, 0], dim: 4096, value: 1.0, active: true });
+    data.tiles.push(Tile {
+        origin: [0, 0, 0],
+        dim: 4096,
+        value: 1.0,
+        active: true,
+    });
     let err = SparseGrid::from_vdb(&data, ConversionPolicy::default()).unwrap_err();
-    let VolumeError::TooManyCells { cells, limit, .. } = err else { panic!("unexpected {err:?}") };
+    let VolumeError::TooManyCells { cells, limit, .. } = err else {
+        panic!("unexpected {err:?}")
+    };
     assert_eq!(cells, 514u64.pow(3));
     assert_eq!(limit, 1 << 26);
-    assert!(err.to_string().contains(&cells.to_string()) && err.to_string().contains(&limit.to_string()));
+    assert!(
+        err.to_string().contains(&cells.to_string())
+            && err.to_string().contains(&limit.to_string())
+    );
     // A tighter policy refuses smaller grids too.
     let small = ConversionPolicy { max_cells: 100 };
-    assert!(matches!(SparseGrid::from_vdb(&common::blob(), small), Err(VolumeError::TooManyCells { .. })));
+    assert!(matches!(
+        SparseGrid::from_vdb(&common::blob(), small),
+        Err(VolumeError::TooManyCells { .. })
+    ));
 }
 
 #[test]
 fn transforms_are_kept_and_world_bounds_follow_them() {
     let mut data = common::single_voxel();
     // Half-unit voxels, translated; rows of a column-vector matrix.
-    data.info.world_from_index =
-        [[0.5, 0.0, 0.0, 10.0], [0.0, 0.5, 0.0, -2.0], [0.0, 0.0, 0.5, 1.0], [0.0, 0.0, 0.0, 1.0]];
+    data.info.world_from_index = [
+        [0.5, 0.0, 0.0, 10.0],
+        [0.0, 0.5, 0.0, -2.0],
+        [0.0, 0.0, 0.5, 1.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
     data.info.voxel_size = [0.5; 3];
     let grid = common::convert(&data);
     let index = grid.index_bounds();
     let world = grid.world_bounds();
-    assert_eq!(world.min, index.min * 0.5 + brume::math::Vec3::new(10.0, -2.0, 1.0));
-    assert_eq!(world.max, index.max * 0.5 + brume::math::Vec3::new(10.0, -2.0, 1.0));
+    assert_eq!(
+        world.min,
+        index.min * 0.5 + brume::math::Vec3::new(10.0, -2.0, 1.0)
+    );
+    assert_eq!(
+        world.max,
+        index.max * 0.5 + brume::math::Vec3::new(10.0, -2.0, 1.0)
+    );
     let p = DVec3::new(3.0, 4.0, 5.0);
-    let round_trip = grid.index_from_world.transform_point3(grid.world_from_index.transform_point3(p));
+    let round_trip = grid
+        .index_from_world
+        .transform_point3(grid.world_from_index.transform_point3(p));
     assert!((round_trip - p).length() < 1e-12);
 
     // OpenVDB's own row-vector layout (translation in the last row) is refused, not guessed.
-    data.info.world_from_index =
-        [[0.5, 0.0, 0.0, 0.0], [0.0, 0.5, 0.0, 0.0], [0.0, 0.0, 0.5, 0.0], [10.0, -2.0, 1.0, 1.0]];
-    assert!(matches!(SparseGrid::from_vdb(&data, ConversionPolicy::default()), Err(VolumeError::Transform(_))));
+    data.info.world_from_index = [
+        [0.5, 0.0, 0.0, 0.0],
+        [0.0, 0.5, 0.0, 0.0],
+        [0.0, 0.0, 0.5, 0.0],
+        [10.0, -2.0, 1.0, 1.0],
+    ];
+    assert!(matches!(
+        SparseGrid::from_vdb(&data, ConversionPolicy::default()),
+        Err(VolumeError::Transform(_))
+    ));
     data.info.world_from_index = [[0.0; 4], [0.0; 4], [0.0; 4], [0.0, 0.0, 0.0, 1.0]];
-    assert!(matches!(SparseGrid::from_vdb(&data, ConversionPolicy::default()), Err(VolumeError::Transform(_))));
+    assert!(matches!(
+        SparseGrid::from_vdb(&data, ConversionPolicy::default()),
+        Err(VolumeError::Transform(_))
+    ));
 }
 
 #[test]
@@ -173,10 +255,15 @@ fn bounds_validate_on_every_synthetic_grid() {
     for (name, data) in common::all_grids() {
         let grid = common::convert(&data);
         let bounds = LeafBounds::build(&grid);
-        bounds.validate(&grid, usize::MAX).unwrap_or_else(|e| panic!("{name}: {e}"));
+        bounds
+            .validate(&grid, usize::MAX)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
         let stats = bounds.stats();
         assert!(stats.global_min <= stats.global_max, "{name}: {stats:?}");
-        assert!((0.0..=1.0).contains(&stats.mean_max_over_global), "{name}: {stats:?}");
+        assert!(
+            (0.0..=1.0).contains(&stats.mean_max_over_global),
+            "{name}: {stats:?}"
+        );
     }
 }
 
@@ -198,11 +285,19 @@ fn bounds_include_the_apron_and_the_padding() {
         }
     }
     hot.sort();
-    let want: Vec<[i32; 3]> = (0..8).map(|n| [n >> 2, (n >> 1 & 1) - 1, (n & 1) - 1]).collect();
+    let want: Vec<[i32; 3]> = (0..8)
+        .map(|n| [n >> 2, (n >> 1 & 1) - 1, (n & 1) - 1])
+        .collect();
     assert_eq!(hot, want);
-    assert_eq!(bounds.global, brume::volume::CellBounds { min: 0.0, max: 7.0 });
+    assert_eq!(
+        bounds.global,
+        brume::volume::CellBounds { min: 0.0, max: 7.0 }
+    );
     let stats = bounds.stats();
-    assert!((stats.empty_fraction - (1.0 - 8.0 / 27.0)).abs() < 1e-12, "{stats:?}");
+    assert!(
+        (stats.empty_fraction - (1.0 - 8.0 / 27.0)).abs() < 1e-12,
+        "{stats:?}"
+    );
 }
 
 #[test]
@@ -211,14 +306,20 @@ fn validate_catches_a_wrong_bound() {
     let mut bounds = LeafBounds::build(&grid);
     let hot = bounds.cells.iter().position(|b| b.max > 0.0).unwrap();
     bounds.cells[hot].max *= 0.5;
-    bounds.global = bounds.cells.iter().copied().fold(brume::volume::CellBounds::EMPTY, |a, b| a.union(b));
+    bounds.global = bounds
+        .cells
+        .iter()
+        .copied()
+        .fold(brume::volume::CellBounds::EMPTY, |a, b| a.union(b));
     assert!(bounds.validate(&grid, usize::MAX).is_err());
 }
 
 #[test]
 fn batch_lookups_equal_single_lookups() {
     let grid = common::convert(&common::blob());
-    let points: Vec<[f64; 3]> = (0..1000).map(|n| [n as f64 * 0.037 - 14.0, 17.3, n as f64 * 0.05 - 21.0]).collect();
+    let points: Vec<[f64; 3]> = (0..1000)
+        .map(|n| [n as f64 * 0.037 - 14.0, 17.3, n as f64 * 0.05 - 21.0])
+        .collect();
     let mut tri = vec![0.0; points.len()];
     let mut near = vec![0.0; points.len()];
     grid.sample_trilinear_batch(&points, &mut tri);

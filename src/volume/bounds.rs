@@ -25,7 +25,10 @@ const _: () = assert!(std::mem::size_of::<CellBounds>() == 8);
 
 impl CellBounds {
     /// The empty interval, identity of [`union`](Self::union).
-    pub const EMPTY: CellBounds = CellBounds { min: f32::INFINITY, max: f32::NEG_INFINITY };
+    pub const EMPTY: CellBounds = CellBounds {
+        min: f32::INFINITY,
+        max: f32::NEG_INFINITY,
+    };
 
     pub fn point(v: f32) -> Self {
         Self { min: v, max: v }
@@ -33,7 +36,10 @@ impl CellBounds {
 
     #[inline]
     pub fn union(self, o: CellBounds) -> CellBounds {
-        CellBounds { min: self.min.min(o.min), max: self.max.max(o.max) }
+        CellBounds {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
     }
 
     #[inline]
@@ -88,7 +94,9 @@ impl LeafBounds {
                     CellBounds::point(grid.constants[(entry & !CONSTANT_BIT) as usize])
                 } else {
                     let base = entry as usize * BRICK_VOXELS;
-                    grid.bricks[base..base + BRICK_VOXELS].iter().fold(CellBounds::EMPTY, |b, &v| b.union(CellBounds::point(v)))
+                    grid.bricks[base..base + BRICK_VOXELS]
+                        .iter()
+                        .fold(CellBounds::EMPTY, |b, &v| b.union(CellBounds::point(v)))
                 }
             })
             .collect();
@@ -105,15 +113,24 @@ impl LeafBounds {
         let global = if cells.is_empty() {
             CellBounds::point(grid.background)
         } else {
-            cells.par_iter().copied().reduce(|| CellBounds::EMPTY, CellBounds::union)
+            cells
+                .par_iter()
+                .copied()
+                .reduce(|| CellBounds::EMPTY, CellBounds::union)
         };
-        LeafBounds { cells, dims: grid.dims, cell_origin: grid.cell_origin, global }
+        LeafBounds {
+            cells,
+            dims: grid.dims,
+            cell_origin: grid.cell_origin,
+            global,
+        }
     }
 
     /// Bounds of the cell at `(x, y, z)` relative to `cell_origin`.
     #[inline]
     pub fn get(&self, x: u32, y: u32, z: u32) -> CellBounds {
-        self.cells[x as usize + self.dims[0] as usize * (y as usize + self.dims[1] as usize * z as usize)]
+        self.cells
+            [x as usize + self.dims[0] as usize * (y as usize + self.dims[1] as usize * z as usize)]
     }
 
     /// The bounds as a flat `f32` array of `(min, max)` pairs, ready for upload.
@@ -128,7 +145,11 @@ impl LeafBounds {
         BoundsStats {
             global_min: self.global.min,
             global_max: self.global.max,
-            mean_max_over_global: if self.global.max > 0.0 { sum_max / n / self.global.max as f64 } else { 0.0 },
+            mean_max_over_global: if self.global.max > 0.0 {
+                sum_max / n / self.global.max as f64
+            } else {
+                0.0
+            },
             empty_fraction: empty as f64 / n,
         }
     }
@@ -137,7 +158,10 @@ impl LeafBounds {
     /// 11^3 voxels of its block) and checks they match exactly, as well as the global bound.
     /// Grids with more than `max_cells` cells are checked on an evenly strided sample.
     pub fn validate(&self, grid: &SparseGrid, max_cells: usize) -> Result<(), String> {
-        if self.dims != grid.dims || self.cell_origin != grid.cell_origin || self.cells.len() != grid.cells.len() {
+        if self.dims != grid.dims
+            || self.cell_origin != grid.cell_origin
+            || self.cells.len() != grid.cells.len()
+        {
             return Err(format!(
                 "bounds index {:?} at {:?} does not match the grid's {:?} at {:?}",
                 self.dims, self.cell_origin, grid.dims, grid.cell_origin
@@ -146,33 +170,43 @@ impl LeafBounds {
         let expected_global = if self.cells.is_empty() {
             CellBounds::point(grid.background)
         } else {
-            self.cells.iter().copied().fold(CellBounds::EMPTY, CellBounds::union)
+            self.cells
+                .iter()
+                .copied()
+                .fold(CellBounds::EMPTY, CellBounds::union)
         };
         if expected_global != self.global {
-            return Err(format!("global bound {:?} differs from the union of cells {:?}", self.global, expected_global));
+            return Err(format!(
+                "global bound {:?} differs from the union of cells {:?}",
+                self.global, expected_global
+            ));
         }
         let stride = self.cells.len().div_ceil(max_cells.max(1)).max(1);
         let [nx, ny, _] = self.dims.map(|d| d as usize);
-        (0..self.cells.len()).into_par_iter().step_by(stride).try_for_each(|index| {
-            let c = [index % nx, index / nx % ny, index / (nx * ny)];
-            let v0 = [0, 1, 2].map(|a| (self.cell_origin[a] as i64 + c[a] as i64) * 8);
-            let mut slow = CellBounds::EMPTY;
-            for k in v0[2] - 1..=v0[2] + 9 {
-                for j in v0[1] - 1..=v0[1] + 9 {
-                    for i in v0[0] - 1..=v0[0] + 9 {
-                        slow = slow.union(CellBounds::point(grid.voxel(i as i32, j as i32, k as i32)));
+        (0..self.cells.len())
+            .into_par_iter()
+            .step_by(stride)
+            .try_for_each(|index| {
+                let c = [index % nx, index / nx % ny, index / (nx * ny)];
+                let v0 = [0, 1, 2].map(|a| (self.cell_origin[a] as i64 + c[a] as i64) * 8);
+                let mut slow = CellBounds::EMPTY;
+                for k in v0[2] - 1..=v0[2] + 9 {
+                    for j in v0[1] - 1..=v0[1] + 9 {
+                        for i in v0[0] - 1..=v0[0] + 9 {
+                            slow = slow
+                                .union(CellBounds::point(grid.voxel(i as i32, j as i32, k as i32)));
+                        }
                     }
                 }
-            }
-            if slow == self.cells[index] {
-                Ok(())
-            } else {
-                Err(format!(
+                if slow == self.cells[index] {
+                    Ok(())
+                } else {
+                    Err(format!(
                     "cell {c:?} (voxels {v0:?} + [-1, 9]): stored bounds {:?}, recomputed {slow:?}",
                     self.cells[index]
                 ))
-            }
-        })
+                }
+            })
     }
 }
 

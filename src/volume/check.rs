@@ -72,7 +72,12 @@ pub const LOOKUP_TOLERANCE: f64 = 1e-6;
 /// Compares `grid`'s voxel, nearest and trilinear lookups with a brute-force evaluation of
 /// `data` (from which `grid` was converted) at `n_points` seeded random points: spread over
 /// and around the cell box, at voxel centres and near brick boundaries, near leaves and tiles.
-pub fn check_lookups(grid: &SparseGrid, data: &FloatGridData, n_points: usize, seed: u64) -> Result<LookupCheckStats, String> {
+pub fn check_lookups(
+    grid: &SparseGrid,
+    data: &FloatGridData,
+    n_points: usize,
+    seed: u64,
+) -> Result<LookupCheckStats, String> {
     let reference = VdbReference::new(data);
     let mut rng = SplitMix64(seed);
     let mut stats = LookupCheckStats::default();
@@ -119,7 +124,11 @@ pub fn check_lookups(grid: &SparseGrid, data: &FloatGridData, n_points: usize, s
                 let n_leaves = data.leaves.len() as u64;
                 let n_tiles = data.tiles.len() as u64;
                 if n_leaves + n_tiles == 0 {
-                    DVec3::new(rng.range(-20.0, 20.0), rng.range(-20.0, 20.0), rng.range(-20.0, 20.0))
+                    DVec3::new(
+                        rng.range(-20.0, 20.0),
+                        rng.range(-20.0, 20.0),
+                        rng.range(-20.0, 20.0),
+                    )
                 } else {
                     let k = rng.below(n_leaves + n_tiles);
                     let (origin, dim) = if k < n_leaves {
@@ -128,18 +137,33 @@ pub fn check_lookups(grid: &SparseGrid, data: &FloatGridData, n_points: usize, s
                         let t = &data.tiles[(k - n_leaves) as usize];
                         (t.origin, t.dim as f64)
                     };
-                    DVec3::from_array([0, 1, 2].map(|a| origin[a] as f64 + rng.range(-2.0, dim + 2.0)))
+                    DVec3::from_array(
+                        [0, 1, 2].map(|a| origin[a] as f64 + rng.range(-2.0, dim + 2.0)),
+                    )
                 }
             }
         };
         let r = (p + 0.5).floor();
         let ijk = [r.x as i64, r.y as i64, r.z as i64];
-        if ijk.iter().all(|&c| c >= i32::MIN as i64 && c <= i32::MAX as i64) {
+        if ijk
+            .iter()
+            .all(|&c| c >= i32::MIN as i64 && c <= i32::MAX as i64)
+        {
             let got = grid.voxel(ijk[0] as i32, ijk[1] as i32, ijk[2] as i32);
             compare("voxel", r, got, reference.voxel(ijk))?;
         }
-        compare("nearest", p, grid.sample_nearest(p), reference.sample_nearest(p))?;
-        compare("trilinear", p, grid.sample_trilinear(p), reference.sample_trilinear(p))?;
+        compare(
+            "nearest",
+            p,
+            grid.sample_nearest(p),
+            reference.sample_nearest(p),
+        )?;
+        compare(
+            "trilinear",
+            p,
+            grid.sample_trilinear(p),
+            reference.sample_trilinear(p),
+        )?;
     }
     Ok(stats)
 }
@@ -179,9 +203,14 @@ fn random_ray(rng: &mut SplitMix64, lo: Vec3, hi: Vec3) -> (Ray, f32, f32) {
     let ext = hi - lo;
     let margin = ext * 0.25 + 8.0;
     let in_box = |rng: &mut SplitMix64, m: DVec3| {
-        DVec3::new(rng.range(lo.x - m.x, hi.x + m.x), rng.range(lo.y - m.y, hi.y + m.y), rng.range(lo.z - m.z, hi.z + m.z))
+        DVec3::new(
+            rng.range(lo.x - m.x, hi.x + m.x),
+            rng.range(lo.y - m.y, hi.y + m.y),
+            rng.range(lo.z - m.z, hi.z + m.z),
+        )
     };
-    let plane = |rng: &mut SplitMix64, a: usize| lo[a] + 8.0 * rng.below((ext[a] / 8.0) as u64 + 1) as f64;
+    let plane =
+        |rng: &mut SplitMix64, a: usize| lo[a] + 8.0 * rng.below((ext[a] / 8.0) as u64 + 1) as f64;
     let signed_zero = |rng: &mut SplitMix64| if rng.coin() { 0.0 } else { -0.0 };
     let length = 10f64.powf(rng.range(-1.0, 1.0));
 
@@ -270,12 +299,19 @@ fn check_one_ray(
     let Some((t_enter, t_exit)) = expected else {
         return match segments.first() {
             None => Ok(()),
-            Some(s) => Err(format!("{} segment(s) for a ray that misses the box, first {s:?}", segments.len())),
+            Some(s) => Err(format!(
+                "{} segment(s) for a ray that misses the box, first {s:?}",
+                segments.len()
+            )),
         };
     };
     let (first, last) = match (segments.first(), segments.last()) {
         (Some(f), Some(l)) => (f, l),
-        _ => return Err(format!("no segments, but the ray overlaps the box over [{t_enter}, {t_exit}]")),
+        _ => {
+            return Err(format!(
+                "no segments, but the ray overlaps the box over [{t_enter}, {t_exit}]"
+            ))
+        }
     };
     if first.t_min.to_bits() != t_enter.to_bits() || last.t_max.to_bits() != t_exit.to_bits() {
         return Err(format!(
@@ -284,12 +320,19 @@ fn check_one_ray(
         ));
     }
     for (n, s) in segments.iter().enumerate() {
-        if !(s.t_min < s.t_max) || !(s.sigma_min <= s.sigma_maj) {
+        // Written positively so NaN fails too.
+        let well_formed = s.t_min < s.t_max && s.sigma_min <= s.sigma_maj;
+        if !well_formed {
             return Err(format!("segment {n} is empty or has min above max: {s:?}"));
         }
         if let Some(next) = segments.get(n + 1) {
             if s.t_max.to_bits() != next.t_min.to_bits() {
-                return Err(format!("segment {n} ends at {} but segment {} starts at {}", s.t_max, n + 1, next.t_min));
+                return Err(format!(
+                    "segment {n} ends at {} but segment {} starts at {}",
+                    s.t_max,
+                    n + 1,
+                    next.t_min
+                ));
             }
         }
         stats.zero_majorant_segments += (s.sigma_maj == 0.0) as u64;
@@ -341,11 +384,20 @@ fn check_one_ray(
 /// empty segments, nothing for a miss) and that trilinear and nearest values at each segment's
 /// ends and at random parameters inside lie in `[sigma_min, sigma_maj]` of every segment
 /// containing that parameter. The global variant is checked for the same overlap and bounds.
-pub fn check_ray_bounds(grid: &SparseGrid, bounds: &LeafBounds, n_rays: usize, seed: u64) -> Result<RayCheckStats, String> {
+pub fn check_ray_bounds(
+    grid: &SparseGrid,
+    bounds: &LeafBounds,
+    n_rays: usize,
+    seed: u64,
+) -> Result<RayCheckStats, String> {
     let mut rng = SplitMix64(seed);
     let mut stats = RayCheckStats::default();
     let box_ = grid.index_bounds();
-    let (lo, hi) = if box_.is_empty() { (Vec3::splat(-16.0), Vec3::splat(16.0)) } else { (box_.min, box_.max) };
+    let (lo, hi) = if box_.is_empty() {
+        (Vec3::splat(-16.0), Vec3::splat(16.0))
+    } else {
+        (box_.min, box_.max)
+    };
     let mut segments = Vec::new();
     for n in 0..n_rays {
         let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
@@ -361,15 +413,22 @@ pub fn check_ray_bounds(grid: &SparseGrid, bounds: &LeafBounds, n_rays: usize, s
         let context = |e: String| format!("ray {n} {ray:?} over [{t0}, {t1}]: {e}");
         check_one_ray(grid, &segments, expected, &ray, &mut rng, &mut stats).map_err(context)?;
 
-        let global: Vec<MajorantSegment> = DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();
+        let global: Vec<MajorantSegment> =
+            DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();
         let want: Vec<MajorantSegment> = expected
-            .map(|(a, b)| MajorantSegment { t_min: a, t_max: b, sigma_maj: bounds.global.max, sigma_min: bounds.global.min })
+            .map(|(a, b)| MajorantSegment {
+                t_min: a,
+                t_max: b,
+                sigma_maj: bounds.global.max,
+                sigma_min: bounds.global.min,
+            })
             .into_iter()
             .collect();
         if global != want {
-            return Err(context(format!("global variant gave {global:?}, expected {want:?}")));
+            return Err(context(format!(
+                "global variant gave {global:?}, expected {want:?}"
+            )));
         }
     }
     Ok(stats)
 }
-

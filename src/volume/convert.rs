@@ -28,7 +28,9 @@ pub struct ConversionPolicy {
 
 impl Default for ConversionPolicy {
     fn default() -> Self {
-        Self { max_cells: DEFAULT_MAX_CELLS }
+        Self {
+            max_cells: DEFAULT_MAX_CELLS,
+        }
     }
 }
 
@@ -72,7 +74,11 @@ fn clamp_density(v: f32) -> f32 {
 
 /// Index-space coordinate of OpenVDB leaf offset `offset` in a leaf at `origin`.
 fn leaf_voxel(origin: [i32; 3], offset: usize) -> [i32; 3] {
-    [origin[0] + (offset >> 6) as i32, origin[1] + (offset >> 3 & 7) as i32, origin[2] + (offset & 7) as i32]
+    [
+        origin[0] + (offset >> 6) as i32,
+        origin[1] + (offset >> 3 & 7) as i32,
+        origin[2] + (offset & 7) as i32,
+    ]
 }
 
 /// Rejects NaN and Inf anywhere a lookup can read.
@@ -99,7 +105,12 @@ fn check_finite(data: &FloatGridData) -> Result<(), VolumeError> {
     }
     match first {
         None => Ok(()),
-        Some((first, what, value)) => Err(VolumeError::NonFinite { count, first, what, value }),
+        Some((first, what, value)) => Err(VolumeError::NonFinite {
+            count,
+            first,
+            what,
+            value,
+        }),
     }
 }
 
@@ -107,11 +118,15 @@ fn check_finite(data: &FloatGridData) -> Result<(), VolumeError> {
 /// last column) and checks it is an invertible affine map.
 fn transforms(info: &GridInfo) -> Result<(DAffine3, DAffine3), VolumeError> {
     if !info.is_affine {
-        return Err(VolumeError::Transform("the grid's map is not affine (frustum or other non-linear map)".into()));
+        return Err(VolumeError::Transform(
+            "the grid's map is not affine (frustum or other non-linear map)".into(),
+        ));
     }
     let m = info.world_from_index;
     if m.iter().flatten().any(|x| !x.is_finite()) {
-        return Err(VolumeError::Transform(format!("non-finite matrix entry in {m:?}")));
+        return Err(VolumeError::Transform(format!(
+            "non-finite matrix entry in {m:?}"
+        )));
     }
     if m[3] != [0.0, 0.0, 0.0, 1.0] {
         // A translation in the last row would mean OpenVDB's own row-vector layout reached us
@@ -124,8 +139,11 @@ fn transforms(info: &GridInfo) -> Result<(DAffine3, DAffine3), VolumeError> {
     // glam is column-major: the rows of `m` are the columns of its transpose.
     let world_from_index = DAffine3::from_mat4(DMat4::from_cols_array_2d(&m).transpose());
     let det = world_from_index.matrix3.determinant();
-    if !(det.abs() > 1e-300) || !det.is_finite() {
-        return Err(VolumeError::Transform(format!("singular linear part (determinant {det})")));
+    let invertible = det.abs() > 1e-300 && det.is_finite();
+    if !invertible {
+        return Err(VolumeError::Transform(format!(
+            "singular linear part (determinant {det})"
+        )));
     }
     Ok((world_from_index, world_from_index.inverse()))
 }
@@ -145,7 +163,11 @@ fn occupied_cells(data: &FloatGridData, background: f32) -> Option<([i64; 3], [i
         let c = leaf.origin.map(|o| (o >> 3) as i64);
         grow(c, c.map(|x| x + 1));
     }
-    for tile in data.tiles.iter().filter(|t| clamp_density(t.value) != background) {
+    for tile in data
+        .tiles
+        .iter()
+        .filter(|t| clamp_density(t.value) != background)
+    {
         let c = tile.origin.map(|o| (o >> 3) as i64);
         grow(c, c.map(|x| x + (tile.dim / 8) as i64));
     }
@@ -160,7 +182,10 @@ struct ConstantTable {
 
 impl ConstantTable {
     fn new(background: f32) -> Self {
-        Self { values: vec![background], lookup: HashMap::from([(background.to_bits(), 0)]) }
+        Self {
+            values: vec![background],
+            lookup: HashMap::from([(background.to_bits(), 0)]),
+        }
     }
 
     fn entry(&mut self, v: f32) -> u32 {
@@ -188,12 +213,17 @@ impl SparseGrid {
         let (world_from_index, index_from_world) = transforms(&data.info)?;
         for leaf in &data.leaves {
             if leaf.origin.iter().any(|o| o % LEAF_DIM != 0) {
-                return Err(VolumeError::MisalignedLeaf { origin: leaf.origin });
+                return Err(VolumeError::MisalignedLeaf {
+                    origin: leaf.origin,
+                });
             }
         }
         for tile in &data.tiles {
             if tile.dim == 0 || tile.dim % 8 != 0 || tile.origin.iter().any(|o| o % LEAF_DIM != 0) {
-                return Err(VolumeError::BadTile { origin: tile.origin, dim: tile.dim });
+                return Err(VolumeError::BadTile {
+                    origin: tile.origin,
+                    dim: tile.dim,
+                });
             }
         }
 
@@ -225,10 +255,20 @@ impl SparseGrid {
             let dims = [0, 1, 2].map(|a| (hi[a] - lo[a]) as u64);
             let cells = dims[0].saturating_mul(dims[1]).saturating_mul(dims[2]);
             if cells > policy.max_cells {
-                return Err(VolumeError::TooManyCells { dims, cells, limit: policy.max_cells });
+                return Err(VolumeError::TooManyCells {
+                    dims,
+                    cells,
+                    limit: policy.max_cells,
+                });
             }
-            if lo.iter().chain(hi.iter()).any(|&c| c * 8 < i32::MIN as i64 || c * 8 > i32::MAX as i64) {
-                return Err(VolumeError::Transform("cell box exceeds 32-bit voxel coordinates".into()));
+            if lo
+                .iter()
+                .chain(hi.iter())
+                .any(|&c| c * 8 < i32::MIN as i64 || c * 8 > i32::MAX as i64)
+            {
+                return Err(VolumeError::Transform(
+                    "cell box exceeds 32-bit voxel coordinates".into(),
+                ));
             }
             grid.dims = dims.map(|d| d as u32);
             grid.cell_origin = lo.map(|c| c as i32);
@@ -270,11 +310,19 @@ impl SparseGrid {
 }
 
 /// Writes tiles, then leaves (so leaves win), into the background-filled cell index.
-fn fill_cells(grid: &mut SparseGrid, data: &FloatGridData, report: &mut ConversionReport) -> Result<(), VolumeError> {
+fn fill_cells(
+    grid: &mut SparseGrid,
+    data: &FloatGridData,
+    report: &mut ConversionReport,
+) -> Result<(), VolumeError> {
     let mut constants = ConstantTable::new(grid.background);
     let origin = grid.cell_origin.map(|c| c as i64);
     let cell_of = |grid: &SparseGrid, c: [i64; 3]| -> usize {
-        grid.cell_index((c[0] - origin[0]) as u32, (c[1] - origin[1]) as u32, (c[2] - origin[2]) as u32)
+        grid.cell_index(
+            (c[0] - origin[0]) as u32,
+            (c[1] - origin[1]) as u32,
+            (c[2] - origin[2]) as u32,
+        )
     };
 
     for tile in &data.tiles {
@@ -305,7 +353,10 @@ fn fill_cells(grid: &mut SparseGrid, data: &FloatGridData, report: &mut Conversi
         } else {
             let index = grid.bricks.len() / BRICK_VOXELS;
             if index >= CONSTANT_BIT as usize {
-                return Err(VolumeError::IndexOverflow { what: "brick", count: index + 1 });
+                return Err(VolumeError::IndexOverflow {
+                    what: "brick",
+                    count: index + 1,
+                });
             }
             grid.bricks.extend_from_slice(&brick);
             index as u32
@@ -317,7 +368,10 @@ fn fill_cells(grid: &mut SparseGrid, data: &FloatGridData, report: &mut Conversi
         report.note_negative(tile.value, tile.origin);
     }
     if constants.values.len() >= CONSTANT_BIT as usize {
-        return Err(VolumeError::IndexOverflow { what: "constant", count: constants.values.len() });
+        return Err(VolumeError::IndexOverflow {
+            what: "constant",
+            count: constants.values.len(),
+        });
     }
     grid.constants = constants.values;
     Ok(())
@@ -344,7 +398,12 @@ pub fn synthetic_info(name: &str) -> GridInfo {
         value_type: "float".to_string(),
         class: GridClass::FogVolume,
         voxel_size: [1.0; 3],
-        world_from_index: [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]],
+        world_from_index: [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ],
         is_affine: true,
         active_bbox: None,
         active_voxel_count: 0,
@@ -364,21 +423,32 @@ pub fn dense_to_vdb(
     background: f32,
 ) -> Result<FloatGridData, VolumeError> {
     if values.len() != dims[0] * dims[1] * dims[2] {
-        return Err(VolumeError::DenseSize { dims, got: values.len() });
+        return Err(VolumeError::DenseSize {
+            dims,
+            got: values.len(),
+        });
     }
     let mut leaves: HashMap<[i32; 3], Leaf> = HashMap::new();
     for z in 0..dims[2] {
         for y in 0..dims[1] {
             for x in 0..dims[0] {
                 let v = values[x + dims[0] * (y + dims[1] * z)];
-                let ijk = [origin[0] + x as i32, origin[1] + y as i32, origin[2] + z as i32];
+                let ijk = [
+                    origin[0] + x as i32,
+                    origin[1] + y as i32,
+                    origin[2] + z as i32,
+                ];
                 let leaf_origin = ijk.map(|c| c & !(LEAF_DIM - 1));
                 let leaf = leaves.entry(leaf_origin).or_insert_with(|| Leaf {
                     origin: leaf_origin,
                     values: Box::new([background; LEAF_VOXELS]),
                     active: [0; 8],
                 });
-                let offset = Leaf::offset((ijk[0] & 7) as usize, (ijk[1] & 7) as usize, (ijk[2] & 7) as usize);
+                let offset = Leaf::offset(
+                    (ijk[0] & 7) as usize,
+                    (ijk[1] & 7) as usize,
+                    (ijk[2] & 7) as usize,
+                );
                 leaf.values[offset] = v;
                 leaf.active[offset >> 6] |= 1 << (offset & 63);
             }
@@ -390,5 +460,10 @@ pub fn dense_to_vdb(
     let mut info = synthetic_info("dense");
     info.leaf_count = leaves.len() as u64;
     info.background = Some(background as f64);
-    Ok(FloatGridData { info, background, leaves, tiles: Vec::new() })
+    Ok(FloatGridData {
+        info,
+        background,
+        leaves,
+        tiles: Vec::new(),
+    })
 }

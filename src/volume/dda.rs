@@ -50,7 +50,16 @@ impl<'a> DdaMajorantIterator<'a> {
     pub fn new(bounds: &'a LeafBounds, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
         let lo = Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH));
         let dims = bounds.dims.map(|d| d as i32);
-        Self::walk(&bounds.cells, dims, lo, Vec3::splat(CELL_WIDTH), ray, t0, t1, scale)
+        Self::walk(
+            &bounds.cells,
+            dims,
+            lo,
+            Vec3::splat(CELL_WIDTH),
+            ray,
+            t0,
+            t1,
+            scale,
+        )
     }
 
     /// A single segment over the ray's overlap with the cell box, carrying the global bounds:
@@ -58,8 +67,21 @@ impl<'a> DdaMajorantIterator<'a> {
     pub fn global(bounds: &'a LeafBounds, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
         let lo = Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH));
         let extent = Vec3::from_array(bounds.dims.map(|d| d as f32 * CELL_WIDTH));
-        let dims = if bounds.cells.is_empty() { [0; 3] } else { [1; 3] };
-        Self::walk(std::slice::from_ref(&bounds.global), dims, lo, extent, ray, t0, t1, scale)
+        let dims = if bounds.cells.is_empty() {
+            [0; 3]
+        } else {
+            [1; 3]
+        };
+        Self::walk(
+            std::slice::from_ref(&bounds.global),
+            dims,
+            lo,
+            extent,
+            ray,
+            t0,
+            t1,
+            scale,
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -73,7 +95,10 @@ impl<'a> DdaMajorantIterator<'a> {
         t1: f32,
         scale: f32,
     ) -> Self {
-        debug_assert!(scale >= 0.0, "a negative density scale would swap the bounds");
+        debug_assert!(
+            scale >= 0.0,
+            "a negative density scale would swap the bounds"
+        );
         let mut it = Self {
             bounds,
             dims,
@@ -96,8 +121,10 @@ impl<'a> DdaMajorantIterator<'a> {
         let Some((t_enter, t_exit)) = Aabb::new(lo, hi).intersect(ray, t0, t1) else {
             return it;
         };
-        // `!(a < b)` also rejects NaN parameters; an empty overlap yields nothing.
-        if !(t_enter < t_exit) {
+        // Written positively so NaN parameters are rejected too; an empty overlap yields
+        // nothing.
+        let overlaps = t_enter < t_exit;
+        if !overlaps {
             return it;
         }
         let p = ray.at(t_enter);
@@ -107,7 +134,11 @@ impl<'a> DdaMajorantIterator<'a> {
             let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
             let g = ((x - lo[a]) / width[a]).floor();
             // Rounding can put the entry point a hair outside the box: clamp into it.
-            it.cell[a] = if g.is_nan() { 0 } else { (g as i32).clamp(0, dims[a] - 1) };
+            it.cell[a] = if g.is_nan() {
+                0
+            } else {
+                (g as i32).clamp(0, dims[a] - 1)
+            };
             // `-0.0 > 0.0` and `-0.0 < 0.0` are both false: no step, as for `+0.0`.
             it.step[a] = if ray.d[a] > 0.0 {
                 1
@@ -161,7 +192,9 @@ impl Iterator for DdaMajorantIterator<'_> {
             let next_cell = self.cell[axis] + self.step[axis];
             // The last segment always ends exactly at the box exit, even if rounding puts the
             // final plane crossing a hair before it.
-            let leaving = self.next_crossing[axis] >= self.t_exit || next_cell < 0 || next_cell >= self.dims[axis];
+            let leaving = self.next_crossing[axis] >= self.t_exit
+                || next_cell < 0
+                || next_cell >= self.dims[axis];
             let t_min = self.t;
             // Never move backwards, and keep t_min's own bits when the crossing merely equals
             // it (`-0.0 == 0.0`), so consecutive segments share their ends bit for bit.

@@ -10,14 +10,23 @@ pub enum VolumeError {
         "{count} non-finite value(s) (NaN or Inf) in the grid; first at index coordinate \
          {first:?} ({what}, value {value})"
     )]
-    NonFinite { count: u64, first: [i32; 3], what: &'static str, value: f32 },
+    NonFinite {
+        count: u64,
+        first: [i32; 3],
+        what: &'static str,
+        value: f32,
+    },
 
     /// The dense leaf-resolution index would need more cells than the configured limit.
     #[error(
         "dense cell index of {dims:?} = {cells} cells exceeds the limit of {limit} cells \
          (each cell is 8^3 voxels; a 4096^3 root tile alone needs 512^3 cells)"
     )]
-    TooManyCells { dims: [u64; 3], cells: u64, limit: u64 },
+    TooManyCells {
+        dims: [u64; 3],
+        cells: u64,
+        limit: u64,
+    },
 
     #[error("{what} count {count} does not fit the 31-bit cell entry")]
     IndexOverflow { what: &'static str, count: usize },

@@ -85,8 +85,16 @@ fn lerp_vdb(a: f32, b: f32, w: f64) -> f32 {
 /// then y, then x.
 #[inline(always)]
 fn trilinear_vdb(v: &[[[f32; 2]; 2]; 2], f: DVec3) -> f32 {
-    let a = lerp_vdb(lerp_vdb(v[0][0][0], v[0][0][1], f.z), lerp_vdb(v[0][1][0], v[0][1][1], f.z), f.y);
-    let b = lerp_vdb(lerp_vdb(v[1][0][0], v[1][0][1], f.z), lerp_vdb(v[1][1][0], v[1][1][1], f.z), f.y);
+    let a = lerp_vdb(
+        lerp_vdb(v[0][0][0], v[0][0][1], f.z),
+        lerp_vdb(v[0][1][0], v[0][1][1], f.z),
+        f.y,
+    );
+    let b = lerp_vdb(
+        lerp_vdb(v[1][0][0], v[1][0][1], f.z),
+        lerp_vdb(v[1][1][0], v[1][1][1], f.z),
+        f.y,
+    );
     lerp_vdb(a, b, f.x)
 }
 
@@ -131,7 +139,9 @@ impl SparseGrid {
         let mut b = Aabb::EMPTY;
         for corner in 0..8 {
             let pick = |axis: usize| if corner >> axis & 1 == 0 { lo[axis] } else { hi[axis] } as f64;
-            let w = self.world_from_index.transform_point3(DVec3::new(pick(0), pick(1), pick(2)));
+            let w = self
+                .world_from_index
+                .transform_point3(DVec3::new(pick(0), pick(1), pick(2)));
             b = b.union_point(w.as_vec3());
         }
         b
@@ -152,7 +162,10 @@ impl SparseGrid {
         let cy = (j >> 3) - self.cell_origin[1] as i64;
         let cz = (k >> 3) - self.cell_origin[2] as i64;
         // One unsigned compare per axis also rejects negative coordinates.
-        if (cx as u64) < self.dims[0] as u64 && (cy as u64) < self.dims[1] as u64 && (cz as u64) < self.dims[2] as u64 {
+        if (cx as u64) < self.dims[0] as u64
+            && (cy as u64) < self.dims[1] as u64
+            && (cz as u64) < self.dims[2] as u64
+        {
             Some(self.cells[self.cell_index(cx as u32, cy as u32, cz as u32)])
         } else {
             None
@@ -235,9 +248,12 @@ impl SparseGrid {
                 let base = entry as usize * BRICK_VOXELS;
                 // One bounds check for the whole brick; the masked offsets below are then
                 // provably inside the array and compile without checks.
-                let brick: &[f32; BRICK_VOXELS] = self.bricks[base..base + BRICK_VOXELS].try_into().unwrap();
+                let brick: &[f32; BRICK_VOXELS] =
+                    self.bricks[base..base + BRICK_VOXELS].try_into().unwrap();
                 let o = (i & 7) as usize + 8 * (j & 7) as usize + 64 * (k & 7) as usize;
-                let at = |dx: usize, dy: usize, dz: usize| brick[(o + dx + 8 * dy + 64 * dz) & (BRICK_VOXELS - 1)];
+                let at = |dx: usize, dy: usize, dz: usize| {
+                    brick[(o + dx + 8 * dy + 64 * dz) & (BRICK_VOXELS - 1)]
+                };
                 let v = [
                     [[at(0, 0, 0), at(0, 0, 1)], [at(0, 1, 0), at(0, 1, 1)]],
                     [[at(1, 0, 0), at(1, 0, 1)], [at(1, 1, 0), at(1, 1, 1)]],
@@ -274,7 +290,11 @@ impl SparseGrid {
     /// Memory use and constant-cell fractions.
     pub fn stats(&self) -> GridStats {
         let n = self.cells.len().max(1) as f64;
-        let constant = self.cells.iter().filter(|&&e| e & CONSTANT_BIT != 0).count();
+        let constant = self
+            .cells
+            .iter()
+            .filter(|&&e| e & CONSTANT_BIT != 0)
+            .count();
         let empty = self.cells.iter().filter(|&&e| e == CONSTANT_BIT).count();
         GridStats {
             cell_count: self.cells.len() as u64,

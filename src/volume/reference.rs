@@ -22,7 +22,12 @@ fn lerp(a: f32, b: f32, w: f64) -> f32 {
 
 impl<'a> VdbReference<'a> {
     pub fn new(data: &'a FloatGridData) -> Self {
-        let leaves = data.leaves.iter().enumerate().map(|(n, l)| (l.origin, n)).collect();
+        let leaves = data
+            .leaves
+            .iter()
+            .enumerate()
+            .map(|(n, l)| (l.origin, n))
+            .collect();
         Self { data, leaves }
     }
 
@@ -32,7 +37,9 @@ impl<'a> VdbReference<'a> {
     }
 
     fn raw_voxel(&self, ijk: [i64; 3]) -> f32 {
-        let outside_i32 = ijk.iter().any(|&c| c < i32::MIN as i64 || c > i32::MAX as i64);
+        let outside_i32 = ijk
+            .iter()
+            .any(|&c| c < i32::MIN as i64 || c > i32::MAX as i64);
         if outside_i32 {
             return self.data.background;
         }
@@ -66,8 +73,16 @@ impl<'a> VdbReference<'a> {
         let w = p - i0;
         let base = [i0.x as i64, i0.y as i64, i0.z as i64];
         let v = |i: i64, j: i64, k: i64| self.voxel([base[0] + i, base[1] + j, base[2] + k]);
-        let x0 = lerp(lerp(v(0, 0, 0), v(0, 0, 1), w.z), lerp(v(0, 1, 0), v(0, 1, 1), w.z), w.y);
-        let x1 = lerp(lerp(v(1, 0, 0), v(1, 0, 1), w.z), lerp(v(1, 1, 0), v(1, 1, 1), w.z), w.y);
+        let x0 = lerp(
+            lerp(v(0, 0, 0), v(0, 0, 1), w.z),
+            lerp(v(0, 1, 0), v(0, 1, 1), w.z),
+            w.y,
+        );
+        let x1 = lerp(
+            lerp(v(1, 0, 0), v(1, 0, 1), w.z),
+            lerp(v(1, 1, 0), v(1, 1, 1), w.z),
+            w.y,
+        );
         lerp(x0, x1, w.x)
     }
 }

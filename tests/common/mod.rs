@@ -13,9 +13,14 @@ pub fn blob() -> FloatGridData {
     for z in 0..dims[2] {
         for y in 0..dims[1] {
             for x in 0..dims[0] {
-                let q = [x as f64 / dims[0] as f64, y as f64 / dims[1] as f64, z as f64 / dims[2] as f64];
+                let q = [
+                    x as f64 / dims[0] as f64,
+                    y as f64 / dims[1] as f64,
+                    z as f64 / dims[2] as f64,
+                ];
                 let r2: f64 = q.iter().map(|c| (c - 0.5) * (c - 0.5)).sum();
-                let v = (1.0 - 4.0 * r2).max(0.0) * 3.0 + if r2 < 0.2 { 0.5 * rng.uniform() } else { 0.0 };
+                let v = (1.0 - 4.0 * r2).max(0.0) * 3.0
+                    + if r2 < 0.2 { 0.5 * rng.uniform() } else { 0.0 };
                 values.push(v as f32);
             }
         }
@@ -29,10 +34,25 @@ pub fn with_tiles() -> FloatGridData {
     let dims = [20, 20, 20];
     let values: Vec<f32> = (0..8000).map(|_| rng.uniform() as f32 * 5.0).collect();
     let mut data = dense_to_vdb(dims, [120, 4, 4], &values, 0.0).unwrap();
-    data.tiles.push(Tile { origin: [0, 0, 0], dim: 128, value: 2.5, active: true });
-    data.tiles.push(Tile { origin: [128, -128, 0], dim: 128, value: 0.75, active: false });
+    data.tiles.push(Tile {
+        origin: [0, 0, 0],
+        dim: 128,
+        value: 2.5,
+        active: true,
+    });
+    data.tiles.push(Tile {
+        origin: [128, -128, 0],
+        dim: 128,
+        value: 0.75,
+        active: false,
+    });
     // A tile equal to the background needs no cells.
-    data.tiles.push(Tile { origin: [-128, -128, -128], dim: 128, value: 0.0, active: false });
+    data.tiles.push(Tile {
+        origin: [-128, -128, -128],
+        dim: 128,
+        value: 0.0,
+        active: false,
+    });
     data
 }
 
@@ -66,11 +86,20 @@ pub fn sparse_with_background() -> FloatGridData {
             };
         }
         let active = [0, 1, 2, 3, 4, 5, 6, 7].map(|_| rng.next_u64());
-        leaves.push(Leaf { origin, values, active });
+        leaves.push(Leaf {
+            origin,
+            values,
+            active,
+        });
     }
     let mut info = synthetic_info("sparse");
     info.background = Some(background as f64);
-    FloatGridData { info, background, leaves, tiles: Vec::new() }
+    FloatGridData {
+        info,
+        background,
+        leaves,
+        tiles: Vec::new(),
+    }
 }
 
 /// A single non-zero voxel: the sharpest possible feature.
@@ -79,7 +108,12 @@ pub fn single_voxel() -> FloatGridData {
 }
 
 pub fn empty() -> FloatGridData {
-    FloatGridData { info: synthetic_info("empty"), background: 0.0, leaves: Vec::new(), tiles: Vec::new() }
+    FloatGridData {
+        info: synthetic_info("empty"),
+        background: 0.0,
+        leaves: Vec::new(),
+        tiles: Vec::new(),
+    }
 }
 
 pub fn all_grids() -> Vec<(&'static str, FloatGridData)> {
@@ -93,5 +127,7 @@ pub fn all_grids() -> Vec<(&'static str, FloatGridData)> {
 }
 
 pub fn convert(data: &FloatGridData) -> SparseGrid {
-    SparseGrid::from_vdb(data, ConversionPolicy::default()).unwrap().0
+    SparseGrid::from_vdb(data, ConversionPolicy::default())
+        .unwrap()
+        .0
 }
