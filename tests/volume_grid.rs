@@ -329,3 +329,68 @@ fn batch_lookups_equal_single_lookups() {
         assert_eq!(near[n], grid.sample_nearest(DVec3::from_array(*p)));
     }
 }
+
+/// Throughput of the lookups and of the bounds build on a 128^3 grid, printed for the record:
+/// `cargo test --release --test volume_grid -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn lookup_and_bounds_throughput() {
+    use brume::volume::check::SplitMix64;
+    use std::time::Instant;
+    let n = 128;
+    let mut rng = SplitMix64(99);
+    let values: Vec<f32> = (0..n * n * n).map(|_| rng.uniform() as f32).collect();
+    let data = dense_to_vdb([n, n, n], [0, 0, 0], &values, 0.0).unwrap();
+    let grid = common::convert(&data);
+    let start = Instant::now();
+    let bounds = LeafBounds::build(&grid);
+    println!(
+        "bounds build: {:?} for {} cells",
+        start.elapsed(),
+        bounds.cells.len()
+    );
+    let points: Vec<[f64; 3]> = (0..2_000_000)
+        .map(|_| [0, 1, 2].map(|_| rng.range(-2.0, n as f64 + 2.0)))
+        .collect();
+    // Coherent points, as along a ray: cache misses no longer dominate.
+    let coherent: Vec<[f64; 3]> = (0..2_000_000)
+        .map(|k| {
+            [
+                (k % 1_000_000) as f64 * 1.1e-4 + 3.3,
+                40.7 + (k / 1_000_000) as f64,
+                61.2,
+            ]
+        })
+        .collect();
+    let mut out = vec![0.0; points.len()];
+    let start = Instant::now();
+    grid.sample_trilinear_batch(&coherent, &mut out);
+    let ns = start.elapsed().as_nanos() as f64 / coherent.len() as f64;
+    println!(
+        "coherent trilinear: {ns:.1} ns per lookup (checksum {})",
+        out.iter().sum::<f32>()
+    );
+    for (name, f) in [
+        (
+            "trilinear",
+            SparseGrid::sample_trilinear_batch as fn(&SparseGrid, &[[f64; 3]], &mut [f32]),
+        ),
+        ("nearest", SparseGrid::sample_nearest_batch),
+    ] {
+        let start = Instant::now();
+        f(&grid, &points, &mut out);
+        let ns = start.elapsed().as_nanos() as f64 / points.len() as f64;
+        println!(
+            "{name}: {ns:.1} ns per lookup (checksum {})",
+            out.iter().sum::<f32>()
+        );
+    }
+    let reference = brume::volume::VdbReference::new(&data);
+    let start = Instant::now();
+    let sum: f32 = points[..200_000]
+        .iter()
+        .map(|p| reference.sample_trilinear(DVec3::from_array(*p)))
+        .sum();
+    let ns = start.elapsed().as_nanos() as f64 / 200_000.0;
+    println!("reference trilinear: {ns:.1} ns per lookup (checksum {sum})");
+}

@@ -73,6 +73,15 @@ impl GridStats {
     }
 }
 
+/// `floor(x)` as an integer for `x` already known to be finite and well inside `i64`.
+/// Baseline x86-64 has no rounding instruction, so `f64::floor` is a libm call; truncation
+/// with a correction for negative non-integers is a few instructions.
+#[inline(always)]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((t as f64) > x) as i64
+}
+
 /// One of OpenVDB's linear blends: the difference is scaled in double precision and rounded
 /// back to `f32` before the add, exactly as `BoxSampler::trilinearInterpolation` does for a
 /// float grid, so Brume and OpenVDB agree bit for bit.
@@ -223,8 +232,8 @@ impl SparseGrid {
         if self.all_background_near(p) {
             return self.background;
         }
-        let r = (p + 0.5).floor();
-        self.voxel_i64(r.x as i64, r.y as i64, r.z as i64)
+        let r = p + 0.5;
+        self.voxel_i64(floor_i64(r.x), floor_i64(r.y), floor_i64(r.z))
     }
 
     /// Trilinear reconstruction at index point `p`, as OpenVDB's `BoxSampler`: the eight
@@ -234,9 +243,9 @@ impl SparseGrid {
         if self.all_background_near(p) {
             return self.background;
         }
-        let i0 = p.floor();
-        let f = p - i0;
-        let (i, j, k) = (i0.x as i64, i0.y as i64, i0.z as i64);
+        let (i, j, k) = (floor_i64(p.x), floor_i64(p.y), floor_i64(p.z));
+        // Exact: p and floor(p) are close doubles (Sterbenz), as in OpenVDB's `inCoord - inIdx`.
+        let f = p - DVec3::new(i as f64, j as f64, k as f64);
         // Fast path: all eight voxels in one cell (local coordinate 7 on no axis), which holds
         // for (7/8)^3 = 67 % of uniformly spread points and more in constant regions.
         if (i & 7) != 7 && (j & 7) != 7 && (k & 7) != 7 {
@@ -306,5 +315,36 @@ impl SparseGrid {
             constant_fraction: constant as f64 / n,
             empty_fraction: empty as f64 / n,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn floor_i64_matches_f64_floor() {
+        for x in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            7.999_999,
+            -8.0,
+            -8.000_001,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+        ] {
+            assert_eq!(floor_i64(x), x.floor() as i64, "floor({x})");
+        }
+    }
+
+    #[test]
+    fn lerp_vdb_hits_its_ends() {
+        assert_eq!(lerp_vdb(0.3, 0.7, 0.0), 0.3);
+        assert_eq!(lerp_vdb(0.3, 0.7, 1.0), 0.7);
+        assert_eq!(lerp_vdb(2.5, 2.5, 0.123), 2.5);
     }
 }
