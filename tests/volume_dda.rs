@@ -48,6 +48,11 @@ fn rays_respect_bounds_around_a_single_voxel() {
 }
 
 #[test]
+fn rays_respect_bounds_far_from_the_origin() {
+    ray_check("far_from_origin", &common::far_from_origin(), 6);
+}
+
+#[test]
 fn empty_grid_yields_no_segments() {
     ray_check("empty", &common::empty(), 5);
 }

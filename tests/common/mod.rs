@@ -107,6 +107,19 @@ pub fn single_voxel() -> FloatGridData {
     dense_to_vdb([1, 1, 1], [8, -1, 0], &[7.0], 0.0).unwrap()
 }
 
+/// A noisy block far from the index origin, where f32 ray arithmetic has ulps of 1/64 voxel.
+pub fn far_from_origin() -> FloatGridData {
+    let mut rng = SplitMix64(31);
+    let values: Vec<f32> = (0..20 * 12 * 9).map(|_| rng.uniform() as f32).collect();
+    dense_to_vdb(
+        [20, 12, 9],
+        [1 << 19, -(1 << 18) + 3, 123_456],
+        &values,
+        0.0,
+    )
+    .unwrap()
+}
+
 pub fn empty() -> FloatGridData {
     FloatGridData {
         info: synthetic_info("empty"),
@@ -122,6 +135,7 @@ pub fn all_grids() -> Vec<(&'static str, FloatGridData)> {
         ("with_tiles", with_tiles()),
         ("sparse_with_background", sparse_with_background()),
         ("single_voxel", single_voxel()),
+        ("far_from_origin", far_from_origin()),
         ("empty", empty()),
     ]
 }
