@@ -226,7 +226,8 @@ impl SparseGrid {
     }
 
     /// Nearest-voxel lookup at index point `p`, as OpenVDB's `PointSampler`: the voxel
-    /// `floor(p + 0.5)` per axis.
+    /// `floor(p + 0.5)` per axis. Outside the cell box, and at NaN coordinates, the
+    /// background.
     #[inline]
     pub fn sample_nearest(&self, p: DVec3) -> f32 {
         if self.all_background_near(p) {
@@ -237,7 +238,8 @@ impl SparseGrid {
     }
 
     /// Trilinear reconstruction at index point `p`, as OpenVDB's `BoxSampler`: the eight
-    /// voxels `floor(p) + {0,1}^3`, blended along z, then y, then x.
+    /// voxels `floor(p) + {0,1}^3`, blended along z, then y, then x. Outside the cell box,
+    /// and at NaN coordinates, the background.
     #[inline]
     pub fn sample_trilinear(&self, p: DVec3) -> f32 {
         if self.all_background_near(p) {
