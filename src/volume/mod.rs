@@ -1,3 +1,21 @@
 //! Brume's sparse volume layout, per-leaf bounds and the majorant DDA.
+//!
+//! The path from an OpenVDB file to the tracking loop:
+//! [`FloatGridData`](brume_ffi::FloatGridData) --[`SparseGrid::from_vdb`]--> [`SparseGrid`]
+//! --[`LeafBounds::build`]--> [`LeafBounds`] --[`DdaMajorantIterator`]--> [`MajorantSegment`]s.
+pub mod bounds;
+pub mod check;
+pub mod convert;
+pub mod dda;
+pub mod error;
+pub mod grid;
+pub mod reference;
 pub mod segment;
+
+pub use bounds::{BoundsStats, CellBounds, LeafBounds};
+pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};
+pub use dda::DdaMajorantIterator;
+pub use error::VolumeError;
+pub use grid::{GridStats, SparseGrid, CONSTANT_BIT, DEFAULT_MAX_CELLS};
+pub use reference::VdbReference;
 pub use segment::MajorantSegment;

@@ -1,0 +1,434 @@
+//! Property checks of a built grid that any test can run, on synthetic grids and on every
+//! grid loaded from disk alike:
+//! * [`check_lookups`]: fast lookups agree with the brute-force [`VdbReference`];
+//! * [`check_ray_bounds`]: DDA segments tile each ray's overlap with the cell box, and every
+//!   reconstructed value along a ray lies within the bounds of its segment.
+//!
+//! Both are seeded and deterministic.
+use brume_ffi::FloatGridData;
+
+use super::bounds::LeafBounds;
+use super::dda::DdaMajorantIterator;
+use super::grid::SparseGrid;
+use super::reference::VdbReference;
+use super::segment::MajorantSegment;
+use crate::math::{DVec3, Ray, Vec3};
+
+/// SplitMix64 (Steele, Lea and Flood, "Fast splittable pseudorandom number generators",
+/// OOPSLA 2014): tiny, fast and good enough to drive property checks reproducibly.
+#[derive(Clone, Debug)]
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `[0, 1)` with 53 random bits.
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform in `[a, b)`.
+    pub fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.uniform()
+    }
+
+    /// Uniform integer in `0..n` (`n > 0`).
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next_u64() % n
+    }
+
+    pub fn coin(&mut self) -> bool {
+        self.next_u64() >> 63 == 1
+    }
+
+    /// A uniformly distributed unit vector.
+    pub fn unit_vector(&mut self) -> DVec3 {
+        let z = self.range(-1.0, 1.0);
+        let phi = self.range(0.0, std::f64::consts::TAU);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        DVec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+}
+
+/// What [`check_lookups`] compared.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LookupCheckStats {
+    pub points: u64,
+    /// Lookups whose result matched the reference bit for bit.
+    pub exact: u64,
+    /// Largest relative difference seen (0 when all were exact).
+    pub max_relative_error: f64,
+}
+
+/// Relative tolerance of [`check_lookups`]: OpenVDB's own agreement requirement.
+pub const LOOKUP_TOLERANCE: f64 = 1e-6;
+
+/// Compares `grid`'s voxel, nearest and trilinear lookups with a brute-force evaluation of
+/// `data` (from which `grid` was converted) at `n_points` seeded random points: spread over
+/// and around the cell box, at voxel centres and near brick boundaries, near leaves and tiles.
+pub fn check_lookups(
+    grid: &SparseGrid,
+    data: &FloatGridData,
+    n_points: usize,
+    seed: u64,
+) -> Result<LookupCheckStats, String> {
+    let reference = VdbReference::new(data);
+    let mut rng = SplitMix64(seed);
+    let mut stats = LookupCheckStats::default();
+    let bounds = grid.index_bounds();
+    let (lo, hi) = if bounds.is_empty() {
+        (DVec3::splat(-16.0), DVec3::splat(16.0))
+    } else {
+        (bounds.min.as_dvec3(), bounds.max.as_dvec3())
+    };
+    let margin = DVec3::splat(12.0);
+    let mut compare = |what: &str, p: DVec3, got: f32, want: f32| -> Result<(), String> {
+        stats.points += 1;
+        if got.to_bits() == want.to_bits() || got == want {
+            stats.exact += 1;
+            return Ok(());
+        }
+        let rel = ((got - want).abs() as f64) / (want.abs().max(got.abs()) as f64).max(1e-30);
+        stats.max_relative_error = stats.max_relative_error.max(rel);
+        if rel > LOOKUP_TOLERANCE {
+            return Err(format!("{what} at index point {p:?}: grid {got}, reference {want} (relative error {rel:e})"));
+        }
+        Ok(())
+    };
+    for n in 0..n_points {
+        let p = match n % 4 {
+            // Anywhere over and around the box.
+            0 => DVec3::new(
+                rng.range(lo.x - margin.x, hi.x + margin.x),
+                rng.range(lo.y - margin.y, hi.y + margin.y),
+                rng.range(lo.z - margin.z, hi.z + margin.z),
+            ),
+            // Near brick boundaries: within a voxel and a half of a multiple of 8.
+            1 => DVec3::from_array([0, 1, 2].map(|a| {
+                let cells = ((hi[a] - lo[a]) / 8.0).max(1.0) as u64;
+                lo[a] + 8.0 * rng.below(cells + 1) as f64 + rng.range(-1.5, 1.5)
+            })),
+            // Exactly on voxel centres and half-way points, where floor and round switch.
+            2 => DVec3::from_array([0, 1, 2].map(|a| {
+                let span = (hi[a] - lo[a] + 4.0).max(1.0) as u64;
+                (lo[a] - 2.0 + rng.below(span) as f64) + if rng.coin() { 0.5 } else { 0.0 }
+            })),
+            // Around a stored leaf or tile.
+            _ => {
+                let n_leaves = data.leaves.len() as u64;
+                let n_tiles = data.tiles.len() as u64;
+                if n_leaves + n_tiles == 0 {
+                    DVec3::new(
+                        rng.range(-20.0, 20.0),
+                        rng.range(-20.0, 20.0),
+                        rng.range(-20.0, 20.0),
+                    )
+                } else {
+                    let k = rng.below(n_leaves + n_tiles);
+                    let (origin, dim) = if k < n_leaves {
+                        (data.leaves[k as usize].origin, 8.0)
+                    } else {
+                        let t = &data.tiles[(k - n_leaves) as usize];
+                        (t.origin, t.dim as f64)
+                    };
+                    DVec3::from_array(
+                        [0, 1, 2].map(|a| origin[a] as f64 + rng.range(-2.0, dim + 2.0)),
+                    )
+                }
+            }
+        };
+        let r = (p + 0.5).floor();
+        let ijk = [r.x as i64, r.y as i64, r.z as i64];
+        if ijk
+            .iter()
+            .all(|&c| c >= i32::MIN as i64 && c <= i32::MAX as i64)
+        {
+            let got = grid.voxel(ijk[0] as i32, ijk[1] as i32, ijk[2] as i32);
+            compare("voxel", r, got, reference.voxel(ijk))?;
+        }
+        compare(
+            "nearest",
+            p,
+            grid.sample_nearest(p),
+            reference.sample_nearest(p),
+        )?;
+        compare(
+            "trilinear",
+            p,
+            grid.sample_trilinear(p),
+            reference.sample_trilinear(p),
+        )?;
+    }
+    Ok(stats)
+}
+
+/// What [`check_ray_bounds`] exercised.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayCheckStats {
+    pub rays: u64,
+    /// Rays with a non-empty overlap with the cell box.
+    pub rays_hit: u64,
+    pub segments: u64,
+    /// Segments whose majorant is 0 (empty space the tracker skips).
+    pub zero_majorant_segments: u64,
+    /// Reconstructed values checked against their segment's bounds.
+    pub samples: u64,
+    /// Sum over samples of value / sigma_maj (for the mean tightness of the bounds).
+    pub sum_value_over_majorant: f64,
+}
+
+impl RayCheckStats {
+    /// Mean of sample value over segment majorant: the fraction of real (not null) collisions
+    /// a tracker would see.
+    pub fn mean_value_over_majorant(&self) -> f64 {
+        self.sum_value_over_majorant / self.samples.max(1) as f64
+    }
+}
+
+/// Samples per ray at uniformly random parameters within random segments.
+const SAMPLES_PER_RAY: usize = 4;
+
+/// One random ray and parameter interval, mixing the cases a DDA gets wrong: generic rays,
+/// axis-parallel rays with `±0.0` components, rays in cell faces and along cell edges, rays
+/// from far outside aimed at the box, diagonal rays through cell corners, and odd intervals.
+fn random_ray(rng: &mut SplitMix64, lo: Vec3, hi: Vec3) -> (Ray, f32, f32) {
+    let lo = lo.as_dvec3();
+    let hi = hi.as_dvec3();
+    let ext = hi - lo;
+    let margin = ext * 0.25 + 8.0;
+    let in_box = |rng: &mut SplitMix64, m: DVec3| {
+        DVec3::new(
+            rng.range(lo.x - m.x, hi.x + m.x),
+            rng.range(lo.y - m.y, hi.y + m.y),
+            rng.range(lo.z - m.z, hi.z + m.z),
+        )
+    };
+    let plane =
+        |rng: &mut SplitMix64, a: usize| lo[a] + 8.0 * rng.below((ext[a] / 8.0) as u64 + 1) as f64;
+    let signed_zero = |rng: &mut SplitMix64| if rng.coin() { 0.0 } else { -0.0 };
+    let length = 10f64.powf(rng.range(-1.0, 1.0));
+
+    let (o, mut d) = match rng.below(6) {
+        0 => (in_box(rng, margin), rng.unit_vector()),
+        1 => {
+            let a = rng.below(3) as usize;
+            let mut d = DVec3::new(signed_zero(rng), signed_zero(rng), signed_zero(rng));
+            d[a] = if rng.coin() { 1.0 } else { -1.0 };
+            (in_box(rng, margin), d)
+        }
+        2 => {
+            let a = rng.below(3) as usize;
+            let mut o = in_box(rng, margin);
+            o[a] = plane(rng, a);
+            let mut d = rng.unit_vector();
+            if rng.coin() {
+                d[a] = signed_zero(rng);
+            }
+            (o, d)
+        }
+        3 => {
+            let a = rng.below(3) as usize;
+            let b = (a + 1 + rng.below(2) as usize) % 3;
+            let mut o = in_box(rng, margin);
+            o[a] = plane(rng, a);
+            o[b] = plane(rng, b);
+            let mut d = rng.unit_vector();
+            if rng.coin() {
+                d[a] = signed_zero(rng);
+                d[b] = signed_zero(rng);
+            }
+            (o, d)
+        }
+        4 => {
+            let centre = (lo + hi) * 0.5;
+            let o = centre + rng.unit_vector() * (ext.length() + 8.0) * rng.range(1.0, 3.0);
+            let target = in_box(rng, DVec3::ZERO);
+            (o, target - o)
+        }
+        _ => {
+            let o = DVec3::new(plane(rng, 0), plane(rng, 1), plane(rng, 2));
+            let pick = |rng: &mut SplitMix64| match rng.below(4) {
+                0 => 1.0,
+                1 => -1.0,
+                2 => 0.0,
+                _ => -0.0,
+            };
+            (o, DVec3::new(pick(rng), pick(rng), pick(rng)))
+        }
+    };
+    if d.x != 0.0 || d.y != 0.0 || d.z != 0.0 {
+        d = d.normalize() * length;
+    }
+    let ray = Ray::new(o.as_vec3(), d.as_vec3());
+
+    let span = (ext.length() + 16.0) / length;
+    let (t0, t1) = match rng.below(8) {
+        0 => (f32::NEG_INFINITY, f32::INFINITY),
+        1 => (0.0, f32::INFINITY),
+        2 => {
+            let t0 = rng.range(-span, span) as f32;
+            (t0, t0 - rng.range(0.0, span) as f32)
+        }
+        3 => {
+            let t = rng.range(-span, span) as f32;
+            (t, t)
+        }
+        _ => {
+            let t0 = rng.range(-span, span) as f32;
+            (t0, t0 + rng.range(0.0, 2.0 * span) as f32)
+        }
+    };
+    (ray, t0, t1)
+}
+
+/// Checks the segments of one ray and the values along it.
+fn check_one_ray(
+    grid: &SparseGrid,
+    segments: &[MajorantSegment],
+    expected: Option<(f32, f32)>,
+    ray: &Ray,
+    rng: &mut SplitMix64,
+    stats: &mut RayCheckStats,
+) -> Result<(), String> {
+    let Some((t_enter, t_exit)) = expected else {
+        return match segments.first() {
+            None => Ok(()),
+            Some(s) => Err(format!(
+                "{} segment(s) for a ray that misses the box, first {s:?}",
+                segments.len()
+            )),
+        };
+    };
+    let (first, last) = match (segments.first(), segments.last()) {
+        (Some(f), Some(l)) => (f, l),
+        _ => {
+            return Err(format!(
+                "no segments, but the ray overlaps the box over [{t_enter}, {t_exit}]"
+            ))
+        }
+    };
+    if first.t_min.to_bits() != t_enter.to_bits() || last.t_max.to_bits() != t_exit.to_bits() {
+        return Err(format!(
+            "segments span [{}, {}], box overlap is [{t_enter}, {t_exit}]",
+            first.t_min, last.t_max
+        ));
+    }
+    for (n, s) in segments.iter().enumerate() {
+        // Written positively so NaN fails too.
+        let well_formed = s.t_min < s.t_max && s.sigma_min <= s.sigma_maj;
+        if !well_formed {
+            return Err(format!("segment {n} is empty or has min above max: {s:?}"));
+        }
+        if let Some(next) = segments.get(n + 1) {
+            if s.t_max.to_bits() != next.t_min.to_bits() {
+                return Err(format!(
+                    "segment {n} ends at {} but segment {} starts at {}",
+                    s.t_max,
+                    n + 1,
+                    next.t_min
+                ));
+            }
+        }
+        stats.zero_majorant_segments += (s.sigma_maj == 0.0) as u64;
+    }
+    stats.segments += segments.len() as u64;
+
+    let check_t = |t: f32, stats: &mut RayCheckStats| -> Result<(), String> {
+        if !t.is_finite() {
+            return Ok(());
+        }
+        // Exactly the point a renderer computes.
+        let p = ray.at(t).as_dvec3();
+        let trilinear = grid.sample_trilinear(p);
+        let nearest = grid.sample_nearest(p);
+        // Every segment containing t (two at a shared end) must bound the values.
+        let start = segments.partition_point(|s| s.t_max < t);
+        for s in segments[start..].iter().take_while(|s| s.t_min <= t) {
+            for (what, v) in [("trilinear", trilinear), ("nearest", nearest)] {
+                if !(s.sigma_min <= v && v <= s.sigma_maj) {
+                    return Err(format!(
+                        "{what} value {v} at t = {t} (index point {p:?}) outside segment {s:?}"
+                    ));
+                }
+            }
+            stats.samples += 1;
+            if s.sigma_maj > 0.0 {
+                stats.sum_value_over_majorant += (trilinear / s.sigma_maj) as f64;
+            }
+        }
+        Ok(())
+    };
+    for s in segments {
+        check_t(s.t_min, stats)?;
+    }
+    check_t(last.t_max, stats)?;
+    for _ in 0..SAMPLES_PER_RAY {
+        let s = segments[rng.below(segments.len() as u64) as usize];
+        if s.t_min.is_finite() && s.t_max.is_finite() {
+            let t = (s.t_min as f64 + rng.uniform() * (s.t_max as f64 - s.t_min as f64)) as f32;
+            check_t(t.clamp(s.t_min, s.t_max), stats)?;
+        }
+    }
+    Ok(())
+}
+
+/// Shoots `n_rays` seeded random rays (in index space) at `grid` and checks, for each, that the
+/// DDA over `bounds` tiles the ray's overlap with the cell box exactly (first `t_min` is the
+/// entry, each `t_max` equals the next `t_min` bit for bit, the last `t_max` is the exit, no
+/// empty segments, nothing for a miss) and that trilinear and nearest values at each segment's
+/// ends and at random parameters inside lie in `[sigma_min, sigma_maj]` of every segment
+/// containing that parameter. The global variant is checked for the same overlap and bounds.
+pub fn check_ray_bounds(
+    grid: &SparseGrid,
+    bounds: &LeafBounds,
+    n_rays: usize,
+    seed: u64,
+) -> Result<RayCheckStats, String> {
+    let mut rng = SplitMix64(seed);
+    let mut stats = RayCheckStats::default();
+    let box_ = grid.index_bounds();
+    let (lo, hi) = if box_.is_empty() {
+        (Vec3::splat(-16.0), Vec3::splat(16.0))
+    } else {
+        (box_.min, box_.max)
+    };
+    let mut segments = Vec::new();
+    for n in 0..n_rays {
+        let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
+        let expected = if box_.is_empty() {
+            None
+        } else {
+            box_.intersect(&ray, t0, t1).filter(|(a, b)| a < b)
+        };
+        segments.clear();
+        segments.extend(DdaMajorantIterator::new(bounds, &ray, t0, t1, 1.0));
+        stats.rays += 1;
+        stats.rays_hit += expected.is_some() as u64;
+        let context = |e: String| format!("ray {n} {ray:?} over [{t0}, {t1}]: {e}");
+        check_one_ray(grid, &segments, expected, &ray, &mut rng, &mut stats).map_err(context)?;
+
+        let global: Vec<MajorantSegment> =
+            DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();
+        let want: Vec<MajorantSegment> = expected
+            .map(|(a, b)| MajorantSegment {
+                t_min: a,
+                t_max: b,
+                sigma_maj: bounds.global.max,
+                sigma_min: bounds.global.min,
+            })
+            .into_iter()
+            .collect();
+        if global != want {
+            return Err(context(format!(
+                "global variant gave {global:?}, expected {want:?}"
+            )));
+        }
+    }
+    Ok(stats)
+}
