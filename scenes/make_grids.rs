@@ -71,9 +71,18 @@ fn voxelize(spec: &mut GridSpec, half: i32, voxel: f32, f: impl Fn([f32; 3]) -> 
 fn cloud() -> GridSpec {
     let voxel = 1.0 / 48.0;
     let mut g = GridSpec::fog("density", voxel as f64, [0.0; 3]);
-    let blobs = [([0.0, -0.1, 0.0], 0.55), ([0.45, -0.25, 0.1], 0.4), ([-0.45, -0.2, -0.1], 0.42), ([0.1, 0.3, 0.05], 0.4), ([-0.2, 0.15, 0.3], 0.3)];
+    let blobs = [
+        ([0.0, -0.1, 0.0], 0.55),
+        ([0.45, -0.25, 0.1], 0.4),
+        ([-0.45, -0.2, -0.1], 0.42),
+        ([0.1, 0.3, 0.05], 0.4),
+        ([-0.2, 0.15, 0.3], 0.3),
+    ];
     voxelize(&mut g, 48, voxel, |p| {
-        let sd = blobs.iter().map(|(c, r)| len([p[0] - c[0], p[1] - c[1], p[2] - c[2]]) - r).fold(f32::MAX, f32::min);
+        let sd = blobs
+            .iter()
+            .map(|(c, r)| len([p[0] - c[0], p[1] - c[1], p[2] - c[2]]) - r)
+            .fold(f32::MAX, f32::min);
         // A flat base, as cumulus have.
         let sd = sd.max(-0.45 - p[1]);
         let d = -sd + 0.22 * fbm(p.map(|c| c * 3.5), 7);
@@ -103,11 +112,17 @@ fn fire() -> [GridSpec; 3] {
         (1.0 - r / 0.8) + 0.45 * fbm(p.map(|c| c * 3.0), 23)
     };
     let mut density = GridSpec::fog("density", voxel as f64, [0.0; 3]);
-    voxelize(&mut density, 40, voxel, |p| (field(p) * 2.0).clamp(0.0, 1.0) * 0.6);
+    voxelize(&mut density, 40, voxel, |p| {
+        (field(p) * 2.0).clamp(0.0, 1.0) * 0.6
+    });
     let mut temperature = GridSpec::fog("temperature", voxel as f64, [0.0; 3]);
-    voxelize(&mut temperature, 40, voxel, |p| (field(p) * 1.6 - 0.2).clamp(0.0, 1.0));
+    voxelize(&mut temperature, 40, voxel, |p| {
+        (field(p) * 1.6 - 0.2).clamp(0.0, 1.0)
+    });
     let mut flame = GridSpec::fog("flame", voxel as f64, [0.0; 3]);
-    voxelize(&mut flame, 40, voxel, |p| ((field(p) - 0.45) * 2.5).clamp(0.0, 1.0));
+    voxelize(&mut flame, 40, voxel, |p| {
+        ((field(p) - 0.45) * 2.5).clamp(0.0, 1.0)
+    });
     [density, temperature, flame]
 }
 
@@ -119,7 +134,11 @@ fn tiles() -> GridSpec {
     for x in 0..160 {
         for y in 0..128 {
             for z in 0..128 {
-                let v = if x < 128 { 0.3 } else { 0.3 * (1.0 - (x - 127) as f32 / 33.0) * (1.0 + 0.1 * ((y + z) % 3) as f32) };
+                let v = if x < 128 {
+                    0.3
+                } else {
+                    0.3 * (1.0 - (x - 127) as f32 / 33.0) * (1.0 + 0.1 * ((y + z) % 3) as f32)
+                };
                 g.voxels.push(([x, y, z], v));
             }
         }
@@ -128,7 +147,11 @@ fn tiles() -> GridSpec {
 }
 
 fn main() {
-    let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "scenes/vdb".to_string()));
+    let out = PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .unwrap_or_else(|| "scenes/vdb".to_string()),
+    );
     std::fs::create_dir_all(&out).expect("cannot create the output folder");
     let write = |name: &str, grids: &[GridSpec]| {
         let path = out.join(name);

@@ -1,1 +1,51 @@
-fn main() {}
+//! The `brume` command line. Each subcommand lives in `src/cli/`; this file only parses.
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cli;
+
+#[derive(Parser)]
+#[command(
+    name = "brume",
+    version,
+    about = "Offline volumetric renderer for OpenVDB media in glTF scenes"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print the facts of a .vdb file (grids, transforms, Brume layout, bound tightness) or of
+    /// a glTF scene.
+    Info {
+        /// A .vdb, .gltf or .glb file.
+        path: PathBuf,
+        /// Skip the conversion to Brume's layout (faster for big .vdb files).
+        #[arg(long)]
+        no_layout: bool,
+    },
+    /// Print performance figures (benchmarks, not tests).
+    Bench {
+        #[command(subcommand)]
+        which: cli::bench::Which,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
+        Command::Bench { which } => cli::bench::run(which),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

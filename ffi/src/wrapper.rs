@@ -319,7 +319,7 @@ impl Drop for OpenVdbFloatGrid {
 /// Which of OpenVDB's samplers to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SampleOrder {
-    /// `openvdb::tools::PointSampler`: the voxel at `floor(p + 0.5)`.
+    /// `openvdb::tools::PointSampler`: the voxel at `round(p)` (C `::round`, halves away from zero).
     Nearest = 0,
     /// `openvdb::tools::BoxSampler`: trilinear over the 8 voxels around `p`.
     Trilinear = 1,

@@ -4,7 +4,7 @@
 //! over the voxel block `[8c - 1, 8c + 9]` per axis: the cell's own 8 voxels plus an apron of
 //! one voxel below and two above. Trilinear reconstruction at any point `p` in
 //! `[8c - 1, 8c + 9)` reads voxels `floor(p)` and `floor(p) + 1`, both inside that block, and
-//! nearest lookup reads `floor(p + 0.5)`, also inside it. So every reconstructed value within
+//! nearest lookup reads `round(p)`, also inside it. So every reconstructed value within
 //! one voxel of the cell lies in `[min, max]`, which keeps the bound valid when floating-point
 //! rounding of `o + t d` pushes a sample point slightly past the cell the DDA thinks it is in.
 use bytemuck::{Pod, Zeroable};

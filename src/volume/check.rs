@@ -143,7 +143,7 @@ pub fn check_lookups(
                 }
             }
         };
-        let r = (p + 0.5).floor();
+        let r = p.round();
         let ijk = [r.x as i64, r.y as i64, r.z as i64];
         if ijk
             .iter()

@@ -215,7 +215,7 @@ impl SparseGrid {
     #[inline]
     fn all_background_near(&self, p: DVec3) -> bool {
         let (lo, hi) = self.index_box_i64();
-        // Trilinear reads floor(p) and floor(p) + 1; nearest reads floor(p + 0.5). Both lie
+        // Trilinear reads floor(p) and floor(p) + 1; nearest reads round(p). Both lie
         // in [lo, hi) only if p is in [lo - 1, hi).
         !(p.x >= (lo[0] - 1) as f64
             && p.x < hi[0] as f64
@@ -226,15 +226,17 @@ impl SparseGrid {
     }
 
     /// Nearest-voxel lookup at index point `p`, as OpenVDB's `PointSampler`: the voxel
-    /// `floor(p + 0.5)` per axis. Outside the cell box, and at NaN coordinates, the
+    /// `round(p)` per axis, halves away from zero. Outside the cell box, and at NaN coordinates, the
     /// background.
     #[inline]
     pub fn sample_nearest(&self, p: DVec3) -> f32 {
         if self.all_background_near(p) {
             return self.background;
         }
-        let r = p + 0.5;
-        self.voxel_i64(floor_i64(r.x), floor_i64(r.y), floor_i64(r.z))
+        // `f64::round` rounds halves away from zero, as the C `::round` in OpenVDB's
+        // `PointSampler` (not `floor(p + 0.5)`: they differ at negative halves).
+        let r = p.round();
+        self.voxel_i64(r.x as i64, r.y as i64, r.z as i64)
     }
 
     /// Trilinear reconstruction at index point `p`, as OpenVDB's `BoxSampler`: the eight

@@ -61,9 +61,9 @@ impl<'a> VdbReference<'a> {
         self.data.background
     }
 
-    /// OpenVDB's `PointSampler`: the voxel at `floor(p + 0.5)`.
+    /// OpenVDB's `PointSampler`: the voxel at `round(p)`, halves away from zero (C `::round`).
     pub fn sample_nearest(&self, p: DVec3) -> f32 {
-        let r = (p + 0.5).floor();
+        let r = p.round();
         self.voxel([r.x as i64, r.y as i64, r.z as i64])
     }
 
