@@ -53,6 +53,15 @@ impl HenyeyGreenstein {
         INV_4PI * one_minus_a * (1.0 + a) / (denom * denom.sqrt())
     }
 
+    /// Density as a function of `x = 1 - sign(g) mu`, the distance from the lobe's pole in
+    /// cosine (`1 - mu` for forward, `1 + mu` for backward scattering). Integrate over
+    /// `x in [0, 2]` to resolve a narrow lobe: f32 `mu` itself is too coarse near `+-1`
+    /// (spacing 6e-8 against a lobe ~5e-7 wide at |g| = 0.999).
+    #[inline]
+    pub fn p_lobe(&self, x: f32) -> f32 {
+        Self::p_from_x(self.g.abs(), x.max(0.0))
+    }
+
     /// Density as a function of the scattering cosine `mu`.
     #[inline]
     pub fn p_mu(&self, mu: f32) -> f32 {
@@ -61,10 +70,19 @@ impl HenyeyGreenstein {
         Self::p_from_x(a, x.max(0.0))
     }
 
-    /// `p(wo, wi)` per steradian, both directions pointing away from the scattering point.
+    /// `p(wo, wi)` per steradian, both unit directions pointing away from the scattering point.
+    ///
+    /// The lobe coordinate comes from a chord, not a dot product: `1 - mu = |wo + wi|^2 / 2`
+    /// and `1 + mu = |wo - wi|^2 / 2` lose nothing near the pole, where `1 + dot(wo, wi)` in
+    /// f32 would be off by ~1e-7, 20-40 % of the lobe at |g| = 0.999.
     #[inline]
     pub fn p(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.p_mu(-wo.dot(wi))
+        let x = if self.g >= 0.0 {
+            0.5 * (wo + wi).length_squared()
+        } else {
+            0.5 * (wo - wi).length_squared()
+        };
+        Self::p_from_x(self.g.abs(), x.min(2.0))
     }
 
     /// Samples `wi` given `wo` (unit). `u` in `[0, 1)^2`: `u.x` picks the cosine, `u.y` the
