@@ -632,8 +632,8 @@ fn furnace_slab() {
     ] {
         let (m, st) = run(which, b, 23 + which);
         let channels = if which == 4 { 3 } else { 1 };
-        for c in 0..channels {
-            assert_z(&format!("furnace {name} channel {c}"), &m[c], 1.0);
+        for (c, mc) in m.iter().enumerate().take(channels) {
+            assert_z(&format!("furnace {name} channel {c}"), mc, 1.0);
         }
         println!("    max |w| = {:.3e}", st.max_abs_weight);
         assert!(!st.is_biased(), "{name}: {st:?}");

@@ -173,6 +173,7 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2O
 /// Adaptive Simpson quadrature of `f` over `[a, b]` to absolute tolerance `eps`. Recursion
 /// follows peaks (a Henyey-Greenstein lobe at g = 0.99 is ~1e-4 wide in cos theta).
 pub fn integrate(f: &dyn Fn(f64) -> f64, a: f64, b: f64, eps: f64) -> f64 {
+    #[allow(clippy::too_many_arguments)]
     fn rec(
         f: &dyn Fn(f64) -> f64,
         a: f64,

@@ -24,8 +24,10 @@ pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 /// Weights must be non-negative (callers pass `|sigma_x|`). Returns `None` when every weight is
 /// zero. Zero-weight entries are never chosen, even when rounding puts `u * sum` past the last
 /// partial sum.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub fn sample_discrete(weights: &[f32], u: f32) -> Option<DiscreteSample> {
     let sum: f32 = weights.iter().sum();
+    // Written negated so that a NaN sum also returns None.
     if !(sum > 0.0) {
         return None;
     }

@@ -21,6 +21,9 @@
 //! choice, one more only when Russian roulette fires).
 //!
 //! Units: `t` is the ray parameter and every coefficient is per unit of `t`.
+// Comparisons such as `!(x > 0.0)` are written negated on purpose: NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 use glam::Vec3;
