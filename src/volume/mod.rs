@@ -9,8 +9,10 @@ pub mod convert;
 pub mod dda;
 pub mod error;
 pub mod grid;
+pub mod phase;
 pub mod reference;
 pub mod segment;
+pub mod tracking;
 
 pub use bounds::{BoundsStats, CellBounds, LeafBounds};
 pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};

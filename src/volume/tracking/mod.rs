@@ -1,0 +1,447 @@
+//! Null-collision tracking: ONE free-flight loop over majorant segments, and the estimators
+//! that plug into it.
+//!
+//! The model is pbrt-v4's `SampleT_maj` (`src/pbrt/media.h`): [`sample_free_flight`] walks the
+//! [`MajorantSegment`]s of a ray, samples tentative collisions with exponential steps on each
+//! segment's majorant, and hands each one to a callback that decides (absorb, scatter, null,
+//! control, ...) and says whether to continue. Each estimator file only writes that callback:
+//!
+//! | file                        | distance sampling | transmittance            |
+//! |-----------------------------|-------------------|--------------------------|
+//! | `delta.rs`                  | analog            | Bernoulli (track length) |
+//! | `weighted_delta.rs`         | weighted, scale b | weighted Bernoulli       |
+//! | `decomposition.rs`          | analog            | closed-form control x Bernoulli residual |
+//! | `weighted_decomposition.rs` | weighted          | closed-form control x weighted residual  |
+//! | `ratio.rs`                  | -                 | ratio tracking           |
+//! | `residual_ratio.rs`         | -                 | residual ratio tracking  |
+//! | `spectral.rs` (RGB)         | weighted, history-aware | weighted, history-aware |
+//!
+//! Random-number order (the WGSL mirror must match): one uniform per exponential step, drawn
+//! by the loop; then whatever the callback draws for that collision (one uniform for the event
+//! choice, one more only when Russian roulette fires).
+//!
+//! Units: `t` is the ray parameter and every coefficient is per unit of `t`.
+// Comparisons such as `!(x > 0.0)` are written negated on purpose: NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::sampling::Rng;
+use crate::volume::MajorantSegment;
+use glam::Vec3;
+
+pub mod decomposition;
+pub mod delta;
+pub mod ratio;
+pub mod residual_ratio;
+pub mod spectral;
+pub mod weighted_decomposition;
+pub mod weighted_delta;
+
+/// Relative slack before a non-bounding majorant counts as a violation in the analog trackers:
+/// f32 density interpolation can exceed a bound computed from the same voxels by a few ulps.
+pub const MAJORANT_TOLERANCE: f32 = 1e-4;
+
+/// Russian roulette threshold on `|weight|` for estimators whose weights shrink (ratio
+/// tracking, spectral tracking): below it a path survives with probability `|w| / threshold`
+/// and then carries `sign(w) * threshold`, which keeps the expectation (no clamping).
+pub const ROULETTE_THRESHOLD: f32 = 0.1;
+
+/// Safety net for a ray whose free flight can never end: an infinite segment with a positive
+/// majorant in an empty medium has no escape and no real collision. After this many tentative
+/// collisions in ONE call the loop gives up, returns `T_maj = 0` (the true majorant
+/// transmittance to infinity) and counts [`TrackingStats::collision_cap_hits`].
+pub const MAX_TENTATIVE_COLLISIONS: u64 = 1 << 24;
+
+/// Grey absorption and scattering coefficients at one point: the result of ONE density lookup.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Coeffs {
+    pub sigma_a: f32,
+    pub sigma_s: f32,
+}
+
+impl Coeffs {
+    pub const ZERO: Coeffs = Coeffs {
+        sigma_a: 0.0,
+        sigma_s: 0.0,
+    };
+
+    pub fn new(sigma_a: f32, sigma_s: f32) -> Self {
+        Coeffs { sigma_a, sigma_s }
+    }
+
+    /// `sigma_a = (1 - albedo) sigma_t`, `sigma_s = albedo sigma_t`.
+    pub fn from_sigma_t(sigma_t: f32, albedo: f32) -> Self {
+        Coeffs {
+            sigma_a: (1.0 - albedo) * sigma_t,
+            sigma_s: albedo * sigma_t,
+        }
+    }
+
+    #[inline]
+    pub fn sigma_t(&self) -> f32 {
+        self.sigma_a + self.sigma_s
+    }
+}
+
+/// RGB coefficients at one point, for spectral tracking.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CoeffsRgb {
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+}
+
+impl CoeffsRgb {
+    pub fn new(sigma_a: Vec3, sigma_s: Vec3) -> Self {
+        CoeffsRgb { sigma_a, sigma_s }
+    }
+
+    #[inline]
+    pub fn sigma_t(&self) -> Vec3 {
+        self.sigma_a + self.sigma_s
+    }
+}
+
+/// A grey medium as the trackers see it along one ray.
+pub trait Medium {
+    /// `sigma_a`, `sigma_s` at ray parameter `t`: one density lookup, the cost the estimators
+    /// try to avoid. Trackers count each call in [`TrackingStats::lookups`]. `&self` because a
+    /// grid lookup is read-only (and the majorant and collision closures share the medium).
+    fn coeffs(&self, t: f32) -> Coeffs;
+
+    /// The lookup-free control component of decomposition tracking (Kutz et al. 2017, sec. 5)
+    /// over `seg`: a homogeneous `(sigma_a, sigma_s)` known without touching the density.
+    /// Implementations must not look anything up per point here. Default: no control.
+    fn control(&self, _seg: &MajorantSegment) -> Coeffs {
+        Coeffs::ZERO
+    }
+}
+
+/// An RGB medium along one ray (spectral tracking).
+pub trait MediumRgb {
+    /// One density lookup, counted like [`Medium::coeffs`].
+    fn coeffs(&self, t: f32) -> CoeffsRgb;
+}
+
+/// Where the control extinction `sigma_c` of (residual) decomposition tracking comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ControlExtinction {
+    /// No control component: decomposition degenerates to delta tracking.
+    None,
+    /// The same `sigma_c` everywhere, e.g. `m * global bound`.
+    Constant(f32),
+    /// `m * seg.sigma_maj` (the bound before the majorant scale).
+    FractionOfBound(f32),
+    /// `seg.sigma_min`: the per-leaf minorant, a valid control for analog decomposition.
+    SegmentMinorant,
+}
+
+impl ControlExtinction {
+    #[inline]
+    pub fn sigma_c(&self, seg: &MajorantSegment) -> f32 {
+        match *self {
+            ControlExtinction::None => 0.0,
+            ControlExtinction::Constant(c) => c,
+            ControlExtinction::FractionOfBound(m) => m * seg.sigma_maj,
+            ControlExtinction::SegmentMinorant => seg.sigma_min,
+        }
+    }
+}
+
+/// A [`Medium`] from a closure, with a control policy and the control's single-scattering
+/// albedo (media whose albedo is constant make the control's split into `sigma_a`/`sigma_s`
+/// lookup-free).
+pub struct FnMedium<F> {
+    pub lookup: F,
+    pub control: ControlExtinction,
+    pub control_albedo: f32,
+}
+
+impl<F: Fn(f32) -> Coeffs> FnMedium<F> {
+    /// A medium without a control component.
+    pub fn new(lookup: F) -> Self {
+        FnMedium {
+            lookup,
+            control: ControlExtinction::None,
+            control_albedo: 0.0,
+        }
+    }
+
+    pub fn with_control(lookup: F, control: ControlExtinction, control_albedo: f32) -> Self {
+        FnMedium {
+            lookup,
+            control,
+            control_albedo,
+        }
+    }
+}
+
+impl<F: Fn(f32) -> Coeffs> Medium for FnMedium<F> {
+    fn coeffs(&self, t: f32) -> Coeffs {
+        (self.lookup)(t)
+    }
+
+    fn control(&self, seg: &MajorantSegment) -> Coeffs {
+        Coeffs::from_sigma_t(self.control.sigma_c(seg), self.control_albedo)
+    }
+}
+
+/// An RGB medium from a closure.
+pub struct FnMediumRgb<F>(pub F);
+
+impl<F: Fn(f32) -> CoeffsRgb> MediumRgb for FnMediumRgb<F> {
+    fn coeffs(&self, t: f32) -> CoeffsRgb {
+        (self.0)(t)
+    }
+}
+
+/// Counters the trackers update so that logs can report cost and correctness problems.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrackingStats {
+    /// Density lookups ([`Medium::coeffs`] calls).
+    pub lookups: u64,
+    /// Tentative collisions that were null (fictitious).
+    pub null_collisions: u64,
+    /// Real collisions (absorb, scatter, or a real event ending a transmittance walk) decided
+    /// from a density lookup.
+    pub real_collisions: u64,
+    /// Collisions with the lookup-free control component of decomposition tracking.
+    pub control_collisions: u64,
+    /// Lookups where an analog tracker found `sigma_t > sigma_maj (1 + MAJORANT_TOLERANCE)`
+    /// (or a negative residual): that estimate is biased and this says so.
+    pub majorant_violations: u64,
+    /// Segments skipped because their majorant was negative, NaN or infinite.
+    pub invalid_majorants: u64,
+    /// Free flights stopped by [`MAX_TENTATIVE_COLLISIONS`].
+    pub collision_cap_hits: u64,
+    /// Paths ended by Russian roulette.
+    pub roulette_kills: u64,
+    /// Largest `|weight|` seen by a weighted tracker: weights grow geometrically when the
+    /// majorant does not bound (`b < 1`); a large value explains a noisy image.
+    pub max_abs_weight: f32,
+}
+
+impl TrackingStats {
+    /// Adds another set of counters (e.g. from another thread).
+    pub fn merge(&mut self, o: &TrackingStats) {
+        self.lookups += o.lookups;
+        self.null_collisions += o.null_collisions;
+        self.real_collisions += o.real_collisions;
+        self.control_collisions += o.control_collisions;
+        self.majorant_violations += o.majorant_violations;
+        self.invalid_majorants += o.invalid_majorants;
+        self.collision_cap_hits += o.collision_cap_hits;
+        self.roulette_kills += o.roulette_kills;
+        self.max_abs_weight = self.max_abs_weight.max(o.max_abs_weight);
+    }
+
+    /// True when something was counted that makes the estimates biased.
+    pub fn is_biased(&self) -> bool {
+        self.majorant_violations > 0 || self.invalid_majorants > 0 || self.collision_cap_hits > 0
+    }
+
+    #[inline]
+    pub(crate) fn note_weight(&mut self, w: f32) {
+        self.max_abs_weight = self.max_abs_weight.max(w.abs());
+    }
+}
+
+/// One tentative collision handed to an estimator's callback.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Collision {
+    /// Ray parameter of the collision.
+    pub t: f32,
+    /// The majorant the step was sampled with (after scaling / control subtraction).
+    pub sigma_maj: f32,
+    /// The segment it lies in (its `sigma_maj`/`sigma_min` are the unscaled bounds).
+    pub seg: MajorantSegment,
+}
+
+/// What a distance sampler decided. `W` is `f32` (grey) or `Vec3` (RGB); `weight` multiplies
+/// the path throughput `beta` (1 for the analog trackers).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event<W> {
+    /// Real absorption at `t`: the path ends (`weight` would multiply emission there).
+    Absorb { t: f32, weight: W },
+    /// Real scattering at `t`: sample the phase function and continue with `beta *= weight`.
+    Scatter { t: f32, weight: W },
+    /// No real collision before `t_max`: continue to the surface/background, `beta *= weight`.
+    Escape { weight: W },
+}
+
+impl<W: Copy> Event<W> {
+    pub fn t(&self) -> Option<f32> {
+        match *self {
+            Event::Absorb { t, .. } | Event::Scatter { t, .. } => Some(t),
+            Event::Escape { .. } => None,
+        }
+    }
+
+    pub fn weight(&self) -> W {
+        match *self {
+            Event::Absorb { weight, .. }
+            | Event::Scatter { weight, .. }
+            | Event::Escape { weight } => weight,
+        }
+    }
+}
+
+/// The majorant `b * seg.sigma_maj` of weighted tracking with majorant scale `b` (b = 1: the
+/// bound itself).
+#[inline]
+pub fn scaled_majorant(b: f32) -> impl Fn(&MajorantSegment) -> f32 {
+    move |seg| b * seg.sigma_maj
+}
+
+/// Residual majorant of weighted decomposition / residual ratio tracking over `seg` with
+/// control `sigma_c`: `b * max(bound - sigma_c, sigma_c - seg.sigma_min)`.
+///
+/// The max is the tightest bound on `|sigma_r| = |sigma_t - sigma_c|` that the segment's
+/// bounds give; the second term matters when the control exceeds the minorant (`m` above the
+/// true minimum), where the residual is negative somewhere and must still be sampled. With
+/// `b = 1` and `sigma_c <= sigma_min` it is the paper's `sigma_maj - sigma_c`. `b` scales the
+/// residual's own bound (scaling the total instead, `b * bound - sigma_c`, could turn negative).
+/// It is 0 only when `bound = sigma_c = sigma_min`, where the residual vanishes identically.
+#[inline]
+pub fn residual_majorant(b: f32, seg: &MajorantSegment, sigma_c: f32) -> f32 {
+    b * (seg.sigma_maj - sigma_c)
+        .max(sigma_c - seg.sigma_min)
+        .max(0.0)
+}
+
+/// Exponential step with rate `sigma` from uniform `u` in `[0, 1)`: `-ln(1 - u) / sigma`,
+/// finite because `1 - u > 0`.
+#[inline]
+pub fn sample_exponential(u: f32, sigma: f32) -> f32 {
+    -(1.0 - u).ln() / sigma
+}
+
+/// The shared free-flight loop (pbrt-v4 `SampleT_maj`).
+///
+/// Walks `segments` (sorted by `t_min`, non-overlapping; gaps are empty space) clipped to
+/// `t <= t_max`. Within a segment with majorant `sigma_maj = majorant(seg)` it places tentative
+/// collisions at exponential steps of rate `sigma_maj` and calls `callback(rng, stats, &collision)`;
+/// a `false` return stops the walk. Segments with a zero majorant are crossed without drawing
+/// anything (their majorant transmittance is exactly 1); invalid majorants (negative, NaN,
+/// infinite) are skipped and counted. `t_max` and segment ends may be `f32::INFINITY`.
+///
+/// Returns `T_maj`: the majorant transmittance from the last collision (or the start) to
+/// `t_max` if the walk escaped, 1 if the callback stopped it. With exponential steps the escape
+/// probability equals `T_maj`, so analog and weighted estimators never divide by it; it is
+/// returned for estimators that sample differently (as in pbrt).
+pub fn sample_free_flight<I, M, C>(
+    segments: I,
+    t_max: f32,
+    mut majorant: M,
+    rng: &mut Rng,
+    stats: &mut TrackingStats,
+    mut callback: C,
+) -> f32
+where
+    I: IntoIterator<Item = MajorantSegment>,
+    M: FnMut(&MajorantSegment) -> f32,
+    C: FnMut(&mut Rng, &mut TrackingStats, &Collision) -> bool,
+{
+    let mut t_maj = 1.0f32;
+    let mut n_collisions = 0u64;
+    for seg in segments {
+        if seg.t_min >= t_max {
+            break;
+        }
+        let t1 = seg.t_max.min(t_max);
+        if !(t1 > seg.t_min) {
+            continue;
+        }
+        let sigma_maj = majorant(&seg);
+        if !(sigma_maj >= 0.0 && sigma_maj.is_finite()) {
+            stats.invalid_majorants += 1;
+            continue;
+        }
+        if sigma_maj == 0.0 {
+            continue;
+        }
+        let mut t = seg.t_min;
+        loop {
+            let t_prev = t;
+            t += sample_exponential(rng.uniform_f32(), sigma_maj);
+            if t >= t1 {
+                // Escaped this segment: account for the majorant transmittance of the rest.
+                // (Never reached with t1 = inf, so no 0 * inf.)
+                t_maj *= (-sigma_maj * (t1 - t_prev)).exp();
+                break;
+            }
+            n_collisions += 1;
+            if n_collisions > MAX_TENTATIVE_COLLISIONS {
+                stats.collision_cap_hits += 1;
+                return 0.0;
+            }
+            // pbrt resets T_maj at each collision: the callback consumed the part up to `t`.
+            t_maj = 1.0;
+            if !callback(rng, stats, &Collision { t, sigma_maj, seg }) {
+                return 1.0;
+            }
+        }
+    }
+    t_maj
+}
+
+/// Optical depth `integral sigma_c dt` of the control component over the clipped segments:
+/// the closed-form part of decomposition and residual ratio tracking (no lookups).
+pub fn control_optical_depth<I, M>(segments: I, t_max: f32, medium: &M) -> f32
+where
+    I: IntoIterator<Item = MajorantSegment>,
+    M: Medium + ?Sized,
+{
+    let mut tau = 0.0f32;
+    for seg in segments {
+        if seg.t_min >= t_max {
+            break;
+        }
+        let len = seg.t_max.min(t_max) - seg.t_min;
+        let sigma_c = medium.control(&seg).sigma_t();
+        if len > 0.0 && sigma_c > 0.0 {
+            tau += sigma_c * len;
+        }
+    }
+    tau
+}
+
+/// Unbiased Russian roulette on `|w|` (see [`ROULETTE_THRESHOLD`]): returns the new weight,
+/// 0 when the path is killed. Draws one uniform only when `|w| < threshold`.
+#[inline]
+pub fn roulette(w: f32, threshold: f32, rng: &mut Rng, stats: &mut TrackingStats) -> f32 {
+    let a = w.abs();
+    if a >= threshold || a == 0.0 {
+        return w;
+    }
+    if rng.uniform_f32() < a / threshold {
+        threshold.copysign(w)
+    } else {
+        stats.roulette_kills += 1;
+        0.0
+    }
+}
+
+/// One counted density lookup.
+#[inline]
+pub(crate) fn lookup<M: Medium + ?Sized>(medium: &M, t: f32, stats: &mut TrackingStats) -> Coeffs {
+    stats.lookups += 1;
+    medium.coeffs(t)
+}
+
+/// Counts a majorant violation when `sigma_t` exceeds `sigma_maj` beyond the tolerance.
+#[inline]
+pub(crate) fn check_bound(sigma_t: f32, sigma_maj: f32, stats: &mut TrackingStats) {
+    if sigma_t > sigma_maj * (1.0 + MAJORANT_TOLERANCE) {
+        stats.majorant_violations += 1;
+    }
+}
+
+/// One counted RGB density lookup.
+#[inline]
+pub(crate) fn lookup_rgb<M: MediumRgb + ?Sized>(
+    medium: &M,
+    t: f32,
+    stats: &mut TrackingStats,
+) -> CoeffsRgb {
+    stats.lookups += 1;
+    medium.coeffs(t)
+}
