@@ -1,3 +1,5 @@
 //! Brume: an offline volumetric renderer for OpenVDB media in glTF scenes.
+pub mod accel;
 pub mod math;
+pub mod scene;
 pub mod volume;
