@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     /// The glTF file (or a file it references) could not be read.
-    #[error("{file}: {pointer}: cannot read {what}: {source}")]
+    #[error("{file}{}: cannot read {what}: {source}", at(pointer))]
     Io {
         file: PathBuf,
         pointer: String,
@@ -26,6 +26,15 @@ pub enum SceneError {
         pointer: String,
         message: String,
     },
+}
+
+/// `": /pointer"`, or nothing for whole-file errors.
+fn at(pointer: &str) -> String {
+    if pointer.is_empty() {
+        String::new()
+    } else {
+        format!(": {pointer}")
+    }
 }
 
 impl SceneError {

@@ -115,7 +115,7 @@ pub fn check_number(
     };
     let x = x as f32;
     if !x.is_finite() {
-        return Err(ctx.invalid(pointer, format!("{} does not fit a finite 32-bit float", v)));
+        return Err(ctx.invalid(pointer, format!("{v} is too large for a 32-bit float")));
     }
     let inside = if open {
         x > lo && x < hi
@@ -139,12 +139,33 @@ pub fn check_f32(
 ) -> Result<f32, SceneError> {
     let pointer = pointer.into();
     if !x.is_finite() {
-        return Err(ctx.invalid(pointer, format!("{x} is not a finite 32-bit float")));
+        return Err(ctx.invalid(
+            pointer,
+            format!("{x}: not finite as a 32-bit float (the value is out of range)"),
+        ));
     }
     if x < lo || x > hi {
-        return Err(ctx.invalid(pointer, format!("{x} is outside [{lo}, {hi}]")));
+        return Err(ctx.invalid(
+            pointer,
+            format!("{x} is outside {}", range_text(lo, hi, false)),
+        ));
     }
     Ok(x)
+}
+
+/// `[lo, hi]`, `(lo, hi)`, or `[lo, inf)` when `hi` is `f32::MAX` (no upper limit).
+fn range_text(lo: f32, hi: f32, open: bool) -> String {
+    let (a, b) = if open { ('(', ')') } else { ('[', ']') };
+    let lo_text = if lo == f32::MIN {
+        "-inf".to_string()
+    } else {
+        lo.to_string()
+    };
+    if hi == f32::MAX {
+        format!("{a}{lo_text}, inf)")
+    } else {
+        format!("{a}{lo_text}, {hi}{b}")
+    }
 }
 
 /// Checks every component with [`check_f32`], pointers `/0`, `/1`, ...

@@ -276,22 +276,28 @@ fn check_accessor(
     types: &[DataType],
     dims: Dimensions,
 ) -> Result<(), SceneError> {
-    let here = format!("/accessors/{} (used by {pointer})", acc.index());
+    let here = format!("/accessors/{}", acc.index());
     if acc.sparse().is_some() {
-        return Err(ctx.invalid(here, "sparse accessors are not supported"));
+        return Err(ctx.invalid(
+            here,
+            format!("used by {pointer}: sparse accessors are not supported"),
+        ));
     }
     if !types.contains(&acc.data_type()) || acc.dimensions() != dims {
         return Err(ctx.invalid(
             here,
             format!(
-                "expected {dims:?} of {types:?}, found {:?} of {:?}",
+                "used by {pointer}: expected {dims:?} of {types:?}, found {:?} of {:?}",
                 acc.dimensions(),
                 acc.data_type()
             ),
         ));
     }
     let Some(view) = acc.view() else {
-        return Err(ctx.invalid(here, "accessor has no bufferView"));
+        return Err(ctx.invalid(
+            here,
+            format!("used by {pointer}: accessor has no bufferView"),
+        ));
     };
     let elem = acc.size();
     let stride = view.stride().unwrap_or(elem);
@@ -304,7 +310,7 @@ fn check_accessor(
         return Err(ctx.invalid(
             here,
             format!(
-                "needs {need} bytes of bufferView {} but it has {}",
+                "used by {pointer}: needs {need} bytes of bufferView {} but it has {}",
                 view.index(),
                 view.length()
             ),
