@@ -28,6 +28,12 @@ fn load(name: &str, vdbs: &[&str]) -> Scene {
     s.validate().unwrap();
     assert!(!s.summary().is_empty());
     check_winding(&s);
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("not closed")),
+        "{:?}",
+        s.warnings
+    );
+    assert!(s.to_string().contains("effects: "));
     s
 }
 

@@ -354,6 +354,14 @@ fn khr_materials_volume_follows_the_spec() {
             && media[0].sigma_s == [0.0; 3]
     );
     assert_eq!(s.materials[0].interior_medium, 0);
+    // A single triangle cannot enclose the medium it bounds.
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.starts_with("/meshes/0/primitives/0") && w.contains("not closed")),
+        "{:?}",
+        s.warnings
+    );
     // Thickness 0 is thin-walled and no transmission means no visible volume: no medium.
     assert_eq!(s.materials[1].interior_medium, scene::NO_INDEX);
     assert_eq!(s.materials[2].interior_medium, scene::NO_INDEX);

@@ -128,6 +128,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
     let bvh = TriangleBvh::build(corners);
+    warn_open_medium_boundaries(&mut ctx, &geo, &materials);
     let scene = Scene {
         source: path.to_path_buf(),
         camera,
@@ -150,6 +151,42 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         .validate()
         .map_err(|e| ctx_invalid(path, format!("internal consistency check failed: {e}")))?;
     Ok(scene)
+}
+
+/// Warns about instances that bound a homogeneous medium but are not closed (some edge not
+/// shared by exactly two triangles, after welding equal positions): paths could then enter the
+/// medium without leaving it.
+fn warn_open_medium_boundaries(ctx: &mut error::Ctx, geo: &mesh::Geometry, materials: &[Material]) {
+    use std::collections::HashMap;
+    for inst in &geo.instances {
+        if materials[inst.material as usize].interior_medium == NO_INDEX {
+            continue;
+        }
+        let key = |v: u32| geo.vertices[v as usize].position.map(f32::to_bits);
+        let mut edges: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
+        let tris = &geo.triangles[inst.first_triangle as usize..][..inst.triangle_count as usize];
+        for t in tris {
+            for e in 0..3 {
+                let (a, b) = (key(t.vertices[e]), key(t.vertices[(e + 1) % 3]));
+                *edges
+                    .entry(if a < b { (a, b) } else { (b, a) })
+                    .or_default() += 1;
+            }
+        }
+        let open = edges.values().filter(|&&n| n != 2).count();
+        if open > 0 {
+            ctx.warn(
+                format!("/meshes/{}/primitives/{}", inst.mesh, inst.primitive),
+                format!("bounds a KHR_materials_volume medium but is not closed ({open} edges not shared by exactly two triangles)"),
+            );
+        }
+    }
+}
+
+impl std::fmt::Display for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.summary())
+    }
 }
 
 fn ctx_invalid(path: &Path, message: String) -> SceneError {
