@@ -135,20 +135,19 @@ impl HomogeneousMedium {
 /// Smallest attenuation colour component accepted; 0 would mean infinite extinction.
 pub const MIN_ATTENUATION_COLOR: f32 = 1e-6;
 
+/// What [`read_materials`] produces.
+pub struct MaterialTables {
+    /// glTF materials in file order, then the glTF default material.
+    pub materials: Vec<Material>,
+    /// Names of `materials`.
+    pub names: Vec<Option<String>>,
+    pub media: Vec<HomogeneousMedium>,
+    pub textures: Vec<TextureRef>,
+}
+
 /// Reads all materials (plus the glTF default material, appended last) and the homogeneous
 /// media of the volumetric ones.
-pub fn read_materials(
-    ctx: &mut Ctx,
-    doc: &gltf::Document,
-) -> Result<
-    (
-        Vec<Material>,
-        Vec<HomogeneousMedium>,
-        Vec<TextureRef>,
-        Vec<Option<String>>,
-    ),
-    SceneError,
-> {
+pub fn read_materials(ctx: &mut Ctx, doc: &gltf::Document) -> Result<MaterialTables, SceneError> {
     let mut materials = Vec::new();
     let mut media = Vec::new();
     let mut textures: Vec<TextureRef> = Vec::new();
@@ -304,7 +303,12 @@ pub fn read_materials(
     }
     materials.push(Material::default());
     names.push(Some("glTF default material".into()));
-    Ok((materials, media, textures, names))
+    Ok(MaterialTables {
+        materials,
+        names,
+        media,
+        textures,
+    })
 }
 
 /// `BRUME_materials_volume_scattering`: `albedo` (RGB in [0, 1], default 0: purely absorbing,

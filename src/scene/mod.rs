@@ -101,8 +101,12 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let loaded = document::read(&mut ctx, path)?;
     let doc = &loaded.doc;
     let nodes = nodes::place_nodes(&mut ctx, doc)?;
-    let (materials, homogeneous_media, textures, material_names) =
-        material::read_materials(&mut ctx, doc)?;
+    let material::MaterialTables {
+        materials,
+        names: material_names,
+        media: homogeneous_media,
+        textures,
+    } = material::read_materials(&mut ctx, doc)?;
     let default_material = (materials.len() - 1) as u32;
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
     let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
@@ -352,7 +356,7 @@ impl Scene {
             return Err("environment radiance is not finite".into());
         }
         let c = &self.camera;
-        if !c.world_from_camera.is_finite() || !(c.yfov > 0.0 && c.yfov < std::f32::consts::PI) {
+        if !(c.world_from_camera.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI) {
             return Err("camera is inconsistent".into());
         }
         if self.bvh.len() != self.triangles.len() {
