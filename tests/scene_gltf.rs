@@ -912,6 +912,17 @@ fn unparsable_and_structurally_broken_files() {
         "/nodes/0/mesh",
     );
 
+    // A light index past the end of the light list.
+    let mut doc = base();
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [{"type": "point"}]}});
+    doc["nodes"][0]["extensions"] = json!({"KHR_lights_punctual": {"light": 3}});
+    load_err(&write("bad_light_index", &doc, &triangle_bin()), "/nodes/0");
+
+    // A vertex count so large that its byte size overflows.
+    let mut doc = base();
+    doc["accessors"][0]["count"] = json!(4_611_686_018_427_387_904u64);
+    load_err(&write("huge_count", &doc, &triangle_bin()), "/");
+
     // Sparse accessors are rejected rather than half-read.
     let mut doc = base();
     doc["accessors"][0]["sparse"] = json!({"count": 1, "indices": {"bufferView": 1, "componentType": 5123}, "values": {"bufferView": 0}});

@@ -301,10 +301,19 @@ fn check_accessor(
     };
     let elem = acc.size();
     let stride = view.stride().unwrap_or(elem);
-    let need = if acc.count() == 0 {
-        0
-    } else {
-        acc.offset() + stride * (acc.count() - 1) + elem
+    // Checked: a hostile `count` must not wrap around and pass the test.
+    let need = match acc.count() {
+        0 => Some(0),
+        n => stride
+            .checked_mul(n - 1)
+            .and_then(|x| x.checked_add(acc.offset()))
+            .and_then(|x| x.checked_add(elem)),
+    };
+    let Some(need) = need else {
+        return Err(ctx.invalid(
+            here,
+            format!("used by {pointer}: count {} overflows", acc.count()),
+        ));
     };
     if need > view.length() {
         return Err(ctx.invalid(
