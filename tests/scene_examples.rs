@@ -89,7 +89,7 @@ fn cloud() {
         ),
         (0, 0, 1, 1)
     );
-    check_camera(&s, Vec3::new(0.0, 0.6, 7.0), Vec3::ZERO, 0.6);
+    check_camera(&s, Vec3::new(0.0, 0.6, 9.0), Vec3::ZERO, 0.6);
     assert!(close(&s.lights[0].intensity, &[3.0, 2.91, 2.7], 1e-6));
     assert!(close(&s.environment.radiance, &[0.27, 0.372, 0.6], 1e-6));
     let m = &s.vdb_media[0];
@@ -264,6 +264,8 @@ fn fire() {
         (4.0, 1.0, 1000.0)
     );
     assert!(m.emits());
+    // The floor sits at the bottom of the assumed grid box ([-1, 1]^3 scaled by 1.5).
+    assert!(s.vertices.iter().all(|v| v.position[1] == -1.5));
     assert!(
         close(&m.sigma_s_per_density(), &[0.6; 3], 1e-6)
             && close(&m.sigma_a_per_density(), &[1.4; 3], 1e-6)

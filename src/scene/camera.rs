@@ -80,6 +80,34 @@ impl Camera {
     }
 }
 
+/// A camera the file places (the render uses `Scene::camera`, chosen among these).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraEntry {
+    pub name: Option<String>,
+    /// glTF node placing it.
+    pub node: usize,
+    /// glTF camera index.
+    pub camera: usize,
+    /// False for orthographic cameras (not supported).
+    pub perspective: bool,
+}
+
+/// Every camera placed by the scene's nodes, in node order.
+pub fn list_cameras(doc: &gltf::Document, nodes: &[PlacedNode]) -> Vec<CameraEntry> {
+    nodes
+        .iter()
+        .filter_map(|placed| {
+            let cam = doc.nodes().nth(placed.node)?.camera()?;
+            Some(CameraEntry {
+                name: cam.name().map(str::to_owned),
+                node: placed.node,
+                camera: cam.index(),
+                perspective: matches!(cam.projection(), gltf::camera::Projection::Perspective(_)),
+            })
+        })
+        .collect()
+}
+
 /// Vertical field of view of the default camera (40 degrees).
 pub const DEFAULT_YFOV: f32 = 40.0 * std::f32::consts::PI / 180.0;
 

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec3, Vec3A};
 
-pub use camera::{Camera, CameraSource};
+pub use camera::{Camera, CameraEntry, CameraSource};
 pub use effects::Effects;
 pub use error::SceneError;
 pub use lights::{Environment, PunctualLight, RADIOMETRIC_PER_PHOTOMETRIC};
@@ -67,7 +67,10 @@ pub struct LoadOptions {
 pub struct Scene {
     /// The glTF file it came from.
     pub source: PathBuf,
+    /// The camera to render through.
     pub camera: Camera,
+    /// Every camera the file places, including ones not chosen.
+    pub cameras: Vec<CameraEntry>,
     pub vertices: Vec<Vertex>,
     pub triangles: Vec<Triangle>,
     pub instances: Vec<Instance>,
@@ -136,6 +139,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let scene = Scene {
         source: path.to_path_buf(),
         camera,
+        cameras: camera::list_cameras(doc, &nodes),
         vertices: geo.vertices,
         triangles: geo.triangles,
         instances: geo.instances,

@@ -26,6 +26,20 @@ fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
         c.yfov.to_degrees(),
         c.znear
     )?;
+    for e in &s.cameras {
+        writeln!(
+            o,
+            "  in file: {} (camera {}, node {}, {})",
+            e.name.as_deref().unwrap_or("unnamed"),
+            e.camera,
+            e.node,
+            if e.perspective {
+                "perspective"
+            } else {
+                "orthographic, unsupported"
+            }
+        )?;
+    }
     writeln!(
         o,
         "meshes: {} instances, {} triangles, {} vertices",
