@@ -26,8 +26,9 @@ impl<'a> Obj<'a> {
         format!("{}/{}", self.pointer, key)
     }
 
-    /// Rejects members not in `known`: a misspelt field would otherwise silently take its default.
-    pub fn deny_unknown(&self, ctx: &mut Ctx, known: &[&str]) {
+    /// Warns about members not in `known`: a misspelt field would otherwise silently take its
+    /// default.
+    pub fn warn_unknown(&self, ctx: &mut Ctx, known: &[&str]) {
         for key in self.map.keys() {
             if !known.contains(&key.as_str()) && key != "extras" && key != "extensions" {
                 ctx.warn(self.at(key), "unknown field, ignored");

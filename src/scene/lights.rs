@@ -155,7 +155,7 @@ pub fn read_environment(
         });
     };
     let obj = Obj::new(ctx, value, format!("/extensions/{BRUME_ENVIRONMENT}"))?;
-    obj.deny_unknown(ctx, &["color", "strength", "uri"]);
+    obj.warn_unknown(ctx, &["color", "strength", "uri"]);
     let color = obj.rgb(ctx, "color", [1.0; 3], 0.0, 1.0)?;
     let strength = obj.number(ctx, "strength", 1.0, 0.0, f32::MAX, false)?;
     let map = match obj.string(ctx, "uri")? {

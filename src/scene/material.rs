@@ -322,7 +322,7 @@ fn read_volume_scattering(
         return Ok(([0.0; 3], 0.0));
     };
     let obj = Obj::new(ctx, value, pointer.to_string())?;
-    obj.deny_unknown(ctx, &["albedo", "anisotropy"]);
+    obj.warn_unknown(ctx, &["albedo", "anisotropy"]);
     let albedo = obj.rgb(ctx, "albedo", [0.0; 3], 0.0, 1.0)?;
     let g = obj.number(ctx, "anisotropy", 0.0, -1.0, 1.0, true)?;
     Ok((albedo, g))

@@ -201,7 +201,7 @@ pub fn read_vdb_media(
             value,
             format!("/nodes/{}/extensions/{BRUME_MEDIUM_VDB}", placed.node),
         )?;
-        obj.deny_unknown(ctx, FIELDS);
+        obj.warn_unknown(ctx, FIELDS);
         let uri = obj
             .string(ctx, "uri")?
             .ok_or_else(|| ctx.invalid(obj.at("uri"), "missing: the .vdb file to read"))?;
