@@ -14,8 +14,19 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
         .to_ascii_lowercase();
     match ext.as_str() {
         "vdb" => vdb(path, layout),
+        "gltf" | "glb" => {
+            let scene = brume::scene::load(path)?;
+            scene
+                .validate()
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            print!("{scene}");
+            for w in &scene.warnings {
+                println!("warning: {w}");
+            }
+            Ok(())
+        }
         other => bail!(
-            "{}: unknown file type '.{other}' (expected .vdb)",
+            "{}: unknown file type '.{other}' (expected .vdb, .gltf or .glb)",
             path.display()
         ),
     }

@@ -1,0 +1,223 @@
+//! Ray queries against the scene's triangles: an 8-wide compressed BVH from `obvhs`
+//! (Ylitie et al. 2017, "Efficient incoherent ray traversal on GPUs through compressed wide
+//! BVHs"), built once and traversed on the CPU; its 80-byte nodes are ready for GPU upload.
+use std::time::Duration;
+
+use glam::Vec3A;
+use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
+use obvhs::BvhBuildParams;
+
+use crate::math::Ray;
+
+/// A closest-hit record.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit (in units of the ray's `d`).
+    pub t: f32,
+    /// Index of the triangle hit, in the caller's triangle order.
+    pub triangle: u32,
+    /// Barycentric weight of the triangle's second vertex.
+    pub b1: f32,
+    /// Barycentric weight of the triangle's third vertex.
+    pub b2: f32,
+}
+
+/// Ray-triangle intersection (Moller-Trumbore), the single routine every query uses, so the
+/// BVH and brute force agree exactly. Returns `(t, b1, b2)` for `t` in `[t_min, t_max]`.
+#[inline]
+pub fn intersect_triangle(
+    ray: &Ray,
+    v: &[Vec3A; 3],
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
+    let o = Vec3A::from(ray.o);
+    let d = Vec3A::from(ray.d);
+    let e1 = v[1] - v[0];
+    let e2 = v[2] - v[0];
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - v[0];
+    let b1 = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let b2 = d.dot(q) * inv;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return None;
+    }
+    let t = e2.dot(q) * inv;
+    (t >= t_min && t <= t_max).then_some((t, b1, b2))
+}
+
+/// A BVH over world-space triangles.
+pub struct TriangleBvh {
+    /// `None` when there are no triangles (every query misses).
+    bvh: Option<CwBvh>,
+    /// Triangle corners in the caller's order.
+    triangles: Vec<[Vec3A; 3]>,
+}
+
+impl std::fmt::Debug for TriangleBvh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let nodes = self.bvh.as_ref().map_or(0, |b| b.nodes.len());
+        write!(
+            f,
+            "TriangleBvh {{ triangles: {}, nodes: {nodes} }}",
+            self.triangles.len()
+        )
+    }
+}
+
+impl TriangleBvh {
+    /// Builds over `triangles` (corner positions). Degenerate triangles are allowed; they
+    /// are never hit.
+    pub fn build(triangles: Vec<[Vec3A; 3]>) -> Self {
+        if triangles.is_empty() {
+            return Self {
+                bvh: None,
+                triangles,
+            };
+        }
+        let tris: Vec<obvhs::triangle::Triangle> = triangles
+            .iter()
+            .map(|t| obvhs::triangle::Triangle {
+                v0: t[0],
+                v1: t[1],
+                v2: t[2],
+            })
+            .collect();
+        // No spatial splits: every triangle then sits in exactly one leaf, which keeps
+        // `primitive_indices` a permutation (simpler GPU layout and validation).
+        let params = BvhBuildParams {
+            pre_split: false,
+            ..BvhBuildParams::medium_build()
+        };
+        let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
+        Self {
+            bvh: Some(bvh),
+            triangles,
+        }
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// The obvhs BVH (nodes and primitive order) for GPU upload, `None` when empty.
+    pub fn cwbvh(&self) -> Option<&CwBvh> {
+        self.bvh.as_ref()
+    }
+
+    fn obvhs_ray(ray: &Ray, t_min: f32, t_max: f32) -> obvhs::ray::Ray {
+        obvhs::ray::Ray::new(ray.o.into(), ray.d.into(), t_min, t_max)
+    }
+
+    /// The nearest hit with `t` in `[t_min, t_max]`.
+    pub fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        if !ray.o.is_finite() || !ray.d.is_finite() {
+            return None;
+        }
+        let mut best: Option<Hit> = None;
+        let mut hit = obvhs::ray::RayHit::none();
+        bvh.ray_traverse(Self::obvhs_ray(ray, t_min, t_max), &mut hit, |r, id| {
+            let tri = bvh.primitive_indices[id] as usize;
+            match intersect_triangle(ray, &self.triangles[tri], r.tmin, r.tmax) {
+                Some((t, b1, b2)) => {
+                    best = Some(Hit {
+                        t,
+                        triangle: tri as u32,
+                        b1,
+                        b2,
+                    });
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// Whether any triangle is hit with `t` in `[t_min, t_max]` (shadow rays).
+    pub fn any_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        if !ray.o.is_finite() || !ray.d.is_finite() {
+            return false;
+        }
+        !bvh.ray_traverse_miss(Self::obvhs_ray(ray, t_min, t_max), |_, id| {
+            let tri = bvh.primitive_indices[id] as usize;
+            intersect_triangle(ray, &self.triangles[tri], t_min, t_max)
+                .map_or(f32::INFINITY, |h| h.0)
+        })
+    }
+
+    /// Every hit with `t` in `[t_min, t_max]`, unordered: `(t, triangle)`.
+    pub fn all_hits(&self, ray: &Ray, t_min: f32, t_max: f32) -> Vec<(f32, u32)> {
+        let mut out = Vec::new();
+        let Some(bvh) = self.bvh.as_ref() else {
+            return out;
+        };
+        if !ray.o.is_finite() || !ray.d.is_finite() {
+            return out;
+        }
+        bvh.ray_traverse_anyhit(Self::obvhs_ray(ray, t_min, t_max), |_, id| {
+            let tri = bvh.primitive_indices[id];
+            if let Some((t, _, _)) =
+                intersect_triangle(ray, &self.triangles[tri as usize], t_min, t_max)
+            {
+                out.push((t, tri));
+            }
+        });
+        out
+    }
+
+    /// Checks the built structure: `primitive_indices` is a permutation of the triangles and
+    /// the root bounds contain every triangle.
+    pub fn validate(&self) -> Result<(), String> {
+        let Some(bvh) = &self.bvh else {
+            return if self.triangles.is_empty() {
+                Ok(())
+            } else {
+                Err("triangles but no BVH".into())
+            };
+        };
+        let n = self.triangles.len();
+        if bvh.primitive_indices.len() != n {
+            return Err(format!(
+                "BVH indexes {} primitives for {n} triangles",
+                bvh.primitive_indices.len()
+            ));
+        }
+        let mut seen = vec![false; n];
+        for &i in &bvh.primitive_indices {
+            let i = i as usize;
+            if i >= n || std::mem::replace(&mut seen[i], true) {
+                return Err(format!("primitive index {i} out of range or repeated"));
+            }
+        }
+        let root = bvh.total_aabb;
+        // Quantised child boxes are conservative; allow a relative slack for f32 rounding.
+        let slack = 1e-4 * (root.max - root.min).max_element().max(1.0);
+        for (k, t) in self.triangles.iter().enumerate() {
+            for v in t {
+                if v.cmplt(root.min - slack).any() || v.cmpgt(root.max + slack).any() {
+                    return Err(format!("triangle {k} lies outside the root bounds"));
+                }
+            }
+        }
+        Ok(())
+    }
+}

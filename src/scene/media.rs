@@ -1,0 +1,352 @@
+//! Heterogeneous media from OpenVDB files, attached to nodes by `BRUME_medium_vdb`
+//! (specified in `docs/BRUME_medium_vdb.md`).
+//!
+//! Parameters follow Blender's Principled Volume so scenes can be checked against Cycles. Per
+//! unit of the density grid's value `d` (Cycles `svm_node_principled_volume`,
+//! intern/cycles/kernel/svm/closure.h, checked against its source):
+//! - `sigma_s = color * densityScale * d`
+//! - `sigma_a = max(1 - color, 0) * max(1 - sqrt(absorptionColor), 0) * densityScale * d`
+//! - emission (radiance per metre) `= emissionStrength * emissionColor * e`, where `e` is the
+//!   `emissionGrid` value (1 when no grid is named); NOT multiplied by density, as in Cycles;
+//! - blackbody from `temperatureGrid`, `T = temperatureScale * t + temperatureOffset` kelvin,
+//!   adds `(5.670373e-8 * 1e-6 / pi) * ((1 - I) + I * T^4) * C(T) * blackbodyTint` with
+//!   `I = blackbodyIntensity` and `C` the blackbody colour normalised to unit luminance
+//!   (radiometry to be implemented with the integrator; the parameters are kept here).
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use brume_ffi::VdbFile;
+use glam::DMat4;
+
+use glam::{Mat4, Vec3};
+
+use super::error::{Ctx, SceneError};
+use super::json::Obj;
+use super::nodes::PlacedNode;
+use super::BRUME_MEDIUM_VDB;
+use crate::math::Aabb;
+use crate::volume::{self, ConversionPolicy};
+
+/// One grid of a medium, read and converted to Brume's layout (shared: several media may use
+/// the same file).
+#[derive(Clone)]
+pub struct LoadedGrid {
+    /// Absolute path of the .vdb file.
+    pub path: PathBuf,
+    /// Grid name inside the file.
+    pub name: String,
+    /// The VDB's own index-to-world transform.
+    pub vdb_world_from_index: Mat4,
+    /// Index-space support of the grid: the padded cell box outside which every lookup is the
+    /// background. `None` for a grid with no cells.
+    pub index_bounds: Option<Aabb>,
+    /// The converted grid and its per-leaf bounds.
+    pub volume: Arc<volume::LoadedGrid>,
+}
+
+impl std::fmt::Debug for LoadedGrid {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoadedGrid")
+            .field("path", &self.path)
+            .field("name", &self.name)
+            .field("dims", &self.volume.grid.dims)
+            .field("index_bounds", &self.index_bounds)
+            .finish()
+    }
+}
+
+impl PartialEq for LoadedGrid {
+    fn eq(&self, o: &Self) -> bool {
+        self.path == o.path && self.name == o.name && Arc::ptr_eq(&self.volume, &o.volume)
+    }
+}
+
+/// Why a grid could not be loaded: the file, or the grid inside it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GridLoadError {
+    File(String),
+    Grid(String),
+}
+
+/// The one place grids are read: through the OpenVDB shim and [`volume::load_grid_from`],
+/// which applies Brume's load policy (float grids only, level sets converted to fog, NaN/Inf
+/// refused, negatives clamped). Returns the grid and the policy's warnings.
+pub fn load_grid(path: &Path, grid: &str) -> Result<(LoadedGrid, Vec<String>), GridLoadError> {
+    let file = VdbFile::open(path).map_err(|e| GridLoadError::File(e.message))?;
+    let loaded =
+        volume::load_grid_from(&file, grid, ConversionPolicy::default()).map_err(|e| match e {
+            volume::LoadError::Vdb(e) => GridLoadError::Grid(e.message),
+            volume::LoadError::Volume { source, .. } => GridLoadError::Grid(source.to_string()),
+        })?;
+    let m = loaded.grid.world_from_index;
+    let vdb_world_from_index = DMat4::from(m).as_mat4();
+    let b = loaded.grid.index_bounds();
+    let warnings = loaded.warnings.clone();
+    Ok((
+        LoadedGrid {
+            path: path.to_path_buf(),
+            name: grid.to_string(),
+            vdb_world_from_index,
+            index_bounds: (!b.is_empty()).then_some(b),
+            volume: Arc::new(loaded),
+        },
+        warnings,
+    ))
+}
+
+/// How a medium's world bounds were obtained.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoundsSource {
+    /// From the grid's active voxels.
+    Grid,
+    /// From the optional bounding `mesh`.
+    Mesh,
+}
+
+/// Everything needed to build one heterogeneous medium once its grids are read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VdbMediumDesc {
+    /// The `uri` as written.
+    pub uri: String,
+    /// Resolved absolute path of the .vdb file.
+    pub vdb_path: PathBuf,
+    /// Name of the density grid (`densityGrid`, default "density").
+    pub density_grid: String,
+    /// Extinction per unit density per metre (`densityScale`, >= 0, default 1).
+    pub density_scale: f32,
+    /// Principled Volume scattering `color` in [0, 1] (default 0.5 grey, Blender's).
+    pub color: [f32; 3],
+    /// Principled Volume `absorptionColor` in [0, 1] (default black).
+    pub absorption_color: [f32; 3],
+    /// Henyey-Greenstein g in (-1, 1).
+    pub anisotropy: f32,
+    /// Emission grid name, if any.
+    pub emission_grid: Option<String>,
+    /// Emission strength, >= 0 (default 0).
+    pub emission_strength: f32,
+    /// Emission colour in [0, 1] (default white).
+    pub emission_color: [f32; 3],
+    /// Temperature grid name, if any.
+    pub temperature_grid: Option<String>,
+    /// Blackbody intensity I, >= 0 (default 0; 1 is physically based).
+    pub blackbody_intensity: f32,
+    /// Blackbody tint in [0, 1] (default white).
+    pub blackbody_tint: [f32; 3],
+    /// Kelvin per unit of the temperature grid (default 1).
+    pub temperature_scale: f32,
+    /// Kelvin added after scaling (default 0).
+    pub temperature_offset: f32,
+    /// glTF mesh bounding the medium in node space, if given.
+    pub bounding_mesh: Option<usize>,
+    /// world_from_medium = node world matrix * the VDB's index-to-world transform.
+    pub world_from_medium: Mat4,
+    /// World-space bounds of the medium (see `bounds_source`).
+    pub world_bounds: Aabb,
+    pub bounds_source: BoundsSource,
+    /// The grids as loaded: density first, then emission and temperature if named.
+    pub grids: Vec<LoadedGrid>,
+    /// glTF node index carrying the extension.
+    pub node: usize,
+    /// JSON pointer of the extension object, for later errors.
+    pub pointer: String,
+}
+
+impl VdbMediumDesc {
+    /// sigma_s per unit grid density, m^-1.
+    pub fn sigma_s_per_density(&self) -> [f32; 3] {
+        self.color.map(|c| c * self.density_scale)
+    }
+
+    /// sigma_a per unit grid density, m^-1 (Cycles' Principled Volume formula).
+    pub fn sigma_a_per_density(&self) -> [f32; 3] {
+        [0, 1, 2].map(|i| {
+            (1.0 - self.color[i]).max(0.0)
+                * (1.0 - self.absorption_color[i].sqrt()).max(0.0)
+                * self.density_scale
+        })
+    }
+
+    /// sigma_t per unit grid density, m^-1.
+    pub fn sigma_t_per_density(&self) -> [f32; 3] {
+        let (s, a) = (self.sigma_s_per_density(), self.sigma_a_per_density());
+        [0, 1, 2].map(|i| s[i] + a[i])
+    }
+
+    /// Whether the medium emits: a non-zero emission or a temperature grid with blackbody on.
+    pub fn emits(&self) -> bool {
+        let emission = self.emission_strength > 0.0 && self.emission_color.iter().any(|&c| c > 0.0);
+        let blackbody = self.temperature_grid.is_some()
+            && self.blackbody_intensity > 0.0
+            && self.blackbody_tint.iter().any(|&c| c > 0.0);
+        emission || blackbody
+    }
+}
+
+const FIELDS: &[&str] = &[
+    "uri",
+    "densityGrid",
+    "densityScale",
+    "color",
+    "absorptionColor",
+    "anisotropy",
+    "emissionGrid",
+    "emissionStrength",
+    "emissionColor",
+    "temperatureGrid",
+    "blackbodyIntensity",
+    "blackbodyTint",
+    "temperatureScale",
+    "temperatureOffset",
+    "mesh",
+];
+
+/// Reads `BRUME_medium_vdb` from every placed node and loads its grids through [`load_grid`].
+pub fn read_vdb_media(
+    ctx: &mut Ctx,
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    nodes: &[PlacedNode],
+    base: &Path,
+) -> Result<Vec<VdbMediumDesc>, SceneError> {
+    let mut out = Vec::new();
+    for placed in nodes {
+        let node = doc
+            .nodes()
+            .nth(placed.node)
+            .expect("placed node index comes from the document");
+        let Some(value) = node.extension_value(BRUME_MEDIUM_VDB) else {
+            continue;
+        };
+        let obj = Obj::new(
+            ctx,
+            value,
+            format!("/nodes/{}/extensions/{BRUME_MEDIUM_VDB}", placed.node),
+        )?;
+        obj.warn_unknown(ctx, FIELDS);
+        let uri = obj
+            .string(ctx, "uri")?
+            .ok_or_else(|| ctx.invalid(obj.at("uri"), "missing: the .vdb file to read"))?;
+        let path = super::document::resolve_uri(ctx, &uri, base, &obj.at("uri"))?;
+        let vdb_path = std::path::absolute(&path).unwrap_or(path);
+        let max = f32::MAX;
+        let mut desc = VdbMediumDesc {
+            density_grid: obj
+                .string(ctx, "densityGrid")?
+                .unwrap_or_else(|| "density".into()),
+            density_scale: obj.number(ctx, "densityScale", 1.0, 0.0, max, false)?,
+            color: obj.rgb(ctx, "color", [0.5; 3], 0.0, 1.0)?,
+            absorption_color: obj.rgb(ctx, "absorptionColor", [0.0; 3], 0.0, 1.0)?,
+            anisotropy: obj.number(ctx, "anisotropy", 0.0, -1.0, 1.0, true)?,
+            emission_grid: obj.string(ctx, "emissionGrid")?,
+            emission_strength: obj.number(ctx, "emissionStrength", 0.0, 0.0, max, false)?,
+            emission_color: obj.rgb(ctx, "emissionColor", [1.0; 3], 0.0, 1.0)?,
+            temperature_grid: obj.string(ctx, "temperatureGrid")?,
+            blackbody_intensity: obj.number(ctx, "blackbodyIntensity", 0.0, 0.0, max, false)?,
+            blackbody_tint: obj.rgb(ctx, "blackbodyTint", [1.0; 3], 0.0, 1.0)?,
+            temperature_scale: obj.number(ctx, "temperatureScale", 1.0, 0.0, max, false)?,
+            temperature_offset: obj.number(ctx, "temperatureOffset", 0.0, f32::MIN, max, false)?,
+            bounding_mesh: obj.index(ctx, "mesh")?,
+            uri,
+            vdb_path,
+            world_from_medium: Mat4::IDENTITY,
+            world_bounds: Aabb::EMPTY,
+            bounds_source: BoundsSource::Grid,
+            grids: Vec::new(),
+            node: placed.node,
+            pointer: obj.pointer.clone(),
+        };
+        if let Some(m) = desc.bounding_mesh {
+            if m >= doc.meshes().len() {
+                return Err(ctx.invalid(
+                    obj.at("mesh"),
+                    format!("mesh {m} does not exist ({} meshes)", doc.meshes().len()),
+                ));
+            }
+        }
+        if desc.temperature_grid.is_none() && desc.blackbody_intensity > 0.0 {
+            ctx.warn(
+                obj.at("blackbodyIntensity"),
+                "no temperatureGrid: blackbody emission is off",
+            );
+        }
+
+        let mut grid_fields = vec![("densityGrid", desc.density_grid.clone())];
+        grid_fields.extend(desc.emission_grid.clone().map(|g| ("emissionGrid", g)));
+        grid_fields.extend(
+            desc.temperature_grid
+                .clone()
+                .map(|g| ("temperatureGrid", g)),
+        );
+        for (field, name) in grid_fields {
+            let (grid, warnings) = load_grid(&desc.vdb_path, &name).map_err(|e| match e {
+                GridLoadError::File(msg) => {
+                    ctx.invalid(obj.at("uri"), format!("medium file {:?}: {msg}", desc.uri))
+                }
+                GridLoadError::Grid(msg) => ctx.invalid(
+                    obj.at(field),
+                    format!("grid {name:?} in {}: {msg}", desc.vdb_path.display()),
+                ),
+            })?;
+            for w in warnings {
+                ctx.warn(obj.at(field), w);
+            }
+            desc.grids.push(grid);
+        }
+
+        desc.world_from_medium = placed.world_from_node * desc.grids[0].vdb_world_from_index;
+        (desc.world_bounds, desc.bounds_source) = if let Some(b) = desc.grids[0].index_bounds {
+            (
+                transform_aabb(&desc.world_from_medium, &b),
+                BoundsSource::Grid,
+            )
+        } else if let Some(m) = desc.bounding_mesh {
+            (
+                mesh_bounds(ctx, doc, buffers, m, &placed.world_from_node)?,
+                BoundsSource::Mesh,
+            )
+        } else {
+            // A grid with no cells: nothing to render, nothing to bound.
+            (Aabb::EMPTY, BoundsSource::Grid)
+        };
+        out.push(desc);
+    }
+    Ok(out)
+}
+
+/// World bounds of glTF mesh `m` placed by `world`.
+fn mesh_bounds(
+    ctx: &mut Ctx,
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    m: usize,
+    world: &Mat4,
+) -> Result<Aabb, SceneError> {
+    let mesh = doc
+        .meshes()
+        .nth(m)
+        .expect("mesh index checked by the caller");
+    let mut b = Aabb::EMPTY;
+    for prim in mesh.primitives() {
+        let pointer = format!("/meshes/{m}/primitives/{}", prim.index());
+        if let Some(local) = super::mesh::read_primitive(ctx, buffers, &prim, &pointer)? {
+            for p in local.positions {
+                b = b.union_point(world.transform_point3(p));
+            }
+        }
+    }
+    Ok(b)
+}
+
+/// Bounds of the eight transformed corners of `b`.
+pub fn transform_aabb(m: &Mat4, b: &Aabb) -> Aabb {
+    let mut out = Aabb::EMPTY;
+    for k in 0..8 {
+        let corner = Vec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        out = out.union_point(m.transform_point3(corner));
+    }
+    out
+}

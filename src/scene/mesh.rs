@@ -1,0 +1,375 @@
+//! Triangle meshes flattened to world space: one vertex array, one triangle array and one
+//! instance record per (node, primitive), laid out for direct upload to the GPU.
+//!
+//! Points and lines have no surface to scatter from, so such primitives are skipped with a
+//! warning rather than rejected; triangle strips and fans are unrolled into triangles.
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat3, Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+
+use super::error::{Ctx, SceneError};
+use super::nodes::PlacedNode;
+use super::NO_INDEX;
+
+/// One world-space vertex, 32 bytes (two vec4s in WGSL: `position.xyz, u` and `normal.xyz, v`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Vertex {
+    /// World-space position, metres.
+    pub position: [f32; 3],
+    /// First texture coordinate (TEXCOORD_0), u.
+    pub u: f32,
+    /// World-space unit shading normal; all zero when the file gives none (use the geometric
+    /// normal then).
+    pub normal: [f32; 3],
+    /// First texture coordinate (TEXCOORD_0), v.
+    pub v: f32,
+}
+
+/// One triangle, 16 bytes. Counter-clockwise seen from its front, also when the node's
+/// transform mirrors (the loader swaps two indices then, as the glTF spec asks).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct Triangle {
+    /// Indices into `Scene::vertices`.
+    pub vertices: [u32; 3],
+    /// Index into `Scene::instances`.
+    pub instance: u32,
+}
+
+/// One glTF primitive placed by one node, 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct Instance {
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// First triangle of this instance in `Scene::triangles`.
+    pub first_triangle: u32,
+    /// Number of triangles.
+    pub triangle_count: u32,
+    /// glTF node index that placed it.
+    pub node: u32,
+    /// glTF mesh index.
+    pub mesh: u32,
+    /// Primitive index within the mesh.
+    pub primitive: u32,
+    /// Explicit padding to a 16-byte multiple.
+    pub _pad: [u32; 2],
+}
+
+const _: () = assert!(std::mem::size_of::<Vertex>() == 32);
+const _: () = assert!(std::mem::size_of::<Triangle>() == 16);
+const _: () = assert!(std::mem::size_of::<Instance>() == 32);
+
+/// Flat mesh arrays of a scene.
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    pub vertices: Vec<Vertex>,
+    pub triangles: Vec<Triangle>,
+    pub instances: Vec<Instance>,
+}
+
+/// Flattens every mesh placed by `nodes`. `default_material` is used by primitives without one.
+pub fn flatten(
+    ctx: &mut Ctx,
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    nodes: &[PlacedNode],
+    default_material: u32,
+) -> Result<Geometry, SceneError> {
+    let mut geo = Geometry::default();
+    for placed in nodes {
+        let node = doc
+            .nodes()
+            .nth(placed.node)
+            .expect("placed node index comes from the document");
+        let Some(mesh) = node.mesh() else { continue };
+        for prim in mesh.primitives() {
+            let pointer = format!("/meshes/{}/primitives/{}", mesh.index(), prim.index());
+            let local = read_primitive(ctx, buffers, &prim, &pointer)?;
+            let Some(local) = local else { continue };
+            let material = prim
+                .material()
+                .index()
+                .map_or(default_material, |m| m as u32);
+            append(
+                &mut geo,
+                &local,
+                placed,
+                mesh.index(),
+                prim.index(),
+                material,
+            );
+        }
+    }
+    if geo.vertices.len() > NO_INDEX as usize || geo.triangles.len() > NO_INDEX as usize {
+        return Err(ctx.invalid("/meshes", "more than 2^32 - 1 vertices or triangles"));
+    }
+    Ok(geo)
+}
+
+/// A primitive in its mesh's local space.
+pub struct LocalPrimitive {
+    pub positions: Vec<Vec3>,
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Triangle list, counter-clockwise.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Reads one primitive, checking every accessor it uses. `None` for points and lines.
+pub fn read_primitive(
+    ctx: &mut Ctx,
+    buffers: &[Vec<u8>],
+    prim: &gltf::Primitive,
+    pointer: &str,
+) -> Result<Option<LocalPrimitive>, SceneError> {
+    let mode = prim.mode();
+    if matches!(
+        mode,
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+    ) {
+        ctx.warn(
+            format!("{pointer}/mode"),
+            format!("{mode:?} primitives have no surface; skipped"),
+        );
+        return Ok(None);
+    }
+    let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+        return Err(ctx.invalid(
+            format!("{pointer}/attributes"),
+            "primitive has no POSITION attribute",
+        ));
+    };
+    let attr = |name: &str| format!("{pointer}/attributes/{name}");
+    check_accessor(
+        ctx,
+        &pos_acc,
+        &attr("POSITION"),
+        &[DataType::F32],
+        Dimensions::Vec3,
+    )?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .map(|it| it.map(Vec3::from).collect())
+        .unwrap_or_default();
+    if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(ctx.invalid(
+            attr("POSITION"),
+            format!(
+                "vertex {k} has a non-finite position (accessor {})",
+                pos_acc.index()
+            ),
+        ));
+    }
+    let n = positions.len();
+
+    let normals = match prim.get(&gltf::Semantic::Normals) {
+        None => None,
+        Some(acc) => {
+            check_accessor(
+                ctx,
+                &acc,
+                &attr("NORMAL"),
+                &[DataType::F32],
+                Dimensions::Vec3,
+            )?;
+            let v: Vec<Vec3> = reader
+                .read_normals()
+                .map(|it| it.map(Vec3::from).collect())
+                .unwrap_or_default();
+            if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+                return Err(ctx.invalid(
+                    attr("NORMAL"),
+                    "NORMAL count differs from POSITION or holds non-finite values",
+                ));
+            }
+            Some(v)
+        }
+    };
+    let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
+        None => None,
+        Some(acc) => {
+            check_accessor(
+                ctx,
+                &acc,
+                &attr("TEXCOORD_0"),
+                &[DataType::F32, DataType::U8, DataType::U16],
+                Dimensions::Vec2,
+            )?;
+            let v: Vec<[f32; 2]> = reader
+                .read_tex_coords(0)
+                .map(|it| it.into_f32().collect())
+                .unwrap_or_default();
+            if v.len() != n || v.iter().any(|x| !x[0].is_finite() || !x[1].is_finite()) {
+                return Err(ctx.invalid(
+                    attr("TEXCOORD_0"),
+                    "TEXCOORD_0 count differs from POSITION or holds non-finite values",
+                ));
+            }
+            Some(v)
+        }
+    };
+
+    let indices: Vec<u32> = match prim.indices() {
+        None => (0..n as u32).collect(),
+        Some(acc) => {
+            check_accessor(
+                ctx,
+                &acc,
+                &format!("{pointer}/indices"),
+                &[DataType::U8, DataType::U16, DataType::U32],
+                Dimensions::Scalar,
+            )?;
+            let v: Vec<u32> = reader
+                .read_indices()
+                .map(|it| it.into_u32().collect())
+                .unwrap_or_default();
+            if let Some(bad) = v.iter().find(|&&i| i as usize >= n) {
+                return Err(ctx.invalid(
+                    format!("{pointer}/indices"),
+                    format!("index {bad} is out of range for {n} vertices"),
+                ));
+            }
+            v
+        }
+    };
+    let triangles = assemble(mode, &indices);
+    if triangles.is_empty() {
+        ctx.warn(pointer, "primitive has no complete triangle");
+    }
+    Ok(Some(LocalPrimitive {
+        positions,
+        normals,
+        uvs,
+        triangles,
+    }))
+}
+
+/// Triangle list from a triangle list, strip or fan (glTF spec, section 3.7.2.1).
+fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::TriangleStrip => (2..idx.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .map(|i| [idx[i - 1], idx[i], idx[0]])
+            .collect(),
+        _ => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    }
+}
+
+/// Checks an accessor's type and that its bytes lie inside its buffer view, because the gltf
+/// crate's readers would otherwise panic on a short slice.
+fn check_accessor(
+    ctx: &Ctx,
+    acc: &gltf::Accessor,
+    pointer: &str,
+    types: &[DataType],
+    dims: Dimensions,
+) -> Result<(), SceneError> {
+    let here = format!("/accessors/{}", acc.index());
+    if acc.sparse().is_some() {
+        return Err(ctx.invalid(
+            here,
+            format!("used by {pointer}: sparse accessors are not supported"),
+        ));
+    }
+    if !types.contains(&acc.data_type()) || acc.dimensions() != dims {
+        return Err(ctx.invalid(
+            here,
+            format!(
+                "used by {pointer}: expected {dims:?} of {types:?}, found {:?} of {:?}",
+                acc.dimensions(),
+                acc.data_type()
+            ),
+        ));
+    }
+    let Some(view) = acc.view() else {
+        return Err(ctx.invalid(
+            here,
+            format!("used by {pointer}: accessor has no bufferView"),
+        ));
+    };
+    let elem = acc.size();
+    let stride = view.stride().unwrap_or(elem);
+    // Checked: a hostile `count` must not wrap around and pass the test.
+    let need = match acc.count() {
+        0 => Some(0),
+        n => stride
+            .checked_mul(n - 1)
+            .and_then(|x| x.checked_add(acc.offset()))
+            .and_then(|x| x.checked_add(elem)),
+    };
+    let Some(need) = need else {
+        return Err(ctx.invalid(
+            here,
+            format!("used by {pointer}: count {} overflows", acc.count()),
+        ));
+    };
+    if need > view.length() {
+        return Err(ctx.invalid(
+            here,
+            format!(
+                "used by {pointer}: needs {need} bytes of bufferView {} but it has {}",
+                view.index(),
+                view.length()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Transforms a local primitive to world space and appends it.
+fn append(
+    geo: &mut Geometry,
+    local: &LocalPrimitive,
+    placed: &PlacedNode,
+    mesh: usize,
+    prim: usize,
+    material: u32,
+) {
+    let world: Mat4 = placed.world_from_node;
+    // Normals transform by the inverse transpose; a mirroring transform flips the winding.
+    let normal_from_local = Mat3::from_mat4(world).inverse().transpose();
+    let mirrored = world.determinant() < 0.0;
+    let base = geo.vertices.len() as u32;
+    for (k, p) in local.positions.iter().enumerate() {
+        let n = local.normals.as_ref().map_or(Vec3::ZERO, |ns| {
+            (normal_from_local * ns[k]).normalize_or_zero()
+        });
+        let [u, v] = local.uvs.as_ref().map_or([0.0, 0.0], |uv| uv[k]);
+        geo.vertices.push(Vertex {
+            position: world.transform_point3(*p).to_array(),
+            u,
+            normal: n.to_array(),
+            v,
+        });
+    }
+    let instance = geo.instances.len() as u32;
+    let first = geo.triangles.len() as u32;
+    for t in &local.triangles {
+        let [a, b, c] = if mirrored { [t[0], t[2], t[1]] } else { *t };
+        geo.triangles.push(Triangle {
+            vertices: [base + a, base + b, base + c],
+            instance,
+        });
+    }
+    geo.instances.push(Instance {
+        material,
+        first_triangle: first,
+        triangle_count: local.triangles.len() as u32,
+        node: placed.node as u32,
+        mesh: mesh as u32,
+        primitive: prim as u32,
+        _pad: [0; 2],
+    });
+}

@@ -1,0 +1,371 @@
+//! glTF 2.0 scenes with participating media, loaded into one backend-neutral [`Scene`]: flat
+//! arrays that both the CPU and the GPU integrators consume (`#[repr(C)]` + `Pod` where they go
+//! to the GPU), a BVH over the triangles, and descriptions of the media.
+//!
+//! Supported: `.gltf` (embedded base64 or external buffers) and `.glb`; node hierarchies with
+//! TRS or matrices; perspective cameras; triangle meshes (lists, strips, fans); the
+//! metallic-roughness material factors; `KHR_lights_punctual`, `KHR_materials_emissive_strength`,
+//! `KHR_materials_transmission`, `KHR_materials_ior`, `KHR_materials_volume`; and Brume's own
+//! `BRUME_environment` (scene), `BRUME_materials_volume_scattering` (material) and
+//! `BRUME_medium_vdb` (node, see `docs/BRUME_medium_vdb.md`).
+//!
+//! Not supported (error): orthographic cameras when named, sparse accessors, unknown
+//! extensions listed in `extensionsRequired`. Ignored with a warning: points and lines,
+//! textures other than base colour and emissive, `TEXCOORD_n` for n > 0. Skins, morph targets
+//! and animations are ignored silently (the rest pose is rendered).
+//!
+//! ```no_run
+//! let scene = brume::scene::load(std::path::Path::new("scenes/cloud.gltf")).unwrap();
+//! println!("{}", scene.summary());
+//! ```
+pub mod camera;
+mod document;
+pub mod effects;
+pub mod error;
+mod json;
+pub mod lights;
+pub mod material;
+pub mod media;
+pub mod mesh;
+mod nodes;
+mod summary;
+
+use std::path::{Path, PathBuf};
+
+use glam::{Vec3, Vec3A};
+
+pub use camera::{Camera, CameraEntry, CameraSource};
+pub use effects::Effects;
+pub use error::SceneError;
+pub use lights::{Environment, PunctualLight, RADIOMETRIC_PER_PHOTOMETRIC};
+pub use material::{HomogeneousMedium, Material, TextureRef};
+pub use media::{load_grid, transform_aabb, BoundsSource, LoadedGrid, VdbMediumDesc};
+pub use mesh::{Instance, Triangle, Vertex};
+
+use crate::accel::TriangleBvh;
+use crate::math::{Aabb, Ray};
+
+/// "No such element" in the `u32` index fields of GPU structs.
+pub const NO_INDEX: u32 = u32::MAX;
+
+/// Scene-level extension: constant (and optionally mapped) environment light.
+pub const BRUME_ENVIRONMENT: &str = "BRUME_environment";
+/// Node extension: a heterogeneous medium from an OpenVDB file.
+pub const BRUME_MEDIUM_VDB: &str = "BRUME_medium_vdb";
+/// Material extension: scattering albedo and phase of a `KHR_materials_volume` medium.
+pub const BRUME_MATERIALS_VOLUME_SCATTERING: &str = "BRUME_materials_volume_scattering";
+
+/// Caller's choices for [`load_with`].
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Render through the camera (or camera node) with this name instead of the first one.
+    pub camera: Option<String>,
+}
+
+/// A loaded scene. Everything is in world space, metres, linear RGB.
+#[derive(Debug)]
+pub struct Scene {
+    /// The glTF file it came from.
+    pub source: PathBuf,
+    /// The camera to render through.
+    pub camera: Camera,
+    /// Every camera the file places, including ones not chosen.
+    pub cameras: Vec<CameraEntry>,
+    pub vertices: Vec<Vertex>,
+    pub triangles: Vec<Triangle>,
+    pub instances: Vec<Instance>,
+    /// glTF materials in file order, then the glTF default material.
+    pub materials: Vec<Material>,
+    /// Names of `materials`, same order.
+    pub material_names: Vec<Option<String>>,
+    pub textures: Vec<TextureRef>,
+    /// `KHR_materials_volume` media, each bounded by the closed meshes of its material.
+    pub homogeneous_media: Vec<HomogeneousMedium>,
+    /// `BRUME_medium_vdb` media.
+    pub vdb_media: Vec<VdbMediumDesc>,
+    pub lights: Vec<PunctualLight>,
+    pub environment: Environment,
+    /// BVH over `triangles` (same triangle order).
+    pub bvh: TriangleBvh,
+    /// World bounds of the triangles and the media.
+    pub bounds: Aabb,
+    /// Non-fatal problems met while loading, each with its JSON pointer.
+    pub warnings: Vec<String>,
+}
+
+/// Loads `path` (`.gltf` or `.glb`) with default options.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// Loads `path` (`.gltf` or `.glb`).
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let mut ctx = error::Ctx::new(path);
+    let loaded = document::read(&mut ctx, path)?;
+    let doc = &loaded.doc;
+    let nodes = nodes::place_nodes(&mut ctx, doc)?;
+    let material::MaterialTables {
+        materials,
+        names: material_names,
+        media: homogeneous_media,
+        textures,
+    } = material::read_materials(&mut ctx, doc)?;
+    let default_material = (materials.len() - 1) as u32;
+    let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
+    let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
+    let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
+    let vdb_media =
+        media::read_vdb_media(&mut ctx, doc, &loaded.buffers, &nodes, &loaded.base_dir)?;
+
+    let mut bounds = geo
+        .vertices
+        .iter()
+        .fold(Aabb::EMPTY, |b, v| b.union_point(Vec3::from(v.position)));
+    for m in &vdb_media {
+        bounds = bounds.union(&m.world_bounds);
+    }
+    let camera = camera::choose_camera(&mut ctx, doc, &nodes, options.camera.as_deref(), &bounds)?;
+
+    let corners = geo
+        .triangles
+        .iter()
+        .map(|t| {
+            t.vertices
+                .map(|i| Vec3A::from(geo.vertices[i as usize].position))
+        })
+        .collect();
+    let bvh = TriangleBvh::build(corners);
+    warn_open_medium_boundaries(&mut ctx, &geo, &materials);
+    let scene = Scene {
+        source: path.to_path_buf(),
+        camera,
+        cameras: camera::list_cameras(doc, &nodes),
+        vertices: geo.vertices,
+        triangles: geo.triangles,
+        instances: geo.instances,
+        materials,
+        material_names,
+        textures,
+        homogeneous_media,
+        vdb_media,
+        lights,
+        environment,
+        bvh,
+        bounds,
+        warnings: ctx.warnings,
+    };
+    // A loader bug, not a user error, if this fails; still reported, never a panic.
+    scene
+        .validate()
+        .map_err(|e| ctx_invalid(path, format!("internal consistency check failed: {e}")))?;
+    Ok(scene)
+}
+
+/// Warns about instances that bound a homogeneous medium but are not closed (some edge not
+/// shared by exactly two triangles, after welding equal positions): paths could then enter the
+/// medium without leaving it.
+fn warn_open_medium_boundaries(ctx: &mut error::Ctx, geo: &mesh::Geometry, materials: &[Material]) {
+    use std::collections::HashMap;
+    for inst in &geo.instances {
+        if materials[inst.material as usize].interior_medium == NO_INDEX {
+            continue;
+        }
+        let key = |v: u32| geo.vertices[v as usize].position.map(f32::to_bits);
+        let mut edges: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
+        let tris = &geo.triangles[inst.first_triangle as usize..][..inst.triangle_count as usize];
+        for t in tris {
+            for e in 0..3 {
+                let (a, b) = (key(t.vertices[e]), key(t.vertices[(e + 1) % 3]));
+                *edges
+                    .entry(if a < b { (a, b) } else { (b, a) })
+                    .or_default() += 1;
+            }
+        }
+        let open = edges.values().filter(|&&n| n != 2).count();
+        if open > 0 {
+            ctx.warn(
+                format!("/meshes/{}/primitives/{}", inst.mesh, inst.primitive),
+                format!("bounds a KHR_materials_volume medium but is not closed ({open} edges not shared by exactly two triangles)"),
+            );
+        }
+    }
+}
+
+impl std::fmt::Display for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.summary())
+    }
+}
+
+fn ctx_invalid(path: &Path, message: String) -> SceneError {
+    SceneError::Invalid {
+        file: path.to_path_buf(),
+        pointer: String::new(),
+        message,
+    }
+}
+
+impl Scene {
+    /// The effects this scene calls for.
+    pub fn effects(&self) -> Effects {
+        Effects::of(self)
+    }
+
+    /// Human-readable description: camera, meshes, materials, lights, media and effects.
+    pub fn summary(&self) -> String {
+        summary::summary(self)
+    }
+
+    /// Corner positions of triangle `t`.
+    pub fn triangle_corners(&self, t: usize) -> [Vec3; 3] {
+        self.triangles[t]
+            .vertices
+            .map(|i| Vec3::from(self.vertices[i as usize].position))
+    }
+
+    /// Whether `p` lies inside the closed surface of instance `k`, by the parity of crossings
+    /// along three fixed, irrational-ish directions (majority vote guards against rays grazing
+    /// an edge). Meshes that are not closed give arbitrary answers.
+    pub fn inside_instance(&self, p: Vec3, k: usize) -> bool {
+        const DIRS: [[f32; 3]; 3] = [
+            [0.5773, 0.5774, 0.5775],
+            [-0.3141, 0.8660, -0.3892],
+            [0.2718, -0.4142, 0.8685],
+        ];
+        let inst = &self.instances[k];
+        let range =
+            inst.first_triangle as usize..(inst.first_triangle + inst.triangle_count) as usize;
+        let votes = DIRS
+            .iter()
+            .filter(|d| {
+                let ray = Ray::new(p, Vec3::from(**d));
+                let crossings = range
+                    .clone()
+                    .filter(|&t| {
+                        let c = self.triangle_corners(t).map(Vec3A::from);
+                        crate::accel::intersect_triangle(&ray, &c, 0.0, f32::INFINITY).is_some()
+                    })
+                    .count();
+                crossings % 2 == 1
+            })
+            .count();
+        votes >= 2
+    }
+
+    /// Whether `p` lies inside some medium: a VDB medium's world bounds, or the closed mesh
+    /// of a material with an interior medium that has non-zero extinction.
+    pub fn inside_medium(&self, p: Vec3) -> bool {
+        let in_box = |b: &Aabb| !b.is_empty() && p.cmpge(b.min).all() && p.cmple(b.max).all();
+        if self
+            .vdb_media
+            .iter()
+            .any(|m| m.density_scale > 0.0 && in_box(&m.world_bounds))
+        {
+            return true;
+        }
+        self.instances.iter().enumerate().any(|(k, inst)| {
+            let medium = self.materials[inst.material as usize].interior_medium;
+            medium != NO_INDEX
+                && self.homogeneous_media[medium as usize]
+                    .sigma_t()
+                    .iter()
+                    .any(|&s| s > 0.0)
+                && self.inside_instance(p, k)
+        })
+    }
+
+    /// Checks the invariants every consumer relies on: indices in range, instance ranges
+    /// tiling the triangle array, finite data, physical coefficients, a sound BVH.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |xs: &[f32]| xs.iter().all(|x| x.is_finite());
+        for (k, v) in self.vertices.iter().enumerate() {
+            if !finite(&v.position) || !finite(&v.normal) || !v.u.is_finite() || !v.v.is_finite() {
+                return Err(format!("vertex {k} is not finite"));
+            }
+        }
+        for (k, t) in self.triangles.iter().enumerate() {
+            if t.vertices
+                .iter()
+                .any(|&i| i as usize >= self.vertices.len())
+                || t.instance as usize >= self.instances.len()
+            {
+                return Err(format!("triangle {k} indexes out of range"));
+            }
+        }
+        let mut next = 0u32;
+        for (k, inst) in self.instances.iter().enumerate() {
+            if inst.first_triangle != next || inst.material as usize >= self.materials.len() {
+                return Err(format!("instance {k} has a bad triangle range or material"));
+            }
+            let end = inst.first_triangle + inst.triangle_count;
+            if self.triangles[inst.first_triangle as usize..end as usize]
+                .iter()
+                .any(|t| t.instance != k as u32)
+            {
+                return Err(format!("instance {k}'s triangles point elsewhere"));
+            }
+            next = end;
+        }
+        if next as usize != self.triangles.len() {
+            return Err("instances do not cover every triangle".into());
+        }
+        for (k, m) in self.materials.iter().enumerate() {
+            let tex_ok = |i: u32| i == NO_INDEX || (i as usize) < self.textures.len();
+            let medium_ok = m.interior_medium == NO_INDEX
+                || (m.interior_medium as usize) < self.homogeneous_media.len();
+            if !finite(&m.base_color)
+                || !finite(&m.emission)
+                || !tex_ok(m.base_color_texture)
+                || !tex_ok(m.emissive_texture)
+                || !medium_ok
+            {
+                return Err(format!("material {k} is inconsistent"));
+            }
+        }
+        for (k, m) in self.homogeneous_media.iter().enumerate() {
+            let ok = m
+                .sigma_a
+                .iter()
+                .chain(&m.sigma_s)
+                .all(|s| s.is_finite() && *s >= 0.0)
+                && m.g.abs() < 1.0
+                && (m.material as usize) < self.materials.len()
+                && self.materials[m.material as usize].interior_medium == k as u32;
+            if !ok {
+                return Err(format!("homogeneous medium {k} is inconsistent"));
+            }
+        }
+        for (k, m) in self.vdb_media.iter().enumerate() {
+            let ok = m.density_scale >= 0.0
+                && m.anisotropy.abs() < 1.0
+                && m.world_from_medium.is_finite()
+                && m.world_from_medium.determinant() != 0.0
+                && !m.grids.is_empty()
+                && finite(&m.sigma_t_per_density());
+            if !ok {
+                return Err(format!("VDB medium {k} is inconsistent"));
+            }
+        }
+        for (k, l) in self.lights.iter().enumerate() {
+            let d = Vec3::from(l.direction);
+            if !finite(&l.position)
+                || !finite(&l.intensity)
+                || (d.length() - 1.0).abs() > 1e-4
+                || l.kind > lights::LIGHT_DIRECTIONAL
+            {
+                return Err(format!("light {k} is inconsistent"));
+            }
+        }
+        if !finite(&self.environment.radiance) {
+            return Err("environment radiance is not finite".into());
+        }
+        let c = &self.camera;
+        if !(c.world_from_camera.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI) {
+            return Err("camera is inconsistent".into());
+        }
+        if self.bvh.len() != self.triangles.len() {
+            return Err("BVH and triangle counts differ".into());
+        }
+        self.bvh.validate()
+    }
+}

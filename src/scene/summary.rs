@@ -1,0 +1,123 @@
+//! The human-readable scene summary printed by `brume info`.
+use std::fmt::Write;
+
+use super::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT};
+use super::{CameraSource, Scene};
+
+pub fn summary(s: &Scene) -> String {
+    let mut o = String::new();
+    let _ = write_summary(s, &mut o);
+    o
+}
+
+fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
+    writeln!(o, "scene {}", s.source.display())?;
+    let c = &s.camera;
+    let origin = match &c.source {
+        CameraSource::Node { node, camera } => format!("camera {camera} on node {node}"),
+        CameraSource::Default => "default camera framing the bounds".to_string(),
+    };
+    writeln!(
+        o,
+        "camera: {} ({origin}), position {:.3}, forward {:.3}, yfov {:.2} deg, znear {}",
+        c.name.as_deref().unwrap_or("unnamed"),
+        c.position(),
+        c.forward(),
+        c.yfov.to_degrees(),
+        c.znear
+    )?;
+    for e in &s.cameras {
+        writeln!(
+            o,
+            "  in file: {} (camera {}, node {}, {})",
+            e.name.as_deref().unwrap_or("unnamed"),
+            e.camera,
+            e.node,
+            if e.perspective {
+                "perspective"
+            } else {
+                "orthographic, unsupported"
+            }
+        )?;
+    }
+    writeln!(
+        o,
+        "meshes: {} instances, {} triangles, {} vertices",
+        s.instances.len(),
+        s.triangles.len(),
+        s.vertices.len()
+    )?;
+    writeln!(
+        o,
+        "materials: {} (incl. the glTF default), {} textures referenced",
+        s.materials.len(),
+        s.textures.len()
+    )?;
+    for (m, name) in s.materials.iter().zip(&s.material_names) {
+        writeln!(
+            o,
+            "  {}: base {:?}, metallic {}, roughness {}, emission {:?}, transmission {}",
+            name.as_deref().unwrap_or("unnamed"),
+            m.base_color,
+            m.metallic,
+            m.roughness,
+            m.emission,
+            m.transmission
+        )?;
+    }
+    writeln!(o, "lights: {}", s.lights.len())?;
+    for l in &s.lights {
+        let kind = match l.kind {
+            LIGHT_POINT => "point",
+            LIGHT_DIRECTIONAL => "directional",
+            _ => "spot",
+        };
+        writeln!(
+            o,
+            "  {kind}: intensity {:?}, position {:?}, direction {:?}",
+            l.intensity, l.position, l.direction
+        )?;
+    }
+    writeln!(
+        o,
+        "environment: radiance {:?}{}",
+        s.environment.radiance,
+        s.environment
+            .map
+            .as_ref()
+            .map_or(String::new(), |p| format!(", map {}", p.display()))
+    )?;
+    writeln!(
+        o,
+        "media: {} homogeneous, {} VDB",
+        s.homogeneous_media.len(),
+        s.vdb_media.len()
+    )?;
+    for m in &s.homogeneous_media {
+        writeln!(
+            o,
+            "  homogeneous (material {}): sigma_a {:?}, sigma_s {:?}, g {}",
+            m.material, m.sigma_a, m.sigma_s, m.g
+        )?;
+    }
+    for m in &s.vdb_media {
+        let grids: Vec<&str> = m.grids.iter().map(|g| g.name.as_str()).collect();
+        writeln!(
+            o,
+            "  vdb {} (node {}): grids {:?}, sigma_t per density {:?}, g {}, emits {}, bounds {:?} ({:?})",
+            m.vdb_path.display(),
+            m.node,
+            grids,
+            m.sigma_t_per_density(),
+            m.anisotropy,
+            m.emits(),
+            m.world_bounds,
+            m.bounds_source
+        )?;
+    }
+    writeln!(o, "effects: {}", s.effects().names().join(", "))?;
+    for w in &s.warnings {
+        writeln!(o, "warning: {w}")?;
+    }
+    Ok(())
+}

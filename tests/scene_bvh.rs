@@ -1,0 +1,164 @@
+//! The BVH must answer exactly what brute force over every triangle answers: both use the same
+//! triangle test, so any difference is a traversal bug.
+use brume::accel::{intersect_triangle, TriangleBvh};
+use brume::math::Ray;
+use glam::{Vec3, Vec3A};
+
+/// A small deterministic generator (SplitMix64), so failures reproduce.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + Vec3::splat(lo)
+    }
+}
+
+fn random_triangles(rng: &mut Rng, n: usize) -> Vec<[Vec3A; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = rng.vec(-5.0, 5.0);
+            let size = 0.05 + 0.6 * rng.next();
+            [0, 1, 2].map(|_| Vec3A::from(c + rng.vec(-size, size)))
+        })
+        .collect()
+}
+
+fn brute_closest(tris: &[[Vec3A; 3]], ray: &Ray, t_max: f32) -> Option<(f32, u32)> {
+    let mut best: Option<(f32, u32)> = None;
+    for (k, t) in tris.iter().enumerate() {
+        if let Some((t_hit, _, _)) = intersect_triangle(ray, t, 0.0, t_max) {
+            if best.is_none_or_greater(t_hit) {
+                best = Some((t_hit, k as u32));
+            }
+        }
+    }
+    best
+}
+
+trait Closer {
+    fn is_none_or_greater(&self, t: f32) -> bool;
+}
+impl Closer for Option<(f32, u32)> {
+    fn is_none_or_greater(&self, t: f32) -> bool {
+        self.map_or(true, |(b, _)| t < b)
+    }
+}
+
+#[test]
+fn bvh_matches_brute_force_on_random_rays() {
+    let mut rng = Rng(7);
+    let tris = random_triangles(&mut rng, 2000);
+    let bvh = TriangleBvh::build(tris.clone());
+    bvh.validate().unwrap();
+    let (mut hits, mut misses) = (0, 0);
+    for k in 0..4000 {
+        let o = rng.vec(-7.0, 7.0);
+        // Half the rays aim at a triangle so hits are common; the rest go anywhere. Some have
+        // unnormalised directions and finite t_max.
+        let d = if k % 2 == 0 {
+            let target = Vec3::from(tris[(rng.next() * 1999.0) as usize][0]);
+            (target - o) * (0.5 + rng.next())
+        } else {
+            rng.vec(-1.0, 1.0)
+        };
+        if d.length() < 1e-3 {
+            continue;
+        }
+        let t_max = if k % 3 == 0 {
+            0.5 + 5.0 * rng.next()
+        } else {
+            f32::INFINITY
+        };
+        let ray = Ray::new(o, d);
+        let expect = brute_closest(&tris, &ray, t_max);
+        let got = bvh.closest_hit(&ray, 0.0, t_max);
+        match (expect, got) {
+            (None, None) => misses += 1,
+            (Some((t, tri)), Some(h)) => {
+                hits += 1;
+                assert_eq!(h.t, t, "ray {k}: t differs");
+                // Equal t on two triangles (shared points) may pick either one.
+                if h.triangle != tri {
+                    let other =
+                        intersect_triangle(&ray, &tris[h.triangle as usize], 0.0, t_max).unwrap();
+                    assert_eq!(other.0, t, "ray {k}: different triangle at a different t");
+                }
+            }
+            (e, g) => panic!("ray {k}: brute force {e:?}, BVH {g:?}"),
+        }
+        assert_eq!(
+            bvh.any_hit(&ray, 0.0, t_max),
+            expect.is_some(),
+            "ray {k}: any-hit disagrees"
+        );
+        let brute_all = tris
+            .iter()
+            .filter(|t| intersect_triangle(&ray, t, 0.0, t_max).is_some())
+            .count();
+        assert_eq!(
+            bvh.all_hits(&ray, 0.0, t_max).len(),
+            brute_all,
+            "ray {k}: all-hits count differs"
+        );
+    }
+    assert!(
+        hits > 1000 && misses > 300,
+        "test rays should both hit and miss ({hits} hits, {misses} misses)"
+    );
+}
+
+#[test]
+fn t_min_skips_nearer_hits() {
+    let tri = |z: f32| {
+        [
+            Vec3A::new(-1.0, -1.0, z),
+            Vec3A::new(1.0, -1.0, z),
+            Vec3A::new(0.0, 1.0, z),
+        ]
+    };
+    let bvh = TriangleBvh::build(vec![tri(-1.0), tri(-2.0), tri(-3.0)]);
+    let ray = Ray::new(Vec3::ZERO, Vec3::NEG_Z);
+    assert_eq!(
+        bvh.closest_hit(&ray, 0.0, f32::INFINITY).unwrap().triangle,
+        0
+    );
+    assert_eq!(
+        bvh.closest_hit(&ray, 1.5, f32::INFINITY).unwrap().triangle,
+        1
+    );
+    assert!(bvh.closest_hit(&ray, 3.5, f32::INFINITY).is_none());
+    assert!(!bvh.any_hit(&ray, 0.0, 0.5));
+    let h = bvh.closest_hit(&ray, 0.0, 10.0).unwrap();
+    // Barycentrics of the point (0, 0) in the triangle (-1,-1), (1,-1), (0,1).
+    assert!(
+        (h.b1 - 0.25).abs() < 1e-6 && (h.b2 - 0.5).abs() < 1e-6,
+        "{h:?}"
+    );
+}
+
+#[test]
+fn empty_and_single_triangle_bvhs() {
+    let empty = TriangleBvh::build(Vec::new());
+    empty.validate().unwrap();
+    let ray = Ray::new(Vec3::ZERO, Vec3::X);
+    assert!(empty.closest_hit(&ray, 0.0, f32::INFINITY).is_none());
+    assert!(!empty.any_hit(&ray, 0.0, f32::INFINITY));
+
+    let one = TriangleBvh::build(vec![[
+        Vec3A::new(2.0, -1.0, -1.0),
+        Vec3A::new(2.0, 1.0, -1.0),
+        Vec3A::new(2.0, 0.0, 1.0),
+    ]]);
+    one.validate().unwrap();
+    assert_eq!(one.closest_hit(&ray, 0.0, f32::INFINITY).unwrap().t, 2.0);
+    // Non-finite rays miss instead of panicking.
+    assert!(one
+        .closest_hit(&Ray::new(Vec3::NAN, Vec3::X), 0.0, 1.0)
+        .is_none());
+}
