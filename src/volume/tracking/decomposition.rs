@@ -65,6 +65,7 @@ where
         rng,
         stats,
         |rng, stats, c| {
+            medium.on_collision(c.t, c.sigma_maj, 1.0);
             let ctl = medium.control(&c.seg);
             let x = rng.uniform_f32() * c.sigma_maj;
             if x < ctl.sigma_a {

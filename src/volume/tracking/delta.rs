@@ -46,6 +46,7 @@ where
         rng,
         stats,
         |rng, stats, c| {
+            medium.on_collision(c.t, c.sigma_maj, 1.0);
             let k = lookup(medium, c.t, stats);
             check_bound(k.sigma_t(), c.sigma_maj, stats);
             // One uniform against the CDF [sigma_a, sigma_a + sigma_s, sigma_maj].

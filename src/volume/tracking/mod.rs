@@ -113,12 +113,26 @@ pub trait Medium {
     fn control(&self, _seg: &MajorantSegment) -> Coeffs {
         Coeffs::ZERO
     }
+
+    /// Called by every distance sampler at every tentative collision (real, null or control)
+    /// with `w`, the estimator's weight BEFORE this collision's own update. Emissive media
+    /// collect their emission here: tentative collisions arrive at rate `sigma_maj` while the
+    /// walk survives with probability `T(t)` (weighted: expected weight `T(t)`), so
+    /// `sum_i w_i * e(t_i) / sigma_maj` estimates `integral T(t) e(t) dt` without bias
+    /// (pbrt-v4's VolPathIntegrator collects `sigma_a Le / sigma_maj` the same way).
+    /// Default: nothing, which compiles to no code for media without emission.
+    #[inline]
+    fn on_collision(&self, _t: f32, _sigma_maj: f32, _w: f32) {}
 }
 
 /// An RGB medium along one ray (spectral tracking).
 pub trait MediumRgb {
     /// One density lookup, counted like [`Medium::coeffs`].
     fn coeffs(&self, t: f32) -> CoeffsRgb;
+
+    /// As [`Medium::on_collision`], with the RGB weight.
+    #[inline]
+    fn on_collision(&self, _t: f32, _sigma_maj: f32, _w: Vec3) {}
 }
 
 /// Where the control extinction `sigma_c` of (residual) decomposition tracking comes from.
@@ -132,6 +146,9 @@ pub enum ControlExtinction {
     FractionOfBound(f32),
     /// `seg.sigma_min`: the per-leaf minorant, a valid control for analog decomposition.
     SegmentMinorant,
+    /// `min(m * seg.sigma_maj, seg.sigma_min)`: a fraction of the bound, capped by the
+    /// minorant so that analog decomposition stays unbiased whatever `m` is.
+    FractionOfBoundCapped(f32),
 }
 
 impl ControlExtinction {
@@ -142,6 +159,7 @@ impl ControlExtinction {
             ControlExtinction::Constant(c) => c,
             ControlExtinction::FractionOfBound(m) => m * seg.sigma_maj,
             ControlExtinction::SegmentMinorant => seg.sigma_min,
+            ControlExtinction::FractionOfBoundCapped(m) => (m * seg.sigma_maj).min(seg.sigma_min),
         }
     }
 }

@@ -91,6 +91,7 @@ where
         rng,
         stats,
         |rng, stats, c| {
+            medium.on_collision(c.t, c.sigma_maj, w);
             let k = lookup_rgb(medium, c.t, stats);
             let sigma_n = Vec3::splat(c.sigma_maj) - k.sigma_t();
             let h = beta * w;

@@ -50,6 +50,7 @@ where
         sigma_c + residual_majorant(b, seg, sigma_c)
     };
     sample_free_flight(segments, t_max, majorant, rng, stats, |rng, stats, c| {
+        medium.on_collision(c.t, c.sigma_maj, w);
         let ctl = medium.control(&c.seg);
         let sigma_c = ctl.sigma_t();
         let x = rng.uniform_f32() * c.sigma_maj;

@@ -47,6 +47,7 @@ where
         rng,
         stats,
         |rng, stats, c| {
+            medium.on_collision(c.t, c.sigma_maj, w);
             let k = lookup(medium, c.t, stats);
             let sigma_n = c.sigma_maj - k.sigma_t();
             let p = [k.sigma_a.abs(), k.sigma_s.abs(), sigma_n.abs()];
