@@ -1,0 +1,17 @@
+//! The film: where per-sample radiance becomes an image, and where a render's measurements are
+//! written out.
+//!
+//! - [`tiles`] cuts the image into [`TileRect`]s in a fixed order.
+//! - [`accum`] keeps per-pixel running mean and variance. Each rendering thread fills its own
+//!   [`TileBuffer`]; [`Film::merge_tile`] folds finished tiles in, so threads never share memory
+//!   and the result does not depend on the thread count.
+//! - [`exr_io`] writes the film as one multi-channel OpenEXR file (beauty, variance of the pixel
+//!   mean, sample count, render metadata) and reads such files back for comparisons.
+//! - [`tile_log`] records per-tile work counters as JSON lines; [`cost_map`] turns them into a
+//!   per-pixel heat map.
+//! - [`atomic`] is the one way this module puts a file on disk: temporary file, fsync, rename.
+pub mod accum;
+pub mod tiles;
+
+pub use accum::{Film, PixelStats, TileBuffer};
+pub use tiles::{tiles, TileRect};
