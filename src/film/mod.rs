@@ -11,7 +11,15 @@
 //!   per-pixel heat map.
 //! - [`atomic`] is the one way this module puts a file on disk: temporary file, fsync, rename.
 pub mod accum;
+pub mod atomic;
+pub mod error;
+pub mod exr_io;
+pub mod metadata;
 pub mod tiles;
 
 pub use accum::{Film, PixelStats, TileBuffer};
+pub use atomic::{write_atomically, AtomicFile};
+pub use error::FilmError;
+pub use exr_io::{read_exr, write_exr, write_exr_single, write_image, Image};
+pub use metadata::{AttrValue, Metadata, RenderInfo};
 pub use tiles::{tiles, TileRect};
