@@ -1,7 +1,7 @@
 //! The film: where per-sample radiance becomes an image, and where a render's measurements are
 //! written out.
 //!
-//! - [`tiles`] cuts the image into [`TileRect`]s in a fixed order.
+//! - [`tiles()`] cuts the image into [`TileRect`]s in a fixed order.
 //! - [`accum`] keeps per-pixel running mean and variance. Each rendering thread fills its own
 //!   [`TileBuffer`]; [`Film::merge_tile`] folds finished tiles in, so threads never share memory
 //!   and the result does not depend on the thread count.
