@@ -1,0 +1,361 @@
+//! OpenEXR output and input for films, reference images and cost maps.
+//!
+//! A Brume render is one single-part scan-line EXR (ZIP, lossless, f32) with these channels:
+//!
+//! | channel                          | meaning                                          |
+//! |----------------------------------|--------------------------------------------------|
+//! | `R`, `G`, `B`                    | pixel mean: the radiance estimate                |
+//! | `A`                              | 1 (the film has no coverage notion)              |
+//! | `variance.R`, `.G`, `.B`         | variance of the pixel mean (sample var / n)      |
+//! | `samples.Y`                      | number of samples in the pixel                   |
+//!
+//! plus the [`Metadata`] as custom header attributes. The dotted names follow the OpenEXR
+//! layer convention, so `oiiotool`, Nuke and Blender show `variance` and `samples` as layers.
+//! The variance layer is what a per-pixel z-test against a reference needs.
+//!
+//! Files are written through [`write_atomically`], so a crash never leaves a truncated image.
+//! Header attributes come back from [`read_exr`] sorted by name: the `exr` crate keeps them in a
+//! hash map, so their order in the file is not fixed (the pixel data is).
+use super::accum::Film;
+use super::atomic::write_atomically;
+use super::error::FilmError;
+use super::metadata::{AttrValue, Metadata};
+use exr::prelude::{
+    AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image as ExrImage, Layer,
+    LayerAttributes, SmallVec, Text, WritableImage,
+};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// An image read from (or about to be written to) an EXR file. Pixel arrays are row-major
+/// from the top-left, `width * height` long.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Colour per pixel. A grey (`Y`-only) file reads as `[Y, Y, Y]`.
+    pub rgb: Vec<[f32; 3]>,
+    /// Alpha, if the file has an `A` channel.
+    pub alpha: Option<Vec<f32>>,
+    /// Variance of the pixel mean, if the file has `variance.R/G/B`.
+    pub variance: Option<Vec<[f32; 3]>>,
+    /// Sample count per pixel, if the file has `samples.Y` (or `samples`).
+    pub samples: Option<Vec<f32>>,
+    /// Custom header attributes of types string, float, double and int (others are skipped),
+    /// sorted by name.
+    pub attributes: Metadata,
+}
+
+impl Image {
+    /// The film's beauty, variance and sample count as an image with `metadata`; this is
+    /// exactly what [`write_exr`] writes.
+    pub fn from_film(film: &Film, metadata: &Metadata) -> Self {
+        let pixels = film.pixels();
+        Image {
+            width: film.width() as usize,
+            height: film.height() as usize,
+            rgb: pixels.iter().map(|p| p.mean.map(|m| m as f32)).collect(),
+            alpha: Some(vec![1.0; pixels.len()]),
+            variance: Some(
+                pixels
+                    .iter()
+                    .map(|p| p.variance_of_mean().map(|v| v as f32))
+                    .collect(),
+            ),
+            samples: Some(pixels.iter().map(|p| p.count as f32).collect()),
+            attributes: metadata.clone(),
+        }
+    }
+
+    /// Colour of pixel `(x, y)`.
+    pub fn rgb_at(&self, x: usize, y: usize) -> [f32; 3] {
+        self.rgb[y * self.width + x]
+    }
+}
+
+/// Writes `film` (mean, variance of the mean, sample count) and `metadata` to `path` as one
+/// EXR, atomically.
+pub fn write_exr(
+    path: impl AsRef<Path>,
+    film: &Film,
+    metadata: &Metadata,
+) -> Result<(), FilmError> {
+    write_image(path, &Image::from_film(film, metadata))
+}
+
+/// Writes an [`Image`] as an EXR, atomically: channels `R G B`, and `A`, `variance.*`,
+/// `samples.Y` where present.
+pub fn write_image(path: impl AsRef<Path>, image: &Image) -> Result<(), FilmError> {
+    let path = path.as_ref();
+    let n = image.width * image.height;
+    let mut channels: Vec<(&str, Vec<f32>)> = Vec::with_capacity(8);
+    check_len(path, "rgb", image.rgb.len(), n)?;
+    for (c, name) in ["R", "G", "B"].into_iter().enumerate() {
+        channels.push((name, image.rgb.iter().map(|p| p[c]).collect()));
+    }
+    if let Some(alpha) = &image.alpha {
+        check_len(path, "alpha", alpha.len(), n)?;
+        channels.push(("A", alpha.clone()));
+    }
+    if let Some(variance) = &image.variance {
+        check_len(path, "variance", variance.len(), n)?;
+        for (c, name) in ["variance.R", "variance.G", "variance.B"]
+            .into_iter()
+            .enumerate()
+        {
+            channels.push((name, variance.iter().map(|p| p[c]).collect()));
+        }
+    }
+    if let Some(samples) = &image.samples {
+        check_len(path, "samples", samples.len(), n)?;
+        channels.push(("samples.Y", samples.clone()));
+    }
+    encode(path, image.width, image.height, channels, &image.attributes)
+}
+
+/// Writes one map as an EXR, atomically: `values` of length `width * height` become channel
+/// `Y`; of length `3 * width * height` (interleaved RGB) channels `R G B`. For cost maps and
+/// other diagnostics; `metadata` should say what the values measure and in which units.
+pub fn write_exr_single(
+    path: impl AsRef<Path>,
+    width: usize,
+    height: usize,
+    values: &[f32],
+    metadata: &Metadata,
+) -> Result<(), FilmError> {
+    let path = path.as_ref();
+    let n = width * height;
+    let channels = if values.len() == n {
+        vec![("Y", values.to_vec())]
+    } else if values.len() == 3 * n {
+        (0..3)
+            .map(|c| {
+                (
+                    ["R", "G", "B"][c],
+                    values.iter().skip(c).step_by(3).copied().collect(),
+                )
+            })
+            .collect()
+    } else {
+        return Err(FilmError::InvalidInput {
+            path: path.to_path_buf(),
+            reason: format!(
+                "{} values fit neither {width}x{height} grey ({n}) nor RGB ({})",
+                values.len(),
+                3 * n
+            ),
+        });
+    };
+    encode(path, width, height, channels, metadata)
+}
+
+fn check_len(path: &Path, what: &str, len: usize, expected: usize) -> Result<(), FilmError> {
+    if len == expected {
+        return Ok(());
+    }
+    Err(FilmError::InvalidInput {
+        path: path.to_path_buf(),
+        reason: format!("{what} has {len} pixels, the image has {expected}"),
+    })
+}
+
+/// Builds the EXR in memory and writes it through a temporary file.
+fn encode(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<(&str, Vec<f32>)>,
+    metadata: &Metadata,
+) -> Result<(), FilmError> {
+    let invalid = |reason: String| FilmError::InvalidInput {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if width == 0 || height == 0 {
+        return Err(invalid(format!(
+            "an EXR needs pixels, the image is {width}x{height}"
+        )));
+    }
+    let mut attributes = LayerAttributes::default();
+    for (name, value) in metadata.iter() {
+        // OpenEXR names are NUL-terminated and at most 255 bytes with long names enabled.
+        if name.is_empty() || name.len() > 255 || name.contains('\0') {
+            return Err(invalid(format!(
+                "attribute name {name:?} is not a valid EXR name"
+            )));
+        }
+        let value = match value {
+            // EXR strings are bytes; UTF-8 is what OpenImageIO and Blender expect in them.
+            AttrValue::Text(s) => AttributeValue::Text(Text::from_slice_unchecked(s.as_bytes())),
+            AttrValue::Float(v) => AttributeValue::F32(*v),
+            AttrValue::Double(v) => AttributeValue::F64(*v),
+            AttrValue::Int(v) => AttributeValue::I32(*v),
+        };
+        attributes
+            .other
+            .insert(Text::from_slice_unchecked(name.as_bytes()), value);
+    }
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
+        .into_iter()
+        .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
+        .collect();
+    // ZIP over 16 scan lines, increasing line order: lossless, and the pixel blocks land in
+    // the file in the same order every time.
+    let layer = Layer::new(
+        (width, height),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    let image = ExrImage::from_layer(layer);
+    write_atomically(path, |file| {
+        image
+            .write()
+            .to_unbuffered(file)
+            .map_err(|source| FilmError::ExrEncode {
+                path: path.to_path_buf(),
+                source,
+            })
+    })
+}
+
+/// Reads an RGB(A) or grey float EXR with the optional `variance.*` and `samples` layers and
+/// custom attributes. Errors name the file: missing, a directory, not an EXR, missing channels,
+/// parts of different sizes.
+pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
+    let path = path.as_ref();
+    let meta = std::fs::metadata(path).map_err(|e| FilmError::io("read", path, e))?;
+    if meta.is_dir() {
+        let e = std::io::Error::other("it is a directory, not a file");
+        return Err(FilmError::io("read", path, e));
+    }
+    let exr_error = |source| FilmError::Exr {
+        path: path.to_path_buf(),
+        source,
+    };
+    // The exr crate validates headers, but a decoder bug on hostile bytes should still come
+    // back as an error naming the file rather than take the process down.
+    let decoded = std::panic::catch_unwind(|| exr::prelude::read_all_flat_layers_from_file(path))
+        .map_err(|_| {
+            exr_error(exr::error::Error::Invalid(
+                "the decoder panicked on this file".into(),
+            ))
+        })?
+        .map_err(exr_error)?;
+
+    // Channel name (with its part's layer name prefixed, as OpenEXR multi-part files name
+    // them) -> values.
+    let mut by_name: BTreeMap<String, Vec<f32>> = BTreeMap::new();
+    let mut attributes = Metadata::new();
+    let mut size: Option<(usize, usize)> = None;
+    collect_attributes(&decoded.attributes.other, &mut attributes);
+    for layer in &decoded.layer_data {
+        let layer_size = (layer.size.0, layer.size.1);
+        match size {
+            None => size = Some(layer_size),
+            Some(expected) if expected != layer_size => {
+                return Err(FilmError::SizeMismatch {
+                    path: path.to_path_buf(),
+                    what: match &layer.attributes.layer_name {
+                        Some(name) => format!("part {:?}", String::from_utf8_lossy(name.bytes())),
+                        None => "an unnamed part".into(),
+                    },
+                    expected,
+                    found: layer_size,
+                })
+            }
+            Some(_) => {}
+        }
+        collect_attributes(&layer.attributes.other, &mut attributes);
+        let prefix = layer
+            .attributes
+            .layer_name
+            .as_ref()
+            .map(|t| format!("{}.", String::from_utf8_lossy(t.bytes())))
+            .unwrap_or_default();
+        for channel in &layer.channel_data.list {
+            let name = format!("{prefix}{}", String::from_utf8_lossy(channel.name.bytes()));
+            by_name.insert(name, channel.sample_data.values_as_f32().collect());
+        }
+    }
+    let (width, height) = size.unwrap_or((0, 0));
+    let found: Vec<String> = by_name.keys().cloned().collect();
+    let missing = |missing: &[&str]| FilmError::MissingChannels {
+        path: path.to_path_buf(),
+        missing: missing.iter().map(|s| s.to_string()).collect(),
+        found: found.clone(),
+    };
+
+    let rgb = match (
+        by_name.get("R"),
+        by_name.get("G"),
+        by_name.get("B"),
+        by_name.get("Y"),
+    ) {
+        (Some(r), Some(g), Some(b), _) => zip3(r, g, b),
+        (None, None, None, Some(y)) => y.iter().map(|&v| [v; 3]).collect(),
+        (r, g, b, _) => {
+            let absent: Vec<&str> = [("R", r), ("G", g), ("B", b)]
+                .into_iter()
+                .filter(|(_, c)| c.is_none())
+                .map(|(n, _)| n)
+                .collect();
+            return Err(missing(&absent));
+        }
+    };
+    let variance_channels = ["variance.R", "variance.G", "variance.B"].map(|n| by_name.get(n));
+    let variance = match variance_channels {
+        [Some(r), Some(g), Some(b)] => Some(zip3(r, g, b)),
+        [None, None, None] => None,
+        partial => {
+            let absent: Vec<&str> = ["variance.R", "variance.G", "variance.B"]
+                .into_iter()
+                .zip(partial)
+                .filter(|(_, c)| c.is_none())
+                .map(|(n, _)| n)
+                .collect();
+            return Err(missing(&absent));
+        }
+    };
+    let samples = by_name
+        .get("samples.Y")
+        .or_else(|| by_name.get("samples"))
+        .cloned();
+    Ok(Image {
+        width,
+        height,
+        rgb,
+        alpha: by_name.get("A").cloned(),
+        variance,
+        samples,
+        attributes: attributes.sorted(),
+    })
+}
+
+fn zip3(r: &[f32], g: &[f32], b: &[f32]) -> Vec<[f32; 3]> {
+    r.iter()
+        .zip(g)
+        .zip(b)
+        .map(|((&r, &g), &b)| [r, g, b])
+        .collect()
+}
+
+/// Keeps the attribute types [`AttrValue`] can hold; the exr crate has already parsed the
+/// standard ones (channels, compression, windows) into their own fields.
+fn collect_attributes(
+    other: &std::collections::HashMap<Text, AttributeValue>,
+    into: &mut Metadata,
+) {
+    for (name, value) in other {
+        let value = match value {
+            AttributeValue::Text(t) => AttrValue::Text(String::from_utf8_lossy(t.bytes()).into()),
+            AttributeValue::F32(v) => AttrValue::Float(*v),
+            AttributeValue::F64(v) => AttrValue::Double(*v),
+            AttributeValue::I32(v) => AttrValue::Int(*v),
+            _ => continue,
+        };
+        into.set(String::from_utf8_lossy(name.bytes()), value);
+    }
+}

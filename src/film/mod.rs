@@ -1,0 +1,29 @@
+//! The film: where per-sample radiance becomes an image, and where a render's measurements are
+//! written out.
+//!
+//! - [`tiles()`] cuts the image into [`TileRect`]s in a fixed order.
+//! - [`accum`] keeps per-pixel running mean and variance. Each rendering thread fills its own
+//!   [`TileBuffer`]; [`Film::merge_tile`] folds finished tiles in, so threads never share memory
+//!   and the result does not depend on the thread count.
+//! - [`exr_io`] writes the film as one multi-channel OpenEXR file (beauty, variance of the pixel
+//!   mean, sample count, render metadata) and reads such files back for comparisons.
+//! - [`tile_log`] records per-tile work counters as JSON lines; [`cost_map`] turns them into a
+//!   per-pixel heat map.
+//! - [`atomic`] is the one way this module puts a file on disk: temporary file, fsync, rename.
+pub mod accum;
+pub mod atomic;
+pub mod cost_map;
+pub mod error;
+pub mod exr_io;
+pub mod metadata;
+pub mod tile_log;
+pub mod tiles;
+
+pub use accum::{Film, PixelStats, TileBuffer};
+pub use atomic::{write_atomically, AtomicFile};
+pub use cost_map::{cost_map_from_tiles, per_sample, write_cost_map, CostMetric};
+pub use error::FilmError;
+pub use exr_io::{read_exr, write_exr, write_exr_single, write_image, Image};
+pub use metadata::{AttrValue, Metadata, RenderInfo};
+pub use tile_log::{read_tile_log, totals, TileLogWriter, TileRecord, TileTotals};
+pub use tiles::{tiles, TileRect};
