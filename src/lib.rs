@@ -1,6 +1,8 @@
 //! Brume: an offline volumetric renderer for OpenVDB media in glTF scenes.
 pub mod accel;
+pub mod backend;
 pub mod film;
+pub mod integrator;
 pub mod math;
 pub mod sampling;
 pub mod scene;

@@ -28,6 +28,8 @@ enum Command {
         #[arg(long)]
         no_layout: bool,
     },
+    /// Render a scene to an EXR on the CPU.
+    Render(cli::render::RenderArgs),
     /// Print performance figures (benchmarks, not tests).
     Bench {
         #[command(subcommand)]
@@ -39,6 +41,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
+        Command::Render(args) => cli::render::run(&args),
         Command::Bench { which } => cli::bench::run(which),
     };
     match result {

@@ -42,6 +42,13 @@ pub struct TileRecord {
     pub path_length_sum: u64,
     /// How many times a safety guard (event or bounce cap) cut a path short.
     pub guard_fired: u64,
+    /// Lookups where an analog estimator found the density above its majorant: the image is
+    /// biased wherever this is non-zero (use a weighted estimator or a larger `b`).
+    #[serde(default)]
+    pub majorant_violations: u64,
+    /// Emission-grid lookups (flame, temperature), made only in emissive scenes.
+    #[serde(default)]
+    pub emission_lookups: u64,
 }
 
 impl TileRecord {
@@ -105,6 +112,10 @@ pub struct TileTotals {
     pub path_length_sum: u64,
     /// Guard firings.
     pub guard_fired: u64,
+    /// Majorant violations seen by analog estimators.
+    pub majorant_violations: u64,
+    /// Emission-grid lookups.
+    pub emission_lookups: u64,
 }
 
 impl TileTotals {
@@ -128,6 +139,8 @@ impl TileTotals {
         self.shadow_lookups += r.shadow_lookups;
         self.path_length_sum += r.path_length_sum;
         self.guard_fired += r.guard_fired;
+        self.majorant_violations += r.majorant_violations;
+        self.emission_lookups += r.emission_lookups;
     }
 
     /// Density lookups per camera sample; 0 with no samples.

@@ -1,0 +1,156 @@
+//! The CPU backend: progressive passes over tiles, tiles in parallel with rayon, results
+//! merged in tile order so that the image is the same bit for bit whatever the thread count.
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::film::{tiles, Film, TileRecord};
+use crate::integrator::media::TrackingConfig;
+use crate::integrator::path::PathLimits;
+use crate::integrator::tile::{specialised, TileContext, TileOutput};
+use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
+
+/// What a render produced.
+pub struct RenderOutput {
+    pub film: Film,
+    /// One record per tile per pass, in pass then tile order.
+    pub records: Vec<TileRecord>,
+    /// Per-pixel density lookups over the whole render (row-major).
+    pub lookups: Vec<u64>,
+    /// Samples per pixel every pixel reached.
+    pub spp: u32,
+    pub seconds: f64,
+    /// The features the specialised path was compiled for.
+    pub features: FeatureFlags,
+    /// Whether the render stopped early (time budget or interrupt).
+    pub interrupted: bool,
+}
+
+/// Progress after each pass: (samples per pixel so far, target, seconds so far).
+pub type Progress<'a> = &'a (dyn Fn(u32, u32, f64) + Sync);
+
+/// Pass sizes: 1, 1, 2, 4, ... up to `max_pass_spp`, never past `spp`.
+pub fn pass_sizes(spp: u32, max_pass_spp: u32) -> impl Iterator<Item = (u32, u32)> {
+    let mut done = 0u32;
+    let mut next = 1u32;
+    std::iter::from_fn(move || {
+        if done >= spp {
+            return None;
+        }
+        let n = next.min(spp - done).min(max_pass_spp);
+        let start = done;
+        done += n;
+        if start > 0 {
+            next = (next * 2).min(max_pass_spp);
+        }
+        Some((start, n))
+    })
+}
+
+/// Renders `rs` on the CPU. `stop` is polled between tiles: when set, the current pass is
+/// abandoned and what earlier passes accumulated is returned.
+pub fn render(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    stop: &AtomicBool,
+    progress: Progress,
+) -> RenderOutput {
+    let start = Instant::now();
+    let features = if settings.generic {
+        FeatureFlags::ALL
+    } else {
+        rs.features
+    };
+    let tile_fn = specialised(features);
+    let ctx = TileContext {
+        rs,
+        cfg: TrackingConfig {
+            estimator: settings.estimator,
+            b: settings.b,
+            m: settings.m,
+            majorant: settings.majorant,
+            shadow: settings.shadow,
+            force_spectral: settings.force_spectral,
+        },
+        limits: PathLimits {
+            max_depth: settings.max_depth,
+            rr_depth: settings.rr_depth,
+            max_collisions: settings.max_collisions_per_path,
+        },
+        width: settings.width,
+        height: settings.height,
+        seed: settings.seed,
+    };
+    let rects = tiles(settings.width, settings.height, settings.tile_size);
+    let mut film = Film::new(settings.width, settings.height);
+    let mut records = Vec::new();
+    let mut lookups = vec![0u64; (settings.width * settings.height) as usize];
+    // With only a time limit, passes continue until it runs out.
+    let target = if settings.spp == 0 {
+        u32::MAX
+    } else {
+        settings.spp
+    };
+    let mut spp = 0u32;
+    let mut interrupted = false;
+    for (pass, (s0, n)) in pass_sizes(target, settings.max_pass_spp).enumerate() {
+        if stop.load(Ordering::Relaxed)
+            || settings
+                .time_limit
+                .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
+        {
+            interrupted = true;
+            break;
+        }
+        let outputs: Vec<Option<TileOutput>> = rects
+            .par_iter()
+            .map(|r| (!stop.load(Ordering::Relaxed)).then(|| tile_fn(&ctx, r, pass as u32, s0, n)))
+            .collect();
+        if outputs.iter().any(Option::is_none) {
+            // Interrupted mid-pass: keep the image consistent at whole passes.
+            interrupted = true;
+            break;
+        }
+        for out in outputs.into_iter().flatten() {
+            film.merge_tile(&out.buffer);
+            let r = out.buffer.rect();
+            for y in r.y0..r.y1 {
+                for x in r.x0..r.x1 {
+                    let i = ((y - r.y0) * r.width() + (x - r.x0)) as usize;
+                    lookups[(y * settings.width + x) as usize] += out.lookups[i];
+                }
+            }
+            records.push(out.record);
+        }
+        spp += n;
+        progress(spp, settings.spp, start.elapsed().as_secs_f64());
+    }
+    RenderOutput {
+        film,
+        records,
+        lookups,
+        spp,
+        seconds: start.elapsed().as_secs_f64(),
+        features,
+        interrupted,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pass_sizes;
+
+    #[test]
+    fn passes_cover_the_samples_exactly() {
+        for spp in [1, 2, 3, 7, 16, 100] {
+            let passes: Vec<_> = pass_sizes(spp, 16).collect();
+            assert_eq!(passes.iter().map(|p| p.1).sum::<u32>(), spp);
+            assert!(passes.windows(2).all(|w| w[0].0 + w[0].1 == w[1].0));
+        }
+        assert_eq!(
+            pass_sizes(10, 4).collect::<Vec<_>>(),
+            [(0, 1), (1, 1), (2, 2), (4, 4), (8, 2)]
+        );
+    }
+}

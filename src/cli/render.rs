@@ -1,0 +1,295 @@
+//! `brume render`: a scene file to an EXR, with tile logs and a cost map.
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use anyhow::{anyhow, Context, Result};
+use clap::Args;
+
+use brume::backend::cpu::{self, RenderOutput};
+use brume::film::{
+    totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
+};
+use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator};
+use brume::scene::{self, LoadOptions};
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output EXR (beauty RGBA, variance.RGB, samples.Y, render metadata).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel (default 16, or unlimited with --time).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Wall-clock budget in seconds; no new pass starts after it.
+    #[arg(long)]
+    pub time: Option<f64>,
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    #[arg(long, default_value_t = 240)]
+    pub height: u32,
+    /// Free-flight estimator: delta, weighted-delta, decomposition, weighted-decomposition.
+    #[arg(long, default_value = "delta")]
+    pub estimator: Estimator,
+    /// Majorant scale b of the weighted estimators (sigma_maj = b * bound).
+    #[arg(long)]
+    pub b: Option<f32>,
+    /// Minorant fraction m of the decomposition estimators (control = m * bound).
+    #[arg(long)]
+    pub m: Option<f32>,
+    /// Majorants: global (one bound) or local (per-leaf, 3D-DDA).
+    #[arg(long, default_value = "local")]
+    pub majorant: MajorantMode,
+    /// Shadow-ray transmittance: auto, ratio, residual-ratio.
+    #[arg(long, default_value = "auto")]
+    pub shadow: ShadowEstimator,
+    /// Spectral tracking even for grey media (chromatic media always use it).
+    #[arg(long)]
+    pub spectral: bool,
+    /// Run the unspecialised path (all effects enabled) to measure what specialisation saves.
+    #[arg(long)]
+    pub generic: bool,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    #[arg(long, default_value_t = 256)]
+    pub max_depth: u32,
+    /// Render through this camera (glTF camera or node name).
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Per-tile performance log, one JSON line per tile per pass.
+    #[arg(long)]
+    pub tile_log: Option<PathBuf>,
+    /// Cost heat map (EXR, density lookups per sample per pixel).
+    #[arg(long)]
+    pub cost_map: Option<PathBuf>,
+    #[arg(long, default_value_t = 16)]
+    pub tile_size: u32,
+}
+
+impl RenderArgs {
+    pub fn settings(&self, scene_defaults: &RenderSettings) -> RenderSettings {
+        let mut s = scene_defaults.clone();
+        s.width = self.width;
+        s.height = self.height;
+        s.spp = self.spp.unwrap_or(if self.time.is_some() { 0 } else { 16 });
+        s.time_limit = self.time;
+        s.estimator = self.estimator;
+        if let Some(b) = self.b {
+            s.b = b;
+        }
+        if self.m.is_some() {
+            s.m = self.m;
+        }
+        s.majorant = self.majorant;
+        s.shadow = self.shadow;
+        s.force_spectral = self.spectral;
+        s.generic = self.generic;
+        s.seed = self.seed;
+        s.max_depth = self.max_depth;
+        s.tile_size = self.tile_size;
+        s
+    }
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let scene = scene::load_with(
+        &args.scene,
+        &LoadOptions {
+            camera: args.camera.clone(),
+        },
+    )?;
+    scene
+        .validate()
+        .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let settings = args.settings(&RenderSettings::default());
+    settings
+        .validate()
+        .map_err(|e| anyhow!("invalid settings: {e}"))?;
+    // Fail on unwritable outputs before spending the render.
+    for p in [
+        Some(&args.output),
+        args.tile_log.as_ref(),
+        args.cost_map.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        let dir = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(std::path::Path::new("."));
+        if !dir.is_dir() {
+            return Err(anyhow!(
+                "{}: the folder {} does not exist",
+                p.display(),
+                dir.display()
+            ));
+        }
+    }
+    let rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
+    let features = if settings.generic {
+        brume::integrator::FeatureFlags::ALL
+    } else {
+        rs.features
+    };
+    eprintln!("scene effects: {}", scene.effects().names().join(", "));
+    eprintln!(
+        "cpu path: {} ({}), estimator {}, majorant {}, b {}, m {}",
+        features.name(),
+        if settings.generic {
+            "generic, forced"
+        } else {
+            "specialised"
+        },
+        settings.estimator,
+        settings.majorant.name(),
+        settings.b,
+        settings
+            .m_or_default()
+            .map_or("per-leaf minorant".to_string(), |m| m.to_string()),
+    );
+
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // A second Ctrl-C kills as usual; the first stops after the current tiles.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupted: finishing, writing what has accumulated");
+        });
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()?;
+    let threads = pool.current_num_threads();
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let bar = indicatif::ProgressBar::new(settings.spp.max(1) as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} spp  {elapsed_precise} eta {eta}",
+            )
+            .expect("static template"),
+        );
+        bar
+    });
+    let progress = |spp: u32, _target: u32, secs: f64| match &bar {
+        Some(b) => b.set_position(spp as u64),
+        None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
+    };
+    let out: RenderOutput = pool.install(|| cpu::render(&rs, &settings, &stop, &progress));
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    write_outputs(args, &settings, &out, threads)
+}
+
+fn write_outputs(
+    args: &RenderArgs,
+    settings: &RenderSettings,
+    out: &RenderOutput,
+    threads: usize,
+) -> Result<()> {
+    let info = RenderInfo {
+        estimator: settings.estimator.name().to_string(),
+        b: settings.b,
+        m: settings.m_or_default().unwrap_or(f32::NAN),
+        majorant_mode: settings.majorant.name().to_string(),
+        spp: out.spp,
+        seconds: out.seconds,
+        seed: settings.seed as u64,
+        scene: args.scene.display().to_string(),
+        backend: format!("cpu ({threads} threads)"),
+    };
+    let mut meta = info.to_metadata();
+    meta.set("brume:features", AttrValue::Text(out.features.name()));
+    meta.set(
+        "brume:specialised",
+        AttrValue::Text((!settings.generic).to_string()),
+    );
+    meta.set(
+        "brume:interrupted",
+        AttrValue::Text(out.interrupted.to_string()),
+    );
+    meta.set("brume:width", AttrValue::Int(settings.width as i32));
+    meta.set("brume:height", AttrValue::Int(settings.height as i32));
+    write_exr(&args.output, &out.film, &meta)
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    let t = totals(&out.records);
+    if let Some(path) = &args.tile_log {
+        let mut w = TileLogWriter::create(path)?;
+        for r in &out.records {
+            w.append(r)?;
+        }
+        w.finish()?;
+    }
+    if let Some(path) = &args.cost_map {
+        write_cost_map(
+            path,
+            settings.width,
+            settings.height,
+            &out.records,
+            CostMetric::DensityLookups,
+            &meta,
+        )?;
+    }
+    let samples = t.samples.max(1) as f64;
+    println!(
+        "{}: {} spp in {:.2} s ({:.0} samples/s{}), {} tiles x {} passes",
+        args.output.display(),
+        out.spp,
+        out.seconds,
+        t.samples as f64 / out.seconds.max(1e-9),
+        if out.interrupted {
+            ", stopped early"
+        } else {
+            ""
+        },
+        out.records.len()
+            / (out
+                .records
+                .iter()
+                .map(|r| r.pass)
+                .max()
+                .map_or(1, |p| p as usize + 1)),
+        out.records
+            .iter()
+            .map(|r| r.pass)
+            .max()
+            .map_or(0, |p| p + 1),
+    );
+    println!(
+        "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} path_length_sum {} guard_fired {} majorant_violations {}",
+        t.samples, t.density_lookups, t.null_collisions, t.real_collisions, t.shadow_lookups, t.emission_lookups, t.path_length_sum, t.guard_fired, t.majorant_violations
+    );
+    println!(
+        "per sample: {:.2} lookups, {:.2} null / {:.2} real collisions, path length {:.2}",
+        t.density_lookups as f64 / samples,
+        t.null_collisions as f64 / samples,
+        t.real_collisions as f64 / samples,
+        t.path_length_sum as f64 / samples
+    );
+    if t.majorant_violations > 0 {
+        eprintln!(
+            "warning: {} density lookups exceeded their majorant: this {} image is BIASED (use weighted-delta, or b >= 1)",
+            t.majorant_violations, settings.estimator
+        );
+    }
+    if t.guard_fired > 0 {
+        eprintln!(
+            "warning: the collision guard ended {} paths early (see guard_fired in the tile log)",
+            t.guard_fired
+        );
+    }
+    Ok(())
+}

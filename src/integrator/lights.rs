@@ -1,0 +1,248 @@
+//! Light sampling for next-event estimation: punctual lights (delta), the constant
+//! environment and emissive triangles, one chosen uniformly per estimate.
+use glam::{Vec2, Vec3};
+
+use crate::sampling::warp::{uniform_sphere, uniform_sphere_pdf};
+use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::scene::{PunctualLight, Scene};
+
+/// Emissive triangles, sampled by area times luminance of their emission.
+pub struct AreaLights {
+    /// Triangle indices into `Scene::triangles`.
+    pub triangles: Vec<u32>,
+    /// Cumulative `area * luminance`, normalised to end at 1.
+    cdf: Vec<f32>,
+    /// Sum of `area * luminance`.
+    total: f32,
+    /// `luminance(emission)` per entry of `triangles` (the pdf numerator).
+    lum: Vec<f32>,
+}
+
+/// A light sample seen from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the light (`f32::INFINITY` for directional and environment light).
+    pub dist: f32,
+    /// Radiance (area, environment) or radiant intensity / r^2 (point, spot) or irradiance
+    /// (directional) arriving along `-wi`, before visibility.
+    pub li: Vec3,
+    /// Solid-angle density of `wi` times the light-selection probability; for delta lights,
+    /// the selection probability alone.
+    pub pdf: f32,
+    pub is_delta: bool,
+}
+
+pub struct Lights {
+    pub punctual: Vec<PunctualLight>,
+    /// Constant environment radiance, when non-zero.
+    pub environment: Option<Vec3>,
+    pub area: Option<AreaLights>,
+}
+
+fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl Lights {
+    pub fn new(scene: &Scene) -> Lights {
+        let env = Vec3::from(scene.environment.radiance);
+        let mut tris = Vec::new();
+        let mut weights = Vec::new();
+        let mut lum = Vec::new();
+        for (k, t) in scene.triangles.iter().enumerate() {
+            let mat = &scene.materials[scene.instances[t.instance as usize].material as usize];
+            let l = luminance(Vec3::from(mat.emission));
+            if l > 0.0 {
+                let [a, b, c] = scene.triangle_corners(k);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                if area > 0.0 {
+                    tris.push(k as u32);
+                    weights.push(area * l);
+                    lum.push(l);
+                }
+            }
+        }
+        let area = (!tris.is_empty()).then(|| {
+            let total: f32 = weights.iter().sum();
+            let mut acc = 0.0;
+            let cdf = weights
+                .iter()
+                .map(|w| {
+                    acc += w / total;
+                    acc
+                })
+                .collect();
+            AreaLights {
+                triangles: tris,
+                cdf,
+                total,
+                lum,
+            }
+        });
+        Lights {
+            punctual: scene.lights.clone(),
+            environment: (env.max_element() > 0.0).then_some(env),
+            area,
+        }
+    }
+
+    /// How many light choices there are (punctual lights, the environment, the area group).
+    pub fn count(&self) -> usize {
+        self.punctual.len() + self.environment.is_some() as usize + self.area.is_some() as usize
+    }
+
+    fn pmf(&self) -> f32 {
+        1.0 / self.count() as f32
+    }
+
+    /// Samples one light for the shading point `p` with uniforms `u_select` and `u`.
+    pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let n = self.count();
+        if n == 0 {
+            return None;
+        }
+        let pmf = self.pmf();
+        let mut k = ((u_select * n as f32) as usize).min(n - 1);
+        if k < self.punctual.len() {
+            let l = &self.punctual[k];
+            let intensity = Vec3::from(l.intensity);
+            if l.kind == LIGHT_DIRECTIONAL {
+                let wi = -Vec3::from(l.direction);
+                return Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    li: intensity,
+                    pdf: pmf,
+                    is_delta: true,
+                });
+            }
+            let to = Vec3::from(l.position) - p;
+            let d2 = to.length_squared();
+            if !(d2 > 0.0) {
+                return None;
+            }
+            let dist = d2.sqrt();
+            let wi = to / dist;
+            let mut li = intensity / d2;
+            if l.kind == LIGHT_SPOT {
+                li *= spot_falloff(l, -wi);
+            } else {
+                debug_assert_eq!(l.kind, LIGHT_POINT);
+            }
+            return Some(LightSample {
+                wi,
+                dist,
+                li,
+                pdf: pmf,
+                is_delta: true,
+            });
+        }
+        k -= self.punctual.len();
+        if let Some(env) = self.environment {
+            if k == 0 {
+                let wi = uniform_sphere(u);
+                return Some(LightSample {
+                    wi,
+                    dist: f32::INFINITY,
+                    li: env,
+                    pdf: pmf * uniform_sphere_pdf(),
+                    is_delta: false,
+                });
+            }
+        }
+        let area = self.area.as_ref()?;
+        // Reuse u.x for the triangle choice and remap it, keeping u.y for the position.
+        let i = area
+            .cdf
+            .partition_point(|&c| c <= u.x)
+            .min(area.cdf.len() - 1);
+        let lo = if i == 0 { 0.0 } else { area.cdf[i - 1] };
+        let ux = ((u.x - lo) / (area.cdf[i] - lo)).clamp(0.0, 1.0 - f32::EPSILON);
+        let t = area.triangles[i] as usize;
+        let [a, b, c] = scene.triangle_corners(t);
+        // Uniform point on the triangle (square-root parameterisation).
+        let su = ux.sqrt();
+        let (b1, b2) = (1.0 - su, u.y * su);
+        let q = a * (1.0 - b1 - b2) + b * b1 + c * b2;
+        let cross = (b - a).cross(c - a);
+        let area_t = 0.5 * cross.length();
+        let n_l = cross / (2.0 * area_t);
+        let to = q - p;
+        let d2 = to.length_squared();
+        let dist = d2.sqrt();
+        if !(dist > 0.0) {
+            return None;
+        }
+        let wi = to / dist;
+        let mat = &scene.materials
+            [scene.instances[scene.triangles[t].instance as usize].material as usize];
+        let cos_l = n_l.dot(-wi);
+        let li = emitted(mat, cos_l);
+        let pdf_area = area.lum[i] / area.total;
+        let pdf = pmf * pdf_area * d2 / cos_l.abs().max(1e-8);
+        Some(LightSample {
+            wi,
+            dist,
+            li,
+            pdf,
+            is_delta: false,
+        })
+    }
+
+    /// Selection-weighted solid-angle density of sampling direction `wi` towards the
+    /// environment (for MIS of paths that escape).
+    pub fn pdf_environment(&self) -> f32 {
+        if self.environment.is_some() {
+            self.pmf() * uniform_sphere_pdf()
+        } else {
+            0.0
+        }
+    }
+
+    /// Selection-weighted solid-angle density of reaching emissive triangle `t` at distance
+    /// `dist` with cosine `cos_l` at the light (for MIS of paths that hit an emitter).
+    pub fn pdf_area(&self, scene: &Scene, t: u32, dist: f32, cos_l: f32) -> f32 {
+        let Some(area) = &self.area else { return 0.0 };
+        let Ok(i) = area.triangles.binary_search(&t) else {
+            return 0.0;
+        };
+        let _ = scene;
+        self.pmf() * (area.lum[i] / area.total) * dist * dist / cos_l.abs().max(1e-8)
+    }
+}
+
+/// Radiance leaving an emissive surface at cosine `cos_l` with its front normal: glTF
+/// materials emit from the front face, both faces when double-sided.
+#[inline]
+pub fn emitted(mat: &crate::scene::Material, cos_l: f32) -> Vec3 {
+    let double = mat.flags & crate::scene::material::MATERIAL_DOUBLE_SIDED != 0;
+    if cos_l > 0.0 || (double && cos_l < 0.0) {
+        Vec3::from(mat.emission)
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// glTF's recommended spot falloff (KHR_lights_punctual): linear in the cosine between the
+/// outer and inner cone, squared.
+fn spot_falloff(l: &PunctualLight, w_from_light: Vec3) -> f32 {
+    let cd = Vec3::from(l.direction).dot(w_from_light);
+    let scale = 1.0 / (l.cos_inner - l.cos_outer).max(1e-3);
+    let a = ((cd - l.cos_outer) * scale).clamp(0.0, 1.0);
+    a * a
+}
+
+/// Power heuristic (beta = 2) for two strategies.
+#[inline]
+pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
+    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
+    if a + b > 0.0 && a.is_finite() {
+        a / (a + b)
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        0.0
+    }
+}

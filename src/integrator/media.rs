@@ -1,0 +1,513 @@
+//! Participating media as the integrators see them: heterogeneous VDB media (tracked with the
+//! estimators of `volume::tracking` over majorant segments) and homogeneous media inside closed
+//! meshes (sampled in closed form: no tracking, no lookups).
+//!
+//! One function per job, shared by every integrator: [`sample_vdb`] (free flight in a VDB
+//! medium), [`transmittance_vdb`] (shadow rays), [`sample_homogeneous`] and
+//! [`transmittance_homogeneous`]. The const parameters select specialised code: `EMIT` (does
+//! any medium emit), `ABS` (does any medium absorb), `CHROM` (is any extinction chromatic);
+//! a `false` removes the corresponding work at compile time.
+use std::cell::Cell;
+use std::sync::Arc;
+
+use glam::{Affine3A, DVec3, Vec3};
+
+use super::blackbody::blackbody_emission;
+use super::settings::{Estimator, MajorantMode, ShadowEstimator};
+use crate::math::{Aabb, Ray};
+use crate::sampling::Rng;
+use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::tracking::{
+    self, spectral::SpectralProbabilities, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium,
+    MediumRgb, TrackingStats,
+};
+use crate::volume::{DdaMajorantIterator, LoadedGrid};
+
+/// A grid placed in the world: trilinear lookups at world points.
+#[derive(Clone)]
+pub struct GridField {
+    pub grid: Arc<LoadedGrid>,
+    pub index_from_world: Affine3A,
+}
+
+impl GridField {
+    #[inline]
+    pub fn at_index(&self, p: Vec3) -> f32 {
+        self.grid
+            .grid
+            .sample_trilinear(DVec3::new(p.x as f64, p.y as f64, p.z as f64))
+    }
+
+    #[inline]
+    pub fn at_world(&self, p: Vec3) -> f32 {
+        self.at_index(self.index_from_world.transform_point3(p))
+    }
+}
+
+/// Blender Principled Volume emission (radiance per metre, not multiplied by density).
+#[derive(Clone)]
+pub struct Emission {
+    /// `emissionStrength * emissionColor`.
+    pub strength_color: Vec3,
+    /// Multiplies `strength_color` when present (e.g. a `flame` grid).
+    pub grid: Option<GridField>,
+    pub blackbody: Option<Blackbody>,
+}
+
+#[derive(Clone)]
+pub struct Blackbody {
+    pub temperature: GridField,
+    /// Kelvin = scale * grid value + offset.
+    pub scale: f32,
+    pub offset: f32,
+    pub intensity: f32,
+    pub tint: Vec3,
+}
+
+impl Emission {
+    /// Emitted radiance per metre at world point `p`; `lookups` counts grid reads.
+    #[inline]
+    pub fn radiance(&self, p: Vec3, lookups: &Cell<u64>) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        if self.strength_color != Vec3::ZERO {
+            let scale = match &self.grid {
+                Some(g) => {
+                    lookups.set(lookups.get() + 1);
+                    g.at_world(p)
+                }
+                None => 1.0,
+            };
+            e += self.strength_color * scale;
+        }
+        if let Some(bb) = &self.blackbody {
+            lookups.set(lookups.get() + 1);
+            let t = bb.scale * bb.temperature.at_world(p) + bb.offset;
+            e += bb.tint * blackbody_emission(t, bb.intensity);
+        }
+        e
+    }
+}
+
+/// A heterogeneous medium from `BRUME_medium_vdb`, ready to track.
+#[derive(Clone)]
+pub struct VdbMedium {
+    pub density: GridField,
+    /// World bounds of the density's support.
+    pub world_bounds: Aabb,
+    /// Coefficients per unit density, m^-1.
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+    /// Largest channel of `sigma_a + sigma_s`: scales density bounds into majorants.
+    pub sigma_t_bound: f32,
+    /// `sigma_t` equal in every channel (grey tracking suffices).
+    pub grey: bool,
+    pub phase: HenyeyGreenstein,
+    pub emission: Option<Emission>,
+}
+
+/// Estimator choice and parameters, shared by every flight of a render.
+#[derive(Clone, Copy, Debug)]
+pub struct TrackingConfig {
+    pub estimator: Estimator,
+    pub b: f32,
+    pub m: Option<f32>,
+    pub majorant: MajorantMode,
+    pub shadow: ShadowEstimator,
+    pub force_spectral: bool,
+}
+
+impl TrackingConfig {
+    /// The control extinction of the decomposition estimators (none for the others).
+    fn control(&self) -> ControlExtinction {
+        match (self.estimator, self.m) {
+            (Estimator::Decomposition, Some(m)) => ControlExtinction::FractionOfBoundCapped(m),
+            (Estimator::Decomposition, None) => ControlExtinction::SegmentMinorant,
+            (Estimator::WeightedDecomposition, m) => {
+                ControlExtinction::FractionOfBound(m.unwrap_or(0.5))
+            }
+            _ => ControlExtinction::None,
+        }
+    }
+
+    /// Majorant scale: the analog estimators always use the bound itself.
+    fn b(&self) -> f32 {
+        match self.estimator {
+            Estimator::WeightedDelta | Estimator::WeightedDecomposition => self.b,
+            Estimator::Delta | Estimator::Decomposition => 1.0,
+        }
+    }
+}
+
+/// Counters of one path (or tile), beyond what the trackers count.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MediaStats {
+    pub tracking: TrackingStats,
+    /// Lookups made by shadow-ray transmittance (also included in `tracking.lookups`).
+    pub shadow_lookups: u64,
+    pub emission_lookups: u64,
+}
+
+/// The majorant segments of `ray` (world) over `[t0, t1]` in `m`'s index space.
+#[inline]
+fn segments<'a>(
+    m: &'a VdbMedium,
+    ray_i: &Ray,
+    t0: f32,
+    t1: f32,
+    mode: MajorantMode,
+) -> DdaMajorantIterator<'a> {
+    let bounds = &m.density.grid.bounds;
+    match mode {
+        MajorantMode::Local => DdaMajorantIterator::new(bounds, ray_i, t0, t1, m.sigma_t_bound),
+        MajorantMode::Global => DdaMajorantIterator::global(bounds, ray_i, t0, t1, m.sigma_t_bound),
+    }
+}
+
+/// The grey view of a VDB medium along one ray (`sigma_t` equal in all channels; the RGB
+/// albedo is applied as a weight at scattering events).
+struct GreyView<'a, const EMIT: bool, const ABS: bool> {
+    m: &'a VdbMedium,
+    ray_i: Ray,
+    ray_w: Ray,
+    /// Grey coefficients per unit density: `sigma_s` is the channel mean.
+    sigma_a: f32,
+    sigma_s: f32,
+    control: ControlExtinction,
+    control_albedo: f32,
+    /// Path throughput when the flight started (emission is weighted by it).
+    beta: Vec3,
+    emitted: Cell<Vec3>,
+    emission_lookups: Cell<u64>,
+}
+
+impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
+    fn new(m: &'a VdbMedium, ray_w: &Ray, cfg: &TrackingConfig, beta: Vec3) -> Self {
+        let ray_i = Ray::new(
+            m.density.index_from_world.transform_point3(ray_w.o),
+            m.density.index_from_world.transform_vector3(ray_w.d),
+        );
+        let sigma_t = m.sigma_t_bound;
+        let sigma_s = (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0;
+        GreyView {
+            m,
+            ray_i,
+            ray_w: *ray_w,
+            sigma_a: if ABS {
+                (sigma_t - sigma_s).max(0.0)
+            } else {
+                0.0
+            },
+            sigma_s,
+            control: cfg.control(),
+            control_albedo: if sigma_t > 0.0 {
+                sigma_s / sigma_t
+            } else {
+                0.0
+            },
+            beta,
+            emitted: Cell::new(Vec3::ZERO),
+            emission_lookups: Cell::new(0),
+        }
+    }
+
+    /// RGB factor of a scattering event chosen with the grey `sigma_s`.
+    fn scatter_albedo(&self) -> Vec3 {
+        if self.sigma_s > 0.0 {
+            self.m.sigma_s / self.sigma_s
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
+
+impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
+    #[inline]
+    fn coeffs(&self, t: f32) -> Coeffs {
+        let d = self.m.density.at_index(self.ray_i.at(t));
+        Coeffs {
+            sigma_a: if ABS { self.sigma_a * d } else { 0.0 },
+            sigma_s: self.sigma_s * d,
+        }
+    }
+
+    #[inline]
+    fn control(&self, seg: &crate::volume::MajorantSegment) -> Coeffs {
+        Coeffs::from_sigma_t(self.control.sigma_c(seg), self.control_albedo)
+    }
+
+    #[inline]
+    fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
+        if EMIT {
+            if let Some(e) = &self.m.emission {
+                let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
+                self.emitted
+                    .set(self.emitted.get() + self.beta * (w / sigma_maj) * le);
+            }
+        }
+    }
+}
+
+/// The RGB view of a VDB medium along one ray, for spectral tracking.
+struct RgbView<'a, const EMIT: bool> {
+    m: &'a VdbMedium,
+    ray_i: Ray,
+    ray_w: Ray,
+    beta: Vec3,
+    emitted: Cell<Vec3>,
+    emission_lookups: Cell<u64>,
+}
+
+impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
+    #[inline]
+    fn coeffs(&self, t: f32) -> CoeffsRgb {
+        let d = self.m.density.at_index(self.ray_i.at(t));
+        CoeffsRgb {
+            sigma_a: self.m.sigma_a * d,
+            sigma_s: self.m.sigma_s * d,
+        }
+    }
+
+    #[inline]
+    fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
+        if EMIT {
+            if let Some(e) = &self.m.emission {
+                let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
+                self.emitted
+                    .set(self.emitted.get() + self.beta * w * le / sigma_maj);
+            }
+        }
+    }
+}
+
+/// What a free flight through a medium ended with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MediumEvent {
+    /// Real scattering at `t`; multiply the throughput by `weight`.
+    Scatter { t: f32, weight: Vec3 },
+    /// Real absorption: the path ends.
+    Absorb,
+    /// No real collision before the end of the interval; multiply the throughput by `weight`.
+    Escape { weight: Vec3 },
+}
+
+fn from_grey(e: Event<f32>, albedo: Vec3) -> MediumEvent {
+    match e {
+        Event::Scatter { t, weight } => MediumEvent::Scatter {
+            t,
+            weight: albedo * weight,
+        },
+        Event::Absorb { .. } => MediumEvent::Absorb,
+        Event::Escape { weight } => MediumEvent::Escape {
+            weight: Vec3::splat(weight),
+        },
+    }
+}
+
+/// Free flight through VDB medium `m` along world `ray` over `[t0, t1]`, with the configured
+/// estimator. Emission met on the way is added to `l` (already weighted by `beta`).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
+    m: &VdbMedium,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> MediumEvent {
+    if CHROM && (!m.grey || cfg.force_spectral) {
+        let ray_i = Ray::new(
+            m.density.index_from_world.transform_point3(ray.o),
+            m.density.index_from_world.transform_vector3(ray.d),
+        );
+        let view = RgbView::<EMIT> {
+            m,
+            ray_i,
+            ray_w: *ray,
+            beta,
+            emitted: Cell::new(Vec3::ZERO),
+            emission_lookups: Cell::new(0),
+        };
+        let segs = segments(m, &ray_i, t0, t1, cfg.majorant);
+        let e = tracking::spectral::sample_distance(
+            segs,
+            t1,
+            cfg.b(),
+            &view,
+            beta,
+            SpectralProbabilities::HistoryAwareMax,
+            rng,
+            &mut stats.tracking,
+        );
+        *l += view.emitted.get();
+        stats.emission_lookups += view.emission_lookups.get();
+        return match e {
+            Event::Scatter { t, weight } => MediumEvent::Scatter { t, weight },
+            Event::Absorb { .. } => MediumEvent::Absorb,
+            Event::Escape { weight } => MediumEvent::Escape { weight },
+        };
+    }
+    let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
+    let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
+    let st = &mut stats.tracking;
+    let e = match cfg.estimator {
+        Estimator::Delta => tracking::delta::sample_distance(segs, t1, &view, rng, st),
+        Estimator::WeightedDelta => {
+            tracking::weighted_delta::sample_distance(segs, t1, cfg.b, &view, rng, st)
+        }
+        Estimator::Decomposition => {
+            tracking::decomposition::sample_distance(segs, t1, &view, rng, st)
+        }
+        Estimator::WeightedDecomposition => {
+            tracking::weighted_decomposition::sample_distance(segs, t1, cfg.b, &view, rng, st)
+        }
+    };
+    if EMIT {
+        *l += view.emitted.get();
+        stats.emission_lookups += view.emission_lookups.get();
+    }
+    from_grey(e, view.scatter_albedo())
+}
+
+/// Transmittance of VDB medium `m` along world `ray` over `[t0, t1]`: ratio or residual ratio
+/// tracking (Novak et al. 2014) for grey media, spectral tracking's estimator for chromatic ones.
+#[inline]
+pub fn transmittance_vdb<const CHROM: bool>(
+    m: &VdbMedium,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+) -> Vec3 {
+    let before = stats.tracking.lookups;
+    let tr = if CHROM && (!m.grey || cfg.force_spectral) {
+        let ray_i = Ray::new(
+            m.density.index_from_world.transform_point3(ray.o),
+            m.density.index_from_world.transform_vector3(ray.d),
+        );
+        let view = RgbView::<false> {
+            m,
+            ray_i,
+            ray_w: *ray,
+            beta: Vec3::ONE,
+            emitted: Cell::new(Vec3::ZERO),
+            emission_lookups: Cell::new(0),
+        };
+        let segs = segments(m, &ray_i, t0, t1, cfg.majorant);
+        tracking::spectral::transmittance(
+            segs,
+            t1,
+            cfg.b(),
+            &view,
+            SpectralProbabilities::HistoryAwareMax,
+            rng,
+            &mut stats.tracking,
+        )
+    } else {
+        let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
+        let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
+        let residual = match cfg.shadow {
+            ShadowEstimator::Ratio => false,
+            ShadowEstimator::ResidualRatio => true,
+            ShadowEstimator::Auto => matches!(
+                cfg.estimator,
+                Estimator::Decomposition | Estimator::WeightedDecomposition
+            ),
+        };
+        let t = if residual {
+            tracking::residual_ratio::transmittance(
+                segs,
+                t1,
+                cfg.b(),
+                &view,
+                rng,
+                &mut stats.tracking,
+            )
+        } else {
+            tracking::ratio::transmittance(segs, t1, cfg.b(), &view, rng, &mut stats.tracking)
+        };
+        Vec3::splat(t)
+    };
+    stats.shadow_lookups += stats.tracking.lookups - before;
+    tr
+}
+
+/// A homogeneous medium (`KHR_materials_volume`), coefficients in m^-1.
+#[derive(Clone, Copy, Debug)]
+pub struct HomogeneousMedium {
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+    pub phase: HenyeyGreenstein,
+}
+
+impl HomogeneousMedium {
+    pub fn sigma_t(&self) -> Vec3 {
+        self.sigma_a + self.sigma_s
+    }
+}
+
+/// Closed-form free flight through a homogeneous medium over `[0, t_max]` (no tracking, no
+/// lookups). Grey extinction: an exponential step, then absorb or scatter in proportion to the
+/// mean albedo with the RGB albedo as weight. Chromatic extinction: the distance is drawn from
+/// one channel chosen uniformly and weighted by the one-sample MIS (balance heuristic) over
+/// channels, `pdf(t) = mean_c sigma_t,c exp(-sigma_t,c t)`; absorption is a weight then, so
+/// no absorption events occur.
+#[inline]
+pub fn sample_homogeneous<const CHROM: bool>(
+    h: &HomogeneousMedium,
+    t_max: f32,
+    rng: &mut Rng,
+) -> MediumEvent {
+    let sigma_t = h.sigma_t();
+    if !CHROM || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z) {
+        let st = sigma_t.x;
+        if !(st > 0.0) {
+            return MediumEvent::Escape { weight: Vec3::ONE };
+        }
+        let t = tracking::sample_exponential(rng.uniform_f32(), st);
+        if t >= t_max {
+            return MediumEvent::Escape { weight: Vec3::ONE };
+        }
+        let albedo = h.sigma_s / st;
+        let p_scatter = (albedo.x + albedo.y + albedo.z) / 3.0;
+        if rng.uniform_f32() < p_scatter {
+            return MediumEvent::Scatter {
+                t,
+                weight: albedo / p_scatter,
+            };
+        }
+        return MediumEvent::Absorb;
+    }
+    let c = ((rng.uniform_f32() * 3.0) as usize).min(2);
+    let st_c = sigma_t[c];
+    let t = if st_c > 0.0 {
+        tracking::sample_exponential(rng.uniform_f32(), st_c)
+    } else {
+        f32::INFINITY
+    };
+    if t < t_max {
+        let tr = (-sigma_t * t).exp();
+        let pdf = (sigma_t * tr).element_sum() / 3.0;
+        MediumEvent::Scatter {
+            t,
+            weight: h.sigma_s * tr / pdf,
+        }
+    } else {
+        let tr = (-sigma_t * t_max).exp();
+        let p_escape = tr.element_sum() / 3.0;
+        MediumEvent::Escape {
+            weight: tr / p_escape,
+        }
+    }
+}
+
+/// `exp(-sigma_t d)`: exact.
+#[inline]
+pub fn transmittance_homogeneous(h: &HomogeneousMedium, d: f32) -> Vec3 {
+    (-h.sigma_t() * d).exp()
+}

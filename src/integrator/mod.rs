@@ -1,0 +1,13 @@
+//! Integrators: the CPU reference path tracer and the pieces every integrator shares
+//! (prepared media and lights, BSDFs, the specialisation on scene features).
+pub mod blackbody;
+pub mod bsdf;
+pub mod lights;
+pub mod media;
+pub mod path;
+pub mod prepare;
+pub mod settings;
+pub mod tile;
+
+pub use prepare::{FeatureFlags, RenderScene};
+pub use settings::{Estimator, MajorantMode, RenderSettings, ShadowEstimator};

@@ -1,0 +1,454 @@
+//! The CPU reference path tracer: one camera sample in, radiance out. Written for clarity
+//! first; every physics step calls the shared routines (`media`, `lights`, `bsdf`,
+//! `volume::tracking`). The const parameters are the scene's features (see
+//! [`super::prepare::FeatureFlags`]): a `false` removes that code from the compiled loop.
+use glam::{Vec2, Vec3};
+
+use super::bsdf::{fresnel_dielectric, refract, Principled};
+use super::lights::{emitted, power_heuristic};
+use super::media::{
+    sample_homogeneous, sample_vdb, transmittance_homogeneous, transmittance_vdb, MediaStats,
+    MediumEvent, TrackingConfig,
+};
+use super::prepare::{RenderScene, SurfaceKind};
+use crate::math::Ray;
+use crate::sampling::warp::Frame;
+use crate::sampling::Rng;
+use crate::volume::phase::HenyeyGreenstein;
+
+/// Limits of one path.
+#[derive(Clone, Copy, Debug)]
+pub struct PathLimits {
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub max_collisions: u64,
+}
+
+/// What one path cost and did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathStats {
+    pub media: MediaStats,
+    /// Scattering events (media and surfaces).
+    pub depth: u64,
+    /// Paths ended by the collision guard.
+    pub guard_fired: u64,
+}
+
+/// Relative offset that moves a new ray's origin off the surface it leaves.
+fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
+    let eps = 1e-4 * (1.0 + p.abs().max_element());
+    if n.dot(towards) >= 0.0 {
+        p + n * eps
+    } else {
+        p - n * eps
+    }
+}
+
+/// Sorted, disjoint intervals of the VDB media along `ray` within `[t0, t1]`.
+fn vdb_intervals(
+    rs: &RenderScene,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    out: &mut [(usize, f32, f32); 16],
+) -> usize {
+    let mut n = 0;
+    for (k, m) in rs.vdb.iter().enumerate().take(16) {
+        if let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) {
+            if b > a {
+                out[n] = (k, a, b);
+                n += 1;
+            }
+        }
+    }
+    out[..n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1));
+    n
+}
+
+/// The free flight along `ray` over `[t0, t1]` through whatever media lie there: the
+/// homogeneous medium the path is in, or the VDB media the ray crosses.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn sample_media<
+    const HET: bool,
+    const HOM: bool,
+    const EMIT: bool,
+    const ABS: bool,
+    const CHROM: bool,
+>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    medium: Option<u32>,
+    beta: Vec3,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> (MediumEvent, HenyeyGreenstein) {
+    if HOM {
+        if let Some(h) = medium {
+            let h = &rs.homogeneous[h as usize];
+            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, rng) {
+                MediumEvent::Scatter { t, weight } => MediumEvent::Scatter { t: t0 + t, weight },
+                other => other,
+            };
+            return (ev, h.phase);
+        }
+    }
+    let mut weight = Vec3::ONE;
+    if HET {
+        let mut iv = [(0usize, 0f32, 0f32); 16];
+        let n = vdb_intervals(rs, ray, t0, t1, &mut iv);
+        for &(k, a, b) in &iv[..n] {
+            let m = &rs.vdb[k];
+            match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, cfg, rng, stats, l) {
+                MediumEvent::Escape { weight: w } => weight *= w,
+                MediumEvent::Scatter { t, weight: w } => {
+                    return (
+                        MediumEvent::Scatter {
+                            t,
+                            weight: weight * w,
+                        },
+                        m.phase,
+                    )
+                }
+                MediumEvent::Absorb => return (MediumEvent::Absorb, m.phase),
+            }
+        }
+    }
+    (MediumEvent::Escape { weight }, HenyeyGreenstein::new(0.0))
+}
+
+/// Transmittance from `p` along unit `wi` over distance `dist`, through media and null
+/// interfaces; 0 when an opaque or refracting surface blocks.
+#[allow(clippy::too_many_arguments)]
+fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: bool>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    p: Vec3,
+    wi: Vec3,
+    dist: f32,
+    mut medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+) -> Vec3 {
+    let ray = Ray::new(p, wi);
+    let mut tr = Vec3::ONE;
+    let mut t0 = 0.0f32;
+    loop {
+        let hit = if SURF {
+            rs.scene.bvh.closest_hit(&ray, t0, dist)
+        } else {
+            None
+        };
+        let t1 = hit.map_or(dist, |h| h.t);
+        if HOM {
+            if let Some(h) = medium {
+                tr *= transmittance_homogeneous(&rs.homogeneous[h as usize], t1 - t0);
+            }
+        }
+        if HET && medium.is_none() {
+            let mut iv = [(0usize, 0f32, 0f32); 16];
+            let n = vdb_intervals(rs, &ray, t0, t1, &mut iv);
+            for &(k, a, b) in &iv[..n] {
+                tr *= transmittance_vdb::<CHROM>(&rs.vdb[k], &ray, a, b, cfg, rng, stats);
+                if tr == Vec3::ZERO {
+                    return tr;
+                }
+            }
+        }
+        let Some(h) = hit else { return tr };
+        let tri = &rs.scene.triangles[h.triangle as usize];
+        let mat_index = rs.scene.instances[tri.instance as usize].material as usize;
+        if rs.kinds[mat_index] != SurfaceKind::Null {
+            return Vec3::ZERO;
+        }
+        if HOM {
+            let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
+            let entering = (b - a).cross(c - a).dot(wi) < 0.0;
+            medium = enter_or_leave(rs.scene.materials[mat_index].interior_medium, entering);
+        }
+        t0 = h.t + 1e-4 * (1.0 + h.t);
+        if t0 >= dist {
+            return tr;
+        }
+    }
+}
+
+fn enter_or_leave(interior: u32, entering: bool) -> Option<u32> {
+    (entering && interior != crate::scene::NO_INDEX).then_some(interior)
+}
+
+/// Radiance along the camera ray through film point `film` (in [0,1]^2).
+#[allow(clippy::too_many_arguments)]
+pub fn radiance<
+    const SURF: bool,
+    const HET: bool,
+    const HOM: bool,
+    const EMIT: bool,
+    const ABS: bool,
+    const CHROM: bool,
+>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    limits: &PathLimits,
+    film: Vec2,
+    aspect: f32,
+    rng: &mut Rng,
+    stats: &mut PathStats,
+) -> Vec3 {
+    let scene = rs.scene;
+    let mut ray = scene.camera.generate_ray(film.x, film.y, aspect);
+    let mut t0 = scene.camera.t_min(film.x, film.y, aspect);
+    let mut medium = if HOM { rs.camera_medium } else { None };
+    let mut beta = Vec3::ONE;
+    let mut l = Vec3::ZERO;
+    let mut depth = 0u32;
+    // Whether the last direction was chosen by a delta distribution (no MIS), and its pdf.
+    let mut specular = true;
+    let mut prev_pdf = 0.0f32;
+    let collisions = |s: &MediaStats| {
+        s.tracking.null_collisions + s.tracking.real_collisions + s.tracking.control_collisions
+    };
+    let start_collisions = collisions(&stats.media);
+    loop {
+        let hit = if SURF {
+            scene.bvh.closest_hit(&ray, t0, f32::INFINITY)
+        } else {
+            None
+        };
+        let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+        if HET || HOM {
+            let (ev, phase) = sample_media::<HET, HOM, EMIT, ABS, CHROM>(
+                rs,
+                cfg,
+                &ray,
+                t0,
+                t_hit,
+                medium,
+                beta,
+                rng,
+                &mut stats.media,
+                &mut l,
+            );
+            if collisions(&stats.media) - start_collisions > limits.max_collisions {
+                stats.guard_fired += 1;
+                break;
+            }
+            match ev {
+                MediumEvent::Absorb => break,
+                MediumEvent::Escape { weight } => beta *= weight,
+                MediumEvent::Scatter { t, weight } => {
+                    beta *= weight;
+                    depth += 1;
+                    if depth > limits.max_depth || beta == Vec3::ZERO {
+                        break;
+                    }
+                    let p = ray.at(t);
+                    let wo = -ray.d;
+                    // Next-event estimation with the phase function.
+                    if let Some(ls) =
+                        rs.lights
+                            .sample(scene, p, rng.uniform_f32(), rng.uniform_vec2())
+                    {
+                        let f = phase.p(wo, ls.wi);
+                        if f > 0.0 && ls.pdf > 0.0 {
+                            let dist = if ls.dist.is_finite() {
+                                ls.dist * (1.0 - 1e-4)
+                            } else {
+                                f32::INFINITY
+                            };
+                            let tr = transmittance::<SURF, HET, HOM, CHROM>(
+                                rs,
+                                cfg,
+                                p,
+                                ls.wi,
+                                dist,
+                                medium,
+                                rng,
+                                &mut stats.media,
+                            );
+                            let w = if ls.is_delta {
+                                1.0
+                            } else {
+                                power_heuristic(ls.pdf, f)
+                            };
+                            l += beta * tr * ls.li * (f * w / ls.pdf);
+                        }
+                    }
+                    let ps = phase.sample(wo, rng.uniform_vec2());
+                    beta *= ps.weight;
+                    ray = Ray::new(p, ps.wi);
+                    t0 = 0.0;
+                    prev_pdf = ps.pdf;
+                    specular = false;
+                    if !russian_roulette(&mut beta, depth, limits, rng) {
+                        break;
+                    }
+                    continue;
+                }
+            }
+        }
+        let Some(h) = hit else {
+            if let Some(env) = rs.lights.environment {
+                let w = if specular {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, rs.lights.pdf_environment())
+                };
+                l += beta * env * w;
+            }
+            break;
+        };
+        let p = ray.at(h.t);
+        let wo = -ray.d;
+        let tri = &scene.triangles[h.triangle as usize];
+        let mat_index = scene.instances[tri.instance as usize].material as usize;
+        let mat = &scene.materials[mat_index];
+        let [a, b, c] = scene.triangle_corners(h.triangle as usize);
+        let ng = (b - a).cross(c - a).normalize_or_zero();
+        let cos_o = ng.dot(wo);
+        if mat.emission != [0.0; 3] {
+            let le = emitted(mat, cos_o);
+            if le != Vec3::ZERO {
+                let w = if specular {
+                    1.0
+                } else {
+                    power_heuristic(prev_pdf, rs.lights.pdf_area(scene, h.triangle, h.t, cos_o))
+                };
+                l += beta * le * w;
+            }
+        }
+        match rs.kinds[mat_index] {
+            SurfaceKind::Null => {
+                if HOM {
+                    medium = enter_or_leave(mat.interior_medium, cos_o > 0.0);
+                }
+                t0 = h.t + 1e-4 * (1.0 + h.t);
+                continue;
+            }
+            SurfaceKind::Dielectric => {
+                depth += 1;
+                if depth > limits.max_depth {
+                    break;
+                }
+                let entering = cos_o > 0.0;
+                let n = if entering { ng } else { -ng };
+                let eta = if entering { mat.ior } else { 1.0 / mat.ior };
+                let f = fresnel_dielectric(n.dot(wo), eta);
+                let wi = if rng.uniform_f32() < f {
+                    2.0 * n.dot(wo) * n - wo
+                } else {
+                    match refract(wo, n, eta) {
+                        Some(wt) => {
+                            // Radiance is compressed by eta^2 entering a denser medium.
+                            beta *= Vec3::from_slice(&mat.base_color[..3]) / (eta * eta);
+                            if HOM {
+                                medium = enter_or_leave(mat.interior_medium, entering);
+                            }
+                            wt
+                        }
+                        None => 2.0 * n.dot(wo) * n - wo,
+                    }
+                };
+                ray = Ray::new(offset(p, ng, wi), wi);
+                t0 = 0.0;
+                specular = true;
+            }
+            SurfaceKind::Opaque => {
+                depth += 1;
+                if depth > limits.max_depth {
+                    break;
+                }
+                let n_side = if cos_o >= 0.0 { ng } else { -ng };
+                let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side);
+                let frame = Frame::from_z(ns);
+                let bsdf = Principled::new(
+                    Vec3::from_slice(&mat.base_color[..3]),
+                    mat.metallic,
+                    mat.roughness,
+                );
+                let wo_l = frame.to_local(wo);
+                let p_off = offset(p, n_side, n_side);
+                if let Some(ls) =
+                    rs.lights
+                        .sample(scene, p_off, rng.uniform_f32(), rng.uniform_vec2())
+                {
+                    let wi_l = frame.to_local(ls.wi);
+                    let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
+                    if f != Vec3::ZERO && ls.pdf > 0.0 && n_side.dot(ls.wi) > 0.0 {
+                        let dist = if ls.dist.is_finite() {
+                            ls.dist * (1.0 - 1e-4)
+                        } else {
+                            f32::INFINITY
+                        };
+                        let tr = transmittance::<SURF, HET, HOM, CHROM>(
+                            rs,
+                            cfg,
+                            p_off,
+                            ls.wi,
+                            dist,
+                            medium,
+                            rng,
+                            &mut stats.media,
+                        );
+                        let w = if ls.is_delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
+                        };
+                        l += beta * tr * ls.li * f * (w / ls.pdf);
+                    }
+                }
+                let Some(s) = bsdf.sample(wo_l, rng.uniform_f32(), rng.uniform_vec2()) else {
+                    break;
+                };
+                let wi = frame.from_local(s.wi);
+                if n_side.dot(wi) <= 0.0 {
+                    break;
+                }
+                beta *= s.weight;
+                ray = Ray::new(p_off, wi);
+                t0 = 0.0;
+                prev_pdf = s.pdf;
+                specular = false;
+            }
+        }
+        if !russian_roulette(&mut beta, depth, limits, rng) {
+            break;
+        }
+    }
+    stats.depth += depth as u64;
+    l
+}
+
+/// Interpolated vertex normal on `side`'s hemisphere; the geometric normal when the file
+/// gave none.
+fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3) -> Vec3 {
+    let v = rs.scene.triangles[t].vertices;
+    let n = |i: usize| Vec3::from(rs.scene.vertices[v[i] as usize].normal);
+    let ns = (n(0) * (1.0 - b1 - b2) + n(1) * b1 + n(2) * b2).normalize_or_zero();
+    if ns == Vec3::ZERO {
+        side
+    } else if ns.dot(side) < 0.0 {
+        -ns
+    } else {
+        ns
+    }
+}
+
+/// Unbiased Russian roulette on the throughput after `rr_depth` events: survive with
+/// probability `min(max(beta), 0.95)`, then divide by it.
+fn russian_roulette(beta: &mut Vec3, depth: u32, limits: &PathLimits, rng: &mut Rng) -> bool {
+    if depth < limits.rr_depth {
+        return true;
+    }
+    let q = beta.abs().max_element().min(0.95);
+    if !(q > 0.0) || rng.uniform_f32() >= q {
+        return false;
+    }
+    *beta /= q;
+    true
+}

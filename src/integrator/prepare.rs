@@ -1,0 +1,235 @@
+//! From a loaded [`Scene`] to what the integrators need: media ready to track, lights ready to
+//! sample, surface kinds, the medium the camera sits in, and the feature flags that select
+//! the specialised code.
+use glam::{Affine3A, Mat4, Vec3};
+
+use super::lights::Lights;
+use super::media::{Blackbody, Emission, GridField, HomogeneousMedium, VdbMedium};
+use crate::scene::{Material, Scene, NO_INDEX};
+use crate::volume::phase::HenyeyGreenstein;
+
+/// How a surface interacts with light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurfaceKind {
+    /// Diffuse + rough specular reflection.
+    Opaque,
+    /// Smooth dielectric (reflect or refract by Fresnel).
+    Dielectric,
+    /// Index-matched boundary (`transmission > 0` with `ior == 1`): only changes the medium.
+    Null,
+}
+
+pub fn surface_kind(m: &Material) -> SurfaceKind {
+    if m.transmission > 0.0 {
+        if (m.ior - 1.0).abs() < 1e-6 {
+            SurfaceKind::Null
+        } else {
+            SurfaceKind::Dielectric
+        }
+    } else {
+        SurfaceKind::Opaque
+    }
+}
+
+/// The effects the scene's data call for, as the integrators specialise on them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FeatureFlags {
+    pub surfaces: bool,
+    pub heterogeneous: bool,
+    pub homogeneous: bool,
+    pub emission: bool,
+    pub absorption: bool,
+    pub chromatic: bool,
+}
+
+impl FeatureFlags {
+    pub const ALL: FeatureFlags = FeatureFlags {
+        surfaces: true,
+        heterogeneous: true,
+        homogeneous: true,
+        emission: true,
+        absorption: true,
+        chromatic: true,
+    };
+
+    pub fn as_array(&self) -> [bool; 6] {
+        [
+            self.surfaces,
+            self.heterogeneous,
+            self.homogeneous,
+            self.emission,
+            self.absorption,
+            self.chromatic,
+        ]
+    }
+
+    /// A short name for logs: the enabled features, e.g. `surfaces+vdb+absorption`.
+    pub fn name(&self) -> String {
+        let names = [
+            "surfaces",
+            "vdb",
+            "homogeneous",
+            "emission",
+            "absorption",
+            "chromatic",
+        ];
+        let on: Vec<_> = self
+            .as_array()
+            .iter()
+            .zip(names)
+            .filter(|(b, _)| **b)
+            .map(|(_, n)| n)
+            .collect();
+        if on.is_empty() {
+            "empty".into()
+        } else {
+            on.join("+")
+        }
+    }
+}
+
+pub struct RenderScene<'s> {
+    pub scene: &'s Scene,
+    pub vdb: Vec<VdbMedium>,
+    /// Indexed like `Scene::homogeneous_media`.
+    pub homogeneous: Vec<HomogeneousMedium>,
+    pub lights: Lights,
+    /// Per material.
+    pub kinds: Vec<SurfaceKind>,
+    /// The homogeneous medium around the camera, if any.
+    pub camera_medium: Option<u32>,
+    pub features: FeatureFlags,
+}
+
+fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
+    let world_from_index = world_from_node * grid.vdb_world_from_index;
+    GridField {
+        grid: grid.volume.clone(),
+        index_from_world: Affine3A::from_mat4(world_from_index.inverse()),
+    }
+}
+
+fn overlaps(a: &crate::math::Aabb, b: &crate::math::Aabb) -> bool {
+    !a.is_empty() && !b.is_empty() && a.min.cmplt(b.max).all() && b.min.cmplt(a.max).all()
+}
+
+impl<'s> RenderScene<'s> {
+    /// Prepares `scene`. Fails (with the file named) on configurations the integrators do not
+    /// handle: overlapping VDB media, or a VDB medium overlapping a homogeneous medium's mesh.
+    pub fn new(scene: &'s Scene, force_spectral: bool) -> Result<Self, String> {
+        let file = scene.source.display();
+        let mut vdb = Vec::new();
+        for desc in &scene.vdb_media {
+            if desc.density_scale <= 0.0 {
+                continue;
+            }
+            let density = &desc.grids[0];
+            let world_from_node = desc.world_from_medium * density.vdb_world_from_index.inverse();
+            let by_name = |name: &Option<String>| {
+                name.as_ref()
+                    .and_then(|n| desc.grids.iter().find(|g| &g.name == n))
+                    .map(|g| field(g, world_from_node))
+            };
+            let strength_color = Vec3::from(desc.emission_color) * desc.emission_strength;
+            let blackbody = by_name(&desc.temperature_grid)
+                .filter(|_| desc.blackbody_intensity > 0.0)
+                .map(|temperature| Blackbody {
+                    temperature,
+                    scale: desc.temperature_scale,
+                    offset: desc.temperature_offset,
+                    intensity: desc.blackbody_intensity,
+                    tint: Vec3::from(desc.blackbody_tint),
+                });
+            let emission =
+                (strength_color != Vec3::ZERO || blackbody.is_some()).then(|| Emission {
+                    strength_color,
+                    grid: by_name(&desc.emission_grid),
+                    blackbody,
+                });
+            let sigma_a = Vec3::from(desc.sigma_a_per_density());
+            let sigma_s = Vec3::from(desc.sigma_s_per_density());
+            let sigma_t = sigma_a + sigma_s;
+            vdb.push(VdbMedium {
+                density: field(density, world_from_node),
+                world_bounds: desc.world_bounds,
+                sigma_a,
+                sigma_s,
+                sigma_t_bound: sigma_t.max_element(),
+                grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
+                phase: HenyeyGreenstein::new(desc.anisotropy),
+                emission,
+            });
+        }
+        for (i, a) in vdb.iter().enumerate() {
+            for b in &vdb[i + 1..] {
+                if overlaps(&a.world_bounds, &b.world_bounds) {
+                    return Err(format!("{file}: two BRUME_medium_vdb media overlap; Brume does not add overlapping media yet"));
+                }
+            }
+        }
+        let homogeneous: Vec<HomogeneousMedium> = scene
+            .homogeneous_media
+            .iter()
+            .map(|h| HomogeneousMedium {
+                sigma_a: Vec3::from(h.sigma_a),
+                sigma_s: Vec3::from(h.sigma_s),
+                phase: HenyeyGreenstein::new(h.g),
+            })
+            .collect();
+        let kinds: Vec<SurfaceKind> = scene.materials.iter().map(surface_kind).collect();
+        let mut camera_medium = None;
+        let cam = scene.camera.position();
+        let mut used_homogeneous = false;
+        for (k, inst) in scene.instances.iter().enumerate() {
+            let mat = &scene.materials[inst.material as usize];
+            if mat.interior_medium == NO_INDEX
+                || homogeneous[mat.interior_medium as usize]
+                    .sigma_t()
+                    .max_element()
+                    <= 0.0
+            {
+                continue;
+            }
+            used_homogeneous = true;
+            let tris =
+                inst.first_triangle as usize..(inst.first_triangle + inst.triangle_count) as usize;
+            let bounds = tris
+                .flat_map(|t| scene.triangle_corners(t))
+                .fold(crate::math::Aabb::EMPTY, |b, p| b.union_point(p));
+            if vdb.iter().any(|v| overlaps(&v.world_bounds, &bounds)) {
+                return Err(format!(
+                    "{file}: a BRUME_medium_vdb medium overlaps the KHR_materials_volume mesh of instance {k}; nested media are not supported yet"
+                ));
+            }
+            if scene.inside_instance(cam, k) {
+                camera_medium = Some(mat.interior_medium);
+            }
+        }
+        let absorption = vdb.iter().any(|v| v.sigma_a.max_element() > 0.0)
+            || (used_homogeneous && homogeneous.iter().any(|h| h.sigma_a.max_element() > 0.0));
+        let chromatic = force_spectral
+            || vdb.iter().any(|v| !v.grey)
+            || (used_homogeneous
+                && homogeneous.iter().any(|h| {
+                    let s = h.sigma_t();
+                    s.x != s.y || s.y != s.z
+                }));
+        let features = FeatureFlags {
+            surfaces: !scene.triangles.is_empty(),
+            heterogeneous: !vdb.is_empty(),
+            homogeneous: used_homogeneous,
+            emission: vdb.iter().any(|v| v.emission.is_some()),
+            absorption,
+            chromatic,
+        };
+        Ok(RenderScene {
+            scene,
+            vdb,
+            homogeneous,
+            lights: Lights::new(scene),
+            kinds,
+            camera_medium,
+            features,
+        })
+    }
+}
