@@ -117,13 +117,26 @@ pub struct TrackingConfig {
 }
 
 impl TrackingConfig {
-    /// The control extinction of the decomposition estimators (none for the others).
+    /// The control extinction of the decomposition estimators (none for the others). With
+    /// local bounds the control is the per-leaf minorant (a true minorant: no negative
+    /// residual); with the global bound it is `m * bound`, capped by the global minorant for
+    /// analog decomposition (which must not exceed `sigma_t`) and uncapped for the weighted
+    /// estimator (signed weights where the control exceeds the density).
     fn control(&self) -> ControlExtinction {
-        match (self.estimator, self.m) {
-            (Estimator::Decomposition, Some(m)) => ControlExtinction::FractionOfBoundCapped(m),
-            (Estimator::Decomposition, None) => ControlExtinction::SegmentMinorant,
-            (Estimator::WeightedDecomposition, m) => {
-                ControlExtinction::FractionOfBound(m.unwrap_or(0.5))
+        match (self.estimator, self.majorant, self.m) {
+            (
+                Estimator::Decomposition | Estimator::WeightedDecomposition,
+                MajorantMode::Local,
+                _,
+            ) => ControlExtinction::SegmentMinorant,
+            (Estimator::Decomposition, MajorantMode::Global, Some(m)) => {
+                ControlExtinction::FractionOfBoundCapped(m)
+            }
+            (Estimator::Decomposition, MajorantMode::Global, None) => {
+                ControlExtinction::SegmentMinorant
+            }
+            (Estimator::WeightedDecomposition, MajorantMode::Global, m) => {
+                ControlExtinction::FractionOfBound(m.unwrap_or(super::settings::DEFAULT_WEIGHTED_M))
             }
             _ => ControlExtinction::None,
         }

@@ -93,6 +93,12 @@ impl fmt::Display for Estimator {
     }
 }
 
+/// Default control fraction of weighted decomposition tracking, in the range the seed paper
+/// sweeps (0.01 to 0.05). Where the control exceeds the density the residual is negative and
+/// each null collision multiplies the weight by about `1 + 2 m`, so large `m` makes weights
+/// grow geometrically across empty space: unbiased, but very noisy.
+pub const DEFAULT_WEIGHTED_M: f32 = 0.02;
+
 /// Every knob of a render. `Default` is what `brume render` uses without options.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -106,7 +112,7 @@ pub struct RenderSettings {
     /// Majorant scale of the weighted estimators (`sigma_maj = b * bound`), in (0, inf).
     pub b: f32,
     /// Minorant fraction of the decomposition estimators; `None`: the per-leaf minorant
-    /// (analog) or 0.5 (weighted).
+    /// (analog) or [`DEFAULT_WEIGHTED_M`] (weighted).
     pub m: Option<f32>,
     pub majorant: MajorantMode,
     pub shadow: ShadowEstimator,
@@ -192,7 +198,7 @@ impl RenderSettings {
     pub fn m_or_default(&self) -> Option<f32> {
         match (self.estimator, self.m) {
             (_, Some(m)) => Some(m),
-            (Estimator::WeightedDecomposition, None) => Some(0.5),
+            (Estimator::WeightedDecomposition, None) => Some(DEFAULT_WEIGHTED_M),
             _ => None,
         }
     }

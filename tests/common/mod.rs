@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests: synthetic grids and statistics.
 #![allow(dead_code, unused_imports)]
 pub mod grids;
+pub mod render;
 pub mod stats;
 pub use grids::*;
 pub use stats::*;

@@ -1,0 +1,147 @@
+//! Rendering helpers for the image tests: in-process CPU renders and the statistics that
+//! compare them.
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use brume::backend::cpu::{self, RenderOutput};
+use brume::integrator::{RenderScene, RenderSettings};
+use brume::scene::Scene;
+
+pub fn scene_path(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+pub fn load_scene(name: &str) -> Scene {
+    brume::scene::load(&scene_path(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn render(scene: &Scene, settings: &RenderSettings) -> RenderOutput {
+    let rs = RenderScene::new(scene, settings.force_spectral).unwrap();
+    cpu::render(&rs, settings, &AtomicBool::new(false), &|_, _, _| {})
+}
+
+/// Per-channel pixel means and variances of the mean, flattened.
+pub fn moments(out: &RenderOutput) -> (Vec<f64>, Vec<f64>) {
+    let (w, h) = (out.film.width(), out.film.height());
+    let mut mean = Vec::new();
+    let mut var = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let m = out.film.mean(x, y);
+            let v = out.film.variance_of_mean(x, y);
+            for c in 0..3 {
+                mean.push(m[c] as f64);
+                var.push(v[c] as f64);
+            }
+        }
+    }
+    (mean, var)
+}
+
+/// Two-sided z threshold for a family of `n` tests at overall level `alpha` (Sidak).
+pub fn sidak_z(alpha: f64, n: usize) -> f64 {
+    let a = 1.0 - (1.0 - alpha).powf(1.0 / n as f64);
+    inverse_normal_two_sided(a)
+}
+
+/// `z` such that `P(|Z| > z) = a` for standard normal `Z`, by bisection on erfc.
+pub fn inverse_normal_two_sided(a: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if erfc(mid / std::f64::consts::SQRT_2) > a {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Complementary error function (Numerical Recipes' erfcc, relative error < 1.2e-7).
+pub fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
+/// Result of comparing two images (or an image with a constant).
+#[derive(Debug)]
+pub struct Agreement {
+    pub pixels: usize,
+    pub failing: usize,
+    pub z_threshold: f64,
+    pub worst_z: f64,
+    pub mean_a: f64,
+    pub mean_b: f64,
+    pub mean_z: f64,
+}
+
+/// Per-pixel (per channel) z-test of `a` against `b` with both variances, Sidak-corrected at
+/// overall level `alpha`, and a z-test of the image means. Values with zero variance on both
+/// sides must be equal to 1e-6.
+pub fn compare(a: (&[f64], &[f64]), b: (&[f64], &[f64]), alpha: f64) -> Agreement {
+    let n = a.0.len();
+    let z_threshold = sidak_z(alpha, n);
+    let mut failing = 0;
+    let mut worst_z = 0f64;
+    for i in 0..n {
+        let d = a.0[i] - b.0[i];
+        let v = a.1[i] + b.1[i];
+        let z = if v > 0.0 {
+            d.abs() / v.sqrt()
+        } else if d.abs() < 1e-6 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        worst_z = worst_z.max(z);
+        if z > z_threshold {
+            failing += 1;
+        }
+    }
+    // Image means per channel: pixels are independent, channels of one pixel are not.
+    let mut mean_z = 0f64;
+    let (mut mean_a, mut mean_b) = (0.0, 0.0);
+    let pixels = n / 3;
+    for c in 0..3 {
+        let sum = |x: &[f64]| (0..pixels).map(|i| x[3 * i + c]).sum::<f64>();
+        let (ma, mb) = (sum(a.0) / pixels as f64, sum(b.0) / pixels as f64);
+        let se = ((sum(a.1) + sum(b.1)) / (pixels as f64 * pixels as f64)).sqrt();
+        let z = if se > 0.0 {
+            (ma - mb).abs() / se
+        } else if (ma - mb).abs() < 1e-9 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+        mean_z = mean_z.max(z);
+        mean_a += ma / 3.0;
+        mean_b += mb / 3.0;
+    }
+    Agreement {
+        pixels: n,
+        failing,
+        z_threshold,
+        worst_z,
+        mean_a,
+        mean_b,
+        mean_z,
+    }
+}

@@ -1,0 +1,103 @@
+//! White furnace: the cloud grid with albedo 1 inside an index-matched boundary under a
+//! constant environment of radiance 1 (scenes/furnace.gltf). Every path ends in the
+//! environment with weight 1 in expectation, so every pixel must estimate exactly 1: per-pixel
+//! z-tests (Sidak-corrected) and a z-test of the image mean, for every estimator and both
+//! majorant modes, and for spectral tracking forced on the grey medium.
+mod common;
+use common::render::*;
+
+use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+
+#[test]
+fn furnace_renders_one_for_every_estimator() {
+    let scene = load_scene("furnace.gltf");
+    let mut configs = Vec::new();
+    for estimator in Estimator::ALL {
+        for majorant in [MajorantMode::Global, MajorantMode::Local] {
+            configs.push((
+                estimator,
+                majorant,
+                None,
+                None,
+                false,
+                if estimator == Estimator::WeightedDecomposition {
+                    1024
+                } else {
+                    128
+                },
+            ));
+        }
+    }
+    // A control above the minorant stays unbiased too. (Non-bounding majorants, b < 1, are
+    // unbiased but their weights grow geometrically with every bounce at albedo 1, so their
+    // variance here is unbounded: the 1-D tests in tracking_transmittance cover them.)
+    configs.push((
+        Estimator::WeightedDecomposition,
+        MajorantMode::Global,
+        None,
+        Some(0.05),
+        false,
+        2048,
+    ));
+    configs.push((
+        Estimator::Decomposition,
+        MajorantMode::Global,
+        None,
+        Some(0.3),
+        false,
+        128,
+    ));
+    configs.push((Estimator::Delta, MajorantMode::Local, None, None, true, 128));
+    configs.push((
+        Estimator::WeightedDelta,
+        MajorantMode::Global,
+        Some(1.5),
+        None,
+        true,
+        128,
+    ));
+    let alpha = 1e-3 / configs.len() as f64;
+    for (i, (estimator, majorant, b, m, spectral, spp)) in configs.into_iter().enumerate() {
+        let settings = RenderSettings {
+            width: 24,
+            height: 18,
+            spp,
+            estimator,
+            majorant,
+            b: b.unwrap_or(1.0),
+            m,
+            force_spectral: spectral,
+            seed: 100 + i as u32,
+            ..RenderSettings::default()
+        };
+        let out = render(&scene, &settings);
+        let (mean, var) = moments(&out);
+        let ones = vec![1.0; mean.len()];
+        let zeros = vec![0.0; mean.len()];
+        let a = compare((&mean, &var), (&ones, &zeros), alpha);
+        let label = format!("{estimator} {majorant:?} b={b:?} m={m:?} spectral={spectral}");
+        println!(
+            "{label}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
+            a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
+        );
+        assert!(
+            mean.iter().all(|v| v.is_finite()),
+            "{label}: non-finite pixels"
+        );
+        assert_eq!(a.failing, 0, "{label}: {a:?}");
+        assert!(
+            a.mean_z < 3.3,
+            "{label}: image mean {} is not 1: {a:?}",
+            a.mean_a
+        );
+        // The test must be able to see a bias: the image mean's standard error is small.
+        let se = (var.iter().sum::<f64>() / 3.0).sqrt() / (mean.len() / 3) as f64;
+        assert!(
+            se < 0.02,
+            "{label}: standard error {se} of the image mean is too large to test anything"
+        );
+        let t = brume::film::totals(&out.records);
+        assert_eq!(t.majorant_violations, 0, "{label}");
+        assert_eq!(t.guard_fired, 0, "{label}");
+    }
+}
