@@ -1,0 +1,379 @@
+// Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs) and the
+// collision callbacks of each estimator's `transmittance` (delta.rs, weighted_delta.rs,
+// decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs, spectral.rs).
+// Needs types.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
+//
+// WGSL has no closures, so where the CPU passes a majorant closure and a callback, the loop
+// here calls `tracking_majorant` and `tracking_collide`, which switch on the estimator id
+// (ESTIMATOR_* constants, emitted from gpu_types::GpuEstimator by backend::gpu::shader).
+//
+// Random-number order is the CPU's (tracking/mod.rs): one uniform per exponential step, drawn
+// by the loop; then what the callback draws for that collision (one uniform for the event
+// choice, one more only when Russian roulette fires). With the same Rng stream the GPU walk
+// therefore takes the same decisions as the CPU one, up to the rounding of log/exp (WGSL
+// allows a few ulps) and of the density lookups.
+//
+// The medium is a SparseGrid seen along an index-space ray: sigma_t = density_scale * value
+// (times channel_scale per channel for spectral tracking), sigma_s = albedo sigma_t.
+
+// tracking::MAJORANT_TOLERANCE.
+const MAJORANT_TOLERANCE: f32 = 1e-4;
+// tracking::ROULETTE_THRESHOLD.
+const ROULETTE_THRESHOLD: f32 = 0.1;
+// tracking::MAX_TENTATIVE_COLLISIONS (per free flight).
+const MAX_TENTATIVE_COLLISIONS: u32 = 16777216u;
+// Largest finite f32 (`is_finite` for a non-negative value is `<= F32_MAX`).
+const F32_MAX: f32 = 3.40282347e38;
+
+// Per-invocation TrackingStats (folded into GpuTrackingStats with atomics by the kernel).
+struct Stats {
+    lookups: u32,
+    null_collisions: u32,
+    real_collisions: u32,
+    control_collisions: u32,
+    majorant_violations: u32,
+    invalid_majorants: u32,
+    collision_cap_hits: u32,
+    roulette_kills: u32,
+    max_abs_weight: f32,
+}
+
+// tracking::Coeffs.
+struct Coeffs {
+    sigma_a: f32,
+    sigma_s: f32,
+}
+
+// One estimator walking one ray: the state the CPU closures capture.
+struct Tracker {
+    params: GpuTrackingParams,
+    rng: Rng,
+    stats: Stats,
+    o: vec3<f32>,  // index-space ray origin
+    d: vec3<f32>,  // index-space ray direction
+    w: vec3<f32>,  // the estimate being built (grey estimators use .x)
+}
+
+// Coeffs::from_sigma_t.
+fn coeffs_from_sigma_t(sigma_t: f32, albedo: f32) -> Coeffs {
+    return Coeffs((1.0 - albedo) * sigma_t, albedo * sigma_t);
+}
+
+// Coeffs::sigma_t.
+fn coeffs_sigma_t(k: Coeffs) -> f32 {
+    return k.sigma_a + k.sigma_s;
+}
+
+// f32::copysign: the magnitude of x with the sign bit of y (so -0.0 counts as negative).
+fn copysign(x: f32, y: f32) -> f32 {
+    return bitcast<f32>((bitcast<u32>(x) & 0x7fffffffu) | (bitcast<u32>(y) & 0x80000000u));
+}
+
+// The medium's extinction at ray parameter t, before channel and albedo splits.
+fn medium_sigma_t(tr: ptr<function, Tracker>, t: f32) -> f32 {
+    return grid_info.density_scale * grid_sample_trilinear((*tr).o + t * (*tr).d);
+}
+
+// tracking::lookup: one counted density lookup.
+fn lookup(tr: ptr<function, Tracker>, t: f32) -> Coeffs {
+    (*tr).stats.lookups += 1u;
+    return coeffs_from_sigma_t(medium_sigma_t(tr, t), (*tr).params.albedo);
+}
+
+// tracking::lookup_rgb, returning CoeffsRgb::sigma_t: ((1 - albedo) s + albedo s) per channel.
+fn lookup_rgb_sigma_t(tr: ptr<function, Tracker>, t: f32) -> vec3<f32> {
+    (*tr).stats.lookups += 1u;
+    let s = (*tr).params.channel_scale * medium_sigma_t(tr, t);
+    let albedo = (*tr).params.albedo;
+    return (1.0 - albedo) * s + albedo * s;
+}
+
+// ControlExtinction::sigma_c.
+fn control_sigma_c(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    switch (*tr).params.control_mode {
+        case CONTROL_CONSTANT: { return (*tr).params.control_value; }
+        case CONTROL_FRACTION_OF_BOUND: { return (*tr).params.control_value * seg.sigma_maj; }
+        case CONTROL_SEGMENT_MINORANT: { return seg.sigma_min; }
+        default: { return 0.0; }
+    }
+}
+
+// Medium::control of FnMedium::with_control: Coeffs::from_sigma_t(sigma_c, control_albedo).
+fn control(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> Coeffs {
+    return coeffs_from_sigma_t(control_sigma_c(tr, seg), (*tr).params.control_albedo);
+}
+
+// tracking::check_bound.
+fn check_bound(tr: ptr<function, Tracker>, sigma_t: f32, sigma_maj: f32) {
+    if (sigma_t > sigma_maj * (1.0 + MAJORANT_TOLERANCE)) {
+        (*tr).stats.majorant_violations += 1u;
+    }
+}
+
+// decomposition::check_residual.
+fn check_residual(tr: ptr<function, Tracker>, r_a: f32, r_s: f32, sigma_maj: f32) {
+    let slack = -MAJORANT_TOLERANCE * sigma_maj;
+    if (r_a < slack || r_s < slack) {
+        (*tr).stats.majorant_violations += 1u;
+    }
+}
+
+// TrackingStats::note_weight.
+fn note_weight(tr: ptr<function, Tracker>, w: f32) {
+    (*tr).stats.max_abs_weight = max((*tr).stats.max_abs_weight, abs(w));
+}
+
+// tracking::residual_majorant: b * max(bound - sigma_c, sigma_c - sigma_min, 0).
+fn residual_majorant(b: f32, seg: GpuMajorantSegment, sigma_c: f32) -> f32 {
+    return b * max(max(seg.sigma_maj - sigma_c, sigma_c - seg.sigma_min), 0.0);
+}
+
+// tracking::sample_exponential.
+fn sample_exponential(u: f32, sigma: f32) -> f32 {
+    return -log(1.0 - u) / sigma;
+}
+
+// tracking::roulette (grey).
+fn roulette(tr: ptr<function, Tracker>, w: f32) -> f32 {
+    let a = abs(w);
+    if (a >= ROULETTE_THRESHOLD || a == 0.0) {
+        return w;
+    }
+    if (rng_uniform(&(*tr).rng) < a / ROULETTE_THRESHOLD) {
+        return copysign(ROULETTE_THRESHOLD, w);
+    }
+    (*tr).stats.roulette_kills += 1u;
+    return 0.0;
+}
+
+// SpectralProbabilities::reduce (0 = history-aware max, 1 = average).
+fn spectral_reduce(mode: u32, v: vec3<f32>) -> f32 {
+    let a = abs(v);
+    if (mode == 0u) {
+        return max(a.x, max(a.y, a.z));
+    }
+    return (a.x + a.y + a.z) * (1.0 / 3.0);
+}
+
+// spectral::roulette_rgb.
+fn roulette_rgb(tr: ptr<function, Tracker>, w: vec3<f32>) -> vec3<f32> {
+    let a = abs(w);
+    let m = max(a.x, max(a.y, a.z));
+    if (m >= ROULETTE_THRESHOLD || m == 0.0) {
+        return w;
+    }
+    if (rng_uniform(&(*tr).rng) < m / ROULETTE_THRESHOLD) {
+        return w * (ROULETTE_THRESHOLD / m);
+    }
+    (*tr).stats.roulette_kills += 1u;
+    return vec3<f32>(0.0);
+}
+
+// The majorant closure each estimator's `transmittance` passes to sample_free_flight.
+fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    let b = (*tr).params.b;
+    switch (*tr).params.estimator {
+        case ESTIMATOR_DELTA: { return seg.sigma_maj; }
+        case ESTIMATOR_DECOMPOSITION: {
+            return max(seg.sigma_maj - coeffs_sigma_t(control(tr, seg)), 0.0);
+        }
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION, ESTIMATOR_RESIDUAL_RATIO: {
+            return residual_majorant(b, seg, coeffs_sigma_t(control(tr, seg)));
+        }
+        // weighted delta, ratio, spectral: scaled_majorant(b).
+        default: { return b * seg.sigma_maj; }
+    }
+}
+
+// The collision callback of each estimator's `transmittance`; false stops the walk.
+fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                    seg: GpuMajorantSegment) -> bool {
+    switch (*tr).params.estimator {
+        // delta::transmittance: Bernoulli, real with probability sigma_t / sigma_maj.
+        case ESTIMATOR_DELTA: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            check_bound(tr, sigma_t, sigma_maj);
+            if (rng_uniform(&(*tr).rng) * sigma_maj < sigma_t) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_delta::transmittance: events {real |sigma_t|, null |sigma_n|}.
+        case ESTIMATOR_WEIGHTED_DELTA: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            let sigma_n = sigma_maj - sigma_t;
+            let total = abs(sigma_t) + abs(sigma_n);
+            if (rng_uniform(&(*tr).rng) * total < abs(sigma_t)) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= copysign(total / sigma_maj, sigma_n);
+            note_weight(tr, (*tr).w.x);
+            return true;
+        }
+        // decomposition::transmittance: Bernoulli on the residual against bound - sigma_c.
+        case ESTIMATOR_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), seg.sigma_maj);
+            check_residual(tr, k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s, seg.sigma_maj);
+            let sigma_r = coeffs_sigma_t(k) - coeffs_sigma_t(ctl);
+            if (rng_uniform(&(*tr).rng) * sigma_maj < sigma_r) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_decomposition::transmittance: weighted residual events.
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
+            let r_n = sigma_maj - sigma_r;
+            let total = abs(sigma_r) + abs(r_n);
+            if (rng_uniform(&(*tr).rng) * total < abs(sigma_r)) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= copysign(total / sigma_maj, r_n);
+            note_weight(tr, (*tr).w.x);
+            return true;
+        }
+        // ratio::transmittance: T *= 1 - sigma_t / sigma_maj, then roulette.
+        case ESTIMATOR_RATIO: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= 1.0 - sigma_t / sigma_maj;
+            note_weight(tr, (*tr).w.x);
+            (*tr).w.x = roulette(tr, (*tr).w.x);
+            return (*tr).w.x != 0.0;
+        }
+        // residual_ratio::transmittance: T *= 1 - sigma_r / r_bar, then roulette.
+        case ESTIMATOR_RESIDUAL_RATIO: {
+            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= 1.0 - sigma_r / sigma_maj;
+            note_weight(tr, (*tr).w.x);
+            (*tr).w.x = roulette(tr, (*tr).w.x);
+            return (*tr).w.x != 0.0;
+        }
+        // spectral::transmittance: history-aware real/null choice, RGB weights.
+        case ESTIMATOR_SPECTRAL: {
+            let sigma_t = lookup_rgb_sigma_t(tr, t);
+            let sigma_n = vec3<f32>(sigma_maj) - sigma_t;
+            let mode = (*tr).params.spectral_mode;
+            let p_real = spectral_reduce(mode, sigma_t * (*tr).w);
+            let p_null = spectral_reduce(mode, sigma_n * (*tr).w);
+            let total = p_real + p_null;
+            // `||` short-circuits: no uniform is drawn when total is not positive (as on the CPU).
+            if (!(total > 0.0) || rng_uniform(&(*tr).rng) * total < p_real) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w = vec3<f32>(0.0);
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w *= sigma_n * (total / (sigma_maj * p_null));
+            let a = abs((*tr).w);
+            note_weight(tr, max(a.x, max(a.y, a.z)));
+            (*tr).w = roulette_rgb(tr, (*tr).w);
+            return any((*tr).w != vec3<f32>(0.0));
+        }
+        default: {
+            return false;
+        }
+    }
+}
+
+// tracking::sample_free_flight (pbrt-v4's SampleT_maj): walks the majorant segments of `dda`
+// clipped to t <= t_max, places tentative collisions at exponential steps of each segment's
+// majorant and hands them to tracking_collide. Returns T_maj as the CPU does.
+fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
+    var dda = dda_start;
+    var seg: GpuMajorantSegment;
+    var t_maj = 1.0;
+    var n_collisions = 0u;
+    while (dda_next(&dda, &seg)) {
+        if (seg.t_min >= t_max) {
+            break;
+        }
+        let t1 = min(seg.t_max, t_max);
+        if (!(t1 > seg.t_min)) {
+            continue;
+        }
+        let sigma_maj = tracking_majorant(tr, seg);
+        if (!(sigma_maj >= 0.0 && sigma_maj <= F32_MAX)) {
+            (*tr).stats.invalid_majorants += 1u;
+            continue;
+        }
+        if (sigma_maj == 0.0) {
+            continue;
+        }
+        var t = seg.t_min;
+        loop {
+            let t_prev = t;
+            t += sample_exponential(rng_uniform(&(*tr).rng), sigma_maj);
+            if (t >= t1) {
+                // Escaped this segment: the majorant transmittance of the rest.
+                t_maj *= exp(-sigma_maj * (t1 - t_prev));
+                break;
+            }
+            n_collisions += 1u;
+            if (n_collisions > MAX_TENTATIVE_COLLISIONS) {
+                (*tr).stats.collision_cap_hits += 1u;
+                return 0.0;
+            }
+            t_maj = 1.0;
+            if (!tracking_collide(tr, t, sigma_maj, seg)) {
+                return 1.0;
+            }
+        }
+    }
+    return t_maj;
+}
+
+// tracking::control_optical_depth: integral of sigma_c over the clipped segments (no lookups).
+fn control_optical_depth(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
+    var dda = dda_start;
+    var seg: GpuMajorantSegment;
+    var tau = 0.0;
+    while (dda_next(&dda, &seg)) {
+        if (seg.t_min >= t_max) {
+            break;
+        }
+        let len = min(seg.t_max, t_max) - seg.t_min;
+        let sigma_c = coeffs_sigma_t(control(tr, seg));
+        if (len > 0.0 && sigma_c > 0.0) {
+            tau += sigma_c * len;
+        }
+    }
+    return tau;
+}
+
+// The `transmittance` function of the estimator `(*tr).params.estimator` over the segments of
+// `dda`: grey estimates in .x, the RGB estimate of spectral tracking in .xyz.
+fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> vec3<f32> {
+    let est = (*tr).params.estimator;
+    // The closed-form control factor, computed before the walk as on the CPU.
+    var t_control = 1.0;
+    if (est == ESTIMATOR_DECOMPOSITION || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
+        || est == ESTIMATOR_RESIDUAL_RATIO) {
+        t_control = exp(-control_optical_depth(tr, dda, t_max));
+    }
+    (*tr).w = vec3<f32>(1.0);
+    sample_free_flight(tr, dda, t_max);
+    if (est == ESTIMATOR_SPECTRAL) {
+        return (*tr).w;
+    }
+    if (est == ESTIMATOR_DECOMPOSITION) {
+        // decomposition keeps `tr = exp(-tau_c)` and zeroes it on a real collision.
+        return vec3<f32>(select(0.0, t_control, (*tr).w.x != 0.0), 0.0, 0.0);
+    }
+    return vec3<f32>(t_control * (*tr).w.x, 0.0, 0.0);
+}

@@ -1,0 +1,2 @@
+//! Execution backends. `gpu`: wgpu compute shaders (Vulkan; Mesa lavapipe in CI).
+pub mod gpu;
