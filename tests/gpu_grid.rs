@@ -73,7 +73,10 @@ fn wgsl_grid_lookups_equal_cpu() {
             }
             let rel = (g[1] - tri).abs() / vmax;
             tri_max_rel = tri_max_rel.max(rel);
-            if !(rel <= TRILINEAR_REL_TOL) {
+            // Negated so that a NaN fails.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let outside = !(rel <= TRILINEAR_REL_TOL);
+            if outside {
                 if tri_bad < 5 {
                     eprintln!("{name}: trilinear at {p:?}: gpu {} cpu {tri}", g[1]);
                 }

@@ -98,7 +98,7 @@ fn slab() -> Medium {
 fn blob() -> Medium {
     let grid = common::convert(&common::blob());
     let bounds = LeafBounds::build(&grid);
-    let scale = 0.15;
+    let scale = 0.012;
     let ray = GpuRay {
         o: [-20.0, 16.0, -3.0],
         t_min: 0.0,
@@ -211,7 +211,7 @@ fn run_gpu(
         invocation_count: SAMPLES,
         _pad0: 0,
     };
-    let params_buf = ctx.storage_buffer("params", &[params]);
+    let params_buf = ctx.uniform_buffer("params", &params);
     let rays = ctx.storage_buffer("rays", &[m.ray]);
     let results = ctx.storage_buffer_zeroed("results", SAMPLES as u64 * 16);
     let stats = ctx.storage_buffer("stats", &[GpuTrackingStats::default()]);

@@ -1,7 +1,7 @@
 // Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs) and the
 // collision callbacks of each estimator's `transmittance` (delta.rs, weighted_delta.rs,
 // decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs, spectral.rs).
-// Needs types.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
+// Needs types.wgsl, math.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
 //
 // WGSL has no closures, so where the CPU passes a majorant closure and a callback, the loop
 // here calls `tracking_majorant` and `tracking_collide`, which switch on the estimator id
@@ -10,8 +10,11 @@
 // Random-number order is the CPU's (tracking/mod.rs): one uniform per exponential step, drawn
 // by the loop; then what the callback draws for that collision (one uniform for the event
 // choice, one more only when Russian roulette fires). With the same Rng stream the GPU walk
-// therefore takes the same decisions as the CPU one, up to the rounding of log/exp (WGSL
-// allows a few ulps) and of the density lookups.
+// therefore takes the same decisions as the CPU one up to rounding: exponential steps use
+// ln_f32 (math.wgsl, equal to f32::ln for 92 % of arguments, else 1 ulp off), exp() is WGSL's,
+// and the driver may rewrite arithmetic (Mesa's NIR turns `(1 - a) s + a s` into
+// `s ((1 - a) + a)`, for one). tests/gpu_transmittance.rs reports how many samples are
+// bit-identical to the CPU's.
 //
 // The medium is a SparseGrid seen along an index-space ray: sigma_t = density_scale * value
 // (times channel_scale per channel for spectral tracking), sigma_s = albedo sigma_t.
@@ -128,9 +131,20 @@ fn residual_majorant(b: f32, seg: GpuMajorantSegment, sigma_c: f32) -> f32 {
     return b * max(max(seg.sigma_maj - sigma_c, sigma_c - seg.sigma_min), 0.0);
 }
 
-// tracking::sample_exponential.
+// The tracker's next uniform. The stream is copied out and back because naga 30's SPIR-V
+// writer panics ("Expression [n] is not cached!") on a call taking `&(*tr).rng`, a pointer to
+// a member of a pointer argument.
+fn tracker_uniform(tr: ptr<function, Tracker>) -> f32 {
+    var rng = (*tr).rng;
+    let u = rng_uniform(&rng);
+    (*tr).rng = rng;
+    return u;
+}
+
+// tracking::sample_exponential. ln_f32 (math.wgsl), not WGSL's log(): the built-in may be off
+// by 2^-21 absolutely near 1, i.e. by percents on the short steps of small u.
 fn sample_exponential(u: f32, sigma: f32) -> f32 {
-    return -log(1.0 - u) / sigma;
+    return -ln_f32(1.0 - u) / sigma;
 }
 
 // tracking::roulette (grey).
@@ -139,7 +153,7 @@ fn roulette(tr: ptr<function, Tracker>, w: f32) -> f32 {
     if (a >= ROULETTE_THRESHOLD || a == 0.0) {
         return w;
     }
-    if (rng_uniform(&(*tr).rng) < a / ROULETTE_THRESHOLD) {
+    if (tracker_uniform(tr) < a / ROULETTE_THRESHOLD) {
         return copysign(ROULETTE_THRESHOLD, w);
     }
     (*tr).stats.roulette_kills += 1u;
@@ -162,7 +176,7 @@ fn roulette_rgb(tr: ptr<function, Tracker>, w: vec3<f32>) -> vec3<f32> {
     if (m >= ROULETTE_THRESHOLD || m == 0.0) {
         return w;
     }
-    if (rng_uniform(&(*tr).rng) < m / ROULETTE_THRESHOLD) {
+    if (tracker_uniform(tr) < m / ROULETTE_THRESHOLD) {
         return w * (ROULETTE_THRESHOLD / m);
     }
     (*tr).stats.roulette_kills += 1u;
@@ -193,7 +207,7 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
         case ESTIMATOR_DELTA: {
             let sigma_t = coeffs_sigma_t(lookup(tr, t));
             check_bound(tr, sigma_t, sigma_maj);
-            if (rng_uniform(&(*tr).rng) * sigma_maj < sigma_t) {
+            if (tracker_uniform(tr) * sigma_maj < sigma_t) {
                 (*tr).stats.real_collisions += 1u;
                 (*tr).w.x = 0.0;
                 return false;
@@ -206,7 +220,7 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
             let sigma_t = coeffs_sigma_t(lookup(tr, t));
             let sigma_n = sigma_maj - sigma_t;
             let total = abs(sigma_t) + abs(sigma_n);
-            if (rng_uniform(&(*tr).rng) * total < abs(sigma_t)) {
+            if (tracker_uniform(tr) * total < abs(sigma_t)) {
                 (*tr).stats.real_collisions += 1u;
                 (*tr).w.x = 0.0;
                 return false;
@@ -223,7 +237,7 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
             check_bound(tr, coeffs_sigma_t(k), seg.sigma_maj);
             check_residual(tr, k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s, seg.sigma_maj);
             let sigma_r = coeffs_sigma_t(k) - coeffs_sigma_t(ctl);
-            if (rng_uniform(&(*tr).rng) * sigma_maj < sigma_r) {
+            if (tracker_uniform(tr) * sigma_maj < sigma_r) {
                 (*tr).stats.real_collisions += 1u;
                 (*tr).w.x = 0.0;
                 return false;
@@ -236,7 +250,7 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
             let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
             let r_n = sigma_maj - sigma_r;
             let total = abs(sigma_r) + abs(r_n);
-            if (rng_uniform(&(*tr).rng) * total < abs(sigma_r)) {
+            if (tracker_uniform(tr) * total < abs(sigma_r)) {
                 (*tr).stats.real_collisions += 1u;
                 (*tr).w.x = 0.0;
                 return false;
@@ -273,7 +287,7 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
             let p_null = spectral_reduce(mode, sigma_n * (*tr).w);
             let total = p_real + p_null;
             // `||` short-circuits: no uniform is drawn when total is not positive (as on the CPU).
-            if (!(total > 0.0) || rng_uniform(&(*tr).rng) * total < p_real) {
+            if (!(total > 0.0) || tracker_uniform(tr) * total < p_real) {
                 (*tr).stats.real_collisions += 1u;
                 (*tr).w = vec3<f32>(0.0);
                 return false;
@@ -318,7 +332,7 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
         var t = seg.t_min;
         loop {
             let t_prev = t;
-            t += sample_exponential(rng_uniform(&(*tr).rng), sigma_maj);
+            t += sample_exponential(tracker_uniform(tr), sigma_maj);
             if (t >= t1) {
                 // Escaped this segment: the majorant transmittance of the rest.
                 t_maj *= exp(-sigma_maj * (t1 - t_prev));

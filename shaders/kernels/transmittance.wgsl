@@ -8,7 +8,7 @@
 //
 // One invocation per (ray, sample): invocation i estimates ray i / samples_per_ray.
 
-@group(1) @binding(0) var<storage, read> params: GpuTrackingParams;
+@group(1) @binding(0) var<uniform> params: GpuTrackingParams;
 @group(1) @binding(1) var<storage, read> rays: array<GpuRay>;
 // xyz: the estimate (grey in x); w: the lookups this sample made.
 @group(1) @binding(2) var<storage, read_write> results: array<vec4<f32>>;

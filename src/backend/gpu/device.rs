@@ -158,6 +158,20 @@ impl GpuContext {
         buffer
     }
 
+    /// A uniform buffer holding `value` (the `gpu_types` structs are 16-byte rows, as uniform
+    /// layout requires).
+    pub fn uniform_buffer<T: Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        let bytes: &[u8] = bytemuck::bytes_of(value);
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: (bytes.len() as u64).next_multiple_of(16),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.queue.write_buffer(&buffer, 0, bytes);
+        buffer
+    }
+
     /// A zero-filled storage buffer of `size` bytes.
     pub fn storage_buffer_zeroed(&self, label: &str, size: u64) -> wgpu::Buffer {
         self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -305,7 +319,7 @@ impl GpuGrid {
         bounds: &LeafBounds,
         density_scale: f32,
     ) -> Result<GpuGrid, String> {
-        let limit = ctx.limits.max_storage_buffer_binding_size as u64;
+        let limit = ctx.limits.max_storage_buffer_binding_size;
         let bytes = (grid.bricks.len() * 4) as u64;
         if bytes > limit || (grid.cells.len() * 4) as u64 > limit {
             return Err(format!(
@@ -320,7 +334,7 @@ impl GpuGrid {
         b.push(bounds.global);
         Ok(GpuGrid {
             info,
-            info_buffer: ctx.storage_buffer("grid info", &[info]),
+            info_buffer: ctx.uniform_buffer("grid info", &info),
             cells: ctx.storage_buffer("grid cells", &grid.cells),
             bricks: ctx.storage_buffer("grid bricks", &grid.bricks),
             constants: ctx.storage_buffer("grid constants", &grid.constants),

@@ -36,6 +36,8 @@ pub mod files {
     use super::ShaderFile;
     /// Mirrors of `gpu_types` structs.
     pub const TYPES: ShaderFile = shader_file!("common/types.wgsl");
+    /// Accurate `ln` (f32::ln).
+    pub const MATH: ShaderFile = shader_file!("common/math.wgsl");
     /// `sampling::Rng`.
     pub const RNG: ShaderFile = shader_file!("common/rng.wgsl");
     /// `SparseGrid` lookups.
@@ -53,6 +55,7 @@ pub mod files {
     pub const TEST_GRID: ShaderFile = shader_file!("tests/grid.wgsl");
     pub const TEST_DDA: ShaderFile = shader_file!("tests/dda.wgsl");
     pub const TEST_PHASE: ShaderFile = shader_file!("tests/phase.wgsl");
+    pub const TEST_MATH: ShaderFile = shader_file!("tests/math.wgsl");
 }
 
 /// A specialisation constant's value.
@@ -180,7 +183,7 @@ use files::*;
 /// Per-estimator transmittance over a SparseGrid along index-space rays.
 pub const TRANSMITTANCE_MODULE: Module = Module {
     label: "transmittance",
-    files: &[TYPES, RNG, GRID, DDA, TRACKING, TRANSMITTANCE],
+    files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, TRANSMITTANCE],
     entry_point: "transmittance_main",
     default_specs: &[],
 };
@@ -221,6 +224,14 @@ pub const TEST_PHASE_MODULE: Module = Module {
     default_specs: &[],
 };
 
+/// WGSL's `log` and `ln_f32` against `f32::ln` (test).
+pub const TEST_MATH_MODULE: Module = Module {
+    label: "test_math",
+    files: &[TYPES, MATH, TEST_MATH],
+    entry_point: "logs",
+    default_specs: &[],
+};
+
 /// Every module Brume builds.
 pub const MODULES: &[Module] = &[
     TRANSMITTANCE_MODULE,
@@ -228,4 +239,5 @@ pub const MODULES: &[Module] = &[
     TEST_GRID_MODULE,
     TEST_DDA_MODULE,
     TEST_PHASE_MODULE,
+    TEST_MATH_MODULE,
 ];
