@@ -7,7 +7,7 @@ mod common;
 use brume::backend::gpu::shader::TEST_GRID_MODULE;
 use brume::backend::gpu::GpuGrid;
 use brume::volume::check::SplitMix64;
-use brume::volume::LeafBounds;
+use brume::volume::{load_grid, ConversionPolicy, LeafBounds, SparseGrid};
 use glam::DVec3;
 
 /// Trilinear tolerance, relative to the largest |voxel| of the grid: a blend of three lerps
@@ -20,10 +20,22 @@ fn wgsl_grid_lookups_equal_cpu() {
         return;
     };
     let pipeline = ctx.pipeline(&TEST_GRID_MODULE, &[]).unwrap();
-    for (name, data) in common::all_grids() {
-        let grid = common::convert(&data);
-        let bounds = LeafBounds::build(&grid);
-        let gpu_grid = GpuGrid::upload(&ctx, &grid, &bounds, 1.0).unwrap();
+    let mut grids: Vec<(String, SparseGrid, LeafBounds)> = common::all_grids()
+        .into_iter()
+        .map(|(name, data)| {
+            let grid = common::convert(&data);
+            let bounds = LeafBounds::build(&grid);
+            (name.to_string(), grid, bounds)
+        })
+        .collect();
+    // A real file too: the cloud example (scenes/make_vdbs.sh), 'density' grid.
+    let cloud = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vdb/cloud.vdb");
+    let loaded = load_grid(&cloud, "density", ConversionPolicy::default())
+        .unwrap_or_else(|e| panic!("{}: {e}", cloud.display()));
+    grids.push(("cloud.vdb".into(), loaded.grid, loaded.bounds));
+    for (name, grid, bounds) in &grids {
+        let (grid, bounds) = (grid, bounds);
+        let gpu_grid = GpuGrid::upload(&ctx, grid, bounds, 1.0).unwrap();
         let b = grid.index_bounds();
         let (lo, hi) = if b.is_empty() {
             ([-10.0f32; 3], [10.0f32; 3])
