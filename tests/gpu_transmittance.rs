@@ -10,7 +10,7 @@ mod common;
 use brume::backend::gpu::shader::TRANSMITTANCE_MODULE;
 use brume::backend::gpu::{GpuContext, GpuGrid};
 use brume::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuRay, GpuTrackingParams, GpuTrackingStats,
+    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuRay as _, GpuTrackingParams, GpuTrackingStats,
 };
 use brume::math::{Ray, Vec3};
 use brume::sampling::Rng;
@@ -18,7 +18,8 @@ use brume::volume::tracking::spectral::SpectralProbabilities;
 use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, FnMedium, FnMediumRgb, TrackingStats,
 };
-use brume::volume::{DdaMajorantIterator, LeafBounds, SparseGrid};
+use brume::volume::DdaMajorantIterator;
+use common::gpu::{blob, slab, Medium};
 use common::{assert_z, Moments};
 
 const SAMPLES: u32 = 100_000;
@@ -61,69 +62,6 @@ fn cases() -> Vec<Case> {
         case(ResidualRatio, 1.0, C::FractionOfBound(0.8), PerCell),
         case(Spectral, 1.0, C::None, PerCell),
     ]
-}
-
-struct Medium {
-    name: &'static str,
-    grid: SparseGrid,
-    bounds: LeafBounds,
-    scale: f32,
-    ray: GpuRay,
-    /// Optical depth along the ray at unit channel scale.
-    tau: f64,
-}
-
-fn slab() -> Medium {
-    let (grid, _) = SparseGrid::from_dense([32, 32, 32], [0, 0, 0], &vec![1.0; 32 * 32 * 32], 0.0)
-        .expect("slab");
-    let bounds = LeafBounds::build(&grid);
-    let d = [1.0f32, 0.2, 0.1];
-    let scale = 0.03;
-    Medium {
-        name: "slab",
-        grid,
-        bounds,
-        scale,
-        ray: GpuRay {
-            o: [-3.0, 10.0, 12.0],
-            t_min: 0.0,
-            d,
-            t_max: f32::INFINITY,
-        },
-        // x runs through [-1, 32]: 31 unit voxels plus two half ramps, at any y, z inside.
-        tau: scale as f64 * 32.0 / d[0] as f64,
-    }
-}
-
-fn blob() -> Medium {
-    let grid = common::convert(&common::blob());
-    let bounds = LeafBounds::build(&grid);
-    let scale = 0.012;
-    let ray = GpuRay {
-        o: [-20.0, 16.0, -3.0],
-        t_min: 0.0,
-        d: [0.9, 0.15, 0.05],
-        t_max: 55.0,
-    };
-    let r = Ray::new(Vec3::from_array(ray.o), Vec3::from_array(ray.d));
-    // Midpoint quadrature of the CPU lookup (piecewise trilinear: 2M steps are plenty).
-    let n = 2_000_000;
-    let h = ray.t_max as f64 / n as f64;
-    let tau = (0..n)
-        .map(|i| {
-            let t = ((i as f64 + 0.5) * h) as f32;
-            scale as f64 * grid.sample_trilinear(r.at(t).as_dvec3()) as f64
-        })
-        .sum::<f64>()
-        * h;
-    Medium {
-        name: "blob",
-        grid,
-        bounds,
-        scale,
-        ray,
-        tau,
-    }
 }
 
 /// The CPU estimate for invocation `i` (same stream as the kernel).

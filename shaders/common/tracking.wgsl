@@ -1,6 +1,7 @@
 // Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs) and the
-// collision callbacks of each estimator's `transmittance` (delta.rs, weighted_delta.rs,
-// decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs, spectral.rs).
+// collision callbacks of each estimator's `transmittance` and `sample_distance` (delta.rs,
+// weighted_delta.rs, decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs,
+// spectral.rs), and sampling::sample_discrete.
 // Needs types.wgsl, math.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
 //
 // WGSL has no closures, so where the CPU passes a majorant closure and a callback, the loop
@@ -54,8 +55,19 @@ struct Tracker {
     stats: Stats,
     o: vec3<f32>,  // index-space ray origin
     d: vec3<f32>,  // index-space ray direction
-    w: vec3<f32>,  // the estimate being built (grey estimators use .x)
+    w: vec3<f32>,  // the estimate or weight being built (grey estimators use .x)
+    distance: bool, // sample_distance (true) or transmittance (false)
+    beta: vec3<f32>, // path throughput before the flight (spectral sample_distance history)
+    event: u32,    // EVENT_* of sample_distance
+    t_event: f32,  // ray parameter of an absorb/scatter event
 }
+
+// tracking::Event variants.
+const EVENT_ESCAPE: u32 = 0u;
+const EVENT_ABSORB: u32 = 1u;
+const EVENT_SCATTER: u32 = 2u;
+// sampling::discrete::ONE_MINUS_EPSILON, the largest f32 below 1 (0x3f7fffff).
+const ONE_MINUS_EPSILON: f32 = 0.99999994;
 
 // Coeffs::from_sigma_t.
 fn coeffs_from_sigma_t(sigma_t: f32, albedo: f32) -> Coeffs {
@@ -83,12 +95,24 @@ fn lookup(tr: ptr<function, Tracker>, t: f32) -> Coeffs {
     return coeffs_from_sigma_t(medium_sigma_t(tr, t), (*tr).params.albedo);
 }
 
-// tracking::lookup_rgb, returning CoeffsRgb::sigma_t: ((1 - albedo) s + albedo s) per channel.
-fn lookup_rgb_sigma_t(tr: ptr<function, Tracker>, t: f32) -> vec3<f32> {
+// tracking::CoeffsRgb.
+struct CoeffsRgb {
+    sigma_a: vec3<f32>,
+    sigma_s: vec3<f32>,
+}
+
+// tracking::lookup_rgb: sigma_t,c = channel_scale[c] * density, split by the albedo.
+fn lookup_rgb(tr: ptr<function, Tracker>, t: f32) -> CoeffsRgb {
     (*tr).stats.lookups += 1u;
     let s = (*tr).params.channel_scale * medium_sigma_t(tr, t);
     let albedo = (*tr).params.albedo;
-    return (1.0 - albedo) * s + albedo * s;
+    return CoeffsRgb((1.0 - albedo) * s, albedo * s);
+}
+
+// CoeffsRgb::sigma_t of one lookup.
+fn lookup_rgb_sigma_t(tr: ptr<function, Tracker>, t: f32) -> vec3<f32> {
+    let k = lookup_rgb(tr, t);
+    return k.sigma_a + k.sigma_s;
 }
 
 // ControlExtinction::sigma_c.
@@ -184,7 +208,7 @@ fn roulette_rgb(tr: ptr<function, Tracker>, w: vec3<f32>) -> vec3<f32> {
 }
 
 // The majorant closure each estimator's `transmittance` passes to sample_free_flight.
-fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+fn transmittance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
     let b = (*tr).params.b;
     switch (*tr).params.estimator {
         case ESTIMATOR_DELTA: { return seg.sigma_maj; }
@@ -200,7 +224,7 @@ fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32
 }
 
 // The collision callback of each estimator's `transmittance`; false stops the walk.
-fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+fn transmittance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                     seg: GpuMajorantSegment) -> bool {
     switch (*tr).params.estimator {
         // delta::transmittance: Bernoulli, real with probability sigma_t / sigma_maj.
@@ -305,6 +329,226 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
     }
 }
 
+// sampling::sample_discrete over three weights: the chosen index (3 = none), its pmf and the
+// remapped uniform.
+struct DiscreteSample {
+    index: u32,
+    pmf: f32,
+    u_remapped: f32,
+}
+
+fn sample_discrete3(w: array<f32, 3>, u: f32) -> DiscreteSample {
+    let sum = w[0] + w[1] + w[2];
+    if (!(sum > 0.0)) {
+        return DiscreteSample(3u, 0.0, 0.0);
+    }
+    let up = u * sum;
+    var acc = 0.0;
+    var last = 3u;
+    for (var i = 0u; i < 3u; i++) {
+        if (w[i] <= 0.0) {
+            continue;
+        }
+        last = i;
+        if (up < acc + w[i]) {
+            return DiscreteSample(i, w[i] / sum, clamp((up - acc) / w[i], 0.0, ONE_MINUS_EPSILON));
+        }
+        acc += w[i];
+    }
+    // Rounding: u * sum reached the rounded total; the mass goes to the last real entry.
+    return DiscreteSample(last, w[last] / sum, ONE_MINUS_EPSILON);
+}
+
+// Ends a distance walk with an event at t (weight in (*tr).w).
+fn end_flight(tr: ptr<function, Tracker>, event: u32, t: f32) -> bool {
+    (*tr).event = event;
+    (*tr).t_event = t;
+    return false;
+}
+
+// The majorant closure each estimator's `sample_distance` passes to sample_free_flight.
+fn distance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    let b = (*tr).params.b;
+    switch (*tr).params.estimator {
+        case ESTIMATOR_DELTA, ESTIMATOR_DECOMPOSITION: { return seg.sigma_maj; }
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let sigma_c = coeffs_sigma_t(control(tr, seg));
+            return sigma_c + residual_majorant(b, seg, sigma_c);
+        }
+        // weighted delta, spectral: scaled_majorant(b).
+        default: { return b * seg.sigma_maj; }
+    }
+}
+
+// The collision callback of each estimator's `sample_distance`; false stops the walk.
+fn distance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                    seg: GpuMajorantSegment) -> bool {
+    switch (*tr).params.estimator {
+        // delta::sample_distance: one uniform against [sigma_a, sigma_a + sigma_s, sigma_maj].
+        case ESTIMATOR_DELTA: {
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), sigma_maj);
+            let x = tracker_uniform(tr) * sigma_maj;
+            if (x < k.sigma_a) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (x < k.sigma_a + k.sigma_s) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_delta::sample_distance: P_x = |sigma_x| / total, w *= sign total / sigma_maj.
+        case ESTIMATOR_WEIGHTED_DELTA: {
+            let k = lookup(tr, t);
+            let sigma_n = sigma_maj - coeffs_sigma_t(k);
+            let p = array<f32, 3>(abs(k.sigma_a), abs(k.sigma_s), abs(sigma_n));
+            let total = p[0] + p[1] + p[2];
+            let c = sample_discrete3(p, tracker_uniform(tr));
+            if (c.index == 3u) {
+                return true;
+            }
+            let sigma_x = array<f32, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
+            (*tr).w.x *= copysign(total / sigma_maj, sigma_x);
+            note_weight(tr, (*tr).w.x);
+            if (c.index == 0u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (c.index == 1u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // decomposition::sample_distance: the control part of the CDF first (no lookup).
+        case ESTIMATOR_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            var x = tracker_uniform(tr) * sigma_maj;
+            if (x < ctl.sigma_a) {
+                (*tr).stats.control_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (x < coeffs_sigma_t(ctl)) {
+                (*tr).stats.control_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), sigma_maj);
+            let r_a = k.sigma_a - ctl.sigma_a;
+            let r_s = k.sigma_s - ctl.sigma_s;
+            check_residual(tr, r_a, r_s, sigma_maj);
+            x = x - coeffs_sigma_t(ctl);
+            if (x < r_a) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (x < r_a + r_s) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_decomposition::sample_distance: control first, then weighted residual
+        // events with the remapped uniform.
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            let sigma_c = coeffs_sigma_t(ctl);
+            let x = tracker_uniform(tr) * sigma_maj;
+            if (x < sigma_c) {
+                (*tr).stats.control_collisions += 1u;
+                return end_flight(tr, select(EVENT_SCATTER, EVENT_ABSORB, x < ctl.sigma_a), t);
+            }
+            let r_bar = residual_majorant((*tr).params.b, seg, sigma_c);
+            if (!(r_bar > 0.0)) {
+                return true;
+            }
+            let u = clamp((x - sigma_c) / r_bar, 0.0, ONE_MINUS_EPSILON);
+            let k = lookup(tr, t);
+            let r_a = k.sigma_a - ctl.sigma_a;
+            let r_s = k.sigma_s - ctl.sigma_s;
+            let r_n = r_bar - r_a - r_s;
+            let p = array<f32, 3>(abs(r_a), abs(r_s), abs(r_n));
+            let total = p[0] + p[1] + p[2];
+            let c = sample_discrete3(p, u);
+            if (c.index == 3u) {
+                return true;
+            }
+            let sigma_x = array<f32, 3>(r_a, r_s, r_n)[c.index];
+            (*tr).w.x *= copysign(total / r_bar, sigma_x);
+            note_weight(tr, (*tr).w.x);
+            if (c.index == 0u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (c.index == 1u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // spectral::sample_distance: history-aware probabilities, RGB weights, roulette.
+        case ESTIMATOR_SPECTRAL: {
+            let k = lookup_rgb(tr, t);
+            let sigma_n = vec3<f32>(sigma_maj) - (k.sigma_a + k.sigma_s);
+            let h = (*tr).beta * (*tr).w;
+            let mode = (*tr).params.spectral_mode;
+            let p = array<f32, 3>(spectral_reduce(mode, k.sigma_a * h),
+                                  spectral_reduce(mode, k.sigma_s * h),
+                                  spectral_reduce(mode, sigma_n * h));
+            let c = sample_discrete3(p, tracker_uniform(tr));
+            if (c.index == 3u) {
+                // All history is zero: nothing can contribute any more.
+                (*tr).w = vec3<f32>(0.0);
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            let sigma_x = array<vec3<f32>, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
+            (*tr).w *= sigma_x / (sigma_maj * c.pmf);
+            let a = abs((*tr).w);
+            note_weight(tr, max(a.x, max(a.y, a.z)));
+            if (c.index == 0u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (c.index == 1u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w = roulette_rgb(tr, (*tr).w);
+            if (all((*tr).w == vec3<f32>(0.0))) {
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            return true;
+        }
+        default: {
+            return false;
+        }
+    }
+}
+
+// The majorant of the walk in progress.
+fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    if ((*tr).distance) {
+        return distance_majorant(tr, seg);
+    }
+    return transmittance_majorant(tr, seg);
+}
+
+// The collision callback of the walk in progress.
+fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                    seg: GpuMajorantSegment) -> bool {
+    if ((*tr).distance) {
+        return distance_collide(tr, t, sigma_maj, seg);
+    }
+    return transmittance_collide(tr, t, sigma_maj, seg);
+}
+
 // tracking::sample_free_flight (pbrt-v4's SampleT_maj): walks the majorant segments of `dda`
 // clipped to t <= t_max, places tentative collisions at exponential steps of each segment's
 // majorant and hands them to tracking_collide. Returns T_maj as the CPU does.
@@ -381,6 +625,7 @@ fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> v
         t_control = exp(-control_optical_depth(tr, dda, t_max));
     }
     (*tr).w = vec3<f32>(1.0);
+    (*tr).distance = false;
     sample_free_flight(tr, dda, t_max);
     if (est == ESTIMATOR_SPECTRAL) {
         return (*tr).w;
@@ -390,4 +635,17 @@ fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> v
         return vec3<f32>(select(0.0, t_control, (*tr).w.x != 0.0), 0.0, 0.0);
     }
     return vec3<f32>(t_control * (*tr).w.x, 0.0, 0.0);
+}
+
+// The `sample_distance` function of the estimator `(*tr).params.estimator` (delta,
+// weighted_delta, decomposition, weighted_decomposition, spectral) over the segments of `dda`:
+// sets (*tr).event, (*tr).t_event and the weight (*tr).w (grey in .x; 1 for analog trackers).
+// `beta` is the path throughput, used by spectral tracking's history-aware probabilities.
+fn tracking_sample_distance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32, beta: vec3<f32>) {
+    (*tr).w = vec3<f32>(1.0);
+    (*tr).beta = beta;
+    (*tr).distance = true;
+    (*tr).event = EVENT_ESCAPE;
+    (*tr).t_event = 0.0;
+    sample_free_flight(tr, dda, t_max);
 }

@@ -50,6 +50,8 @@ pub mod files {
     pub const TRACKING: ShaderFile = shader_file!("common/tracking.wgsl");
     /// Transmittance kernel: one (ray, sample) per invocation.
     pub const TRANSMITTANCE: ShaderFile = shader_file!("kernels/transmittance.wgsl");
+    /// Distance-sampling kernel: one (ray, sample) per invocation.
+    pub const DISTANCE: ShaderFile = shader_file!("kernels/distance.wgsl");
     /// Test kernels comparing the mirrors with the CPU.
     pub const TEST_RNG: ShaderFile = shader_file!("tests/rng.wgsl");
     pub const TEST_GRID: ShaderFile = shader_file!("tests/grid.wgsl");
@@ -188,6 +190,14 @@ pub const TRANSMITTANCE_MODULE: Module = Module {
     default_specs: &[],
 };
 
+/// Per-estimator distance sampling over a SparseGrid along index-space rays.
+pub const DISTANCE_MODULE: Module = Module {
+    label: "distance",
+    files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, DISTANCE],
+    entry_point: "distance_main",
+    default_specs: &[],
+};
+
 /// RNG streams (test).
 pub const TEST_RNG_MODULE: Module = Module {
     label: "test_rng",
@@ -235,6 +245,7 @@ pub const TEST_MATH_MODULE: Module = Module {
 /// Every module Brume builds.
 pub const MODULES: &[Module] = &[
     TRANSMITTANCE_MODULE,
+    DISTANCE_MODULE,
     TEST_RNG_MODULE,
     TEST_GRID_MODULE,
     TEST_DDA_MODULE,
