@@ -215,16 +215,24 @@ impl GpuContext {
         }
     }
 
-    /// Runs `pipeline` once over `workgroups` workgroups (split into a 2D grid beyond the
-    /// per-dimension limit is NOT done: kernels index with `global_invocation_id.x` only).
-    /// `bindings` are `(group, binding, buffer)`; they must be exactly those the entry point
-    /// uses. Waits for completion.
+    /// Runs `pipeline` once over `workgroups` workgroups along x and waits for it. Kernels
+    /// index work with `global_invocation_id.x` only, so one dispatch covers at most
+    /// `max_compute_workgroups_per_dimension` (65,535) workgroups: 4.19 M invocations at 64
+    /// per workgroup; larger batches are split by the caller. `bindings` are
+    /// `(group, binding, buffer)` and must be exactly those the entry point uses (the layout
+    /// is derived from the shader).
     pub fn dispatch(
         &self,
         pipeline: &wgpu::ComputePipeline,
         bindings: &[(u32, u32, &wgpu::Buffer)],
         workgroups: u32,
     ) -> Result<(), String> {
+        if workgroups > self.limits.max_compute_workgroups_per_dimension {
+            return Err(format!(
+                "{workgroups} workgroups exceed the limit of {} per dispatch",
+                self.limits.max_compute_workgroups_per_dimension
+            ));
+        }
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let max_group = bindings.iter().map(|b| b.0).max().map_or(0, |g| g + 1);
         let groups: Vec<wgpu::BindGroup> = (0..max_group)
