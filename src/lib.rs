@@ -2,6 +2,7 @@
 pub mod accel;
 pub mod backend;
 pub mod film;
+pub mod gpu_types;
 pub mod integrator;
 pub mod math;
 pub mod sampling;

@@ -1,0 +1,43 @@
+// Mirrors src/sampling/rng.rs (`pcg_hash`, `Rng::new`, `Rng::next_u32`, `Rng::uniform_f32`):
+// PCG-RXS-M-XS-32 with u32-only wrapping arithmetic, which is exactly WGSL's u32 semantics, so
+// the streams equal the CPU's bit for bit (tests/gpu_rng.rs). Keep the two in lockstep.
+
+const PCG_MULT: u32 = 747796405u;
+const PCG_INC: u32 = 2891336453u;
+const RXS_M_XS_MULT: u32 = 277803737u;
+const INC_SALT: u32 = 0x9E3779B9u;
+
+struct Rng {
+    state: u32,
+    inc: u32, // odd: which of the 2^31 LCG streams
+}
+
+// The RXS-M-XS output permutation.
+fn rxs_m_xs(s: u32) -> u32 {
+    let w = ((s >> ((s >> 28u) + 4u)) ^ s) * RXS_M_XS_MULT;
+    return (w >> 22u) ^ w;
+}
+
+// Jarzynski & Olano (2020): one LCG step and RXS-M-XS.
+fn pcg_hash(x: u32) -> u32 {
+    return rxs_m_xs(x * PCG_MULT + PCG_INC);
+}
+
+fn rng_next_u32(rng: ptr<function, Rng>) -> u32 {
+    let old = (*rng).state;
+    (*rng).state = old * PCG_MULT + (*rng).inc;
+    return rxs_m_xs(old);
+}
+
+// Rng::new: hashed start AND hashed increment; the first output is discarded.
+fn rng_new(pixel_index: u32, sample_index: u32, seed: u32) -> Rng {
+    let h = pcg_hash(pcg_hash(pcg_hash(seed) ^ pixel_index) ^ sample_index);
+    var rng = Rng(h, (pcg_hash(h ^ INC_SALT) << 1u) | 1u);
+    rng_next_u32(&rng);
+    return rng;
+}
+
+// Uniform in [0, 1): the top 24 bits times 2^-24, exact in f32 and never 1.
+fn rng_uniform(rng: ptr<function, Rng>) -> f32 {
+    return f32(rng_next_u32(rng) >> 8u) * (1.0 / 16777216.0);
+}

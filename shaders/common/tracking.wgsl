@@ -1,0 +1,652 @@
+// Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs) and the
+// collision callbacks of each estimator's `transmittance` and `sample_distance` (delta.rs,
+// weighted_delta.rs, decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs,
+// spectral.rs), and sampling::sample_discrete.
+// Needs types.wgsl, math.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
+//
+// WGSL has no closures, so where the CPU passes a majorant closure and a callback, the loop
+// here calls `tracking_majorant` and `tracking_collide`, which switch on the estimator id
+// (ESTIMATOR_* constants, emitted from gpu_types::GpuEstimator by backend::gpu::shader).
+//
+// Random-number order is the CPU's (tracking/mod.rs): one uniform per exponential step, drawn
+// by the loop; then what the callback draws for that collision (one uniform for the event
+// choice, one more only when Russian roulette fires). With the same Rng stream the GPU walk
+// therefore takes the same decisions as the CPU one up to rounding: exponential steps use
+// ln_f32 (math.wgsl, equal to f32::ln for 92 % of arguments, else 1 ulp off), exp() is WGSL's,
+// and the driver may rewrite arithmetic (Mesa's NIR turns `(1 - a) s + a s` into
+// `s ((1 - a) + a)`, for one). tests/gpu_transmittance.rs reports how many samples are
+// bit-identical to the CPU's.
+//
+// The medium is a SparseGrid seen along an index-space ray: sigma_t = density_scale * value
+// (times channel_scale per channel for spectral tracking), sigma_s = albedo sigma_t.
+
+// tracking::MAJORANT_TOLERANCE.
+const MAJORANT_TOLERANCE: f32 = 1e-4;
+// tracking::ROULETTE_THRESHOLD.
+const ROULETTE_THRESHOLD: f32 = 0.1;
+// tracking::MAX_TENTATIVE_COLLISIONS (per free flight).
+const MAX_TENTATIVE_COLLISIONS: u32 = 16777216u;
+// Largest finite f32 (`is_finite` for a non-negative value is `<= F32_MAX`).
+const F32_MAX: f32 = 3.40282347e38;
+
+// Per-invocation TrackingStats (folded into GpuTrackingStats with atomics by the kernel).
+struct Stats {
+    lookups: u32,
+    null_collisions: u32,
+    real_collisions: u32,
+    control_collisions: u32,
+    majorant_violations: u32,
+    invalid_majorants: u32,
+    collision_cap_hits: u32,
+    roulette_kills: u32,
+    max_abs_weight: f32,
+}
+
+// tracking::Coeffs.
+struct Coeffs {
+    sigma_a: f32,
+    sigma_s: f32,
+}
+
+// One estimator walking one ray: the state the CPU closures capture.
+struct Tracker {
+    params: GpuTrackingParams,
+    rng: Rng,
+    stats: Stats,
+    o: vec3<f32>,  // index-space ray origin
+    d: vec3<f32>,  // index-space ray direction
+    w: vec3<f32>,  // the estimate or weight being built (grey estimators use .x)
+    distance: bool, // sample_distance (true) or transmittance (false)
+    beta: vec3<f32>, // path throughput before the flight (spectral sample_distance history)
+    event: u32,    // EVENT_* of sample_distance
+    t_event: f32,  // ray parameter of an absorb/scatter event
+}
+
+// tracking::Event variants.
+const EVENT_ESCAPE: u32 = 0u;
+const EVENT_ABSORB: u32 = 1u;
+const EVENT_SCATTER: u32 = 2u;
+// sampling::discrete::ONE_MINUS_EPSILON, the largest f32 below 1 (0x3f7fffff).
+const ONE_MINUS_EPSILON: f32 = 0.99999994;
+
+// Coeffs::from_sigma_t.
+fn coeffs_from_sigma_t(sigma_t: f32, albedo: f32) -> Coeffs {
+    return Coeffs((1.0 - albedo) * sigma_t, albedo * sigma_t);
+}
+
+// Coeffs::sigma_t.
+fn coeffs_sigma_t(k: Coeffs) -> f32 {
+    return k.sigma_a + k.sigma_s;
+}
+
+// f32::copysign: the magnitude of x with the sign bit of y (so -0.0 counts as negative).
+fn copysign(x: f32, y: f32) -> f32 {
+    return bitcast<f32>((bitcast<u32>(x) & 0x7fffffffu) | (bitcast<u32>(y) & 0x80000000u));
+}
+
+// The medium's extinction at ray parameter t, before channel and albedo splits.
+fn medium_sigma_t(tr: ptr<function, Tracker>, t: f32) -> f32 {
+    return grid_info.density_scale * grid_sample_trilinear((*tr).o + t * (*tr).d);
+}
+
+// tracking::lookup: one counted density lookup.
+fn lookup(tr: ptr<function, Tracker>, t: f32) -> Coeffs {
+    (*tr).stats.lookups += 1u;
+    return coeffs_from_sigma_t(medium_sigma_t(tr, t), (*tr).params.albedo);
+}
+
+// tracking::CoeffsRgb.
+struct CoeffsRgb {
+    sigma_a: vec3<f32>,
+    sigma_s: vec3<f32>,
+}
+
+// tracking::lookup_rgb: sigma_t,c = channel_scale[c] * density, split by the albedo.
+fn lookup_rgb(tr: ptr<function, Tracker>, t: f32) -> CoeffsRgb {
+    (*tr).stats.lookups += 1u;
+    let s = (*tr).params.channel_scale * medium_sigma_t(tr, t);
+    let albedo = (*tr).params.albedo;
+    return CoeffsRgb((1.0 - albedo) * s, albedo * s);
+}
+
+// CoeffsRgb::sigma_t of one lookup.
+fn lookup_rgb_sigma_t(tr: ptr<function, Tracker>, t: f32) -> vec3<f32> {
+    let k = lookup_rgb(tr, t);
+    return k.sigma_a + k.sigma_s;
+}
+
+// ControlExtinction::sigma_c.
+fn control_sigma_c(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    switch (*tr).params.control_mode {
+        case CONTROL_CONSTANT: { return (*tr).params.control_value; }
+        case CONTROL_FRACTION_OF_BOUND: { return (*tr).params.control_value * seg.sigma_maj; }
+        case CONTROL_SEGMENT_MINORANT: { return seg.sigma_min; }
+        case CONTROL_FRACTION_OF_BOUND_CAPPED: { return min((*tr).params.control_value * seg.sigma_maj, seg.sigma_min); }
+        default: { return 0.0; }
+    }
+}
+
+// Medium::control of FnMedium::with_control: Coeffs::from_sigma_t(sigma_c, control_albedo).
+fn control(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> Coeffs {
+    return coeffs_from_sigma_t(control_sigma_c(tr, seg), (*tr).params.control_albedo);
+}
+
+// tracking::check_bound.
+fn check_bound(tr: ptr<function, Tracker>, sigma_t: f32, sigma_maj: f32) {
+    if (sigma_t > sigma_maj * (1.0 + MAJORANT_TOLERANCE)) {
+        (*tr).stats.majorant_violations += 1u;
+    }
+}
+
+// decomposition::check_residual.
+fn check_residual(tr: ptr<function, Tracker>, r_a: f32, r_s: f32, sigma_maj: f32) {
+    let slack = -MAJORANT_TOLERANCE * sigma_maj;
+    if (r_a < slack || r_s < slack) {
+        (*tr).stats.majorant_violations += 1u;
+    }
+}
+
+// TrackingStats::note_weight.
+fn note_weight(tr: ptr<function, Tracker>, w: f32) {
+    (*tr).stats.max_abs_weight = max((*tr).stats.max_abs_weight, abs(w));
+}
+
+// tracking::residual_majorant: b * max(bound - sigma_c, sigma_c - sigma_min, 0).
+fn residual_majorant(b: f32, seg: GpuMajorantSegment, sigma_c: f32) -> f32 {
+    return b * max(max(seg.sigma_maj - sigma_c, sigma_c - seg.sigma_min), 0.0);
+}
+
+// The tracker's next uniform. The stream is copied out and back because naga 30's SPIR-V
+// writer panics ("Expression [n] is not cached!") on a call taking `&(*tr).rng`, a pointer to
+// a member of a pointer argument.
+fn tracker_uniform(tr: ptr<function, Tracker>) -> f32 {
+    var rng = (*tr).rng;
+    let u = rng_uniform(&rng);
+    (*tr).rng = rng;
+    return u;
+}
+
+// tracking::sample_exponential. ln_f32 (math.wgsl), not WGSL's log(): the built-in may be off
+// by 2^-21 absolutely near 1, i.e. by percents on the short steps of small u.
+fn sample_exponential(u: f32, sigma: f32) -> f32 {
+    return -ln_f32(1.0 - u) / sigma;
+}
+
+// tracking::roulette (grey).
+fn roulette(tr: ptr<function, Tracker>, w: f32) -> f32 {
+    let a = abs(w);
+    if (a >= ROULETTE_THRESHOLD || a == 0.0) {
+        return w;
+    }
+    if (tracker_uniform(tr) < a / ROULETTE_THRESHOLD) {
+        return copysign(ROULETTE_THRESHOLD, w);
+    }
+    (*tr).stats.roulette_kills += 1u;
+    return 0.0;
+}
+
+// SpectralProbabilities::reduce (0 = history-aware max, 1 = average).
+fn spectral_reduce(mode: u32, v: vec3<f32>) -> f32 {
+    let a = abs(v);
+    if (mode == 0u) {
+        return max(a.x, max(a.y, a.z));
+    }
+    return (a.x + a.y + a.z) * (1.0 / 3.0);
+}
+
+// spectral::roulette_rgb.
+fn roulette_rgb(tr: ptr<function, Tracker>, w: vec3<f32>) -> vec3<f32> {
+    let a = abs(w);
+    let m = max(a.x, max(a.y, a.z));
+    if (m >= ROULETTE_THRESHOLD || m == 0.0) {
+        return w;
+    }
+    if (tracker_uniform(tr) < m / ROULETTE_THRESHOLD) {
+        return w * (ROULETTE_THRESHOLD / m);
+    }
+    (*tr).stats.roulette_kills += 1u;
+    return vec3<f32>(0.0);
+}
+
+// The majorant closure each estimator's `transmittance` passes to sample_free_flight.
+fn transmittance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    let b = (*tr).params.b;
+    switch (*tr).params.estimator {
+        case ESTIMATOR_DELTA: { return seg.sigma_maj; }
+        case ESTIMATOR_DECOMPOSITION: {
+            return max(seg.sigma_maj - coeffs_sigma_t(control(tr, seg)), 0.0);
+        }
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION, ESTIMATOR_RESIDUAL_RATIO: {
+            return residual_majorant(b, seg, coeffs_sigma_t(control(tr, seg)));
+        }
+        // weighted delta, ratio, spectral: scaled_majorant(b).
+        default: { return b * seg.sigma_maj; }
+    }
+}
+
+// The collision callback of each estimator's `transmittance`; false stops the walk.
+fn transmittance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                    seg: GpuMajorantSegment) -> bool {
+    switch (*tr).params.estimator {
+        // delta::transmittance: Bernoulli, real with probability sigma_t / sigma_maj.
+        case ESTIMATOR_DELTA: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            check_bound(tr, sigma_t, sigma_maj);
+            if (tracker_uniform(tr) * sigma_maj < sigma_t) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_delta::transmittance: events {real |sigma_t|, null |sigma_n|}.
+        case ESTIMATOR_WEIGHTED_DELTA: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            let sigma_n = sigma_maj - sigma_t;
+            let total = abs(sigma_t) + abs(sigma_n);
+            if (tracker_uniform(tr) * total < abs(sigma_t)) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= copysign(total / sigma_maj, sigma_n);
+            note_weight(tr, (*tr).w.x);
+            return true;
+        }
+        // decomposition::transmittance: Bernoulli on the residual against bound - sigma_c.
+        case ESTIMATOR_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), seg.sigma_maj);
+            check_residual(tr, k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s, seg.sigma_maj);
+            let sigma_r = coeffs_sigma_t(k) - coeffs_sigma_t(ctl);
+            if (tracker_uniform(tr) * sigma_maj < sigma_r) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_decomposition::transmittance: weighted residual events.
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
+            let r_n = sigma_maj - sigma_r;
+            let total = abs(sigma_r) + abs(r_n);
+            if (tracker_uniform(tr) * total < abs(sigma_r)) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w.x = 0.0;
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= copysign(total / sigma_maj, r_n);
+            note_weight(tr, (*tr).w.x);
+            return true;
+        }
+        // ratio::transmittance: T *= 1 - sigma_t / sigma_maj, then roulette.
+        case ESTIMATOR_RATIO: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= 1.0 - sigma_t / sigma_maj;
+            note_weight(tr, (*tr).w.x);
+            (*tr).w.x = roulette(tr, (*tr).w.x);
+            return (*tr).w.x != 0.0;
+        }
+        // residual_ratio::transmittance: T *= 1 - sigma_r / r_bar, then roulette.
+        case ESTIMATOR_RESIDUAL_RATIO: {
+            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w.x *= 1.0 - sigma_r / sigma_maj;
+            note_weight(tr, (*tr).w.x);
+            (*tr).w.x = roulette(tr, (*tr).w.x);
+            return (*tr).w.x != 0.0;
+        }
+        // spectral::transmittance: history-aware real/null choice, RGB weights.
+        case ESTIMATOR_SPECTRAL: {
+            let sigma_t = lookup_rgb_sigma_t(tr, t);
+            let sigma_n = vec3<f32>(sigma_maj) - sigma_t;
+            let mode = (*tr).params.spectral_mode;
+            let p_real = spectral_reduce(mode, sigma_t * (*tr).w);
+            let p_null = spectral_reduce(mode, sigma_n * (*tr).w);
+            let total = p_real + p_null;
+            // `||` short-circuits: no uniform is drawn when total is not positive (as on the CPU).
+            if (!(total > 0.0) || tracker_uniform(tr) * total < p_real) {
+                (*tr).stats.real_collisions += 1u;
+                (*tr).w = vec3<f32>(0.0);
+                return false;
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w *= sigma_n * (total / (sigma_maj * p_null));
+            let a = abs((*tr).w);
+            note_weight(tr, max(a.x, max(a.y, a.z)));
+            (*tr).w = roulette_rgb(tr, (*tr).w);
+            return any((*tr).w != vec3<f32>(0.0));
+        }
+        default: {
+            return false;
+        }
+    }
+}
+
+// sampling::sample_discrete over three weights: the chosen index (3 = none), its pmf and the
+// remapped uniform.
+struct DiscreteSample {
+    index: u32,
+    pmf: f32,
+    u_remapped: f32,
+}
+
+fn sample_discrete3(w: array<f32, 3>, u: f32) -> DiscreteSample {
+    let sum = w[0] + w[1] + w[2];
+    if (!(sum > 0.0)) {
+        return DiscreteSample(3u, 0.0, 0.0);
+    }
+    let up = u * sum;
+    var acc = 0.0;
+    var last = 3u;
+    for (var i = 0u; i < 3u; i++) {
+        if (w[i] <= 0.0) {
+            continue;
+        }
+        last = i;
+        if (up < acc + w[i]) {
+            return DiscreteSample(i, w[i] / sum, clamp((up - acc) / w[i], 0.0, ONE_MINUS_EPSILON));
+        }
+        acc += w[i];
+    }
+    // Rounding: u * sum reached the rounded total; the mass goes to the last real entry.
+    return DiscreteSample(last, w[last] / sum, ONE_MINUS_EPSILON);
+}
+
+// Ends a distance walk with an event at t (weight in (*tr).w).
+fn end_flight(tr: ptr<function, Tracker>, event: u32, t: f32) -> bool {
+    (*tr).event = event;
+    (*tr).t_event = t;
+    return false;
+}
+
+// The majorant closure each estimator's `sample_distance` passes to sample_free_flight.
+fn distance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    let b = (*tr).params.b;
+    switch (*tr).params.estimator {
+        case ESTIMATOR_DELTA, ESTIMATOR_DECOMPOSITION: { return seg.sigma_maj; }
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let sigma_c = coeffs_sigma_t(control(tr, seg));
+            return sigma_c + residual_majorant(b, seg, sigma_c);
+        }
+        // weighted delta, spectral: scaled_majorant(b).
+        default: { return b * seg.sigma_maj; }
+    }
+}
+
+// The collision callback of each estimator's `sample_distance`; false stops the walk.
+fn distance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                    seg: GpuMajorantSegment) -> bool {
+    switch (*tr).params.estimator {
+        // delta::sample_distance: one uniform against [sigma_a, sigma_a + sigma_s, sigma_maj].
+        case ESTIMATOR_DELTA: {
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), sigma_maj);
+            let x = tracker_uniform(tr) * sigma_maj;
+            if (x < k.sigma_a) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (x < k.sigma_a + k.sigma_s) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_delta::sample_distance: P_x = |sigma_x| / total, w *= sign total / sigma_maj.
+        case ESTIMATOR_WEIGHTED_DELTA: {
+            let k = lookup(tr, t);
+            let sigma_n = sigma_maj - coeffs_sigma_t(k);
+            let p = array<f32, 3>(abs(k.sigma_a), abs(k.sigma_s), abs(sigma_n));
+            let total = p[0] + p[1] + p[2];
+            let c = sample_discrete3(p, tracker_uniform(tr));
+            if (c.index == 3u) {
+                return true;
+            }
+            let sigma_x = array<f32, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
+            (*tr).w.x *= copysign(total / sigma_maj, sigma_x);
+            note_weight(tr, (*tr).w.x);
+            if (c.index == 0u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (c.index == 1u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // decomposition::sample_distance: the control part of the CDF first (no lookup).
+        case ESTIMATOR_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            var x = tracker_uniform(tr) * sigma_maj;
+            if (x < ctl.sigma_a) {
+                (*tr).stats.control_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (x < coeffs_sigma_t(ctl)) {
+                (*tr).stats.control_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), sigma_maj);
+            let r_a = k.sigma_a - ctl.sigma_a;
+            let r_s = k.sigma_s - ctl.sigma_s;
+            check_residual(tr, r_a, r_s, sigma_maj);
+            x = x - coeffs_sigma_t(ctl);
+            if (x < r_a) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (x < r_a + r_s) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // weighted_decomposition::sample_distance: control first, then weighted residual
+        // events with the remapped uniform.
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            let sigma_c = coeffs_sigma_t(ctl);
+            let x = tracker_uniform(tr) * sigma_maj;
+            if (x < sigma_c) {
+                (*tr).stats.control_collisions += 1u;
+                return end_flight(tr, select(EVENT_SCATTER, EVENT_ABSORB, x < ctl.sigma_a), t);
+            }
+            let r_bar = residual_majorant((*tr).params.b, seg, sigma_c);
+            if (!(r_bar > 0.0)) {
+                return true;
+            }
+            let u = clamp((x - sigma_c) / r_bar, 0.0, ONE_MINUS_EPSILON);
+            let k = lookup(tr, t);
+            let r_a = k.sigma_a - ctl.sigma_a;
+            let r_s = k.sigma_s - ctl.sigma_s;
+            let r_n = r_bar - r_a - r_s;
+            let p = array<f32, 3>(abs(r_a), abs(r_s), abs(r_n));
+            let total = p[0] + p[1] + p[2];
+            let c = sample_discrete3(p, u);
+            if (c.index == 3u) {
+                return true;
+            }
+            let sigma_x = array<f32, 3>(r_a, r_s, r_n)[c.index];
+            (*tr).w.x *= copysign(total / r_bar, sigma_x);
+            note_weight(tr, (*tr).w.x);
+            if (c.index == 0u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (c.index == 1u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            return true;
+        }
+        // spectral::sample_distance: history-aware probabilities, RGB weights, roulette.
+        case ESTIMATOR_SPECTRAL: {
+            let k = lookup_rgb(tr, t);
+            let sigma_n = vec3<f32>(sigma_maj) - (k.sigma_a + k.sigma_s);
+            let h = (*tr).beta * (*tr).w;
+            let mode = (*tr).params.spectral_mode;
+            let p = array<f32, 3>(spectral_reduce(mode, k.sigma_a * h),
+                                  spectral_reduce(mode, k.sigma_s * h),
+                                  spectral_reduce(mode, sigma_n * h));
+            let c = sample_discrete3(p, tracker_uniform(tr));
+            if (c.index == 3u) {
+                // All history is zero: nothing can contribute any more.
+                (*tr).w = vec3<f32>(0.0);
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            let sigma_x = array<vec3<f32>, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
+            (*tr).w *= sigma_x / (sigma_maj * c.pmf);
+            let a = abs((*tr).w);
+            note_weight(tr, max(a.x, max(a.y, a.z)));
+            if (c.index == 0u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            if (c.index == 1u) {
+                (*tr).stats.real_collisions += 1u;
+                return end_flight(tr, EVENT_SCATTER, t);
+            }
+            (*tr).stats.null_collisions += 1u;
+            (*tr).w = roulette_rgb(tr, (*tr).w);
+            if (all((*tr).w == vec3<f32>(0.0))) {
+                return end_flight(tr, EVENT_ABSORB, t);
+            }
+            return true;
+        }
+        default: {
+            return false;
+        }
+    }
+}
+
+// The majorant of the walk in progress.
+fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
+    if ((*tr).distance) {
+        return distance_majorant(tr, seg);
+    }
+    return transmittance_majorant(tr, seg);
+}
+
+// The collision callback of the walk in progress.
+fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                    seg: GpuMajorantSegment) -> bool {
+    if ((*tr).distance) {
+        return distance_collide(tr, t, sigma_maj, seg);
+    }
+    return transmittance_collide(tr, t, sigma_maj, seg);
+}
+
+// tracking::sample_free_flight (pbrt-v4's SampleT_maj): walks the majorant segments of `dda`
+// clipped to t <= t_max, places tentative collisions at exponential steps of each segment's
+// majorant and hands them to tracking_collide. Returns T_maj as the CPU does.
+fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
+    var dda = dda_start;
+    var seg: GpuMajorantSegment;
+    var t_maj = 1.0;
+    var n_collisions = 0u;
+    while (dda_next(&dda, &seg)) {
+        if (seg.t_min >= t_max) {
+            break;
+        }
+        let t1 = min(seg.t_max, t_max);
+        if (!(t1 > seg.t_min)) {
+            continue;
+        }
+        let sigma_maj = tracking_majorant(tr, seg);
+        if (!(sigma_maj >= 0.0 && sigma_maj <= F32_MAX)) {
+            (*tr).stats.invalid_majorants += 1u;
+            continue;
+        }
+        if (sigma_maj == 0.0) {
+            continue;
+        }
+        var t = seg.t_min;
+        loop {
+            let t_prev = t;
+            t += sample_exponential(tracker_uniform(tr), sigma_maj);
+            if (t >= t1) {
+                // Escaped this segment: the majorant transmittance of the rest.
+                t_maj *= exp(-sigma_maj * (t1 - t_prev));
+                break;
+            }
+            n_collisions += 1u;
+            if (n_collisions > MAX_TENTATIVE_COLLISIONS) {
+                (*tr).stats.collision_cap_hits += 1u;
+                return 0.0;
+            }
+            t_maj = 1.0;
+            if (!tracking_collide(tr, t, sigma_maj, seg)) {
+                return 1.0;
+            }
+        }
+    }
+    return t_maj;
+}
+
+// tracking::control_optical_depth: integral of sigma_c over the clipped segments (no lookups).
+fn control_optical_depth(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
+    var dda = dda_start;
+    var seg: GpuMajorantSegment;
+    var tau = 0.0;
+    while (dda_next(&dda, &seg)) {
+        if (seg.t_min >= t_max) {
+            break;
+        }
+        let len = min(seg.t_max, t_max) - seg.t_min;
+        let sigma_c = coeffs_sigma_t(control(tr, seg));
+        if (len > 0.0 && sigma_c > 0.0) {
+            tau += sigma_c * len;
+        }
+    }
+    return tau;
+}
+
+// The `transmittance` function of the estimator `(*tr).params.estimator` over the segments of
+// `dda`: grey estimates in .x, the RGB estimate of spectral tracking in .xyz.
+fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> vec3<f32> {
+    let est = (*tr).params.estimator;
+    // The closed-form control factor, computed before the walk as on the CPU.
+    var t_control = 1.0;
+    if (est == ESTIMATOR_DECOMPOSITION || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
+        || est == ESTIMATOR_RESIDUAL_RATIO) {
+        t_control = exp(-control_optical_depth(tr, dda, t_max));
+    }
+    (*tr).w = vec3<f32>(1.0);
+    (*tr).distance = false;
+    sample_free_flight(tr, dda, t_max);
+    if (est == ESTIMATOR_SPECTRAL) {
+        return (*tr).w;
+    }
+    if (est == ESTIMATOR_DECOMPOSITION) {
+        // decomposition keeps `tr = exp(-tau_c)` and zeroes it on a real collision.
+        return vec3<f32>(select(0.0, t_control, (*tr).w.x != 0.0), 0.0, 0.0);
+    }
+    return vec3<f32>(t_control * (*tr).w.x, 0.0, 0.0);
+}
+
+// The `sample_distance` function of the estimator `(*tr).params.estimator` (delta,
+// weighted_delta, decomposition, weighted_decomposition, spectral) over the segments of `dda`:
+// sets (*tr).event, (*tr).t_event and the weight (*tr).w (grey in .x; 1 for analog trackers).
+// `beta` is the path throughput, used by spectral tracking's history-aware probabilities.
+fn tracking_sample_distance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32, beta: vec3<f32>) {
+    (*tr).w = vec3<f32>(1.0);
+    (*tr).beta = beta;
+    (*tr).distance = true;
+    (*tr).event = EVENT_ESCAPE;
+    (*tr).t_event = 0.0;
+    sample_free_flight(tr, dda, t_max);
+}

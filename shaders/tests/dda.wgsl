@@ -1,0 +1,25 @@
+// Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda.rs): all segments of each
+// ray (up to MAX_SEGMENTS stored, all counted); tests/gpu_dda.rs compares with the CPU.
+
+@group(1) @binding(0) var<storage, read> rays: array<GpuRay>;
+@group(1) @binding(1) var<storage, read_write> segments: array<GpuMajorantSegment>;
+@group(1) @binding(2) var<storage, read_write> counts: array<u32>;
+
+@compute @workgroup_size(64)
+fn dda_segments(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&rays)) {
+        return;
+    }
+    let r = rays[i];
+    var it = dda_new(r.o, r.d, r.t_min, r.t_max, DDA_SCALE, DDA_GLOBAL);
+    var seg: GpuMajorantSegment;
+    var n = 0u;
+    while (dda_next(&it, &seg)) {
+        if (n < MAX_SEGMENTS) {
+            segments[i * MAX_SEGMENTS + n] = seg;
+        }
+        n += 1u;
+    }
+    counts[i] = n;
+}

@@ -1,0 +1,17 @@
+// Test kernel for SparseGrid::sample_nearest, SparseGrid::sample_trilinear and
+// SparseGrid::voxel (src/volume/grid.rs) at given index points; tests/gpu_grid.rs compares.
+
+@group(1) @binding(0) var<storage, read> points: array<vec4<f32>>;
+// x: nearest, y: trilinear, z: voxel(floor(p)).
+@group(1) @binding(1) var<storage, read_write> values: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn grid_lookups(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&points)) {
+        return;
+    }
+    let p = points[i].xyz;
+    values[i] = vec4<f32>(grid_sample_nearest(p), grid_sample_trilinear(p),
+                          grid_voxel(vec3<i32>(floor(p))), 0.0);
+}

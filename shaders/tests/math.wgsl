@@ -1,0 +1,15 @@
+// Test kernel for ln_f32 (shaders/common/math.wgsl), the mirror of f32::ln: for u = 4 i 2^-24,
+// the bits of WGSL's built-in log(1 - u) and of ln_f32(1 - u); tests/gpu_math.rs compares
+// both with f32::ln and with the f64 logarithm.
+
+@group(0) @binding(0) var<storage, read_write> out: array<vec2<u32>>;
+
+@compute @workgroup_size(64)
+fn logs(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&out)) {
+        return;
+    }
+    let u = f32(i * 4u) * (1.0 / 16777216.0);
+    out[i] = vec2<u32>(bitcast<u32>(log(1.0 - u)), bitcast<u32>(ln_f32(1.0 - u)));
+}

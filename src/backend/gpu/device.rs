@@ -1,0 +1,373 @@
+//! The wgpu device and the few helpers the compute kernels need: storage buffers from slices,
+//! one-shot dispatches with bind groups, and read-back.
+//!
+//! Everything here blocks (`pollster`): Brume is an offline renderer and submits large batches.
+//! Errors a kernel can cause (validation of a module or a binding) are caught with error
+//! scopes and returned as strings instead of reaching wgpu's default handler, which panics.
+use super::shader::{Module, Spec};
+use crate::gpu_types::{CellBounds, GpuGridInfo};
+use crate::volume::{LeafBounds, SparseGrid};
+use bytemuck::Pod;
+use std::fmt;
+
+/// Why no GPU could be used: one line for the CPU-fallback message.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GpuUnavailable {
+    pub reason: String,
+    /// `true` when no adapter exists at all (as opposed to one that could not be used).
+    pub no_adapter: bool,
+}
+
+impl fmt::Display for GpuUnavailable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.reason)
+    }
+}
+
+impl std::error::Error for GpuUnavailable {}
+
+/// A wgpu device and queue with what Brume needs to know about the adapter.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    /// The limits the device was created with (the adapter's storage-buffer sizes).
+    pub limits: wgpu::Limits,
+    /// `true` when timestamp queries (`Features::TIMESTAMP_QUERY`) were enabled.
+    pub timestamp_queries: bool,
+    /// WebGPU default limits the adapter does not reach (`"name have < default"`), for logs.
+    pub limits_below_default: Vec<String>,
+}
+
+impl GpuContext {
+    /// A device on the best Vulkan adapter (a real GPU, else a software one such as Mesa's
+    /// llvmpipe), with the default WebGPU limits raised to the adapter's storage-buffer sizes.
+    pub fn new() -> Result<GpuContext, GpuUnavailable> {
+        let unavailable = |reason: String| GpuUnavailable {
+            reason,
+            no_adapter: false,
+        };
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::VULKAN;
+        let instance = wgpu::Instance::new(desc);
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            force_fallback_adapter: false,
+            compatible_surface: None,
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| GpuUnavailable {
+            reason: format!("no Vulkan adapter found ({e})"),
+            no_adapter: true,
+        })?;
+        let info = adapter.get_info();
+        let supported = adapter.limits();
+        // WebGPU's defaults, lowered where the adapter offers less (lavapipe, for one, is below
+        // a few graphics limits a compute renderer never uses), then the storage sizes raised
+        // to the adapter's. What Brume's kernels need is checked explicitly.
+        let defaults = wgpu::Limits::default();
+        let mut limits_below_default = Vec::new();
+        defaults.check_limits_with_fail_fn(&supported, false, |name, want, have| {
+            limits_below_default.push(format!("{name} {have} < {want}"));
+        });
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
+            max_buffer_size: supported.max_buffer_size,
+            ..defaults.or_worse_values_from(&supported)
+        };
+        for (name, have, need) in [
+            ("max_bind_groups", limits.max_bind_groups, 2),
+            (
+                "max_storage_buffers_per_shader_stage",
+                limits.max_storage_buffers_per_shader_stage,
+                8,
+            ),
+            (
+                "max_compute_invocations_per_workgroup",
+                limits.max_compute_invocations_per_workgroup,
+                64,
+            ),
+            (
+                "max_compute_workgroups_per_dimension",
+                limits.max_compute_workgroups_per_dimension,
+                65535,
+            ),
+        ] {
+            if have < need {
+                return Err(unavailable(format!(
+                    "adapter {}: {name} is {have}, Brume needs {need}",
+                    info.name
+                )));
+            }
+        }
+        let timestamp_queries = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let features = if timestamp_queries {
+            wgpu::Features::TIMESTAMP_QUERY
+        } else {
+            wgpu::Features::empty()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("brume"),
+            required_features: features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| {
+            unavailable(format!(
+                "adapter {}: device request failed ({e})",
+                info.name
+            ))
+        })?;
+        Ok(GpuContext {
+            device,
+            queue,
+            adapter_info: info,
+            limits,
+            timestamp_queries,
+            limits_below_default,
+        })
+    }
+
+    pub fn adapter_name(&self) -> &str {
+        &self.adapter_info.name
+    }
+
+    /// One line describing the device, for logs.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}), {} MiB per storage binding, timestamp queries {}, below WebGPU \
+             defaults: [{}]",
+            self.adapter_info.name,
+            self.adapter_info.device_type,
+            self.adapter_info.backend,
+            self.limits.max_storage_buffer_binding_size >> 20,
+            if self.timestamp_queries { "yes" } else { "no" },
+            self.limits_below_default.join(", ")
+        )
+    }
+
+    /// A storage buffer holding `data` (also a copy source and destination). An empty slice
+    /// gets 16 zero bytes, since a binding cannot be empty.
+    pub fn storage_buffer<T: Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buffer = self.storage_buffer_zeroed(label, bytes.len() as u64);
+        if !bytes.is_empty() {
+            // Pod types made of u32/f32 are a whole number of 4-byte words, as required.
+            self.queue.write_buffer(&buffer, 0, bytes);
+        }
+        buffer
+    }
+
+    /// A uniform buffer holding `value` (the `gpu_types` structs are 16-byte rows, as uniform
+    /// layout requires).
+    pub fn uniform_buffer<T: Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        let bytes: &[u8] = bytemuck::bytes_of(value);
+        let buffer = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: (bytes.len() as u64).next_multiple_of(16),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.queue.write_buffer(&buffer, 0, bytes);
+        buffer
+    }
+
+    /// A zero-filled storage buffer of `size` bytes.
+    pub fn storage_buffer_zeroed(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(16).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// Compiles `module` with `specs` into a compute pipeline (layout derived from the
+    /// bindings the entry point uses). Validation errors are returned, not panicked on.
+    pub fn pipeline(
+        &self,
+        module: &Module,
+        specs: &[Spec],
+    ) -> Result<wgpu::ComputePipeline, String> {
+        let source = module.source(specs);
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let shader = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(module.label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        let pipeline = self
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(module.label),
+                layout: None,
+                module: &shader,
+                entry_point: Some(module.entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        match pollster::block_on(scope.pop()) {
+            None => Ok(pipeline),
+            Some(e) => Err(format!("module {}: {e}", module.label)),
+        }
+    }
+
+    /// Runs `pipeline` once over `workgroups` workgroups along x and waits for it. Kernels
+    /// index work with `global_invocation_id.x` only, so one dispatch covers at most
+    /// `max_compute_workgroups_per_dimension` (65,535) workgroups: 4.19 M invocations at 64
+    /// per workgroup; larger batches are split by the caller. `bindings` are
+    /// `(group, binding, buffer)` and must be exactly those the entry point uses (the layout
+    /// is derived from the shader).
+    pub fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        bindings: &[(u32, u32, &wgpu::Buffer)],
+        workgroups: u32,
+    ) -> Result<(), String> {
+        if workgroups > self.limits.max_compute_workgroups_per_dimension {
+            return Err(format!(
+                "{workgroups} workgroups exceed the limit of {} per dispatch",
+                self.limits.max_compute_workgroups_per_dimension
+            ));
+        }
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let max_group = bindings.iter().map(|b| b.0).max().map_or(0, |g| g + 1);
+        let groups: Vec<wgpu::BindGroup> = (0..max_group)
+            .map(|g| {
+                let entries: Vec<wgpu::BindGroupEntry> = bindings
+                    .iter()
+                    .filter(|b| b.0 == g)
+                    .map(|&(_, binding, buffer)| wgpu::BindGroupEntry {
+                        binding,
+                        resource: buffer.as_entire_binding(),
+                    })
+                    .collect();
+                self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: None,
+                    layout: &pipeline.get_bind_group_layout(g),
+                    entries: &entries,
+                })
+            })
+            .collect();
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor::default());
+            pass.set_pipeline(pipeline);
+            for (g, group) in groups.iter().enumerate() {
+                pass.set_bind_group(g as u32, group, &[]);
+            }
+            pass.dispatch_workgroups(workgroups, 1, 1);
+        }
+        self.queue.submit([encoder.finish()]);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(e.to_string());
+        }
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    }
+
+    /// Copies `buffer` back to the host as `T`s (the whole buffer, truncated to whole `T`s).
+    pub fn read_buffer<T: Pod>(&self, buffer: &wgpu::Buffer) -> Vec<T> {
+        let size = buffer.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read-back"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .expect("device lost while reading back");
+        rx.recv()
+            .expect("map callback dropped")
+            .expect("buffer mapping failed");
+        let data = staging.get_mapped_range(..).expect("mapped");
+        let n = data.len() / std::mem::size_of::<T>();
+        let out = bytemuck::pod_collect_to_vec(&data[..n * std::mem::size_of::<T>()]);
+        drop(data);
+        staging.unmap();
+        out
+    }
+}
+
+/// A [`SparseGrid`] and its [`LeafBounds`] on the device, bound as group 0 of every kernel
+/// that includes `grid.wgsl` (bindings 0-3) and `dda.wgsl` (binding 4).
+pub struct GpuGrid {
+    pub info: GpuGridInfo,
+    pub info_buffer: wgpu::Buffer,
+    pub cells: wgpu::Buffer,
+    pub bricks: wgpu::Buffer,
+    pub constants: wgpu::Buffer,
+    /// Per-cell bounds followed by the global bound (`info.global_bounds_index`).
+    pub bounds: wgpu::Buffer,
+}
+
+impl GpuGrid {
+    /// Uploads `grid` with `sigma_t = density_scale * value`. Fails when a buffer exceeds the
+    /// device's storage-binding limit.
+    pub fn upload(
+        ctx: &GpuContext,
+        grid: &SparseGrid,
+        bounds: &LeafBounds,
+        density_scale: f32,
+    ) -> Result<GpuGrid, String> {
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        let bytes = (grid.bricks.len() * 4) as u64;
+        if bytes > limit || (grid.cells.len() * 4) as u64 > limit {
+            return Err(format!(
+                "grid needs {} MiB of bricks and {} MiB of cells; the device binds at most {} MiB",
+                bytes >> 20,
+                (grid.cells.len() * 4) >> 20,
+                limit >> 20
+            ));
+        }
+        let info = GpuGridInfo::new(grid, density_scale);
+        let mut b: Vec<CellBounds> = bounds.cells.clone();
+        b.push(bounds.global);
+        Ok(GpuGrid {
+            info,
+            info_buffer: ctx.uniform_buffer("grid info", &info),
+            cells: ctx.storage_buffer("grid cells", &grid.cells),
+            bricks: ctx.storage_buffer("grid bricks", &grid.bricks),
+            constants: ctx.storage_buffer("grid constants", &grid.constants),
+            bounds: ctx.storage_buffer("grid bounds", &b),
+        })
+    }
+
+    /// The `(group, binding, buffer)` entries of group 0 for a kernel using the lookups
+    /// (`with_lookups`) and/or the DDA bounds (`with_bounds`).
+    pub fn bindings(
+        &self,
+        with_lookups: bool,
+        with_bounds: bool,
+    ) -> Vec<(u32, u32, &wgpu::Buffer)> {
+        let mut v = vec![(0, 0, &self.info_buffer)];
+        if with_lookups {
+            v.extend([
+                (0, 1, &self.cells),
+                (0, 2, &self.bricks),
+                (0, 3, &self.constants),
+            ]);
+        }
+        if with_bounds {
+            v.push((0, 4, &self.bounds));
+        }
+        v
+    }
+}

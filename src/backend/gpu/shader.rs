@@ -1,0 +1,258 @@
+//! WGSL module assembly.
+//!
+//! WGSL has no `#include`, so a module is the concatenation of named files from `shaders/`,
+//! embedded at compile time with `include_str!` (the binary does not need the source tree),
+//! after two generated preambles:
+//!
+//! 1. specialisation lines, `const NAME: T = value;`, chosen by the caller ([`Spec`]) with
+//!    defaults per module;
+//! 2. the shared enumerations of [`crate::gpu_types`] (`ESTIMATOR_*`, `CONTROL_*`, ...), so
+//!    their values are written once, in Rust.
+//!
+//! Every file is preceded by a `// ---- file: NAME ----` marker so that naga's error locations
+//! can be traced back. [`MODULES`] lists every module Brume builds; `tests/gpu_wgsl.rs`
+//! validates each with naga.
+use crate::gpu_types::{GpuControlMode, GpuEstimator, GpuMajorantMode};
+use std::fmt::Write;
+
+/// One WGSL source file, by its path under `shaders/`.
+#[derive(Clone, Copy, Debug)]
+pub struct ShaderFile {
+    pub name: &'static str,
+    pub source: &'static str,
+}
+
+macro_rules! shader_file {
+    ($path:literal) => {
+        ShaderFile {
+            name: $path,
+            source: include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $path)),
+        }
+    };
+}
+
+/// The shared WGSL files (`shaders/common/`) and kernels.
+pub mod files {
+    use super::ShaderFile;
+    /// Mirrors of `gpu_types` structs.
+    pub const TYPES: ShaderFile = shader_file!("common/types.wgsl");
+    /// Accurate `ln` (f32::ln).
+    pub const MATH: ShaderFile = shader_file!("common/math.wgsl");
+    /// `sampling::Rng`.
+    pub const RNG: ShaderFile = shader_file!("common/rng.wgsl");
+    /// `SparseGrid` lookups.
+    pub const GRID: ShaderFile = shader_file!("common/grid.wgsl");
+    /// `DdaMajorantIterator`.
+    pub const DDA: ShaderFile = shader_file!("common/dda.wgsl");
+    /// `HenyeyGreenstein`.
+    pub const PHASE: ShaderFile = shader_file!("common/phase.wgsl");
+    /// `sample_free_flight` and the estimators.
+    pub const TRACKING: ShaderFile = shader_file!("common/tracking.wgsl");
+    /// Transmittance kernel: one (ray, sample) per invocation.
+    pub const TRANSMITTANCE: ShaderFile = shader_file!("kernels/transmittance.wgsl");
+    /// Distance-sampling kernel: one (ray, sample) per invocation.
+    pub const DISTANCE: ShaderFile = shader_file!("kernels/distance.wgsl");
+    /// Test kernels comparing the mirrors with the CPU.
+    pub const TEST_RNG: ShaderFile = shader_file!("tests/rng.wgsl");
+    pub const TEST_GRID: ShaderFile = shader_file!("tests/grid.wgsl");
+    pub const TEST_DDA: ShaderFile = shader_file!("tests/dda.wgsl");
+    pub const TEST_PHASE: ShaderFile = shader_file!("tests/phase.wgsl");
+    pub const TEST_MATH: ShaderFile = shader_file!("tests/math.wgsl");
+}
+
+/// A specialisation constant's value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SpecValue {
+    U32(u32),
+    F32(f32),
+    Bool(bool),
+}
+
+/// One `const NAME: T = value;` line prepended to a module.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spec {
+    pub name: &'static str,
+    pub value: SpecValue,
+}
+
+impl Spec {
+    pub const fn u32(name: &'static str, v: u32) -> Spec {
+        Spec {
+            name,
+            value: SpecValue::U32(v),
+        }
+    }
+    pub const fn f32(name: &'static str, v: f32) -> Spec {
+        Spec {
+            name,
+            value: SpecValue::F32(v),
+        }
+    }
+    pub const fn bool(name: &'static str, v: bool) -> Spec {
+        Spec {
+            name,
+            value: SpecValue::Bool(v),
+        }
+    }
+
+    /// The WGSL line. Panics on a non-finite `f32`, which WGSL cannot spell.
+    pub fn wgsl(&self) -> String {
+        match self.value {
+            SpecValue::U32(v) => format!("const {}: u32 = {v}u;", self.name),
+            // `{:?}` prints the shortest string that round-trips (e.g. `0.1`, `1e-5`).
+            SpecValue::F32(v) => {
+                assert!(v.is_finite(), "WGSL has no literal for {v} ({})", self.name);
+                format!("const {}: f32 = {v:?}f;", self.name)
+            }
+            SpecValue::Bool(v) => format!("const {}: bool = {v};", self.name),
+        }
+    }
+}
+
+/// A compute module: its files in order, its entry point and default specialisations.
+#[derive(Clone, Copy, Debug)]
+pub struct Module {
+    pub label: &'static str,
+    pub files: &'static [ShaderFile],
+    pub entry_point: &'static str,
+    pub default_specs: &'static [Spec],
+}
+
+/// The shared enumerations as WGSL constants, generated from `gpu_types`.
+pub fn shared_constants() -> String {
+    let mut s = String::from("// ---- generated from src/gpu_types.rs ----\n");
+    for e in GpuEstimator::ALL {
+        writeln!(s, "const {}: u32 = {}u;", e.wgsl_name(), e as u32).unwrap();
+    }
+    for (name, v) in [
+        ("MAJORANT_PER_CELL", GpuMajorantMode::PerCell as u32),
+        ("MAJORANT_GLOBAL", GpuMajorantMode::Global as u32),
+        ("CONTROL_NONE", GpuControlMode::None as u32),
+        ("CONTROL_CONSTANT", GpuControlMode::Constant as u32),
+        (
+            "CONTROL_FRACTION_OF_BOUND",
+            GpuControlMode::FractionOfBound as u32,
+        ),
+        (
+            "CONTROL_SEGMENT_MINORANT",
+            GpuControlMode::SegmentMinorant as u32,
+        ),
+        (
+            "CONTROL_FRACTION_OF_BOUND_CAPPED",
+            GpuControlMode::FractionOfBoundCapped as u32,
+        ),
+    ] {
+        writeln!(s, "const {name}: u32 = {v}u;").unwrap();
+    }
+    s
+}
+
+/// Concatenates `files` after the specialisation lines and the shared constants.
+pub fn assemble(files: &[ShaderFile], specs: &[Spec]) -> String {
+    let mut s = String::from("// ---- specialisation ----\n");
+    for spec in specs {
+        s.push_str(&spec.wgsl());
+        s.push('\n');
+    }
+    s.push_str(&shared_constants());
+    for f in files {
+        writeln!(s, "// ---- file: {} ----", f.name).unwrap();
+        s.push_str(f.source);
+        s.push('\n');
+    }
+    s
+}
+
+impl Module {
+    /// The module's source with `specs` overriding the defaults of the same name (a spec the
+    /// module does not declare is an error: it would be silently ignored otherwise).
+    pub fn source(&self, specs: &[Spec]) -> String {
+        for s in specs {
+            assert!(
+                self.default_specs.iter().any(|d| d.name == s.name),
+                "module {} has no specialisation constant {}",
+                self.label,
+                s.name
+            );
+        }
+        let merged: Vec<Spec> = self
+            .default_specs
+            .iter()
+            .map(|d| *specs.iter().find(|s| s.name == d.name).unwrap_or(d))
+            .collect();
+        assemble(self.files, &merged)
+    }
+}
+
+use files::*;
+
+/// Per-estimator transmittance over a SparseGrid along index-space rays.
+pub const TRANSMITTANCE_MODULE: Module = Module {
+    label: "transmittance",
+    files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, TRANSMITTANCE],
+    entry_point: "transmittance_main",
+    default_specs: &[],
+};
+
+/// Per-estimator distance sampling over a SparseGrid along index-space rays.
+pub const DISTANCE_MODULE: Module = Module {
+    label: "distance",
+    files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, DISTANCE],
+    entry_point: "distance_main",
+    default_specs: &[],
+};
+
+/// RNG streams (test).
+pub const TEST_RNG_MODULE: Module = Module {
+    label: "test_rng",
+    files: &[TYPES, RNG, TEST_RNG],
+    entry_point: "rng_streams",
+    default_specs: &[Spec::u32("DRAWS", 16)],
+};
+
+/// Grid lookups at given index points (test).
+pub const TEST_GRID_MODULE: Module = Module {
+    label: "test_grid",
+    files: &[TYPES, GRID, TEST_GRID],
+    entry_point: "grid_lookups",
+    default_specs: &[],
+};
+
+/// Majorant DDA segments of given rays (test).
+pub const TEST_DDA_MODULE: Module = Module {
+    label: "test_dda",
+    files: &[TYPES, GRID, DDA, TEST_DDA],
+    entry_point: "dda_segments",
+    default_specs: &[
+        Spec::u32("MAX_SEGMENTS", 64),
+        Spec::bool("DDA_GLOBAL", false),
+        Spec::f32("DDA_SCALE", 1.0),
+    ],
+};
+
+/// Henyey-Greenstein sampling and evaluation (test).
+pub const TEST_PHASE_MODULE: Module = Module {
+    label: "test_phase",
+    files: &[TYPES, PHASE, TEST_PHASE],
+    entry_point: "phase_samples",
+    default_specs: &[],
+};
+
+/// WGSL's `log` and `ln_f32` against `f32::ln` (test).
+pub const TEST_MATH_MODULE: Module = Module {
+    label: "test_math",
+    files: &[TYPES, MATH, TEST_MATH],
+    entry_point: "logs",
+    default_specs: &[],
+};
+
+/// Every module Brume builds.
+pub const MODULES: &[Module] = &[
+    TRANSMITTANCE_MODULE,
+    DISTANCE_MODULE,
+    TEST_RNG_MODULE,
+    TEST_GRID_MODULE,
+    TEST_DDA_MODULE,
+    TEST_PHASE_MODULE,
+    TEST_MATH_MODULE,
+];
