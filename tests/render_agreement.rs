@@ -9,7 +9,15 @@ use common::render::*;
 use brume::integrator::{Estimator, MajorantMode, RenderSettings};
 
 fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
-    RenderSettings { width: 40, height: 30, spp: 256, estimator, majorant, seed, ..RenderSettings::default() }
+    RenderSettings {
+        width: 40,
+        height: 30,
+        spp: 256,
+        estimator,
+        majorant,
+        seed,
+        ..RenderSettings::default()
+    }
 }
 
 #[test]
@@ -57,24 +65,77 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
 
 #[test]
 fn specialised_and_generic_paths_give_the_same_image() {
-    for name in ["cloud.gltf", "cornell_smoke.gltf", "glass_volume.gltf", "fire.gltf", "chromatic.gltf", "chromatic_smoke.gltf", "furnace.gltf"] {
+    for name in [
+        "cloud.gltf",
+        "cornell_smoke.gltf",
+        "glass_volume.gltf",
+        "fire.gltf",
+        "chromatic.gltf",
+        "chromatic_smoke.gltf",
+        "furnace.gltf",
+    ] {
         let scene = load_scene(name);
-        let s = RenderSettings { width: 16, height: 12, spp: 8, seed: 3, ..RenderSettings::default() };
+        let s = RenderSettings {
+            width: 16,
+            height: 12,
+            spp: 8,
+            seed: 3,
+            ..RenderSettings::default()
+        };
         let special = render(&scene, &s);
-        let generic = render(&scene, &RenderSettings { generic: true, ..s.clone() });
-        assert_ne!(special.features, brume::integrator::FeatureFlags::ALL, "{name} has every feature?");
-        assert_eq!(moments(&special), moments(&generic), "{name}: generic and specialised images differ");
+        let generic = render(
+            &scene,
+            &RenderSettings {
+                generic: true,
+                ..s.clone()
+            },
+        );
+        assert_ne!(
+            special.features,
+            brume::integrator::FeatureFlags::ALL,
+            "{name} has every feature?"
+        );
+        assert_eq!(
+            moments(&special),
+            moments(&generic),
+            "{name}: generic and specialised images differ"
+        );
     }
 }
 
 #[test]
 fn images_do_not_depend_on_the_thread_count() {
     let scene = load_scene("cornell_smoke.gltf");
-    let s = RenderSettings { width: 24, height: 18, spp: 6, seed: 9, tile_size: 8, ..RenderSettings::default() };
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| render(&scene, &s));
-    let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap().install(|| render(&scene, &s));
+    let s = RenderSettings {
+        width: 24,
+        height: 18,
+        spp: 6,
+        seed: 9,
+        tile_size: 8,
+        ..RenderSettings::default()
+    };
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| render(&scene, &s));
+    let three = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap()
+        .install(|| render(&scene, &s));
     let bits = |o: &brume::backend::cpu::RenderOutput| {
-        o.film.pixels().iter().flat_map(|p| p.mean.iter().chain(&p.m2).map(|v| v.to_bits()).collect::<Vec<_>>()).collect::<Vec<_>>()
+        o.film
+            .pixels()
+            .iter()
+            .flat_map(|p| {
+                p.mean
+                    .iter()
+                    .chain(&p.m2)
+                    .map(|v| v.to_bits())
+                    .collect::<Vec<_>>()
+            })
+            .collect::<Vec<_>>()
     };
     assert_eq!(bits(&one), bits(&three));
 }

@@ -12,7 +12,7 @@ use brume::film::{
     totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
 };
 use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator};
-use brume::scene::{self, LoadOptions};
+use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -27,22 +27,25 @@ pub struct RenderArgs {
     /// Wall-clock budget in seconds; no new pass starts after it.
     #[arg(long)]
     pub time: Option<f64>,
-    #[arg(long, default_value_t = 320)]
-    pub width: u32,
-    #[arg(long, default_value_t = 240)]
-    pub height: u32,
-    /// Free-flight estimator: delta, weighted-delta, decomposition, weighted-decomposition.
-    #[arg(long, default_value = "delta")]
-    pub estimator: Estimator,
+    /// Image width (default: the scene's BRUME_render width, else 320).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: the scene's BRUME_render height, else 240).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Free-flight estimator: delta, weighted-delta, decomposition, weighted-decomposition
+    /// (default: the scene's BRUME_render estimator, else delta).
+    #[arg(long)]
+    pub estimator: Option<Estimator>,
     /// Majorant scale b of the weighted estimators (sigma_maj = b * bound).
     #[arg(long)]
     pub b: Option<f32>,
     /// Minorant fraction m of the decomposition estimators (control = m * bound).
     #[arg(long)]
     pub m: Option<f32>,
-    /// Majorants: global (one bound) or local (per-leaf, 3D-DDA).
-    #[arg(long, default_value = "local")]
-    pub majorant: MajorantMode,
+    /// Majorants: global (one bound) or local (per-leaf, 3D-DDA); default local.
+    #[arg(long)]
+    pub majorant: Option<MajorantMode>,
     /// Shadow-ray transmittance: auto, ratio, residual-ratio.
     #[arg(long, default_value = "auto")]
     pub shadow: ShadowEstimator,
@@ -52,13 +55,14 @@ pub struct RenderArgs {
     /// Run the unspecialised path (all effects enabled) to measure what specialisation saves.
     #[arg(long)]
     pub generic: bool,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u32,
+    #[arg(long)]
+    pub seed: Option<u32>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    #[arg(long, default_value_t = 256)]
-    pub max_depth: u32,
+    /// Longest path in scattering events (default 256).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
     /// Render through this camera (glTF camera or node name).
     #[arg(long)]
     pub camera: Option<String>,
@@ -73,28 +77,41 @@ pub struct RenderArgs {
 }
 
 impl RenderArgs {
-    pub fn settings(&self, scene_defaults: &RenderSettings) -> RenderSettings {
-        let mut s = scene_defaults.clone();
-        s.width = self.width;
-        s.height = self.height;
-        s.spp = self.spp.unwrap_or(if self.time.is_some() { 0 } else { 16 });
+    /// Brume's defaults, then the scene's `BRUME_render` values, then the command line.
+    pub fn settings(&self, scene: &SceneRenderSettings) -> Result<RenderSettings> {
+        let mut s = RenderSettings::default();
+        s.width = self.width.or(scene.width).unwrap_or(s.width);
+        s.height = self.height.or(scene.height).unwrap_or(s.height);
         s.time_limit = self.time;
-        s.estimator = self.estimator;
-        if let Some(b) = self.b {
-            s.b = b;
-        }
-        if self.m.is_some() {
-            s.m = self.m;
-        }
-        s.majorant = self.majorant;
+        s.spp = self
+            .spp
+            .or(if self.time.is_some() { None } else { scene.spp })
+            .unwrap_or(if self.time.is_some() { 0 } else { 16 });
+        s.estimator = self
+            .estimator
+            .or(parse_opt::<Estimator>(&scene.estimator)?)
+            .unwrap_or(s.estimator);
+        s.b = self.b.or(scene.b).unwrap_or(s.b);
+        s.m = self.m.or(scene.m);
+        s.majorant = self
+            .majorant
+            .or(parse_opt::<MajorantMode>(&scene.majorant)?)
+            .unwrap_or(s.majorant);
         s.shadow = self.shadow;
         s.force_spectral = self.spectral;
         s.generic = self.generic;
-        s.seed = self.seed;
-        s.max_depth = self.max_depth;
+        s.seed = self.seed.or(scene.seed).unwrap_or(s.seed);
+        s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.tile_size = self.tile_size;
-        s
+        Ok(s)
     }
+}
+
+fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<Option<T>> {
+    v.as_deref()
+        .map(str::parse)
+        .transpose()
+        .map_err(|e: String| anyhow!(e))
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
@@ -110,7 +127,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    let settings = args.settings(&RenderSettings::default());
+    let settings = args
+        .settings(&scene.render)
+        .with_context(|| format!("{}: BRUME_render", args.scene.display()))?;
     settings
         .validate()
         .map_err(|e| anyhow!("invalid settings: {e}"))?;

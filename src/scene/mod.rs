@@ -28,6 +28,7 @@ pub mod material;
 pub mod media;
 pub mod mesh;
 mod nodes;
+pub mod render_settings;
 mod summary;
 
 use std::path::{Path, PathBuf};
@@ -41,6 +42,7 @@ pub use lights::{Environment, PunctualLight, RADIOMETRIC_PER_PHOTOMETRIC};
 pub use material::{HomogeneousMedium, Material, TextureRef};
 pub use media::{load_grid, transform_aabb, BoundsSource, LoadedGrid, VdbMediumDesc};
 pub use mesh::{Instance, Triangle, Vertex};
+pub use render_settings::SceneRenderSettings;
 
 use crate::accel::TriangleBvh;
 use crate::math::{Aabb, Ray};
@@ -89,6 +91,8 @@ pub struct Scene {
     pub bvh: TriangleBvh,
     /// World bounds of the triangles and the media.
     pub bounds: Aabb,
+    /// Render defaults from `BRUME_render` (the command line overrides them).
+    pub render: SceneRenderSettings,
     /// Non-fatal problems met while loading, each with its JSON pointer.
     pub warnings: Vec<String>,
 }
@@ -114,6 +118,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
     let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
+    let render = render_settings::read_render_settings(&mut ctx, doc)?;
     let vdb_media =
         media::read_vdb_media(&mut ctx, doc, &loaded.buffers, &nodes, &loaded.base_dir)?;
 
@@ -152,6 +157,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         environment,
         bvh,
         bounds,
+        render,
         warnings: ctx.warnings,
     };
     // A loader bug, not a user error, if this fails; still reported, never a panic.

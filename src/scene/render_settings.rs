@@ -1,0 +1,99 @@
+//! Brume's scene-level render settings, `BRUME_render`: defaults a scene file carries for its
+//! own render (the command line overrides each one), so a study or a comparison can ship its
+//! estimator parameters with the scene, as the seed paper's scenes do.
+//!
+//! ```json
+//! "extensions": { "BRUME_render": {
+//!     "estimator": "weighted-delta", "b": 0.75, "m": 0.02, "majorant": "local",
+//!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0 } }
+//! ```
+use super::error::{Ctx, SceneError};
+use super::json::Obj;
+
+pub const BRUME_RENDER: &str = "BRUME_render";
+
+/// Every field is optional; `None` leaves Brume's default.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneRenderSettings {
+    /// "delta", "weighted-delta", "decomposition" or "weighted-decomposition" (checked here).
+    pub estimator: Option<String>,
+    pub b: Option<f32>,
+    pub m: Option<f32>,
+    /// "global" or "local".
+    pub majorant: Option<String>,
+    pub spp: Option<u32>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u32>,
+}
+
+const ESTIMATORS: [&str; 4] = [
+    "delta",
+    "weighted-delta",
+    "decomposition",
+    "weighted-decomposition",
+];
+
+pub fn read_render_settings(
+    ctx: &mut Ctx,
+    doc: &gltf::Document,
+) -> Result<SceneRenderSettings, SceneError> {
+    let Some(value) = doc.extension_value(BRUME_RENDER) else {
+        return Ok(SceneRenderSettings::default());
+    };
+    let obj = Obj::new(ctx, value, format!("/extensions/{BRUME_RENDER}"))?;
+    obj.warn_unknown(
+        ctx,
+        &[
+            "estimator",
+            "b",
+            "m",
+            "majorant",
+            "spp",
+            "width",
+            "height",
+            "maxDepth",
+            "seed",
+        ],
+    );
+    let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
+        match obj.string(ctx, key)? {
+            Some(s) if !allowed.contains(&s.as_str()) => Err(ctx.invalid(
+                obj.at(key),
+                format!("'{s}' is not one of {}", allowed.join(", ")),
+            )),
+            other => Ok(other),
+        }
+    };
+    let present = |key: &str| obj.map.contains_key(key);
+    let count = |ctx: &Ctx, key: &str, max: f32| -> Result<Option<u32>, SceneError> {
+        if !present(key) {
+            return Ok(None);
+        }
+        let v = obj.number(ctx, key, 0.0, 0.0, max, false)?;
+        if v.fract() != 0.0 {
+            return Err(ctx.invalid(obj.at(key), format!("expected a whole number, got {v}")));
+        }
+        Ok(Some(v as u32))
+    };
+    Ok(SceneRenderSettings {
+        estimator: choice(ctx, "estimator", &ESTIMATORS)?,
+        b: if present("b") {
+            Some(obj.number(ctx, "b", 1.0, 0.0, f32::MAX, true)?)
+        } else {
+            None
+        },
+        m: if present("m") {
+            Some(obj.number(ctx, "m", 0.0, 0.0, f32::MAX, false)?)
+        } else {
+            None
+        },
+        majorant: choice(ctx, "majorant", &["global", "local"])?,
+        spp: count(ctx, "spp", 1e7)?,
+        width: count(ctx, "width", 32768.0)?.filter(|&w| w > 0),
+        height: count(ctx, "height", 32768.0)?.filter(|&h| h > 0),
+        max_depth: count(ctx, "maxDepth", 1e6)?,
+        seed: count(ctx, "seed", u32::MAX as f32)?,
+    })
+}
