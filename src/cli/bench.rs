@@ -10,6 +10,24 @@ use clap::Subcommand;
 
 #[derive(Subcommand)]
 pub enum Which {
+    /// CPU path tracer: specialised vs generic samples/s on every example scene, then every
+    /// estimator with global vs local majorants on the cloud (samples/s, lookups per path,
+    /// null collisions per real collision).
+    Render {
+        /// Scenes for the specialisation table (default: every scenes/*.gltf).
+        scenes: Vec<PathBuf>,
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        #[arg(long, default_value_t = 160)]
+        width: u32,
+        #[arg(long, default_value_t = 120)]
+        height: u32,
+        /// Side of the square cloud render for the estimator table.
+        #[arg(long, default_value_t = 256)]
+        cloud_size: u32,
+        #[arg(long, default_value_t = 8)]
+        cloud_spp: u32,
+    },
     /// Trilinear lookups per second: Brume's brick layout against OpenVDB's accessor +
     /// BoxSampler (through the shim, one batch call), on the same points.
     Lookups {
@@ -28,6 +46,14 @@ pub enum Which {
 
 pub fn run(which: Which) -> Result<()> {
     match which {
+        Which::Render {
+            scenes,
+            spp,
+            width,
+            height,
+            cloud_size,
+            cloud_spp,
+        } => render_bench(scenes, spp, width, height, cloud_size, cloud_spp),
         Which::Lookups {
             files,
             grid,
@@ -129,5 +155,150 @@ fn lookups(files: Vec<PathBuf>, grid_name: &str, n: usize, runs: usize) -> Resul
         }
     }
     println!("ratio = Brume lookups/s over OpenVDB lookups/s (single thread, best of {runs} runs)");
+    Ok(())
+}
+
+fn render_once(
+    scene: &brume::scene::Scene,
+    settings: &brume::integrator::RenderSettings,
+) -> Result<brume::backend::cpu::RenderOutput> {
+    let rs = brume::integrator::RenderScene::new(scene, settings.force_spectral)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    Ok(brume::backend::cpu::render(
+        &rs,
+        settings,
+        &std::sync::atomic::AtomicBool::new(false),
+        &|_, _, _| {},
+    ))
+}
+
+/// Largest per-pixel z-score between two renders of the same scene (independent or not).
+fn worst_z(a: &brume::film::Film, b: &brume::film::Film) -> f64 {
+    let mut worst = 0f64;
+    for y in 0..a.height() {
+        for x in 0..a.width() {
+            let (ma, mb) = (a.mean(x, y), b.mean(x, y));
+            let (va, vb) = (a.variance_of_mean(x, y), b.variance_of_mean(x, y));
+            for c in 0..3 {
+                let d = (ma[c] - mb[c]).abs() as f64;
+                let v = (va[c] + vb[c]) as f64;
+                if d > 0.0 {
+                    worst = worst.max(if v > 0.0 { d / v.sqrt() } else { f64::INFINITY });
+                }
+            }
+        }
+    }
+    worst
+}
+
+fn render_bench(
+    scenes: Vec<PathBuf>,
+    spp: u32,
+    width: u32,
+    height: u32,
+    cloud_size: u32,
+    cloud_spp: u32,
+) -> Result<()> {
+    use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+    let scenes = if scenes.is_empty() {
+        let mut v: Vec<PathBuf> = std::fs::read_dir("scenes")?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
+            .collect();
+        v.sort();
+        v
+    } else {
+        scenes
+    };
+    println!(
+        "specialised vs generic CPU path ({width}x{height}, {spp} spp, {} threads)",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<22} {:<44} {:>12} {:>12} {:>8}  {}",
+        "scene", "features", "spec. S/s", "generic S/s", "speedup", "images"
+    );
+    for path in &scenes {
+        let scene = brume::scene::load(path)?;
+        let base = RenderSettings {
+            width,
+            height,
+            spp,
+            ..RenderSettings::default()
+        };
+        // Warm caches and the thread pool once, then time each variant.
+        render_once(
+            &scene,
+            &RenderSettings {
+                spp: 1,
+                ..base.clone()
+            },
+        )?;
+        let special = render_once(&scene, &base)?;
+        let generic = render_once(
+            &scene,
+            &RenderSettings {
+                generic: true,
+                ..base.clone()
+            },
+        )?;
+        let samples = (width * height * spp) as f64;
+        let z = worst_z(&special.film, &generic.film);
+        println!(
+            "{:<22} {:<44} {:>12.0} {:>12.0} {:>7.2}x  {}",
+            path.file_name().unwrap_or_default().to_string_lossy(),
+            special.features.name(),
+            samples / special.seconds,
+            samples / generic.seconds,
+            generic.seconds / special.seconds,
+            if z == 0.0 {
+                "identical".to_string()
+            } else {
+                format!("worst pixel z {z:.2}")
+            }
+        );
+    }
+    let cloud = brume::scene::load(std::path::Path::new("scenes/cloud.gltf"))?;
+    println!();
+    println!("estimators on scenes/cloud.gltf ({cloud_size}x{cloud_size}, {cloud_spp} spp)");
+    println!(
+        "{:<24} {:<7} {:>12} {:>14} {:>14}",
+        "estimator", "bounds", "samples/s", "lookups/path", "null/real"
+    );
+    let mut delta_lookups = [0f64; 2];
+    for estimator in Estimator::ALL {
+        for (k, majorant) in [MajorantMode::Global, MajorantMode::Local]
+            .into_iter()
+            .enumerate()
+        {
+            let s = RenderSettings {
+                width: cloud_size,
+                height: cloud_size,
+                spp: cloud_spp,
+                estimator,
+                majorant,
+                ..RenderSettings::default()
+            };
+            let out = render_once(&cloud, &s)?;
+            let t = brume::film::totals(&out.records);
+            let samples = t.samples as f64;
+            let lookups = t.density_lookups as f64 / samples;
+            if estimator == Estimator::Delta {
+                delta_lookups[k] = lookups;
+            }
+            println!(
+                "{:<24} {:<7} {:>12.0} {:>14.2} {:>14.2}",
+                estimator.name(),
+                majorant.name(),
+                samples / out.seconds,
+                lookups,
+                t.null_collisions as f64 / (t.real_collisions as f64).max(1.0),
+            );
+        }
+    }
+    println!(
+        "local majorants cut delta tracking's density lookups per path by {:.2}x on the cloud",
+        delta_lookups[0] / delta_lookups[1].max(1e-12)
+    );
     Ok(())
 }
