@@ -177,6 +177,44 @@ fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM
     }
 }
 
+/// Next-event estimation from `p`: one light sample, its visibility and transmittance, weighted
+/// against the scattering strategy by the power heuristic. `scatter(wi)` gives the scattering
+/// factor (phase value, or BSDF times cosine) and its sampling pdf.
+#[allow(clippy::too_many_arguments)]
+fn next_event<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: bool>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    p: Vec3,
+    medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    scatter: impl Fn(Vec3) -> (Vec3, f32),
+) -> Vec3 {
+    let Some(ls) = rs
+        .lights
+        .sample(rs.scene, p, rng.uniform_f32(), rng.uniform_vec2())
+    else {
+        return Vec3::ZERO;
+    };
+    let (f, pdf_scatter) = scatter(ls.wi);
+    if f == Vec3::ZERO || !(ls.pdf > 0.0) {
+        return Vec3::ZERO;
+    }
+    // Stop short of an area light's own triangle.
+    let dist = if ls.dist.is_finite() {
+        ls.dist * (1.0 - 1e-4)
+    } else {
+        f32::INFINITY
+    };
+    let tr = transmittance::<SURF, HET, HOM, CHROM>(rs, cfg, p, ls.wi, dist, medium, rng, stats);
+    let w = if ls.is_delta {
+        1.0
+    } else {
+        power_heuristic(ls.pdf, pdf_scatter)
+    };
+    tr * ls.li * f * (w / ls.pdf)
+}
+
 fn enter_or_leave(interior: u32, entering: bool) -> Option<u32> {
     (entering && interior != crate::scene::NO_INDEX).then_some(interior)
 }
@@ -249,35 +287,19 @@ pub fn radiance<
                     let p = ray.at(t);
                     let wo = -ray.d;
                     // Next-event estimation with the phase function.
-                    if let Some(ls) =
-                        rs.lights
-                            .sample(scene, p, rng.uniform_f32(), rng.uniform_vec2())
-                    {
-                        let f = phase.p(wo, ls.wi);
-                        if f > 0.0 && ls.pdf > 0.0 {
-                            let dist = if ls.dist.is_finite() {
-                                ls.dist * (1.0 - 1e-4)
-                            } else {
-                                f32::INFINITY
-                            };
-                            let tr = transmittance::<SURF, HET, HOM, CHROM>(
-                                rs,
-                                cfg,
-                                p,
-                                ls.wi,
-                                dist,
-                                medium,
-                                rng,
-                                &mut stats.media,
-                            );
-                            let w = if ls.is_delta {
-                                1.0
-                            } else {
-                                power_heuristic(ls.pdf, f)
-                            };
-                            l += beta * tr * ls.li * (f * w / ls.pdf);
-                        }
-                    }
+                    l += beta
+                        * next_event::<SURF, HET, HOM, CHROM>(
+                            rs,
+                            cfg,
+                            p,
+                            medium,
+                            rng,
+                            &mut stats.media,
+                            |wi| {
+                                let f = phase.p(wo, wi);
+                                (Vec3::splat(f), f)
+                            },
+                        );
                     let ps = phase.sample(wo, rng.uniform_vec2());
                     beta *= ps.weight;
                     ray = Ray::new(p, ps.wi);
@@ -372,36 +394,22 @@ pub fn radiance<
                 );
                 let wo_l = frame.to_local(wo);
                 let p_off = offset(p, n_side, n_side);
-                if let Some(ls) =
-                    rs.lights
-                        .sample(scene, p_off, rng.uniform_f32(), rng.uniform_vec2())
-                {
-                    let wi_l = frame.to_local(ls.wi);
-                    let f = bsdf.eval(wo_l, wi_l) * wi_l.z.abs();
-                    if f != Vec3::ZERO && ls.pdf > 0.0 && n_side.dot(ls.wi) > 0.0 {
-                        let dist = if ls.dist.is_finite() {
-                            ls.dist * (1.0 - 1e-4)
-                        } else {
-                            f32::INFINITY
-                        };
-                        let tr = transmittance::<SURF, HET, HOM, CHROM>(
-                            rs,
-                            cfg,
-                            p_off,
-                            ls.wi,
-                            dist,
-                            medium,
-                            rng,
-                            &mut stats.media,
-                        );
-                        let w = if ls.is_delta {
-                            1.0
-                        } else {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo_l, wi_l))
-                        };
-                        l += beta * tr * ls.li * f * (w / ls.pdf);
-                    }
-                }
+                l += beta
+                    * next_event::<SURF, HET, HOM, CHROM>(
+                        rs,
+                        cfg,
+                        p_off,
+                        medium,
+                        rng,
+                        &mut stats.media,
+                        |wi| {
+                            if n_side.dot(wi) <= 0.0 {
+                                return (Vec3::ZERO, 0.0);
+                            }
+                            let wi_l = frame.to_local(wi);
+                            (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
+                        },
+                    );
                 let Some(s) = bsdf.sample(wo_l, rng.uniform_f32(), rng.uniform_vec2()) else {
                     break;
                 };
