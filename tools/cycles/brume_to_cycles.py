@@ -186,6 +186,39 @@ def build_surface_material(mat, gm):
             nt.links.new(v, out.inputs["Volume"])
 
 
+def spot_falloff_shader(obj, cos_inner, cos_outer):
+    light = obj.data
+    light.spot_size = 2.0 * math.acos(cos_outer)
+    light.spot_blend = 0.0
+    light.use_nodes = True
+    nt = light.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputLight")
+    em = nt.nodes.new("ShaderNodeEmission")
+    em.inputs["Color"].default_value = (1, 1, 1, 1)
+    geo = nt.nodes.new("ShaderNodeNewGeometry")
+    dot = nt.nodes.new("ShaderNodeVectorMath")
+    dot.operation = "DOT_PRODUCT"
+    axis = (obj.matrix_world.to_3x3() @ Vector((0, 0, -1))).normalized()
+    dot.inputs[1].default_value = axis
+    nt.links.new(geo.outputs["Normal"], dot.inputs[0])
+    # a = clamp((cos - cos_outer) / (cos_inner - cos_outer)), as Brume with its 1e-3 guard.
+    ramp = nt.nodes.new("ShaderNodeMath")
+    ramp.operation = "MULTIPLY_ADD"
+    k = 1.0 / max(cos_inner - cos_outer, 1e-3)
+    ramp.inputs[1].default_value = k
+    ramp.inputs[2].default_value = -cos_outer * k
+    ramp.use_clamp = True
+    nt.links.new(dot.outputs["Value"], ramp.inputs[0])
+    sq = nt.nodes.new("ShaderNodeMath")
+    sq.operation = "MULTIPLY"
+    nt.links.new(ramp.outputs[0], sq.inputs[0])
+    nt.links.new(ramp.outputs[0], sq.inputs[1])
+    nt.links.new(sq.outputs[0], em.inputs["Strength"])
+    nt.links.new(em.outputs[0], out.inputs["Surface"])
+
+
 def build_medium(name, ext, base_dir, world_from_node):
     """A BRUME_medium_vdb node as a Volume object with a Principled Volume."""
     path = os.path.join(base_dir, ext["uri"])
@@ -316,6 +349,20 @@ def build_scene(args):
         if light.type == "SUN":
             light.angle = 0.0
         light.use_shadow = True
+
+    # Spot lights: glTF's falloff (Brume's `spot_falloff`) is a^2 with a linear in the cosine
+    # between the outer and inner cone; Cycles' own spot blend is a smoothstep (3a^2 - 2a^3),
+    # brighter in the penumbra. So the Cycles spot gets a hard edge at the outer cone and a
+    # light shader multiplies its emission by a^2, from the direction the light is sampled
+    # in (the shading normal of a point-like light points from the light to the receiver).
+    gltf_lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    spots = {l.get("name"): l for l in gltf_lights if l.get("type") == "spot"}
+    for obj in scene.objects:
+        if obj.type == "LIGHT" and obj.data.type == "SPOT" and obj.data.name in spots:
+            cone = spots[obj.data.name].get("spot", {})
+            outer = cone.get("outerConeAngle", math.pi / 4)
+            inner = cone.get("innerConeAngle", 0.0)
+            spot_falloff_shader(obj, math.cos(inner), math.cos(outer))
 
     # Camera: glTF yfov is vertical and the render's aspect decides the width (as Brume).
     cams = gltf.get("cameras", [])
