@@ -56,7 +56,11 @@ fn cloud_agrees_with_cycles() {
         .args(size)
         .output()
         .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
 
     let out = Command::new(exe)
         .arg("cycles")

@@ -92,10 +92,13 @@ fn script_path() -> Result<PathBuf> {
         return Ok(PathBuf::from(p));
     }
     let rel = Path::new("tools/cycles/brume_to_cycles.py");
-    [rel.to_path_buf(), Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)]
-        .into_iter()
-        .find(|p| p.is_file())
-        .ok_or_else(|| anyhow!("{} not found", rel.display()))
+    [
+        rel.to_path_buf(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
+    .ok_or_else(|| anyhow!("{} not found", rel.display()))
 }
 
 pub fn run(args: &CyclesArgs) -> Result<()> {
@@ -103,7 +106,12 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
         bail!("--runs and --spp must be at least 1");
     }
     if args.reuse {
-        let a = compare(&read_exr(args.against.as_ref().unwrap())?, &read_exr(&args.output)?, 8, 0.001)?;
+        let a = compare(
+            &read_exr(args.against.as_ref().unwrap())?,
+            &read_exr(&args.output)?,
+            8,
+            0.001,
+        )?;
         println!("{a}");
         return Ok(());
     }
@@ -369,15 +377,16 @@ fn normal_quantile(p: f64) -> f64 {
 fn erfc(x: f64) -> f64 {
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t * (-z * z - 1.26551223
-        + t * (1.00002368
-            + t * (0.37409196
-                + t * (0.09678418
-                    + t * (-0.18628806
-                        + t * (0.27886807
-                            + t * (-1.13520398
-                                + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-        .exp();
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
     if x >= 0.0 {
         r
     } else {

@@ -358,7 +358,8 @@ def build_scene(args):
     gltf_lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
     spots = {l.get("name"): l for l in gltf_lights if l.get("type") == "spot"}
     for obj in scene.objects:
-        if obj.type == "LIGHT" and obj.data.type == "SPOT" and obj.data.name in spots:
+        native = os.environ.get("BRUME_CYCLES_NATIVE_SPOT") == "1"  # to show the difference
+        if obj.type == "LIGHT" and obj.data.type == "SPOT" and obj.data.name in spots and not native:
             cone = spots[obj.data.name].get("spot", {})
             outer = cone.get("outerConeAngle", math.pi / 4)
             inner = cone.get("innerConeAngle", 0.0)
