@@ -30,6 +30,8 @@ enum Command {
     },
     /// Render a scene to an EXR on the CPU.
     Render(cli::render::RenderArgs),
+    /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/CYCLES.md).
+    Cycles(cli::cycles::CyclesArgs),
     /// Print performance figures (benchmarks, not tests).
     Bench {
         #[command(subcommand)]
@@ -42,6 +44,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
         Command::Render(args) => cli::render::run(&args),
+        Command::Cycles(args) => cli::cycles::run(&args),
         Command::Bench { which } => cli::bench::run(which),
     };
     match result {

@@ -1,3 +1,4 @@
 pub mod bench;
+pub mod cycles;
 pub mod info;
 pub mod render;

@@ -273,6 +273,8 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
             .attributes
             .layer_name
             .as_ref()
+            // Blender writes single-layer files with an empty layer name: no prefix then.
+            .filter(|t| !t.bytes().is_empty())
             .map(|t| format!("{}.", String::from_utf8_lossy(t.bytes())))
             .unwrap_or_default();
         for channel in &layer.channel_data.list {

@@ -1,0 +1,447 @@
+"""Render a Brume glTF scene with Blender Cycles (Blender as a Python module, bpy 5.0.1).
+
+Usage (Python 3.11 with `pip install bpy==5.0.1`, see tools/cycles/ci.sh):
+
+    python brume_to_cycles.py scene.gltf -o out.exr --spp 256 --width 96 --height 72 \
+        [--seed 0] [--runs 1] [--threads 2] [--max-depth 256]
+
+With `--runs K > 1` it renders K independent images (seeds seed .. seed+K-1) and writes
+`out.run<k>.exr` for each; `brume cycles` merges them into one EXR with a variance layer.
+Each render's time is printed as `render_seconds <k> <s>`.
+
+The Blender scene is built as follows (docs/CYCLES.md has the table and the reasons):
+- meshes, camera and lights by Blender's own glTF importer, lighting mode "COMPAT"
+  (point/spot: W = 4 pi * intensity, sun: W/m^2 = intensity), which is Brume's factor-1
+  convention because a Cycles point light of power P has radiant intensity P / (4 pi) W/sr;
+  light radius 0, sun angle 0, no soft falloff;
+- the camera's vertical field of view is glTF's `yfov` at the render's own aspect (as Brume);
+- surface materials are rebuilt as Brume's model, not the importer's Principled BSDF:
+  Lambert(base * (1 - metallic)) + GGX with Schlick Fresnel (Metallic BSDF, F82 tint white,
+  which is exactly Schlick), smooth Glass BSDF for transmission, Transparent BSDF for an
+  index-matched boundary, front-face-only emission unless double-sided;
+- `KHR_materials_volume` + `BRUME_materials_volume_scattering` as Volume Scatter + Volume
+  Absorption with sigma_s = albedo * sigma_t, sigma_a = (1 - albedo) * sigma_t;
+- each `BRUME_medium_vdb` node as a Volume object reading the .vdb, placed at
+  (Y-up to Z-up) * (node world matrix); the grid's own transform is applied by Blender as by
+  Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one;
+- `BRUME_environment` as a constant world background color * strength;
+- render settings that remove avoidable differences (see `configure_render`).
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import bpy
+from mathutils import Matrix, Quaternion, Vector
+
+# glTF (Y up) to Blender (Z up): (x, y, z) -> (x, -z, y), as the importer converts.
+BLENDER_FROM_GLTF = Matrix(((1, 0, 0, 0), (0, 0, -1, 0), (0, 1, 0, 0), (0, 0, 0, 1)))
+
+
+def node_local(node):
+    if "matrix" in node:
+        m = node["matrix"]  # column-major
+        return Matrix([[m[c * 4 + r] for c in range(4)] for r in range(4)])
+    t = Vector(node.get("translation", [0, 0, 0]))
+    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    r = Quaternion((w, x, y, z)).to_matrix().to_4x4()
+    s = node.get("scale", [1, 1, 1])
+    sm = Matrix.Diagonal((s[0], s[1], s[2], 1.0))
+    return Matrix.Translation(t) @ r @ sm
+
+
+def world_matrices(gltf):
+    """glTF world matrix of every node reachable from the default scene."""
+    nodes = gltf.get("nodes", [])
+    out = {}
+    scenes = gltf.get("scenes")
+    if scenes:
+        roots = scenes[gltf.get("scene", 0)].get("nodes", [])
+    else:
+        children = {c for n in nodes for c in n.get("children", [])}
+        roots = [i for i in range(len(nodes)) if i not in children]
+    stack = [(i, Matrix.Identity(4)) for i in roots]
+    while stack:
+        i, parent = stack.pop()
+        m = parent @ node_local(nodes[i])
+        out[i] = m
+        stack.extend((c, m) for c in nodes[i].get("children", []))
+    return out
+
+
+def new_tree(mat):
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    out.target = "CYCLES"
+    return nt, out
+
+
+def volume_nodes(nt, sigma_s, sigma_a, g):
+    """Volume Scatter (sigma_s = color * density) + Volume Absorption
+    (sigma_a = (1 - color) * density), colours normalised so they stay in [0, 1]."""
+    shaders = []
+    ds = max(sigma_s)
+    if ds > 0:
+        sc = nt.nodes.new("ShaderNodeVolumeScatter")
+        sc.inputs["Color"].default_value = [c / ds for c in sigma_s] + [1.0]
+        sc.inputs["Density"].default_value = ds
+        sc.inputs["Anisotropy"].default_value = g
+        shaders.append(sc.outputs[0])
+    da = max(sigma_a)
+    if da > 0:
+        ab = nt.nodes.new("ShaderNodeVolumeAbsorption")
+        ab.inputs["Color"].default_value = [1.0 - c / da for c in sigma_a] + [1.0]
+        ab.inputs["Density"].default_value = da
+        shaders.append(ab.outputs[0])
+    return add_shaders(nt, shaders)
+
+
+def add_shaders(nt, outs):
+    if not outs:
+        return None
+    acc = outs[0]
+    for o in outs[1:]:
+        add = nt.nodes.new("ShaderNodeAddShader")
+        nt.links.new(acc, add.inputs[0])
+        nt.links.new(o, add.inputs[1])
+        acc = add.outputs[0]
+    return acc
+
+
+def build_surface_material(mat, gm):
+    """Brume's surface model (src/integrator/bsdf.rs, prepare.rs) as Cycles nodes."""
+    pbr = gm.get("pbrMetallicRoughness", {})
+    base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
+    metallic = pbr.get("metallicFactor", 1.0)
+    roughness = pbr.get("roughnessFactor", 1.0)
+    ext = gm.get("extensions", {})
+    transmission = ext.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0)
+    ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
+    nt, out = new_tree(mat)
+    if transmission > 0:
+        if abs(ior - 1.0) < 1e-6:
+            # Index-matched boundary: Brume only changes the medium there.
+            surf = nt.nodes.new("ShaderNodeBsdfTransparent")
+            surf.inputs["Color"].default_value = (1, 1, 1, 1)
+        else:
+            # Brume: smooth dielectric, roughness ignored, base colour on refraction only
+            # (white in every example scene).
+            surf = nt.nodes.new("ShaderNodeBsdfGlass")
+            surf.distribution = "GGX"
+            surf.inputs["Color"].default_value = (1, 1, 1, 1)
+            surf.inputs["Roughness"].default_value = 0.0
+            surf.inputs["IOR"].default_value = ior
+        shader = surf.outputs[0]
+    else:
+        diffuse = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Color"].default_value = [c * (1 - metallic) for c in base] + [1.0]
+        diffuse.inputs["Roughness"].default_value = 0.0  # Lambert
+        spec = nt.nodes.new("ShaderNodeBsdfMetallic")
+        spec.distribution = "GGX"  # single scattering, no energy compensation, as Brume
+        spec.fresnel_type = "F82"  # with a white edge tint F82-tint is exactly Schlick
+        f0 = [0.04 + (c - 0.04) * metallic for c in base]
+        spec.inputs["Base Color"].default_value = f0 + [1.0]
+        spec.inputs["Edge Tint"].default_value = (1, 1, 1, 1)
+        # Brume keeps alpha = max(roughness^2, 2e-3).
+        spec.inputs["Roughness"].default_value = max(roughness, math.sqrt(2e-3))
+        shader = add_shaders(nt, [diffuse.outputs[0], spec.outputs[0]])
+    emissive = gm.get("emissiveFactor", [0, 0, 0])
+    strength = ext.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+    if max(emissive) * strength > 0:
+        em = nt.nodes.new("ShaderNodeEmission")
+        em.inputs["Color"].default_value = list(emissive) + [1.0]
+        em.inputs["Strength"].default_value = strength  # radiance = colour * strength
+        lit = add_shaders(nt, [shader, em.outputs[0]])
+        if gm.get("doubleSided", False):
+            shader = lit
+            mat.cycles.emission_sampling = "FRONT_BACK"
+        else:
+            # glTF emits from the front face only (Brume's `emitted`).
+            geo = nt.nodes.new("ShaderNodeNewGeometry")
+            mix = nt.nodes.new("ShaderNodeMixShader")
+            nt.links.new(geo.outputs["Backfacing"], mix.inputs[0])
+            nt.links.new(lit, mix.inputs[1])
+            nt.links.new(shader, mix.inputs[2])
+            shader = mix.outputs[0]
+            mat.cycles.emission_sampling = "FRONT"
+    nt.links.new(shader, out.inputs["Surface"])
+    vol = ext.get("KHR_materials_volume")
+    if vol and transmission > 0 and vol.get("thicknessFactor", 0.0) > 0:
+        att = vol.get("attenuationColor", [1, 1, 1])
+        dist = vol.get("attenuationDistance", math.inf)
+        sigma_t = [0.0 if math.isinf(dist) else -math.log(max(c, 1e-30)) / dist for c in att]
+        sc = ext.get("BRUME_materials_volume_scattering", {})
+        albedo = sc.get("albedo", [0, 0, 0])
+        g = sc.get("anisotropy", 0.0)
+        sigma_s = [a * t for a, t in zip(albedo, sigma_t)]
+        sigma_a = [(1 - a) * t for a, t in zip(albedo, sigma_t)]
+        v = volume_nodes(nt, sigma_s, sigma_a, g)
+        if v is not None:
+            nt.links.new(v, out.inputs["Volume"])
+
+
+def spot_falloff_shader(obj, cos_inner, cos_outer):
+    light = obj.data
+    light.spot_size = 2.0 * math.acos(cos_outer)
+    light.spot_blend = 0.0
+    light.use_nodes = True
+    nt = light.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputLight")
+    em = nt.nodes.new("ShaderNodeEmission")
+    em.inputs["Color"].default_value = (1, 1, 1, 1)
+    geo = nt.nodes.new("ShaderNodeNewGeometry")
+    dot = nt.nodes.new("ShaderNodeVectorMath")
+    dot.operation = "DOT_PRODUCT"
+    axis = (obj.matrix_world.to_3x3() @ Vector((0, 0, -1))).normalized()
+    dot.inputs[1].default_value = axis
+    nt.links.new(geo.outputs["Normal"], dot.inputs[0])
+    # a = clamp((cos - cos_outer) / (cos_inner - cos_outer)), as Brume with its 1e-3 guard.
+    ramp = nt.nodes.new("ShaderNodeMath")
+    ramp.operation = "MULTIPLY_ADD"
+    k = 1.0 / max(cos_inner - cos_outer, 1e-3)
+    ramp.inputs[1].default_value = k
+    ramp.inputs[2].default_value = -cos_outer * k
+    ramp.use_clamp = True
+    nt.links.new(dot.outputs["Value"], ramp.inputs[0])
+    sq = nt.nodes.new("ShaderNodeMath")
+    sq.operation = "MULTIPLY"
+    nt.links.new(ramp.outputs[0], sq.inputs[0])
+    nt.links.new(ramp.outputs[0], sq.inputs[1])
+    nt.links.new(sq.outputs[0], em.inputs["Strength"])
+    nt.links.new(em.outputs[0], out.inputs["Surface"])
+
+
+def build_medium(name, ext, base_dir, world_from_node):
+    """A BRUME_medium_vdb node as a Volume object with a Principled Volume."""
+    path = os.path.join(base_dir, ext["uri"])
+    vol = bpy.data.volumes.new(name)
+    vol.filepath = os.path.abspath(path)
+    vol.grids.load()
+    vol.render.space = "WORLD"  # OBJECT would divide density by the object's scale
+    vol.render.precision = "FULL"  # the default HALF quantises the grid
+    vol.render.clipping = 0.0  # the default 0.001 drops low-density voxels
+    obj = bpy.data.objects.new(name, vol)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.matrix_world = BLENDER_FROM_GLTF @ world_from_node
+
+    mat = bpy.data.materials.new(name + "_medium")
+    nt, out = new_tree(mat)
+    mat.cycles.volume_interpolation = "LINEAR"  # trilinear, as Brume
+    pv = nt.nodes.new("ShaderNodeVolumePrincipled")
+    pv.inputs["Density"].default_value = ext.get("densityScale", 1.0)
+    pv.inputs["Density Attribute"].default_value = ext.get("densityGrid", "density")
+    pv.inputs["Color"].default_value = list(ext.get("color", [0.5, 0.5, 0.5])) + [1.0]
+    pv.inputs["Color Attribute"].default_value = ""
+    pv.inputs["Absorption Color"].default_value = list(ext.get("absorptionColor", [0, 0, 0])) + [1.0]
+    pv.inputs["Anisotropy"].default_value = ext.get("anisotropy", 0.0)
+    strength = ext.get("emissionStrength", 0.0)
+    pv.inputs["Emission Strength"].default_value = strength
+    pv.inputs["Emission Color"].default_value = list(ext.get("emissionColor", [1, 1, 1])) + [1.0]
+    if "emissionGrid" in ext and strength > 0:
+        attr = nt.nodes.new("ShaderNodeAttribute")
+        attr.attribute_type = "GEOMETRY"
+        attr.attribute_name = ext["emissionGrid"]
+        mul = nt.nodes.new("ShaderNodeMath")
+        mul.operation = "MULTIPLY"
+        mul.inputs[1].default_value = strength
+        nt.links.new(attr.outputs["Fac"], mul.inputs[0])
+        nt.links.new(mul.outputs[0], pv.inputs["Emission Strength"])
+    # Cycles multiplies the Temperature socket by the temperature attribute; Brume's
+    # T = scale * t + offset needs the attribute read separately and the socket linked.
+    pv.inputs["Temperature Attribute"].default_value = ""
+    bb = ext.get("blackbodyIntensity", 0.0) if "temperatureGrid" in ext else 0.0
+    pv.inputs["Blackbody Intensity"].default_value = bb
+    pv.inputs["Blackbody Tint"].default_value = list(ext.get("blackbodyTint", [1, 1, 1])) + [1.0]
+    if bb > 0:
+        attr = nt.nodes.new("ShaderNodeAttribute")
+        attr.attribute_type = "GEOMETRY"
+        attr.attribute_name = ext["temperatureGrid"]
+        ma = nt.nodes.new("ShaderNodeMath")
+        ma.operation = "MULTIPLY_ADD"
+        ma.inputs[1].default_value = ext.get("temperatureScale", 1.0)
+        ma.inputs[2].default_value = ext.get("temperatureOffset", 0.0)
+        nt.links.new(attr.outputs["Fac"], ma.inputs[0])
+        nt.links.new(ma.outputs[0], pv.inputs["Temperature"])
+    nt.links.new(pv.outputs[0], out.inputs["Volume"])
+    vol.materials.append(mat)
+    return obj
+
+
+def configure_render(scene, args):
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = args.spp
+    c.use_adaptive_sampling = False
+    c.time_limit = 0
+    c.use_denoising = False
+    depth = args.max_depth
+    c.max_bounces = depth
+    c.diffuse_bounces = depth
+    c.glossy_bounces = depth
+    c.transmission_bounces = depth
+    c.volume_bounces = depth  # default 0: single scattering only
+    c.transparent_max_bounces = depth  # default 8
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0  # default 10
+    c.light_sampling_threshold = 0.0  # default 0.01
+    c.blur_glossy = 0.0  # "Filter Glossy", default 1
+    c.caustics_reflective = True
+    c.caustics_refractive = True
+    c.use_light_tree = False
+    c.use_guiding = False
+    c.volume_biased = False  # null scattering, unbiased
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0  # one pixel: uniform jitter within the pixel, as Brume
+    c.sampling_pattern = "TABULATED_SOBOL"  # no blue-noise correlation between pixels
+    c.use_animated_seed = False
+    scene.render.resolution_x = args.width
+    scene.render.resolution_y = args.height
+    scene.render.resolution_percentage = 100
+    scene.render.pixel_aspect_x = 1
+    scene.render.pixel_aspect_y = 1
+    scene.render.film_transparent = False
+    scene.render.use_compositing = False
+    scene.render.use_sequencer = False
+    scene.render.threads_mode = "FIXED" if args.threads else "AUTO"
+    if args.threads:
+        scene.render.threads = args.threads
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    img = scene.render.image_settings
+    img.file_format = "OPEN_EXR"
+    img.color_mode = "RGBA"
+    img.color_depth = "32"
+    img.exr_codec = "ZIP"
+
+
+def build_scene(args):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    gltf_path = os.path.abspath(args.scene)
+    with open(gltf_path) as f:
+        gltf = json.load(f)
+    base_dir = os.path.dirname(gltf_path)
+    bpy.ops.import_scene.gltf(
+        filepath=gltf_path,
+        export_import_convert_lighting_mode="COMPAT",
+        import_shading="NORMALS",
+    )
+    scene = bpy.context.scene
+
+    # Lights: punctual means radius 0; Blender's defaults are soft.
+    for obj in scene.objects:
+        if obj.type != "LIGHT":
+            continue
+        light = obj.data
+        light.shadow_soft_size = 0.0
+        if hasattr(light, "use_soft_falloff"):
+            light.use_soft_falloff = False
+        if light.type == "SUN":
+            light.angle = 0.0
+        light.use_shadow = True
+
+    # Spot lights: glTF's falloff (Brume's `spot_falloff`) is a^2 with a linear in the cosine
+    # between the outer and inner cone; Cycles' own spot blend is a smoothstep (3a^2 - 2a^3),
+    # brighter in the penumbra. So the Cycles spot gets a hard edge at the outer cone and a
+    # light shader multiplies its emission by a^2, from the direction the light is sampled
+    # in (the shading normal of a point-like light points from the light to the receiver).
+    gltf_lights = gltf.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+    spots = {l.get("name"): l for l in gltf_lights if l.get("type") == "spot"}
+    for obj in scene.objects:
+        native = os.environ.get("BRUME_CYCLES_NATIVE_SPOT") == "1"  # to show the difference
+        if obj.type == "LIGHT" and obj.data.type == "SPOT" and obj.data.name in spots and not native:
+            cone = spots[obj.data.name].get("spot", {})
+            outer = cone.get("outerConeAngle", math.pi / 4)
+            inner = cone.get("innerConeAngle", 0.0)
+            spot_falloff_shader(obj, math.cos(inner), math.cos(outer))
+
+    # Camera: glTF yfov is vertical and the render's aspect decides the width (as Brume).
+    cams = gltf.get("cameras", [])
+    cam_objs = [o for o in scene.objects if o.type == "CAMERA"]
+    if cam_objs:
+        gltf_cam_nodes = [n for n in gltf["nodes"] if "camera" in n]
+        target = cam_objs[0]
+        if gltf_cam_nodes:
+            for o in cam_objs:
+                if o.name == gltf_cam_nodes[0].get("name"):
+                    target = o
+        scene.camera = target
+        if gltf_cam_nodes:
+            persp = cams[gltf_cam_nodes[0]["camera"]].get("perspective", {})
+            target.data.sensor_fit = "VERTICAL"
+            target.data.angle_y = persp.get("yfov", math.radians(40))
+            target.data.clip_start = persp.get("znear", 0.05)
+            target.data.clip_end = persp.get("zfar", 1e6)
+            target.data.shift_x = target.data.shift_y = 0.0
+    else:
+        sys.exit("error: the scene has no camera (Brume's automatic camera is not mirrored)")
+
+    # Materials: rebuilt by name as Brume's model.
+    by_name = {m.get("name"): m for m in gltf.get("materials", [])}
+    for mat in bpy.data.materials:
+        gm = by_name.get(mat.name)
+        if gm is not None:
+            build_surface_material(mat, gm)
+
+    # Media.
+    worlds = world_matrices(gltf)
+    for i, node in enumerate(gltf.get("nodes", [])):
+        ext = node.get("extensions", {}).get("BRUME_medium_vdb")
+        if ext is not None and i in worlds:
+            build_medium(node.get("name", f"medium{i}"), ext, base_dir, worlds[i])
+
+    # Environment.
+    world = bpy.data.worlds.new("brume_environment")
+    scene.world = world
+    world.use_nodes = True
+    env = gltf.get("extensions", {}).get("BRUME_environment")
+    bg = world.node_tree.nodes.get("Background") or world.node_tree.nodes.new("ShaderNodeBackground")
+    if env is not None:
+        bg.inputs["Color"].default_value = list(env.get("color", [1, 1, 1])) + [1.0]
+        bg.inputs["Strength"].default_value = env.get("strength", 1.0)
+    else:
+        bg.inputs["Strength"].default_value = 0.0
+    configure_render(scene, args)
+    return scene
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("scene")
+    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--spp", type=int, default=64)
+    p.add_argument("--width", type=int, default=320)
+    p.add_argument("--height", type=int, default=240)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--runs", type=int, default=1)
+    p.add_argument("--threads", type=int, default=0)
+    p.add_argument("--max-depth", type=int, default=256)
+    p.add_argument("--save-blend", help="also save the built scene as a .blend")
+    args = p.parse_args(argv)
+    t0 = time.time()
+    scene = build_scene(args)
+    print(f"build_seconds {time.time() - t0:.3f}", flush=True)
+    if args.save_blend:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save_blend))
+    out = os.path.abspath(args.output)
+    for k in range(args.runs):
+        scene.cycles.seed = args.seed + k
+        path = out if args.runs == 1 else f"{os.path.splitext(out)[0]}.run{k}.exr"
+        scene.render.filepath = path
+        t = time.time()
+        bpy.ops.render.render(write_still=True)
+        print(f"render_seconds {k} {time.time() - t:.3f} {path}", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:] if "--" not in sys.argv else sys.argv[sys.argv.index("--") + 1 :])

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Creates tools/cycles/.venv (Python 3.11) with Blender as a module (bpy 5.0.1 from PyPI) so that
+# `brume cycles` and tests/cycles_compare.rs can run Cycles. Idempotent: an existing venv that
+# imports bpy is kept.
+#
+# Measured on the 2-core development machine (2026-11): about 50 s (download + install) and
+# 968 MB on disk for the venv (bpy 5.0.1 wheel plus numpy, requests, zstandard, cython). That
+# fits CI's 90-minute budget easily; the comparison test itself takes well under a minute.
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+venv="$here/.venv"
+if [ -x "$venv/bin/python" ] && "$venv/bin/python" -c "import bpy" 2>/dev/null; then
+    echo "cycles: bpy already installed in $venv"
+    exit 0
+fi
+py="${PYTHON311:-}"
+if [ -z "$py" ]; then
+    for c in python3.11 python3; do
+        if command -v "$c" >/dev/null && "$c" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
+            py="$c"
+            break
+        fi
+    done
+fi
+if [ -z "$py" ]; then
+    echo "cycles: bpy 5.0.1 needs Python 3.11, none found; tests/cycles_compare.rs will skip" >&2
+    exit 1
+fi
+start=$(date +%s)
+"$py" -m venv "$venv"
+"$venv/bin/pip" install --quiet --disable-pip-version-check bpy==5.0.1
+"$venv/bin/python" -c "import bpy; print('cycles: bpy', bpy.app.version_string)"
+echo "cycles: installed in $(( $(date +%s) - start )) s, $(du -sh "$venv" | cut -f1)"
