@@ -35,6 +35,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use bytemuck::Zeroable;
 use glam::Vec3;
 
 use super::device::{GpuContext, GpuGrid};
@@ -585,7 +586,12 @@ pub fn render_with_timings(
             "shadow rays",
             slots as u64 * std::mem::size_of::<GpuShadowRay>() as u64,
         ),
-        lights: ctx.storage_buffer("lights", &rs.lights.punctual),
+        // A binding holds at least one element: an unused zero light when there are none.
+        lights: if rs.lights.punctual.is_empty() {
+            ctx.storage_buffer("lights", &[crate::scene::PunctualLight::zeroed()])
+        } else {
+            ctx.storage_buffer("lights", &rs.lights.punctual)
+        },
         samples: ctx.storage_buffer_zeroed("samples", largest * 16),
         args: ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dispatch args"),
