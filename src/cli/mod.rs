@@ -1,3 +1,4 @@
 pub mod bench;
+pub mod bench_gpu;
 pub mod info;
 pub mod render;
