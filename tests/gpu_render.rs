@@ -213,3 +213,27 @@ fn unsupported_scenes_are_refused_with_a_reason() {
         gpu::supports(&rs).unwrap_or_else(|e| panic!("{file}: {e}"));
     }
 }
+
+/// Without a medium only Generate, Escape and Accumulate run: every camera ray sees the
+/// environment (radiance 1 in the furnace scene) with weight 1, exactly.
+#[test]
+fn without_a_medium_the_environment_is_exact() {
+    let Some(ctx) = gpu_or_skip("without_a_medium_the_environment_is_exact") else {
+        return;
+    };
+    let scene = load_scene("furnace.gltf");
+    let mut rs = RenderScene::new(&scene, false).unwrap();
+    rs.vdb.clear();
+    rs.features.heterogeneous = false;
+    let s = settings(8, 6, 5, 1);
+    let (out, t) = render_with_timings(&ctx, &rs, &s, &AtomicBool::new(false), &|_, _, _| {})
+        .unwrap();
+    println!("{}: {} batches", t.variant, t.batches.len());
+    assert_eq!(out.spp, 5);
+    for y in 0..6 {
+        for x in 0..8 {
+            assert_eq!(out.film.mean(x, y), [1.0; 3], "pixel ({x}, {y})");
+            assert_eq!(out.film.sample_count(x, y), 5);
+        }
+    }
+}

@@ -48,7 +48,7 @@ use crate::gpu_types::{
 };
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::prepare::SurfaceKind;
-use crate::integrator::{lights::Lights, settings::ShadowEstimator};
+use crate::integrator::settings::ShadowEstimator;
 use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
 
 /// Path slots in flight.
@@ -118,17 +118,11 @@ impl Stage {
         }
     }
 
-    /// Whether the indirect arguments must be recomputed before this stage (a stage since the
-    /// last computation appended to its input queue).
+    /// Whether the indirect arguments must be recomputed before this stage: a stage since
+    /// the last computation may have appended to its input queue. (Only the phase queue is
+    /// complete when the shadow stage's arguments are computed, whatever the stage list.)
     fn needs_args(self) -> bool {
-        matches!(
-            self,
-            Stage::Generate
-                | Stage::SampleMedium
-                | Stage::ScatterMedium
-                | Stage::TraceShadow
-                | Stage::Accumulate
-        )
+        self != Stage::SamplePhase
     }
 
     /// The stages a scene with `features` needs: without a VDB medium nothing scatters.
@@ -563,7 +557,6 @@ pub fn render_with_timings(
     if features.heterogeneous {
         medium_params(rs, &cfg, features, &mut params);
     }
-    let _: &Lights = &rs.lights;
 
     let timestamps = ctx.timestamp_queries;
     let stages = Stage::for_features(features);
@@ -666,8 +659,7 @@ pub fn render_with_timings(
             params.s0 = s0;
             params.spp_batch = n;
             params.total_samples = (y1 - y0) * w * n;
-            let Some((counters, iterations, stage_ns, samples)) =
-                wave.run_batch(&params, stop, &stages)?
+            let Some((counters, iterations, stage_ns, samples)) = wave.run_batch(&params, stop)?
             else {
                 interrupted = true;
                 break 'passes;
@@ -757,7 +749,6 @@ impl Wavefront<'_> {
         &mut self,
         params: &GpuWavefrontParams,
         stop: &AtomicBool,
-        stages: &[Stage],
     ) -> Result<Option<BatchResult>, GpuRenderError> {
         let ctx = self.ctx;
         let dev = |e: String| GpuRenderError::Device(e);
@@ -788,7 +779,7 @@ impl Wavefront<'_> {
             }
             let parity = iteration & 1;
             let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let c = self.iteration(parity, stages, &mut stage_ns)?;
+            let c = self.iteration(parity, &mut stage_ns)?;
             if let Some(e) = pollster::block_on(scope.pop()) {
                 return Err(dev(e.to_string()));
             }
@@ -796,6 +787,19 @@ impl Wavefront<'_> {
             if c.live == 0 && c.next_sample >= params.total_samples {
                 counters = c;
                 break;
+            }
+            // Every live path waits in the medium queue the next iteration reads; none there
+            // means a path was lost between stages: stop instead of spinning.
+            let next_medium = if parity == 0 {
+                GpuQueue::Medium1
+            } else {
+                GpuQueue::Medium0
+            };
+            if c.live > 0 && c.queue_count[next_medium as usize] == 0 {
+                return Err(dev(format!(
+                    "wavefront stalled after {iteration} iterations: {} live paths in no queue",
+                    c.live
+                )));
             }
         }
         let mut samples: Vec<[f32; 4]> = ctx.read_buffer(&self.bufs.samples);
@@ -839,7 +843,6 @@ impl Wavefront<'_> {
     fn iteration(
         &self,
         parity: u32,
-        stages: &[Stage],
         stage_ns: &mut [u64; 7],
     ) -> Result<GpuWavefrontCounters, GpuRenderError> {
         let ctx = self.ctx;
@@ -850,14 +853,14 @@ impl Wavefront<'_> {
         };
         let mut encoder = new_encoder();
         self.encode(&mut encoder, &self.reset, parity, None, None);
-        for (stage, kernel) in &self.kernels {
+        for (i, (stage, kernel)) in self.kernels.iter().enumerate() {
             let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
             if stage.needs_args() {
                 self.encode(&mut encoder, &self.args, parity, None, None);
             }
             let q = stage.input_queue(parity);
             if gpu_timing {
-                self.encode(&mut encoder, kernel, parity, Some(q), Some(k as u32));
+                self.encode(&mut encoder, kernel, parity, Some(q), Some(i as u32));
             } else {
                 // Host timing: submit what came before, then this stage alone.
                 ctx.queue
@@ -871,7 +874,6 @@ impl Wavefront<'_> {
                 stage_ns[k] += t.elapsed().as_nanos() as u64;
             }
         }
-        let _ = stages;
         encoder.copy_buffer_to_buffer(
             &self.bufs.counters,
             0,
@@ -880,7 +882,8 @@ impl Wavefront<'_> {
             std::mem::size_of::<GpuWavefrontCounters>() as u64,
         );
         if let Some((set, resolve)) = &self.bufs.timestamps {
-            let n = 2 * Stage::ALL.len() as u32;
+            // Only the queries of the dispatched stages were written.
+            let n = 2 * self.kernels.len() as u32;
             encoder.resolve_query_set(set, 0..n, resolve, 0);
             encoder.copy_buffer_to_buffer(resolve, 0, &self.bufs.readback, 128, n as u64 * 8);
         }
@@ -900,9 +903,9 @@ impl Wavefront<'_> {
             bytemuck::pod_read_unaligned(&data[..std::mem::size_of::<GpuWavefrontCounters>()]);
         if gpu_timing {
             let ts: &[u64] = bytemuck::cast_slice(&data[128..128 + 2 * 8 * Stage::ALL.len()]);
-            for (stage, _) in &self.kernels {
+            for (i, (stage, _)) in self.kernels.iter().enumerate() {
                 let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
-                let dt = ts[2 * k + 1].saturating_sub(ts[2 * k]);
+                let dt = ts[2 * i + 1].saturating_sub(ts[2 * i]);
                 stage_ns[k] += (dt as f64 * self.period_ns) as u64;
             }
         }
