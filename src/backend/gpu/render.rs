@@ -370,7 +370,7 @@ fn medium_params(
 ) {
     let Some(m) = rs.vdb.first() else { return };
     let bound = m.sigma_t_bound;
-    if !(bound > 0.0) {
+    if bound.is_nan() || bound <= 0.0 {
         return;
     }
     let spectral = features.chromatic && (!m.grey || cfg.force_spectral);
