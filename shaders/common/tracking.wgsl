@@ -60,6 +60,7 @@ struct Tracker {
     beta: vec3<f32>, // path throughput before the flight (spectral sample_distance history)
     event: u32,    // EVENT_* of sample_distance
     t_event: f32,  // ray parameter of an absorb/scatter event
+    albedo_rgb: vec3<f32>, // per-channel sigma_s / sigma_t of spectral lookups (RgbView)
 }
 
 // tracking::Event variants.
@@ -101,11 +102,13 @@ struct CoeffsRgb {
     sigma_s: vec3<f32>,
 }
 
-// tracking::lookup_rgb: sigma_t,c = channel_scale[c] * density, split by the albedo.
+// tracking::lookup_rgb: sigma_t,c = channel_scale[c] * density, split by the per-channel
+// albedo (the kernels set it to params.albedo in every channel; the wavefront integrator to
+// the medium's sigma_s / sigma_t, as RgbView does).
 fn lookup_rgb(tr: ptr<function, Tracker>, t: f32) -> CoeffsRgb {
     (*tr).stats.lookups += 1u;
     let s = (*tr).params.channel_scale * medium_sigma_t(tr, t);
-    let albedo = (*tr).params.albedo;
+    let albedo = (*tr).albedo_rgb;
     return CoeffsRgb((1.0 - albedo) * s, albedo * s);
 }
 

@@ -71,3 +71,93 @@ struct GpuTrackingStats {
     _pad1: u32,
     _pad2: u32,
 }
+
+// GpuPathState: one path of the wavefront integrator (see gpu_types.rs for units).
+struct GpuPathState {
+    o: vec3<f32>,       // ray origin, world, m
+    t0: f32,            // ray start, m
+    d: vec3<f32>,       // unit ray direction
+    prev_pdf: f32,      // sr^-1 density of d (0 for the camera ray)
+    beta: vec3<f32>,    // throughput
+    sample_id: u32,     // camera sample within the batch
+    l: vec3<f32>,       // radiance so far
+    depth: u32,         // scattering events
+    rng_state: u32,     // Rng::state
+    rng_inc: u32,       // Rng::inc
+    flags: u32,         // PATH_FLAG_* bits
+    collisions: u32,    // tentative collisions (guard)
+    lookups: u32,       // density lookups
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// GpuShadowRay: a pending next-event-estimation shadow ray, one slot per path.
+struct GpuShadowRay {
+    o: vec3<f32>,            // origin, world, m
+    dist: f32,               // distance to the light (inf: directional/environment)
+    wi: vec3<f32>,           // unit direction to the light
+    _pad0: f32,
+    contribution: vec3<f32>, // beta L_i f w / pdf, times the transmittance found
+    _pad1: f32,
+}
+
+// GpuWavefrontCounters: queue lengths, sample dispenser, counters (all atomics).
+struct GpuWavefrontCounters {
+    queue_count: array<atomic<u32>, 8>, // entries per QUEUE_*
+    next_sample: atomic<u32>,           // next camera sample of the batch
+    live: atomic<u32>,                  // paths started, not yet accumulated
+    guard_fired: atomic<u32>,
+    majorant_violations: atomic<u32>,
+    invalid_majorants: atomic<u32>,
+    collision_cap_hits: atomic<u32>,
+    _pad0: u32,
+    _pad1: u32,
+    wide: array<atomic<u32>, 12>,       // WIDE_* (low, high) pairs of 64-bit totals
+}
+
+// GpuWavefrontParams: camera, batch, lights, limits, medium (one uniform per parity).
+struct GpuWavefrontParams {
+    camera: array<vec4<f32>, 3>, // rows of world_from_camera
+    tan_half: f32,
+    aspect: f32,
+    znear: f32,
+    seed: u32,
+    forward: vec3<f32>,
+    width: u32,
+    height: u32,
+    pixel0: u32,
+    s0: u32,
+    spp_batch: u32,
+    total_samples: u32,
+    path_count: u32,
+    light_count: u32,
+    parity: u32,
+    env: vec3<f32>,
+    env_pdf: f32,
+    max_depth: u32,
+    rr_depth: u32,
+    max_collisions: u32,
+    has_env: u32,
+    medium_lo: vec3<f32>,
+    phase_g: f32,
+    medium_hi: vec3<f32>,
+    has_medium: u32,
+    scatter_albedo: vec3<f32>,
+    spectral: u32,
+    albedo_rgb: vec3<f32>,
+    shadow_estimator: u32,
+    tracking: GpuTrackingParams,
+}
+
+// PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.
+struct PunctualLight {
+    position: vec3<f32>,
+    kind: u32,              // LIGHT_POINT, LIGHT_SPOT or LIGHT_DIRECTIONAL
+    direction: vec3<f32>,   // direction the light travels
+    range: f32,
+    intensity: vec3<f32>,   // W/sr (point, spot) or W/m^2 (directional)
+    cos_inner: f32,
+    cos_outer: f32,
+    _pad: array<f32, 3>,
+}

@@ -25,6 +25,7 @@ fn distance_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = rays[i / params.samples_per_ray];
     var tr: Tracker;
     tr.params = params;
+    tr.albedo_rgb = vec3<f32>(params.albedo);
     tr.rng = rng_new(i, 0u, params.seed);
     tr.o = ray.o;
     tr.d = ray.d;

@@ -42,6 +42,18 @@ pub enum Which {
         #[arg(long, default_value_t = 5)]
         runs: usize,
     },
+    /// Samples per second of the GPU wavefront integrator against the CPU backend.
+    Gpu {
+        /// Scene to render.
+        #[arg(default_value = "scenes/cloud.gltf")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 512)]
+        width: u32,
+        #[arg(long, default_value_t = 512)]
+        height: u32,
+        #[arg(long, default_value_t = 4)]
+        spp: u32,
+    },
 }
 
 pub fn run(which: Which) -> Result<()> {
@@ -60,6 +72,12 @@ pub fn run(which: Which) -> Result<()> {
             points,
             runs,
         } => lookups(files, &grid, points, runs),
+        Which::Gpu {
+            scene,
+            width,
+            height,
+            spp,
+        } => super::bench_gpu::run(&scene, width, height, spp),
     }
 }
 

@@ -74,6 +74,17 @@ pub struct RenderArgs {
     pub cost_map: Option<PathBuf>,
     #[arg(long, default_value_t = 16)]
     pub tile_size: u32,
+    /// gpu (wgpu wavefront), cpu (rayon reference) or auto: the GPU when an adapter exists
+    /// and supports the scene, else the CPU with a one-line reason.
+    #[arg(long, default_value = "auto")]
+    pub backend: Backend,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    Auto,
+    Gpu,
+    Cpu,
 }
 
 impl RenderArgs {
@@ -206,18 +217,55 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         Some(b) => b.set_position(spp as u64),
         None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
     };
-    let out: RenderOutput = pool.install(|| cpu::render(&rs, &settings, &stop, &progress));
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
-    write_outputs(args, &settings, &out, threads)
+    // The GPU when asked or when auto finds a usable one; otherwise the CPU, saying why.
+    let gpu = match args.backend {
+        Backend::Cpu => None,
+        Backend::Gpu | Backend::Auto => match brume::backend::gpu::GpuContext::new() {
+            // A software adapter (Mesa's llvmpipe) runs the wavefront kernels on the same CPU
+            // cores, an order of magnitude slower than the CPU backend: auto skips it.
+            Ok(ctx)
+                if args.backend == Backend::Auto
+                    && ctx.adapter_info.device_type == wgpu::DeviceType::Cpu =>
+            {
+                eprintln!("backend: cpu (the only GPU adapter, {}, is a software rasterizer; --backend gpu forces it)", ctx.adapter_info.name);
+                None
+            }
+            Ok(ctx) => match brume::backend::gpu::supports(&rs) {
+                Ok(()) => Some(ctx),
+                Err(why) if args.backend == Backend::Gpu => {
+                    return Err(anyhow!("--backend gpu: {why}"))
+                }
+                Err(why) => {
+                    eprintln!("backend: cpu ({why})");
+                    None
+                }
+            },
+            Err(e) if args.backend == Backend::Gpu => return Err(anyhow!("--backend gpu: {e}")),
+            Err(e) => {
+                eprintln!("backend: cpu (no usable GPU: {e})");
+                None
+            }
+        },
+    };
+    let (out, backend): (RenderOutput, String) = match &gpu {
+        Some(ctx) => {
+            eprintln!("backend: gpu ({})", ctx.describe());
+            let out = brume::backend::gpu::render(ctx, &rs, &settings, &stop, &progress)?;
+            (out, format!("wgpu: {}", ctx.describe()))
+        }
+        None => (
+            pool.install(|| cpu::render(&rs, &settings, &stop, &progress)),
+            format!("cpu ({threads} threads)"),
+        ),
+    };
+    write_outputs(args, &settings, &out, &backend)
 }
 
 fn write_outputs(
     args: &RenderArgs,
     settings: &RenderSettings,
     out: &RenderOutput,
-    threads: usize,
+    backend: &str,
 ) -> Result<()> {
     let info = RenderInfo {
         estimator: settings.estimator.name().to_string(),
@@ -228,7 +276,7 @@ fn write_outputs(
         seconds: out.seconds,
         seed: settings.seed as u64,
         scene: args.scene.display().to_string(),
-        backend: format!("cpu ({threads} threads)"),
+        backend: backend.to_string(),
     };
     let mut meta = info.to_metadata();
     meta.set("brume:features", AttrValue::Text(out.features.name()));

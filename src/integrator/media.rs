@@ -122,7 +122,7 @@ impl TrackingConfig {
     /// residual); with the global bound it is `m * bound`, capped by the global minorant for
     /// analog decomposition (which must not exceed `sigma_t`) and uncapped for the weighted
     /// estimator (signed weights where the control exceeds the density).
-    fn control(&self) -> ControlExtinction {
+    pub fn control(&self) -> ControlExtinction {
         match (self.estimator, self.majorant, self.m) {
             (
                 Estimator::Decomposition | Estimator::WeightedDecomposition,
@@ -143,7 +143,7 @@ impl TrackingConfig {
     }
 
     /// Majorant scale: the analog estimators always use the bound itself.
-    fn b(&self) -> f32 {
+    pub fn b(&self) -> f32 {
         match self.estimator {
             Estimator::WeightedDelta | Estimator::WeightedDecomposition => self.b,
             Estimator::Delta | Estimator::Decomposition => 1.0,

@@ -61,6 +61,7 @@ pub fn inverse_normal_two_sided(a: f64) -> f64 {
 }
 
 /// Complementary error function (Numerical Recipes' erfcc, relative error < 1.2e-7).
+/// Horner's rule over a coefficient table: the nested form of the textbook makes rustfmt hang.
 pub fn erfc(x: f64) -> f64 {
     // Coefficients of the polynomial in t, highest degree first (Horner's rule).
     const C: [f64; 10] = [

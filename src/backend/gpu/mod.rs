@@ -7,3 +7,6 @@ pub mod shader;
 
 pub use device::{GpuContext, GpuGrid, GpuUnavailable};
 pub use shader::{Module, ShaderFile, Spec};
+pub mod render;
+
+pub use render::{render, supports, GpuRenderError, Stage};

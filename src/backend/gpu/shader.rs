@@ -12,7 +12,9 @@
 //! Every file is preceded by a `// ---- file: NAME ----` marker so that naga's error locations
 //! can be traced back. [`MODULES`] lists every module Brume builds; `tests/gpu_wgsl.rs`
 //! validates each with naga.
-use crate::gpu_types::{GpuControlMode, GpuEstimator, GpuMajorantMode};
+use crate::gpu_types::{
+    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuQueue, GpuWideCounter, PATH_FLAG_SPECULAR,
+};
 use std::fmt::Write;
 
 /// One WGSL source file, by its path under `shaders/`.
@@ -52,6 +54,20 @@ pub mod files {
     pub const TRANSMITTANCE: ShaderFile = shader_file!("kernels/transmittance.wgsl");
     /// Distance-sampling kernel: one (ray, sample) per invocation.
     pub const DISTANCE: ShaderFile = shader_file!("kernels/distance.wgsl");
+    /// Wavefront bindings, queues and counters.
+    pub const WAVEFRONT: ShaderFile = shader_file!("common/wavefront.wgsl");
+    /// `Lights::sample` for punctual lights and the environment, `power_heuristic`.
+    pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
+    /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
+    pub const QUEUES: ShaderFile = shader_file!("kernels/queues.wgsl");
+    /// The wavefront stages, one file each (see `backend::gpu::render::Stage`).
+    pub const STAGE_GENERATE: ShaderFile = shader_file!("stages/generate.wgsl");
+    pub const STAGE_SAMPLE_MEDIUM: ShaderFile = shader_file!("stages/sample_medium.wgsl");
+    pub const STAGE_SCATTER_MEDIUM: ShaderFile = shader_file!("stages/scatter_medium.wgsl");
+    pub const STAGE_TRACE_SHADOW: ShaderFile = shader_file!("stages/trace_shadow.wgsl");
+    pub const STAGE_SAMPLE_PHASE: ShaderFile = shader_file!("stages/sample_phase.wgsl");
+    pub const STAGE_ESCAPE: ShaderFile = shader_file!("stages/escape.wgsl");
+    pub const STAGE_ACCUMULATE: ShaderFile = shader_file!("stages/accumulate.wgsl");
     /// Test kernels comparing the mirrors with the CPU.
     pub const TEST_RNG: ShaderFile = shader_file!("tests/rng.wgsl");
     pub const TEST_GRID: ShaderFile = shader_file!("tests/grid.wgsl");
@@ -141,6 +157,21 @@ pub fn shared_constants() -> String {
             "CONTROL_FRACTION_OF_BOUND_CAPPED",
             GpuControlMode::FractionOfBoundCapped as u32,
         ),
+    ] {
+        writeln!(s, "const {name}: u32 = {v}u;").unwrap();
+    }
+    for q in GpuQueue::ALL {
+        writeln!(s, "const {}: u32 = {}u;", q.wgsl_name(), q as u32).unwrap();
+    }
+    for c in GpuWideCounter::ALL {
+        writeln!(s, "const {}: u32 = {}u;", c.wgsl_name(), c as u32).unwrap();
+    }
+    use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+    for (name, v) in [
+        ("LIGHT_POINT", LIGHT_POINT),
+        ("LIGHT_SPOT", LIGHT_SPOT),
+        ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+        ("PATH_FLAG_SPECULAR", PATH_FLAG_SPECULAR),
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
@@ -246,8 +277,75 @@ pub const TEST_MATH_MODULE: Module = Module {
     default_specs: &[],
 };
 
+/// The specialisation constants of the wavefront modules (from the scene's `FeatureFlags`).
+pub const WAVEFRONT_SPECS: &[Spec] = &[
+    Spec::bool("FEATURE_HETEROGENEOUS", true),
+    Spec::bool("FEATURE_CHROMATIC", true),
+];
+
+macro_rules! wavefront_module {
+    ($name:ident, $label:literal, $file:expr, $entry:literal) => {
+        pub const $name: Module = Module {
+            label: $label,
+            files: &[
+                TYPES, MATH, RNG, GRID, DDA, PHASE, TRACKING, WAVEFRONT, LIGHTS, $file,
+            ],
+            entry_point: $entry,
+            default_specs: WAVEFRONT_SPECS,
+        };
+    };
+}
+wavefront_module!(
+    STAGE_GENERATE_MODULE,
+    "generate",
+    STAGE_GENERATE,
+    "generate"
+);
+wavefront_module!(
+    STAGE_SAMPLE_MEDIUM_MODULE,
+    "sample_medium",
+    STAGE_SAMPLE_MEDIUM,
+    "sample_medium"
+);
+wavefront_module!(
+    STAGE_SCATTER_MEDIUM_MODULE,
+    "scatter_medium",
+    STAGE_SCATTER_MEDIUM,
+    "scatter_medium"
+);
+wavefront_module!(
+    STAGE_TRACE_SHADOW_MODULE,
+    "trace_shadow",
+    STAGE_TRACE_SHADOW,
+    "trace_shadow"
+);
+wavefront_module!(
+    STAGE_SAMPLE_PHASE_MODULE,
+    "sample_phase",
+    STAGE_SAMPLE_PHASE,
+    "sample_phase"
+);
+wavefront_module!(STAGE_ESCAPE_MODULE, "escape", STAGE_ESCAPE, "escape");
+wavefront_module!(
+    STAGE_ACCUMULATE_MODULE,
+    "accumulate",
+    STAGE_ACCUMULATE,
+    "accumulate"
+);
+wavefront_module!(QUEUE_RESET_MODULE, "queue_reset", QUEUES, "queue_reset");
+wavefront_module!(QUEUE_ARGS_MODULE, "queue_args", QUEUES, "queue_args");
+
 /// Every module Brume builds.
 pub const MODULES: &[Module] = &[
+    STAGE_GENERATE_MODULE,
+    STAGE_SAMPLE_MEDIUM_MODULE,
+    STAGE_SCATTER_MEDIUM_MODULE,
+    STAGE_TRACE_SHADOW_MODULE,
+    STAGE_SAMPLE_PHASE_MODULE,
+    STAGE_ESCAPE_MODULE,
+    STAGE_ACCUMULATE_MODULE,
+    QUEUE_RESET_MODULE,
+    QUEUE_ARGS_MODULE,
     TRANSMITTANCE_MODULE,
     DISTANCE_MODULE,
     TEST_RNG_MODULE,

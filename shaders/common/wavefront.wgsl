@@ -1,0 +1,120 @@
+// Mirrors the scheduling of src/backend/gpu/render.rs (`Stage`, `GpuQueue`): the bindings every
+// wavefront stage shares (group 1), queue access and the 64-bit counters. A stage is one
+// function over the items of its input queue (one path slot each); it appends the slot to the
+// queue of the stage that handles the path next (Cycles' state_flow.h in spirit). The medium
+// and done queues are double-buffered by iteration parity: X0 + parity is read this
+// iteration, X0 + 1 - parity is filled for the next one.
+
+@group(1) @binding(0) var<uniform> wf: GpuWavefrontParams;
+@group(1) @binding(1) var<storage, read_write> paths: array<GpuPathState>;
+@group(1) @binding(2) var<storage, read_write> queues: array<u32>;
+@group(1) @binding(3) var<storage, read_write> counters: GpuWavefrontCounters;
+
+// Every stage runs 64 invocations a workgroup; the indirect arguments divide by it.
+const WORKGROUP: u32 = 64u;
+
+fn queue_medium_in() -> u32 { return QUEUE_MEDIUM0 + wf.parity; }
+fn queue_medium_out() -> u32 { return QUEUE_MEDIUM0 + 1u - wf.parity; }
+fn queue_done_in() -> u32 { return QUEUE_DONE0 + wf.parity; }
+fn queue_done_out() -> u32 { return QUEUE_DONE0 + 1u - wf.parity; }
+
+// The slot of item i of queue q, or false past its end.
+fn queue_item(q: u32, i: u32, slot: ptr<function, u32>) -> bool {
+    if (i >= atomicLoad(&counters.queue_count[q])) {
+        return false;
+    }
+    *slot = queues[q * wf.path_count + i];
+    return true;
+}
+
+// Appends a path slot to queue q.
+fn queue_push(q: u32, slot: u32) {
+    let i = atomicAdd(&counters.queue_count[q], 1u);
+    queues[q * wf.path_count + i] = slot;
+}
+
+// Adds x to the 64-bit counter k (low word, carry into the high word).
+fn add_wide(k: u32, x: u32) {
+    if (x == 0u) {
+        return;
+    }
+    let old = atomicAdd(&counters.wide[2u * k], x);
+    if (old + x < old) {
+        atomicAdd(&counters.wide[2u * k + 1u], 1u);
+    }
+}
+
+// Folds one tracker's TrackingStats into the render's counters and the path's tallies.
+fn add_tracking_stats(s: Stats, shadow: bool, ps: ptr<function, GpuPathState>) {
+    add_wide(WIDE_LOOKUPS, s.lookups);
+    add_wide(WIDE_NULL_COLLISIONS, s.null_collisions);
+    add_wide(WIDE_REAL_COLLISIONS, s.real_collisions);
+    add_wide(WIDE_CONTROL_COLLISIONS, s.control_collisions);
+    if (shadow) {
+        add_wide(WIDE_SHADOW_LOOKUPS, s.lookups);
+    }
+    if (s.majorant_violations != 0u) {
+        atomicAdd(&counters.majorant_violations, s.majorant_violations);
+    }
+    if (s.invalid_majorants != 0u) {
+        atomicAdd(&counters.invalid_majorants, s.invalid_majorants);
+    }
+    if (s.collision_cap_hits != 0u) {
+        atomicAdd(&counters.collision_cap_hits, s.collision_cap_hits);
+    }
+    (*ps).collisions += s.null_collisions + s.real_collisions + s.control_collisions;
+    (*ps).lookups += s.lookups;
+}
+
+// The path's random stream (the state lives in the path, between stages).
+fn path_rng(ps: GpuPathState) -> Rng {
+    return Rng(ps.rng_state, ps.rng_inc);
+}
+
+// A world-space point in the medium's index space (rows of grid_info.index_from_world).
+fn index_point(p: vec3<f32>) -> vec3<f32> {
+    let m = grid_info.index_from_world;
+    let q = vec4<f32>(p, 1.0);
+    return vec3<f32>(dot(m[0], q), dot(m[1], q), dot(m[2], q));
+}
+
+// A world-space direction in the medium's index space.
+fn index_vector(v: vec3<f32>) -> vec3<f32> {
+    let m = grid_info.index_from_world;
+    return vec3<f32>(dot(m[0].xyz, v), dot(m[1].xyz, v), dot(m[2].xyz, v));
+}
+
+// A tracker for the VDB medium along a world ray (GreyView / RgbView::new): the index-space
+// ray, the path's stream and the medium's optics.
+fn medium_tracker(o: vec3<f32>, d: vec3<f32>, rng: Rng, estimator: u32) -> Tracker {
+    var tr: Tracker;
+    tr.params = wf.tracking;
+    tr.params.estimator = estimator;
+    tr.rng = rng;
+    tr.o = index_point(o);
+    tr.d = index_vector(d);
+    tr.w = vec3<f32>(1.0);
+    tr.albedo_rgb = wf.albedo_rgb;
+    return tr;
+}
+
+// The majorant DDA of a tracker over [t0, t1] (media.rs `segments`).
+fn medium_dda(tr: Tracker, t0: f32, t1: f32) -> Dda {
+    let scale = grid_info.density_scale * tr.params.majorant_channel_scale;
+    return dda_new(tr.o, tr.d, t0, t1, scale, tr.params.majorant_mode == MAJORANT_GLOBAL);
+}
+
+// path.rs `vdb_intervals` for the one VDB medium: its world bounds along the ray within
+// [t0, t1], non-empty.
+fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
+                   out_t: ptr<function, vec2<f32>>) -> bool {
+    if (wf.has_medium == 0u) {
+        return false;
+    }
+    var te = vec2<f32>(0.0);
+    if (!aabb_intersect(wf.medium_lo, wf.medium_hi, o, d, t0, t1, &te)) {
+        return false;
+    }
+    *out_t = te;
+    return te.y > te.x;
+}

@@ -1,0 +1,54 @@
+// Mirrors the sample loop of render_tile (src/integrator/tile.rs) and the start of
+// radiance (src/integrator/path.rs): Stage::Generate. For each free slot (the done queue of the
+// previous iteration; every slot in the first), take the next camera sample of the batch, open
+// its stream Rng::new(pixel, sample, seed), jitter, Camera::generate_ray and Camera::t_min
+// (src/scene/camera.rs), and send the path to the medium stage (or straight to the escape
+// stage when the scene has no medium).
+
+@compute @workgroup_size(64)
+fn generate(@builtin(global_invocation_id) id: vec3<u32>) {
+    var slot = 0u;
+    if (!queue_item(queue_done_in(), id.x, &slot)) {
+        return;
+    }
+    let sample_id = atomicAdd(&counters.next_sample, 1u);
+    if (sample_id >= wf.total_samples) {
+        // The batch is handed out: the slot stays idle.
+        return;
+    }
+    atomicAdd(&counters.live, 1u);
+    let pixel = wf.pixel0 + sample_id / wf.spp_batch;
+    let sample = wf.s0 + sample_id % wf.spp_batch;
+    var rng = rng_new(pixel, sample, wf.seed);
+    let jx = rng_uniform(&rng);
+    let jy = rng_uniform(&rng);
+    let fx = (f32(pixel % wf.width) + jx) / f32(wf.width);
+    let fy = (f32(pixel / wf.width) + jy) / f32(wf.height);
+    // Camera::generate_ray: the pinhole is column 3 of world_from_camera.
+    let local = vec3<f32>((2.0 * fx - 1.0) * wf.tan_half * wf.aspect,
+                          (1.0 - 2.0 * fy) * wf.tan_half, -1.0);
+    let c = wf.camera;
+    let d = normalize(vec3<f32>(dot(c[0].xyz, local), dot(c[1].xyz, local),
+                                dot(c[2].xyz, local)));
+    var ps: GpuPathState;
+    ps.o = vec3<f32>(c[0].w, c[1].w, c[2].w);
+    ps.d = d;
+    // Camera::t_min: where the near plane cuts the unit ray.
+    ps.t0 = wf.znear / max(dot(d, wf.forward), 1e-6);
+    ps.prev_pdf = 0.0;
+    ps.beta = vec3<f32>(1.0);
+    ps.sample_id = sample_id;
+    ps.l = vec3<f32>(0.0);
+    ps.depth = 0u;
+    ps.rng_state = rng.state;
+    ps.rng_inc = rng.inc;
+    ps.flags = PATH_FLAG_SPECULAR;
+    ps.collisions = 0u;
+    ps.lookups = 0u;
+    paths[slot] = ps;
+    if (FEATURE_HETEROGENEOUS) {
+        queue_push(queue_medium_in(), slot);
+    } else {
+        queue_push(QUEUE_ESCAPE, slot);
+    }
+}

@@ -1,0 +1,55 @@
+// Mirrors the medium-scattering arm of radiance (src/integrator/path.rs), its first half:
+// Stage::ScatterMedium. Count the event and apply the depth limit, then next-event estimation:
+// Lights::sample at the scattering point with the path's next three uniforms, the phase
+// function's value and the MIS weight (power heuristic unless the light is a delta). The
+// unoccluded contribution goes to the shadow stage, which multiplies it by the transmittance
+// with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
+// then goes on to the phase stage.
+
+@group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
+
+@compute @workgroup_size(64)
+fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
+    var slot = 0u;
+    if (!queue_item(QUEUE_SCATTER, id.x, &slot)) {
+        return;
+    }
+    var ps = paths[slot];
+    ps.depth += 1u;
+    if (ps.depth > wf.max_depth || all(ps.beta == vec3<f32>(0.0))) {
+        paths[slot] = ps;
+        queue_push(queue_done_out(), slot);
+        return;
+    }
+    var rng = path_rng(ps);
+    let p = ps.o;
+    let wo = -ps.d;
+    let u_select = rng_uniform(&rng);
+    let ux = rng_uniform(&rng);
+    let uy = rng_uniform(&rng);
+    let ls = light_sample(p, u_select, vec2<f32>(ux, uy));
+    if (ls.valid) {
+        let f = hg_p(wf.phase_g, wo, ls.wi);
+        if (f > 0.0 && ls.pdf > 0.0) {
+            var dist = f32_inf();
+            if (ls.dist <= F32_MAX) {
+                dist = ls.dist * (1.0 - 1e-4);
+            }
+            var w = 1.0;
+            if (!ls.is_delta) {
+                w = power_heuristic(ls.pdf, f);
+            }
+            var sh: GpuShadowRay;
+            sh.o = p;
+            sh.dist = dist;
+            sh.wi = ls.wi;
+            sh.contribution = ps.beta * ls.li * (f * w / ls.pdf);
+            shadows[slot] = sh;
+            queue_push(QUEUE_SHADOW, slot);
+        }
+    }
+    ps.rng_state = rng.state;
+    ps.rng_inc = rng.inc;
+    paths[slot] = ps;
+    queue_push(QUEUE_PHASE, slot);
+}

@@ -1,0 +1,53 @@
+//! `brume bench gpu`: camera samples per second of the wavefront GPU integrator against the CPU
+//! backend on one scene (default: the cloud example at 512x512, 4 spp), with the adapter's
+//! name and the GPU time per stage. Prints; never asserts.
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use anyhow::{anyhow, Result};
+use brume::backend::cpu;
+use brume::backend::gpu::render::{render_with_timings, Stage};
+use brume::backend::gpu::GpuContext;
+use brume::integrator::{RenderScene, RenderSettings};
+
+/// Renders `scene` at `width` x `height` with `spp` samples per pixel on the GPU, then on the
+/// CPU, and prints samples per second for both.
+pub fn run(scene: &Path, width: u32, height: u32, spp: u32) -> Result<()> {
+    let scene = brume::scene::load(scene).map_err(|e| anyhow!("{e}"))?;
+    let settings = RenderSettings {
+        width,
+        height,
+        spp,
+        ..RenderSettings::default()
+    };
+    let rs = RenderScene::new(&scene, false).map_err(|e| anyhow!(e))?;
+    let samples = width as f64 * height as f64 * spp as f64;
+    let stop = AtomicBool::new(false);
+    match GpuContext::new() {
+        Err(e) => println!("gpu: unavailable: {e}"),
+        Ok(ctx) => {
+            println!("gpu: {}", ctx.describe());
+            let (out, t) = render_with_timings(&ctx, &rs, &settings, &stop, &|_, _, _| {})?;
+            let stage_s: f64 = t.stage_totals().iter().sum::<u64>() as f64 * 1e-9;
+            println!(
+                "gpu: {width}x{height} {spp} spp in {:.2} s (kernels {:.2} s, {:?}): {:.3} M samples/s, variant {}",
+                out.seconds,
+                stage_s,
+                t.source,
+                samples / out.seconds * 1e-6,
+                t.variant
+            );
+            for (s, ns) in Stage::ALL.iter().zip(t.stage_totals()) {
+                println!("gpu:   {:<15} {:>9.1} ms", s.name(), ns as f64 * 1e-6);
+            }
+        }
+    }
+    let out = cpu::render(&rs, &settings, &stop, &|_, _, _| {});
+    println!(
+        "cpu: {width}x{height} {spp} spp in {:.2} s on {} threads: {:.3} M samples/s",
+        out.seconds,
+        rayon::current_num_threads(),
+        samples / out.seconds * 1e-6
+    );
+    Ok(())
+}
