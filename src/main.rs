@@ -30,6 +30,10 @@ enum Command {
     },
     /// Render a scene to an EXR on the CPU.
     Render(cli::render::RenderArgs),
+    /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
+    Compare(cli::compare::CompareArgs),
+    /// Error against time for a sweep of estimator configurations (tables and plots).
+    Study(cli::study::StudyArgs),
     /// Print performance figures (benchmarks, not tests).
     Bench {
         #[command(subcommand)]
@@ -42,6 +46,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
         Command::Render(args) => cli::render::run(&args),
+        Command::Compare(args) => cli::compare::run(&args),
+        Command::Study(args) => cli::study::run(&args),
         Command::Bench { which } => cli::bench::run(which),
     };
     match result {
