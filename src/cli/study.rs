@@ -15,7 +15,7 @@ use brume::study::run::{
     seed_for, Checkpoint, StudyConfig,
 };
 
-#[derive(Args, Debug)]
+#[derive(Args, Debug, Clone)]
 pub struct StudyArgs {
     /// The scene (.gltf or .glb).
     pub scene: PathBuf,
@@ -56,6 +56,10 @@ pub struct StudyArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Render nothing: rebuild the summaries and plots from --out's checkpoints.csv (e.g. with
+    /// another --target-rmse). --budget and --repeats should match the run that wrote it.
+    #[arg(long)]
+    pub replot: bool,
 }
 
 /// Default reference samples per pixel: at 128x96 on the cloud about a minute on two cores,
@@ -85,6 +89,9 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         if configs[..i].iter().any(|d| d.label == c.label) {
             return Err(anyhow!("configuration {:?} is given twice", c.label));
         }
+    }
+    if args.replot {
+        return replot(args);
     }
     let given_ref = match &args.reference {
         Some(p) => Some(read_exr(p).with_context(|| "reading the reference")?),
@@ -177,17 +184,80 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         }
     }
 
-    let summary = summarize(
+    write_reports(
+        args,
         &points,
         &configs,
+        width,
+        height,
+        &reference_desc,
+        reference_noise_rmse(&reference),
+        threads,
+    )
+}
+
+/// Summaries and plots from the checkpoints of an earlier run (`--replot`).
+fn replot(args: &StudyArgs) -> Result<()> {
+    let csv = args.out.join("checkpoints.csv");
+    let points = report::read_csv(&csv).map_err(|e| anyhow!(e))?;
+    let mut configs: Vec<StudyConfig> = Vec::new();
+    for p in &points {
+        if !configs.iter().any(|c| c.label == p.config) {
+            configs.push(StudyConfig::from_label(&p.config).map_err(|e| anyhow!(e))?);
+        }
+    }
+    let repeats = points.iter().map(|p| p.repeat + 1).max().unwrap_or(0);
+    if repeats != args.repeats {
+        eprintln!("note: {} has {repeats} repeat(s)", csv.display());
+    }
+    // The reference and resolution are not in the CSV: keep what the summary says.
+    let old: serde_json::Value = std::fs::read_to_string(args.out.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or_default();
+    let width = old["width"].as_u64().unwrap_or(0) as u32;
+    let height = old["height"].as_u64().unwrap_or(0) as u32;
+    let reference = old["reference"].as_str().unwrap_or("unknown").to_string();
+    let threads = old["threads"].as_u64().unwrap_or(0) as usize;
+    let args = StudyArgs {
+        repeats,
+        ..args.clone()
+    };
+    write_reports(
+        &args,
+        &points,
+        &configs,
+        width,
+        height,
+        &reference,
+        old["reference_noise_rmse"].as_f64(),
+        threads,
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn write_reports(
+    args: &StudyArgs,
+    points: &[Checkpoint],
+    configs: &[StudyConfig],
+    width: u32,
+    height: u32,
+    reference_desc: &str,
+    reference_noise: Option<f64>,
+    threads: usize,
+) -> Result<()> {
+    let csv = args.out.join("checkpoints.csv");
+    let summary = summarize(
+        points,
+        configs,
         args.target_rmse,
         &args.scene.display().to_string(),
         width,
         height,
         args.budget,
         args.repeats,
-        &reference_desc,
-        reference_noise_rmse(&reference),
+        reference_desc,
+        reference_noise,
         threads,
     );
     let mut md = format!("# Study: {}\n\n", args.scene.display());
@@ -196,7 +266,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     report::write_text(&args.out.join("summary.md"), &md)?;
     report::write_json(&args.out.join("summary.json"), &summary)?;
 
-    let files = write_plots(&args.out, &summary, &points)?;
+    let files = write_plots(&args.out, &summary, points)?;
     if plot::text_available().is_none() {
         eprintln!("note: no TrueType font found (set BRUME_FONT=file.ttf): plots have no text");
     }

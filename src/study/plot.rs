@@ -131,7 +131,7 @@ pub fn rmse_vs_time(stem: &Path, title: &str, curves: &[Curve]) -> Result<Vec<Pa
     let title = title.to_string();
     both(
         stem,
-        (1100, 650),
+        (1200, 650),
         &|root, text| draw_rmse(root, &title, &curves, text),
         &|root, text| draw_rmse(root, &title, &curves, text),
     )

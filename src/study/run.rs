@@ -110,6 +110,25 @@ impl StudyConfig {
         Ok(Self::new(estimator, b, m, majorant))
     }
 
+    /// Parses a label made by [`StudyConfig::new`] (e.g. `weighted-delta b=0.75 local`), to
+    /// re-summarise a `checkpoints.csv`.
+    pub fn from_label(label: &str) -> Result<Self, String> {
+        let mut spec: Vec<String> = Vec::new();
+        for (i, t) in label.split(' ').enumerate() {
+            if i == 0 || t.starts_with("b=") || t.starts_with("m=") || t == "global" || t == "local"
+            {
+                spec.push(t.to_string());
+            } else if t != "leaf-minorant" {
+                return Err(format!("{label:?} is not a study configuration label"));
+            }
+        }
+        let c = Self::parse(&spec.join(":"))?;
+        if c.label != label {
+            return Err(format!("{label:?} is not a study configuration label"));
+        }
+        Ok(c)
+    }
+
     /// `base` with this configuration's estimator and parameters.
     pub fn settings(&self, base: &RenderSettings) -> RenderSettings {
         RenderSettings {
