@@ -7,4 +7,5 @@ pub mod integrator;
 pub mod math;
 pub mod sampling;
 pub mod scene;
+pub mod study;
 pub mod volume;

@@ -28,10 +28,14 @@ enum Command {
         #[arg(long)]
         no_layout: bool,
     },
-    /// Render a scene to an EXR on the CPU.
+    /// Render a scene to an EXR (GPU or CPU backend).
     Render(cli::render::RenderArgs),
     /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/CYCLES.md).
     Cycles(cli::cycles::CyclesArgs),
+    /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
+    Compare(cli::compare::CompareArgs),
+    /// Error against time for a sweep of estimator configurations (tables and plots).
+    Study(cli::study::StudyArgs),
     /// Print performance figures (benchmarks, not tests).
     Bench {
         #[command(subcommand)]
@@ -45,6 +49,8 @@ fn main() -> ExitCode {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
         Command::Render(args) => cli::render::run(&args),
         Command::Cycles(args) => cli::cycles::run(&args),
+        Command::Compare(args) => cli::compare::run(&args),
+        Command::Study(args) => cli::study::run(&args),
         Command::Bench { which } => cli::bench::run(which),
     };
     match result {

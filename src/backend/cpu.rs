@@ -48,6 +48,18 @@ pub fn pass_sizes(spp: u32, max_pass_spp: u32) -> impl Iterator<Item = (u32, u32
     })
 }
 
+/// What [`render_observed`] shows its observer after each completed pass.
+pub struct PassView<'a> {
+    /// The film so far (whole passes only).
+    pub film: &'a Film,
+    /// Tile records so far, in pass then tile order.
+    pub records: &'a [TileRecord],
+    /// Samples per pixel so far.
+    pub spp: u32,
+    /// Seconds since the render started, at the end of this pass (before the observer runs).
+    pub seconds: f64,
+}
+
 /// Renders `rs` on the CPU. `stop` is polled between tiles: when set, the current pass is
 /// abandoned and what earlier passes accumulated is returned.
 pub fn render(
@@ -55,6 +67,18 @@ pub fn render(
     settings: &RenderSettings,
     stop: &AtomicBool,
     progress: Progress,
+) -> RenderOutput {
+    render_observed(rs, settings, stop, progress, &mut |_| {})
+}
+
+/// [`render`], calling `observer` with the film after every completed pass (for convergence
+/// studies). The observer's own time counts against `time_limit`: keep it short.
+pub fn render_observed(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    stop: &AtomicBool,
+    progress: Progress,
+    observer: &mut dyn FnMut(&PassView),
 ) -> RenderOutput {
     let start = Instant::now();
     let features = if settings.generic {
@@ -124,7 +148,14 @@ pub fn render(
             records.push(out.record);
         }
         spp += n;
-        progress(spp, settings.spp, start.elapsed().as_secs_f64());
+        let seconds = start.elapsed().as_secs_f64();
+        progress(spp, settings.spp, seconds);
+        observer(&PassView {
+            film: &film,
+            records: &records,
+            spp,
+            seconds,
+        });
     }
     RenderOutput {
         film,

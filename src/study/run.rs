@@ -1,0 +1,298 @@
+//! Running a convergence study: each configuration renders for a wall-time budget while the
+//! film is scored against a reference after every progressive pass.
+//!
+//! The scene is prepared once ([`RenderScene`]) and shared by every render, so only rendering
+//! time is measured. A checkpoint is taken after each completed pass through
+//! [`cpu::render_observed`]: the film's means are compared with the reference (a few tens of
+//! microseconds at study resolutions, counted in the render's time), so one render yields the
+//! whole error-versus-time curve instead of one point per render.
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use serde::Serialize;
+
+use super::compare::mse_relmse;
+use crate::backend::cpu;
+use crate::film::{totals, AttrValue, Image, Metadata};
+use crate::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings};
+
+/// One estimator setting of the study.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StudyConfig {
+    /// Name in tables, plots and the CSV (no commas).
+    pub label: String,
+    #[serde(serialize_with = "ser_name")]
+    pub estimator: Estimator,
+    /// Majorant scale (weighted estimators only; 1 otherwise).
+    pub b: f32,
+    /// Control fraction (decomposition with global majorants only).
+    pub m: Option<f32>,
+    #[serde(serialize_with = "ser_majorant")]
+    pub majorant: MajorantMode,
+}
+
+fn ser_name<S: serde::Serializer>(e: &Estimator, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(e.name())
+}
+fn ser_majorant<S: serde::Serializer>(m: &MajorantMode, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(m.name())
+}
+
+impl StudyConfig {
+    /// A configuration with a label made from its parameters. Parameters an estimator ignores
+    /// are dropped (b of the analog estimators, m with local majorants, where the control is
+    /// the per-leaf minorant), so equal renders get equal labels.
+    pub fn new(estimator: Estimator, b: f32, m: Option<f32>, majorant: MajorantMode) -> Self {
+        let weighted = matches!(
+            estimator,
+            Estimator::WeightedDelta | Estimator::WeightedDecomposition
+        );
+        let decomposition = matches!(
+            estimator,
+            Estimator::Decomposition | Estimator::WeightedDecomposition
+        );
+        let b = if weighted { b } else { 1.0 };
+        let m = if decomposition && majorant == MajorantMode::Global {
+            m.or(if estimator == Estimator::WeightedDecomposition {
+                Some(crate::integrator::settings::DEFAULT_WEIGHTED_M)
+            } else {
+                None
+            })
+        } else {
+            None
+        };
+        let mut label = estimator.name().to_string();
+        if weighted {
+            label += &format!(" b={b}");
+        }
+        if let Some(m) = m {
+            label += &format!(" m={m}");
+        } else if decomposition {
+            label += " leaf-minorant";
+        }
+        label += &format!(" {}", majorant.name());
+        Self {
+            label,
+            estimator,
+            b,
+            m,
+            majorant,
+        }
+    }
+
+    /// Parses `ESTIMATOR[:b=B][:m=M][:global|local]` (majorant default: global), e.g.
+    /// `weighted-delta:b=0.75:local` or `weighted-decomposition:m=0.03`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let mut parts = s.split(':');
+        let estimator: Estimator = parts.next().unwrap_or("").trim().parse()?;
+        let (mut b, mut m, mut majorant) = (1.0f32, None, MajorantMode::Global);
+        for p in parts {
+            let p = p.trim();
+            let num = |v: &str, what: &str| {
+                v.parse::<f32>()
+                    .ok()
+                    .filter(|x| x.is_finite() && *x >= 0.0)
+                    .ok_or_else(|| format!("config {s:?}: {what} = {v:?} is not a number >= 0"))
+            };
+            if let Some(v) = p.strip_prefix("b=") {
+                b = num(v, "b")?;
+                if b == 0.0 {
+                    return Err(format!("config {s:?}: b must be > 0"));
+                }
+            } else if let Some(v) = p.strip_prefix("m=") {
+                m = Some(num(v, "m")?);
+            } else {
+                majorant = p.parse().map_err(|e| {
+                    format!("config {s:?}: {e} (parts are b=B, m=M, global or local)")
+                })?;
+            }
+        }
+        Ok(Self::new(estimator, b, m, majorant))
+    }
+
+    /// Parses a label made by [`StudyConfig::new`] (e.g. `weighted-delta b=0.75 local`), to
+    /// re-summarise a `checkpoints.csv`.
+    pub fn from_label(label: &str) -> Result<Self, String> {
+        let mut spec: Vec<String> = Vec::new();
+        for (i, t) in label.split(' ').enumerate() {
+            if i == 0 || t.starts_with("b=") || t.starts_with("m=") || t == "global" || t == "local"
+            {
+                spec.push(t.to_string());
+            } else if t != "leaf-minorant" {
+                return Err(format!("{label:?} is not a study configuration label"));
+            }
+        }
+        let c = Self::parse(&spec.join(":"))?;
+        if c.label != label {
+            return Err(format!("{label:?} is not a study configuration label"));
+        }
+        Ok(c)
+    }
+
+    /// `base` with this configuration's estimator and parameters.
+    pub fn settings(&self, base: &RenderSettings) -> RenderSettings {
+        RenderSettings {
+            estimator: self.estimator,
+            b: self.b,
+            m: self.m,
+            majorant: self.majorant,
+            ..base.clone()
+        }
+    }
+}
+
+/// The seed paper's sweep: weighted delta tracking with b in {0.25, 0.5, 0.75, 1}, weighted
+/// decomposition tracking with m in {0.01, ..., 0.05} at b = 1, and analog delta tracking,
+/// each with the global and with per-leaf majorants. With per-leaf majorants the
+/// decomposition control is the leaf minorant and m is unused, so the five m values would be
+/// five identical renders: that row appears once. 16 configurations.
+pub fn default_sweep() -> Vec<StudyConfig> {
+    let mut v = Vec::new();
+    for majorant in [MajorantMode::Global, MajorantMode::Local] {
+        for b in [0.25, 0.5, 0.75, 1.0] {
+            v.push(StudyConfig::new(
+                Estimator::WeightedDelta,
+                b,
+                None,
+                majorant,
+            ));
+        }
+        for m in [0.01, 0.02, 0.03, 0.04, 0.05] {
+            let c = StudyConfig::new(Estimator::WeightedDecomposition, 1.0, Some(m), majorant);
+            if !v.contains(&c) {
+                v.push(c);
+            }
+        }
+        v.push(StudyConfig::new(Estimator::Delta, 1.0, None, majorant));
+    }
+    v
+}
+
+/// One point of an error-versus-time curve: the state of the film after a pass.
+#[derive(Clone, Debug, Serialize)]
+pub struct Checkpoint {
+    pub config: String,
+    pub repeat: u32,
+    pub seed: u32,
+    /// Samples per pixel so far.
+    pub spp: u32,
+    /// Wall-clock seconds of rendering so far (scene preparation excluded).
+    pub seconds: f64,
+    /// RMSE against the reference, pooled over pixels and RGB.
+    pub rmse: f64,
+    /// `mean((a - ref)^2 / (ref^2 + 1e-2))`.
+    pub relmse: f64,
+    /// Density lookups so far (all kinds).
+    pub lookups: u64,
+    /// Camera samples so far.
+    pub samples: u64,
+}
+
+/// Renders `cfg` for `budget` seconds (no new pass starts after it) and scores every pass
+/// against `reference`.
+pub fn run_config(
+    rs: &RenderScene,
+    base: &RenderSettings,
+    cfg: &StudyConfig,
+    budget: f64,
+    repeat: u32,
+    seed: u32,
+    reference: &Image,
+) -> Vec<Checkpoint> {
+    let settings = RenderSettings {
+        spp: 0,
+        time_limit: Some(budget),
+        seed,
+        ..cfg.settings(base)
+    };
+    let mut points = Vec::new();
+    let mut means = Vec::with_capacity(reference.rgb.len());
+    let stop = AtomicBool::new(false);
+    cpu::render_observed(rs, &settings, &stop, &|_, _, _| {}, &mut |view| {
+        means.clear();
+        means.extend(view.film.pixels().iter().map(|p| p.mean.map(|m| m as f32)));
+        let (mse, relmse) = mse_relmse(&means, &reference.rgb);
+        let t = totals(view.records);
+        points.push(Checkpoint {
+            config: cfg.label.clone(),
+            repeat,
+            seed,
+            spp: view.spp,
+            seconds: view.seconds,
+            rmse: mse.sqrt(),
+            relmse,
+            lookups: t.density_lookups,
+            samples: t.samples,
+        });
+    });
+    points
+}
+
+/// Seed of configuration `index` in repeat `repeat`: distinct for every render of a study and
+/// never equal to [`REFERENCE_SEED`], so no render shares random numbers with the reference.
+pub fn seed_for(base_seed: u32, index: usize, repeat: u32) -> u32 {
+    base_seed
+        .wrapping_add(repeat.wrapping_mul(1000))
+        .wrapping_add(index as u32)
+}
+
+/// Seed of the reference render.
+pub const REFERENCE_SEED: u32 = 0x5EED_0F0F;
+
+/// Where a cached reference lives in `dir`: keyed by the scene file's name and a hash of its
+/// bytes (an edited scene gets a new reference), the resolution and the sample count.
+pub fn reference_cache_path(
+    dir: &Path,
+    scene: &Path,
+    width: u32,
+    height: u32,
+    spp: u32,
+) -> std::io::Result<PathBuf> {
+    let bytes = std::fs::read(scene)?;
+    // FNV-1a, 64 bit: stable across Rust versions, unlike `DefaultHasher`.
+    let hash = bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    });
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    Ok(dir.join(format!(
+        "reference-{stem}-{:08x}-{width}x{height}-{spp}spp.exr",
+        hash as u32
+    )))
+}
+
+/// The reference estimator: analog delta tracking with per-leaf majorants (unbiased, and the
+/// cheapest per sample on sparse clouds).
+pub fn reference_settings(base: &RenderSettings, spp: u32) -> RenderSettings {
+    RenderSettings {
+        spp,
+        time_limit: None,
+        seed: REFERENCE_SEED,
+        ..StudyConfig::new(Estimator::Delta, 1.0, None, MajorantMode::Local).settings(base)
+    }
+}
+
+/// Renders the reference image (mean, variance of the mean, sample count) with
+/// [`reference_settings`].
+pub fn render_reference(rs: &RenderScene, base: &RenderSettings, spp: u32) -> (Image, f64) {
+    let settings = reference_settings(base, spp);
+    let out = cpu::render(rs, &settings, &AtomicBool::new(false), &|_, _, _| {});
+    let meta = Metadata::new()
+        .with("brume:content", AttrValue::Text("study reference".into()))
+        .with("brume:estimator", AttrValue::Text("delta".into()))
+        .with("brume:majorant", AttrValue::Text("local".into()))
+        .with("brume:spp", AttrValue::Int(out.spp as i32))
+        .with("brume:seconds", AttrValue::Double(out.seconds))
+        .with("brume:seed", AttrValue::Int(REFERENCE_SEED as i32));
+    (Image::from_film(&out.film, &meta), out.seconds)
+}
+
+/// RMSE of the reference's own noise: `sqrt(mean(variance of the pixel mean))`, the floor
+/// under which no render can be measured against it (measured MSE = true MSE + this squared).
+pub fn reference_noise_rmse(reference: &Image) -> Option<f64> {
+    let v = reference.variance.as_ref()?;
+    let n = (v.len() * 3).max(1) as f64;
+    Some((v.iter().flatten().map(|&x| x as f64).sum::<f64>() / n).sqrt())
+}
