@@ -14,8 +14,8 @@ mod common;
 use brume::math::Ray;
 use brume::volume::tracking::{self as tr, Coeffs, ControlExtinction, FnMedium, TrackingStats};
 use brume::volume::{LeafBounds, SparseGrid};
-use common::stress::*;
 use common::scenes;
+use common::stress::*;
 use glam::Vec3;
 
 /// z critical value for this file: about 300 z-tests at family level ~1e-3 (Sidak).
@@ -123,7 +123,11 @@ fn analog_control(mode: Mode) -> ControlExtinction {
 /// Every estimator of `Est::all` with the given b and a control `m * bound` far above the
 /// minorant (the blob has zeros everywhere near its edge).
 fn estimators(b: f32, mode: Mode, m: f32) -> Vec<Est> {
-    Est::all(b, analog_control(mode), ControlExtinction::FractionOfBound(m))
+    Est::all(
+        b,
+        analog_control(mode),
+        ControlExtinction::FractionOfBound(m),
+    )
 }
 
 #[test]
@@ -169,17 +173,25 @@ fn non_bounding_majorants_in_1d_media() {
             for (name, c) in [("wdelta", None), ("wdecomp", Some(s.true_min + 1.0))] {
                 let lookup = s.sigma_t;
                 let control = c.map_or(ControlExtinction::None, ControlExtinction::Constant);
-                let medium =
-                    FnMedium::with_control(move |x| Coeffs::from_sigma_t(lookup(x), 1.0), control, 1.0);
+                let medium = FnMedium::with_control(
+                    move |x| Coeffs::from_sigma_t(lookup(x), 1.0),
+                    control,
+                    1.0,
+                );
                 let (m, st, finite) = sample_many(n, 12, |rng, st| {
                     let segs = s.segments.iter().copied();
                     let e = match c {
-                        None => tr::weighted_delta::sample_distance(segs, s.t_max, b, &medium, rng, st),
+                        None => {
+                            tr::weighted_delta::sample_distance(segs, s.t_max, b, &medium, rng, st)
+                        }
                         Some(_) => tr::weighted_decomposition::sample_distance(
                             segs, s.t_max, b, &medium, rng, st,
                         ),
                     };
-                    assert!(!matches!(e, tr::Event::Absorb { .. }), "albedo 1 never absorbs");
+                    assert!(
+                        !matches!(e, tr::Event::Absorb { .. }),
+                        "albedo 1 never absorbs"
+                    );
                     e.weight()
                 });
                 let label = format!("1d furnace {} {name} b={b}", s.name);
@@ -206,12 +218,19 @@ fn blob_rays(n: f32) -> Vec<(Ray, f32, f32)> {
     vec![
         // Through the middle, oblique.
         (
-            Ray::new(Vec3::new(-3.0, c - 2.3, c + 1.7), Vec3::new(1.0, 0.13, -0.07).normalize()),
+            Ray::new(
+                Vec3::new(-3.0, c - 2.3, c + 1.7),
+                Vec3::new(1.0, 0.13, -0.07).normalize(),
+            ),
             0.0,
             n + 6.0,
         ),
         // Diagonal, starting inside.
-        (Ray::new(Vec3::splat(c * 0.6), Vec3::splat(1.0).normalize()), 0.0, n),
+        (
+            Ray::new(Vec3::splat(c * 0.6), Vec3::splat(1.0).normalize()),
+            0.0,
+            n,
+        ),
     ]
 }
 
@@ -278,7 +297,10 @@ fn variance_growth_is_reported() {
     let grid = blob_grid(n, [0, 0, 0], 1.0);
     let bounds = LeafBounds::build(&grid);
     let (ray, t0, t1) = blob_rays(n as f32)[0];
-    println!("{:<58} {:>6} {:>10} {:>10} {:>11} {:>10} {:>8}", "estimator", "tau_B", "T", "mean", "sample var", "max|w|", "nonzero");
+    println!(
+        "{:<58} {:>6} {:>10} {:>10} {:>11} {:>10} {:>8}",
+        "estimator", "tau_B", "T", "mean", "sample var", "max|w|", "nonzero"
+    );
     for tau_b in [0.25f64, 1.0, 4.0, 16.0] {
         let scale = (tau_b / (bounds.global.max as f64 * (t1 - t0) as f64)) as f32;
         let expected = (-optical_depth(&grid, &ray, t0 as f64, t1 as f64, scale as f64)).exp();
@@ -373,7 +395,10 @@ fn zero_density_everywhere_is_free_and_exact() {
         .unwrap_or_else(|_| zeros.clone());
     for (name, grid) in [("zeros", &zeros), ("empty", &empty)] {
         let bounds = LeafBounds::build(grid);
-        let ray = Ray::new(Vec3::new(-10.0, 3.0, 5.0), Vec3::new(1.0, 0.1, 0.2).normalize());
+        let ray = Ray::new(
+            Vec3::new(-10.0, 3.0, 5.0),
+            Vec3::new(1.0, 0.1, 0.2).normalize(),
+        );
         for mode in [Mode::Global, Mode::Local] {
             for est in estimators(0.25, mode, 0.5) {
                 let medium = GridMedium {
@@ -389,7 +414,10 @@ fn zero_density_everywhere_is_free_and_exact() {
                 });
                 assert!(finite);
                 assert_eq!(m.mean(), 1.0, "{name} {est:?} {mode:?}");
-                assert_eq!(st.lookups, 0, "{name} {est:?} {mode:?}: lookups in empty space");
+                assert_eq!(
+                    st.lookups, 0,
+                    "{name} {est:?} {mode:?}: lookups in empty space"
+                );
                 assert!(!st.is_biased(), "{name} {est:?} {mode:?}: {st:?}");
             }
         }
@@ -398,13 +426,18 @@ fn zero_density_everywhere_is_free_and_exact() {
 
 #[test]
 fn a_single_active_voxel() {
-    let grid = SparseGrid::from_dense([1, 1, 1], [8, -1, 0], &[7.0], 0.0).unwrap().0;
+    let grid = SparseGrid::from_dense([1, 1, 1], [8, -1, 0], &[7.0], 0.0)
+        .unwrap()
+        .0;
     let bounds = LeafBounds::build(&grid);
     let mut failures = Vec::new();
     // Through the voxel centre, off-centre, along an axis, and grazing its support.
     let rays = [
         Ray::new(Vec3::new(0.0, -1.0, 0.0), Vec3::X),
-        Ray::new(Vec3::new(3.0, -1.4, 0.3), Vec3::new(1.0, 0.05, -0.02).normalize()),
+        Ray::new(
+            Vec3::new(3.0, -1.4, 0.3),
+            Vec3::new(1.0, 0.05, -0.02).normalize(),
+        ),
         Ray::new(Vec3::new(8.2, -10.0, 0.1), Vec3::Y),
         Ray::new(Vec3::new(8.0, -1.0, -0.999), Vec3::new(0.0, 0.6, 0.8)),
     ];
@@ -443,7 +476,9 @@ fn zero_majorant_cells_next_to_1e5_cells() {
             }
         }
     }
-    let grid = SparseGrid::from_dense([nx, ny, nz], [0, 0, 0], &v, 0.0).unwrap().0;
+    let grid = SparseGrid::from_dense([nx, ny, nz], [0, 0, 0], &v, 0.0)
+        .unwrap()
+        .0;
     let bounds = LeafBounds::build(&grid);
     // The cell index is padded by one cell: cell (1, 1, 1) covers voxels [0, 8)^3.
     assert_eq!(bounds.cell_origin, [-1, -1, -1]);
@@ -454,11 +489,26 @@ fn zero_majorant_cells_next_to_1e5_cells() {
     // length costs 1e5 tentative collisions there, so the global runs are kept short).
     let cases = [
         // Only through the zero-majorant cell: T = 1, no lookups with local bounds.
-        ("empty cell", Ray::new(Vec3::new(0.5, 3.5, 3.5), Vec3::new(1.0, 0.01, 0.0)), 6.0, 0.02),
+        (
+            "empty cell",
+            Ray::new(Vec3::new(0.5, 3.5, 3.5), Vec3::new(1.0, 0.01, 0.0)),
+            6.0,
+            0.02,
+        ),
         // Along y in the ramp at x = 15.002: sigma_t = 200 over 0.01, tau = 2.
-        ("ramp", Ray::new(Vec3::new(15.002, 3.0, 3.0), Vec3::Y), 0.01, 0.01),
+        (
+            "ramp",
+            Ray::new(Vec3::new(15.002, 3.0, 3.0), Vec3::Y),
+            0.01,
+            0.01,
+        ),
         // From the ramp into the 1e5 region: T = 0 to f32 precision.
-        ("into 1e5", Ray::new(Vec3::new(15.5, 3.0, 3.0), Vec3::X), 4.0, 4.0),
+        (
+            "into 1e5",
+            Ray::new(Vec3::new(15.5, 3.0, 3.0), Vec3::X),
+            4.0,
+            4.0,
+        ),
     ];
     for (name, ray, t_local, t_global) in cases {
         for mode in [Mode::Global, Mode::Local] {
@@ -468,7 +518,11 @@ fn zero_majorant_cells_next_to_1e5_cells() {
                 bounds: &bounds,
                 ray,
                 t0: 0.0,
-                t1: if mode == Mode::Local { t_local } else { t_global },
+                t1: if mode == Mode::Local {
+                    t_local
+                } else {
+                    t_global
+                },
                 scale: 1.0,
             };
             // A control of m * 1e5 over a zero density would need weights of e^(m 1e5 L):
@@ -478,7 +532,10 @@ fn zero_majorant_cells_next_to_1e5_cells() {
                 let o = run(&case, est, mode, 2_000, 61);
                 report_and_check("", &o, &mut failures);
                 if name == "empty cell" && mode == Mode::Local {
-                    assert_eq!(o.stats.lookups, 0, "{est:?}: lookups in a zero-majorant cell");
+                    assert_eq!(
+                        o.stats.lookups, 0,
+                        "{est:?}: lookups in a zero-majorant cell"
+                    );
                 }
             }
         }
@@ -502,19 +559,34 @@ fn geometry_extremes_in_index_space() {
         let bounds = LeafBounds::build(grid);
         let c = 8.0;
         let rays = [
-            ("on a cell face", Ray::new(Vec3::new(-3.0, 8.0, 5.3), Vec3::X)),
-            ("on a cell edge", Ray::new(Vec3::new(8.0, -3.0, 8.0), Vec3::Y)),
+            (
+                "on a cell face",
+                Ray::new(Vec3::new(-3.0, 8.0, 5.3), Vec3::X),
+            ),
+            (
+                "on a cell edge",
+                Ray::new(Vec3::new(8.0, -3.0, 8.0), Vec3::Y),
+            ),
             (
                 "-0.0 components",
-                Ray::new(Vec3::new(c + 0.3, c - 0.2, 20.0), Vec3::new(-0.0, -0.0, -1.0)),
+                Ray::new(
+                    Vec3::new(c + 0.3, c - 0.2, 20.0),
+                    Vec3::new(-0.0, -0.0, -1.0),
+                ),
             ),
             (
                 "starts on the box boundary",
-                Ray::new(Vec3::new(0.0, 4.5, 7.7), Vec3::new(1.0, 0.2, 0.1).normalize()),
+                Ray::new(
+                    Vec3::new(0.0, 4.5, 7.7),
+                    Vec3::new(1.0, 0.2, 0.1).normalize(),
+                ),
             ),
             (
                 "starts on an interior plane",
-                Ray::new(Vec3::new(8.0, 8.0, 8.0), Vec3::new(-1.0, 0.3, 0.5).normalize()),
+                Ray::new(
+                    Vec3::new(8.0, 8.0, 8.0),
+                    Vec3::new(-1.0, 0.3, 0.5).normalize(),
+                ),
             ),
             (
                 "diagonal through corners",
@@ -571,9 +643,18 @@ fn an_underflowed_control_factor_gives_zero_not_nan() {
                     control: est.control(),
                 };
                 let (m, st, finite) = sample_many(200, 91, |rng, st| {
-                    est.run(segments(&bounds, &ray, t0, t1, scale, mode), t1, &medium, rng, st)
+                    est.run(
+                        segments(&bounds, &ray, t0, t1, scale, mode),
+                        t1,
+                        &medium,
+                        rng,
+                        st,
+                    )
                 });
-                assert!(finite, "{est:?} {mode:?} tau_B {tau_b}: non-finite estimate");
+                assert!(
+                    finite,
+                    "{est:?} {mode:?} tau_B {tau_b}: non-finite estimate"
+                );
                 assert!(m.mean().abs() < 1e-30, "{est:?} {mode:?}: {}", m.mean());
                 assert_eq!(st.collision_cap_hits, 0);
             }
