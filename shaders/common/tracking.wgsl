@@ -627,6 +627,11 @@ fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> v
     if (est == ESTIMATOR_DECOMPOSITION || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
         || est == ESTIMATOR_RESIDUAL_RATIO) {
         t_control = exp(-control_optical_depth(tr, dda, t_max));
+        // As on the CPU: an underflowed control factor makes the estimate 0; the walk is
+        // skipped (its weight could overflow, and 0 * inf is NaN).
+        if (t_control == 0.0) {
+            return vec3<f32>(0.0);
+        }
     }
     (*tr).w = vec3<f32>(1.0);
     (*tr).distance = false;

@@ -80,11 +80,16 @@ pub fn blackbody_rgb(t: f32) -> Vec3 {
 
 /// Emitted radiance per metre of Cycles' Principled Volume blackbody term at `t` kelvin with
 /// blackbody intensity `intensity`.
+///
+/// `T^4` is formed in f64: in f32 it overflows above 4.3e9 K although the radiance itself stays
+/// representable up to ~1e13 K (the scene loader refuses temperatures above
+/// `scene::MAX_TEMPERATURE_K`, so a loaded scene never reaches that).
 pub fn blackbody_emission(t: f32, intensity: f32) -> Vec3 {
     let t = t.max(0.0);
-    let t4 = (t * t) * (t * t);
-    let scale = STEFAN_BOLTZMANN_SCALE * ((1.0 - intensity) + intensity * t4);
-    blackbody_rgb(t) * scale
+    let t2 = t as f64 * t as f64;
+    let scale =
+        STEFAN_BOLTZMANN_SCALE as f64 * ((1.0 - intensity as f64) + intensity as f64 * t2 * t2);
+    blackbody_rgb(t) * scale as f32
 }
 
 #[cfg(test)]
@@ -103,5 +108,18 @@ mod tests {
         // D65 is close to 6504 K: near white.
         let d65 = blackbody_rgb(6504.0);
         assert!((d65 - Vec3::ONE).abs().max_element() < 0.08, "{d65}");
+    }
+
+    #[test]
+    fn emission_is_finite_up_to_the_loader_limit() {
+        // Regression (fuzz_inputs): T^4 in f32 overflowed at 4.3e9 K, giving inf radiance.
+        for t in [5e9f32, 1e11, crate::scene::MAX_TEMPERATURE_K] {
+            let e = blackbody_emission(t, 1.0);
+            assert!(e.is_finite() && e.max_element() > 0.0, "{t} K: {e}");
+        }
+        let r = blackbody_emission(2000.0, 1.0).x as f64;
+        let expected =
+            STEFAN_BOLTZMANN_SCALE as f64 * 2000f64.powi(4) * blackbody_rgb(2000.0).x as f64;
+        assert!((r / expected - 1.0).abs() < 1e-6);
     }
 }

@@ -292,6 +292,7 @@ pub fn read_vdb_media(
             }
             desc.grids.push(grid);
         }
+        check_temperature_range(ctx, &obj, &desc)?;
 
         desc.world_from_medium = placed.world_from_node * desc.grids[0].vdb_world_from_index;
         (desc.world_bounds, desc.bounds_source) = if let Some(b) = desc.grids[0].index_bounds {
@@ -311,6 +312,45 @@ pub fn read_vdb_media(
         out.push(desc);
     }
     Ok(out)
+}
+
+/// Hottest temperature a scene may reach, kelvin. Beyond ~1e13 K the blackbody radiance
+/// (`~1.8e-14 T^4`) no longer fits a 32-bit float, so the renderer would produce infinities;
+/// 1e12 K leaves margin for the colour and for summing along a path. (Nothing physical burns
+/// hotter than ~1e9 K.)
+pub const MAX_TEMPERATURE_K: f32 = 1e12;
+
+/// Refuses blackbody media whose temperature (`temperatureScale * t + temperatureOffset` over
+/// the temperature grid's value range) can exceed [`MAX_TEMPERATURE_K`]. Found by
+/// `tests/fuzz_inputs.rs` (`temperatureOffset: 3e32` rendered infinite radiance).
+fn check_temperature_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<(), SceneError> {
+    let Some(name) = &desc.temperature_grid else {
+        return Ok(());
+    };
+    if !(desc.blackbody_intensity > 0.0) {
+        return Ok(());
+    }
+    let Some(grid) = desc.grids.iter().find(|g| &g.name == name) else {
+        return Ok(());
+    };
+    let g = grid.volume.bounds.global;
+    let (s, o) = (
+        desc.temperature_scale as f64,
+        desc.temperature_offset as f64,
+    );
+    let hottest = (s * g.min as f64 + o).max(s * g.max as f64 + o);
+    if !(hottest <= MAX_TEMPERATURE_K as f64) {
+        return Err(ctx.invalid(
+            obj.at("temperatureOffset"),
+            format!(
+                "temperatures reach {hottest:e} K (temperatureScale {s} * grid values up to {} \
+                 + temperatureOffset {o}); the limit is {MAX_TEMPERATURE_K:e} K, beyond which \
+                 blackbody emission overflows 32-bit floats",
+                g.max
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// World bounds of glTF mesh `m` placed by `world`.

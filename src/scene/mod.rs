@@ -40,7 +40,9 @@ pub use effects::Effects;
 pub use error::SceneError;
 pub use lights::{Environment, PunctualLight, RADIOMETRIC_PER_PHOTOMETRIC};
 pub use material::{HomogeneousMedium, Material, TextureRef};
-pub use media::{load_grid, transform_aabb, BoundsSource, LoadedGrid, VdbMediumDesc};
+pub use media::{
+    load_grid, transform_aabb, BoundsSource, LoadedGrid, VdbMediumDesc, MAX_TEMPERATURE_K,
+};
 pub use mesh::{Instance, Triangle, Vertex};
 pub use render_settings::SceneRenderSettings;
 

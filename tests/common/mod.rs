@@ -4,5 +4,6 @@ pub mod gpu;
 pub mod grids;
 pub mod render;
 pub mod stats;
+pub mod stress;
 pub use grids::*;
 pub use stats::*;

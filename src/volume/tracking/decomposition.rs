@@ -127,6 +127,10 @@ where
 {
     let segments = segments.into_iter();
     let mut tr = (-control_optical_depth(segments.clone(), t_max, medium)).exp();
+    if tr == 0.0 {
+        // Nothing left to attenuate: skip the walk (as the weighted estimators must).
+        return 0.0;
+    }
     // The residual is delta-tracked against the bound minus the control.
     let residual_majorant =
         |seg: &MajorantSegment| (seg.sigma_maj - medium.control(seg).sigma_t()).max(0.0);

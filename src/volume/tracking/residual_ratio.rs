@@ -37,6 +37,12 @@ where
 {
     let segments = segments.into_iter();
     let t_control = (-control_optical_depth(segments.clone(), t_max, medium)).exp();
+    if t_control == 0.0 {
+        // The closed-form factor underflowed: the estimate is 0 whatever the residual walk
+        // gives. Stop here, because that walk (a control above the density makes its factors
+        // exceed 1) could overflow to infinity, and 0 * inf is NaN.
+        return 0.0;
+    }
     let mut tr = 1.0f32;
     let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
     sample_free_flight(segments, t_max, majorant, rng, stats, |rng, stats, c| {

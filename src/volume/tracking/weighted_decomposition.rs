@@ -116,6 +116,11 @@ where
 {
     let segments = segments.into_iter();
     let t_control = (-control_optical_depth(segments.clone(), t_max, medium)).exp();
+    if t_control == 0.0 {
+        // As in residual ratio tracking: a zero closed-form factor makes the estimate 0, and
+        // the residual weight could overflow (0 * inf = NaN).
+        return 0.0;
+    }
     let mut w = 1.0f32;
     let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
     sample_free_flight(segments, t_max, majorant, rng, stats, |rng, stats, c| {
