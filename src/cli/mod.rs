@@ -1,7 +1,7 @@
 pub mod bench;
 pub mod bench_gpu;
-pub mod cycles;
 pub mod compare;
+pub mod cycles;
 pub mod info;
 pub mod render;
 pub mod study;
