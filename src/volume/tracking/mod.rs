@@ -302,6 +302,34 @@ impl<W: Copy> Event<W> {
     }
 }
 
+/// Records the outcome of a real/null choice over the CDF `[absorb, scatter, null]` (index 0,
+/// 1, 2) with the weight after this collision, and says whether the walk continues (null).
+/// Shared by the weighted samplers so that their counters mean the same thing.
+#[inline]
+pub(crate) fn record_choice<W: Copy>(
+    index: usize,
+    t: f32,
+    weight: W,
+    stats: &mut TrackingStats,
+    event: &mut Option<Event<W>>,
+) -> bool {
+    match index {
+        0 | 1 => {
+            stats.real_collisions += 1;
+            *event = Some(if index == 0 {
+                Event::Absorb { t, weight }
+            } else {
+                Event::Scatter { t, weight }
+            });
+            false
+        }
+        _ => {
+            stats.null_collisions += 1;
+            true
+        }
+    }
+}
+
 /// The majorant `b * seg.sigma_maj` of weighted tracking with majorant scale `b` (b = 1: the
 /// bound itself).
 #[inline]

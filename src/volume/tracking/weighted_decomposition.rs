@@ -22,8 +22,8 @@
 //! in proportion. Transmittance: `exp(-int sigma_c)` in closed form times the weighted
 //! residual estimate (events {real: |sigma_r|, null: |r_n|}; `w` on escape, 0 on real).
 use super::{
-    control_optical_depth, lookup, residual_majorant, sample_free_flight, Event, Medium,
-    TrackingStats,
+    control_optical_depth, lookup, record_choice, residual_majorant, sample_free_flight, Event,
+    Medium, TrackingStats,
 };
 use crate::sampling::discrete::ONE_MINUS_EPSILON;
 use crate::sampling::{sample_discrete, Rng};
@@ -80,22 +80,7 @@ where
         let sigma_x = [r_a, r_s, r_n][choice.index];
         w *= (total / r_bar).copysign(sigma_x);
         stats.note_weight(w);
-        match choice.index {
-            0 => {
-                stats.real_collisions += 1;
-                event = Some(Event::Absorb { t: c.t, weight: w });
-                false
-            }
-            1 => {
-                stats.real_collisions += 1;
-                event = Some(Event::Scatter { t: c.t, weight: w });
-                false
-            }
-            _ => {
-                stats.null_collisions += 1;
-                true
-            }
-        }
+        record_choice(choice.index, c.t, w, stats, &mut event)
     });
     event.unwrap_or(Event::Escape { weight: w })
 }

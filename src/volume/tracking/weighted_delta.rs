@@ -21,7 +21,9 @@
 //!
 //! Transmittance: events {real: |sigma_t|, null: |sigma_n|}; `<T> = w` on escape, 0 on a real
 //! event, with `w *= sigma_n / (sigma_maj P_n)` at nulls.
-use super::{lookup, sample_free_flight, scaled_majorant, Event, Medium, TrackingStats};
+use super::{
+    lookup, record_choice, sample_free_flight, scaled_majorant, Event, Medium, TrackingStats,
+};
 use crate::sampling::{sample_discrete, Rng};
 use crate::volume::MajorantSegment;
 
@@ -60,22 +62,7 @@ where
             let sigma_x = [k.sigma_a, k.sigma_s, sigma_n][choice.index];
             w *= (total / c.sigma_maj).copysign(sigma_x);
             stats.note_weight(w);
-            match choice.index {
-                0 => {
-                    stats.real_collisions += 1;
-                    event = Some(Event::Absorb { t: c.t, weight: w });
-                    false
-                }
-                1 => {
-                    stats.real_collisions += 1;
-                    event = Some(Event::Scatter { t: c.t, weight: w });
-                    false
-                }
-                _ => {
-                    stats.null_collisions += 1;
-                    true
-                }
-            }
+            record_choice(choice.index, c.t, w, stats, &mut event)
         },
     );
     event.unwrap_or(Event::Escape { weight: w })
