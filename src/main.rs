@@ -44,6 +44,12 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // `brume info x.vdb | head` should end quietly, as other Unix tools do, not panic on the
+    // closed pipe.
+    // SAFETY: setting a signal disposition before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),

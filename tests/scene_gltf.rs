@@ -783,6 +783,24 @@ fn out_of_range_medium_parameters() {
             json!({"uri": "grids/x.vdb", "mesh": 9}),
             format!("{ext}/mesh"),
         ),
+        // Fuzz findings (tests/fuzz_inputs.rs, seed 2000): a u64::MAX densityScale stalled
+        // free flights (steps below the float spacing), emissionStrength 3.4e38 rendered inf.
+        (
+            json!({"uri": "grids/x.vdb", "densityScale": 18446744073709551615u64}),
+            format!("{ext}/densityScale"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "densityScale": 1e8}),
+            format!("{ext}/densityScale"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "emissionStrength": 3.4028235e38}),
+            format!("{ext}/emissionStrength"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "emissionGrid": "flame", "emissionStrength": 1e21, "emissionColor": [1, 1, 1]}),
+            format!("{ext}/emissionStrength"),
+        ),
         (json!("not an object"), ext.to_string()),
     ];
     for (k, (medium, pointer)) in cases.into_iter().enumerate() {

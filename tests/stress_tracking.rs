@@ -661,3 +661,36 @@ fn an_underflowed_control_factor_gives_zero_not_nan() {
         }
     }
 }
+
+#[test]
+fn a_clear_channel_transmits_over_an_infinite_distance() {
+    // Chromatic homogeneous medium with one channel of zero extinction and a ray that never
+    // leaves it (an open mesh): exp(-0 * inf) must be 1, not NaN.
+    use brume::integrator::media::HomogeneousMedium;
+    use brume::integrator::media::{sample_homogeneous, transmittance_homogeneous, MediumEvent};
+    use brume::sampling::Rng;
+    use brume::volume::phase::HenyeyGreenstein;
+    let h = HomogeneousMedium {
+        sigma_a: Vec3::new(0.0, 0.5, 1.0),
+        sigma_s: Vec3::new(0.0, 0.5, 0.0),
+        phase: HenyeyGreenstein::new(0.0),
+    };
+    let tr = transmittance_homogeneous(&h, f32::INFINITY);
+    assert_eq!(tr, Vec3::new(1.0, 0.0, 0.0));
+    let mut escapes = 0;
+    for i in 0..10_000 {
+        let mut rng = Rng::new(i, 0, 5);
+        match sample_homogeneous::<true>(&h, f32::INFINITY, &mut rng) {
+            MediumEvent::Scatter { t, weight } => {
+                assert!(t.is_finite() && weight.is_finite(), "{t} {weight}")
+            }
+            MediumEvent::Escape { weight } => {
+                escapes += 1;
+                assert!(weight.is_finite(), "{weight}");
+            }
+            MediumEvent::Absorb => {}
+        }
+    }
+    // The clear channel is chosen a third of the time and always escapes.
+    assert!(escapes > 3000, "{escapes}");
+}

@@ -314,3 +314,66 @@ fn brume_info_reports_tightness_for_every_example_grid() {
         assert!(stdout.contains("empty leaf cells"));
     }
 }
+
+/// Files on which OpenVDB 10.0.1's own reader overflows the heap, segfaults or asks for absurd
+/// memory (found by `tests/fuzz_inputs.rs`, kept in `tests/fuzz/vdb-regressions/`). Read in
+/// this process they aborted the test binary; `VdbFile::open` reads them in a child process,
+/// so each is now a clear error naming the file, and this process goes on.
+#[test]
+fn files_that_crash_openvdbs_reader_give_clear_errors() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz/vdb-regressions");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    assert!(files.len() >= 10);
+    let mut crashed = 0;
+    for path in &files {
+        let e = match VdbFile::open(path) {
+            Ok(_) => panic!("{}: a corrupt file was accepted", path.display()),
+            Err(e) => e,
+        };
+        let msg = e.to_string();
+        println!("{msg}");
+        assert!(msg.starts_with(&path.display().to_string()), "{msg}");
+        if e.kind == brume_ffi::VdbErrorKind::ReaderCrashed {
+            assert!(msg.contains("crashed"), "{msg}");
+            crashed += 1;
+        }
+    }
+    // Most of them kill the reader (SIGABRT from glibc's heap checks, or SIGSEGV).
+    assert!(crashed * 2 > files.len(), "{crashed} of {}", files.len());
+    // And the CLI says the same in one line.
+    let out = Command::new(env!("CARGO_BIN_EXE_brume"))
+        .args(["info", "--no-layout"])
+        .arg(dir.join("seed1-151-bloscFromStream-overflow.vdb"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("OpenVDB's reader crashed"), "{err}");
+    assert!(
+        !err.contains("malloc"),
+        "the child's own dying words leak out: {err}"
+    );
+}
+
+/// A reader that runs past its time limit is killed and reported, not waited on forever.
+#[test]
+fn a_reader_past_its_time_limit_is_stopped() {
+    let out = Command::new(env!("CARGO_BIN_EXE_brume"))
+        .args(["info", "--no-layout"])
+        .arg(example("cloud"))
+        .env("BRUME_VDB_READ_TIMEOUT", "0.000001")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("did not finish within"), "{err}");
+    // Trusted and isolated reads see the same grids.
+    let a = VdbFile::open(example("fire")).unwrap();
+    let b = VdbFile::open_trusted(example("fire")).unwrap();
+    assert_eq!(format!("{:?}", a.grids()), format!("{:?}", b.grids()));
+    assert_eq!(a.metadata(), b.metadata());
+}

@@ -12,15 +12,26 @@
 #include <openvdb/tools/LevelSetUtil.h>
 #include <openvdb/tools/Prune.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <new>
+#include <shared_mutex>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <ext/stdio_filebuf.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 struct BrumeVdbFile {
     openvdb::GridPtrVecPtr grids;
@@ -53,7 +64,16 @@ void ensure_initialized() {
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-template <typename F> int32_t guarded(char **error, F &&body) {
+// Every entry point holds this shared; brume_vdb_open_isolated holds it exclusively while it
+// forks, so that no other thread is inside OpenVDB (holding its registry's mutex, say) when the
+// child's copy of the process is made: the child has only the forking thread and would wait
+// forever on a lock held by a thread that does not exist there.
+std::shared_mutex &fork_lock() {
+    static std::shared_mutex m;
+    return m;
+}
+
+template <typename F> int32_t guarded_unlocked(char **error, F &&body) {
     if (error) *error = nullptr;
     try {
         ensure_initialized();
@@ -84,6 +104,11 @@ template <typename F> int32_t guarded(char **error, F &&body) {
         set_error(error, "unknown C++ exception");
         return BRUME_VDB_INTERNAL;
     }
+}
+
+template <typename F> int32_t guarded(char **error, F &&body) {
+    std::shared_lock<std::shared_mutex> lock(fork_lock());
+    return guarded_unlocked(error, std::forward<F>(body));
 }
 
 void require(bool ok, int32_t status, const char *message) {
@@ -196,6 +221,174 @@ typename GridT::Ptr build_grid(const BrumeVdbGridSpec &spec, ValueOf value_of) {
     return grid;
 }
 
+
+std::ifstream open_checked(const char *path) {
+    std::error_code ec;
+    const std::filesystem::path p(path);
+    require(std::filesystem::exists(p, ec), BRUME_VDB_IO_ERROR, "no such file");
+    require(!std::filesystem::is_directory(p, ec), BRUME_VDB_IO_ERROR,
+            "is a directory, not a .vdb file");
+    require(std::filesystem::is_regular_file(p, ec), BRUME_VDB_IO_ERROR, "not a regular file");
+    require(std::filesystem::file_size(p, ec) > 0, BRUME_VDB_FORMAT_ERROR, "empty file");
+    std::ifstream is(p, std::ios::in | std::ios::binary);
+    require(is.good(), BRUME_VDB_IO_ERROR, "cannot open for reading");
+    // With exceptions on, a truncated file fails at the short read instead of handing
+    // OpenVDB zero-filled sizes.
+    is.exceptions(std::ios::badbit | std::ios::failbit);
+    return is;
+}
+
+std::unique_ptr<BrumeVdbFile> read_file(std::istream &is) {
+    // Stream, not io::File: no delayed loading or memory mapping, so everything is read
+    // (and every error raised) here, inside the guard.
+    openvdb::io::Stream stream(is, /*delayLoad=*/false);
+    auto file = std::make_unique<BrumeVdbFile>();
+    file->metadata = stream.getMetadata();
+    file->grids = stream.getGrids();
+    require(file->grids != nullptr, BRUME_VDB_FORMAT_ERROR, "no grids could be read");
+    return file;
+}
+
+// What the child sends before anything else.
+constexpr char CHILD_OK = 'O';
+constexpr char CHILD_FAILED = 'E';
+
+// The child's whole life: parse the untrusted file, then write what it read back in OpenVDB's
+// own format (grid statistics off: computing them runs TBB, whose worker threads do not exist
+// in a forked child; no compression: the pipe is local). Never returns.
+[[noreturn]] void child_reads(const char *path, int fd) {
+    int32_t status = BRUME_VDB_INTERNAL;
+    std::string message;
+    // glibc's "malloc(): invalid size" as the reader dies would read like Brume's own output;
+    // the parent reports the crash in its place.
+    const int devnull = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (devnull >= 0) ::dup2(devnull, STDERR_FILENO);
+    try {
+        std::ifstream is = open_checked(path);
+        auto file = read_file(is);
+        __gnu_cxx::stdio_filebuf<char> buf(fd, std::ios::out | std::ios::binary);
+        std::ostream os(&buf);
+        os.put(CHILD_OK);
+        openvdb::io::Stream stream(os);
+        stream.setGridStatsMetadataEnabled(false);
+        stream.setCompression(openvdb::io::COMPRESS_NONE);
+        openvdb::GridCPtrVec grids(file->grids->begin(), file->grids->end());
+        stream.write(grids, file->metadata ? *file->metadata : openvdb::MetaMap());
+        os.flush();
+        _exit(os.good() ? 0 : 3);
+    } catch (const Failure &f) {
+        status = f.status;
+        message = f.message;
+    } catch (const std::ios_base::failure &e) {
+        status = BRUME_VDB_IO_ERROR;
+        message = std::string("read failed (truncated or unreadable file): ") + e.what();
+    } catch (const std::bad_alloc &) {
+        status = BRUME_VDB_OUT_OF_MEMORY;
+        message = "out of memory (a corrupt file can ask for absurd sizes)";
+    } catch (const openvdb::TypeError &e) {
+        status = BRUME_VDB_TYPE_ERROR;
+        message = e.what();
+    } catch (const openvdb::Exception &e) {
+        status = BRUME_VDB_FORMAT_ERROR;
+        message = e.what();
+    } catch (const std::exception &e) {
+        message = e.what();
+    } catch (...) {
+        message = "unknown C++ exception";
+    }
+    std::string out(1, CHILD_FAILED);
+    out.append(reinterpret_cast<const char *>(&status), sizeof(status));
+    out += message;
+    for (size_t done = 0; done < out.size();) {
+        const ssize_t n = ::write(fd, out.data() + done, out.size() - done);
+        if (n <= 0 && errno != EINTR) break;
+        if (n > 0) done += size_t(n);
+    }
+    _exit(0);
+}
+
+std::string signal_name(int sig) {
+    const char *name = strsignal(sig);
+    return std::string(name ? name : "unknown signal") + " (signal " + std::to_string(sig) + ")";
+}
+
+// Forks a child that reads `path`, collects what it sends into `bytes` (OpenVDB's own encoding
+// of the grids) and waits for it. Throws Failure for a crashed, hung or failed child.
+void read_in_child(const char *path, double timeout_seconds, std::string &bytes) {
+    int fds[2];
+    require(::pipe2(fds, O_CLOEXEC) == 0, BRUME_VDB_INTERNAL, "cannot create a pipe");
+    pid_t pid;
+    {
+        std::unique_lock<std::shared_mutex> lock(fork_lock());
+        pid = ::fork();
+        if (pid == 0) {
+            ::close(fds[0]);
+            child_reads(path, fds[1]);
+        }
+    }
+    ::close(fds[1]);
+    if (pid < 0) {
+        ::close(fds[0]);
+        throw Failure{BRUME_VDB_INTERNAL, "cannot fork a process to read the file"};
+    }
+    const auto start = std::chrono::steady_clock::now();
+    bool timed_out = false;
+    char chunk[1 << 16];
+    for (;;) {
+        int wait_ms = -1;
+        if (timeout_seconds > 0) {
+            const double left = timeout_seconds - std::chrono::duration<double>(
+                                                      std::chrono::steady_clock::now() - start)
+                                                      .count();
+            if (left <= 0) {
+                timed_out = true;
+                break;
+            }
+            wait_ms = int(std::min(left * 1000.0 + 1.0, 60000.0));
+        }
+        pollfd p{fds[0], POLLIN, 0};
+        const int r = ::poll(&p, 1, wait_ms);
+        if (r < 0 && errno == EINTR) continue;
+        if (r == 0) continue;
+        const ssize_t n = ::read(fds[0], chunk, sizeof(chunk));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) break;
+        bytes.append(chunk, size_t(n));
+    }
+    ::close(fds[0]);
+    if (timed_out) ::kill(pid, SIGKILL);
+    int wstatus = 0;
+    while (::waitpid(pid, &wstatus, 0) < 0 && errno == EINTR) {
+    }
+    if (timed_out) {
+        std::ostringstream m;
+        m << "OpenVDB's reader did not finish within " << timeout_seconds
+          << " s (the file is corrupt, or too large for the limit)";
+        throw Failure{BRUME_VDB_READER_CRASHED, m.str()};
+    }
+    if (WIFSIGNALED(wstatus)) {
+        const int sig = WTERMSIG(wstatus);
+        throw Failure{BRUME_VDB_READER_CRASHED,
+                      "OpenVDB's reader crashed on this file with " + signal_name(sig) +
+                          (sig == SIGKILL ? " (out of memory?)" : "") +
+                          ": the file is corrupt (it was read in a separate process, so only "
+                          "that process died)"};
+    }
+    require(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0, BRUME_VDB_INTERNAL,
+            "the process reading the file failed");
+    require(!bytes.empty(), BRUME_VDB_INTERNAL, "the process reading the file sent nothing");
+    if (bytes[0] == CHILD_FAILED) {
+        int32_t status = BRUME_VDB_INTERNAL;
+        require(bytes.size() >= 1 + sizeof(status), BRUME_VDB_INTERNAL,
+                "the process reading the file sent a short error");
+        std::memcpy(&status, bytes.data() + 1, sizeof(status));
+        throw Failure{status, bytes.substr(1 + sizeof(status))};
+    }
+    require(bytes[0] == CHILD_OK, BRUME_VDB_INTERNAL,
+            "the process reading the file sent an unknown reply");
+    bytes.erase(0, 1);
+}
+
 } // namespace
 
 extern "C" {
@@ -212,26 +405,27 @@ int32_t brume_vdb_open(const char *path, BrumeVdbFile **out, char **error) {
     return guarded(error, [&] {
         require(path && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
         *out = nullptr;
-        std::error_code ec;
-        const std::filesystem::path p(path);
-        require(std::filesystem::exists(p, ec), BRUME_VDB_IO_ERROR, "no such file");
-        require(!std::filesystem::is_directory(p, ec), BRUME_VDB_IO_ERROR,
-                "is a directory, not a .vdb file");
-        require(std::filesystem::is_regular_file(p, ec), BRUME_VDB_IO_ERROR, "not a regular file");
-        require(std::filesystem::file_size(p, ec) > 0, BRUME_VDB_FORMAT_ERROR, "empty file");
-        std::ifstream is(p, std::ios::in | std::ios::binary);
-        require(is.good(), BRUME_VDB_IO_ERROR, "cannot open for reading");
-        // With exceptions on, a truncated file fails at the short read instead of handing
-        // OpenVDB zero-filled sizes.
+        std::ifstream is = open_checked(path);
+        *out = read_file(is).release();
+    });
+}
+
+int32_t brume_vdb_open_isolated(const char *path, double timeout_seconds, BrumeVdbFile **out,
+                                char **error) {
+    return guarded_unlocked(error, [&] {
+        require(path && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        *out = nullptr;
+        std::string bytes;
+        {
+            // The checks that need no OpenVDB run here, so their errors read as usual.
+            std::shared_lock<std::shared_mutex> lock(fork_lock());
+            open_checked(path);
+        }
+        read_in_child(path, timeout_seconds, bytes);
+        std::shared_lock<std::shared_mutex> lock(fork_lock());
+        std::istringstream is(bytes, std::ios::in | std::ios::binary);
         is.exceptions(std::ios::badbit | std::ios::failbit);
-        // Stream, not io::File: no delayed loading or memory mapping, so everything is read
-        // (and every error raised) here, inside the guard.
-        openvdb::io::Stream stream(is, /*delayLoad=*/false);
-        auto file = std::make_unique<BrumeVdbFile>();
-        file->metadata = stream.getMetadata();
-        file->grids = stream.getGrids();
-        require(file->grids != nullptr, BRUME_VDB_FORMAT_ERROR, "no grids could be read");
-        *out = file.release();
+        *out = read_file(is).release();
     });
 }
 

@@ -31,7 +31,10 @@ typedef enum BrumeVdbStatus {
     /* Allocation failed inside OpenVDB. */
     BRUME_VDB_OUT_OF_MEMORY = 6,
     /* Any other exception. */
-    BRUME_VDB_INTERNAL = 7
+    BRUME_VDB_INTERNAL = 7,
+    /* OpenVDB's reader crashed (a signal) or ran past its time limit on this file; only the
+     * child process that read it died (brume_vdb_open_isolated). */
+    BRUME_VDB_READER_CRASHED = 8
 } BrumeVdbStatus;
 
 typedef enum BrumeVdbGridClass {
@@ -90,8 +93,17 @@ typedef struct BrumeVdbGridSpec {
 
 void brume_vdb_string_free(char *s);
 
-/* Reads the whole file (all grids, no delayed loading) into a handle. */
+/* Reads the whole file (all grids, no delayed loading) into a handle, in this process. Only for
+ * trusted files: OpenVDB's reader does not check every length it reads and can overflow the heap
+ * on a corrupt file. */
 int32_t brume_vdb_open(const char *path, BrumeVdbFile **out, char **error);
+
+/* Like brume_vdb_open, but OpenVDB parses the untrusted bytes in a forked child process, which
+ * writes the grids it read back through a pipe in OpenVDB's own (uncompressed) format; this
+ * process only parses that. A crash of the reader (a signal) or a read that takes longer than
+ * timeout_seconds (0: no limit) kills only the child and returns BRUME_VDB_READER_CRASHED. */
+int32_t brume_vdb_open_isolated(const char *path, double timeout_seconds, BrumeVdbFile **out,
+                                char **error);
 void brume_vdb_file_free(BrumeVdbFile *file);
 
 int32_t brume_vdb_grid_count(const BrumeVdbFile *file, size_t *count, char **error);

@@ -16,6 +16,8 @@ pub enum VdbErrorKind {
     InvalidArgument,
     OutOfMemory,
     Internal,
+    /// OpenVDB's reader crashed or ran past its time limit on the file (in a child process).
+    ReaderCrashed,
 }
 
 /// An OpenVDB failure, always naming the file it concerns.
@@ -71,6 +73,7 @@ fn call(path: &Path, f: impl FnOnce(*mut *mut c_char) -> i32) -> Result<(), VdbE
         sys::BRUME_VDB_TYPE_ERROR => VdbErrorKind::Type,
         sys::BRUME_VDB_INVALID_ARGUMENT => VdbErrorKind::InvalidArgument,
         sys::BRUME_VDB_OUT_OF_MEMORY => VdbErrorKind::OutOfMemory,
+        sys::BRUME_VDB_READER_CRASHED => VdbErrorKind::ReaderCrashed,
         _ => VdbErrorKind::Internal,
     };
     let message = if message.is_empty() {
@@ -169,6 +172,20 @@ pub struct VdbFile {
 unsafe impl Send for VdbFile {}
 unsafe impl Sync for VdbFile {}
 
+/// Seconds the child process may take to read a file of `bytes` bytes: a minute, plus the time
+/// a slow disk and OpenVDB's decompression need at 4 MB/s. `BRUME_VDB_READ_TIMEOUT` (seconds,
+/// 0 for none) overrides it.
+pub fn read_timeout(bytes: u64) -> f64 {
+    if let Some(s) = std::env::var("BRUME_VDB_READ_TIMEOUT")
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+    {
+        return s;
+    }
+    60.0 + bytes as f64 / 4.0e6
+}
+
 impl Drop for VdbFile {
     fn drop(&mut self) {
         // SAFETY: `raw` came from brume_vdb_open and is freed exactly once.
@@ -179,7 +196,28 @@ impl Drop for VdbFile {
 impl VdbFile {
     /// Opens and reads the whole file. Errors (missing file, a directory, an empty or
     /// truncated file, random bytes) name the file and the problem.
+    ///
+    /// OpenVDB parses the bytes in a child process (see `brume_vdb_open_isolated`): OpenVDB
+    /// 10's reader trusts some lengths in the file and overflows the heap on a corrupt one, so
+    /// a crash there must not take the renderer down. The child's time limit is
+    /// [`read_timeout`] for the file's size.
     pub fn open(path: impl AsRef<Path>) -> Result<Self, VdbError> {
+        let path = path.as_ref();
+        let c = c_path(path)?;
+        let timeout = std::fs::metadata(path)
+            .map(|m| read_timeout(m.len()))
+            .unwrap_or(0.0);
+        let mut raw = ptr::null_mut();
+        // SAFETY: valid C string and out pointer; the shim catches every exception.
+        call(path, |e| unsafe {
+            sys::brume_vdb_open_isolated(c.as_ptr(), timeout, &mut raw, e)
+        })?;
+        Self::from_raw(path, raw)
+    }
+
+    /// Like [`VdbFile::open`], but OpenVDB parses the file in this process: faster by one copy
+    /// of the grids, and only for files you trust (written by Brume or OpenVDB's own tools).
+    pub fn open_trusted(path: impl AsRef<Path>) -> Result<Self, VdbError> {
         let path = path.as_ref();
         let c = c_path(path)?;
         let mut raw = ptr::null_mut();
@@ -187,6 +225,10 @@ impl VdbFile {
         call(path, |e| unsafe {
             sys::brume_vdb_open(c.as_ptr(), &mut raw, e)
         })?;
+        Self::from_raw(path, raw)
+    }
+
+    fn from_raw(path: &Path, raw: *mut sys::BrumeVdbFile) -> Result<Self, VdbError> {
         let mut file = VdbFile {
             path: path.to_path_buf(),
             raw,

@@ -504,14 +504,14 @@ pub fn sample_homogeneous<const CHROM: bool>(
         f32::INFINITY
     };
     if t < t_max {
-        let tr = (-sigma_t * t).exp();
+        let tr = exp_neg(sigma_t, t);
         let pdf = (sigma_t * tr).element_sum() / 3.0;
         MediumEvent::Scatter {
             t,
             weight: h.sigma_s * tr / pdf,
         }
     } else {
-        let tr = (-sigma_t * t_max).exp();
+        let tr = exp_neg(sigma_t, t_max);
         let p_escape = tr.element_sum() / 3.0;
         MediumEvent::Escape {
             weight: tr / p_escape,
@@ -522,5 +522,12 @@ pub fn sample_homogeneous<const CHROM: bool>(
 /// `exp(-sigma_t d)`: exact.
 #[inline]
 pub fn transmittance_homogeneous(h: &HomogeneousMedium, d: f32) -> Vec3 {
-    (-h.sigma_t() * d).exp()
+    exp_neg(h.sigma_t(), d)
+}
+
+/// `exp(-sigma_t d)` per channel, with a clear channel (`sigma_t = 0`) transmitting 1 even over
+/// an infinite distance, where `0 * inf` would be NaN (an open mesh, a ray that never leaves).
+#[inline]
+fn exp_neg(sigma_t: Vec3, d: f32) -> Vec3 {
+    Vec3::select(sigma_t.cmpeq(Vec3::ZERO), Vec3::ONE, (-sigma_t * d).exp())
 }

@@ -293,6 +293,7 @@ pub fn read_vdb_media(
             desc.grids.push(grid);
         }
         check_temperature_range(ctx, &obj, &desc)?;
+        check_emission_range(ctx, &obj, &desc)?;
 
         desc.world_from_medium = placed.world_from_node * desc.grids[0].vdb_world_from_index;
         (desc.world_bounds, desc.bounds_source) = if let Some(b) = desc.grids[0].index_bounds {
@@ -309,9 +310,82 @@ pub fn read_vdb_media(
             // A grid with no cells: nothing to render, nothing to bound.
             (Aabb::EMPTY, BoundsSource::Grid)
         };
+        check_optical_depth(ctx, &obj, &desc)?;
         out.push(desc);
     }
     Ok(out)
+}
+
+/// Largest optical depth a medium may have across its world bounds. Free-flight distances are
+/// 32-bit ray parameters: at optical depth `tau` across a box of size `L` the mean step is
+/// `L / tau`, while the spacing of floats near `L` is `L * 1.2e-7`. Beyond about 1e7 steps stop
+/// advancing the ray (found by `tests/fuzz_inputs.rs`: `densityScale: 1.8e19` tracked 2^24
+/// null collisions at one point); 1e6 keeps the mean step at eight float spacings. The stress
+/// suite covers optical depths up to 1e5.
+pub const MAX_OPTICAL_DEPTH: f64 = 1e6;
+
+/// Largest emitted radiance per metre (`emissionStrength * emissionColor * emissionGrid`). The
+/// estimators add `beta * Le * w / sigma_maj` at collisions, so radiance near `f32::MAX` turns
+/// into infinities (found by `tests/fuzz_inputs.rs`: `emissionStrength: 3.4e38`); 1e20 is
+/// eighteen orders above the example fire and leaves room for `1 / sigma_maj`.
+pub const MAX_EMISSION: f64 = 1e20;
+
+/// Refuses media whose extinction makes free flights unresolvable in 32-bit ray distances
+/// (see [`MAX_OPTICAL_DEPTH`]).
+fn check_optical_depth(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<(), SceneError> {
+    if desc.world_bounds.is_empty() {
+        return Ok(());
+    }
+    let g = desc.grids[0].volume.bounds.global;
+    let sigma_t = desc
+        .sigma_t_per_density()
+        .iter()
+        .fold(0.0f64, |a, &c| a.max(c as f64));
+    let size = desc.world_bounds.max - desc.world_bounds.min;
+    let diagonal = size.as_dvec3().length();
+    let tau = g.max.max(0.0) as f64 * sigma_t * diagonal;
+    if !(tau <= MAX_OPTICAL_DEPTH) {
+        return Err(ctx.invalid(
+            obj.at("densityScale"),
+            format!(
+                "the medium is optically too thick: densityScale {} * density up to {} across \
+                 {diagonal:.4} m gives an optical depth of {tau:.3e}; the limit is \
+                 {MAX_OPTICAL_DEPTH:e}, beyond which 32-bit ray distances cannot resolve its \
+                 mean free path (lower densityScale: at this depth the medium is opaque anyway)",
+                desc.density_scale, g.max
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses emission that would overflow 32-bit radiance (see [`MAX_EMISSION`]).
+fn check_emission_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<(), SceneError> {
+    let color = desc
+        .emission_color
+        .iter()
+        .fold(0.0f64, |a, &c| a.max(c as f64));
+    let grid_max = match &desc.emission_grid {
+        Some(name) => desc
+            .grids
+            .iter()
+            .find(|g| &g.name == name)
+            .map_or(1.0, |g| g.volume.bounds.global.max.max(0.0) as f64),
+        None => 1.0,
+    };
+    let emission = desc.emission_strength as f64 * color * grid_max;
+    if !(emission <= MAX_EMISSION) {
+        return Err(ctx.invalid(
+            obj.at("emissionStrength"),
+            format!(
+                "emitted radiance reaches {emission:e} per metre (emissionStrength {} * \
+                 emissionColor up to {color} * emission grid values up to {grid_max}); the \
+                 limit is {MAX_EMISSION:e}, beyond which 32-bit radiance overflows",
+                desc.emission_strength
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Hottest temperature a scene may reach, kelvin. Beyond ~1e13 K the blackbody radiance
