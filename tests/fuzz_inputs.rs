@@ -19,6 +19,9 @@
 //! a crashed child and saves it. Iterations first replay every corpus file unmutated, so inputs
 //! that once failed are kept as regression inputs by committing them to the corpus.
 //!
+//! OpenVDB's own reader runs in a process of its own (`VdbFile::open`): a file that crashes it
+//! (tests/fuzz/vdb-regressions) is a clear error, so it counts as refused, never as a crash.
+//!
 //! CI runs a fixed number of iterations (about 20 s in all). The long mode is
 //! `BRUME_FUZZ_SECONDS=600 cargo test --release --test fuzz_inputs -- --ignored --nocapture long`.
 use std::io::Write;
@@ -32,9 +35,10 @@ use brume::volume::{load_grid_from, ConversionPolicy};
 use brume_ffi::VdbFile;
 use serde_json::{json, Value};
 
-/// Iterations per campaign in CI (each about 15 s on a 2-core machine).
-const CI_VDB_ITERATIONS: u64 = 240;
-const CI_GLTF_ITERATIONS: u64 = 2000;
+/// Iterations per campaign in CI (each about 25 s on a 2-core machine; OpenVDB reads each
+/// file in a process of its own).
+const CI_VDB_ITERATIONS: u64 = 160;
+const CI_GLTF_ITERATIONS: u64 = 1000;
 /// A child that reports no progress for this long is hung.
 const HANG_SECONDS: u64 = 30;
 /// Address-space limit of the worker, KiB: corrupt sizes then fail to allocate quickly.
@@ -378,6 +382,8 @@ fn input(kind: &str, corpus: &[(String, Vec<u8>)], seed: u64, i: u64) -> Vec<u8>
 enum Verdict {
     Accepted,
     Refused,
+    /// Refused because OpenVDB's reader crashed or hung on it (in its own process).
+    ReaderCrashed,
 }
 
 fn check_vdb(path: &Path) -> Result<Verdict, String> {
@@ -390,7 +396,11 @@ fn check_vdb(path: &Path) -> Result<Verdict, String> {
         Err(e) => {
             let msg = e.to_string();
             return if msg.contains(&shown) && msg.len() > shown.len() + 2 {
-                Ok(Verdict::Refused)
+                Ok(if e.kind == brume_ffi::VdbErrorKind::ReaderCrashed {
+                    Verdict::ReaderCrashed
+                } else {
+                    Verdict::Refused
+                })
             } else {
                 Err(format!("unclear error: {msg:?}"))
             };
@@ -530,7 +540,8 @@ fn fuzz_worker() {
     // Panics are caught and reported per input; keep the default hook quiet.
     std::panic::set_hook(Box::new(|_| {}));
     let start = Instant::now();
-    let (mut accepted, mut refused, mut done) = (0u64, 0u64, 0u64);
+    let (mut accepted, mut refused, mut done, mut reader_crashed) = (0u64, 0u64, 0u64, 0u64);
+    let mut rss_warm = None;
     let path = state.join(if kind == "vdb" {
         "input.vdb"
     } else {
@@ -553,6 +564,10 @@ fn fuzz_worker() {
         match verdict {
             Ok(Ok(Verdict::Accepted)) => accepted += 1,
             Ok(Ok(Verdict::Refused)) => refused += 1,
+            Ok(Ok(Verdict::ReaderCrashed)) => {
+                refused += 1;
+                reader_crashed += 1;
+            }
             Ok(Err(msg)) => println!("FAIL {i} {msg}"),
             Err(p) => {
                 let msg = p
@@ -564,9 +579,27 @@ fn fuzz_worker() {
             }
         }
         done += 1;
+        if done == RSS_WARMUP {
+            rss_warm = resident_kib();
+        }
     }
-    println!("DONE {done} {accepted} {refused}");
+    if let (Some(a), Some(b)) = (rss_warm, resident_kib()) {
+        println!("RSS {a} {b}");
+    }
+    println!("DONE {done} {accepted} {refused} {reader_crashed}");
     std::io::stdout().flush().unwrap();
+}
+
+/// Inputs after which a worker's resident size is taken as its baseline for the leak check.
+const RSS_WARMUP: u64 = 200;
+/// Largest growth of a worker's resident size after the warm-up that is not called a leak, KiB.
+const RSS_GROWTH_LIMIT_KIB: i64 = 64 << 10;
+
+/// This process's resident set size, KiB (`VmRSS` in /proc/self/status).
+fn resident_kib() -> Option<i64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
 }
 
 #[derive(Debug, Default)]
@@ -574,10 +607,16 @@ struct Campaign {
     iterations: u64,
     accepted: u64,
     refused: u64,
+    /// Of the refused: OpenVDB's reader crashed or hung, contained in its own process.
+    reader_crashed: u64,
     /// Property violations and panics: (iteration, message).
     failures: Vec<(u64, String)>,
     /// Worker processes that died (signal, abort) or hung: (iteration, what).
     crashes: Vec<(u64, String)>,
+    /// Largest growth of a worker's resident size after its warm-up, KiB (a leak shows here:
+    /// the long runs feed one worker tens of thousands of inputs).
+    /// `None` when no worker got past the warm-up.
+    rss_growth_kib: Option<i64>,
     seconds: f64,
 }
 
@@ -611,6 +650,8 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
             .env("BRUME_FUZZ_COUNT", count.to_string())
             .env("BRUME_FUZZ_DEADLINE", left.to_string())
             .env("BRUME_FUZZ_STATE", &state)
+            // OpenVDB's reader process gives up before the hang watchdog fires.
+            .env("BRUME_VDB_READ_TIMEOUT", (HANG_SECONDS / 3).to_string())
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -646,6 +687,13 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
                 c.failures.push((i, msg.to_string()));
             }
         }
+        if let Some(v) = out.lines().find_map(|l| {
+            let rest = &l[l.find("RSS ")? + 4..];
+            let v: Vec<i64> = rest.split(' ').filter_map(|x| x.parse().ok()).collect();
+            (v.len() == 2).then_some(v)
+        }) {
+            c.rss_growth_kib = Some(c.rss_growth_kib.unwrap_or(i64::MIN).max(v[1] - v[0]));
+        }
         let done = out.lines().find_map(|l| {
             let rest = &l[l.find("DONE ")? + 5..];
             Some(
@@ -659,6 +707,7 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
                 c.iterations += v[0];
                 c.accepted += v[1];
                 c.refused += v[2];
+                c.reader_crashed += v[3];
                 next += v[0];
                 if v[0] < count {
                     break; // the deadline passed
@@ -679,14 +728,20 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
     }
     c.seconds = start.elapsed().as_secs_f64();
     println!(
-        "fuzz {kind} seed {seed}: {} iterations in {:.1} s ({} accepted, {} refused), \
-         {} failures, {} crashes/hangs",
+        "fuzz {kind} seed {seed}: {} iterations in {:.1} s ({} accepted, {} refused, of which {} \
+         crashed OpenVDB's reader in its own process), \
+         {} failures, {} crashes/hangs, worker resident size after {RSS_WARMUP} inputs grew by {}",
         c.iterations,
         c.seconds,
         c.accepted,
         c.refused,
+        c.reader_crashed,
         c.failures.len(),
         c.crashes.len(),
+        c.rss_growth_kib
+            .map_or("(not measured: too few inputs)".into(), |k| format!(
+                "at most {k} KiB"
+            )),
     );
     for (i, m) in c.failures.iter().chain(&c.crashes) {
         println!("  iteration {i}: {m}");
@@ -709,6 +764,12 @@ fn assert_clean(c: &Campaign) {
         c.failures,
         c.crashes
     );
+    if let Some(k) = c.rss_growth_kib {
+        assert!(
+            k < RSS_GROWTH_LIMIT_KIB,
+            "a worker's resident size grew by {k} KiB: a leak?"
+        );
+    }
 }
 
 #[test]

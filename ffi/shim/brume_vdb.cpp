@@ -22,7 +22,6 @@
 #include <fstream>
 #include <mutex>
 #include <new>
-#include <shared_mutex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -30,6 +29,8 @@
 #include <ext/stdio_filebuf.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -62,15 +63,6 @@ void set_error(char **error, const std::string &message) {
 void ensure_initialized() {
     static std::once_flag once;
     std::call_once(once, [] { openvdb::initialize(); });
-}
-
-// Every entry point holds this shared; brume_vdb_open_isolated holds it exclusively while it
-// forks, so that no other thread is inside OpenVDB (holding its registry's mutex, say) when the
-// child's copy of the process is made: the child has only the forking thread and would wait
-// forever on a lock held by a thread that does not exist there.
-std::shared_mutex &fork_lock() {
-    static std::shared_mutex m;
-    return m;
 }
 
 template <typename F> int32_t guarded_unlocked(char **error, F &&body) {
@@ -107,7 +99,6 @@ template <typename F> int32_t guarded_unlocked(char **error, F &&body) {
 }
 
 template <typename F> int32_t guarded(char **error, F &&body) {
-    std::shared_lock<std::shared_mutex> lock(fork_lock());
     return guarded_unlocked(error, std::forward<F>(body));
 }
 
@@ -253,17 +244,22 @@ std::unique_ptr<BrumeVdbFile> read_file(std::istream &is) {
 constexpr char CHILD_OK = 'O';
 constexpr char CHILD_FAILED = 'E';
 
-// The child's whole life: parse the untrusted file, then write what it read back in OpenVDB's
-// own format (grid statistics off: computing them runs TBB, whose worker threads do not exist
-// in a forked child; no compression: the pipe is local). Never returns.
+// The reader process's whole life: parse the untrusted file, then write what it read back in
+// OpenVDB's own format (no compression: the pipe is local; no statistics: not needed). Never
+// returns.
 [[noreturn]] void child_reads(const char *path, int fd) {
     int32_t status = BRUME_VDB_INTERNAL;
     std::string message;
     // glibc's "malloc(): invalid size" as the reader dies would read like Brume's own output;
-    // the parent reports the crash in its place.
+    // the parent reports the crash in its place. Nor may the reader hold the parent's stdout
+    // open (a test harness reading it would wait for the reader too).
     const int devnull = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
-    if (devnull >= 0) ::dup2(devnull, STDERR_FILENO);
+    if (devnull >= 0) {
+        ::dup2(devnull, STDOUT_FILENO);
+        ::dup2(devnull, STDERR_FILENO);
+    }
     try {
+        ensure_initialized();
         std::ifstream is = open_checked(path);
         auto file = read_file(is);
         __gnu_cxx::stdio_filebuf<char> buf(fd, std::ios::out | std::ios::binary);
@@ -312,24 +308,48 @@ std::string signal_name(int sig) {
     return std::string(name ? name : "unknown signal") + " (signal " + std::to_string(sig) + ")";
 }
 
-// Forks a child that reads `path`, collects what it sends into `bytes` (OpenVDB's own encoding
-// of the grids) and waits for it. Throws Failure for a crashed, hung or failed child.
+// Where the reader process finds its file and its pipe.
+constexpr const char *READER_ENV = "BRUME_VDB_READER_CHILD";
+constexpr const char *READER_PARENT_ENV = "BRUME_VDB_READER_PARENT";
+constexpr int READER_FD = 3;
+
+// Starts a reader process for `path` (this same executable, re-run: see
+// brume_vdb_reader_entry), collects what it sends into `bytes` (OpenVDB's own encoding of the
+// grids) and waits for it. Throws Failure for a crashed, hung or failed reader.
+//
+// A fresh exec, not a bare fork: OpenVDB's writer runs TBB parallel loops, and in a forked copy
+// of a process whose TBB pool is already running they wait forever for worker threads that the
+// copy does not have (seen: LeafManager::initLeafArray under Archive::writeGrid).
 void read_in_child(const char *path, double timeout_seconds, std::string &bytes) {
     int fds[2];
     require(::pipe2(fds, O_CLOEXEC) == 0, BRUME_VDB_INTERNAL, "cannot create a pipe");
-    pid_t pid;
-    {
-        std::unique_lock<std::shared_mutex> lock(fork_lock());
-        pid = ::fork();
-        if (pid == 0) {
-            ::close(fds[0]);
-            child_reads(path, fds[1]);
-        }
+    std::vector<std::string> env_strings;
+    // The reader's own variables are set below, never inherited.
+    const char *own = "BRUME_VDB_READER_";
+    for (char **e = environ; e && *e; ++e) {
+        if (std::strncmp(*e, own, std::strlen(own)) == 0) continue;
+        env_strings.emplace_back(*e);
     }
+    env_strings.push_back(std::string(READER_ENV) + "=" + path);
+    env_strings.push_back(std::string(READER_PARENT_ENV) + "=" + std::to_string(::getpid()));
+    std::vector<char *> envp;
+    for (auto &e : env_strings) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    char arg0[] = "brume-vdb-reader";
+    char *argv[] = {arg0, nullptr};
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    // dup2 onto READER_FD clears close-on-exec there; every other descriptor of ours closes.
+    posix_spawn_file_actions_adddup2(&actions, fds[1], READER_FD);
+    pid_t pid = -1;
+    const int spawned =
+        ::posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv, envp.data());
+    posix_spawn_file_actions_destroy(&actions);
     ::close(fds[1]);
-    if (pid < 0) {
+    if (spawned != 0) {
         ::close(fds[0]);
-        throw Failure{BRUME_VDB_INTERNAL, "cannot fork a process to read the file"};
+        throw Failure{BRUME_VDB_INTERNAL, std::string("cannot start a process to read the file: ") +
+                                              std::strerror(spawned)};
     }
     const auto start = std::chrono::steady_clock::now();
     bool timed_out = false;
@@ -375,7 +395,9 @@ void read_in_child(const char *path, double timeout_seconds, std::string &bytes)
                           "that process died)"};
     }
     require(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0, BRUME_VDB_INTERNAL,
-            "the process reading the file failed");
+            WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 127
+                ? "cannot run the process to read the file (/proc/self/exe)"
+                : "the process reading the file failed");
     require(!bytes.empty(), BRUME_VDB_INTERNAL, "the process reading the file sent nothing");
     if (bytes[0] == CHILD_FAILED) {
         int32_t status = BRUME_VDB_INTERNAL;
@@ -390,6 +412,19 @@ void read_in_child(const char *path, double timeout_seconds, std::string &bytes)
 }
 
 } // namespace
+
+// The reader process: this executable re-run by read_in_child with READER_ENV naming the file.
+// It runs before main (the Rust runtime never starts), reads, writes to READER_FD and exits.
+// Every program that links the shim can thus serve as its own reader, tests included.
+__attribute__((constructor)) static void brume_vdb_reader_entry() {
+    const char *path = std::getenv(READER_ENV);
+    if (!path) return;
+    // Die with the process that asked (killed by a watchdog, say) instead of lingering.
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    const char *parent = std::getenv(READER_PARENT_ENV);
+    if (!parent || std::to_string(::getppid()) != parent) _exit(4);
+    child_reads(path, READER_FD);
+}
 
 extern "C" {
 
@@ -416,13 +451,9 @@ int32_t brume_vdb_open_isolated(const char *path, double timeout_seconds, BrumeV
         require(path && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
         *out = nullptr;
         std::string bytes;
-        {
-            // The checks that need no OpenVDB run here, so their errors read as usual.
-            std::shared_lock<std::shared_mutex> lock(fork_lock());
-            open_checked(path);
-        }
+        // The checks that need no OpenVDB run here, so their errors read as usual.
+        open_checked(path);
         read_in_child(path, timeout_seconds, bytes);
-        std::shared_lock<std::shared_mutex> lock(fork_lock());
         std::istringstream is(bytes, std::ios::in | std::ios::binary);
         is.exceptions(std::ios::badbit | std::ios::failbit);
         *out = read_file(is).release();

@@ -98,10 +98,11 @@ void brume_vdb_string_free(char *s);
  * on a corrupt file. */
 int32_t brume_vdb_open(const char *path, BrumeVdbFile **out, char **error);
 
-/* Like brume_vdb_open, but OpenVDB parses the untrusted bytes in a forked child process, which
+/* Like brume_vdb_open, but OpenVDB parses the untrusted bytes in a separate process (this
+ * executable re-run through /proc/self/exe; the shim's constructor serves it before main), which
  * writes the grids it read back through a pipe in OpenVDB's own (uncompressed) format; this
  * process only parses that. A crash of the reader (a signal) or a read that takes longer than
- * timeout_seconds (0: no limit) kills only the child and returns BRUME_VDB_READER_CRASHED. */
+ * timeout_seconds (0: no limit) kills only the reader and returns BRUME_VDB_READER_CRASHED. */
 int32_t brume_vdb_open_isolated(const char *path, double timeout_seconds, BrumeVdbFile **out,
                                 char **error);
 void brume_vdb_file_free(BrumeVdbFile *file);
