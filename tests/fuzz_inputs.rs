@@ -181,23 +181,7 @@ fn mutate_bytes(rng: &mut SplitMix64, corpus: &[(String, Vec<u8>)]) -> Vec<u8> {
     b
 }
 
-const MEDIUM_FIELDS: [&str; 15] = [
-    "uri",
-    "densityGrid",
-    "densityScale",
-    "color",
-    "absorptionColor",
-    "anisotropy",
-    "emissionGrid",
-    "emissionStrength",
-    "emissionColor",
-    "temperatureGrid",
-    "blackbodyIntensity",
-    "blackbodyTint",
-    "temperatureScale",
-    "temperatureOffset",
-    "mesh",
-];
+use brume::scene::media::FIELDS as MEDIUM_FIELDS;
 
 /// A JSON value of a random kind, biased toward the troublesome ones.
 fn random_value(rng: &mut SplitMix64, depth: u32) -> Value {

@@ -14,6 +14,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
 use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
+use brume::study::stats::erfc;
 
 /// One line that says how to get a Python with bpy.
 const INSTALL_HINT: &str = "no Python with bpy found: run tools/cycles/ci.sh (Python 3.11 venv \
@@ -372,32 +373,6 @@ fn normal_quantile(p: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
-}
-
-fn erfc(x: f64) -> f64 {
-    // Polynomial in t, highest degree first, by Horner's rule (a flat table: the deeply
-    // nested textbook form is slow for rustfmt).
-    const C: [f64; 10] = [
-        0.17087277,
-        -0.82215223,
-        1.48851587,
-        -1.13520398,
-        0.27886807,
-        -0.18628806,
-        0.09678418,
-        0.37409196,
-        1.00002368,
-        -1.26551223,
-    ];
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = C.iter().fold(0.0, |acc, &c| acc * t + c);
-    let r = t * (-z * z + poly).exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
 }
 
 #[cfg(test)]

@@ -182,7 +182,8 @@ impl VdbMediumDesc {
     }
 }
 
-const FIELDS: &[&str] = &[
+/// The members `BRUME_medium_vdb` defines (others are warned about as unknown).
+pub const FIELDS: &[&str] = &[
     "uri",
     "densityGrid",
     "densityScale",

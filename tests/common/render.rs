@@ -46,46 +46,7 @@ pub fn sidak_z(alpha: f64, n: usize) -> f64 {
     inverse_normal_two_sided(a)
 }
 
-/// `z` such that `P(|Z| > z) = a` for standard normal `Z`, by bisection on erfc.
-pub fn inverse_normal_two_sided(a: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, 40.0f64);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if erfc(mid / std::f64::consts::SQRT_2) > a {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// Complementary error function (Numerical Recipes' erfcc, relative error < 1.2e-7).
-/// Horner's rule over a coefficient table: the nested form of the textbook makes rustfmt hang.
-pub fn erfc(x: f64) -> f64 {
-    // Coefficients of the polynomial in t, highest degree first (Horner's rule).
-    const C: [f64; 10] = [
-        0.17087277,
-        -0.82215223,
-        1.48851587,
-        -1.13520398,
-        0.27886807,
-        -0.18628806,
-        0.09678418,
-        0.37409196,
-        1.00002368,
-        -1.26551223,
-    ];
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = C.iter().fold(0.0, |acc, c| acc * t + c);
-    let r = t * (-z * z + poly).exp();
-    if x >= 0.0 {
-        r
-    } else {
-        2.0 - r
-    }
-}
+pub use brume::study::stats::{erfc, two_sided_z as inverse_normal_two_sided};
 
 /// Result of comparing two images (or an image with a constant).
 #[derive(Debug)]
