@@ -37,8 +37,10 @@ pub struct GpuGridInfo {
     /// Index of the global [`CellBounds`] in the bounds buffer: it follows the per-cell
     /// bounds, so this equals the cell count.
     pub global_bounds_index: u32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
+    /// First entry of this grid in the cells buffer: 0 for the density grid; the emission
+    /// grids of a wavefront render follow it in the same buffers (their brick and constant
+    /// indices already offset), so one set of bindings serves every grid.
+    pub cell_offset: u32,
 }
 const _: () = assert!(size_of::<GpuGridInfo>() == 96);
 
@@ -385,16 +387,19 @@ pub enum GpuWideCounter {
     ControlCollisions = 3,
     ShadowLookups = 4,
     DepthSum = 5,
+    /// Emission and temperature grid reads (`MediaStats::emission_lookups`).
+    EmissionLookups = 6,
 }
 
 impl GpuWideCounter {
-    pub const ALL: [GpuWideCounter; 6] = [
+    pub const ALL: [GpuWideCounter; 7] = [
         GpuWideCounter::Lookups,
         GpuWideCounter::NullCollisions,
         GpuWideCounter::RealCollisions,
         GpuWideCounter::ControlCollisions,
         GpuWideCounter::ShadowLookups,
         GpuWideCounter::DepthSum,
+        GpuWideCounter::EmissionLookups,
     ];
 
     pub fn wgsl_name(self) -> &'static str {
@@ -405,6 +410,7 @@ impl GpuWideCounter {
             GpuWideCounter::ControlCollisions => "WIDE_CONTROL_COLLISIONS",
             GpuWideCounter::ShadowLookups => "WIDE_SHADOW_LOOKUPS",
             GpuWideCounter::DepthSum => "WIDE_DEPTH_SUM",
+            GpuWideCounter::EmissionLookups => "WIDE_EMISSION_LOOKUPS",
         }
     }
 }
@@ -432,9 +438,13 @@ pub struct GpuWavefrontCounters {
     /// Padding to a 16-byte row.
     pub _pad1: u32,
     /// [`GpuWideCounter`] pairs (low, high) of 64-bit totals.
-    pub wide: [u32; 12],
+    pub wide: [u32; 14],
+    /// Padding to a 16-byte row.
+    pub _pad2: u32,
+    /// Padding to a 16-byte row.
+    pub _pad3: u32,
 }
-const _: () = assert!(size_of::<GpuWavefrontCounters>() == 112);
+const _: () = assert!(size_of::<GpuWavefrontCounters>() == 128);
 
 impl GpuWavefrontCounters {
     pub fn wide(&self, c: GpuWideCounter) -> u64 {
@@ -511,6 +521,37 @@ pub struct GpuWavefrontParams {
 }
 const _: () = assert!(size_of::<GpuWavefrontParams>() == 272);
 
+/// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
+/// wavefront render. The grids' headers point into the density grid's buffers
+/// ([`GpuGridInfo::cell_offset`]); their `index_from_world` maps world points to each grid's
+/// own index space (`GridField::index_from_world`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuEmissionParams {
+    /// The emission grid that scales `strength_color` (`emissionGrid`, e.g. `flame`).
+    pub grid: GpuGridInfo,
+    /// The temperature grid of the blackbody term (`temperatureGrid`).
+    pub temperature: GpuGridInfo,
+    /// `emissionStrength * emissionColor`, radiance per metre (W m^-3 sr^-1), not multiplied
+    /// by density.
+    pub strength_color: [f32; 3],
+    /// 1 when `grid` is present (else the grid factor is 1).
+    pub has_grid: u32,
+    /// `blackbodyTint` (RGB multiplier of the blackbody term).
+    pub tint: [f32; 3],
+    /// 1 when the blackbody term is present.
+    pub has_blackbody: u32,
+    /// Kelvin per unit of the temperature grid (`temperatureScale`).
+    pub temperature_scale: f32,
+    /// Kelvin added (`temperatureOffset`).
+    pub temperature_offset: f32,
+    /// `blackbodyIntensity` `I`: radiance `(sigma_SB 1e-6 / pi) ((1 - I) + I T^4) C(T)`.
+    pub intensity: f32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+}
+const _: () = assert!(size_of::<GpuEmissionParams>() == 240);
+
 /// The Rust layout of one shared struct: its WGSL name, size and `(member, offset)` list.
 pub struct StructLayout {
     pub name: &'static str,
@@ -543,7 +584,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             background,
             density_scale,
             global_bounds_index,
-            _pad0
+            cell_offset
         ]
     ),
     layout!(GpuRay, "GpuRay", [o, t_min, d, t_max]),
@@ -617,7 +658,9 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             collision_cap_hits,
             _pad0,
             _pad1,
-            wide
+            wide,
+            _pad2,
+            _pad3
         ]
     ),
     layout!(
@@ -657,6 +700,22 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         ]
     ),
     layout!(
+        GpuEmissionParams,
+        "GpuEmissionParams",
+        [
+            grid,
+            temperature,
+            strength_color,
+            has_grid,
+            tint,
+            has_blackbody,
+            temperature_scale,
+            temperature_offset,
+            intensity,
+            _pad0
+        ]
+    ),
+    layout!(
         crate::scene::PunctualLight,
         "PunctualLight",
         [position, kind, direction, range, intensity, cos_inner, cos_outer, _pad]
@@ -685,7 +744,7 @@ impl GpuGridInfo {
             background: grid.background,
             density_scale,
             global_bounds_index: grid.cells.len() as u32,
-            _pad0: 0,
+            cell_offset: 0,
         }
     }
 }

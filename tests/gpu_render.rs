@@ -141,6 +141,77 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
     }
 }
 
+/// `fire.gltf` without its floor (written next to a link to `scenes/vdb`): the flame and
+/// temperature grids' emission alone, so volume emission is tested whatever the surfaces do.
+fn fire_without_floor() -> brume::scene::Scene {
+    let dir = std::env::temp_dir().join(format!("brume-gpu-fire-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let vdb = dir.join("vdb");
+    if !vdb.exists() {
+        std::os::unix::fs::symlink(scene_path("vdb"), &vdb).unwrap();
+    }
+    let text = std::fs::read_to_string(scene_path("fire.gltf")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let keep: Vec<serde_json::Value> = json["scenes"][0]["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|n| json["nodes"][n.as_u64().unwrap() as usize]["name"] != "floor")
+        .cloned()
+        .collect();
+    json["scenes"][0]["nodes"] = serde_json::Value::Array(keep);
+    let path = dir.join("fire_no_floor.gltf");
+    std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
+    brume::scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Volume emission (flame grid times colour plus the temperature grid's blackbody term) for
+/// every estimator, and spectral tracking of the same medium: GPU against CPU.
+#[test]
+fn volume_emission_agrees_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("volume_emission_agrees_with_the_cpu") else {
+        return;
+    };
+    let scene = fire_without_floor();
+    let rs = RenderScene::new(&scene, false).unwrap();
+    assert!(
+        rs.features.emission && !rs.features.surfaces,
+        "{:?}",
+        rs.features
+    );
+    gpu::supports(&rs).unwrap();
+    let mut configs: Vec<(Estimator, bool)> = Estimator::ALL.iter().map(|&e| (e, false)).collect();
+    configs.push((Estimator::Delta, true));
+    let alpha = 1e-3 / configs.len() as f64;
+    for (i, (estimator, spectral)) in configs.into_iter().enumerate() {
+        let s = RenderSettings {
+            estimator,
+            force_spectral: spectral,
+            ..settings(16, 12, 32, 500 + i as u32)
+        };
+        let label = format!("fire (no floor) {estimator} spectral={spectral}");
+        let g = gpu_render(&ctx, &scene, &s, &label);
+        let c = render(
+            &scene,
+            &RenderSettings {
+                seed: s.seed + 1000,
+                ..s.clone()
+            },
+        );
+        agree(&label, &g, &c, alpha);
+        let (gt, ct) = (
+            brume::film::totals(&g.records),
+            brume::film::totals(&c.records),
+        );
+        println!(
+            "{label}: emission lookups/sample GPU {:.2} CPU {:.2}",
+            gt.emission_lookups as f64 / gt.samples as f64,
+            ct.emission_lookups as f64 / ct.samples as f64
+        );
+        assert!(gt.emission_lookups > 0, "{label}");
+    }
+}
+
 #[test]
 fn furnace_renders_one_on_the_gpu() {
     let Some(ctx) = gpu_or_skip("furnace_renders_one_on_the_gpu") else {

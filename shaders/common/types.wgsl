@@ -13,7 +13,7 @@ struct GpuGridInfo {
     background: f32,             // value outside the cell box
     density_scale: f32,          // sigma_t = density_scale * value
     global_bounds_index: u32,    // index of the global CellBounds in `bounds`
-    _pad0: u32,
+    cell_offset: u32,            // first entry of this grid in `cells` (emission grids follow)
 }
 
 // GpuRay: o + t d over [t_min, t_max].
@@ -113,7 +113,23 @@ struct GpuWavefrontCounters {
     collision_cap_hits: atomic<u32>,
     _pad0: u32,
     _pad1: u32,
-    wide: array<atomic<u32>, 12>,       // WIDE_* (low, high) pairs of 64-bit totals
+    wide: array<atomic<u32>, 14>,       // WIDE_* (low, high) pairs of 64-bit totals
+    _pad2: u32,
+    _pad3: u32,
+}
+
+// GpuEmissionParams: volume emission of the VDB medium (integrator::media::Emission).
+struct GpuEmissionParams {
+    grid: GpuGridInfo,          // emission grid scaling strength_color (has_grid)
+    temperature: GpuGridInfo,   // temperature grid of the blackbody term (has_blackbody)
+    strength_color: vec3<f32>,  // emissionStrength * emissionColor, radiance per metre
+    has_grid: u32,
+    tint: vec3<f32>,            // blackbodyTint
+    has_blackbody: u32,
+    temperature_scale: f32,     // kelvin = scale * value + offset
+    temperature_offset: f32,
+    intensity: f32,             // blackbodyIntensity
+    _pad0: u32,
 }
 
 // GpuWavefrontParams: camera, batch, lights, limits, medium (one uniform per parity).

@@ -73,9 +73,7 @@ fn path_rng(ps: GpuPathState) -> Rng {
 
 // A world-space point in the medium's index space (rows of grid_info.index_from_world).
 fn index_point(p: vec3<f32>) -> vec3<f32> {
-    let m = grid_info.index_from_world;
-    let q = vec4<f32>(p, 1.0);
-    return vec3<f32>(dot(m[0], q), dot(m[1], q), dot(m[2], q));
+    return grid_index_point(grid_info, p);
 }
 
 // A world-space direction in the medium's index space.
@@ -93,6 +91,8 @@ fn medium_tracker(o: vec3<f32>, d: vec3<f32>, rng: Rng, estimator: u32) -> Track
     tr.rng = rng;
     tr.o = index_point(o);
     tr.d = index_vector(d);
+    tr.ow = o;
+    tr.dw = d;
     tr.w = vec3<f32>(1.0);
     tr.albedo_rgb = wf.albedo_rgb;
     return tr;

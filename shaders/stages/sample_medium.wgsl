@@ -1,7 +1,8 @@
 // Mirrors sample_media (src/integrator/path.rs) and sample_vdb (src/integrator/media.rs):
 // Stage::SampleMedium. The free flight along the path's ray through the VDB medium it crosses,
 // with the configured estimator (tracking_sample_distance, tracking.wgsl: the same loop and
-// callbacks as the CPU), then the collision guard. Scatter -> scatter stage; escape -> the
+// callbacks as the CPU) gathering the medium's emission (emission.wgsl), then the collision
+// guard. Scatter -> scatter stage; escape -> the
 // throughput takes the flight's weight and the path goes to the escape stage (no surfaces);
 // absorption or the guard -> done.
 
@@ -23,6 +24,12 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     ps.rng_state = tr.rng.state;
     ps.rng_inc = tr.rng.inc;
     add_tracking_stats(tr.stats, false, &ps);
+    if (FEATURE_EMISSION) {
+        // sample_vdb: the emission met on the way, already weighted by beta.
+        ps.l += tr.emitted;
+        ps.lookups += tr.emission_lookups;
+        add_wide(WIDE_EMISSION_LOOKUPS, tr.emission_lookups);
+    }
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {
         atomicAdd(&counters.guard_fired, 1u);

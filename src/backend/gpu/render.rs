@@ -43,13 +43,16 @@ use super::shader::{self, Module, Spec};
 use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuPathState, GpuQueue, GpuShadowRay,
-    GpuTrackingParams, GpuWavefrontCounters, GpuWavefrontParams, GpuWideCounter,
+    GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo, GpuMajorantMode, GpuPathState,
+    GpuQueue, GpuShadowRay, GpuTrackingParams, GpuWavefrontCounters, GpuWavefrontParams,
+    GpuWideCounter,
 };
-use crate::integrator::media::TrackingConfig;
+use crate::integrator::blackbody;
+use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
 use crate::integrator::settings::ShadowEstimator;
 use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::volume::SparseGrid;
 
 /// Path slots in flight.
 pub const WAVEFRONT_SIZE: u32 = 1 << 16;
@@ -201,9 +204,6 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
             rs.vdb.len()
         ));
     }
-    if rs.features.emission {
-        return Err("emissive media are not implemented on the GPU yet".into());
-    }
     if rs.features.homogeneous {
         return Err(
             "homogeneous media (KHR_materials_volume) are not implemented on the GPU yet".into(),
@@ -229,10 +229,12 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
 pub fn variant_name(features: FeatureFlags) -> String {
     let het = features.heterogeneous;
     let chrom = features.chromatic && het;
+    let emit = features.emission && het;
     format!(
-        "wavefront[{}{}]",
+        "wavefront[{}{}{}]",
         if het { "vdb" } else { "no-media" },
-        if chrom { "+spectral" } else { "" }
+        if chrom { "+spectral" } else { "" },
+        if emit { "+emission" } else { "" }
     )
 }
 
@@ -240,6 +242,10 @@ fn specs(features: FeatureFlags) -> Vec<Spec> {
     vec![
         Spec::bool("FEATURE_HETEROGENEOUS", features.heterogeneous),
         Spec::bool("FEATURE_CHROMATIC", features.chromatic),
+        Spec::bool(
+            "FEATURE_EMISSION",
+            features.emission && features.heterogeneous,
+        ),
     ]
 }
 
@@ -283,6 +289,10 @@ struct Buffers {
     lights: wgpu::Buffer,
     samples: wgpu::Buffer,
     args: wgpu::Buffer,
+    /// `GpuEmissionParams` (zero when the medium does not emit).
+    emission: wgpu::Buffer,
+    /// `blackbody::table()` as vec4 rows.
+    blackbody: wgpu::Buffer,
     readback: wgpu::Buffer,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
 }
@@ -301,6 +311,8 @@ impl Buffers {
             (0, 2) => &grid?.bricks,
             (0, 3) => &grid?.constants,
             (0, 4) => &grid?.bounds,
+            (0, 5) => &self.emission,
+            (0, 6) => &self.blackbody,
             (1, 0) => &self.params[parity],
             (1, 1) => &self.paths,
             (1, 2) => &self.queues,
@@ -444,6 +456,47 @@ fn medium_params(
     };
 }
 
+/// The grids the emission of `m` reads, in the order [`emission_params`] expects them: the
+/// emission grid, then the temperature grid (none when `features` has no emission).
+fn emission_fields(m: &VdbMedium, features: FeatureFlags) -> Vec<GridField> {
+    let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
+        return Vec::new();
+    };
+    e.grid
+        .iter()
+        .cloned()
+        .chain(e.blackbody.as_ref().map(|b| b.temperature.clone()))
+        .collect()
+}
+
+/// `GpuEmissionParams` of `m`'s `Emission`, with the headers of the grids
+/// [`emission_fields`] listed.
+fn emission_params(
+    m: &VdbMedium,
+    features: FeatureFlags,
+    infos: &[GpuGridInfo],
+) -> GpuEmissionParams {
+    let mut p = GpuEmissionParams::default();
+    let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
+        return p;
+    };
+    let mut next = infos.iter();
+    p.strength_color = e.strength_color.to_array();
+    if e.grid.is_some() {
+        p.grid = *next.next().expect("emission grid uploaded");
+        p.has_grid = 1;
+    }
+    if let Some(b) = &e.blackbody {
+        p.temperature = *next.next().expect("temperature grid uploaded");
+        p.has_blackbody = 1;
+        p.tint = b.tint.to_array();
+        p.temperature_scale = b.scale;
+        p.temperature_offset = b.offset;
+        p.intensity = b.intensity;
+    }
+    p
+}
+
 /// Renders `rs` on the GPU; see [`render_with_timings`].
 pub fn render(
     ctx: &GpuContext,
@@ -489,6 +542,7 @@ pub fn render_with_timings(
     let limit = ctx.limits.max_storage_buffer_binding_size;
 
     // The grid, with the medium's own world -> index map and sigma_t per unit value.
+    let mut emission = GpuEmissionParams::default();
     let grid = match rs.vdb.first() {
         Some(m) if features.heterogeneous => {
             let g = &m.density.grid;
@@ -500,11 +554,19 @@ pub fn render_with_timings(
                     limit >> 20
                 )));
             }
-            let mut gg = GpuGrid::upload(ctx, &g.grid, &g.bounds, m.sigma_t_bound)
-                .map_err(GpuRenderError::Limits)?;
+            // The emission grids follow the density in the same buffers.
+            let fields = emission_fields(m, features);
+            let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
+            let (mut gg, mut infos) =
+                GpuGrid::upload_with(ctx, &g.grid, &g.bounds, m.sigma_t_bound, &extra)
+                    .map_err(GpuRenderError::Limits)?;
             gg.info.index_from_world = affine_rows(m.density.index_from_world);
             ctx.queue
                 .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
+            for (info, f) in infos.iter_mut().zip(&fields) {
+                info.index_from_world = affine_rows(f.index_from_world);
+            }
+            emission = emission_params(m, features, &infos);
             Some(gg)
         }
         _ => None,
@@ -586,6 +648,21 @@ pub fn render_with_timings(
             ctx.storage_buffer("lights", &rs.lights.punctual)
         },
         samples: ctx.storage_buffer_zeroed("samples", largest * 16),
+        emission: ctx.uniform_buffer("emission", &emission),
+        blackbody: {
+            let rows: Vec<[f32; 4]> = blackbody::table()
+                .iter()
+                .map(|c| [c.x, c.y, c.z, 0.0])
+                .collect();
+            let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("blackbody table"),
+                size: (rows.len() * 16) as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
+            b
+        },
         args: ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dispatch args"),
             size: GpuQueue::COUNT as u64 * 12,
@@ -680,6 +757,7 @@ pub fn render_with_timings(
                 + counters.wide(GpuWideCounter::ControlCollisions);
             r.shadow_lookups = counters.wide(GpuWideCounter::ShadowLookups);
             r.path_length_sum = counters.wide(GpuWideCounter::DepthSum);
+            r.emission_lookups = counters.wide(GpuWideCounter::EmissionLookups);
             r.guard_fired = counters.guard_fired as u64;
             r.majorant_violations = counters.majorant_violations as u64;
             pending.push((r, iterations, stage_ns, samples, y0, y1));

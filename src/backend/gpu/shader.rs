@@ -56,6 +56,8 @@ pub mod files {
     pub const DISTANCE: ShaderFile = shader_file!("kernels/distance.wgsl");
     /// Wavefront bindings, queues and counters.
     pub const WAVEFRONT: ShaderFile = shader_file!("common/wavefront.wgsl");
+    /// `Emission::radiance`, `blackbody_emission` and the media's `on_collision`.
+    pub const EMISSION: ShaderFile = shader_file!("common/emission.wgsl");
     /// `Lights::sample` for punctual lights and the environment, `power_heuristic`.
     pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
@@ -175,6 +177,21 @@ pub fn shared_constants() -> String {
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
+    use crate::integrator::blackbody;
+    writeln!(
+        s,
+        "const BLACKBODY_TABLE_LEN: u32 = {}u;",
+        blackbody::TABLE_LEN
+    )
+    .unwrap();
+    for (name, v) in [
+        ("BLACKBODY_T_MIN", blackbody::T_MIN),
+        ("BLACKBODY_T_MAX", blackbody::T_MAX),
+        ("BLACKBODY_STEP", blackbody::TABLE_STEP),
+        ("STEFAN_BOLTZMANN_SCALE", blackbody::STEFAN_BOLTZMANN_SCALE),
+    ] {
+        writeln!(s, "const {name}: f32 = {v:?}f;").unwrap();
+    }
     s
 }
 
@@ -281,6 +298,7 @@ pub const TEST_MATH_MODULE: Module = Module {
 pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_HETEROGENEOUS", true),
     Spec::bool("FEATURE_CHROMATIC", true),
+    Spec::bool("FEATURE_EMISSION", true),
 ];
 
 macro_rules! wavefront_module {
@@ -288,7 +306,7 @@ macro_rules! wavefront_module {
         pub const $name: Module = Module {
             label: $label,
             files: &[
-                TYPES, MATH, RNG, GRID, DDA, PHASE, TRACKING, WAVEFRONT, LIGHTS, $file,
+                TYPES, MATH, RNG, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,
