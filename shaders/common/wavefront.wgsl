@@ -9,6 +9,8 @@
 @group(1) @binding(1) var<storage, read_write> paths: array<GpuPathState>;
 @group(1) @binding(2) var<storage, read_write> queues: array<u32>;
 @group(1) @binding(3) var<storage, read_write> counters: GpuWavefrontCounters;
+// One pending shadow ray per path slot (written by the scatter and surface stages).
+@group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
 
 // Every stage runs 64 invocations a workgroup; the indirect arguments divide by it.
 const WORKGROUP: u32 = 64u;
@@ -117,4 +119,19 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
     }
     *out_t = te;
     return te.y > te.x;
+}
+
+// russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput after
+// rr_depth events: survive with probability min(max(beta), 0.95), then divide by it.
+fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, rng: ptr<function, Rng>) -> bool {
+    if (depth < wf.rr_depth) {
+        return true;
+    }
+    let a = abs(*beta);
+    let q = min(max(a.x, max(a.y, a.z)), 0.95);
+    if (!(q > 0.0) || rng_uniform(rng) >= q) {
+        return false;
+    }
+    *beta /= q;
+    return true;
 }

@@ -71,9 +71,19 @@ impl GpuContext {
         defaults.check_limits_with_fail_fn(&supported, false, |name, want, have| {
             limits_below_default.push(format!("{name} {have} < {want}"));
         });
+        // The wavefront stages with surfaces and media bind up to 13 storage buffers; WebGPU's
+        // default is 8, Vulkan drivers (lavapipe included) offer far more.
         let limits = wgpu::Limits {
             max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
             max_buffer_size: supported.max_buffer_size,
+            max_storage_buffers_per_shader_stage: supported
+                .max_storage_buffers_per_shader_stage
+                .min(16)
+                .max(
+                    defaults
+                        .max_storage_buffers_per_shader_stage
+                        .min(supported.max_storage_buffers_per_shader_stage),
+                ),
             ..defaults.or_worse_values_from(&supported)
         };
         for (name, have, need) in [
