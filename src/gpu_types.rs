@@ -3,7 +3,7 @@
 //! Rust is the source of truth: every struct here is `#[repr(C)]` + `bytemuck::Pod`, built from
 //! 16-byte rows (a `vec3` plus one scalar, a `vec4`, or four scalars) so that the WGSL layout
 //! rules (`vec3` aligned to 16) add no hidden padding, with any padding named. The WGSL mirrors
-//! live in `shaders/common/types.wgsl`; `tests/gpu_layout.rs` parses that file with naga and
+//! live in `shaders/common/types.wgsl`; `tests/gpu_wgsl.rs` parses that file with naga and
 //! compares every struct's size and member offsets against [`SHARED_STRUCTS`].
 //!
 //! Enumerations shared with WGSL ([`GpuEstimator`], ...) are emitted as WGSL `const`s by
@@ -686,7 +686,7 @@ macro_rules! layout {
 }
 
 /// Every host/WGSL shared struct, as Rust lays it out. The WGSL structs carry the same names
-/// and member names; `tests/gpu_layout.rs` checks them with naga's layouter.
+/// and member names; `tests/gpu_wgsl.rs` checks them with naga's layouter.
 pub const SHARED_STRUCTS: &[StructLayout] = &[
     layout!(
         GpuGridInfo,

@@ -59,13 +59,12 @@ fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
 // weighted by the flight's starting throughput and the weight so far over sigma_maj
 // (grey: `beta * (w / sigma_maj) * Le`; spectral: `beta * w * Le / sigma_maj`).
 fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
-    if (!FEATURE_EMISSION) {
-        return;
-    }
+// #if FEATURE_EMISSION
     let le = emission_radiance(tr, (*tr).ow + t * (*tr).dw);
     if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
         (*tr).emitted += (*tr).beta * (*tr).w * le / sigma_maj;
     } else {
         (*tr).emitted += (*tr).beta * ((*tr).w.x / sigma_maj) * le;
     }
+// #endif
 }

@@ -100,7 +100,8 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
         ls.valid = true;
         return ls;
     }
-    if (!FEATURE_SURFACES || wf.area_count == 0u) {
+// #if FEATURE_SURFACES
+    if (wf.area_count == 0u) {
         return ls;
     }
     // The area group: u.x picks the triangle by the CDF (partition_point: the first entry
@@ -143,5 +144,6 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     ls.pdf = pmf * t.light_pdf * d2 / max(abs(cos_l), 1e-8);
     ls.is_delta = false;
     ls.valid = true;
+// #endif
     return ls;
 }

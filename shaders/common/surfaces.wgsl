@@ -107,9 +107,7 @@ fn bvh_intersect_node(n: CwBvhNode, o: vec3<f32>, d: vec3<f32>, inv_d: vec3<f32>
 // node groups and primitive groups, nearest-first by the ray octant, a stack of groups).
 fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(NO_INDEX, 0.0, 0.0, 0.0);
-    if (!FEATURE_SURFACES) {
-        return best;
-    }
+// #if FEATURE_SURFACES
     if (!(all(abs(o) <= vec3<f32>(F32_MAX)) && all(abs(d) <= vec3<f32>(F32_MAX)))) {
         return best;
     }
@@ -161,6 +159,7 @@ fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
             current = stack[sp];
         }
     }
+// #endif
     return best;
 }
 

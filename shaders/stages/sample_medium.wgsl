@@ -23,7 +23,9 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     var event = EVENT_ESCAPE;
     var t_event = 0.0;
     var weight = vec3<f32>(1.0);
-    let in_homogeneous = FEATURE_HOMOGENEOUS && ps.medium != NO_INDEX;
+    var in_homogeneous = false;
+// #if FEATURE_HOMOGENEOUS
+    in_homogeneous = ps.medium != NO_INDEX;
     if (in_homogeneous) {
         var rng = path_rng(ps);
         let ev = sample_homogeneous(homogeneous[ps.medium], t_hit - ps.t0, &rng);
@@ -33,6 +35,7 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
         t_event = ps.t0 + ev.t;
         weight = ev.weight;
     }
+// #endif
 // #if FEATURE_HETEROGENEOUS
     if (!in_homogeneous) {
         var te = vec2<f32>(0.0);
@@ -43,12 +46,12 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
             ps.rng_state = tr.rng.state;
             ps.rng_inc = tr.rng.inc;
             add_tracking_stats(tr.stats, false, &ps);
-            if (FEATURE_EMISSION) {
-                // sample_vdb: the emission met on the way, already weighted by beta.
-                ps.l += tr.emitted;
-                ps.lookups += tr.emission_lookups;
-                add_wide(WIDE_EMISSION_LOOKUPS, tr.emission_lookups);
-            }
+// #if FEATURE_EMISSION
+            // sample_vdb: the emission met on the way, already weighted by beta.
+            ps.l += tr.emitted;
+            ps.lookups += tr.emission_lookups;
+            add_wide(WIDE_EMISSION_LOOKUPS, tr.emission_lookups);
+// #endif
             event = tr.event;
             t_event = tr.t_event;
             // from_grey: grey weights are splat and a scattering event takes the RGB albedo;

@@ -14,7 +14,10 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var ps = paths[slot];
     var rng = path_rng(ps);
-    if (FEATURE_SURFACES && (ps.flags & PATH_FLAG_SURFACE) != 0u) {
+    var at_surface = false;
+// #if FEATURE_SURFACES
+    at_surface = (ps.flags & PATH_FLAG_SURFACE) != 0u;
+    if (at_surface) {
         ps.flags &= ~PATH_FLAG_SURFACE;
         // The shading frame and BSDF of the hit, as the surface stage built them.
         let tri = bvh_triangles[ps.hit_prim];
@@ -44,7 +47,9 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
         ps.o = offset_origin(p, n_side, n_side);
         ps.d = wi;
         ps.prev_pdf = s.pdf;
-    } else {
+    }
+// #endif
+    if (!at_surface) {
         let u0 = rng_uniform(&rng);
         let u1 = rng_uniform(&rng);
         let s = hg_sample(medium_phase_g(ps.medium), -ps.d, vec2<f32>(u0, u1));

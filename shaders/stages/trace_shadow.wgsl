@@ -28,9 +28,11 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         if (h.prim != NO_INDEX) {
             t1 = h.t;
         }
-        if (FEATURE_HOMOGENEOUS && medium != NO_INDEX) {
+// #if FEATURE_HOMOGENEOUS
+        if (medium != NO_INDEX) {
             t *= transmittance_homogeneous(homogeneous[medium], t1 - t0);
         }
+// #endif
 // #if FEATURE_HETEROGENEOUS
         var te = vec2<f32>(0.0);
         if (medium == NO_INDEX
@@ -59,10 +61,10 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
             t = vec3<f32>(0.0);
             break;
         }
-        if (FEATURE_HOMOGENEOUS) {
-            let entering = dot(triangle_cross(tri), sh.wi) < 0.0;
-            medium = enter_or_leave(tri.interior, entering);
-        }
+// #if FEATURE_HOMOGENEOUS
+        let entering = dot(triangle_cross(tri), sh.wi) < 0.0;
+        medium = enter_or_leave(tri.interior, entering);
+// #endif
         t0 = h.t + 1e-4 * (1.0 + h.t);
         if (t0 >= sh.dist) {
             break;

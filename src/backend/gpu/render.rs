@@ -14,19 +14,22 @@
 //! One iteration (parity `p` picks the double-buffered medium and done queues):
 //!
 //! ```text
-//! reset -> Generate -> SampleMedium -> ScatterMedium -> TraceShadow -> SamplePhase
-//!       -> Escape -> Accumulate
+//! reset -> Generate -> Intersect -> SampleMedium -> ScatterMedium -> ShadeSurface
+//!       -> TraceShadow -> SamplePhase -> Escape -> Accumulate
 //! ```
 //!
 //! Each path keeps its own stream `Rng::new(pixel, sample, seed)` and draws from it in the
-//! CPU's order (the shadow stage runs before the phase stage for that reason). Results agree
-//! with the CPU statistically, not bit for bit (rounding of WGSL's transcendentals).
+//! CPU's order (the shadow stage runs before the direction stage for that reason). Results agree
+//! with the CPU statistically, and with the same seed nearly bit for bit (rounding of WGSL's
+//! transcendentals may flip a rare decision).
 //!
-//! What runs: VDB media (one per scene, every estimator, both majorant modes, spectral tracking
-//! of chromatic media), punctual lights and the constant environment, NEE with MIS, Russian
-//! roulette, the collision guard; surfaces only as inert null interfaces (index-matched
-//! boundaries with no interior medium, as in the furnace), which change nothing the estimators
-//! see (free flight is memoryless). [`supports`] refuses the rest with a one-line reason.
+//! What runs: everything the CPU integrator does for one VDB medium (every estimator, both
+//! majorant modes, spectral tracking of chromatic media, volume emission), homogeneous media
+//! in closed meshes (grey and chromatic), opaque, dielectric and null-interface surfaces over
+//! obvhs' CWBVH, punctual, environment and area lights with NEE and MIS, Russian roulette and
+//! the collision guard. [`supports`] refuses more than one VDB medium with a one-line reason.
+//! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
+//! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!
 //! Timing: one compute pass per stage dispatch. With timestamp queries
 //! ([`GpuContext::timestamp_queries`]) each pass records its GPU start and end
