@@ -19,36 +19,39 @@ struct MediumEvent {
 // pdf(t) = mean_c sigma_t,c exp(-sigma_t,c t); absorption is a weight then.
 fn sample_homogeneous(h: GpuHomogeneousMedium, t_max: f32, rng: ptr<function, Rng>) -> MediumEvent {
     let sigma_t = h.sigma_a + h.sigma_s;
-    if (!FEATURE_CHROMATIC || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z)) {
-        let st = sigma_t.x;
-        if (!(st > 0.0)) {
-            return MediumEvent(EVENT_ESCAPE, 0.0, vec3<f32>(1.0));
+// #if FEATURE_CHROMATIC
+    if (!(sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z)) {
+        let c = min(u32(rng_uniform(rng) * 3.0), 2u);
+        let st_c = sigma_t[c];
+        var t = f32_inf();
+        if (st_c > 0.0) {
+            t = sample_exponential(rng_uniform(rng), st_c);
         }
-        let t = sample_exponential(rng_uniform(rng), st);
-        if (t >= t_max) {
-            return MediumEvent(EVENT_ESCAPE, 0.0, vec3<f32>(1.0));
+        if (t < t_max) {
+            let tr = exp(-sigma_t * t);
+            let pdf = (sigma_t.x * tr.x + sigma_t.y * tr.y + sigma_t.z * tr.z) / 3.0;
+            return MediumEvent(EVENT_SCATTER, t, h.sigma_s * tr / pdf);
         }
-        let albedo = h.sigma_s / st;
-        let p_scatter = (albedo.x + albedo.y + albedo.z) / 3.0;
-        if (rng_uniform(rng) < p_scatter) {
-            return MediumEvent(EVENT_SCATTER, t, albedo / p_scatter);
-        }
-        return MediumEvent(EVENT_ABSORB, t, vec3<f32>(0.0));
+        let tr = exp(-sigma_t * t_max);
+        let p_escape = (tr.x + tr.y + tr.z) / 3.0;
+        return MediumEvent(EVENT_ESCAPE, 0.0, tr / p_escape);
     }
-    let c = min(u32(rng_uniform(rng) * 3.0), 2u);
-    let st_c = sigma_t[c];
-    var t = f32_inf();
-    if (st_c > 0.0) {
-        t = sample_exponential(rng_uniform(rng), st_c);
+// #endif
+    // Grey (or a variant without chromatic media, where the CPU uses sigma_t.x alike).
+    let st = sigma_t.x;
+    if (!(st > 0.0)) {
+        return MediumEvent(EVENT_ESCAPE, 0.0, vec3<f32>(1.0));
     }
-    if (t < t_max) {
-        let tr = exp(-sigma_t * t);
-        let pdf = (sigma_t.x * tr.x + sigma_t.y * tr.y + sigma_t.z * tr.z) / 3.0;
-        return MediumEvent(EVENT_SCATTER, t, h.sigma_s * tr / pdf);
+    let t = sample_exponential(rng_uniform(rng), st);
+    if (t >= t_max) {
+        return MediumEvent(EVENT_ESCAPE, 0.0, vec3<f32>(1.0));
     }
-    let tr = exp(-sigma_t * t_max);
-    let p_escape = (tr.x + tr.y + tr.z) / 3.0;
-    return MediumEvent(EVENT_ESCAPE, 0.0, tr / p_escape);
+    let albedo = h.sigma_s / st;
+    let p_scatter = (albedo.x + albedo.y + albedo.z) / 3.0;
+    if (rng_uniform(rng) < p_scatter) {
+        return MediumEvent(EVENT_SCATTER, t, albedo / p_scatter);
+    }
+    return MediumEvent(EVENT_ABSORB, t, vec3<f32>(0.0));
 }
 
 // transmittance_homogeneous: exp(-sigma_t d), exact.

@@ -78,12 +78,7 @@ impl GpuContext {
             max_buffer_size: supported.max_buffer_size,
             max_storage_buffers_per_shader_stage: supported
                 .max_storage_buffers_per_shader_stage
-                .min(16)
-                .max(
-                    defaults
-                        .max_storage_buffers_per_shader_stage
-                        .min(supported.max_storage_buffers_per_shader_stage),
-                ),
+                .min(16),
             ..defaults.or_worse_values_from(&supported)
         };
         for (name, have, need) in [
