@@ -3,7 +3,7 @@
 //! Rust is the source of truth: every struct here is `#[repr(C)]` + `bytemuck::Pod`, built from
 //! 16-byte rows (a `vec3` plus one scalar, a `vec4`, or four scalars) so that the WGSL layout
 //! rules (`vec3` aligned to 16) add no hidden padding, with any padding named. The WGSL mirrors
-//! live in `shaders/common/types.wgsl`; `tests/gpu_layout.rs` parses that file with naga and
+//! live in `shaders/common/types.wgsl`; `tests/gpu_wgsl.rs` parses that file with naga and
 //! compares every struct's size and member offsets against [`SHARED_STRUCTS`].
 //!
 //! Enumerations shared with WGSL ([`GpuEstimator`], ...) are emitted as WGSL `const`s by
@@ -37,8 +37,10 @@ pub struct GpuGridInfo {
     /// Index of the global [`CellBounds`] in the bounds buffer: it follows the per-cell
     /// bounds, so this equals the cell count.
     pub global_bounds_index: u32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
+    /// First entry of this grid in the cells buffer: 0 for the density grid; the emission
+    /// grids of a wavefront render follow it in the same buffers (their brick and constant
+    /// indices already offset), so one set of bindings serves every grid.
+    pub cell_offset: u32,
 }
 const _: () = assert!(size_of::<GpuGridInfo>() == 96);
 
@@ -264,7 +266,8 @@ impl GpuTrackingStats {
 pub struct GpuPathState {
     /// Ray origin, world space, metres (after a medium scattering event: the event's point).
     pub o: [f32; 3],
-    /// Start of the ray's parameter interval, metres (camera near plane, else 0).
+    /// Start of the ray's parameter interval, metres (camera near plane, past a null
+    /// interface, else 0).
     pub t0: f32,
     /// Unit ray direction, world space.
     pub d: [f32; 3],
@@ -276,31 +279,44 @@ pub struct GpuPathState {
     pub sample_id: u32,
     /// Radiance gathered so far, W m^-2 sr^-1 per RGB channel.
     pub l: [f32; 3],
-    /// Scattering events so far.
+    /// Scattering events so far (media and surfaces).
     pub depth: u32,
     /// `Rng::state` of the path's stream `Rng::new(pixel, sample, seed)`.
     pub rng_state: u32,
     /// `Rng::inc` of the same stream (odd).
     pub rng_inc: u32,
-    /// `PATH_FLAG_*` bits (`PATH_FLAG_SPECULAR`: the last direction came from a delta
-    /// distribution (the camera), so no MIS applies when it escapes).
+    /// `PATH_FLAG_*` bits.
     pub flags: u32,
     /// Tentative collisions (null, real, control) of every free flight and shadow ray of the
     /// path, for the `max_collisions_per_path` guard.
     pub collisions: u32,
-    /// Density lookups of the path (its pixel's cost-map entry).
+    /// Density and emission lookups of the path (its pixel's cost-map entry).
     pub lookups: u32,
+    /// The homogeneous medium (`KHR_materials_volume`) the path is in, as an index into the
+    /// homogeneous media, or `NO_INDEX` (`radiance`'s `medium`).
+    pub medium: u32,
+    /// The surface the current ray hits first: its slot in the BVH's triangle order
+    /// ([`GpuTriangle`]), `NO_INDEX` when it hits none (set by the intersect stage).
+    pub hit_prim: u32,
+    /// Ray parameter (metres, the direction being unit) of that hit.
+    pub hit_t: f32,
+    /// Barycentric weight of the hit triangle's second vertex.
+    pub hit_b1: f32,
+    /// Barycentric weight of its third vertex.
+    pub hit_b2: f32,
     /// Padding to a 16-byte row.
     pub _pad0: u32,
     /// Padding to a 16-byte row.
     pub _pad1: u32,
-    /// Padding to a 16-byte row.
-    pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuPathState>() == 96);
+const _: () = assert!(size_of::<GpuPathState>() == 112);
 
-/// [`GpuPathState::flags`] bit: the last direction was chosen by a delta distribution.
+/// [`GpuPathState::flags`] bit: the last direction was chosen by a delta distribution (the
+/// camera, a smooth dielectric), so no MIS applies when it meets an emitter.
 pub const PATH_FLAG_SPECULAR: u32 = 1;
+/// [`GpuPathState::flags`] bit: the path stopped at an opaque surface (its hit fields
+/// describe it) and the next direction is to be sampled from the BSDF, not the phase function.
+pub const PATH_FLAG_SURFACE: u32 = 2;
 
 /// A shadow ray of next-event estimation, one slot per path (a path has at most one pending).
 #[repr(C)]
@@ -312,8 +328,8 @@ pub struct GpuShadowRay {
     pub dist: f32,
     /// Unit direction towards the light.
     pub wi: [f32; 3],
-    /// Padding to a 16-byte row.
-    pub _pad0: f32,
+    /// The homogeneous medium at the origin (`NO_INDEX`: none).
+    pub medium: u32,
     /// `beta * L_i * f * w_mis / pdf` per RGB channel: added to the path's radiance times the
     /// transmittance the ray finds.
     pub contribution: [f32; 3],
@@ -321,6 +337,97 @@ pub struct GpuShadowRay {
     pub _pad1: f32,
 }
 const _: () = assert!(size_of::<GpuShadowRay>() == 48);
+
+/// One triangle as the GPU's ray queries and shading read it, in the BVH's primitive order
+/// (`CwBvh::primitive_indices`): entry `k` is scene triangle `triangle`. Positions and normals
+/// are the scene's world-space vertices; the material's surface kind and interior medium are
+/// copied in so that shadow rays need no material lookup.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    /// First corner, world space, metres.
+    pub p0: [f32; 3],
+    /// Index into `Scene::triangles`.
+    pub triangle: u32,
+    /// Second corner.
+    pub p1: [f32; 3],
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Third corner.
+    pub p2: [f32; 3],
+    /// `AreaLights` selection density of this triangle, `area * luminance / total` divided by
+    /// its area, i.e. `luminance / total` (0 when it is not an area light).
+    pub light_pdf: f32,
+    /// Shading normal at the first corner (all zero when the file gives none).
+    pub n0: [f32; 3],
+    /// `SURFACE_*` kind of the material (`prepare::SurfaceKind`).
+    pub kind: u32,
+    /// Shading normal at the second corner.
+    pub n1: [f32; 3],
+    /// `Material::interior_medium` (`NO_INDEX`: none).
+    pub interior: u32,
+    /// Shading normal at the third corner.
+    pub n2: [f32; 3],
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+}
+const _: () = assert!(size_of::<GpuTriangle>() == 96);
+
+/// One entry of the area lights' selection CDF (`AreaLights::cdf`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuAreaLight {
+    /// Cumulative `area * luminance / total` up to and including this light.
+    pub cdf: f32,
+    /// Its slot in the [`GpuTriangle`] buffer.
+    pub prim: u32,
+}
+const _: () = assert!(size_of::<GpuAreaLight>() == 8);
+
+/// A homogeneous medium (`integrator::media::HomogeneousMedium`), coefficients in m^-1.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuHomogeneousMedium {
+    /// Absorption coefficient per RGB channel, m^-1.
+    pub sigma_a: [f32; 3],
+    /// Henyey-Greenstein `g`.
+    pub g: f32,
+    /// Scattering coefficient per RGB channel, m^-1.
+    pub sigma_s: [f32; 3],
+    /// Padding to a 16-byte row.
+    pub _pad0: f32,
+}
+const _: () = assert!(size_of::<GpuHomogeneousMedium>() == 32);
+
+/// `SurfaceKind` values of [`GpuTriangle::kind`].
+pub const SURFACE_OPAQUE: u32 = 0;
+pub const SURFACE_DIELECTRIC: u32 = 1;
+pub const SURFACE_NULL: u32 = 2;
+
+/// obvhs' `CwBvhNode` (80 bytes, uploaded as is) as the WGSL struct `CwBvhNode` sees it:
+/// the three exponent bytes and `imask` read as one `e_imask` word, each 8-byte array as a
+/// `vec2<u32>`.
+pub const CWBVH_NODE_LAYOUT: StructLayout = {
+    use obvhs::cwbvh::node::CwBvhNode as N;
+    StructLayout {
+        name: "CwBvhNode",
+        size: size_of::<N>(),
+        members: &[
+            ("p", offset_of!(N, p)),
+            ("e_imask", offset_of!(N, e)),
+            ("child_base_idx", offset_of!(N, child_base_idx)),
+            ("primitive_base_idx", offset_of!(N, primitive_base_idx)),
+            ("child_meta", offset_of!(N, child_meta)),
+            ("child_min_x", offset_of!(N, child_min_x)),
+            ("child_max_x", offset_of!(N, child_max_x)),
+            ("child_min_y", offset_of!(N, child_min_y)),
+            ("child_max_y", offset_of!(N, child_max_y)),
+            ("child_min_z", offset_of!(N, child_min_z)),
+            ("child_max_z", offset_of!(N, child_max_z)),
+        ],
+    }
+};
+const _: () = assert!(offset_of!(obvhs::cwbvh::node::CwBvhNode, imask) == 15);
 
 /// The work queues of the wavefront integrator; `GpuWavefrontCounters::queue_count` index.
 /// Each queue holds path slot indices. The medium and done queues are double-buffered by
@@ -345,11 +452,13 @@ pub enum GpuQueue {
     Phase = 6,
     /// Paths whose ray left the scene.
     Escape = 7,
+    /// Paths whose ray reached the surface it hits (no medium event before it).
+    Surface = 8,
 }
 
 impl GpuQueue {
-    pub const COUNT: usize = 8;
-    pub const ALL: [GpuQueue; 8] = [
+    pub const COUNT: usize = 9;
+    pub const ALL: [GpuQueue; 9] = [
         GpuQueue::Medium0,
         GpuQueue::Medium1,
         GpuQueue::Done0,
@@ -358,6 +467,7 @@ impl GpuQueue {
         GpuQueue::Shadow,
         GpuQueue::Phase,
         GpuQueue::Escape,
+        GpuQueue::Surface,
     ];
 
     /// The WGSL constant name (`QUEUE_MEDIUM0`, ...).
@@ -371,6 +481,7 @@ impl GpuQueue {
             GpuQueue::Shadow => "QUEUE_SHADOW",
             GpuQueue::Phase => "QUEUE_PHASE",
             GpuQueue::Escape => "QUEUE_ESCAPE",
+            GpuQueue::Surface => "QUEUE_SURFACE",
         }
     }
 }
@@ -385,16 +496,19 @@ pub enum GpuWideCounter {
     ControlCollisions = 3,
     ShadowLookups = 4,
     DepthSum = 5,
+    /// Emission and temperature grid reads (`MediaStats::emission_lookups`).
+    EmissionLookups = 6,
 }
 
 impl GpuWideCounter {
-    pub const ALL: [GpuWideCounter; 6] = [
+    pub const ALL: [GpuWideCounter; 7] = [
         GpuWideCounter::Lookups,
         GpuWideCounter::NullCollisions,
         GpuWideCounter::RealCollisions,
         GpuWideCounter::ControlCollisions,
         GpuWideCounter::ShadowLookups,
         GpuWideCounter::DepthSum,
+        GpuWideCounter::EmissionLookups,
     ];
 
     pub fn wgsl_name(self) -> &'static str {
@@ -405,6 +519,7 @@ impl GpuWideCounter {
             GpuWideCounter::ControlCollisions => "WIDE_CONTROL_COLLISIONS",
             GpuWideCounter::ShadowLookups => "WIDE_SHADOW_LOOKUPS",
             GpuWideCounter::DepthSum => "WIDE_DEPTH_SUM",
+            GpuWideCounter::EmissionLookups => "WIDE_EMISSION_LOOKUPS",
         }
     }
 }
@@ -414,7 +529,7 @@ impl GpuWideCounter {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuWavefrontCounters {
     /// Entries in each [`GpuQueue`].
-    pub queue_count: [u32; 8],
+    pub queue_count: [u32; 9],
     /// Next camera sample of the batch to start (may overshoot `total_samples`).
     pub next_sample: u32,
     /// Paths started and not yet accumulated.
@@ -429,12 +544,14 @@ pub struct GpuWavefrontCounters {
     pub collision_cap_hits: u32,
     /// Padding to a 16-byte row.
     pub _pad0: u32,
+    /// [`GpuWideCounter`] pairs (low, high) of 64-bit totals.
+    pub wide: [u32; 14],
     /// Padding to a 16-byte row.
     pub _pad1: u32,
-    /// [`GpuWideCounter`] pairs (low, high) of 64-bit totals.
-    pub wide: [u32; 12],
+    /// Padding to a 16-byte row.
+    pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuWavefrontCounters>() == 112);
+const _: () = assert!(size_of::<GpuWavefrontCounters>() == 128);
 
 impl GpuWavefrontCounters {
     pub fn wide(&self, c: GpuWideCounter) -> u64 {
@@ -508,8 +625,48 @@ pub struct GpuWavefrontParams {
     pub shadow_estimator: u32,
     /// The free-flight estimator and its knobs, the medium's grey optics.
     pub tracking: GpuTrackingParams,
+    /// The homogeneous medium around the camera (`RenderScene::camera_medium`), `NO_INDEX`
+    /// when none.
+    pub camera_medium: u32,
+    /// Entries of the area lights' CDF (0: no area lights).
+    pub area_count: u32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+    /// Padding to a 16-byte row.
+    pub _pad1: u32,
 }
-const _: () = assert!(size_of::<GpuWavefrontParams>() == 272);
+const _: () = assert!(size_of::<GpuWavefrontParams>() == 288);
+
+/// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
+/// wavefront render. The grids' headers point into the density grid's buffers
+/// ([`GpuGridInfo::cell_offset`]); their `index_from_world` maps world points to each grid's
+/// own index space (`GridField::index_from_world`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuEmissionParams {
+    /// The emission grid that scales `strength_color` (`emissionGrid`, e.g. `flame`).
+    pub grid: GpuGridInfo,
+    /// The temperature grid of the blackbody term (`temperatureGrid`).
+    pub temperature: GpuGridInfo,
+    /// `emissionStrength * emissionColor`, radiance per metre (W m^-3 sr^-1), not multiplied
+    /// by density.
+    pub strength_color: [f32; 3],
+    /// 1 when `grid` is present (else the grid factor is 1).
+    pub has_grid: u32,
+    /// `blackbodyTint` (RGB multiplier of the blackbody term).
+    pub tint: [f32; 3],
+    /// 1 when the blackbody term is present.
+    pub has_blackbody: u32,
+    /// Kelvin per unit of the temperature grid (`temperatureScale`).
+    pub temperature_scale: f32,
+    /// Kelvin added (`temperatureOffset`).
+    pub temperature_offset: f32,
+    /// `blackbodyIntensity` `I`: radiance `(sigma_SB 1e-6 / pi) ((1 - I) + I T^4) C(T)`.
+    pub intensity: f32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+}
+const _: () = assert!(size_of::<GpuEmissionParams>() == 240);
 
 /// The Rust layout of one shared struct: its WGSL name, size and `(member, offset)` list.
 pub struct StructLayout {
@@ -529,7 +686,7 @@ macro_rules! layout {
 }
 
 /// Every host/WGSL shared struct, as Rust lays it out. The WGSL structs carry the same names
-/// and member names; `tests/gpu_layout.rs` checks them with naga's layouter.
+/// and member names; `tests/gpu_wgsl.rs` checks them with naga's layouter.
 pub const SHARED_STRUCTS: &[StructLayout] = &[
     layout!(
         GpuGridInfo,
@@ -543,7 +700,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             background,
             density_scale,
             global_bounds_index,
-            _pad0
+            cell_offset
         ]
     ),
     layout!(GpuRay, "GpuRay", [o, t_min, d, t_max]),
@@ -596,13 +753,42 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         "GpuPathState",
         [
             o, t0, d, prev_pdf, beta, sample_id, l, depth, rng_state, rng_inc, flags, collisions,
-            lookups, _pad0, _pad1, _pad2
+            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, _pad0, _pad1
         ]
     ),
     layout!(
         GpuShadowRay,
         "GpuShadowRay",
-        [o, dist, wi, _pad0, contribution, _pad1]
+        [o, dist, wi, medium, contribution, _pad1]
+    ),
+    layout!(
+        GpuTriangle,
+        "GpuTriangle",
+        [p0, triangle, p1, material, p2, light_pdf, n0, kind, n1, interior, n2, _pad0]
+    ),
+    layout!(GpuAreaLight, "GpuAreaLight", [cdf, prim]),
+    layout!(
+        GpuHomogeneousMedium,
+        "GpuHomogeneousMedium",
+        [sigma_a, g, sigma_s, _pad0]
+    ),
+    CWBVH_NODE_LAYOUT,
+    layout!(
+        crate::scene::Material,
+        "Material",
+        [
+            base_color,
+            emission,
+            metallic,
+            roughness,
+            transmission,
+            ior,
+            base_color_texture,
+            interior_medium,
+            emissive_texture,
+            flags,
+            _pad
+        ]
     ),
     layout!(
         GpuWavefrontCounters,
@@ -616,8 +802,9 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             invalid_majorants,
             collision_cap_hits,
             _pad0,
+            wide,
             _pad1,
-            wide
+            _pad2
         ]
     ),
     layout!(
@@ -653,7 +840,27 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             spectral,
             albedo_rgb,
             shadow_estimator,
-            tracking
+            tracking,
+            camera_medium,
+            area_count,
+            _pad0,
+            _pad1
+        ]
+    ),
+    layout!(
+        GpuEmissionParams,
+        "GpuEmissionParams",
+        [
+            grid,
+            temperature,
+            strength_color,
+            has_grid,
+            tint,
+            has_blackbody,
+            temperature_scale,
+            temperature_offset,
+            intensity,
+            _pad0
         ]
     ),
     layout!(
@@ -685,7 +892,7 @@ impl GpuGridInfo {
             background: grid.background,
             density_scale,
             global_bounds_index: grid.cells.len() as u32,
-            _pad0: 0,
+            cell_offset: 0,
         }
     }
 }

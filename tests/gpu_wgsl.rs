@@ -97,3 +97,107 @@ fn shared_struct_layouts_match_rust() {
         );
     }
 }
+
+/// The functions an entry point reaches through calls.
+fn reachable(module: &naga::Module, entry: &str) -> std::collections::BTreeSet<String> {
+    fn walk(m: &naga::Module, block: &naga::Block, seen: &mut std::collections::BTreeSet<String>) {
+        for s in block.iter() {
+            match s {
+                naga::Statement::Call { function, .. } => {
+                    let f = &m.functions[*function];
+                    let name = f.name.clone().unwrap_or_default();
+                    if seen.insert(name) {
+                        walk(m, &f.body, seen);
+                    }
+                }
+                naga::Statement::Block(b) => walk(m, b, seen),
+                naga::Statement::If { accept, reject, .. } => {
+                    walk(m, accept, seen);
+                    walk(m, reject, seen);
+                }
+                naga::Statement::Loop {
+                    body, continuing, ..
+                } => {
+                    walk(m, body, seen);
+                    walk(m, continuing, seen);
+                }
+                naga::Statement::Switch { cases, .. } => {
+                    for c in cases {
+                        walk(m, &c.body, seen);
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    let ep = module
+        .entry_points
+        .iter()
+        .find(|e| e.name == entry)
+        .expect("entry point");
+    let mut seen = std::collections::BTreeSet::new();
+    walk(module, &ep.function.body, &mut seen);
+    seen
+}
+
+/// Specialisation: a wavefront stage compiled without a feature holds no code for it (no
+/// call to the feature's functions, not even in a dead branch), and with every feature on
+/// some stage does call each of them.
+#[test]
+fn variants_without_a_feature_hold_no_code_for_it() {
+    use brume::backend::gpu::render::Stage;
+    use brume::backend::gpu::Spec;
+    let features: [(&str, &[&str]); 4] = [
+        (
+            "FEATURE_HETEROGENEOUS",
+            &["sample_free_flight", "tracking_transmittance"],
+        ),
+        (
+            "FEATURE_HOMOGENEOUS",
+            &["sample_homogeneous", "transmittance_homogeneous"],
+        ),
+        (
+            "FEATURE_SURFACES",
+            &[
+                "bvh_intersect_node",
+                "intersect_triangle",
+                "principled_sample",
+            ],
+        ),
+        (
+            "FEATURE_EMISSION",
+            &["emission_radiance", "blackbody_emission"],
+        ),
+    ];
+    for (feature, functions) in features {
+        let mut used_somewhere = std::collections::BTreeSet::new();
+        for stage in Stage::ALL {
+            let m = stage.module();
+            for on in [true, false] {
+                let source = m.source(&[Spec::bool(feature, on)]);
+                let module = parse(m.label, &source);
+                let calls = reachable(&module, m.entry_point);
+                for f in functions {
+                    if on {
+                        if calls.contains(*f) {
+                            used_somewhere.insert(*f);
+                        }
+                    } else {
+                        assert!(
+                            !calls.contains(*f),
+                            "{}: {feature} off, yet it calls {f}",
+                            m.label
+                        );
+                    }
+                }
+            }
+        }
+        for f in functions {
+            assert!(
+                used_somewhere.contains(f),
+                "{feature}: no stage calls {f} with the feature on"
+            );
+        }
+        println!("{feature}: off -> none of {functions:?} reachable");
+    }
+}

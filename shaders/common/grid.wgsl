@@ -23,16 +23,20 @@ const CONSTANT_BIT: u32 = 0x80000000u;
 @group(0) @binding(2) var<storage, read> grid_bricks: array<f32>;
 @group(0) @binding(3) var<storage, read> grid_constants: array<f32>;
 
+// Every lookup takes the grid's header `g` (by value): the density grid's is the uniform
+// `grid_info`; the emission grids of a wavefront render live in the same buffers after it
+// (GpuGridInfo::cell_offset), so one set of bindings serves them all.
+
 // SparseGrid::entry_at: the cell entry of voxel `v`, false outside the cell box.
-fn grid_entry_at(v: vec3<i32>, entry: ptr<function, u32>) -> bool {
+fn grid_entry_at_in(g: GpuGridInfo, v: vec3<i32>, entry: ptr<function, u32>) -> bool {
     // `>>` on i32 is arithmetic: it floors negative coordinates like the floored cell_origin.
     // The u32 reinterpretation makes negative cell coordinates huge, so one unsigned compare
     // per axis rejects both sides.
-    let c = vec3<u32>((v >> vec3<u32>(3u)) - grid_info.cell_origin);
-    if (any(c >= grid_info.dims)) {
+    let c = vec3<u32>((v >> vec3<u32>(3u)) - g.cell_origin);
+    if (any(c >= g.dims)) {
         return false;
     }
-    *entry = grid_cells[c.x + grid_info.dims.x * (c.y + grid_info.dims.y * c.z)];
+    *entry = grid_cells[g.cell_offset + c.x + g.dims.x * (c.y + g.dims.y * c.z)];
     return true;
 }
 
@@ -45,20 +49,24 @@ fn grid_entry_value(entry: u32, local: u32) -> f32 {
 }
 
 // SparseGrid::voxel.
-fn grid_voxel(v: vec3<i32>) -> f32 {
+fn grid_voxel_in(g: GpuGridInfo, v: vec3<i32>) -> f32 {
     var entry = 0u;
-    if (!grid_entry_at(v, &entry)) {
-        return grid_info.background;
+    if (!grid_entry_at_in(g, v, &entry)) {
+        return g.background;
     }
     let l = vec3<u32>(v & vec3<i32>(7));
     return grid_entry_value(entry, l.x + 8u * l.y + 64u * l.z);
 }
 
+fn grid_voxel(v: vec3<i32>) -> f32 {
+    return grid_voxel_in(grid_info, v);
+}
+
 // SparseGrid::all_background_near: p is outside [lo - 1, hi) on some axis (or NaN).
 // lo and hi are integers well inside f32's exact range for any grid the buffers can hold.
-fn grid_all_background_near(p: vec3<f32>) -> bool {
-    let lo = vec3<f32>(grid_info.cell_origin * 8);
-    let hi = lo + vec3<f32>(grid_info.dims * 8u);
+fn grid_all_background_near(g: GpuGridInfo, p: vec3<f32>) -> bool {
+    let lo = vec3<f32>(g.cell_origin * 8);
+    let hi = lo + vec3<f32>(g.dims * 8u);
     return !(all(p >= lo - 1.0) && all(p < hi));
 }
 
@@ -71,7 +79,7 @@ fn round_half_away(x: vec3<f32>) -> vec3<f32> {
 
 // SparseGrid::sample_nearest (OpenVDB's PointSampler).
 fn grid_sample_nearest(p: vec3<f32>) -> f32 {
-    if (grid_all_background_near(p)) {
+    if (grid_all_background_near(grid_info, p)) {
         return grid_info.background;
     }
     return grid_voxel(vec3<i32>(round_half_away(p)));
@@ -90,10 +98,10 @@ fn trilinear_vdb(v: array<f32, 8>, f: vec3<f32>) -> f32 {
     return lerp_vdb(a, b, f.x);
 }
 
-// SparseGrid::sample_trilinear (OpenVDB's BoxSampler).
-fn grid_sample_trilinear(p: vec3<f32>) -> f32 {
-    if (grid_all_background_near(p)) {
-        return grid_info.background;
+// SparseGrid::sample_trilinear (OpenVDB's BoxSampler) of grid `g`.
+fn grid_sample_trilinear_in(g: GpuGridInfo, p: vec3<f32>) -> f32 {
+    if (grid_all_background_near(g, p)) {
+        return g.background;
     }
     let fl = floor(p);
     let i = vec3<i32>(fl);
@@ -102,7 +110,7 @@ fn grid_sample_trilinear(p: vec3<f32>) -> f32 {
     var v: array<f32, 8>;
     var entry = 0u;
     // Fast path: all eight voxels in one cell.
-    if (all((i & vec3<i32>(7)) != vec3<i32>(7)) && grid_entry_at(i, &entry)) {
+    if (all((i & vec3<i32>(7)) != vec3<i32>(7)) && grid_entry_at_in(g, i, &entry)) {
         if ((entry & CONSTANT_BIT) != 0u) {
             // A blend of equal values is that value exactly.
             return grid_constants[entry & ~CONSTANT_BIT];
@@ -115,8 +123,20 @@ fn grid_sample_trilinear(p: vec3<f32>) -> f32 {
     } else {
         for (var c = 0u; c < 8u; c++) {
             let o = vec3<i32>(i32(c >> 2u), i32((c >> 1u) & 1u), i32(c & 1u));
-            v[c] = grid_voxel(i + o);
+            v[c] = grid_voxel_in(g, i + o);
         }
     }
     return trilinear_vdb(v, f);
+}
+
+// The density grid's trilinear lookup.
+fn grid_sample_trilinear(p: vec3<f32>) -> f32 {
+    return grid_sample_trilinear_in(grid_info, p);
+}
+
+// A world point in grid `g`'s index space (rows of g.index_from_world).
+fn grid_index_point(g: GpuGridInfo, p: vec3<f32>) -> vec3<f32> {
+    let m = g.index_from_world;
+    let q = vec4<f32>(p, 1.0);
+    return vec3<f32>(dot(m[0], q), dot(m[1], q), dot(m[2], q));
 }

@@ -1,10 +1,20 @@
 // Mirrors Lights::sample, Lights::pdf_environment, spot_falloff and power_heuristic
-// (src/integrator/lights.rs) for punctual lights and the constant environment, and
-// uniform_sphere (src/sampling/warp.rs). Area lights (emissive triangles) are not mirrored:
-// the GPU backend refuses scenes with surfaces other than inert null interfaces.
-// Needs wavefront.wgsl (wf), phase.wgsl (PI, INV_4PI) and dda.wgsl (f32_inf).
+// (src/integrator/lights.rs) for punctual lights, the constant environment and the area
+// lights (emissive triangles, chosen by area times luminance), and uniform_sphere
+// (src/sampling/warp.rs). Needs wavefront.wgsl (wf), phase.wgsl (PI, INV_4PI), dda.wgsl
+// (f32_inf) and surfaces.wgsl (triangles, materials, emitted).
 
 @group(1) @binding(5) var<storage, read> lights: array<PunctualLight>;
+@group(1) @binding(11) var<storage, read> area_lights: array<GpuAreaLight>;
+
+// Lights::count and pmf: punctual lights, the environment and the area group, uniformly.
+fn light_count() -> u32 {
+    return wf.light_count + wf.has_env + select(0u, 1u, wf.area_count > 0u);
+}
+
+fn light_pmf() -> f32 {
+    return 1.0 / f32(light_count());
+}
 
 // LightSample (wi towards the light; dist +inf for directional/environment).
 struct LightSample {
@@ -49,7 +59,7 @@ fn spot_falloff(l: PunctualLight, w_from_light: vec3<f32>) -> f32 {
 fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     var ls: LightSample;
     ls.valid = false;
-    let n = wf.light_count + wf.has_env;
+    let n = light_count();
     if (n == 0u) {
         return ls;
     }
@@ -81,12 +91,59 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
         ls.valid = true;
         return ls;
     }
-    // The environment (area lights are refused before this runs).
-    ls.wi = uniform_sphere(u);
-    ls.dist = f32_inf();
-    ls.li = wf.env;
-    ls.pdf = pmf * INV_4PI;
+    if (wf.has_env != 0u && k == wf.light_count) {
+        ls.wi = uniform_sphere(u);
+        ls.dist = f32_inf();
+        ls.li = wf.env;
+        ls.pdf = pmf * INV_4PI;
+        ls.is_delta = false;
+        ls.valid = true;
+        return ls;
+    }
+// #if FEATURE_SURFACES
+    if (wf.area_count == 0u) {
+        return ls;
+    }
+    // The area group: u.x picks the triangle by the CDF (partition_point: the first entry
+    // above u.x) and is remapped for the position; u.y is kept.
+    var lo_i = 0u;
+    var hi_i = wf.area_count;
+    while (lo_i < hi_i) {
+        let mid = (lo_i + hi_i) / 2u;
+        if (area_lights[mid].cdf <= u.x) {
+            lo_i = mid + 1u;
+        } else {
+            hi_i = mid;
+        }
+    }
+    let i = min(lo_i, wf.area_count - 1u);
+    var lo = 0.0;
+    if (i > 0u) {
+        lo = area_lights[i - 1u].cdf;
+    }
+    let ux = clamp((u.x - lo) / (area_lights[i].cdf - lo), 0.0, 1.0 - 1.1920929e-7);
+    let t = bvh_triangles[area_lights[i].prim];
+    // Uniform point on the triangle (square-root parameterisation).
+    let su = sqrt(ux);
+    let b1 = 1.0 - su;
+    let b2 = u.y * su;
+    let q = t.p0 * (1.0 - b1 - b2) + t.p1 * b1 + t.p2 * b2;
+    let c = triangle_cross(t);
+    let area_t = 0.5 * length(c);
+    let n_l = c / (2.0 * area_t);
+    let to = q - p;
+    let d2 = dot(to, to);
+    let dist = sqrt(d2);
+    if (!(dist > 0.0)) {
+        return ls;
+    }
+    ls.wi = to / dist;
+    ls.dist = dist;
+    let cos_l = dot(n_l, -ls.wi);
+    ls.li = emitted(materials[t.material], cos_l);
+    ls.pdf = pmf * t.light_pdf * d2 / max(abs(cos_l), 1e-8);
     ls.is_delta = false;
     ls.valid = true;
+// #endif
     return ls;
 }

@@ -61,6 +61,10 @@ struct Tracker {
     event: u32,    // EVENT_* of sample_distance
     t_event: f32,  // ray parameter of an absorb/scatter event
     albedo_rgb: vec3<f32>, // per-channel sigma_s / sigma_t of spectral lookups (RgbView)
+    ow: vec3<f32>, // world-space ray origin (GreyView::ray_w; emission is looked up there)
+    dw: vec3<f32>, // world-space ray direction
+    emitted: vec3<f32>, // emission gathered by on_collision, already weighted by beta
+    emission_lookups: u32, // emission and temperature grid reads
 }
 
 // tracking::Event variants.
@@ -385,8 +389,12 @@ fn distance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32
 }
 
 // The collision callback of each estimator's `sample_distance`; false stops the walk.
+// Every one first calls Medium::on_collision with the weight so far (1 for the analog
+// trackers); the including module defines `on_collision` (emission.wgsl in the wavefront
+// integrator; a no-op in the test kernels).
 fn distance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                     seg: GpuMajorantSegment) -> bool {
+    on_collision(tr, t, sigma_maj);
     switch (*tr).params.estimator {
         // delta::sample_distance: one uniform against [sigma_a, sigma_a + sigma_s, sigma_maj].
         case ESTIMATOR_DELTA: {

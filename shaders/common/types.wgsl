@@ -1,5 +1,5 @@
 // Mirrors src/gpu_types.rs, the source of truth for every host/WGSL shared struct (same struct
-// and member names). tests/gpu_layout.rs parses this file with naga and checks that every size
+// and member names). tests/gpu_wgsl.rs parses this file with naga and checks that every size
 // and member offset equals the Rust `#[repr(C)]` layout. Rows are 16 bytes: a vec3 plus one
 // scalar, so WGSL's vec3 alignment adds no hidden padding.
 
@@ -13,7 +13,7 @@ struct GpuGridInfo {
     background: f32,             // value outside the cell box
     density_scale: f32,          // sigma_t = density_scale * value
     global_bounds_index: u32,    // index of the global CellBounds in `bounds`
-    _pad0: u32,
+    cell_offset: u32,            // first entry of this grid in `cells` (emission grids follow)
 }
 
 // GpuRay: o + t d over [t_min, t_max].
@@ -86,10 +86,14 @@ struct GpuPathState {
     rng_inc: u32,       // Rng::inc
     flags: u32,         // PATH_FLAG_* bits
     collisions: u32,    // tentative collisions (guard)
-    lookups: u32,       // density lookups
+    lookups: u32,       // density and emission lookups
+    medium: u32,        // homogeneous medium the path is in (NO_INDEX: none)
+    hit_prim: u32,      // GpuTriangle slot the ray hits first (NO_INDEX: none)
+    hit_t: f32,         // its ray parameter, m
+    hit_b1: f32,        // barycentric weight of corner 1
+    hit_b2: f32,        // barycentric weight of corner 2
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // GpuShadowRay: a pending next-event-estimation shadow ray, one slot per path.
@@ -97,14 +101,74 @@ struct GpuShadowRay {
     o: vec3<f32>,            // origin, world, m
     dist: f32,               // distance to the light (inf: directional/environment)
     wi: vec3<f32>,           // unit direction to the light
-    _pad0: f32,
+    medium: u32,             // homogeneous medium at the origin (NO_INDEX: none)
     contribution: vec3<f32>, // beta L_i f w / pdf, times the transmittance found
     _pad1: f32,
 }
 
+// GpuTriangle: a triangle in the BVH's primitive order, with what shading and shadow rays need.
+struct GpuTriangle {
+    p0: vec3<f32>,      // corners, world, m
+    triangle: u32,      // index into Scene::triangles
+    p1: vec3<f32>,
+    material: u32,      // index into the materials
+    p2: vec3<f32>,
+    light_pdf: f32,     // luminance / total of the area lights (0: not a light)
+    n0: vec3<f32>,      // shading normals at the corners (zero: none given)
+    kind: u32,          // SURFACE_* kind of the material
+    n1: vec3<f32>,
+    interior: u32,      // Material::interior_medium
+    n2: vec3<f32>,
+    _pad0: u32,
+}
+
+// GpuAreaLight: one entry of the area lights' selection CDF.
+struct GpuAreaLight {
+    cdf: f32,
+    prim: u32,          // GpuTriangle slot
+}
+
+// GpuHomogeneousMedium: KHR_materials_volume medium, m^-1.
+struct GpuHomogeneousMedium {
+    sigma_a: vec3<f32>,
+    g: f32,             // Henyey-Greenstein g
+    sigma_s: vec3<f32>,
+    _pad0: f32,
+}
+
+// obvhs' CwBvhNode (Ylitie et al. 2017), 80 bytes: byte fields read as words.
+struct CwBvhNode {
+    p: vec3<f32>,                 // min corner of the node's box
+    e_imask: u32,                 // bytes: exponents e[0], e[1], e[2] of the child grid, imask
+    child_base_idx: u32,          // first child node
+    primitive_base_idx: u32,      // first primitive slot
+    child_meta: vec2<u32>,        // 8 bytes: per-child meta (leaf count + offset, or slot + 24)
+    child_min_x: vec2<u32>,       // 8 bytes each: quantised child planes
+    child_max_x: vec2<u32>,
+    child_min_y: vec2<u32>,
+    child_max_y: vec2<u32>,
+    child_min_z: vec2<u32>,
+    child_max_z: vec2<u32>,
+}
+
+// Material (src/scene/material.rs), 64 bytes, uploaded as is.
+struct Material {
+    base_color: vec4<f32>,        // linear RGB base colour and alpha
+    emission: vec3<f32>,          // emitted radiance, W m^-2 sr^-1
+    metallic: f32,
+    roughness: f32,               // perceptual roughness (alpha = roughness^2)
+    transmission: f32,
+    ior: f32,                     // index of refraction of the interior
+    base_color_texture: u32,
+    interior_medium: u32,
+    emissive_texture: u32,
+    flags: u32,                   // MATERIAL_DOUBLE_SIDED, ...
+    _pad: u32,
+}
+
 // GpuWavefrontCounters: queue lengths, sample dispenser, counters (all atomics).
 struct GpuWavefrontCounters {
-    queue_count: array<atomic<u32>, 8>, // entries per QUEUE_*
+    queue_count: array<atomic<u32>, 9>, // entries per QUEUE_*
     next_sample: atomic<u32>,           // next camera sample of the batch
     live: atomic<u32>,                  // paths started, not yet accumulated
     guard_fired: atomic<u32>,
@@ -112,8 +176,23 @@ struct GpuWavefrontCounters {
     invalid_majorants: atomic<u32>,
     collision_cap_hits: atomic<u32>,
     _pad0: u32,
+    wide: array<atomic<u32>, 14>,       // WIDE_* (low, high) pairs of 64-bit totals
     _pad1: u32,
-    wide: array<atomic<u32>, 12>,       // WIDE_* (low, high) pairs of 64-bit totals
+    _pad2: u32,
+}
+
+// GpuEmissionParams: volume emission of the VDB medium (integrator::media::Emission).
+struct GpuEmissionParams {
+    grid: GpuGridInfo,          // emission grid scaling strength_color (has_grid)
+    temperature: GpuGridInfo,   // temperature grid of the blackbody term (has_blackbody)
+    strength_color: vec3<f32>,  // emissionStrength * emissionColor, radiance per metre
+    has_grid: u32,
+    tint: vec3<f32>,            // blackbodyTint
+    has_blackbody: u32,
+    temperature_scale: f32,     // kelvin = scale * value + offset
+    temperature_offset: f32,
+    intensity: f32,             // blackbodyIntensity
+    _pad0: u32,
 }
 
 // GpuWavefrontParams: camera, batch, lights, limits, medium (one uniform per parity).
@@ -148,6 +227,10 @@ struct GpuWavefrontParams {
     albedo_rgb: vec3<f32>,
     shadow_estimator: u32,
     tracking: GpuTrackingParams,
+    camera_medium: u32,          // homogeneous medium around the camera (NO_INDEX: none)
+    area_count: u32,             // entries of the area lights' CDF
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.

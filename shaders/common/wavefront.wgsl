@@ -9,6 +9,8 @@
 @group(1) @binding(1) var<storage, read_write> paths: array<GpuPathState>;
 @group(1) @binding(2) var<storage, read_write> queues: array<u32>;
 @group(1) @binding(3) var<storage, read_write> counters: GpuWavefrontCounters;
+// One pending shadow ray per path slot (written by the scatter and surface stages).
+@group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
 
 // Every stage runs 64 invocations a workgroup; the indirect arguments divide by it.
 const WORKGROUP: u32 = 64u;
@@ -73,9 +75,7 @@ fn path_rng(ps: GpuPathState) -> Rng {
 
 // A world-space point in the medium's index space (rows of grid_info.index_from_world).
 fn index_point(p: vec3<f32>) -> vec3<f32> {
-    let m = grid_info.index_from_world;
-    let q = vec4<f32>(p, 1.0);
-    return vec3<f32>(dot(m[0], q), dot(m[1], q), dot(m[2], q));
+    return grid_index_point(grid_info, p);
 }
 
 // A world-space direction in the medium's index space.
@@ -93,6 +93,8 @@ fn medium_tracker(o: vec3<f32>, d: vec3<f32>, rng: Rng, estimator: u32) -> Track
     tr.rng = rng;
     tr.o = index_point(o);
     tr.d = index_vector(d);
+    tr.ow = o;
+    tr.dw = d;
     tr.w = vec3<f32>(1.0);
     tr.albedo_rgb = wf.albedo_rgb;
     return tr;
@@ -117,4 +119,19 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
     }
     *out_t = te;
     return te.y > te.x;
+}
+
+// russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput after
+// rr_depth events: survive with probability min(max(beta), 0.95), then divide by it.
+fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, rng: ptr<function, Rng>) -> bool {
+    if (depth < wf.rr_depth) {
+        return true;
+    }
+    let a = abs(*beta);
+    let q = min(max(a.x, max(a.y, a.z)), 0.95);
+    if (!(q > 0.0) || rng_uniform(rng) >= q) {
+        return false;
+    }
+    *beta /= q;
+    return true;
 }

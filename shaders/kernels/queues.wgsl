@@ -13,10 +13,14 @@ fn queue_reset() {
     atomicStore(&counters.queue_count[QUEUE_SHADOW], 0u);
     atomicStore(&counters.queue_count[QUEUE_PHASE], 0u);
     atomicStore(&counters.queue_count[QUEUE_ESCAPE], 0u);
+    atomicStore(&counters.queue_count[QUEUE_SURFACE], 0u);
 }
 
-@compute @workgroup_size(8)
+@compute @workgroup_size(16)
 fn queue_args(@builtin(local_invocation_index) q: u32) {
+    if (q >= QUEUE_COUNT) {
+        return;
+    }
     let n = atomicLoad(&counters.queue_count[q]);
     dispatch_args[3u * q] = (n + WORKGROUP - 1u) / WORKGROUP;
     dispatch_args[3u * q + 1u] = 1u;

@@ -45,3 +45,6 @@ fn transmittance_main(@builtin(global_invocation_id) id: vec3<u32>) {
     atomicAdd(&stats.roulette_kills, s.roulette_kills);
     atomicMax(&stats.max_abs_weight_bits, bitcast<u32>(s.max_abs_weight));
 }
+
+// Medium::on_collision's default: the media of the test kernels do not emit.
+fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {}

@@ -2,8 +2,8 @@
 // radiance (src/integrator/path.rs): Stage::Generate. For each free slot (the done queue of the
 // previous iteration; every slot in the first), take the next camera sample of the batch, open
 // its stream Rng::new(pixel, sample, seed), jitter, Camera::generate_ray and Camera::t_min
-// (src/scene/camera.rs), and send the path to the medium stage (or straight to the escape
-// stage when the scene has no medium).
+// (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
+// the escape stage when the scene has neither media nor surfaces).
 
 @compute @workgroup_size(64)
 fn generate(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -45,8 +45,10 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>) {
     ps.flags = PATH_FLAG_SPECULAR;
     ps.collisions = 0u;
     ps.lookups = 0u;
+    ps.medium = wf.camera_medium;
+    ps.hit_prim = NO_INDEX;
     paths[slot] = ps;
-    if (FEATURE_HETEROGENEOUS) {
+    if (FEATURE_HETEROGENEOUS || FEATURE_HOMOGENEOUS || FEATURE_SURFACES) {
         queue_push(queue_medium_in(), slot);
     } else {
         queue_push(QUEUE_ESCAPE, slot);

@@ -1,9 +1,12 @@
-// Mirrors sample_media (src/integrator/path.rs) and sample_vdb (src/integrator/media.rs):
-// Stage::SampleMedium. The free flight along the path's ray through the VDB medium it crosses,
-// with the configured estimator (tracking_sample_distance, tracking.wgsl: the same loop and
-// callbacks as the CPU), then the collision guard. Scatter -> scatter stage; escape -> the
-// throughput takes the flight's weight and the path goes to the escape stage (no surfaces);
-// absorption or the guard -> done.
+// Mirrors sample_media (src/integrator/path.rs), sample_vdb and sample_homogeneous
+// (src/integrator/media.rs): Stage::SampleMedium. The free flight along the path's ray up to
+// the surface it hits (or to infinity): through the homogeneous medium the path is in
+// (closed form, media.wgsl), else through the VDB medium it crosses with the configured
+// estimator (tracking_sample_distance, tracking.wgsl: the same loop and callbacks as the CPU)
+// gathering the medium's emission (emission.wgsl); then the collision guard. Scatter ->
+// scatter stage; escape -> the throughput takes the flight's weight and the path goes to the
+// surface stage when its ray hits one, else to the escape stage; absorption or the guard ->
+// done.
 
 @compute @workgroup_size(64)
 fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -12,17 +15,56 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var ps = paths[slot];
-    var te = vec2<f32>(0.0);
-    if (!medium_interval(ps.o, ps.d, ps.t0, f32_inf(), &te)) {
-        queue_push(QUEUE_ESCAPE, slot);
-        return;
+    let hit = FEATURE_SURFACES && ps.hit_prim != NO_INDEX;
+    var t_hit = f32_inf();
+    if (hit) {
+        t_hit = ps.hit_t;
     }
-    var tr = medium_tracker(ps.o, ps.d, path_rng(ps), wf.tracking.estimator);
-    let dda = medium_dda(tr, te.x, te.y);
-    tracking_sample_distance(&tr, dda, te.y, ps.beta);
-    ps.rng_state = tr.rng.state;
-    ps.rng_inc = tr.rng.inc;
-    add_tracking_stats(tr.stats, false, &ps);
+    var event = EVENT_ESCAPE;
+    var t_event = 0.0;
+    var weight = vec3<f32>(1.0);
+    var in_homogeneous = false;
+// #if FEATURE_HOMOGENEOUS
+    in_homogeneous = ps.medium != NO_INDEX;
+    if (in_homogeneous) {
+        var rng = path_rng(ps);
+        let ev = sample_homogeneous(homogeneous[ps.medium], t_hit - ps.t0, &rng);
+        ps.rng_state = rng.state;
+        ps.rng_inc = rng.inc;
+        event = ev.event;
+        t_event = ps.t0 + ev.t;
+        weight = ev.weight;
+    }
+// #endif
+// #if FEATURE_HETEROGENEOUS
+    if (!in_homogeneous) {
+        var te = vec2<f32>(0.0);
+        if (medium_interval(ps.o, ps.d, ps.t0, t_hit, &te)) {
+            var tr = medium_tracker(ps.o, ps.d, path_rng(ps), wf.tracking.estimator);
+            let dda = medium_dda(tr, te.x, te.y);
+            tracking_sample_distance(&tr, dda, te.y, ps.beta);
+            ps.rng_state = tr.rng.state;
+            ps.rng_inc = tr.rng.inc;
+            add_tracking_stats(tr.stats, false, &ps);
+// #if FEATURE_EMISSION
+            // sample_vdb: the emission met on the way, already weighted by beta.
+            ps.l += tr.emitted;
+            ps.lookups += tr.emission_lookups;
+            add_wide(WIDE_EMISSION_LOOKUPS, tr.emission_lookups);
+// #endif
+            event = tr.event;
+            t_event = tr.t_event;
+            // from_grey: grey weights are splat and a scattering event takes the RGB albedo;
+            // RGB weights (spectral tracking) are used as they are.
+            weight = vec3<f32>(tr.w.x);
+            if (FEATURE_CHROMATIC && wf.spectral != 0u) {
+                weight = tr.w;
+            } else if (event == EVENT_SCATTER) {
+                weight = wf.scatter_albedo * tr.w.x;
+            }
+        }
+    }
+// #endif
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {
         atomicAdd(&counters.guard_fired, 1u);
@@ -30,18 +72,10 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
         queue_push(queue_done_out(), slot);
         return;
     }
-    // from_grey: grey weights are splat, RGB ones (spectral tracking) used as they are.
-    var weight = vec3<f32>(tr.w.x);
-    if (FEATURE_CHROMATIC && wf.spectral != 0u) {
-        weight = tr.w;
-    }
-    switch tr.event {
+    switch event {
         case EVENT_SCATTER: {
-            if (!(FEATURE_CHROMATIC && wf.spectral != 0u)) {
-                weight = wf.scatter_albedo * tr.w.x;
-            }
             ps.beta *= weight;
-            ps.o = ps.o + tr.t_event * ps.d;
+            ps.o = ps.o + t_event * ps.d;
             paths[slot] = ps;
             queue_push(QUEUE_SCATTER, slot);
         }
@@ -52,7 +86,11 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
         default: {
             ps.beta *= weight;
             paths[slot] = ps;
-            queue_push(QUEUE_ESCAPE, slot);
+            if (hit) {
+                queue_push(QUEUE_SURFACE, slot);
+            } else {
+                queue_push(QUEUE_ESCAPE, slot);
+            }
         }
     }
 }

@@ -1,7 +1,10 @@
-// Mirrors the medium-scattering arm of radiance (src/integrator/path.rs), its second half, and
-// russian_roulette: Stage::SamplePhase. HenyeyGreenstein::sample for the next direction (after
-// the shadow stage has drawn its numbers from the same stream), then Russian roulette on the
-// throughput after rr_depth events. Survivors go back to the medium stage next iteration.
+// Mirrors the second half of radiance's two scattering arms (src/integrator/path.rs) and
+// russian_roulette: Stage::SamplePhase, the next direction once the shadow stage has drawn
+// its numbers from the same stream. In a medium: HenyeyGreenstein::sample with the g of the
+// medium the path is in. At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
+// shading frame of the hit, the path ending when it fails or points below the surface. Then
+// Russian roulette on the throughput after rr_depth events; survivors go back to the
+// intersect and medium stages next iteration.
 
 @compute @workgroup_size(64)
 fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -11,25 +14,55 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var ps = paths[slot];
     var rng = path_rng(ps);
-    let u0 = rng_uniform(&rng);
-    let u1 = rng_uniform(&rng);
-    let s = hg_sample(wf.phase_g, -ps.d, vec2<f32>(u0, u1));
-    ps.beta *= s.weight;
-    ps.d = s.wi;
-    ps.t0 = 0.0;
-    ps.prev_pdf = s.pdf;
-    ps.flags = ps.flags & ~PATH_FLAG_SPECULAR;
-    // russian_roulette: survive with probability min(max(beta), 0.95).
-    var alive = true;
-    if (ps.depth >= wf.rr_depth) {
-        let a = abs(ps.beta);
-        let q = min(max(a.x, max(a.y, a.z)), 0.95);
-        if (!(q > 0.0) || rng_uniform(&rng) >= q) {
-            alive = false;
-        } else {
-            ps.beta /= q;
+    var at_surface = false;
+// #if FEATURE_SURFACES
+    at_surface = (ps.flags & PATH_FLAG_SURFACE) != 0u;
+    if (at_surface) {
+        ps.flags &= ~PATH_FLAG_SURFACE;
+        // The shading frame and BSDF of the hit, as the surface stage built them.
+        let tri = bvh_triangles[ps.hit_prim];
+        let mat = materials[tri.material];
+        let p = ps.o + ps.hit_t * ps.d;
+        let wo = -ps.d;
+        let ng = normalize_or_zero(triangle_cross(tri));
+        let n_side = select(-ng, ng, dot(ng, wo) >= 0.0);
+        let frame = frame_from_z(shading_normal(tri, ps.hit_b1, ps.hit_b2, n_side));
+        let bsdf = principled_new(mat.base_color.xyz, mat.metallic, mat.roughness);
+        let u_lobe = rng_uniform(&rng);
+        let u0 = rng_uniform(&rng);
+        let u1 = rng_uniform(&rng);
+        let s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, vec2<f32>(u0, u1));
+        var wi = vec3<f32>(0.0);
+        if (s.valid) {
+            wi = frame_from_local(frame, s.wi);
         }
+        if (!s.valid || dot(n_side, wi) <= 0.0) {
+            ps.rng_state = rng.state;
+            ps.rng_inc = rng.inc;
+            paths[slot] = ps;
+            queue_push(queue_done_out(), slot);
+            return;
+        }
+        ps.beta *= s.weight;
+        ps.o = offset_origin(p, n_side, n_side);
+        ps.d = wi;
+        ps.prev_pdf = s.pdf;
     }
+// #endif
+    if (!at_surface) {
+        let u0 = rng_uniform(&rng);
+        let u1 = rng_uniform(&rng);
+        let s = hg_sample(medium_phase_g(ps.medium), -ps.d, vec2<f32>(u0, u1));
+        ps.beta *= s.weight;
+        ps.d = s.wi;
+        ps.prev_pdf = s.pdf;
+    }
+    ps.t0 = 0.0;
+    ps.flags = ps.flags & ~PATH_FLAG_SPECULAR;
+    // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
+    var beta = ps.beta;
+    let alive = russian_roulette(&beta, ps.depth, &rng);
+    ps.beta = beta;
     ps.rng_state = rng.state;
     ps.rng_inc = rng.inc;
     paths[slot] = ps;

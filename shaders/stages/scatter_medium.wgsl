@@ -6,8 +6,6 @@
 // with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
 // then goes on to the phase stage.
 
-@group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
-
 @compute @workgroup_size(64)
 fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     var slot = 0u;
@@ -29,7 +27,7 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     let uy = rng_uniform(&rng);
     let ls = light_sample(p, u_select, vec2<f32>(ux, uy));
     if (ls.valid) {
-        let f = hg_p(wf.phase_g, wo, ls.wi);
+        let f = hg_p(medium_phase_g(ps.medium), wo, ls.wi);
         if (f > 0.0 && ls.pdf > 0.0) {
             var dist = f32_inf();
             if (ls.dist <= F32_MAX) {
@@ -43,6 +41,7 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
             sh.o = p;
             sh.dist = dist;
             sh.wi = ls.wi;
+            sh.medium = ps.medium;
             sh.contribution = ps.beta * ls.li * (f * w / ls.pdf);
             shadows[slot] = sh;
             queue_push(QUEUE_SHADOW, slot);

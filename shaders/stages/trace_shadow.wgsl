@@ -1,10 +1,15 @@
-// Mirrors transmittance (src/integrator/path.rs) and transmittance_vdb
-// (src/integrator/media.rs): Stage::TraceShadow. The transmittance along a shadow ray through
-// the VDB medium with ratio or residual ratio tracking (Novak et al. 2014) for a grey medium,
-// spectral tracking's estimator for a chromatic one, drawn from the path's stream; the
-// path's radiance gains the NEE contribution times it.
+// Mirrors transmittance (src/integrator/path.rs), transmittance_vdb and
+// transmittance_homogeneous (src/integrator/media.rs): Stage::TraceShadow. The shadow ray
+// walks from surface to surface (bvh_closest_hit): each stretch is attenuated by the
+// homogeneous medium it lies in (exactly), or by the VDB medium it crosses with ratio or
+// residual ratio tracking (Novak et al. 2014) for a grey medium and spectral tracking's
+// estimator for a chromatic one, drawn from the path's stream; a null interface changes the
+// medium and the walk goes on, any other surface blocks the ray. The path's radiance gains
+// the NEE contribution times the transmittance.
 
-@group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
+// Surfaces a shadow ray crosses at most: a bound for malformed geometry only (the CPU walk
+// ends because t0 grows; so does this one, long before the bound for any real scene).
+const MAX_SHADOW_CROSSINGS: u32 = 4096u;
 
 @compute @workgroup_size(64)
 fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -15,19 +20,55 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     var ps = paths[slot];
     let sh = shadows[slot];
     var t = vec3<f32>(1.0);
-    var te = vec2<f32>(0.0);
-    if (FEATURE_HETEROGENEOUS && medium_interval(sh.o, sh.wi, 0.0, sh.dist, &te)) {
-        var tr = medium_tracker(sh.o, sh.wi, path_rng(ps), wf.shadow_estimator);
-        let dda = medium_dda(tr, te.x, te.y);
-        let est = tracking_transmittance(&tr, dda, te.y);
-        if (wf.shadow_estimator == ESTIMATOR_SPECTRAL) {
-            t = est;
-        } else {
-            t = vec3<f32>(est.x);
+    var medium = sh.medium;
+    var t0 = 0.0;
+    for (var crossing = 0u; crossing < MAX_SHADOW_CROSSINGS; crossing++) {
+        let h = bvh_closest_hit(sh.o, sh.wi, t0, sh.dist);
+        var t1 = sh.dist;
+        if (h.prim != NO_INDEX) {
+            t1 = h.t;
         }
-        ps.rng_state = tr.rng.state;
-        ps.rng_inc = tr.rng.inc;
-        add_tracking_stats(tr.stats, true, &ps);
+// #if FEATURE_HOMOGENEOUS
+        if (medium != NO_INDEX) {
+            t *= transmittance_homogeneous(homogeneous[medium], t1 - t0);
+        }
+// #endif
+// #if FEATURE_HETEROGENEOUS
+        var te = vec2<f32>(0.0);
+        if (medium == NO_INDEX
+            && medium_interval(sh.o, sh.wi, t0, t1, &te)) {
+            var tr = medium_tracker(sh.o, sh.wi, path_rng(ps), wf.shadow_estimator);
+            let dda = medium_dda(tr, te.x, te.y);
+            let est = tracking_transmittance(&tr, dda, te.y);
+            if (wf.shadow_estimator == ESTIMATOR_SPECTRAL) {
+                t *= est;
+            } else {
+                t *= vec3<f32>(est.x);
+            }
+            ps.rng_state = tr.rng.state;
+            ps.rng_inc = tr.rng.inc;
+            add_tracking_stats(tr.stats, true, &ps);
+            if (all(t == vec3<f32>(0.0))) {
+                break;
+            }
+        }
+// #endif
+        if (h.prim == NO_INDEX) {
+            break;
+        }
+        let tri = bvh_triangles[h.prim];
+        if (tri.kind != SURFACE_NULL) {
+            t = vec3<f32>(0.0);
+            break;
+        }
+// #if FEATURE_HOMOGENEOUS
+        let entering = dot(triangle_cross(tri), sh.wi) < 0.0;
+        medium = enter_or_leave(tri.interior, entering);
+// #endif
+        t0 = h.t + 1e-4 * (1.0 + h.t);
+        if (t0 >= sh.dist) {
+            break;
+        }
     }
     ps.l += sh.contribution * t;
     paths[slot] = ps;

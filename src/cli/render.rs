@@ -247,18 +247,26 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             }
         },
     };
-    let (out, backend): (RenderOutput, String) = match &gpu {
+    let (out, backend, variant): (RenderOutput, String, Option<String>) = match &gpu {
         Some(ctx) => {
             eprintln!("backend: gpu ({})", ctx.describe());
-            let out = brume::backend::gpu::render(ctx, &rs, &settings, &stop, &progress)?;
-            (out, format!("wgpu: {}", ctx.describe()))
+            let (out, timings) = brume::backend::gpu::render::render_with_timings(
+                ctx, &rs, &settings, &stop, &progress,
+            )?;
+            eprintln!("gpu variant: {}", timings.variant);
+            (
+                out,
+                format!("wgpu: {}", ctx.describe()),
+                Some(timings.variant),
+            )
         }
         None => (
             pool.install(|| cpu::render(&rs, &settings, &stop, &progress)),
             format!("cpu ({threads} threads)"),
+            None,
         ),
     };
-    write_outputs(args, &settings, &out, &backend)
+    write_outputs(args, &settings, &out, &backend, variant.as_deref())
 }
 
 fn write_outputs(
@@ -266,6 +274,7 @@ fn write_outputs(
     settings: &RenderSettings,
     out: &RenderOutput,
     backend: &str,
+    gpu_variant: Option<&str>,
 ) -> Result<()> {
     let info = RenderInfo {
         estimator: settings.estimator.name().to_string(),
@@ -280,6 +289,10 @@ fn write_outputs(
     };
     let mut meta = info.to_metadata();
     meta.set("brume:features", AttrValue::Text(out.features.name()));
+    if let Some(v) = gpu_variant {
+        // The WGSL variant the wavefront kernels were specialised for.
+        meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));
+    }
     meta.set(
         "brume:specialised",
         AttrValue::Text((!settings.generic).to_string()),

@@ -13,9 +13,14 @@ use std::sync::OnceLock;
 
 use glam::Vec3;
 
-const T_MIN: f32 = 800.0;
-const T_MAX: f32 = 12000.0;
-const TABLE_STEP: f32 = 10.0;
+/// Coldest temperature of the colour table, kelvin (colder clamps to it).
+pub const T_MIN: f32 = 800.0;
+/// Hottest temperature of the colour table, kelvin.
+pub const T_MAX: f32 = 12000.0;
+/// Kelvin between table entries.
+pub const TABLE_STEP: f32 = 10.0;
+/// Entries of the colour table (`T_MIN`, `T_MIN + TABLE_STEP`, ..., `T_MAX`).
+pub const TABLE_LEN: usize = ((T_MAX - T_MIN) / TABLE_STEP) as usize + 1;
 
 /// Cycles' scale: Stefan-Boltzmann constant, 1e-6, over pi.
 pub const STEFAN_BOLTZMANN_SCALE: f32 = 5.670373e-8 * 1e-6 / std::f32::consts::PI;
@@ -148,11 +153,12 @@ pub fn blackbody_rgb_exact(t: f32) -> Vec3 {
     )
 }
 
-fn table() -> &'static [Vec3] {
+/// The unit-luminance colour table [`blackbody_rgb`] interpolates (uploaded as is by the GPU
+/// backend).
+pub fn table() -> &'static [Vec3] {
     static TABLE: OnceLock<Vec<Vec3>> = OnceLock::new();
     TABLE.get_or_init(|| {
-        let n = ((T_MAX - T_MIN) / TABLE_STEP) as usize + 1;
-        (0..n)
+        (0..TABLE_LEN)
             .map(|i| blackbody_rgb_exact(T_MIN + i as f32 * TABLE_STEP))
             .collect()
     })

@@ -18,6 +18,19 @@ pub struct AreaLights {
     lum: Vec<f32>,
 }
 
+impl AreaLights {
+    /// The selection CDF over `triangles` (cumulative `area * luminance`, ending at 1).
+    pub fn cdf(&self) -> &[f32] {
+        &self.cdf
+    }
+
+    /// The area density of choosing a point on entry `i` (`luminance / total`): its
+    /// selection probability `area * luminance / total` over its area.
+    pub fn selection_pdf(&self, i: usize) -> f32 {
+        self.lum[i] / self.total
+    }
+}
+
 /// A light sample seen from a shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {

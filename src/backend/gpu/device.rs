@@ -6,6 +6,7 @@
 //! scopes and returned as strings instead of reaching wgpu's default handler, which panics.
 use super::shader::{Module, Spec};
 use crate::gpu_types::{CellBounds, GpuGridInfo};
+use crate::volume::grid::CONSTANT_BIT;
 use crate::volume::{LeafBounds, SparseGrid};
 use bytemuck::Pod;
 use std::fmt;
@@ -70,9 +71,14 @@ impl GpuContext {
         defaults.check_limits_with_fail_fn(&supported, false, |name, want, have| {
             limits_below_default.push(format!("{name} {have} < {want}"));
         });
+        // The wavefront stages with surfaces and media bind up to 13 storage buffers; WebGPU's
+        // default is 8, Vulkan drivers (lavapipe included) offer far more.
         let limits = wgpu::Limits {
             max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
             max_buffer_size: supported.max_buffer_size,
+            max_storage_buffers_per_shader_stage: supported
+                .max_storage_buffers_per_shader_stage
+                .min(16),
             ..defaults.or_worse_values_from(&supported)
         };
         for (name, have, need) in [
@@ -348,6 +354,69 @@ impl GpuGrid {
             constants: ctx.storage_buffer("grid constants", &grid.constants),
             bounds: ctx.storage_buffer("grid bounds", &b),
         })
+    }
+
+    /// Uploads `grid` as [`GpuGrid::upload`] does, followed in the same cells, bricks and
+    /// constants buffers by `extra` grids (emission and temperature), whose headers are
+    /// returned: each has its [`GpuGridInfo::cell_offset`] and its brick and constant indices
+    /// shifted past the grids before it, so the shaders read every grid through one set of
+    /// bindings. The extra grids' `index_from_world` is their own; callers placing a grid in
+    /// the world overwrite it.
+    pub fn upload_with(
+        ctx: &GpuContext,
+        grid: &SparseGrid,
+        bounds: &LeafBounds,
+        density_scale: f32,
+        extra: &[&SparseGrid],
+    ) -> Result<(GpuGrid, Vec<GpuGridInfo>), String> {
+        if extra.is_empty() {
+            return Self::upload(ctx, grid, bounds, density_scale).map(|g| (g, Vec::new()));
+        }
+        let mut cells = grid.cells.clone();
+        let mut bricks = grid.bricks.clone();
+        let mut constants = grid.constants.clone();
+        let mut infos = Vec::new();
+        for g in extra {
+            let mut info = GpuGridInfo::new(g, 1.0);
+            info.cell_offset = u32::try_from(cells.len())
+                .map_err(|_| "the grids need more than 2^32 cells".to_string())?;
+            info.global_bounds_index = 0;
+            let brick0 = (bricks.len() / 512) as u32;
+            let const0 = constants.len() as u32;
+            if (brick0 as u64 + g.brick_count() as u64) >= CONSTANT_BIT as u64
+                || (const0 as u64 + g.constants.len() as u64) >= CONSTANT_BIT as u64
+            {
+                return Err("the grids need more than 2^31 bricks or constants".into());
+            }
+            cells.extend(g.cells.iter().map(|&e| {
+                if e & CONSTANT_BIT != 0 {
+                    CONSTANT_BIT | ((e & !CONSTANT_BIT) + const0)
+                } else {
+                    e + brick0
+                }
+            }));
+            bricks.extend_from_slice(&g.bricks);
+            constants.extend_from_slice(&g.constants);
+            infos.push(info);
+        }
+        let combined = SparseGrid {
+            cells,
+            dims: grid.dims,
+            cell_origin: grid.cell_origin,
+            bricks,
+            constants,
+            background: grid.background,
+            world_from_index: grid.world_from_index,
+            index_from_world: grid.index_from_world,
+            voxel_size: grid.voxel_size,
+            name: grid.name.clone(),
+        };
+        let mut gg = Self::upload(ctx, &combined, bounds, density_scale)?;
+        // The density's header describes the density alone.
+        gg.info = GpuGridInfo::new(grid, density_scale);
+        ctx.queue
+            .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
+        Ok((gg, infos))
     }
 
     /// The `(group, binding, buffer)` entries of group 0 for a kernel using the lookups

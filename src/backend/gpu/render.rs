@@ -14,19 +14,22 @@
 //! One iteration (parity `p` picks the double-buffered medium and done queues):
 //!
 //! ```text
-//! reset -> Generate -> SampleMedium -> ScatterMedium -> TraceShadow -> SamplePhase
-//!       -> Escape -> Accumulate
+//! reset -> Generate -> Intersect -> SampleMedium -> ScatterMedium -> ShadeSurface
+//!       -> TraceShadow -> SamplePhase -> Escape -> Accumulate
 //! ```
 //!
 //! Each path keeps its own stream `Rng::new(pixel, sample, seed)` and draws from it in the
-//! CPU's order (the shadow stage runs before the phase stage for that reason). Results agree
-//! with the CPU statistically, not bit for bit (rounding of WGSL's transcendentals).
+//! CPU's order (the shadow stage runs before the direction stage for that reason). Results agree
+//! with the CPU statistically, and with the same seed nearly bit for bit (rounding of WGSL's
+//! transcendentals may flip a rare decision).
 //!
-//! What runs: VDB media (one per scene, every estimator, both majorant modes, spectral tracking
-//! of chromatic media), punctual lights and the constant environment, NEE with MIS, Russian
-//! roulette, the collision guard; surfaces only as inert null interfaces (index-matched
-//! boundaries with no interior medium, as in the furnace), which change nothing the estimators
-//! see (free flight is memoryless). [`supports`] refuses the rest with a one-line reason.
+//! What runs: everything the CPU integrator does for one VDB medium (every estimator, both
+//! majorant modes, spectral tracking of chromatic media, volume emission), homogeneous media
+//! in closed meshes (grey and chromatic), opaque, dielectric and null-interface surfaces over
+//! obvhs' CWBVH, punctual, environment and area lights with NEE and MIS, Russian roulette and
+//! the collision guard. [`supports`] refuses more than one VDB medium with a one-line reason.
+//! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
+//! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!
 //! Timing: one compute pass per stage dispatch. With timestamp queries
 //! ([`GpuContext::timestamp_queries`]) each pass records its GPU start and end
@@ -43,13 +46,17 @@ use super::shader::{self, Module, Spec};
 use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuPathState, GpuQueue, GpuShadowRay,
-    GpuTrackingParams, GpuWavefrontCounters, GpuWavefrontParams, GpuWideCounter,
+    GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
+    GpuHomogeneousMedium, GpuMajorantMode, GpuPathState, GpuQueue, GpuShadowRay, GpuTrackingParams,
+    GpuTriangle, GpuWavefrontCounters, GpuWavefrontParams, GpuWideCounter, SURFACE_DIELECTRIC,
+    SURFACE_NULL, SURFACE_OPAQUE,
 };
-use crate::integrator::media::TrackingConfig;
+use crate::integrator::blackbody;
+use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
 use crate::integrator::settings::ShadowEstimator;
 use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::volume::SparseGrid;
 
 /// Path slots in flight.
 pub const WAVEFRONT_SIZE: u32 = 1 << 16;
@@ -62,13 +69,20 @@ pub const MAX_BATCH_SAMPLES: u64 = 1 << 22;
 pub enum Stage {
     /// Camera rays for free slots (`tile::render_tile`, `Camera::generate_ray`).
     Generate,
-    /// Free flight through the VDB medium (`path::sample_media`, `media::sample_vdb`).
+    /// The first surface along each ray (`TriangleBvh::closest_hit` over obvhs' CWBVH).
+    Intersect,
+    /// Free flight up to that surface through the homogeneous medium the path is in or the
+    /// VDB medium it crosses (`path::sample_media`, `media::sample_vdb`,
+    /// `media::sample_homogeneous`), gathering volume emission.
     SampleMedium,
     /// Depth limit and next-event estimation at a medium scattering event.
     ScatterMedium,
-    /// Shadow-ray transmittance (`path::transmittance`, `media::transmittance_vdb`).
+    /// Emission, null interfaces, smooth dielectrics and next-event estimation at opaque
+    /// surfaces (the surface half of `path::radiance`).
+    ShadeSurface,
+    /// Shadow-ray transmittance through media and null interfaces (`path::transmittance`).
     TraceShadow,
-    /// Phase-function sampling and Russian roulette.
+    /// The next direction (phase function or BSDF) and Russian roulette.
     SamplePhase,
     /// Environment light for rays that leave the scene.
     Escape,
@@ -77,10 +91,13 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const ALL: [Stage; 7] = [
+    pub const COUNT: usize = 9;
+    pub const ALL: [Stage; Stage::COUNT] = [
         Stage::Generate,
+        Stage::Intersect,
         Stage::SampleMedium,
         Stage::ScatterMedium,
+        Stage::ShadeSurface,
         Stage::TraceShadow,
         Stage::SamplePhase,
         Stage::Escape,
@@ -95,8 +112,10 @@ impl Stage {
     pub fn module(self) -> Module {
         match self {
             Stage::Generate => shader::STAGE_GENERATE_MODULE,
+            Stage::Intersect => shader::STAGE_INTERSECT_MODULE,
             Stage::SampleMedium => shader::STAGE_SAMPLE_MEDIUM_MODULE,
             Stage::ScatterMedium => shader::STAGE_SCATTER_MEDIUM_MODULE,
+            Stage::ShadeSurface => shader::STAGE_SHADE_SURFACE_MODULE,
             Stage::TraceShadow => shader::STAGE_TRACE_SHADOW_MODULE,
             Stage::SamplePhase => shader::STAGE_SAMPLE_PHASE_MODULE,
             Stage::Escape => shader::STAGE_ESCAPE_MODULE,
@@ -104,13 +123,15 @@ impl Stage {
         }
     }
 
-    /// The queue the stage consumes in an iteration of parity `parity`.
+    /// The queue the stage consumes in an iteration of parity `parity`. (The intersect stage
+    /// only annotates the paths of the medium queue, which the medium stage then consumes.)
     pub fn input_queue(self, parity: u32) -> GpuQueue {
         let pick = |a: GpuQueue, b: GpuQueue| if parity == 0 { a } else { b };
         match self {
             Stage::Generate => pick(GpuQueue::Done0, GpuQueue::Done1),
-            Stage::SampleMedium => pick(GpuQueue::Medium0, GpuQueue::Medium1),
+            Stage::Intersect | Stage::SampleMedium => pick(GpuQueue::Medium0, GpuQueue::Medium1),
             Stage::ScatterMedium => GpuQueue::Scatter,
+            Stage::ShadeSurface => GpuQueue::Surface,
             Stage::TraceShadow => GpuQueue::Shadow,
             Stage::SamplePhase => GpuQueue::Phase,
             Stage::Escape => GpuQueue::Escape,
@@ -119,19 +140,28 @@ impl Stage {
     }
 
     /// Whether the indirect arguments must be recomputed before this stage: a stage since
-    /// the last computation may have appended to its input queue. (Only the phase queue is
-    /// complete when the shadow stage's arguments are computed, whatever the stage list.)
+    /// the last computation may have appended to its input queue. (The phase queue is
+    /// complete when the shadow stage's arguments are computed, whatever the stage list: only
+    /// the scatter and surface stages, both earlier, append to it.)
     fn needs_args(self) -> bool {
         self != Stage::SamplePhase
     }
 
-    /// The stages a scene with `features` needs: without a VDB medium nothing scatters.
+    /// The stages a scene with `features` needs: kernels for effects the scene lacks are not
+    /// dispatched (no intersection or surface shading without surfaces, no medium scattering
+    /// without media, nothing between generation and escape with neither).
     pub fn for_features(features: FeatureFlags) -> Vec<Stage> {
-        if features.heterogeneous {
-            Stage::ALL.to_vec()
-        } else {
-            vec![Stage::Generate, Stage::Escape, Stage::Accumulate]
-        }
+        let media = features.heterogeneous || features.homogeneous;
+        let surfaces = features.surfaces;
+        Stage::ALL
+            .into_iter()
+            .filter(|s| match s {
+                Stage::Generate | Stage::Escape | Stage::Accumulate => true,
+                Stage::Intersect | Stage::ShadeSurface => surfaces,
+                Stage::ScatterMedium => media,
+                Stage::SampleMedium | Stage::TraceShadow | Stage::SamplePhase => media || surfaces,
+            })
+            .collect()
     }
 }
 
@@ -152,7 +182,7 @@ pub struct BatchTimings {
     /// Wavefront iterations the batch took.
     pub iterations: u32,
     /// Nanoseconds per stage, in [`Stage::ALL`] order (0 for stages not dispatched).
-    pub stage_ns: [u64; 7],
+    pub stage_ns: [u64; Stage::COUNT],
 }
 
 /// Timings of a GPU render, per batch and stage.
@@ -167,8 +197,8 @@ pub struct GpuTimings {
 
 impl GpuTimings {
     /// Nanoseconds per stage over the whole render.
-    pub fn stage_totals(&self) -> [u64; 7] {
-        let mut t = [0u64; 7];
+    pub fn stage_totals(&self) -> [u64; Stage::COUNT] {
+        let mut t = [0u64; Stage::COUNT];
         for b in &self.batches {
             for (a, x) in t.iter_mut().zip(b.stage_ns) {
                 *a += x;
@@ -201,45 +231,58 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
             rs.vdb.len()
         ));
     }
-    if rs.features.emission {
-        return Err("emissive media are not implemented on the GPU yet".into());
-    }
-    if rs.features.homogeneous {
-        return Err(
-            "homogeneous media (KHR_materials_volume) are not implemented on the GPU yet".into(),
-        );
-    }
-    if rs.lights.area.is_some() {
-        return Err("area lights (emissive triangles) are not implemented on the GPU yet".into());
-    }
-    let scene = rs.scene;
-    for t in &scene.triangles {
-        let m = scene.instances[t.instance as usize].material as usize;
-        if rs.kinds[m] != SurfaceKind::Null || scene.materials[m].emission != [0.0; 3] {
-            return Err(format!(
-                "surfaces ({:?} material {m}) are not implemented on the GPU yet; only index-matched null interfaces are",
-                rs.kinds[m]
-            ));
-        }
+    if rs.scene.triangles.len() >= crate::scene::NO_INDEX as usize {
+        return Err(format!(
+            "{} triangles; the GPU integrator indexes fewer than 2^32",
+            rs.scene.triangles.len()
+        ));
     }
     Ok(())
 }
 
-/// The WGSL variant name of `features` (what the kernels are specialised for).
+/// The WGSL variant name of `features`: the effects the kernels are specialised for, in
+/// `FeatureFlags` order (`surfaces`, `vdb`, `homogeneous`, `emission`, `spectral`), e.g.
+/// `wavefront[surfaces+vdb+emission]`.
 pub fn variant_name(features: FeatureFlags) -> String {
-    let het = features.heterogeneous;
-    let chrom = features.chromatic && het;
-    format!(
-        "wavefront[{}{}]",
-        if het { "vdb" } else { "no-media" },
-        if chrom { "+spectral" } else { "" }
-    )
+    let f = effective(features);
+    let on: Vec<&str> = [
+        (f.surfaces, "surfaces"),
+        (f.heterogeneous, "vdb"),
+        (f.homogeneous, "homogeneous"),
+        (f.emission, "emission"),
+        (f.chromatic, "spectral"),
+    ]
+    .into_iter()
+    .filter(|(b, _)| *b)
+    .map(|(_, n)| n)
+    .collect();
+    if on.is_empty() {
+        "wavefront[empty]".into()
+    } else {
+        format!("wavefront[{}]", on.join("+"))
+    }
+}
+
+/// The flags the kernels are specialised for: `features` less what cannot apply (emission
+/// and spectral tracking need a medium).
+fn effective(features: FeatureFlags) -> FeatureFlags {
+    let media = features.heterogeneous || features.homogeneous;
+    FeatureFlags {
+        emission: features.emission && features.heterogeneous,
+        chromatic: features.chromatic && media,
+        absorption: features.absorption && media,
+        ..features
+    }
 }
 
 fn specs(features: FeatureFlags) -> Vec<Spec> {
+    let f = effective(features);
     vec![
-        Spec::bool("FEATURE_HETEROGENEOUS", features.heterogeneous),
-        Spec::bool("FEATURE_CHROMATIC", features.chromatic),
+        Spec::bool("FEATURE_SURFACES", f.surfaces),
+        Spec::bool("FEATURE_HOMOGENEOUS", f.homogeneous),
+        Spec::bool("FEATURE_HETEROGENEOUS", f.heterogeneous),
+        Spec::bool("FEATURE_CHROMATIC", f.chromatic),
+        Spec::bool("FEATURE_EMISSION", f.emission),
     ]
 }
 
@@ -283,6 +326,23 @@ struct Buffers {
     lights: wgpu::Buffer,
     samples: wgpu::Buffer,
     args: wgpu::Buffer,
+    /// `GpuEmissionParams` (zero when the medium does not emit).
+    emission: wgpu::Buffer,
+    /// `blackbody::table()` as vec4 rows.
+    blackbody: wgpu::Buffer,
+    /// obvhs' CWBVH nodes (one zero node when the scene has no triangles).
+    bvh_nodes: wgpu::Buffer,
+    /// `GpuTriangle`s in the BVH's primitive order.
+    bvh_triangles: wgpu::Buffer,
+    /// The scene's materials, as loaded.
+    materials: wgpu::Buffer,
+    /// `GpuAreaLight`s: the area lights' selection CDF.
+    area_lights: wgpu::Buffer,
+    /// `GpuHomogeneousMedium`s, indexed like `RenderScene::homogeneous`.
+    homogeneous: wgpu::Buffer,
+    /// Bound in place of the grid's buffers when the scene has no VDB medium (the kernels
+    /// specialised without one never read them).
+    no_grid: (wgpu::Buffer, wgpu::Buffer),
     readback: wgpu::Buffer,
     timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
 }
@@ -295,12 +355,15 @@ impl Buffers {
         g: u32,
         b: u32,
     ) -> Option<&'a wgpu::Buffer> {
+        let (no_info, no_data) = &self.no_grid;
         Some(match (g, b) {
-            (0, 0) => &grid?.info_buffer,
-            (0, 1) => &grid?.cells,
-            (0, 2) => &grid?.bricks,
-            (0, 3) => &grid?.constants,
-            (0, 4) => &grid?.bounds,
+            (0, 0) => grid.map_or(no_info, |g| &g.info_buffer),
+            (0, 1) => grid.map_or(no_data, |g| &g.cells),
+            (0, 2) => grid.map_or(no_data, |g| &g.bricks),
+            (0, 3) => grid.map_or(no_data, |g| &g.constants),
+            (0, 4) => grid.map_or(no_data, |g| &g.bounds),
+            (0, 5) => &self.emission,
+            (0, 6) => &self.blackbody,
             (1, 0) => &self.params[parity],
             (1, 1) => &self.paths,
             (1, 2) => &self.queues,
@@ -309,6 +372,11 @@ impl Buffers {
             (1, 5) => &self.lights,
             (1, 6) => &self.samples,
             (1, 7) => &self.args,
+            (1, 8) => &self.bvh_nodes,
+            (1, 9) => &self.bvh_triangles,
+            (1, 10) => &self.materials,
+            (1, 11) => &self.area_lights,
+            (1, 12) => &self.homogeneous,
             _ => return None,
         })
     }
@@ -324,6 +392,18 @@ fn kernel(
     let dev = |e: String| GpuRenderError::Device(format!("{}: {e}", module.label));
     let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
     let used = used_bindings(module, specs).map_err(dev)?;
+    // Every binding but the uniforms (grid header, emission, blackbody table, params) is a
+    // storage buffer.
+    let storage = used
+        .iter()
+        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (0, 6) | (1, 0)))
+        .count() as u32;
+    if storage > ctx.limits.max_storage_buffers_per_shader_stage {
+        return Err(GpuRenderError::Limits(format!(
+            "{} binds {storage} storage buffers; the device allows {} per stage",
+            module.label, ctx.limits.max_storage_buffers_per_shader_stage
+        )));
+    }
     let max_group = used.iter().map(|u| u.0 + 1).max().unwrap_or(0);
     let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mut groups: [Vec<wgpu::BindGroup>; 2] = [Vec::new(), Vec::new()];
@@ -444,6 +524,128 @@ fn medium_params(
     };
 }
 
+/// The scene's surfaces as the GPU reads them: obvhs' CWBVH nodes, the triangles in its
+/// primitive order and the area lights' selection CDF (each at least one element: a binding
+/// cannot be empty; a zero node has no children, so traversal ends at once).
+struct Geometry {
+    nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
+    triangles: Vec<GpuTriangle>,
+    area_lights: Vec<GpuAreaLight>,
+}
+
+impl Geometry {
+    fn new(rs: &RenderScene) -> Result<Geometry, String> {
+        let scene = rs.scene;
+        let mut g = Geometry {
+            nodes: vec![bytemuck::Zeroable::zeroed()],
+            triangles: vec![GpuTriangle::zeroed()],
+            area_lights: vec![GpuAreaLight::zeroed()],
+        };
+        let Some(bvh) = scene.bvh.cwbvh() else {
+            return Ok(g);
+        };
+        // Selection density of each area light, by scene triangle.
+        let mut light_pdf = vec![0.0f32; scene.triangles.len()];
+        if let Some(area) = &rs.lights.area {
+            for (i, &t) in area.triangles.iter().enumerate() {
+                light_pdf[t as usize] = area.selection_pdf(i);
+            }
+        }
+        let mut slot_of = vec![crate::scene::NO_INDEX; scene.triangles.len()];
+        let mut triangles = Vec::with_capacity(bvh.primitive_indices.len());
+        for (slot, &t) in bvh.primitive_indices.iter().enumerate() {
+            let t = t as usize;
+            let tri = scene.triangles.get(t).ok_or_else(|| {
+                format!("the BVH names triangle {t} of {}", scene.triangles.len())
+            })?;
+            slot_of[t] = slot as u32;
+            let [p0, p1, p2] = scene.triangle_corners(t);
+            let n = |k: usize| scene.vertices[tri.vertices[k] as usize].normal;
+            let material = scene.instances[tri.instance as usize].material;
+            triangles.push(GpuTriangle {
+                p0: p0.to_array(),
+                triangle: t as u32,
+                p1: p1.to_array(),
+                material,
+                p2: p2.to_array(),
+                light_pdf: light_pdf[t],
+                n0: n(0),
+                kind: match rs.kinds[material as usize] {
+                    SurfaceKind::Opaque => SURFACE_OPAQUE,
+                    SurfaceKind::Dielectric => SURFACE_DIELECTRIC,
+                    SurfaceKind::Null => SURFACE_NULL,
+                },
+                n1: n(1),
+                interior: scene.materials[material as usize].interior_medium,
+                n2: n(2),
+                _pad0: 0,
+            });
+        }
+        if bvh.nodes.is_empty() || triangles.is_empty() {
+            return Ok(g);
+        }
+        let mut area_lights = Vec::new();
+        if let Some(area) = &rs.lights.area {
+            for (&t, &cdf) in area.triangles.iter().zip(area.cdf()) {
+                let prim = slot_of[t as usize];
+                if prim == crate::scene::NO_INDEX {
+                    return Err(format!(
+                        "emissive triangle {t} is not in the BVH; the GPU cannot sample it"
+                    ));
+                }
+                area_lights.push(GpuAreaLight { cdf, prim });
+            }
+        }
+        g.nodes = bvh.nodes.clone();
+        g.triangles = triangles;
+        if !area_lights.is_empty() {
+            g.area_lights = area_lights;
+        }
+        Ok(g)
+    }
+}
+
+/// The grids the emission of `m` reads, in the order [`emission_params`] expects them: the
+/// emission grid, then the temperature grid (none when `features` has no emission).
+fn emission_fields(m: &VdbMedium, features: FeatureFlags) -> Vec<GridField> {
+    let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
+        return Vec::new();
+    };
+    e.grid
+        .iter()
+        .cloned()
+        .chain(e.blackbody.as_ref().map(|b| b.temperature.clone()))
+        .collect()
+}
+
+/// `GpuEmissionParams` of `m`'s `Emission`, with the headers of the grids
+/// [`emission_fields`] listed.
+fn emission_params(
+    m: &VdbMedium,
+    features: FeatureFlags,
+    infos: &[GpuGridInfo],
+) -> GpuEmissionParams {
+    let mut p = GpuEmissionParams::default();
+    let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
+        return p;
+    };
+    let mut next = infos.iter();
+    p.strength_color = e.strength_color.to_array();
+    if e.grid.is_some() {
+        p.grid = *next.next().expect("emission grid uploaded");
+        p.has_grid = 1;
+    }
+    if let Some(b) = &e.blackbody {
+        p.temperature = *next.next().expect("temperature grid uploaded");
+        p.has_blackbody = 1;
+        p.tint = b.tint.to_array();
+        p.temperature_scale = b.scale;
+        p.temperature_offset = b.offset;
+        p.intensity = b.intensity;
+    }
+    p
+}
+
 /// Renders `rs` on the GPU; see [`render_with_timings`].
 pub fn render(
     ctx: &GpuContext,
@@ -468,12 +670,9 @@ pub fn render_with_timings(
     let start = Instant::now();
     supports(rs).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
+    // As on the CPU: the generic variant has every feature on.
     let features = if settings.generic {
-        FeatureFlags {
-            heterogeneous: true,
-            chromatic: true,
-            ..rs.features
-        }
+        FeatureFlags::ALL
     } else {
         rs.features
     };
@@ -489,6 +688,7 @@ pub fn render_with_timings(
     let limit = ctx.limits.max_storage_buffer_binding_size;
 
     // The grid, with the medium's own world -> index map and sigma_t per unit value.
+    let mut emission = GpuEmissionParams::default();
     let grid = match rs.vdb.first() {
         Some(m) if features.heterogeneous => {
             let g = &m.density.grid;
@@ -500,11 +700,19 @@ pub fn render_with_timings(
                     limit >> 20
                 )));
             }
-            let mut gg = GpuGrid::upload(ctx, &g.grid, &g.bounds, m.sigma_t_bound)
-                .map_err(GpuRenderError::Limits)?;
+            // The emission grids follow the density in the same buffers.
+            let fields = emission_fields(m, features);
+            let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
+            let (mut gg, mut infos) =
+                GpuGrid::upload_with(ctx, &g.grid, &g.bounds, m.sigma_t_bound, &extra)
+                    .map_err(GpuRenderError::Limits)?;
             gg.info.index_from_world = affine_rows(m.density.index_from_world);
             ctx.queue
                 .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
+            for (info, f) in infos.iter_mut().zip(&fields) {
+                info.index_from_world = affine_rows(f.index_from_world);
+            }
+            emission = emission_params(m, features, &infos);
             Some(gg)
         }
         _ => None,
@@ -552,15 +760,23 @@ pub fn render_with_timings(
         rr_depth: settings.rr_depth,
         max_collisions: settings.max_collisions_per_path.min(u32::MAX as u64) as u32,
         has_env: rs.lights.environment.is_some() as u32,
+        camera_medium: rs.camera_medium.unwrap_or(crate::scene::NO_INDEX),
         ..Default::default()
     };
+    let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
+    params.area_count = rs
+        .lights
+        .area
+        .as_ref()
+        .map_or(0, |a| a.triangles.len() as u32);
     if features.heterogeneous {
         medium_params(rs, &cfg, features, &mut params);
     }
 
     let timestamps = ctx.timestamp_queries;
     let stages = Stage::for_features(features);
-    let readback_size = 256u64;
+    // The counters, then two timestamps per stage.
+    let readback_size = (std::mem::size_of::<GpuWavefrontCounters>() + 16 * Stage::COUNT) as u64;
     let bufs = Buffers {
         params: [
             ctx.uniform_buffer("wavefront params 0", &params),
@@ -586,6 +802,49 @@ pub fn render_with_timings(
             ctx.storage_buffer("lights", &rs.lights.punctual)
         },
         samples: ctx.storage_buffer_zeroed("samples", largest * 16),
+        emission: ctx.uniform_buffer("emission", &emission),
+        bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
+        bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),
+        materials: if rs.scene.materials.is_empty() {
+            ctx.storage_buffer("materials", &[crate::scene::Material::zeroed()])
+        } else {
+            ctx.storage_buffer("materials", &rs.scene.materials)
+        },
+        area_lights: ctx.storage_buffer("area lights", &geometry.area_lights),
+        homogeneous: {
+            let mut h: Vec<GpuHomogeneousMedium> = rs
+                .homogeneous
+                .iter()
+                .map(|m| GpuHomogeneousMedium {
+                    sigma_a: m.sigma_a.to_array(),
+                    g: m.phase.g,
+                    sigma_s: m.sigma_s.to_array(),
+                    _pad0: 0.0,
+                })
+                .collect();
+            if h.is_empty() {
+                h.push(GpuHomogeneousMedium::zeroed());
+            }
+            ctx.storage_buffer("homogeneous media", &h)
+        },
+        no_grid: (
+            ctx.uniform_buffer("no grid", &GpuGridInfo::default()),
+            ctx.storage_buffer_zeroed("no grid data", 16),
+        ),
+        blackbody: {
+            let rows: Vec<[f32; 4]> = blackbody::table()
+                .iter()
+                .map(|c| [c.x, c.y, c.z, 0.0])
+                .collect();
+            let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("blackbody table"),
+                size: (rows.len() * 16) as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
+            b
+        },
         args: ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("dispatch args"),
             size: GpuQueue::COUNT as u64 * 12,
@@ -680,6 +939,7 @@ pub fn render_with_timings(
                 + counters.wide(GpuWideCounter::ControlCollisions);
             r.shadow_lookups = counters.wide(GpuWideCounter::ShadowLookups);
             r.path_length_sum = counters.wide(GpuWideCounter::DepthSum);
+            r.emission_lookups = counters.wide(GpuWideCounter::EmissionLookups);
             r.guard_fired = counters.guard_fired as u64;
             r.majorant_violations = counters.majorant_violations as u64;
             pending.push((r, iterations, stage_ns, samples, y0, y1));
@@ -742,7 +1002,12 @@ struct Wavefront<'a> {
     period_ns: f64,
 }
 
-type BatchResult = (GpuWavefrontCounters, u32, [u64; 7], Vec<[f32; 4]>);
+type BatchResult = (
+    GpuWavefrontCounters,
+    u32,
+    [u64; Stage::COUNT],
+    Vec<[f32; 4]>,
+);
 
 impl Wavefront<'_> {
     fn run_batch(
@@ -771,7 +1036,7 @@ impl Wavefront<'_> {
             GpuQueue::Done0 as u64 * self.slots as u64 * 4,
             bytemuck::cast_slice(&slots),
         );
-        let mut stage_ns = [0u64; 7];
+        let mut stage_ns = [0u64; Stage::COUNT];
         let mut iteration = 0u32;
         loop {
             if stop.load(Ordering::Relaxed) {
@@ -843,7 +1108,7 @@ impl Wavefront<'_> {
     fn iteration(
         &self,
         parity: u32,
-        stage_ns: &mut [u64; 7],
+        stage_ns: &mut [u64; Stage::COUNT],
     ) -> Result<GpuWavefrontCounters, GpuRenderError> {
         let ctx = self.ctx;
         let gpu_timing = self.bufs.timestamps.is_some();

@@ -14,6 +14,7 @@
 //! validates each with naga.
 use crate::gpu_types::{
     GpuControlMode, GpuEstimator, GpuMajorantMode, GpuQueue, GpuWideCounter, PATH_FLAG_SPECULAR,
+    PATH_FLAG_SURFACE, SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
 };
 use std::fmt::Write;
 
@@ -56,12 +57,22 @@ pub mod files {
     pub const DISTANCE: ShaderFile = shader_file!("kernels/distance.wgsl");
     /// Wavefront bindings, queues and counters.
     pub const WAVEFRONT: ShaderFile = shader_file!("common/wavefront.wgsl");
-    /// `Lights::sample` for punctual lights and the environment, `power_heuristic`.
+    /// `Emission::radiance`, `blackbody_emission` and the media's `on_collision`.
+    pub const EMISSION: ShaderFile = shader_file!("common/emission.wgsl");
+    /// `Principled`, `fresnel_dielectric`, `refract`, `Frame`, `cosine_hemisphere`.
+    pub const BSDF: ShaderFile = shader_file!("common/bsdf.wgsl");
+    /// The CWBVH closest-hit query, `intersect_triangle`, `shading_normal`, `emitted`.
+    pub const SURFACES: ShaderFile = shader_file!("common/surfaces.wgsl");
+    /// `sample_homogeneous`, `transmittance_homogeneous`, `enter_or_leave`.
+    pub const MEDIA: ShaderFile = shader_file!("common/media.wgsl");
+    /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
     pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
     pub const QUEUES: ShaderFile = shader_file!("kernels/queues.wgsl");
     /// The wavefront stages, one file each (see `backend::gpu::render::Stage`).
     pub const STAGE_GENERATE: ShaderFile = shader_file!("stages/generate.wgsl");
+    pub const STAGE_INTERSECT: ShaderFile = shader_file!("stages/intersect.wgsl");
+    pub const STAGE_SHADE_SURFACE: ShaderFile = shader_file!("stages/shade_surface.wgsl");
     pub const STAGE_SAMPLE_MEDIUM: ShaderFile = shader_file!("stages/sample_medium.wgsl");
     pub const STAGE_SCATTER_MEDIUM: ShaderFile = shader_file!("stages/scatter_medium.wgsl");
     pub const STAGE_TRACE_SHADOW: ShaderFile = shader_file!("stages/trace_shadow.wgsl");
@@ -168,12 +179,37 @@ pub fn shared_constants() -> String {
     }
     use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
     for (name, v) in [
+        ("QUEUE_COUNT", GpuQueue::COUNT as u32),
         ("LIGHT_POINT", LIGHT_POINT),
         ("LIGHT_SPOT", LIGHT_SPOT),
         ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
         ("PATH_FLAG_SPECULAR", PATH_FLAG_SPECULAR),
+        ("PATH_FLAG_SURFACE", PATH_FLAG_SURFACE),
+        ("SURFACE_OPAQUE", SURFACE_OPAQUE),
+        ("SURFACE_DIELECTRIC", SURFACE_DIELECTRIC),
+        ("SURFACE_NULL", SURFACE_NULL),
+        ("NO_INDEX", crate::scene::NO_INDEX),
+        (
+            "MATERIAL_DOUBLE_SIDED",
+            crate::scene::material::MATERIAL_DOUBLE_SIDED,
+        ),
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
+    }
+    use crate::integrator::blackbody;
+    writeln!(
+        s,
+        "const BLACKBODY_TABLE_LEN: u32 = {}u;",
+        blackbody::TABLE_LEN
+    )
+    .unwrap();
+    for (name, v) in [
+        ("BLACKBODY_T_MIN", blackbody::T_MIN),
+        ("BLACKBODY_T_MAX", blackbody::T_MAX),
+        ("BLACKBODY_STEP", blackbody::TABLE_STEP),
+        ("STEFAN_BOLTZMANN_SCALE", blackbody::STEFAN_BOLTZMANN_SCALE),
+    ] {
+        writeln!(s, "const {name}: f32 = {v:?}f;").unwrap();
     }
     s
 }
@@ -188,10 +224,53 @@ pub fn assemble(files: &[ShaderFile], specs: &[Spec]) -> String {
     s.push_str(&shared_constants());
     for f in files {
         writeln!(s, "// ---- file: {} ----", f.name).unwrap();
-        s.push_str(f.source);
+        s.push_str(&select_blocks(f, specs));
         s.push('\n');
     }
     s
+}
+
+/// Keeps or blanks the blocks between `// #if NAME` (or `// #if !NAME`) and `// #endif`
+/// lines by the boolean specialisation `NAME`, so that a variant without a feature contains
+/// no code for it at all. (A `const` condition would leave the code in the module as a dead
+/// branch; Mesa's lavapipe was seen to crash running a stage whose dead branch held the whole
+/// VDB free flight.) Blanked lines stay as empty lines so naga's line numbers still match the
+/// file. Blocks nest; a directive naming no boolean spec of the module keeps its block.
+fn select_blocks(f: &ShaderFile, specs: &[Spec]) -> String {
+    let mut out = String::with_capacity(f.source.len());
+    let mut active = vec![true];
+    for line in f.source.lines() {
+        let t = line.trim();
+        if let Some(cond) = t.strip_prefix("// #if ") {
+            let (negate, name) = match cond.trim().strip_prefix('!') {
+                Some(n) => (true, n.trim()),
+                None => (false, cond.trim()),
+            };
+            let value = specs
+                .iter()
+                .find(|s| s.name == name)
+                .map_or(true, |s| match s.value {
+                    SpecValue::Bool(b) => b != negate,
+                    _ => true,
+                });
+            let parent = *active.last().unwrap_or(&true);
+            active.push(parent && value);
+            out.push('\n');
+            continue;
+        }
+        if t == "// #endif" {
+            if active.len() > 1 {
+                active.pop();
+            }
+            out.push('\n');
+            continue;
+        }
+        if *active.last().unwrap_or(&true) {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    out
 }
 
 impl Module {
@@ -279,8 +358,11 @@ pub const TEST_MATH_MODULE: Module = Module {
 
 /// The specialisation constants of the wavefront modules (from the scene's `FeatureFlags`).
 pub const WAVEFRONT_SPECS: &[Spec] = &[
+    Spec::bool("FEATURE_SURFACES", true),
+    Spec::bool("FEATURE_HOMOGENEOUS", true),
     Spec::bool("FEATURE_HETEROGENEOUS", true),
     Spec::bool("FEATURE_CHROMATIC", true),
+    Spec::bool("FEATURE_EMISSION", true),
 ];
 
 macro_rules! wavefront_module {
@@ -288,7 +370,8 @@ macro_rules! wavefront_module {
         pub const $name: Module = Module {
             label: $label,
             files: &[
-                TYPES, MATH, RNG, GRID, DDA, PHASE, TRACKING, WAVEFRONT, LIGHTS, $file,
+                TYPES, MATH, RNG, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF, SURFACES,
+                MEDIA, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,
@@ -300,6 +383,18 @@ wavefront_module!(
     "generate",
     STAGE_GENERATE,
     "generate"
+);
+wavefront_module!(
+    STAGE_INTERSECT_MODULE,
+    "intersect",
+    STAGE_INTERSECT,
+    "intersect"
+);
+wavefront_module!(
+    STAGE_SHADE_SURFACE_MODULE,
+    "shade_surface",
+    STAGE_SHADE_SURFACE,
+    "shade_surface"
 );
 wavefront_module!(
     STAGE_SAMPLE_MEDIUM_MODULE,
@@ -338,6 +433,8 @@ wavefront_module!(QUEUE_ARGS_MODULE, "queue_args", QUEUES, "queue_args");
 /// Every module Brume builds.
 pub const MODULES: &[Module] = &[
     STAGE_GENERATE_MODULE,
+    STAGE_INTERSECT_MODULE,
+    STAGE_SHADE_SURFACE_MODULE,
     STAGE_SAMPLE_MEDIUM_MODULE,
     STAGE_SCATTER_MEDIUM_MODULE,
     STAGE_TRACE_SHADOW_MODULE,

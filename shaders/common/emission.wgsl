@@ -1,0 +1,70 @@
+// Mirrors the emission of the VDB medium: Emission::radiance, GreyView::on_collision and
+// RgbView::on_collision (src/integrator/media.rs), and blackbody_rgb / blackbody_emission
+// (src/integrator/blackbody.rs). Blender's Principled Volume: radiance per metre, NOT
+// multiplied by density, gathered at every tentative collision of a free flight with weight
+// w / sigma_maj (the collision density of the majorant cancels the 1 / sigma_maj; pbrt-v4's
+// VolPathIntegrator adds beta * sigma_a * Le / sigma_maj the same way, Brume's emission
+// coefficient already includes the absorption). No random numbers are drawn, so the stream
+// order stays the CPU's. Needs grid.wgsl (lookups into the shared grid buffers) and
+// tracking.wgsl (Tracker).
+
+@group(0) @binding(5) var<uniform> emission: GpuEmissionParams;
+// The unit-luminance Rec.709 colour table of blackbody::table(), 10 K apart (xyz; w unused).
+@group(0) @binding(6) var<uniform> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
+
+// blackbody_rgb: linear interpolation in the table, temperatures clamped to its range.
+fn blackbody_rgb(t: f32) -> vec3<f32> {
+    let x = max((clamp(t, BLACKBODY_T_MIN, BLACKBODY_T_MAX) - BLACKBODY_T_MIN) / BLACKBODY_STEP, 0.0);
+    let i = min(u32(x), BLACKBODY_TABLE_LEN - 2u);
+    let f = x - f32(i);
+    let a = blackbody_table[i].xyz;
+    let b = blackbody_table[i + 1u].xyz;
+    // glam's lerp: a + (b - a) f.
+    return a + (b - a) * f;
+}
+
+// blackbody_emission: (sigma_SB 1e-6 / pi) ((1 - I) + I T^4) C(T). The CPU forms T^4 in f64;
+// here the scale multiplies T^2 before the second T^2, which keeps every product finite up
+// to the loader's limit (scene::MAX_TEMPERATURE_K = 1e12 K: 1.8e-14 * 1e24 * 1e24 < 3.4e38).
+fn blackbody_emission(t_kelvin: f32, intensity: f32) -> vec3<f32> {
+    let t = max(t_kelvin, 0.0);
+    let t2 = t * t;
+    let scale = STEFAN_BOLTZMANN_SCALE * (1.0 - intensity)
+        + ((STEFAN_BOLTZMANN_SCALE * intensity) * t2) * t2;
+    return blackbody_rgb(t) * scale;
+}
+
+// Emission::radiance at world point p; counts its grid reads in the tracker.
+fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
+    var e = vec3<f32>(0.0);
+    if (any(emission.strength_color != vec3<f32>(0.0))) {
+        var scale = 1.0;
+        if (emission.has_grid != 0u) {
+            (*tr).emission_lookups += 1u;
+            scale = grid_sample_trilinear_in(emission.grid, grid_index_point(emission.grid, p));
+        }
+        e += emission.strength_color * scale;
+    }
+    if (emission.has_blackbody != 0u) {
+        (*tr).emission_lookups += 1u;
+        let g = emission.temperature;
+        let t = emission.temperature_scale * grid_sample_trilinear_in(g, grid_index_point(g, p))
+            + emission.temperature_offset;
+        e += emission.tint * blackbody_emission(t, emission.intensity);
+    }
+    return e;
+}
+
+// Medium::on_collision of the wavefront's media: the emission at the tentative collision t,
+// weighted by the flight's starting throughput and the weight so far over sigma_maj
+// (grey: `beta * (w / sigma_maj) * Le`; spectral: `beta * w * Le / sigma_maj`).
+fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
+// #if FEATURE_EMISSION
+    let le = emission_radiance(tr, (*tr).ow + t * (*tr).dw);
+    if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
+        (*tr).emitted += (*tr).beta * (*tr).w * le / sigma_maj;
+    } else {
+        (*tr).emitted += (*tr).beta * ((*tr).w.x / sigma_maj) * le;
+    }
+// #endif
+}

@@ -1,0 +1,135 @@
+// Mirrors the surface half of radiance's loop (src/integrator/path.rs): Stage::ShadeSurface.
+// At the surface its ray hit (GpuPathState::hit_*): the surface's emission, MIS-weighted
+// against light sampling (Lights::pdf_area) unless the direction came from a delta
+// distribution; then by the material's kind
+// - null interface: enter or leave its interior medium and continue the same ray past it;
+// - smooth dielectric: count the event, reflect or refract by Fresnel (one uniform), the
+//   throughput compressed by eta^2 when refracting, medium change, Russian roulette;
+// - opaque: count the event, next-event estimation with the BSDF (the light sample's three
+//   uniforms here, its transmittance in the shadow stage) and hand the path to the
+//   direction stage, which samples the BSDF after the shadow ray has drawn its numbers (the
+//   CPU's order).
+
+// The end of radiance's loop body: russian_roulette, then the next iteration or done.
+fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng) {
+    var ps = ps_in;
+    var rng = rng_in;
+    // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
+    var beta = ps.beta;
+    let alive = russian_roulette(&beta, ps.depth, &rng);
+    ps.beta = beta;
+    ps.rng_state = rng.state;
+    ps.rng_inc = rng.inc;
+    paths[slot] = ps;
+    if (alive) {
+        queue_push(queue_medium_out(), slot);
+    } else {
+        queue_push(queue_done_out(), slot);
+    }
+}
+
+@compute @workgroup_size(64)
+fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
+    var slot = 0u;
+    if (!queue_item(QUEUE_SURFACE, id.x, &slot)) {
+        return;
+    }
+    var ps = paths[slot];
+    let tri = bvh_triangles[ps.hit_prim];
+    let mat = materials[tri.material];
+    let p = ps.o + ps.hit_t * ps.d;
+    let wo = -ps.d;
+    let ng = normalize_or_zero(triangle_cross(tri));
+    let cos_o = dot(ng, wo);
+    if (any(mat.emission != vec3<f32>(0.0))) {
+        let le = emitted(mat, cos_o);
+        if (any(le != vec3<f32>(0.0))) {
+            var w = 1.0;
+            if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
+                w = power_heuristic(ps.prev_pdf, pdf_area(tri, ps.hit_t, cos_o));
+            }
+            ps.l += ps.beta * le * w;
+        }
+    }
+    if (tri.kind == SURFACE_NULL) {
+        // An index-matched boundary: only the medium changes; no event, no roulette.
+        if (FEATURE_HOMOGENEOUS) {
+            ps.medium = enter_or_leave(tri.interior, cos_o > 0.0);
+        }
+        ps.t0 = ps.hit_t + 1e-4 * (1.0 + ps.hit_t);
+        paths[slot] = ps;
+        queue_push(queue_medium_out(), slot);
+        return;
+    }
+    ps.depth += 1u;
+    if (ps.depth > wf.max_depth) {
+        paths[slot] = ps;
+        queue_push(queue_done_out(), slot);
+        return;
+    }
+    var rng = path_rng(ps);
+    if (tri.kind == SURFACE_DIELECTRIC) {
+        let entering = cos_o > 0.0;
+        let n = select(-ng, ng, entering);
+        let eta = select(1.0 / mat.ior, mat.ior, entering);
+        let f = fresnel_dielectric(dot(n, wo), eta);
+        let reflected = 2.0 * dot(n, wo) * n - wo;
+        var wi = reflected;
+        if (rng_uniform(&rng) >= f) {
+            var wt = vec3<f32>(0.0);
+            if (refract(wo, n, eta, &wt)) {
+                // Radiance is compressed by eta^2 entering a denser medium.
+                ps.beta *= mat.base_color.xyz / (eta * eta);
+                if (FEATURE_HOMOGENEOUS) {
+                    ps.medium = enter_or_leave(tri.interior, entering);
+                }
+                wi = wt;
+            }
+        }
+        ps.o = offset_origin(p, ng, wi);
+        ps.d = wi;
+        ps.t0 = 0.0;
+        ps.flags |= PATH_FLAG_SPECULAR;
+        continue_or_finish(ps, slot, rng);
+        return;
+    }
+    // Opaque: next-event estimation with the BSDF from just above the surface.
+    let n_side = select(-ng, ng, cos_o >= 0.0);
+    let ns = shading_normal(tri, ps.hit_b1, ps.hit_b2, n_side);
+    let frame = frame_from_z(ns);
+    let bsdf = principled_new(mat.base_color.xyz, mat.metallic, mat.roughness);
+    let wo_l = frame_to_local(frame, wo);
+    let p_off = offset_origin(p, n_side, n_side);
+    let u_select = rng_uniform(&rng);
+    let ux = rng_uniform(&rng);
+    let uy = rng_uniform(&rng);
+    let ls = light_sample(p_off, u_select, vec2<f32>(ux, uy));
+    if (ls.valid && dot(n_side, ls.wi) > 0.0) {
+        let wi_l = frame_to_local(frame, ls.wi);
+        let f = principled_eval(bsdf, wo_l, wi_l) * abs(wi_l.z);
+        let pdf_bsdf = principled_pdf(bsdf, wo_l, wi_l);
+        if (any(f != vec3<f32>(0.0)) && ls.pdf > 0.0) {
+            var dist = f32_inf();
+            if (ls.dist <= F32_MAX) {
+                dist = ls.dist * (1.0 - 1e-4);
+            }
+            var w = 1.0;
+            if (!ls.is_delta) {
+                w = power_heuristic(ls.pdf, pdf_bsdf);
+            }
+            var sh: GpuShadowRay;
+            sh.o = p_off;
+            sh.dist = dist;
+            sh.wi = ls.wi;
+            sh.medium = ps.medium;
+            sh.contribution = ps.beta * ls.li * f * (w / ls.pdf);
+            shadows[slot] = sh;
+            queue_push(QUEUE_SHADOW, slot);
+        }
+    }
+    ps.rng_state = rng.state;
+    ps.rng_inc = rng.inc;
+    ps.flags |= PATH_FLAG_SURFACE;
+    paths[slot] = ps;
+    queue_push(QUEUE_PHASE, slot);
+}
