@@ -28,11 +28,11 @@ fn sample_homogeneous(h: GpuHomogeneousMedium, t_max: f32, rng: ptr<function, Rn
             t = sample_exponential(rng_uniform(rng), st_c);
         }
         if (t < t_max) {
-            let tr = exp(-sigma_t * t);
+            let tr = exp_neg(sigma_t, t);
             let pdf = (sigma_t.x * tr.x + sigma_t.y * tr.y + sigma_t.z * tr.z) / 3.0;
             return MediumEvent(EVENT_SCATTER, t, h.sigma_s * tr / pdf);
         }
-        let tr = exp(-sigma_t * t_max);
+        let tr = exp_neg(sigma_t, t_max);
         let p_escape = (tr.x + tr.y + tr.z) / 3.0;
         return MediumEvent(EVENT_ESCAPE, 0.0, tr / p_escape);
     }
@@ -56,7 +56,13 @@ fn sample_homogeneous(h: GpuHomogeneousMedium, t_max: f32, rng: ptr<function, Rn
 
 // transmittance_homogeneous: exp(-sigma_t d), exact.
 fn transmittance_homogeneous(h: GpuHomogeneousMedium, d: f32) -> vec3<f32> {
-    return exp(-(h.sigma_a + h.sigma_s) * d);
+    return exp_neg(h.sigma_a + h.sigma_s, d);
+}
+
+// exp_neg: exp(-sigma_t d) with a clear channel (sigma_t = 0) transmitting 1 even over an
+// infinite distance, where 0 * inf would be NaN (media.rs exp_neg).
+fn exp_neg(sigma_t: vec3<f32>, d: f32) -> vec3<f32> {
+    return select(exp(-sigma_t * d), vec3<f32>(1.0), sigma_t == vec3<f32>(0.0));
 }
 
 // enter_or_leave: crossing a boundary inwards enters its interior medium (if any); outwards

@@ -247,19 +247,35 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             }
         },
     };
-    let (out, backend, variant): (RenderOutput, String, Option<String>) = match &gpu {
+    let on_gpu = match &gpu {
         Some(ctx) => {
             eprintln!("backend: gpu ({})", ctx.describe());
-            let (out, timings) = brume::backend::gpu::render::render_with_timings(
+            match brume::backend::gpu::render::render_with_timings(
                 ctx, &rs, &settings, &stop, &progress,
-            )?;
-            eprintln!("gpu variant: {}", timings.variant);
-            (
-                out,
-                format!("wgpu: {}", ctx.describe()),
-                Some(timings.variant),
-            )
+            ) {
+                Ok((out, timings)) => {
+                    eprintln!("gpu variant: {}", timings.variant);
+                    Some((
+                        out,
+                        format!("wgpu: {}", ctx.describe()),
+                        Some(timings.variant),
+                    ))
+                }
+                // A grid or binding count beyond the device's limits is found while the
+                // kernels and buffers are set up, before any sample: auto renders on the CPU.
+                Err(brume::backend::gpu::render::GpuRenderError::Limits(why))
+                    if args.backend == Backend::Auto =>
+                {
+                    eprintln!("backend: cpu (the GPU's limits: {why})");
+                    None
+                }
+                Err(e) => return Err(e.into()),
+            }
         }
+        None => None,
+    };
+    let (out, backend, variant): (RenderOutput, String, Option<String>) = match on_gpu {
+        Some(done) => done,
         None => (
             pool.install(|| cpu::render(&rs, &settings, &stop, &progress)),
             format!("cpu ({threads} threads)"),
