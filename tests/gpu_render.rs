@@ -422,3 +422,60 @@ fn generic_variant_matches_the_specialised_one() {
         );
     }
 }
+
+#[test]
+fn an_interrupted_render_keeps_its_whole_passes() {
+    // Ctrl-C sets the stop flag (as `brume render` does): the pass in flight is dropped, the
+    // passes before it are kept and flagged, as on the CPU.
+    let Some(ctx) = gpu_or_skip("an_interrupted_render_keeps_its_whole_passes") else {
+        return;
+    };
+    let scene = load_scene("cloud.gltf");
+    let s = settings(16, 12, 64, 5);
+    let rs = RenderScene::new(&scene, false).unwrap();
+    let stop = AtomicBool::new(false);
+    let progress = |spp: u32, _: u32, _: f64| {
+        if spp >= 2 {
+            stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
+    };
+    let out = gpu::render(&ctx, &rs, &s, &stop, &progress).unwrap();
+    println!("interrupted at {} spp", out.spp);
+    assert!(out.interrupted);
+    assert!(out.spp >= 2 && out.spp < s.spp, "{}", out.spp);
+    for y in 0..s.height {
+        for x in 0..s.width {
+            assert_eq!(out.film.sample_count(x, y), out.spp);
+            assert!(out.film.mean(x, y).iter().all(|v| v.is_finite()));
+        }
+    }
+}
+
+#[test]
+fn a_grid_beyond_the_devices_binding_limit_is_refused_cleanly() {
+    // A device whose storage bindings are smaller than the grid: a `Limits` error naming the
+    // sizes before any work is queued (auto then renders on the CPU), never a lost device.
+    let Some(mut ctx) = gpu_or_skip("a_grid_beyond_the_devices_binding_limit_is_refused_cleanly")
+    else {
+        return;
+    };
+    ctx.limits.max_storage_buffer_binding_size = 64 << 10;
+    let scene = load_scene("cloud.gltf");
+    let rs = RenderScene::new(&scene, false).unwrap();
+    let s = settings(16, 12, 4, 5);
+    match gpu::render(&ctx, &rs, &s, &AtomicBool::new(false), &|_, _, _| {}) {
+        Err(gpu::GpuRenderError::Limits(why)) => {
+            println!("refused: {why}");
+            assert!(
+                why.contains("MiB") || why.contains("KiB") || why.contains("bytes"),
+                "{why}"
+            );
+        }
+        Err(e) => panic!("expected a Limits error, got {e}"),
+        Ok(_) => panic!("a grid larger than the binding limit was accepted"),
+    }
+    // The device is still usable afterwards.
+    ctx.limits.max_storage_buffer_binding_size = 128 << 20;
+    let out = gpu::render(&ctx, &rs, &s, &AtomicBool::new(false), &|_, _, _| {}).unwrap();
+    assert_eq!(out.spp, 4);
+}

@@ -337,10 +337,11 @@ impl GpuGrid {
         let bytes = (grid.bricks.len() * 4) as u64;
         if bytes > limit || (grid.cells.len() * 4) as u64 > limit {
             return Err(format!(
-                "grid needs {} MiB of bricks and {} MiB of cells; the device binds at most {} MiB",
-                bytes >> 20,
-                (grid.cells.len() * 4) >> 20,
-                limit >> 20
+                "the grid needs {} of bricks and {} of cells in one storage binding; the device \
+                 binds at most {} (`--backend auto` renders it on the CPU)",
+                byte_size(bytes),
+                byte_size((grid.cells.len() * 4) as u64),
+                byte_size(limit)
             ));
         }
         let info = GpuGridInfo::new(grid, density_scale);
@@ -438,5 +439,21 @@ impl GpuGrid {
             v.push((0, 4, &self.bounds));
         }
         v
+    }
+}
+
+/// `bytes` in the largest binary unit that keeps a digit before the point ("3.2 MiB").
+pub fn byte_size(bytes: u64) -> String {
+    let units = ["bytes", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < units.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} bytes")
+    } else {
+        format!("{v:.1} {}", units[u])
     }
 }

@@ -41,7 +41,7 @@ use std::time::Instant;
 use bytemuck::Zeroable;
 use glam::Vec3;
 
-use super::device::{GpuContext, GpuGrid};
+use super::device::{byte_size, GpuContext, GpuGrid};
 use super::shader::{self, Module, Spec};
 use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
@@ -695,9 +695,9 @@ pub fn render_with_timings(
             let bounds_bytes = (g.bounds.cells.len() as u64 + 1) * 8;
             if bounds_bytes > limit {
                 return Err(GpuRenderError::Limits(format!(
-                    "grid bounds need {} MiB; the device binds at most {} MiB",
-                    bounds_bytes >> 20,
-                    limit >> 20
+                    "the grid's bounds need {}; the device binds at most {}",
+                    byte_size(bounds_bytes),
+                    byte_size(limit)
                 )));
             }
             // The emission grids follow the density in the same buffers.
@@ -735,10 +735,10 @@ pub fn render_with_timings(
         .unwrap_or(1);
     if largest * 16 > limit {
         return Err(GpuRenderError::Limits(format!(
-            "one row of {w} pixels at {} samples per pass needs {} MiB of sample buffer; the device binds {} MiB",
+            "one row of {w} pixels at {} samples per pass needs {} of sample buffer; the device binds {}",
             settings.max_pass_spp,
-            (largest * 16) >> 20,
-            limit >> 20
+            byte_size(largest * 16),
+            byte_size(limit)
         )));
     }
     let slots = (WAVEFRONT_SIZE as u64).min(largest) as u32;
