@@ -57,6 +57,42 @@ fn gpu_render(
     out
 }
 
+/// Prints how closely the GPU image `g` replays the CPU's random streams (the CPU image with
+/// the same seed, rendered here) and both renders' work per sample (`c`: the CPU image with
+/// another seed); returns both renders' totals.
+fn print_parity(
+    label: &str,
+    scene: &brume::scene::Scene,
+    s: &RenderSettings,
+    g: &brume::backend::cpu::RenderOutput,
+    c: &brume::backend::cpu::RenderOutput,
+) -> (brume::film::TileTotals, brume::film::TileTotals) {
+    let same = render(scene, s);
+    let (gm, _) = moments(g);
+    let (sm, _) = moments(&same);
+    let close = gm
+        .iter()
+        .zip(&sm)
+        .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
+        .count();
+    println!(
+        "{label}: same seed: {close} of {} pixel values equal to 1e-4 (relative)",
+        gm.len()
+    );
+    let (gt, ct) = (
+        brume::film::totals(&g.records),
+        brume::film::totals(&c.records),
+    );
+    println!(
+        "{label}: lookups/sample GPU {:.1} CPU {:.1}; mean path length GPU {:.3} CPU {:.3}",
+        gt.lookups_per_sample(),
+        ct.lookups_per_sample(),
+        gt.mean_path_length(),
+        ct.mean_path_length()
+    );
+    (gt, ct)
+}
+
 fn agree(
     label: &str,
     gpu_out: &brume::backend::cpu::RenderOutput,
@@ -113,29 +149,7 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
         };
         let c = render(&scene, &independent);
         agree(&label, &g, &c, alpha);
-        let same = render(&scene, &s);
-        let (gm, _) = moments(&g);
-        let (sm, _) = moments(&same);
-        let close = gm
-            .iter()
-            .zip(&sm)
-            .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
-            .count();
-        println!(
-            "{label}: same seed: {close} of {} pixel values equal to 1e-4 (relative)",
-            gm.len()
-        );
-        let (gt, ct) = (
-            brume::film::totals(&g.records),
-            brume::film::totals(&c.records),
-        );
-        println!(
-            "{label}: lookups/sample GPU {:.1} CPU {:.1}; mean path length GPU {:.3} CPU {:.3}",
-            gt.lookups_per_sample(),
-            ct.lookups_per_sample(),
-            gt.mean_path_length(),
-            ct.mean_path_length()
-        );
+        let (gt, ct) = print_parity(&label, &scene, &s, &g, &c);
         assert_eq!(gt.samples, ct.samples, "{label}");
         assert!(gt.density_lookups > 0, "{label}");
     }
@@ -333,29 +347,7 @@ fn surface_scenes_agree_with_the_cpu() {
         );
         agree(&label, &g, &c, alpha);
         // With the same seed the GPU replays the CPU's streams: a parity figure, printed.
-        let same = render(&scene, &s);
-        let (gm, _) = moments(&g);
-        let (sm, _) = moments(&same);
-        let close = gm
-            .iter()
-            .zip(&sm)
-            .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
-            .count();
-        println!(
-            "{label}: same seed: {close} of {} pixel values equal to 1e-4 (relative)",
-            gm.len()
-        );
-        let (gt, ct) = (
-            brume::film::totals(&g.records),
-            brume::film::totals(&c.records),
-        );
-        println!(
-            "{label}: mean path length GPU {:.3} CPU {:.3}; lookups/sample GPU {:.1} CPU {:.1}",
-            gt.mean_path_length(),
-            ct.mean_path_length(),
-            gt.lookups_per_sample(),
-            ct.lookups_per_sample()
-        );
+        print_parity(&label, &scene, &s, &g, &c);
     }
 }
 

@@ -135,3 +135,39 @@ fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, rng: ptr<functio
     *beta /= q;
     return true;
 }
+
+// The end of radiance's loop body: russian_roulette, then the next iteration or done.
+fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng) {
+    var ps = ps_in;
+    var rng = rng_in;
+    // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
+    var beta = ps.beta;
+    let alive = russian_roulette(&beta, ps.depth, &rng);
+    ps.beta = beta;
+    ps.rng_state = rng.state;
+    ps.rng_inc = rng.inc;
+    paths[slot] = ps;
+    if (alive) {
+        queue_push(queue_medium_out(), slot);
+    } else {
+        queue_push(queue_done_out(), slot);
+    }
+}
+
+// Queues a shadow ray from `o` towards a light `light_dist` away (inf: directional or
+// environment) carrying `contribution`; it stops just short of the light, as on the CPU.
+fn push_shadow_ray(slot: u32, o: vec3<f32>, wi: vec3<f32>, light_dist: f32, medium: u32,
+                   contribution: vec3<f32>) {
+    var dist = f32_inf();
+    if (light_dist <= F32_MAX) {
+        dist = light_dist * (1.0 - 1e-4);
+    }
+    var sh: GpuShadowRay;
+    sh.o = o;
+    sh.dist = dist;
+    sh.wi = wi;
+    sh.medium = medium;
+    sh.contribution = contribution;
+    shadows[slot] = sh;
+    queue_push(QUEUE_SHADOW, slot);
+}

@@ -59,16 +59,5 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     ps.t0 = 0.0;
     ps.flags = ps.flags & ~PATH_FLAG_SPECULAR;
-    // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
-    var beta = ps.beta;
-    let alive = russian_roulette(&beta, ps.depth, &rng);
-    ps.beta = beta;
-    ps.rng_state = rng.state;
-    ps.rng_inc = rng.inc;
-    paths[slot] = ps;
-    if (alive) {
-        queue_push(queue_medium_out(), slot);
-    } else {
-        queue_push(queue_done_out(), slot);
-    }
+    continue_or_finish(ps, slot, rng);
 }

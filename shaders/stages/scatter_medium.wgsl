@@ -29,22 +29,11 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     if (ls.valid) {
         let f = hg_p(medium_phase_g(ps.medium), wo, ls.wi);
         if (f > 0.0 && ls.pdf > 0.0) {
-            var dist = f32_inf();
-            if (ls.dist <= F32_MAX) {
-                dist = ls.dist * (1.0 - 1e-4);
-            }
             var w = 1.0;
             if (!ls.is_delta) {
                 w = power_heuristic(ls.pdf, f);
             }
-            var sh: GpuShadowRay;
-            sh.o = p;
-            sh.dist = dist;
-            sh.wi = ls.wi;
-            sh.medium = ps.medium;
-            sh.contribution = ps.beta * ls.li * (f * w / ls.pdf);
-            shadows[slot] = sh;
-            queue_push(QUEUE_SHADOW, slot);
+            push_shadow_ray(slot, p, ls.wi, ls.dist, ps.medium, ps.beta * ls.li * (f * w / ls.pdf));
         }
     }
     ps.rng_state = rng.state;

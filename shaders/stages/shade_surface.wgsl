@@ -10,24 +10,6 @@
 //   direction stage, which samples the BSDF after the shadow ray has drawn its numbers (the
 //   CPU's order).
 
-// The end of radiance's loop body: russian_roulette, then the next iteration or done.
-fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng) {
-    var ps = ps_in;
-    var rng = rng_in;
-    // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
-    var beta = ps.beta;
-    let alive = russian_roulette(&beta, ps.depth, &rng);
-    ps.beta = beta;
-    ps.rng_state = rng.state;
-    ps.rng_inc = rng.inc;
-    paths[slot] = ps;
-    if (alive) {
-        queue_push(queue_medium_out(), slot);
-    } else {
-        queue_push(queue_done_out(), slot);
-    }
-}
-
 @compute @workgroup_size(64)
 fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     var slot = 0u;
@@ -109,22 +91,11 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
         let f = principled_eval(bsdf, wo_l, wi_l) * abs(wi_l.z);
         let pdf_bsdf = principled_pdf(bsdf, wo_l, wi_l);
         if (any(f != vec3<f32>(0.0)) && ls.pdf > 0.0) {
-            var dist = f32_inf();
-            if (ls.dist <= F32_MAX) {
-                dist = ls.dist * (1.0 - 1e-4);
-            }
             var w = 1.0;
             if (!ls.is_delta) {
                 w = power_heuristic(ls.pdf, pdf_bsdf);
             }
-            var sh: GpuShadowRay;
-            sh.o = p_off;
-            sh.dist = dist;
-            sh.wi = ls.wi;
-            sh.medium = ps.medium;
-            sh.contribution = ps.beta * ls.li * f * (w / ls.pdf);
-            shadows[slot] = sh;
-            queue_push(QUEUE_SHADOW, slot);
+            push_shadow_ray(slot, p_off, ls.wi, ls.dist, ps.medium, ps.beta * ls.li * f * (w / ls.pdf));
         }
     }
     ps.rng_state = rng.state;
