@@ -93,6 +93,28 @@ fn print_parity(
     (gt, ct)
 }
 
+/// Renders `s` on the GPU and, with another seed (independent samples), on the CPU, and
+/// asserts that they [`agree`].
+fn gpu_against_cpu(
+    ctx: &brume::backend::gpu::GpuContext,
+    scene: &brume::scene::Scene,
+    s: &RenderSettings,
+    label: &str,
+    alpha: f64,
+) -> (
+    brume::backend::cpu::RenderOutput,
+    brume::backend::cpu::RenderOutput,
+) {
+    let g = gpu_render(ctx, scene, s, label);
+    let independent = RenderSettings {
+        seed: s.seed + 1000,
+        ..s.clone()
+    };
+    let c = render(scene, &independent);
+    agree(label, &g, &c, alpha);
+    (g, c)
+}
+
 fn agree(
     label: &str,
     gpu_out: &brume::backend::cpu::RenderOutput,
@@ -206,15 +228,7 @@ fn volume_emission_agrees_with_the_cpu() {
             ..settings(16, 12, 32, 500 + i as u32)
         };
         let label = format!("fire (no floor) {estimator} spectral={spectral}");
-        let g = gpu_render(&ctx, &scene, &s, &label);
-        let c = render(
-            &scene,
-            &RenderSettings {
-                seed: s.seed + 1000,
-                ..s.clone()
-            },
-        );
-        agree(&label, &g, &c, alpha);
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
         let (gt, ct) = (
             brume::film::totals(&g.records),
             brume::film::totals(&c.records),
@@ -337,15 +351,7 @@ fn surface_scenes_agree_with_the_cpu() {
             ..settings(24, 18, spp, 900 + i as u32)
         };
         let label = format!("{file} {estimator}");
-        let g = gpu_render(&ctx, &scene, &s, &label);
-        let c = render(
-            &scene,
-            &RenderSettings {
-                seed: s.seed + 1000,
-                ..s.clone()
-            },
-        );
-        agree(&label, &g, &c, alpha);
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
         // With the same seed the GPU replays the CPU's streams: a parity figure, printed.
         print_parity(&label, &scene, &s, &g, &c);
     }
