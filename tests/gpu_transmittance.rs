@@ -10,7 +10,7 @@ mod common;
 use brume::backend::gpu::shader::TRANSMITTANCE_MODULE;
 use brume::backend::gpu::{GpuContext, GpuGrid};
 use brume::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuRay as _, GpuTrackingParams, GpuTrackingStats,
+    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuTrackingParams, GpuTrackingStats,
 };
 use brume::math::{Ray, Vec3};
 use brume::sampling::Rng;
