@@ -316,16 +316,6 @@ fn example_scenes_are_supported_and_two_grids_refused() {
     assert!(!why.contains('\n'), "one line");
 }
 
-const EXAMPLE_SCENES: [&str; 7] = [
-    "cloud.gltf",
-    "cornell_smoke.gltf",
-    "glass_volume.gltf",
-    "fire.gltf",
-    "chromatic.gltf",
-    "chromatic_smoke.gltf",
-    "furnace.gltf",
-];
-
 /// The scenes with surfaces (opaque, dielectric and null interfaces, area lights, homogeneous
 /// media in closed meshes, chromatic homogeneous media, volume emission over a floor), every
 /// estimator: GPU against CPU.

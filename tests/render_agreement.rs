@@ -65,15 +65,7 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
 
 #[test]
 fn specialised_and_generic_paths_give_the_same_image() {
-    for name in [
-        "cloud.gltf",
-        "cornell_smoke.gltf",
-        "glass_volume.gltf",
-        "fire.gltf",
-        "chromatic.gltf",
-        "chromatic_smoke.gltf",
-        "furnace.gltf",
-    ] {
+    for name in EXAMPLE_SCENES {
         let scene = load_scene(name);
         let s = RenderSettings {
             width: 16,
@@ -138,4 +130,18 @@ fn images_do_not_depend_on_the_thread_count() {
             .collect::<Vec<_>>()
     };
     assert_eq!(bits(&one), bits(&three));
+}
+
+#[test]
+fn the_example_scene_list_is_complete() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut found: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".gltf"))
+        .collect();
+    found.sort();
+    let mut listed = EXAMPLE_SCENES.map(String::from).to_vec();
+    listed.sort();
+    assert_eq!(found, listed);
 }

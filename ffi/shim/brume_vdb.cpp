@@ -65,7 +65,7 @@ void ensure_initialized() {
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-template <typename F> int32_t guarded_unlocked(char **error, F &&body) {
+template <typename F> int32_t guarded(char **error, F &&body) {
     if (error) *error = nullptr;
     try {
         ensure_initialized();
@@ -96,10 +96,6 @@ template <typename F> int32_t guarded_unlocked(char **error, F &&body) {
         set_error(error, "unknown C++ exception");
         return BRUME_VDB_INTERNAL;
     }
-}
-
-template <typename F> int32_t guarded(char **error, F &&body) {
-    return guarded_unlocked(error, std::forward<F>(body));
 }
 
 void require(bool ok, int32_t status, const char *message) {
@@ -248,8 +244,6 @@ constexpr char CHILD_FAILED = 'E';
 // OpenVDB's own format (no compression: the pipe is local; no statistics: not needed). Never
 // returns.
 [[noreturn]] void child_reads(const char *path, int fd) {
-    int32_t status = BRUME_VDB_INTERNAL;
-    std::string message;
     // glibc's "malloc(): invalid size" as the reader dies would read like Brume's own output;
     // the parent reports the crash in its place. Nor may the reader hold the parent's stdout
     // open (a test harness reading it would wait for the reader too).
@@ -258,8 +252,9 @@ constexpr char CHILD_FAILED = 'E';
         ::dup2(devnull, STDOUT_FILENO);
         ::dup2(devnull, STDERR_FILENO);
     }
-    try {
-        ensure_initialized();
+    // The same exception-to-status mapping as every entry point.
+    char *error = nullptr;
+    const int32_t status = guarded(&error, [&] {
         std::ifstream is = open_checked(path);
         auto file = read_file(is);
         __gnu_cxx::stdio_filebuf<char> buf(fd, std::ios::out | std::ios::binary);
@@ -272,29 +267,10 @@ constexpr char CHILD_FAILED = 'E';
         stream.write(grids, file->metadata ? *file->metadata : openvdb::MetaMap());
         os.flush();
         _exit(os.good() ? 0 : 3);
-    } catch (const Failure &f) {
-        status = f.status;
-        message = f.message;
-    } catch (const std::ios_base::failure &e) {
-        status = BRUME_VDB_IO_ERROR;
-        message = std::string("read failed (truncated or unreadable file): ") + e.what();
-    } catch (const std::bad_alloc &) {
-        status = BRUME_VDB_OUT_OF_MEMORY;
-        message = "out of memory (a corrupt file can ask for absurd sizes)";
-    } catch (const openvdb::TypeError &e) {
-        status = BRUME_VDB_TYPE_ERROR;
-        message = e.what();
-    } catch (const openvdb::Exception &e) {
-        status = BRUME_VDB_FORMAT_ERROR;
-        message = e.what();
-    } catch (const std::exception &e) {
-        message = e.what();
-    } catch (...) {
-        message = "unknown C++ exception";
-    }
+    });
     std::string out(1, CHILD_FAILED);
     out.append(reinterpret_cast<const char *>(&status), sizeof(status));
-    out += message;
+    out += error ? error : "unknown failure";
     for (size_t done = 0; done < out.size();) {
         const ssize_t n = ::write(fd, out.data() + done, out.size() - done);
         if (n <= 0 && errno != EINTR) break;
@@ -408,7 +384,6 @@ void read_in_child(const char *path, double timeout_seconds, std::string &bytes)
     }
     require(bytes[0] == CHILD_OK, BRUME_VDB_INTERNAL,
             "the process reading the file sent an unknown reply");
-    bytes.erase(0, 1);
 }
 
 } // namespace
@@ -447,7 +422,7 @@ int32_t brume_vdb_open(const char *path, BrumeVdbFile **out, char **error) {
 
 int32_t brume_vdb_open_isolated(const char *path, double timeout_seconds, BrumeVdbFile **out,
                                 char **error) {
-    return guarded_unlocked(error, [&] {
+    return guarded(error, [&] {
         require(path && out, BRUME_VDB_INVALID_ARGUMENT, "null argument");
         *out = nullptr;
         std::string bytes;
@@ -455,7 +430,9 @@ int32_t brume_vdb_open_isolated(const char *path, double timeout_seconds, BrumeV
         open_checked(path);
         read_in_child(path, timeout_seconds, bytes);
         std::istringstream is(bytes, std::ios::in | std::ios::binary);
+        std::string().swap(bytes); // the stream holds its own copy
         is.exceptions(std::ios::badbit | std::ios::failbit);
+        is.get(); // CHILD_OK
         *out = read_file(is).release();
     });
 }

@@ -13,6 +13,17 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
         .join(name)
 }
 
+/// Every scene in `scenes/` (a test checks that none is missing).
+pub const EXAMPLE_SCENES: [&str; 7] = [
+    "cloud.gltf",
+    "cornell_smoke.gltf",
+    "glass_volume.gltf",
+    "fire.gltf",
+    "chromatic.gltf",
+    "chromatic_smoke.gltf",
+    "furnace.gltf",
+];
+
 pub fn load_scene(name: &str) -> Scene {
     brume::scene::load(&scene_path(name)).unwrap_or_else(|e| panic!("{e}"))
 }
