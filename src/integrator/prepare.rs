@@ -126,8 +126,7 @@ impl<'s> RenderScene<'s> {
             let density = &desc.grids[0];
             let world_from_node = desc.world_from_medium * density.vdb_world_from_index.inverse();
             let by_name = |name: &Option<String>| {
-                name.as_ref()
-                    .and_then(|n| desc.grids.iter().find(|g| &g.name == n))
+                desc.grid_named(name.as_deref())
                     .map(|g| field(g, world_from_node))
             };
             let strength_color = Vec3::from(desc.emission_color) * desc.emission_strength;

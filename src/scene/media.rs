@@ -173,6 +173,12 @@ impl VdbMediumDesc {
     }
 
     /// Whether the medium emits: a non-zero emission or a temperature grid with blackbody on.
+    /// The loaded grid named `name` (`None` for no name, or a grid not loaded).
+    pub fn grid_named(&self, name: Option<&str>) -> Option<&LoadedGrid> {
+        let name = name?;
+        self.grids.iter().find(|g| g.name == name)
+    }
+
     pub fn emits(&self) -> bool {
         let emission = self.emission_strength > 0.0 && self.emission_color.iter().any(|&c| c > 0.0);
         let blackbody = self.temperature_grid.is_some()
@@ -366,14 +372,9 @@ fn check_emission_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<()
         .emission_color
         .iter()
         .fold(0.0f64, |a, &c| a.max(c as f64));
-    let grid_max = match &desc.emission_grid {
-        Some(name) => desc
-            .grids
-            .iter()
-            .find(|g| &g.name == name)
-            .map_or(1.0, |g| g.volume.bounds.global.max.max(0.0) as f64),
-        None => 1.0,
-    };
+    let grid_max = desc
+        .grid_named(desc.emission_grid.as_deref())
+        .map_or(1.0, |g| g.volume.bounds.global.max.max(0.0) as f64);
     let emission = desc.emission_strength as f64 * color * grid_max;
     if !(emission <= MAX_EMISSION) {
         return Err(ctx.invalid(
@@ -405,7 +406,7 @@ fn check_temperature_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result
     if !(desc.blackbody_intensity > 0.0) {
         return Ok(());
     }
-    let Some(grid) = desc.grids.iter().find(|g| &g.name == name) else {
+    let Some(grid) = desc.grid_named(Some(name)) else {
         return Ok(());
     };
     let g = grid.volume.bounds.global;
