@@ -46,9 +46,7 @@ const WORKER_VMEM_KIB: u64 = 2 << 20;
 
 /// Inputs per worker process. OpenVDB's reader runs in a child process of its own
 /// (`VdbFile::open`), so one worker serves many inputs of either kind.
-fn batch(_kind: &str) -> u64 {
-    100_000
-}
+const BATCH: u64 = 100_000;
 
 /// Where a VDB worker is, written to `state/stage` so that the parent can say where a dead
 /// worker died.
@@ -251,7 +249,7 @@ fn random_value(rng: &mut SplitMix64, depth: u32) -> Value {
             let mut m = serde_json::Map::new();
             for _ in 0..rng.below(3) {
                 m.insert(
-                    MEDIUM_FIELDS[rng.below(15) as usize].into(),
+                    MEDIUM_FIELDS[rng.below(MEDIUM_FIELDS.len() as u64) as usize].into(),
                     random_value(rng, depth + 1),
                 );
             }
@@ -267,7 +265,7 @@ fn mutate_medium(rng: &mut SplitMix64, m: &mut Value) {
         return;
     }
     let obj = m.as_object_mut().unwrap();
-    let field = MEDIUM_FIELDS[rng.below(15) as usize];
+    let field = MEDIUM_FIELDS[rng.below(MEDIUM_FIELDS.len() as u64) as usize];
     match rng.below(7) {
         0 => {
             obj.remove(field);
@@ -619,7 +617,7 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
     let mut next = 0u64;
     while next < iterations && start.elapsed().as_secs_f64() < seconds {
         let left = seconds - start.elapsed().as_secs_f64();
-        let count = (iterations - next).min(batch(kind));
+        let count = (iterations - next).min(BATCH);
         let _ = std::fs::remove_file(state.join("progress"));
         let _ = std::fs::remove_file(state.join("stage"));
         let mut child = Command::new("sh")
