@@ -630,10 +630,11 @@ pub struct GpuWavefrontParams {
     pub camera_medium: u32,
     /// Entries of the area lights' CDF (0: no area lights).
     pub area_count: u32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
-    /// Padding to a 16-byte row.
-    pub _pad1: u32,
+    /// `PathLimits::rr_throughput`: roulette before `rr_depth` below this throughput.
+    pub rr_throughput: f32,
+    /// 1 when absorption is a weight (`Absorption::Weight`): grey homogeneous media scatter
+    /// at every real collision with the RGB albedo as weight.
+    pub absorption_weight: u32,
 }
 const _: () = assert!(size_of::<GpuWavefrontParams>() == 288);
 
@@ -843,8 +844,8 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             tracking,
             camera_medium,
             area_count,
-            _pad0,
-            _pad1
+            rr_throughput,
+            absorption_weight
         ]
     ),
     layout!(

@@ -467,3 +467,30 @@ fn a_grid_beyond_the_devices_binding_limit_is_refused_cleanly() {
     let out = gpu::render(&ctx, &rs, &s, &AtomicBool::new(false), &|_, _, _| {}).unwrap();
     assert_eq!(out.spp, 4);
 }
+
+#[test]
+fn absorption_events_agree_with_the_cpu() {
+    // The analog form (`--absorption event`) on the GPU: grey and spectral VDB views,
+    // homogeneous media, emission. (The default, absorption as a weight, is what every other
+    // test here renders.)
+    let Some(ctx) = gpu_or_skip("absorption_events_agree_with_the_cpu") else {
+        return;
+    };
+    let configs = [
+        ("cloud.gltf", 32),
+        ("chromatic_smoke.gltf", 32),
+        ("glass_volume.gltf", 64),
+        ("fire.gltf", 32),
+    ];
+    let alpha = 1e-3 / configs.len() as f64;
+    for (i, (file, spp)) in configs.into_iter().enumerate() {
+        let scene = load_scene(file);
+        let s = RenderSettings {
+            absorption: brume::integrator::Absorption::Event,
+            ..settings(16, 12, spp, 1300 + i as u32)
+        };
+        let label = format!("{file} absorption events");
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
+        print_parity(&label, &scene, &s, &g, &c);
+    }
+}

@@ -668,6 +668,7 @@ fn a_clear_channel_transmits_over_an_infinite_distance() {
     // leaves it (an open mesh): exp(-0 * inf) must be 1, not NaN.
     use brume::integrator::media::HomogeneousMedium;
     use brume::integrator::media::{sample_homogeneous, transmittance_homogeneous, MediumEvent};
+    use brume::integrator::Absorption;
     use brume::sampling::Rng;
     use brume::volume::phase::HenyeyGreenstein;
     let h = HomogeneousMedium {
@@ -680,7 +681,12 @@ fn a_clear_channel_transmits_over_an_infinite_distance() {
     let mut escapes = 0;
     for i in 0..10_000 {
         let mut rng = Rng::new(i, 0, 5);
-        match sample_homogeneous::<true>(&h, f32::INFINITY, &mut rng) {
+        let absorption = if i % 2 == 0 {
+            Absorption::Event
+        } else {
+            Absorption::Weight
+        };
+        match sample_homogeneous::<true>(&h, f32::INFINITY, absorption, &mut rng) {
             MediumEvent::Scatter { t, weight } => {
                 assert!(t.is_finite() && weight.is_finite(), "{t} {weight}")
             }

@@ -12,12 +12,14 @@ struct MediumEvent {
     weight: vec3<f32>,   // multiplies the throughput (scatter, escape)
 }
 
-// sample_homogeneous over [0, t_max]. Grey extinction: an exponential step, then absorb or
-// scatter in proportion to the mean albedo with the RGB albedo as weight. Chromatic
+// sample_homogeneous over [0, t_max]. Grey extinction: an exponential step, then (absorption
+// as an event) absorb or scatter in proportion to the mean albedo with albedo / mean as
+// weight, or (absorption as a weight) scatter with the RGB albedo as weight, drawing no
+// uniform. Chromatic
 // extinction (spectral MIS, as on the CPU): the distance is drawn from one channel chosen
 // uniformly and weighted by the one-sample balance heuristic over channels,
 // pdf(t) = mean_c sigma_t,c exp(-sigma_t,c t); absorption is a weight then.
-fn sample_homogeneous(h: GpuHomogeneousMedium, t_max: f32, rng: ptr<function, Rng>) -> MediumEvent {
+fn sample_homogeneous(h: GpuHomogeneousMedium, t_max: f32, absorption_weight: bool, rng: ptr<function, Rng>) -> MediumEvent {
     let sigma_t = h.sigma_a + h.sigma_s;
 // #if FEATURE_CHROMATIC
     if (!(sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z)) {
@@ -47,6 +49,9 @@ fn sample_homogeneous(h: GpuHomogeneousMedium, t_max: f32, rng: ptr<function, Rn
         return MediumEvent(EVENT_ESCAPE, 0.0, vec3<f32>(1.0));
     }
     let albedo = h.sigma_s / st;
+    if (absorption_weight) {
+        return MediumEvent(EVENT_SCATTER, t, albedo);
+    }
     let p_scatter = (albedo.x + albedo.y + albedo.z) / 3.0;
     if (rng_uniform(rng) < p_scatter) {
         return MediumEvent(EVENT_SCATTER, t, albedo / p_scatter);

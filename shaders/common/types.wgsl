@@ -229,8 +229,8 @@ struct GpuWavefrontParams {
     tracking: GpuTrackingParams,
     camera_medium: u32,          // homogeneous medium around the camera (NO_INDEX: none)
     area_count: u32,             // entries of the area lights' CDF
-    _pad0: u32,
-    _pad1: u32,
+    rr_throughput: f32,          // roulette before rr_depth below this throughput
+    absorption_weight: u32,      // 1: grey homogeneous media scatter with the albedo as weight
 }
 
 // PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.

@@ -122,13 +122,15 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
 }
 
 // russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput after
-// rr_depth events: survive with probability min(max(beta), 0.95), then divide by it.
+// rr_depth events, or earlier once max(beta) < rr_throughput: survive with probability
+// min(max(beta), 0.95), then divide by it.
 fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, rng: ptr<function, Rng>) -> bool {
-    if (depth < wf.rr_depth) {
+    let a = abs(*beta);
+    let q_beta = max(a.x, max(a.y, a.z));
+    if (depth < wf.rr_depth && !(q_beta < wf.rr_throughput)) {
         return true;
     }
-    let a = abs(*beta);
-    let q = min(max(a.x, max(a.y, a.z)), 0.95);
+    let q = min(q_beta, 0.95);
     if (!(q > 0.0) || rng_uniform(rng) >= q) {
         return false;
     }

@@ -28,7 +28,7 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     in_homogeneous = ps.medium != NO_INDEX;
     if (in_homogeneous) {
         var rng = path_rng(ps);
-        let ev = sample_homogeneous(homogeneous[ps.medium], t_hit - ps.t0, &rng);
+        let ev = sample_homogeneous(homogeneous[ps.medium], t_hit - ps.t0, wf.absorption_weight != 0u, &rng);
         ps.rng_state = rng.state;
         ps.rng_inc = rng.inc;
         event = ev.event;
@@ -55,10 +55,14 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
             event = tr.event;
             t_event = tr.t_event;
             // from_grey: grey weights are splat and a scattering event takes the RGB albedo;
-            // RGB weights (spectral tracking) are used as they are.
+            // RGB weights (spectral tracking) take RgbView's scatter_albedo at a scattering
+            // event (the albedo with absorption as a weight, else 1).
             weight = vec3<f32>(tr.w.x);
             if (FEATURE_CHROMATIC && wf.spectral != 0u) {
                 weight = tr.w;
+                if (event == EVENT_SCATTER) {
+                    weight = tr.w * wf.scatter_albedo;
+                }
             } else if (event == EVENT_SCATTER) {
                 weight = wf.scatter_albedo * tr.w.x;
             }

@@ -13,8 +13,13 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var ps = paths[slot];
-    ps.depth += 1u;
-    if (ps.depth > wf.max_depth || all(ps.beta == vec3<f32>(0.0))) {
+    // A zero throughput (absorption as a weight in an albedo-0 medium) ends the path before
+    // it counts as a bounce, as an absorption event would.
+    let absorbed = all(ps.beta == vec3<f32>(0.0));
+    if (!absorbed) {
+        ps.depth += 1u;
+    }
+    if (absorbed || ps.depth > wf.max_depth) {
         paths[slot] = ps;
         queue_push(queue_done_out(), slot);
         return;

@@ -89,17 +89,11 @@ pub fn render_observed(
     let tile_fn = specialised(features);
     let ctx = TileContext {
         rs,
-        cfg: TrackingConfig {
-            estimator: settings.estimator,
-            b: settings.b,
-            m: settings.m,
-            majorant: settings.majorant,
-            shadow: settings.shadow,
-            force_spectral: settings.force_spectral,
-        },
+        cfg: TrackingConfig::from_settings(settings),
         limits: PathLimits {
             max_depth: settings.max_depth,
             rr_depth: settings.rr_depth,
+            rr_throughput: settings.rr_throughput,
             max_collisions: settings.max_collisions_per_path,
         },
         width: settings.width,

@@ -11,7 +11,9 @@ use brume::backend::cpu::{self, RenderOutput};
 use brume::film::{
     totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
 };
-use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator};
+use brume::integrator::{
+    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator,
+};
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
 #[derive(Args, Debug)]
@@ -52,6 +54,15 @@ pub struct RenderArgs {
     /// Spectral tracking even for grey media (chromatic media always use it).
     #[arg(long)]
     pub spectral: bool,
+    /// Absorption at real collisions in media: weight (every real collision scatters and the
+    /// throughput takes the RGB albedo; default) or event (the analog form of the seed
+    /// paper's estimators: absorption ends the path).
+    #[arg(long, default_value = "weight")]
+    pub absorption: Absorption,
+    /// Russian roulette also before the 8th bounce once the throughput's largest channel is
+    /// below this (0 disables; default 0.5).
+    #[arg(long)]
+    pub rr_throughput: Option<f32>,
     /// Run the unspecialised path (all effects enabled) to measure what specialisation saves.
     #[arg(long)]
     pub generic: bool,
@@ -110,6 +121,8 @@ impl RenderArgs {
             .unwrap_or(s.majorant);
         s.shadow = self.shadow;
         s.force_spectral = self.spectral;
+        s.absorption = self.absorption;
+        s.rr_throughput = self.rr_throughput.unwrap_or(s.rr_throughput);
         s.generic = self.generic;
         s.seed = self.seed.or(scene.seed).unwrap_or(s.seed);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
@@ -305,6 +318,11 @@ fn write_outputs(
     };
     let mut meta = info.to_metadata();
     meta.set("brume:features", AttrValue::Text(out.features.name()));
+    meta.set(
+        "brume:absorption",
+        AttrValue::Text(settings.absorption.name().to_string()),
+    );
+    meta.set("brume:rr_throughput", AttrValue::Float(settings.rr_throughput));
     if let Some(v) = gpu_variant {
         // The WGSL variant the wavefront kernels were specialised for.
         meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));

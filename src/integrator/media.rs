@@ -13,7 +13,7 @@ use std::sync::Arc;
 use glam::{Affine3A, DVec3, Vec3};
 
 use super::blackbody::blackbody_emission;
-use super::settings::{Estimator, MajorantMode, ShadowEstimator};
+use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
 use crate::math::{Aabb, Ray};
 use crate::sampling::Rng;
 use crate::volume::phase::HenyeyGreenstein;
@@ -114,9 +114,23 @@ pub struct TrackingConfig {
     pub majorant: MajorantMode,
     pub shadow: ShadowEstimator,
     pub force_spectral: bool,
+    pub absorption: Absorption,
 }
 
 impl TrackingConfig {
+    /// The tracking part of a render's settings (the same for every backend).
+    pub fn from_settings(s: &RenderSettings) -> Self {
+        TrackingConfig {
+            estimator: s.estimator,
+            b: s.b,
+            m: s.m,
+            majorant: s.majorant,
+            shadow: s.shadow,
+            force_spectral: s.force_spectral,
+            absorption: s.absorption,
+        }
+    }
+
     /// The control extinction of the decomposition estimators (none for the others). With
     /// local bounds the control is the per-leaf minorant (a true minorant: no negative
     /// residual); with the global bound it is `m * bound`, capped by the global minorant for
@@ -182,7 +196,8 @@ struct GreyView<'a, const EMIT: bool, const ABS: bool> {
     m: &'a VdbMedium,
     ray_i: Ray,
     ray_w: Ray,
-    /// Grey coefficients per unit density: `sigma_s` is the channel mean.
+    /// Grey coefficients per unit density: `sigma_s` is the channel mean (absorption as an
+    /// event) or `sigma_t` (absorption as a weight: no absorption events).
     sigma_a: f32,
     sigma_s: f32,
     control: ControlExtinction,
@@ -200,7 +215,13 @@ impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
             m.density.index_from_world.transform_vector3(ray_w.d),
         );
         let sigma_t = m.sigma_t_bound;
-        let sigma_s = (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0;
+        // Absorption as a weight: the trackers see a purely scattering medium with the same
+        // sigma_t (every real collision scatters); `scatter_albedo` then applies the RGB
+        // albedo sigma_s / sigma_t. As an event: the grey sigma_s is the channel mean.
+        let sigma_s = match cfg.absorption {
+            Absorption::Weight => sigma_t,
+            Absorption::Event => (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0,
+        };
         GreyView {
             m,
             ray_i,
@@ -265,9 +286,49 @@ struct RgbView<'a, const EMIT: bool> {
     m: &'a VdbMedium,
     ray_i: Ray,
     ray_w: Ray,
+    /// Coefficients per unit density as the tracker sees them: the medium's own, or with
+    /// absorption as a weight `(0, sigma_t)` (every real collision scatters; the RGB albedo is
+    /// applied afterwards by [`RgbView::scatter_albedo`]).
+    sigma_a: Vec3,
+    sigma_s: Vec3,
+    /// RGB factor of a scattering event: the albedo `sigma_s / sigma_t` per channel when
+    /// absorption is a weight (a clear channel scatters nothing), 1 when it is an event.
+    scatter_albedo: Vec3,
     beta: Vec3,
     emitted: Cell<Vec3>,
     emission_lookups: Cell<u64>,
+}
+
+impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
+    fn new(m: &'a VdbMedium, ray_w: &Ray, absorption: Absorption, beta: Vec3) -> Self {
+        let (sigma_a, sigma_s, scatter_albedo) = match absorption {
+            Absorption::Event => (m.sigma_a, m.sigma_s, Vec3::ONE),
+            Absorption::Weight => {
+                let sigma_t = m.sigma_a + m.sigma_s;
+                (Vec3::ZERO, sigma_t, per_channel_ratio(m.sigma_s, sigma_t))
+            }
+        };
+        RgbView {
+            m,
+            ray_i: Ray::new(
+                m.density.index_from_world.transform_point3(ray_w.o),
+                m.density.index_from_world.transform_vector3(ray_w.d),
+            ),
+            ray_w: *ray_w,
+            sigma_a,
+            sigma_s,
+            scatter_albedo,
+            beta,
+            emitted: Cell::new(Vec3::ZERO),
+            emission_lookups: Cell::new(0),
+        }
+    }
+}
+
+/// `num / den` per channel, 0 where `den` is not positive.
+#[inline]
+pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
+    Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
 }
 
 impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
@@ -275,8 +336,8 @@ impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
     fn coeffs(&self, t: f32) -> CoeffsRgb {
         let d = self.m.density.at_index(self.ray_i.at(t));
         CoeffsRgb {
-            sigma_a: self.m.sigma_a * d,
-            sigma_s: self.m.sigma_s * d,
+            sigma_a: self.sigma_a * d,
+            sigma_s: self.sigma_s * d,
         }
     }
 
@@ -332,19 +393,8 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     l: &mut Vec3,
 ) -> MediumEvent {
     if CHROM && (!m.grey || cfg.force_spectral) {
-        let ray_i = Ray::new(
-            m.density.index_from_world.transform_point3(ray.o),
-            m.density.index_from_world.transform_vector3(ray.d),
-        );
-        let view = RgbView::<EMIT> {
-            m,
-            ray_i,
-            ray_w: *ray,
-            beta,
-            emitted: Cell::new(Vec3::ZERO),
-            emission_lookups: Cell::new(0),
-        };
-        let segs = segments(m, &ray_i, t0, t1, cfg.majorant);
+        let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, beta);
+        let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
         let e = tracking::spectral::sample_distance(
             segs,
             t1,
@@ -358,11 +408,36 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();
         return match e {
-            Event::Scatter { t, weight } => MediumEvent::Scatter { t, weight },
+            Event::Scatter { t, weight } => MediumEvent::Scatter {
+                t,
+                weight: weight * view.scatter_albedo,
+            },
             Event::Absorb { .. } => MediumEvent::Absorb,
             Event::Escape { weight } => MediumEvent::Escape { weight },
         };
     }
+    // With absorption as a weight the grey view has no absorption coefficient at all, so the
+    // ABS = false view compiles it out of the lookups.
+    match (ABS, cfg.absorption) {
+        (true, Absorption::Event) => sample_grey::<EMIT, true>(m, ray, t0, t1, beta, cfg, rng, stats, l),
+        _ => sample_grey::<EMIT, false>(m, ray, t0, t1, beta, cfg, rng, stats, l),
+    }
+}
+
+/// [`sample_vdb`] for a grey view (`sigma_t` equal in every channel).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn sample_grey<const EMIT: bool, const ABS: bool>(
+    m: &VdbMedium,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> MediumEvent {
     let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
     let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
     let st = &mut stats.tracking;
@@ -399,19 +474,9 @@ pub fn transmittance_vdb<const CHROM: bool>(
 ) -> Vec3 {
     let before = stats.tracking.lookups;
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {
-        let ray_i = Ray::new(
-            m.density.index_from_world.transform_point3(ray.o),
-            m.density.index_from_world.transform_vector3(ray.d),
-        );
-        let view = RgbView::<false> {
-            m,
-            ray_i,
-            ray_w: *ray,
-            beta: Vec3::ONE,
-            emitted: Cell::new(Vec3::ZERO),
-            emission_lookups: Cell::new(0),
-        };
-        let segs = segments(m, &ray_i, t0, t1, cfg.majorant);
+        // Only sigma_t matters to a transmittance estimate.
+        let view = RgbView::<false>::new(m, ray, Absorption::Event, Vec3::ONE);
+        let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
         tracking::spectral::transmittance(
             segs,
             t1,
@@ -465,8 +530,9 @@ impl HomogeneousMedium {
 }
 
 /// Closed-form free flight through a homogeneous medium over `[0, t_max]` (no tracking, no
-/// lookups). Grey extinction: an exponential step, then absorb or scatter in proportion to the
-/// mean albedo with the RGB albedo as weight. Chromatic extinction: the distance is drawn from
+/// lookups). Grey extinction: an exponential step, then (absorption as an event) absorb or
+/// scatter in proportion to the mean albedo with `albedo / mean` as weight, or (absorption as
+/// a weight) scatter with the RGB albedo as weight, drawing no uniform. Chromatic extinction: the distance is drawn from
 /// one channel chosen uniformly and weighted by the one-sample MIS (balance heuristic) over
 /// channels, `pdf(t) = mean_c sigma_t,c exp(-sigma_t,c t)`; absorption is a weight then, so
 /// no absorption events occur.
@@ -474,6 +540,7 @@ impl HomogeneousMedium {
 pub fn sample_homogeneous<const CHROM: bool>(
     h: &HomogeneousMedium,
     t_max: f32,
+    absorption: Absorption,
     rng: &mut Rng,
 ) -> MediumEvent {
     let sigma_t = h.sigma_t();
@@ -487,6 +554,9 @@ pub fn sample_homogeneous<const CHROM: bool>(
             return MediumEvent::Escape { weight: Vec3::ONE };
         }
         let albedo = h.sigma_s / st;
+        if absorption == Absorption::Weight {
+            return MediumEvent::Scatter { t, weight: albedo };
+        }
         let p_scatter = (albedo.x + albedo.y + albedo.z) / 3.0;
         if rng.uniform_f32() < p_scatter {
             return MediumEvent::Scatter {

@@ -21,6 +21,8 @@ use crate::volume::phase::HenyeyGreenstein;
 pub struct PathLimits {
     pub max_depth: u32,
     pub rr_depth: u32,
+    /// Roulette also before `rr_depth` once `max(beta)` falls below this (0: never).
+    pub rr_throughput: f32,
     pub max_collisions: u64,
 }
 
@@ -32,6 +34,10 @@ pub struct PathStats {
     pub depth: u64,
     /// Paths ended by the collision guard.
     pub guard_fired: u64,
+    /// Largest channel of the throughput `beta` after any bounce's Russian roulette: how
+    /// large a single sample's weight got (fireflies). With absorption as a weight and
+    /// albedos at most 0.95 it never exceeds 1.
+    pub max_beta: f32,
 }
 
 /// Relative offset that moves a new ray's origin off the surface it leaves.
@@ -90,7 +96,7 @@ fn sample_media<
     if HOM {
         if let Some(h) = medium {
             let h = &rs.homogeneous[h as usize];
-            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, rng) {
+            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, cfg.absorption, rng) {
                 MediumEvent::Scatter { t, weight } => MediumEvent::Scatter { t: t0 + t, weight },
                 other => other,
             };
@@ -280,8 +286,13 @@ pub fn radiance<
                 MediumEvent::Escape { weight } => beta *= weight,
                 MediumEvent::Scatter { t, weight } => {
                     beta *= weight;
+                    // A zero throughput (absorption as a weight in an albedo-0 medium) ends
+                    // the path before it counts as a bounce, as an absorption event would.
+                    if beta == Vec3::ZERO {
+                        break;
+                    }
                     depth += 1;
-                    if depth > limits.max_depth || beta == Vec3::ZERO {
+                    if depth > limits.max_depth {
                         break;
                     }
                     let p = ray.at(t);
@@ -309,6 +320,7 @@ pub fn radiance<
                     if !russian_roulette(&mut beta, depth, limits, rng) {
                         break;
                     }
+                    stats.max_beta = stats.max_beta.max(beta.max_element());
                     continue;
                 }
             }
@@ -427,6 +439,7 @@ pub fn radiance<
         if !russian_roulette(&mut beta, depth, limits, rng) {
             break;
         }
+        stats.max_beta = stats.max_beta.max(beta.max_element());
     }
     stats.depth += depth as u64;
     l
@@ -447,13 +460,15 @@ fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3) -> V
     }
 }
 
-/// Unbiased Russian roulette on the throughput after `rr_depth` events: survive with
-/// probability `min(max(beta), 0.95)`, then divide by it.
+/// Unbiased Russian roulette on the throughput after `rr_depth` events, or earlier once the
+/// throughput's largest channel is below `rr_throughput` (a path darkened by absorption
+/// weights): survive with probability `min(max(beta), 0.95)`, then divide by it.
 fn russian_roulette(beta: &mut Vec3, depth: u32, limits: &PathLimits, rng: &mut Rng) -> bool {
-    if depth < limits.rr_depth {
+    let q = beta.abs().max_element();
+    if depth < limits.rr_depth && !(q < limits.rr_throughput) {
         return true;
     }
-    let q = beta.abs().max_element().min(0.95);
+    let q = q.min(0.95);
     if !(q > 0.0) || rng.uniform_f32() >= q {
         return false;
     }

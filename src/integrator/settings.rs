@@ -51,6 +51,33 @@ impl MajorantMode {
     }
 }
 
+/// What a real collision in a medium does with absorption.
+///
+/// `Event` is the analog form of the seed paper's estimators: the collision is an absorption
+/// with probability `sigma_a / sigma_t` (the grey view uses the channel-mean albedo and weights
+/// the scattered channels by `albedo / mean`), and an absorbed path ends there.
+/// `Weight` never samples absorption: every real collision scatters and the throughput is
+/// multiplied by the RGB single-scattering albedo `sigma_s / sigma_t`; termination is left to
+/// the path's Russian roulette (as Mitsuba 3's `volpath` does). Both estimate the same
+/// collision integral `sigma_s L_s` (`E[1{scatter} w] = (sigma_s / sigma_t)` per channel),
+/// so both are unbiased; `Weight` keeps the next-event estimate an absorbed path would lose
+/// and bounds the per-bounce weight by the albedo (no `albedo / mean` growth in chromatic
+/// media), which removes the fireflies of dense chromatic media.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Absorption {
+    Event,
+    Weight,
+}
+
+impl Absorption {
+    pub fn name(self) -> &'static str {
+        match self {
+            Absorption::Event => "event",
+            Absorption::Weight => "weight",
+        }
+    }
+}
+
 /// Transmittance estimator for shadow rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadowEstimator {
@@ -80,6 +107,7 @@ parse_names!(Estimator, "estimator", [
     "decomposition" => Estimator::Decomposition,
     "weighted-decomposition" => Estimator::WeightedDecomposition,
 ]);
+parse_names!(Absorption, "absorption mode", ["event" => Absorption::Event, "weight" => Absorption::Weight]);
 parse_names!(MajorantMode, "majorant mode", ["global" => MajorantMode::Global, "local" => MajorantMode::Local]);
 parse_names!(ShadowEstimator, "shadow estimator", [
     "auto" => ShadowEstimator::Auto,
@@ -118,6 +146,8 @@ pub struct RenderSettings {
     pub shadow: ShadowEstimator,
     /// Use spectral tracking even for grey media (chromatic media always use it).
     pub force_spectral: bool,
+    /// Absorption at real collisions: sampled as an event, or applied as a weight.
+    pub absorption: Absorption,
     /// Run the unspecialised path (every effect enabled) to measure what specialisation saves.
     pub generic: bool,
     pub seed: u32,
@@ -125,6 +155,12 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// Russian roulette starts after this many scattering events.
     pub rr_depth: u32,
+    /// ... or earlier, as soon as the throughput's largest channel falls below this. With
+    /// absorption as a weight, a dark medium (albedo 0.2) no longer ends paths at absorption
+    /// events; without this guard such paths carry tiny weights through `rr_depth` bounces
+    /// of full-cost tracking (measured: 0.63x the efficiency of absorption events; with the
+    /// guard at 0.5 they break even). 0 disables it.
+    pub rr_throughput: f32,
     pub tile_size: u32,
     /// Samples per pixel in the largest pass (passes grow 1, 2, 4, ... up to this).
     pub max_pass_spp: u32,
@@ -146,10 +182,12 @@ impl Default for RenderSettings {
             majorant: MajorantMode::Local,
             shadow: ShadowEstimator::Auto,
             force_spectral: false,
+            absorption: Absorption::Weight,
             generic: false,
             seed: 0,
             max_depth: 256,
             rr_depth: 8,
+            rr_throughput: 0.5,
             tile_size: 16,
             max_pass_spp: 16,
             max_collisions_per_path: 1 << 22,
@@ -187,6 +225,12 @@ impl RenderSettings {
             if !(t >= 0.0 && t.is_finite()) {
                 return Err(format!("time limit {t} s must be >= 0 and finite"));
             }
+        }
+        if !(self.rr_throughput >= 0.0 && self.rr_throughput <= 1.0) {
+            return Err(format!(
+                "Russian roulette throughput {} must be in [0, 1]",
+                self.rr_throughput
+            ));
         }
         if self.tile_size == 0 || self.max_pass_spp == 0 {
             return Err("tile size and pass size must be positive".into());

@@ -54,7 +54,7 @@ use crate::gpu_types::{
 use crate::integrator::blackbody;
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
-use crate::integrator::settings::ShadowEstimator;
+use crate::integrator::settings::{Absorption, ShadowEstimator};
 use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
 use crate::volume::SparseGrid;
 
@@ -454,7 +454,14 @@ fn medium_params(
         return;
     }
     let spectral = features.chromatic && (!m.grey || cfg.force_spectral);
-    let sigma_s = (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0;
+    let weight = cfg.absorption == Absorption::Weight;
+    // GreyView: the grey sigma_s per unit density is the channel mean (absorption as an
+    // event) or sigma_t (as a weight: the trackers see no absorption).
+    let sigma_s = if weight {
+        bound
+    } else {
+        (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0
+    };
     // GreyView: sigma_a = max(sigma_t - sigma_s, 0) per unit density when any medium absorbs.
     let albedo = if features.absorption {
         sigma_s / bound
@@ -496,12 +503,15 @@ fn medium_params(
     p.medium_hi = m.world_bounds.max.to_array();
     p.phase_g = m.phase.g;
     p.spectral = spectral as u32;
-    p.scatter_albedo = if sigma_s > 0.0 {
-        (m.sigma_s / sigma_s).to_array()
-    } else {
-        [0.0; 3]
+    // The RGB factor of a scattering event: GreyView::scatter_albedo, or RgbView's
+    // scatter_albedo for spectral tracking (the albedo with absorption as a weight, else 1);
+    // albedo_rgb splits spectral lookups as RgbView's coefficients do.
+    (p.scatter_albedo, p.albedo_rgb) = match (spectral, weight) {
+        (true, true) => (per_channel(m.sigma_s, sigma_t), [1.0; 3]),
+        (true, false) => ([1.0; 3], per_channel(m.sigma_s, sigma_t)),
+        (false, _) if sigma_s > 0.0 => ((m.sigma_s / sigma_s).to_array(), [0.0; 3]),
+        (false, _) => ([0.0; 3], [0.0; 3]),
     };
-    p.albedo_rgb = per_channel(m.sigma_s, sigma_t);
     p.shadow_estimator = shadow as u32;
     p.tracking = GpuTrackingParams {
         estimator: estimator as u32,
@@ -676,14 +686,7 @@ pub fn render_with_timings(
     } else {
         rs.features
     };
-    let cfg = TrackingConfig {
-        estimator: settings.estimator,
-        b: settings.b,
-        m: settings.m,
-        majorant: settings.majorant,
-        shadow: settings.shadow,
-        force_spectral: settings.force_spectral,
-    };
+    let cfg = TrackingConfig::from_settings(settings);
     let (w, h) = (settings.width, settings.height);
     let limit = ctx.limits.max_storage_buffer_binding_size;
 
@@ -758,6 +761,8 @@ pub fn render_with_timings(
         env_pdf: rs.lights.pdf_environment(),
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
+        rr_throughput: settings.rr_throughput,
+        absorption_weight: (settings.absorption == Absorption::Weight) as u32,
         max_collisions: settings.max_collisions_per_path.min(u32::MAX as u64) as u32,
         has_env: rs.lights.environment.is_some() as u32,
         camera_medium: rs.camera_medium.unwrap_or(crate::scene::NO_INDEX),
