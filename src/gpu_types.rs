@@ -138,6 +138,8 @@ pub enum GpuMajorantMode {
     PerCell = 0,
     /// `DdaMajorantIterator::global`: one segment with the global bounds.
     Global = 1,
+    /// `AdaptiveMajorantIterator`: one segment per merged node of the adaptive hierarchy.
+    Adaptive = 2,
 }
 
 /// Mirror of [`ControlExtinction`](crate::volume::tracking::ControlExtinction)'s variants;
@@ -231,8 +233,8 @@ pub struct GpuTrackingStats {
     /// Bits of the largest `|weight|` seen (an `f32`; non-negative floats order like their
     /// bits, so `atomicMax` on the bits is a float max).
     pub max_abs_weight_bits: u32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
+    /// Majorant segments walked.
+    pub segments: u32,
     /// Padding to a 16-byte row.
     pub _pad1: u32,
     /// Padding to a 16-byte row.
@@ -253,6 +255,7 @@ impl GpuTrackingStats {
             collision_cap_hits: self.collision_cap_hits as u64,
             roulette_kills: self.roulette_kills as u64,
             max_abs_weight: f32::from_bits(self.max_abs_weight_bits),
+            segments: self.segments as u64,
         }
     }
 }
@@ -498,10 +501,14 @@ pub enum GpuWideCounter {
     DepthSum = 5,
     /// Emission and temperature grid reads (`MediaStats::emission_lookups`).
     EmissionLookups = 6,
+    /// Majorant segments walked (`TrackingStats::segments`).
+    Segments = 7,
+    /// Majorant segments walked by shadow rays (`MediaStats::shadow_segments`).
+    ShadowSegments = 8,
 }
 
 impl GpuWideCounter {
-    pub const ALL: [GpuWideCounter; 7] = [
+    pub const ALL: [GpuWideCounter; 9] = [
         GpuWideCounter::Lookups,
         GpuWideCounter::NullCollisions,
         GpuWideCounter::RealCollisions,
@@ -509,6 +516,8 @@ impl GpuWideCounter {
         GpuWideCounter::ShadowLookups,
         GpuWideCounter::DepthSum,
         GpuWideCounter::EmissionLookups,
+        GpuWideCounter::Segments,
+        GpuWideCounter::ShadowSegments,
     ];
 
     pub fn wgsl_name(self) -> &'static str {
@@ -520,6 +529,8 @@ impl GpuWideCounter {
             GpuWideCounter::ShadowLookups => "WIDE_SHADOW_LOOKUPS",
             GpuWideCounter::DepthSum => "WIDE_DEPTH_SUM",
             GpuWideCounter::EmissionLookups => "WIDE_EMISSION_LOOKUPS",
+            GpuWideCounter::Segments => "WIDE_SEGMENTS",
+            GpuWideCounter::ShadowSegments => "WIDE_SHADOW_SEGMENTS",
         }
     }
 }
@@ -545,13 +556,13 @@ pub struct GpuWavefrontCounters {
     /// Padding to a 16-byte row.
     pub _pad0: u32,
     /// [`GpuWideCounter`] pairs (low, high) of 64-bit totals.
-    pub wide: [u32; 14],
+    pub wide: [u32; 18],
     /// Padding to a 16-byte row.
     pub _pad1: u32,
     /// Padding to a 16-byte row.
     pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuWavefrontCounters>() == 128);
+const _: () = assert!(size_of::<GpuWavefrontCounters>() == 144);
 
 impl GpuWavefrontCounters {
     pub fn wide(&self, c: GpuWideCounter) -> u64 {
@@ -744,7 +755,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             collision_cap_hits,
             roulette_kills,
             max_abs_weight_bits,
-            _pad0,
+            segments,
             _pad1,
             _pad2
         ]

@@ -5,10 +5,13 @@ mod common;
 
 use brume::backend::gpu::shader::{Spec, TEST_DDA_MODULE};
 use brume::backend::gpu::GpuGrid;
-use brume::gpu_types::{GpuMajorantSegment, GpuRay};
+use brume::gpu_types::{GpuMajorantMode, GpuMajorantSegment, GpuRay};
 use brume::math::{Ray, Vec3};
 use brume::volume::check::SplitMix64;
-use brume::volume::{DdaMajorantIterator, LeafBounds, MajorantSegment};
+use brume::volume::{
+    AdaptiveMajorantIterator, AdaptiveMajorants, CostModel, DdaMajorantIterator, LeafBounds,
+    MajorantSegment,
+};
 
 const MAX_SEGMENTS: u32 = 256;
 const SCALE: f32 = 0.75;
@@ -74,24 +77,41 @@ fn wgsl_dda_segments_equal_cpu() {
     let Some(ctx) = common::gpu::gpu_or_skip("gpu_dda") else {
         return;
     };
-    for global in [false, true] {
+    // Per-cell, global, and the adaptive hierarchy built two ways: with the default cost
+    // model (fine and merged nodes side by side) and with steps so dear that large nodes form.
+    let modes = [
+        (GpuMajorantMode::PerCell, None),
+        (GpuMajorantMode::Global, None),
+        (GpuMajorantMode::Adaptive, Some(CostModel::DEFAULT)),
+        (
+            GpuMajorantMode::Adaptive,
+            Some(CostModel {
+                step: 20.0,
+                collision: 1.0,
+            }),
+        ),
+    ];
+    for (mode, cost) in modes {
+        let global = mode == GpuMajorantMode::Global;
         let specs = [
             Spec::u32("MAX_SEGMENTS", MAX_SEGMENTS),
-            Spec::bool("DDA_GLOBAL", global),
+            Spec::u32("DDA_MODE", mode as u32),
             Spec::f32("DDA_SCALE", SCALE),
         ];
         let pipeline = ctx.pipeline(&TEST_DDA_MODULE, &specs).unwrap();
         for (name, data) in common::all_grids() {
             let grid = common::convert(&data);
             let bounds = LeafBounds::build(&grid);
-            let gpu_grid = GpuGrid::upload(&ctx, &grid, &bounds, 1.0).unwrap();
+            let adaptive = cost.map(|c| AdaptiveMajorants::build(&bounds, 0.3, 1.0, c));
+            let gpu_grid =
+                GpuGrid::upload_adaptive(&ctx, &grid, &bounds, adaptive.as_ref(), 1.0).unwrap();
             let b = grid.index_bounds();
             let (lo, hi) = if b.is_empty() {
                 (Vec3::splat(-10.0), Vec3::splat(10.0))
             } else {
                 (b.min, b.max)
             };
-            let mut rng = SplitMix64(0xDDA + name.len() as u64 + global as u64);
+            let mut rng = SplitMix64(0xDDA + name.len() as u64 + mode as u64);
             let rays = random_rays(&mut rng, lo, hi, 20_000);
             let ray_buf = ctx.storage_buffer("rays", &rays);
             let segs_buf =
@@ -107,7 +127,9 @@ fn wgsl_dda_segments_equal_cpu() {
             let (mut count_bad, mut total, mut exact, mut max_ulps, mut hits) = (0, 0, 0, 0, 0);
             for (i, r) in rays.iter().enumerate() {
                 let ray = Ray::new(Vec3::from_array(r.o), Vec3::from_array(r.d));
-                let cpu: Vec<MajorantSegment> = if global {
+                let cpu: Vec<MajorantSegment> = if let Some(a) = &adaptive {
+                    AdaptiveMajorantIterator::new(a, &ray, r.t_min, r.t_max, SCALE).collect()
+                } else if global {
                     DdaMajorantIterator::global(&bounds, &ray, r.t_min, r.t_max, SCALE).collect()
                 } else {
                     DdaMajorantIterator::new(&bounds, &ray, r.t_min, r.t_max, SCALE).collect()
@@ -116,7 +138,7 @@ fn wgsl_dda_segments_equal_cpu() {
                 if cpu.len() != counts[i] as usize {
                     if count_bad < 5 {
                         eprintln!(
-                            "{name} global={global} ray {r:?}: cpu {} segments, gpu {}",
+                            "{name} mode={mode:?} ray {r:?}: cpu {} segments, gpu {}",
                             cpu.len(),
                             counts[i]
                         );
@@ -144,7 +166,7 @@ fn wgsl_dda_segments_equal_cpu() {
                 }
             }
             println!(
-                "{name:<24} global={global:<5} {} rays ({hits} hit): count mismatches \
+                "{name:<24} mode={mode:?} {} rays ({hits} hit): count mismatches \
                  {count_bad}, {total} segments, bit-exact {:.4} %, max {max_ulps} ulp",
                 rays.len(),
                 100.0 * exact as f64 / total.max(1) as f64

@@ -147,9 +147,9 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
     };
     let mut configs = Vec::new();
     for estimator in Estimator::ALL {
-        configs.push(("cloud.gltf", estimator, MajorantMode::Local));
+        configs.push(("cloud.gltf", estimator, MajorantMode::Leaf));
         configs.push(("cloud.gltf", estimator, MajorantMode::Global));
-        configs.push(("chromatic_smoke.gltf", estimator, MajorantMode::Local));
+        configs.push(("chromatic_smoke.gltf", estimator, MajorantMode::Leaf));
     }
     let alpha = 1e-3 / configs.len() as f64;
     for (i, (file, estimator, majorant)) in configs.into_iter().enumerate() {
@@ -253,16 +253,16 @@ fn furnace_renders_one_on_the_gpu() {
     // gives it 1024 spp; the GPU replays the CPU's streams, so the same seed fails alike). It
     // is tested against the CPU image on the cloud; here the local bound stands in.
     let configs = [
-        (Estimator::Delta, MajorantMode::Local, false, 64),
+        (Estimator::Delta, MajorantMode::Leaf, false, 64),
         (Estimator::WeightedDelta, MajorantMode::Global, false, 64),
-        (Estimator::Decomposition, MajorantMode::Local, false, 64),
+        (Estimator::Decomposition, MajorantMode::Leaf, false, 64),
         (
             Estimator::WeightedDecomposition,
-            MajorantMode::Local,
+            MajorantMode::Leaf,
             false,
             128,
         ),
-        (Estimator::Delta, MajorantMode::Local, true, 64),
+        (Estimator::Delta, MajorantMode::Leaf, true, 64),
     ];
     let alpha = 1e-3 / configs.len() as f64;
     for (i, (estimator, majorant, spectral, spp)) in configs.into_iter().enumerate() {

@@ -76,6 +76,7 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
         GpuMajorantMode::Global => {
             DdaMajorantIterator::global(&m.bounds, &ray, m.ray.t_min, m.ray.t_max, maj_scale)
         }
+        GpuMajorantMode::Adaptive => unreachable!("the adaptive walk is checked in gpu_dda"),
     };
     let lookup = |t: f32| m.scale * m.grid.sample_trilinear(ray.at(t).as_dvec3());
     let medium = FnMedium::with_control(

@@ -23,12 +23,12 @@ fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSe
 #[test]
 fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
     let scene = load_scene("cloud.gltf");
-    let reference = render(&scene, &settings(Estimator::Delta, MajorantMode::Local, 1));
+    let reference = render(&scene, &settings(Estimator::Delta, MajorantMode::Leaf, 1));
     let (ref_mean, ref_var) = moments(&reference);
     let mut configs: Vec<(Estimator, MajorantMode, Option<f32>)> = Vec::new();
     for e in Estimator::ALL {
-        for m in [MajorantMode::Global, MajorantMode::Local] {
-            if !(e == Estimator::Delta && m == MajorantMode::Local) {
+        for m in [MajorantMode::Global, MajorantMode::Leaf] {
+            if !(e == Estimator::Delta && m == MajorantMode::Leaf) {
                 configs.push((e, m, None));
             }
         }

@@ -13,7 +13,7 @@ fn furnace_renders_one_for_every_estimator() {
     let scene = load_scene("furnace.gltf");
     let mut configs = Vec::new();
     for estimator in Estimator::ALL {
-        for majorant in [MajorantMode::Global, MajorantMode::Local] {
+        for majorant in [MajorantMode::Global, MajorantMode::Leaf] {
             configs.push((
                 estimator,
                 majorant,
@@ -47,7 +47,7 @@ fn furnace_renders_one_for_every_estimator() {
         false,
         128,
     ));
-    configs.push((Estimator::Delta, MajorantMode::Local, None, None, true, 128));
+    configs.push((Estimator::Delta, MajorantMode::Leaf, None, None, true, 128));
     configs.push((
         Estimator::WeightedDelta,
         MajorantMode::Global,

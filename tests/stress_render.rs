@@ -16,7 +16,7 @@ use common::stress::*;
 use brume::integrator::{Estimator, MajorantMode, RenderSettings};
 use serde_json::json;
 
-const MODES: [MajorantMode; 2] = [MajorantMode::Global, MajorantMode::Local];
+const MODES: [MajorantMode; 2] = [MajorantMode::Global, MajorantMode::Leaf];
 
 struct Rendered {
     mean: Vec<f64>,
@@ -208,7 +208,7 @@ fn light_inside_the_medium() {
     let path = sc.write(&dir);
     let reference = render_file(
         &path,
-        &settings(Estimator::Delta, MajorantMode::Local, 256, 1),
+        &settings(Estimator::Delta, MajorantMode::Leaf, 256, 1),
     );
     for estimator in Estimator::ALL {
         for majorant in MODES {
@@ -256,7 +256,7 @@ fn low_order_furnace_with_non_bounding_majorants() {
     }
     for depth in [0u32, 1, 2] {
         for (path, bs, thin) in &scenes {
-            let mut rs = settings(Estimator::Delta, MajorantMode::Local, 512, 90 + depth);
+            let mut rs = settings(Estimator::Delta, MajorantMode::Leaf, 512, 90 + depth);
             rs.max_depth = depth;
             let reference = render_file(path, &rs);
             for majorant in MODES {
@@ -327,7 +327,7 @@ fn long_paths_stay_bounded() {
     sc.camera_at = [0.0, 0.0, 0.0];
     let path = sc.write(&dir);
     for estimator in Estimator::ALL {
-        let mut s = settings(estimator, MajorantMode::Local, 2, 5);
+        let mut s = settings(estimator, MajorantMode::Leaf, 2, 5);
         s.width = 4;
         s.height = 3;
         s.max_depth = 3000;
@@ -355,7 +355,7 @@ fn long_paths_stay_bounded() {
     // finite, no guard, mean at most 1. (With the default max depth 256 the image would be ~0
     // here: almost no path gets out of an optical radius of 150 in 256 bounces. That is the
     // documented truncation, not a bug.)
-    let mut s = settings(Estimator::Delta, MajorantMode::Local, 8, 6);
+    let mut s = settings(Estimator::Delta, MajorantMode::Leaf, 8, 6);
     s.width = 4;
     s.height = 3;
     s.max_depth = 3000;

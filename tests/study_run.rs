@@ -177,7 +177,7 @@ fn default_sweep_and_config_syntax() {
     let c = StudyConfig::parse("weighted-delta:b=0.75:local").unwrap();
     assert_eq!(
         (c.estimator, c.b, c.majorant),
-        (Estimator::WeightedDelta, 0.75, MajorantMode::Local)
+        (Estimator::WeightedDelta, 0.75, MajorantMode::Leaf)
     );
     assert_eq!(c.label, "weighted-delta b=0.75 local");
     // m is unused with per-leaf majorants, b by analog estimators.

@@ -1,5 +1,6 @@
-// Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `crossing`, `next`)
-// and Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.
+// Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `crossing`, `next`),
+// AdaptiveMajorantIterator (src/volume/adaptive.rs: `new`, `crossing`, `next`) and
+// Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.
 //
 // The same robust walk as the CPU (Amanatides & Woo 1987, as pbrt-v4's DDAMajorantIterator, with
 // plane crossings recomputed from each plane's position and segment ends clamped to be
@@ -9,7 +10,8 @@
 // `o + t d` may move it by an ulp (tests/gpu_dda.rs measures it).
 
 // Per-cell bounds (LeafBounds::cells, x fastest) followed by the global bound at
-// grid_info.global_bounds_index.
+// grid_info.global_bounds_index; for adaptive walks then the hierarchy's table, nodes and
+// packed levels (AdaptiveMajorants::gpu_bounds).
 @group(0) @binding(4) var<storage, read> grid_bounds: array<CellBounds>;
 
 // Edge of one bounds cell in index units.
@@ -30,6 +32,7 @@ struct Dda {
     d: vec3<f32>,             // ray direction
     scale: f32,               // sigma = scale * bound
     global: bool,             // read the global bound instead of the cell's
+    adaptive: bool,           // walk the adaptive hierarchy (cell is then a leaf cell)
     cell: vec3<i32>,
     step: vec3<i32>,          // -1, 0 or +1 per axis
     next_crossing: vec3<f32>, // ray parameter of the next plane crossing per axis
@@ -78,13 +81,16 @@ fn dda_crossing(it: ptr<function, Dda>, axis: i32) -> f32 {
     return (plane - (*it).o[axis]) / (*it).d[axis];
 }
 
-// DdaMajorantIterator::new (global = false) and ::global (global = true), through `walk`.
-fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, global: bool) -> Dda {
+// DdaMajorantIterator::new (MAJORANT_PER_CELL) and ::global (MAJORANT_GLOBAL), through
+// `walk`, and AdaptiveMajorantIterator::new (MAJORANT_ADAPTIVE: the per-cell entry).
+fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) -> Dda {
     var it: Dda;
+    let global = mode == MAJORANT_GLOBAL;
     it.o = o;
     it.d = d;
     it.scale = scale;
     it.global = global;
+    it.adaptive = mode == MAJORANT_ADAPTIVE;
     it.lo = vec3<f32>(grid_info.cell_origin) * CELL_WIDTH;
     let grid_dims = vec3<i32>(grid_info.dims);
     let empty = any(grid_dims <= vec3<i32>(0));
@@ -140,9 +146,101 @@ fn dda_cell_bounds(it: ptr<function, Dda>) -> CellBounds {
     return grid_bounds[c.x + n.x * (c.y + n.y * c.z)];
 }
 
+// A slot of the adaptive hierarchy's table (AdaptiveMajorants::gpu_bounds): an exact integer
+// stored as an f32 value.
+fn adaptive_table(slot: u32) -> u32 {
+    let b = grid_bounds[grid_info.global_bounds_index + 1u + slot / 2u];
+    return u32(select(b.min, b.max, (slot & 1u) == 1u));
+}
+
+// AdaptiveMajorants::level_of: the level of the merged node holding leaf cell c (4 levels
+// per f32 value, 2 values per CellBounds).
+fn adaptive_level(c: vec3<i32>) -> u32 {
+    let n = vec3<u32>(grid_info.dims);
+    let i = u32(c.x) + n.x * (u32(c.y) + n.y * u32(c.z));
+    let b = grid_bounds[adaptive_table(14u) + i / 8u];
+    let w = u32(select(b.min, b.max, ((i / 4u) & 1u) == 1u));
+    return (w >> (4u * (i % 4u))) & 15u;
+}
+
+// AdaptiveMajorants::node: bounds of node `node` of level `l` (level dims are the leaf dims
+// halved l times, rounded up).
+fn adaptive_node(l: u32, node: vec3<i32>) -> CellBounds {
+    let dims = (vec3<u32>(grid_info.dims) + vec3<u32>((1u << l) - 1u)) >> vec3<u32>(l);
+    let i = u32(node.x) + dims.x * (u32(node.y) + dims.y * u32(node.z));
+    return grid_bounds[adaptive_table(l) + i];
+}
+
+// AdaptiveMajorantIterator::crossing.
+fn adaptive_crossing(it: ptr<function, Dda>, axis: i32, node: i32, l: u32) -> f32 {
+    let s = (*it).step[axis];
+    if (s == 0) {
+        return f32_inf();
+    }
+    let plane_node = select(node, node + 1, s == 1);
+    let plane = (*it).lo[axis] + f32(plane_node << l) * CELL_WIDTH;
+    return (plane - (*it).o[axis]) / (*it).d[axis];
+}
+
+// AdaptiveMajorantIterator::next: one segment per merged node, then the leaf cell just across
+// the exit plane (other axes: the exit point's cell, kept inside the node just left).
+fn adaptive_next(it: ptr<function, Dda>, seg: ptr<function, GpuMajorantSegment>) -> bool {
+    while (!(*it).done) {
+        let l = adaptive_level((*it).cell);
+        let node = (*it).cell >> vec3<u32>(l);
+        let c = vec3<f32>(adaptive_crossing(it, 0, node.x, l), adaptive_crossing(it, 1, node.y, l),
+                          adaptive_crossing(it, 2, node.z, l));
+        var axis = 2;
+        if (c[0] <= c[1] && c[0] <= c[2]) {
+            axis = 0;
+        } else if (c[1] <= c[2]) {
+            axis = 1;
+        }
+        var next_cell = (node[axis] << l) - 1;
+        if ((*it).step[axis] > 0) {
+            next_cell = (node[axis] + 1) << l;
+        }
+        let leaving = c[axis] >= (*it).t_exit || next_cell < 0 || next_cell >= (*it).dims[axis];
+        let t_min = (*it).t;
+        var t_max = t_min;
+        if (leaving) {
+            t_max = (*it).t_exit;
+        } else if (c[axis] > t_min) {
+            t_max = c[axis];
+        }
+        let b = adaptive_node(l, node);
+        if (leaving) {
+            (*it).done = true;
+        } else {
+            let p = (*it).o + t_max * (*it).d;
+            for (var a = 0; a < 3; a++) {
+                if (a == axis || l == 0u || (*it).step[a] == 0) {
+                    continue;
+                }
+                let g = floor((p[a] - (*it).lo[a]) / CELL_WIDTH);
+                let first = node[a] << l;
+                let last = min(((node[a] + 1) << l) - 1, (*it).dims[a] - 1);
+                if (g == g) {
+                    (*it).cell[a] = clamp(i32(g), first, last);
+                }
+            }
+            (*it).cell[axis] = next_cell;
+            (*it).t = t_max;
+        }
+        if (t_max > t_min) {
+            *seg = GpuMajorantSegment(t_min, t_max, (*it).scale * b.max, (*it).scale * b.min);
+            return true;
+        }
+    }
+    return false;
+}
+
 // DdaMajorantIterator::next: writes the next segment and returns true, or returns false when
 // the walk is over.
 fn dda_next(it: ptr<function, Dda>, seg: ptr<function, GpuMajorantSegment>) -> bool {
+    if ((*it).adaptive) {
+        return adaptive_next(it, seg);
+    }
     while (!(*it).done) {
         // The axis whose cell boundary the ray meets first.
         let c = (*it).next_crossing;

@@ -8,8 +8,8 @@
 // here calls `tracking_majorant` and `tracking_collide`, which switch on the estimator id
 // (ESTIMATOR_* constants, emitted from gpu_types::GpuEstimator by backend::gpu::shader).
 //
-// Random-number order is the CPU's (tracking/mod.rs): one uniform per exponential step, drawn
-// by the loop; then what the callback draws for that collision (one uniform for the event
+// Random-number order is the CPU's (tracking/mod.rs): one uniform per tentative collision for
+// its exponential depth, drawn by the loop; then what the callback draws for that collision (one uniform for the event
 // choice, one more only when Russian roulette fires). With the same Rng stream the GPU walk
 // therefore takes the same decisions as the CPU one up to rounding: exponential steps use
 // ln_f32 (math.wgsl, equal to f32::ln for 92 % of arguments, else 1 ulp off), exp() is WGSL's,
@@ -40,6 +40,7 @@ struct Stats {
     collision_cap_hits: u32,
     roulette_kills: u32,
     max_abs_weight: f32,
+    segments: u32,
 }
 
 // tracking::Coeffs.
@@ -562,12 +563,16 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
 }
 
 // tracking::sample_free_flight (pbrt-v4's SampleT_maj): walks the majorant segments of `dda`
-// clipped to t <= t_max, places tentative collisions at exponential steps of each segment's
-// majorant and hands them to tracking_collide. Returns T_maj as the CPU does.
+// clipped to t <= t_max; tentative collisions come where the majorant optical depth walked
+// since the last one reaches an exponential depth -ln(1 - u), carried across segments (one
+// uniform per collision, none per segment), and go to tracking_collide. Returns T_maj as the
+// CPU does.
 fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
     var dda = dda_start;
     var seg: GpuMajorantSegment;
-    var t_maj = 1.0;
+    // Depth left before the next collision (negative: none drawn), depth since the last one.
+    var tau_left = -1.0;
+    var tau_since = 0.0;
     var n_collisions = 0u;
     while (dda_next(&dda, &seg)) {
         if (seg.t_min >= t_max) {
@@ -577,6 +582,7 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
         if (!(t1 > seg.t_min)) {
             continue;
         }
+        (*tr).stats.segments += 1u;
         let sigma_maj = tracking_majorant(tr, seg);
         if (!(sigma_maj >= 0.0 && sigma_maj <= F32_MAX)) {
             (*tr).stats.invalid_majorants += 1u;
@@ -587,25 +593,31 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
         }
         var t = seg.t_min;
         loop {
-            let t_prev = t;
-            t += sample_exponential(tracker_uniform(tr), sigma_maj);
-            if (t >= t1) {
-                // Escaped this segment: the majorant transmittance of the rest.
-                t_maj *= exp(-sigma_maj * (t1 - t_prev));
+            if (tau_left < 0.0) {
+                tau_left = sample_exponential(tracker_uniform(tr), 1.0);
+            }
+            let t_next = t + tau_left / sigma_maj;
+            if (!(t_next < t1)) {
+                // Escaped this segment: carry the rest of the depth.
+                let tau_seg = sigma_maj * (t1 - t);
+                tau_left = max(tau_left - tau_seg, 0.0);
+                tau_since += tau_seg;
                 break;
             }
+            t = t_next;
+            tau_left = -1.0;
+            tau_since = 0.0;
             n_collisions += 1u;
             if (n_collisions > MAX_TENTATIVE_COLLISIONS) {
                 (*tr).stats.collision_cap_hits += 1u;
                 return 0.0;
             }
-            t_maj = 1.0;
             if (!tracking_collide(tr, t, sigma_maj, seg)) {
                 return 1.0;
             }
         }
     }
-    return t_maj;
+    return exp(-tau_since);
 }
 
 // tracking::control_optical_depth: integral of sigma_c over the clipped segments (no lookups).

@@ -41,7 +41,7 @@ struct CellBounds {
 // GpuTrackingParams: one tracking dispatch.
 struct GpuTrackingParams {
     estimator: u32,              // ESTIMATOR_* constant
-    majorant_mode: u32,          // MAJORANT_PER_CELL or MAJORANT_GLOBAL
+    majorant_mode: u32,          // MAJORANT_PER_CELL, MAJORANT_GLOBAL or MAJORANT_ADAPTIVE
     control_mode: u32,           // CONTROL_* constant
     spectral_mode: u32,          // 0 history-aware max, 1 history-aware average
     b: f32,                      // majorant scale
@@ -67,7 +67,7 @@ struct GpuTrackingStats {
     collision_cap_hits: atomic<u32>,
     roulette_kills: atomic<u32>,
     max_abs_weight_bits: atomic<u32>, // bits of a non-negative f32: atomicMax is a float max
-    _pad0: u32,
+    segments: atomic<u32>,
     _pad1: u32,
     _pad2: u32,
 }
@@ -176,7 +176,7 @@ struct GpuWavefrontCounters {
     invalid_majorants: atomic<u32>,
     collision_cap_hits: atomic<u32>,
     _pad0: u32,
-    wide: array<atomic<u32>, 14>,       // WIDE_* (low, high) pairs of 64-bit totals
+    wide: array<atomic<u32>, 18>,       // WIDE_* (low, high) pairs of 64-bit totals
     _pad1: u32,
     _pad2: u32,
 }

@@ -52,8 +52,10 @@ fn add_tracking_stats(s: Stats, shadow: bool, ps: ptr<function, GpuPathState>) {
     add_wide(WIDE_NULL_COLLISIONS, s.null_collisions);
     add_wide(WIDE_REAL_COLLISIONS, s.real_collisions);
     add_wide(WIDE_CONTROL_COLLISIONS, s.control_collisions);
+    add_wide(WIDE_SEGMENTS, s.segments);
     if (shadow) {
         add_wide(WIDE_SHADOW_LOOKUPS, s.lookups);
+        add_wide(WIDE_SHADOW_SEGMENTS, s.segments);
     }
     if (s.majorant_violations != 0u) {
         atomicAdd(&counters.majorant_violations, s.majorant_violations);
@@ -103,7 +105,7 @@ fn medium_tracker(o: vec3<f32>, d: vec3<f32>, rng: Rng, estimator: u32) -> Track
 // The majorant DDA of a tracker over [t0, t1] (media.rs `segments`).
 fn medium_dda(tr: Tracker, t0: f32, t1: f32) -> Dda {
     let scale = grid_info.density_scale * tr.params.majorant_channel_scale;
-    return dda_new(tr.o, tr.d, t0, t1, scale, tr.params.majorant_mode == MAJORANT_GLOBAL);
+    return dda_new(tr.o, tr.d, t0, t1, scale, tr.params.majorant_mode);
 }
 
 // path.rs `vdb_intervals` for the one VDB medium: its world bounds along the ray within

@@ -30,8 +30,7 @@ fn distance_main(@builtin(global_invocation_id) id: vec3<u32>) {
     tr.o = ray.o;
     tr.d = ray.d;
     let scale = grid_info.density_scale * params.majorant_channel_scale;
-    let dda = dda_new(ray.o, ray.d, ray.t_min, ray.t_max, scale,
-                      params.majorant_mode == MAJORANT_GLOBAL);
+    let dda = dda_new(ray.o, ray.d, ray.t_min, ray.t_max, scale, params.majorant_mode);
     tracking_sample_distance(&tr, dda, ray.t_max, vec3<f32>(1.0));
     results[i] = vec4<f32>(tr.w, tr.t_event);
     events[i] = vec2<u32>(tr.event, tr.stats.lookups);
@@ -45,6 +44,7 @@ fn distance_main(@builtin(global_invocation_id) id: vec3<u32>) {
     atomicAdd(&stats.invalid_majorants, s.invalid_majorants);
     atomicAdd(&stats.collision_cap_hits, s.collision_cap_hits);
     atomicAdd(&stats.roulette_kills, s.roulette_kills);
+    atomicAdd(&stats.segments, s.segments);
     atomicMax(&stats.max_abs_weight_bits, bitcast<u32>(s.max_abs_weight));
 }
 

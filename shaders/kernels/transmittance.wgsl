@@ -29,8 +29,7 @@ fn transmittance_main(@builtin(global_invocation_id) id: vec3<u32>) {
     tr.d = ray.d;
     tr.w = vec3<f32>(1.0);
     let scale = grid_info.density_scale * params.majorant_channel_scale;
-    let dda = dda_new(ray.o, ray.d, ray.t_min, ray.t_max, scale,
-                      params.majorant_mode == MAJORANT_GLOBAL);
+    let dda = dda_new(ray.o, ray.d, ray.t_min, ray.t_max, scale, params.majorant_mode);
     let t = tracking_transmittance(&tr, dda, ray.t_max);
     results[i] = vec4<f32>(t, f32(tr.stats.lookups));
 
@@ -43,6 +42,7 @@ fn transmittance_main(@builtin(global_invocation_id) id: vec3<u32>) {
     atomicAdd(&stats.invalid_majorants, s.invalid_majorants);
     atomicAdd(&stats.collision_cap_hits, s.collision_cap_hits);
     atomicAdd(&stats.roulette_kills, s.roulette_kills);
+    atomicAdd(&stats.segments, s.segments);
     atomicMax(&stats.max_abs_weight_bits, bitcast<u32>(s.max_abs_weight));
 }
 

@@ -1,4 +1,5 @@
-// Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda.rs): all segments of each
+// Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda.rs) and
+// AdaptiveMajorantIterator (src/volume/adaptive.rs): all segments of each
 // ray (up to MAX_SEGMENTS stored, all counted); tests/gpu_dda.rs compares with the CPU.
 
 @group(1) @binding(0) var<storage, read> rays: array<GpuRay>;
@@ -12,7 +13,7 @@ fn dda_segments(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let r = rays[i];
-    var it = dda_new(r.o, r.d, r.t_min, r.t_max, DDA_SCALE, DDA_GLOBAL);
+    var it = dda_new(r.o, r.d, r.t_min, r.t_max, DDA_SCALE, DDA_MODE);
     var seg: GpuMajorantSegment;
     var n = 0u;
     while (dda_next(&it, &seg)) {

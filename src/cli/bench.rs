@@ -285,7 +285,7 @@ fn render_bench(
     );
     let mut delta_lookups = [0f64; 2];
     for estimator in Estimator::ALL {
-        for (k, majorant) in [MajorantMode::Global, MajorantMode::Local]
+        for (k, majorant) in [MajorantMode::Global, MajorantMode::Leaf]
             .into_iter()
             .enumerate()
         {

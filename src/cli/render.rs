@@ -80,15 +80,43 @@ pub struct RenderArgs {
     /// Per-tile performance log, one JSON line per tile per pass.
     #[arg(long)]
     pub tile_log: Option<PathBuf>,
-    /// Cost heat map (EXR, density lookups per sample per pixel).
+    /// Cost heat map (EXR, per sample per tile; what it counts: --cost-metric).
     #[arg(long)]
     pub cost_map: Option<PathBuf>,
+    /// What the cost map counts per sample: lookups (density lookups), segments (majorant
+    /// segments, the DDA/hierarchy steps), time (nanoseconds), nulls (null collisions),
+    /// shadow-lookups, path-length.
+    #[arg(long, default_value = "lookups")]
+    pub cost_metric: CostMetricArg,
     #[arg(long, default_value_t = 16)]
     pub tile_size: u32,
     /// gpu (wgpu wavefront), cpu (rayon reference) or auto: the GPU when an adapter exists
     /// and supports the scene, else the CPU with a one-line reason.
     #[arg(long, default_value = "auto")]
     pub backend: Backend,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum CostMetricArg {
+    Lookups,
+    Segments,
+    Time,
+    Nulls,
+    ShadowLookups,
+    PathLength,
+}
+
+impl CostMetricArg {
+    pub fn metric(self) -> CostMetric {
+        match self {
+            CostMetricArg::Lookups => CostMetric::DensityLookups,
+            CostMetricArg::Segments => CostMetric::Segments,
+            CostMetricArg::Time => CostMetric::Nanoseconds,
+            CostMetricArg::Nulls => CostMetric::NullCollisions,
+            CostMetricArg::ShadowLookups => CostMetric::ShadowLookups,
+            CostMetricArg::PathLength => CostMetric::PathLength,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -353,7 +381,7 @@ fn write_outputs(
             settings.width,
             settings.height,
             &out.records,
-            CostMetric::DensityLookups,
+            args.cost_metric.metric(),
             &meta,
         )?;
     }
@@ -383,8 +411,8 @@ fn write_outputs(
             .map_or(0, |p| p + 1),
     );
     println!(
-        "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} path_length_sum {} guard_fired {} majorant_violations {}",
-        t.samples, t.density_lookups, t.null_collisions, t.real_collisions, t.shadow_lookups, t.emission_lookups, t.path_length_sum, t.guard_fired, t.majorant_violations
+        "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} majorant_segments {} shadow_segments {} path_length_sum {} guard_fired {} majorant_violations {}",
+        t.samples, t.density_lookups, t.null_collisions, t.real_collisions, t.shadow_lookups, t.emission_lookups, t.majorant_segments, t.shadow_segments, t.path_length_sum, t.guard_fired, t.majorant_violations
     );
     println!(
         "per sample: {:.2} lookups, {:.2} null / {:.2} real collisions, path length {:.2}",
@@ -392,6 +420,13 @@ fn write_outputs(
         t.null_collisions as f64 / samples,
         t.real_collisions as f64 / samples,
         t.path_length_sum as f64 / samples
+    );
+    println!(
+        "walk per sample: primary {:.2} segments / {:.2} lookups, shadow {:.2} segments / {:.2} lookups",
+        (t.majorant_segments - t.shadow_segments) as f64 / samples,
+        (t.density_lookups - t.shadow_lookups) as f64 / samples,
+        t.shadow_segments as f64 / samples,
+        t.shadow_lookups as f64 / samples,
     );
     if t.majorant_violations > 0 {
         eprintln!(

@@ -24,6 +24,8 @@ pub enum CostMetric {
     ShadowLookups,
     /// Scattering vertices per sample (mean path length).
     PathLength,
+    /// Majorant segments (DDA or hierarchy steps) per sample, shadow rays included.
+    Segments,
 }
 
 impl CostMetric {
@@ -35,6 +37,7 @@ impl CostMetric {
             CostMetric::NullCollisions => "null_collisions",
             CostMetric::ShadowLookups => "shadow_lookups",
             CostMetric::PathLength => "path_length",
+            CostMetric::Segments => "majorant_segments",
         }
     }
 
@@ -46,6 +49,7 @@ impl CostMetric {
             CostMetric::NullCollisions => "null collisions per sample",
             CostMetric::ShadowLookups => "shadow density lookups per sample",
             CostMetric::PathLength => "scattering vertices per sample",
+            CostMetric::Segments => "majorant segments per sample",
         }
     }
 
@@ -57,6 +61,7 @@ impl CostMetric {
             CostMetric::NullCollisions => t.null_collisions,
             CostMetric::ShadowLookups => t.shadow_lookups,
             CostMetric::PathLength => t.path_length_sum,
+            CostMetric::Segments => t.majorant_segments,
         };
         if t.samples == 0 {
             0.0

@@ -49,6 +49,13 @@ pub struct TileRecord {
     /// Emission-grid lookups (flame, temperature), made only in emissive scenes.
     #[serde(default)]
     pub emission_lookups: u64,
+    /// Majorant segments walked by the free-flight loops (DDA or hierarchy steps), shadow
+    /// rays included: the walk's cost next to `density_lookups`.
+    #[serde(default)]
+    pub majorant_segments: u64,
+    /// Majorant segments walked by shadow rays.
+    #[serde(default)]
+    pub shadow_segments: u64,
 }
 
 impl TileRecord {
@@ -116,6 +123,10 @@ pub struct TileTotals {
     pub majorant_violations: u64,
     /// Emission-grid lookups.
     pub emission_lookups: u64,
+    /// Majorant segments (shadow rays included).
+    pub majorant_segments: u64,
+    /// Majorant segments of shadow rays.
+    pub shadow_segments: u64,
 }
 
 impl TileTotals {
@@ -141,6 +152,8 @@ impl TileTotals {
         self.guard_fired += r.guard_fired;
         self.majorant_violations += r.majorant_violations;
         self.emission_lookups += r.emission_lookups;
+        self.majorant_segments += r.majorant_segments;
+        self.shadow_segments += r.shadow_segments;
     }
 
     /// Density lookups per camera sample; 0 with no samples.

@@ -21,7 +21,7 @@ use crate::volume::tracking::{
     self, spectral::SpectralProbabilities, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium,
     MediumRgb, TrackingStats,
 };
-use crate::volume::{DdaMajorantIterator, LoadedGrid};
+use crate::volume::{AdaptiveMajorantIterator, AdaptiveMajorants, DdaMajorantIterator, LoadedGrid};
 
 /// A grid placed in the world: trilinear lookups at world points.
 #[derive(Clone)]
@@ -99,6 +99,9 @@ pub struct VdbMedium {
     pub sigma_s: Vec3,
     /// Largest channel of `sigma_a + sigma_s`: scales density bounds into majorants.
     pub sigma_t_bound: f32,
+    /// The adaptive majorant hierarchy of the density grid, built for this medium's
+    /// `sigma_t_bound` and voxel size (`--majorant adaptive`).
+    pub adaptive: Arc<AdaptiveMajorants>,
     /// `sigma_t` equal in every channel (grey tracking suffices).
     pub grey: bool,
     pub phase: HenyeyGreenstein,
@@ -137,19 +140,16 @@ impl TrackingConfig {
     /// analog decomposition (which must not exceed `sigma_t`) and uncapped for the weighted
     /// estimator (signed weights where the control exceeds the density).
     pub fn control(&self) -> ControlExtinction {
-        match (self.estimator, self.majorant, self.m) {
-            (
-                Estimator::Decomposition | Estimator::WeightedDecomposition,
-                MajorantMode::Local,
-                _,
-            ) => ControlExtinction::SegmentMinorant,
-            (Estimator::Decomposition, MajorantMode::Global, Some(m)) => {
-                ControlExtinction::FractionOfBoundCapped(m)
-            }
-            (Estimator::Decomposition, MajorantMode::Global, None) => {
+        let local = self.majorant.is_local();
+        match (self.estimator, local, self.m) {
+            (Estimator::Decomposition | Estimator::WeightedDecomposition, true, _) => {
                 ControlExtinction::SegmentMinorant
             }
-            (Estimator::WeightedDecomposition, MajorantMode::Global, m) => {
+            (Estimator::Decomposition, false, Some(m)) => {
+                ControlExtinction::FractionOfBoundCapped(m)
+            }
+            (Estimator::Decomposition, false, None) => ControlExtinction::SegmentMinorant,
+            (Estimator::WeightedDecomposition, false, m) => {
                 ControlExtinction::FractionOfBound(m.unwrap_or(super::settings::DEFAULT_WEIGHTED_M))
             }
             _ => ControlExtinction::None,
@@ -171,6 +171,8 @@ pub struct MediaStats {
     pub tracking: TrackingStats,
     /// Lookups made by shadow-ray transmittance (also included in `tracking.lookups`).
     pub shadow_lookups: u64,
+    /// Majorant segments walked by shadow rays (also included in `tracking.segments`).
+    pub shadow_segments: u64,
     pub emission_lookups: u64,
 }
 
@@ -182,11 +184,42 @@ fn segments<'a>(
     t0: f32,
     t1: f32,
     mode: MajorantMode,
-) -> DdaMajorantIterator<'a> {
+) -> Segments<'a> {
     let bounds = &m.density.grid.bounds;
     match mode {
-        MajorantMode::Local => DdaMajorantIterator::new(bounds, ray_i, t0, t1, m.sigma_t_bound),
-        MajorantMode::Global => DdaMajorantIterator::global(bounds, ray_i, t0, t1, m.sigma_t_bound),
+        MajorantMode::Leaf => {
+            Segments::Dda(DdaMajorantIterator::new(bounds, ray_i, t0, t1, m.sigma_t_bound))
+        }
+        MajorantMode::Global => {
+            Segments::Dda(DdaMajorantIterator::global(bounds, ray_i, t0, t1, m.sigma_t_bound))
+        }
+        MajorantMode::Adaptive => Segments::Adaptive(AdaptiveMajorantIterator::new(
+            &m.adaptive,
+            ray_i,
+            t0,
+            t1,
+            m.sigma_t_bound,
+        )),
+    }
+}
+
+/// The segment stream of one of the majorant modes (one branch per segment, not per
+/// collision).
+#[derive(Clone)]
+pub enum Segments<'a> {
+    Dda(DdaMajorantIterator<'a>),
+    Adaptive(AdaptiveMajorantIterator<'a>),
+}
+
+impl Iterator for Segments<'_> {
+    type Item = crate::volume::MajorantSegment;
+
+    #[inline]
+    fn next(&mut self) -> Option<Self::Item> {
+        match self {
+            Segments::Dda(it) => it.next(),
+            Segments::Adaptive(it) => it.next(),
+        }
     }
 }
 
@@ -473,6 +506,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
     stats: &mut MediaStats,
 ) -> Vec3 {
     let before = stats.tracking.lookups;
+    let segments_before = stats.tracking.segments;
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
         let view = RgbView::<false>::new(m, ray, Absorption::Event, Vec3::ONE);
@@ -512,6 +546,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
         Vec3::splat(t)
     };
     stats.shadow_lookups += stats.tracking.lookups - before;
+    stats.shadow_segments += stats.tracking.segments - segments_before;
     tr
 }
 

@@ -7,6 +7,8 @@ use super::lights::Lights;
 use super::media::{Blackbody, Emission, GridField, HomogeneousMedium, VdbMedium};
 use crate::scene::{Material, Scene, NO_INDEX};
 use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::{AdaptiveMajorants, CostModel};
+use std::sync::Arc;
 
 /// How a surface interacts with light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,6 +111,13 @@ fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
     }
 }
 
+/// Mean index-space distance per unit of the ray parameter (per metre along a unit world
+/// direction): the mean column norm of `index_from_world` (1 / voxel size when uniform).
+pub fn index_per_t(f: &GridField) -> f32 {
+    let m = f.index_from_world.matrix3;
+    (m.x_axis.length() + m.y_axis.length() + m.z_axis.length()) / 3.0
+}
+
 fn overlaps(a: &crate::math::Aabb, b: &crate::math::Aabb) -> bool {
     !a.is_empty() && !b.is_empty() && a.min.cmplt(b.max).all() && b.min.cmplt(a.max).all()
 }
@@ -148,12 +157,21 @@ impl<'s> RenderScene<'s> {
             let sigma_a = Vec3::from(desc.sigma_a_per_density());
             let sigma_s = Vec3::from(desc.sigma_s_per_density());
             let sigma_t = sigma_a + sigma_s;
+            let density = field(density, world_from_node);
+            let sigma_t_bound = sigma_t.max_element();
+            let adaptive = Arc::new(AdaptiveMajorants::build(
+                &density.grid.bounds,
+                sigma_t_bound,
+                index_per_t(&density),
+                CostModel::DEFAULT,
+            ));
             vdb.push(VdbMedium {
-                density: field(density, world_from_node),
+                density,
                 world_bounds: desc.world_bounds,
                 sigma_a,
                 sigma_s,
-                sigma_t_bound: sigma_t.max_element(),
+                sigma_t_bound,
+                adaptive,
                 grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
                 phase: HenyeyGreenstein::new(desc.anisotropy),
                 emission,

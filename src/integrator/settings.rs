@@ -39,15 +39,31 @@ pub enum MajorantMode {
     /// One bound for the whole grid.
     Global,
     /// Per-leaf (8^3 voxel) bounds walked with the 3D-DDA.
-    Local,
+    Leaf,
+    /// The adaptive hierarchy (`volume::adaptive`): per-leaf bounds merged into larger blocks
+    /// wherever one coarse segment is cheaper than the fine cells it replaces.
+    Adaptive,
 }
 
 impl MajorantMode {
+    pub const ALL: [MajorantMode; 3] = [
+        MajorantMode::Global,
+        MajorantMode::Leaf,
+        MajorantMode::Adaptive,
+    ];
+
     pub fn name(self) -> &'static str {
         match self {
             MajorantMode::Global => "global",
-            MajorantMode::Local => "local",
+            MajorantMode::Leaf => "leaf",
+            MajorantMode::Adaptive => "adaptive",
         }
+    }
+
+    /// Whether the bounds come from local (per-leaf or merged) cells, whose minorants are true
+    /// minorants (the control of analog decomposition tracking).
+    pub fn is_local(self) -> bool {
+        self != MajorantMode::Global
     }
 }
 
@@ -108,7 +124,13 @@ parse_names!(Estimator, "estimator", [
     "weighted-decomposition" => Estimator::WeightedDecomposition,
 ]);
 parse_names!(Absorption, "absorption mode", ["event" => Absorption::Event, "weight" => Absorption::Weight]);
-parse_names!(MajorantMode, "majorant mode", ["global" => MajorantMode::Global, "local" => MajorantMode::Local]);
+// "local" is the default's alias (it named the per-leaf bounds before the adaptive hierarchy).
+parse_names!(MajorantMode, "majorant mode", [
+    "global" => MajorantMode::Global,
+    "leaf" => MajorantMode::Leaf,
+    "adaptive" => MajorantMode::Adaptive,
+    "local" => MajorantMode::Adaptive,
+]);
 parse_names!(ShadowEstimator, "shadow estimator", [
     "auto" => ShadowEstimator::Auto,
     "ratio" => ShadowEstimator::Ratio,
@@ -179,7 +201,7 @@ impl Default for RenderSettings {
             estimator: Estimator::Delta,
             b: 1.0,
             m: None,
-            majorant: MajorantMode::Local,
+            majorant: MajorantMode::Adaptive,
             shadow: ShadowEstimator::Auto,
             force_spectral: false,
             absorption: Absorption::Weight,

@@ -89,6 +89,8 @@ pub fn render_tile<
     record.guard_fired = total.guard_fired;
     record.majorant_violations = t.majorant_violations;
     record.emission_lookups = total.media.emission_lookups;
+    record.majorant_segments = t.segments;
+    record.shadow_segments = total.media.shadow_segments;
     TileOutput {
         buffer,
         record,

@@ -19,7 +19,7 @@ pub struct SceneRenderSettings {
     pub estimator: Option<String>,
     pub b: Option<f32>,
     pub m: Option<f32>,
-    /// "global" or "local".
+    /// "global", "leaf", "adaptive" or "local" (an alias of "adaptive").
     pub majorant: Option<String>,
     pub spp: Option<u32>,
     pub width: Option<u32>,
@@ -89,7 +89,7 @@ pub fn read_render_settings(
         } else {
             None
         },
-        majorant: choice(ctx, "majorant", &["global", "local"])?,
+        majorant: choice(ctx, "majorant", &["global", "leaf", "adaptive", "local"])?,
         spp: count(ctx, "spp", 1e7)?,
         width: count(ctx, "width", 32768.0)?.filter(|&w| w > 0),
         height: count(ctx, "height", 32768.0)?.filter(|&h| h > 0),

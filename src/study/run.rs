@@ -148,7 +148,7 @@ impl StudyConfig {
 /// five identical renders: that row appears once. 16 configurations.
 pub fn default_sweep() -> Vec<StudyConfig> {
     let mut v = Vec::new();
-    for majorant in [MajorantMode::Global, MajorantMode::Local] {
+    for majorant in [MajorantMode::Global, MajorantMode::Leaf] {
         for b in [0.25, 0.5, 0.75, 1.0] {
             v.push(StudyConfig::new(
                 Estimator::WeightedDelta,
@@ -270,7 +270,7 @@ pub fn reference_settings(base: &RenderSettings, spp: u32) -> RenderSettings {
         spp,
         time_limit: None,
         seed: REFERENCE_SEED,
-        ..StudyConfig::new(Estimator::Delta, 1.0, None, MajorantMode::Local).settings(base)
+        ..StudyConfig::new(Estimator::Delta, 1.0, None, MajorantMode::Leaf).settings(base)
     }
 }
 

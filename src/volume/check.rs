@@ -7,6 +7,7 @@
 //! Both are seeded and deterministic.
 use brume_ffi::FloatGridData;
 
+use super::adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, CostModel};
 use super::bounds::LeafBounds;
 use super::dda::DdaMajorantIterator;
 use super::grid::SparseGrid;
@@ -181,6 +182,8 @@ pub struct RayCheckStats {
     pub samples: u64,
     /// Sum over samples of value / sigma_maj (for the mean tightness of the bounds).
     pub sum_value_over_majorant: f64,
+    /// Segments of the merged adaptive structures (all three, summed).
+    pub adaptive_segments: u64,
 }
 
 impl RayCheckStats {
@@ -399,6 +402,25 @@ pub fn check_ray_bounds(
         (box_.min, box_.max)
     };
     let mut segments = Vec::new();
+    // The adaptive hierarchy: every level 0 must reproduce the DDA bit for bit; merged
+    // structures (a sparse-ish scale, a dense one, and steps so dear that everything merges)
+    // must tile the ray and bound it like the DDA.
+    let leaves = AdaptiveMajorants::all_leaves(bounds);
+    let merged = [0.05f32, 2.0, 1e6].map(|step| {
+        AdaptiveMajorants::build(
+            bounds,
+            1.0,
+            1.0,
+            CostModel {
+                step,
+                collision: 1.0,
+            },
+        )
+    });
+    for m in &merged {
+        m.validate(bounds)?;
+    }
+    let mut adaptive = Vec::new();
     for n in 0..n_rays {
         let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
         let expected = if box_.is_empty() {
@@ -412,6 +434,21 @@ pub fn check_ray_bounds(
         stats.rays_hit += expected.is_some() as u64;
         let context = |e: String| format!("ray {n} {ray:?} over [{t0}, {t1}]: {e}");
         check_one_ray(grid, &segments, expected, &ray, &mut rng, &mut stats).map_err(context)?;
+        adaptive.clear();
+        adaptive.extend(AdaptiveMajorantIterator::new(&leaves, &ray, t0, t1, 1.0));
+        if adaptive != segments {
+            return Err(context(format!(
+                "the adaptive walk at level 0 gave {adaptive:?}, the DDA {segments:?}"
+            )));
+        }
+        for m in &merged {
+            adaptive.clear();
+            adaptive.extend(AdaptiveMajorantIterator::new(m, &ray, t0, t1, 1.0));
+            stats.adaptive_segments += adaptive.len() as u64;
+            let mut sub = RayCheckStats::default();
+            check_one_ray(grid, &adaptive, expected, &ray, &mut rng, &mut sub)
+                .map_err(|e| context(format!("adaptive: {e}")))?;
+        }
 
         let global: Vec<MajorantSegment> =
             DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();

@@ -3,6 +3,7 @@
 //! The path from an OpenVDB file to the tracking loop:
 //! [`FloatGridData`](brume_ffi::FloatGridData) --[`SparseGrid::from_vdb`]--> [`SparseGrid`]
 //! --[`LeafBounds::build`]--> [`LeafBounds`] --[`DdaMajorantIterator`]--> [`MajorantSegment`]s.
+pub mod adaptive;
 pub mod bounds;
 pub mod check;
 pub mod convert;
@@ -14,6 +15,7 @@ pub mod reference;
 pub mod segment;
 pub mod tracking;
 
+pub use adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveStats, CostModel};
 pub use bounds::{BoundsStats, CellBounds, LeafBounds};
 pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};
 pub use dda::DdaMajorantIterator;

@@ -7,7 +7,7 @@
 use super::shader::{Module, Spec};
 use crate::gpu_types::{CellBounds, GpuGridInfo};
 use crate::volume::grid::CONSTANT_BIT;
-use crate::volume::{LeafBounds, SparseGrid};
+use crate::volume::{AdaptiveMajorants, LeafBounds, SparseGrid};
 use bytemuck::Pod;
 use std::fmt;
 
@@ -333,6 +333,18 @@ impl GpuGrid {
         bounds: &LeafBounds,
         density_scale: f32,
     ) -> Result<GpuGrid, String> {
+        Self::upload_adaptive(ctx, grid, bounds, None, density_scale)
+    }
+
+    /// [`GpuGrid::upload`] with the adaptive majorant hierarchy in the bounds buffer
+    /// ([`AdaptiveMajorants::gpu_bounds`]), for `MAJORANT_ADAPTIVE` walks.
+    pub fn upload_adaptive(
+        ctx: &GpuContext,
+        grid: &SparseGrid,
+        bounds: &LeafBounds,
+        adaptive: Option<&AdaptiveMajorants>,
+        density_scale: f32,
+    ) -> Result<GpuGrid, String> {
         let limit = ctx.limits.max_storage_buffer_binding_size;
         let bytes = (grid.bricks.len() * 4) as u64;
         if bytes > limit || (grid.cells.len() * 4) as u64 > limit {
@@ -345,8 +357,21 @@ impl GpuGrid {
             ));
         }
         let info = GpuGridInfo::new(grid, density_scale);
-        let mut b: Vec<CellBounds> = bounds.cells.clone();
-        b.push(bounds.global);
+        let b: Vec<CellBounds> = match adaptive {
+            Some(a) => a.gpu_bounds(bounds)?,
+            None => {
+                let mut b = bounds.cells.clone();
+                b.push(bounds.global);
+                b
+            }
+        };
+        if (b.len() * 8) as u64 > limit {
+            return Err(format!(
+                "the grid's bounds need {}; the device binds at most {}",
+                byte_size((b.len() * 8) as u64),
+                byte_size(limit)
+            ));
+        }
         Ok(GpuGrid {
             info,
             info_buffer: ctx.uniform_buffer("grid info", &info),
@@ -367,11 +392,13 @@ impl GpuGrid {
         ctx: &GpuContext,
         grid: &SparseGrid,
         bounds: &LeafBounds,
+        adaptive: Option<&AdaptiveMajorants>,
         density_scale: f32,
         extra: &[&SparseGrid],
     ) -> Result<(GpuGrid, Vec<GpuGridInfo>), String> {
         if extra.is_empty() {
-            return Self::upload(ctx, grid, bounds, density_scale).map(|g| (g, Vec::new()));
+            return Self::upload_adaptive(ctx, grid, bounds, adaptive, density_scale)
+                .map(|g| (g, Vec::new()));
         }
         let mut cells = grid.cells.clone();
         let mut bricks = grid.bricks.clone();
@@ -412,7 +439,7 @@ impl GpuGrid {
             voxel_size: grid.voxel_size,
             name: grid.name.clone(),
         };
-        let mut gg = Self::upload(ctx, &combined, bounds, density_scale)?;
+        let mut gg = Self::upload_adaptive(ctx, &combined, bounds, adaptive, density_scale)?;
         // The density's header describes the density alone.
         gg.info = GpuGridInfo::new(grid, density_scale);
         ctx.queue

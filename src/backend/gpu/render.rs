@@ -516,8 +516,9 @@ fn medium_params(
     p.tracking = GpuTrackingParams {
         estimator: estimator as u32,
         majorant_mode: match cfg.majorant {
-            MajorantMode::Local => GpuMajorantMode::PerCell,
+            MajorantMode::Leaf => GpuMajorantMode::PerCell,
             MajorantMode::Global => GpuMajorantMode::Global,
+            MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
         } as u32,
         control_mode: control_mode as u32,
         spectral_mode: 0,
@@ -707,7 +708,14 @@ pub fn render_with_timings(
             let fields = emission_fields(m, features);
             let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
             let (mut gg, mut infos) =
-                GpuGrid::upload_with(ctx, &g.grid, &g.bounds, m.sigma_t_bound, &extra)
+                GpuGrid::upload_with(
+                    ctx,
+                    &g.grid,
+                    &g.bounds,
+                    (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive),
+                    m.sigma_t_bound,
+                    &extra,
+                )
                     .map_err(GpuRenderError::Limits)?;
             gg.info.index_from_world = affine_rows(m.density.index_from_world);
             ctx.queue
@@ -945,6 +953,8 @@ pub fn render_with_timings(
             r.shadow_lookups = counters.wide(GpuWideCounter::ShadowLookups);
             r.path_length_sum = counters.wide(GpuWideCounter::DepthSum);
             r.emission_lookups = counters.wide(GpuWideCounter::EmissionLookups);
+            r.majorant_segments = counters.wide(GpuWideCounter::Segments);
+            r.shadow_segments = counters.wide(GpuWideCounter::ShadowSegments);
             r.guard_fired = counters.guard_fired as u64;
             r.majorant_violations = counters.majorant_violations as u64;
             pending.push((r, iterations, stage_ns, samples, y0, y1));

@@ -154,6 +154,7 @@ pub fn shared_constants() -> String {
     for (name, v) in [
         ("MAJORANT_PER_CELL", GpuMajorantMode::PerCell as u32),
         ("MAJORANT_GLOBAL", GpuMajorantMode::Global as u32),
+        ("MAJORANT_ADAPTIVE", GpuMajorantMode::Adaptive as u32),
         ("CONTROL_NONE", GpuControlMode::None as u32),
         ("CONTROL_CONSTANT", GpuControlMode::Constant as u32),
         (
@@ -335,7 +336,7 @@ pub const TEST_DDA_MODULE: Module = Module {
     entry_point: "dda_segments",
     default_specs: &[
         Spec::u32("MAX_SEGMENTS", 64),
-        Spec::bool("DDA_GLOBAL", false),
+        Spec::u32("DDA_MODE", 0),
         Spec::f32("DDA_SCALE", 1.0),
     ],
 };

@@ -16,9 +16,11 @@
 //! | `residual_ratio.rs`         | -                 | residual ratio tracking  |
 //! | `spectral.rs` (RGB)         | weighted, history-aware | weighted, history-aware |
 //!
-//! Random-number order (the WGSL mirror must match): one uniform per exponential step, drawn
-//! by the loop; then whatever the callback draws for that collision (one uniform for the event
-//! choice, one more only when Russian roulette fires).
+//! Random-number order (the WGSL mirror must match): one uniform per tentative collision for
+//! its exponential optical depth, drawn by the loop when the previous collision is consumed
+//! (not per segment: the depth carries across segments); then whatever the callback draws for
+//! that collision (one uniform for the event choice, one more only when Russian roulette
+//! fires).
 //!
 //! Units: `t` is the ray parameter and every coefficient is per unit of `t`.
 // Comparisons such as `!(x > 0.0)` are written negated on purpose: NaN takes the safe branch.
@@ -232,6 +234,9 @@ pub struct TrackingStats {
     pub collision_cap_hits: u64,
     /// Paths ended by Russian roulette.
     pub roulette_kills: u64,
+    /// Majorant segments the free-flight loop walked (DDA or hierarchy steps, empty ones
+    /// included): the walk's share of the cost, next to `lookups`.
+    pub segments: u64,
     /// Largest `|weight|` seen by a weighted tracker: weights grow geometrically when the
     /// majorant does not bound (`b < 1`); a large value explains a noisy image.
     pub max_abs_weight: f32,
@@ -248,6 +253,7 @@ impl TrackingStats {
         self.invalid_majorants += o.invalid_majorants;
         self.collision_cap_hits += o.collision_cap_hits;
         self.roulette_kills += o.roulette_kills;
+        self.segments += o.segments;
         self.max_abs_weight = self.max_abs_weight.max(o.max_abs_weight);
     }
 
@@ -363,11 +369,18 @@ pub fn sample_exponential(u: f32, sigma: f32) -> f32 {
 /// The shared free-flight loop (pbrt-v4 `SampleT_maj`).
 ///
 /// Walks `segments` (sorted by `t_min`, non-overlapping; gaps are empty space) clipped to
-/// `t <= t_max`. Within a segment with majorant `sigma_maj = majorant(seg)` it places tentative
-/// collisions at exponential steps of rate `sigma_maj` and calls `callback(rng, stats, &collision)`;
-/// a `false` return stops the walk. Segments with a zero majorant are crossed without drawing
-/// anything (their majorant transmittance is exactly 1); invalid majorants (negative, NaN,
-/// infinite) are skipped and counted. `t_max` and segment ends may be `f32::INFINITY`.
+/// `t <= t_max`. Tentative collisions form a Poisson process of rate `sigma_maj(t)`, piecewise
+/// constant over the segments (`sigma_maj = majorant(seg)`): the loop draws an exponential
+/// optical depth `tau = -ln(1 - u)` and places the next collision where the majorant optical
+/// depth walked since the last one reaches `tau`, carrying what is left of `tau` from segment
+/// to segment. That is the exact inverse CDF of the process, so it samples the same
+/// collisions as one exponential step per segment (pbrt's way, and Brume's before) while
+/// drawing a uniform and a logarithm per COLLISION instead of per segment and collision: a
+/// walk through many small segments (per-leaf bounds) costs a multiply and a compare per
+/// segment. At each collision it calls `callback(rng, stats, &collision)`; a `false` return
+/// stops the walk. Segments with a zero majorant are crossed without drawing anything;
+/// invalid majorants (negative, NaN, infinite) are skipped and counted. `t_max` and segment
+/// ends may be `f32::INFINITY`.
 ///
 /// Returns `T_maj`: the majorant transmittance from the last collision (or the start) to
 /// `t_max` if the walk escaped, 1 if the callback stopped it. With exponential steps the escape
@@ -386,7 +399,10 @@ where
     M: FnMut(&MajorantSegment) -> f32,
     C: FnMut(&mut Rng, &mut TrackingStats, &Collision) -> bool,
 {
-    let mut t_maj = 1.0f32;
+    // Optical depth left before the next tentative collision (negative: none drawn yet), and
+    // the majorant optical depth walked since the last collision (for T_maj).
+    let mut tau_left = -1.0f32;
+    let mut tau_since = 0.0f32;
     let mut n_collisions = 0u64;
     for seg in segments {
         if seg.t_min >= t_max {
@@ -396,6 +412,7 @@ where
         if !(t1 > seg.t_min) {
             continue;
         }
+        stats.segments += 1;
         let sigma_maj = majorant(&seg);
         if !(sigma_maj >= 0.0 && sigma_maj.is_finite()) {
             stats.invalid_majorants += 1;
@@ -406,27 +423,33 @@ where
         }
         let mut t = seg.t_min;
         loop {
-            let t_prev = t;
-            t += sample_exponential(rng.uniform_f32(), sigma_maj);
-            if t >= t1 {
-                // Escaped this segment: account for the majorant transmittance of the rest.
-                // (Never reached with t1 = inf, so no 0 * inf.)
-                t_maj *= (-sigma_maj * (t1 - t_prev)).exp();
+            if tau_left < 0.0 {
+                tau_left = sample_exponential(rng.uniform_f32(), 1.0);
+            }
+            let t_next = t + tau_left / sigma_maj;
+            if !(t_next < t1) {
+                // Escaped this segment: carry the rest of the depth into the next one.
+                // (Never reached with t1 = inf, so no 0 * inf.) Rounding may leave a hair
+                // below 0: the next collision is then at the next segment's start.
+                let tau_seg = sigma_maj * (t1 - t);
+                tau_left = (tau_left - tau_seg).max(0.0);
+                tau_since += tau_seg;
                 break;
             }
+            t = t_next;
+            tau_left = -1.0;
+            tau_since = 0.0;
             n_collisions += 1;
             if n_collisions > MAX_TENTATIVE_COLLISIONS {
                 stats.collision_cap_hits += 1;
                 return 0.0;
             }
-            // pbrt resets T_maj at each collision: the callback consumed the part up to `t`.
-            t_maj = 1.0;
             if !callback(rng, stats, &Collision { t, sigma_maj, seg }) {
                 return 1.0;
             }
         }
     }
-    t_maj
+    (-tau_since).exp()
 }
 
 /// Optical depth `integral sigma_c dt` of the control component over the clipped segments:

@@ -1,0 +1,616 @@
+//! The adaptive majorant hierarchy: per-leaf bounds merged into larger aligned blocks wherever
+//! one coarse segment is cheaper to track through than the fine cells it replaces.
+//!
+//! Tight bounds need small cells and small cells need many DDA steps: the central trade-off of
+//! null-collision tracking. Per-leaf (8^3 voxel) bounds cut density lookups sharply in sparse
+//! media, but in a dense, smooth medium the walk through them costs more than the lookups it
+//! saves; one global bound is the opposite. The anchors adapt the structure to the data:
+//! Cycles merges octree nodes whose bounds are close, pbrt-v4 uses a coarse 16^3 grid, and
+//! Yue et al. 2010 ("Unbiased, adaptive stochastic sampling for rendering inhomogeneous
+//! participating media") split space by an explicit cost model. Brume does the last on an
+//! octree (a mip pyramid of the per-leaf bounds), bottom-up:
+//!
+//! ```text
+//! cost_leaf(n)  = c_step + c_collision * sigma_maj(n) * chord(n)   one segment over node n
+//! cost_split(n) = sum_children (1/4) * cost(child)                 walk the children instead
+//! cost(n)       = min(cost_leaf(n), cost_split(n))
+//! ```
+//!
+//! `sigma_maj(n) * chord(n)` is the expected number of tentative collisions (each a density
+//! lookup) on a random chord through a cube of side `s` (mean chord `2 s / 3`, Cauchy), and a
+//! random line that meets a cube meets each of its 8 half-size children with probability 1/4
+//! (the ratio of surface areas), so a ray crosses 2 children on average. Where the bounds are
+//! equal (tiles, empty space) merging never adds a collision and always saves steps, so empty
+//! space and uniform regions become single large segments; where the density varies the
+//! fine cells stay. A node chosen as a leaf overrides every choice below it.
+//!
+//! The result is flat and GPU-friendly: the pyramid of bounds (level 0 = the per-leaf cells)
+//! and one byte per fine cell, the level of the merged node that contains it. The walk
+//! ([`AdaptiveMajorantIterator`]) is the per-leaf DDA with a variable cell size: in fine cell
+//! `c` with level `l` it emits one segment to the exit of node `c >> l`, then steps into the
+//! fine cell just across the exit plane. With every level 0 it IS the per-leaf DDA, bit for bit
+//! (tested). Merged bounds are unions of per-leaf bounds, which carry the one-voxel apron, so
+//! every reconstructed value in a segment lies in its `[sigma_min, sigma_maj]`.
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::bounds::{CellBounds, LeafBounds};
+use super::segment::MajorantSegment;
+use crate::math::{Aabb, Ray, Vec3};
+
+/// Edge of one level-0 cell in index units.
+const CELL_WIDTH: f32 = 8.0;
+
+/// Deepest level: a node of level `l` spans `2^l` leaf cells per axis (`8 * 2^l` voxels).
+pub const MAX_LEVEL: u32 = 12;
+
+/// Relative costs of the walk, in units of one tentative collision (an exponential step, a
+/// density lookup and the event choice).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostModel {
+    /// One majorant segment: a DDA step and the per-segment set-up of the tracking loop.
+    pub step: f32,
+    /// One tentative collision.
+    pub collision: f32,
+}
+
+impl CostModel {
+    /// Measured with `brume bench render` on the example scenes (2-core x86-64): a segment
+    /// costs about as much as a tentative collision with its lookup.
+    pub const DEFAULT: CostModel = CostModel {
+        step: 1.0,
+        collision: 1.0,
+    };
+}
+
+/// One level of the pyramid: its node grid and where its nodes start in
+/// [`AdaptiveMajorants::nodes`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Level {
+    pub dims: [u32; 3],
+    pub offset: u32,
+}
+
+/// The adaptive hierarchy of one medium (built for its density scale and voxel size).
+#[derive(Clone, Debug)]
+pub struct AdaptiveMajorants {
+    /// Level-0 (leaf cell) grid, as [`LeafBounds`].
+    pub dims: [u32; 3],
+    pub cell_origin: [i32; 3],
+    pub levels: Vec<Level>,
+    /// Bounds of every node of every level, level 0 first, x fastest within a level.
+    pub nodes: Vec<CellBounds>,
+    /// Per leaf cell, the level of the merged node containing it.
+    pub node_level: Vec<u8>,
+    /// Wall time of [`AdaptiveMajorants::build`].
+    pub build_seconds: f64,
+}
+
+/// What the structure looks like, for `brume info`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdaptiveStats {
+    /// Merged nodes (segments a walk can emit), per level.
+    pub nodes_per_level: Vec<u64>,
+    /// Leaf cells per level of their merged node.
+    pub cells_per_level: Vec<u64>,
+    /// Model cost per ray through the whole grid for per-leaf, global and adaptive bounds.
+    pub cost_leaf: f64,
+    pub cost_global: f64,
+    pub cost_adaptive: f64,
+    pub memory_bytes: usize,
+    pub build_seconds: f64,
+}
+
+impl AdaptiveMajorants {
+    /// Builds the hierarchy from per-leaf bounds. `scale` turns bound values into majorants
+    /// per unit of the ray parameter (as the DDA's `scale`), `index_per_t` is the index-space
+    /// distance per unit of `t` (1 / voxel size for a unit world direction).
+    pub fn build(leaf: &LeafBounds, scale: f32, index_per_t: f32, cost: CostModel) -> Self {
+        let start = Instant::now();
+        let mut levels = vec![Level {
+            dims: leaf.dims,
+            offset: 0,
+        }];
+        let mut nodes = leaf.cells.clone();
+        while levels.len() as u32 <= MAX_LEVEL && levels.last().unwrap().dims.iter().any(|&d| d > 1)
+        {
+            let below = *levels.last().unwrap();
+            let dims = below.dims.map(|d| d.div_ceil(2));
+            let offset = nodes.len() as u32;
+            let [nx, ny, nz] = dims.map(|d| d as usize);
+            let next: Vec<CellBounds> = (0..nx * ny * nz)
+                .into_par_iter()
+                .map(|i| {
+                    let n = [i % nx, i / nx % ny, i / (nx * ny)];
+                    children(below.dims, n).fold(CellBounds::EMPTY, |b, c| {
+                        b.union(nodes[below.offset as usize + c])
+                    })
+                })
+                .collect();
+            nodes.extend(next);
+            levels.push(Level { dims, offset });
+        }
+        // Bottom-up costs and choices.
+        let chord = |l: usize| (2.0 / 3.0) * CELL_WIDTH * (1u32 << l) as f32 / index_per_t;
+        let leaf_cost = |l: usize, b: CellBounds| {
+            let sigma = (scale * b.max).max(0.0);
+            let c = cost.step + cost.collision * sigma * chord(l);
+            if c.is_finite() {
+                c
+            } else {
+                f32::MAX
+            }
+        };
+        let mut costs: Vec<f32> = nodes[..leaf.cells.len()]
+            .par_iter()
+            .map(|&b| leaf_cost(0, b))
+            .collect();
+        let mut merged: Vec<Vec<bool>> = vec![Vec::new()];
+        for l in 1..levels.len() {
+            let (below, here) = (levels[l - 1], levels[l]);
+            let [nx, ny, nz] = here.dims.map(|d| d as usize);
+            let choice: Vec<(f32, bool)> = (0..nx * ny * nz)
+                .into_par_iter()
+                .map(|i| {
+                    let n = [i % nx, i / nx % ny, i / (nx * ny)];
+                    let split: f32 = children(below.dims, n).map(|c| 0.25 * costs[c]).sum();
+                    let as_leaf = leaf_cost(l, nodes[here.offset as usize + i]);
+                    if as_leaf <= split {
+                        (as_leaf, true)
+                    } else {
+                        (split, false)
+                    }
+                })
+                .collect();
+            costs = choice.iter().map(|c| c.0).collect();
+            merged.push(choice.iter().map(|c| c.1).collect());
+        }
+        // Top-down: each leaf cell takes the highest merged ancestor's level.
+        let [nx, ny, _] = leaf.dims.map(|d| d as usize);
+        let node_level: Vec<u8> = (0..leaf.cells.len())
+            .into_par_iter()
+            .map(|i| {
+                let c = [i % nx, i / nx % ny, i / (nx * ny)];
+                for l in (1..levels.len()).rev() {
+                    let d = levels[l].dims.map(|d| d as usize);
+                    let n = c.map(|x| x >> l);
+                    if merged[l][n[0] + d[0] * (n[1] + d[1] * n[2])] {
+                        return l as u8;
+                    }
+                }
+                0
+            })
+            .collect();
+        AdaptiveMajorants {
+            dims: leaf.dims,
+            cell_origin: leaf.cell_origin,
+            levels,
+            nodes,
+            node_level,
+            build_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Every leaf cell at level 0: the per-leaf DDA's segments (for tests and `--majorant
+    /// leaf` on the same code path).
+    pub fn all_leaves(leaf: &LeafBounds) -> Self {
+        let mut a = Self::build(
+            leaf,
+            1.0,
+            1.0,
+            CostModel {
+                step: 0.0,
+                collision: 1.0,
+            },
+        );
+        a.node_level.iter_mut().for_each(|l| *l = 0);
+        a
+    }
+
+    /// Bounds of node `n` of level `l`.
+    #[inline]
+    pub fn node(&self, l: usize, n: [i32; 3]) -> CellBounds {
+        let lv = &self.levels[l];
+        let [dx, dy, _] = lv.dims.map(|d| d as usize);
+        self.nodes
+            [lv.offset as usize + n[0] as usize + dx * (n[1] as usize + dy * n[2] as usize)]
+    }
+
+    #[inline]
+    fn level_of(&self, c: [i32; 3]) -> u32 {
+        let [nx, ny, _] = self.dims.map(|d| d as usize);
+        self.node_level[c[0] as usize + nx * (c[1] as usize + ny * c[2] as usize)] as u32
+    }
+
+    /// Bytes held: the pyramid and the level bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<CellBounds>() + self.node_level.len()
+    }
+
+    /// Structure statistics and the model's expected cost of a random ray through the top
+    /// node for per-leaf bounds, one global bound and this hierarchy (the recursion the build
+    /// minimises, so `cost_adaptive <= min(cost_leaf, cost_global)`).
+    pub fn stats(&self, scale: f32, index_per_t: f32, cost: CostModel) -> AdaptiveStats {
+        let nl = self.levels.len();
+        let mut cells_per_level = vec![0u64; nl];
+        let mut nodes_per_level = vec![0u64; nl];
+        let [nx, ny, _] = self.dims.map(|d| d as usize);
+        for (i, &l) in self.node_level.iter().enumerate() {
+            cells_per_level[l as usize] += 1;
+            let c = [i % nx, i / nx % ny, i / (nx * ny)];
+            // Count each merged node once, at its first leaf cell.
+            if c.iter().all(|&x| x % (1 << l) == 0) {
+                nodes_per_level[l as usize] += 1;
+            }
+        }
+        let chord = |l: usize| (2.0 / 3.0) * CELL_WIDTH as f64 * (1u64 << l) as f64 / index_per_t as f64;
+        let leaf_cost = |l: usize, b: CellBounds| {
+            cost.step as f64 + cost.collision as f64 * (scale * b.max).max(0.0) as f64 * chord(l)
+        };
+        let mut fine: Vec<f64> = self.nodes[..self.node_level.len()]
+            .iter()
+            .map(|&b| leaf_cost(0, b))
+            .collect();
+        let mut adaptive = fine.clone();
+        for l in 1..nl {
+            let (below, here) = (self.levels[l - 1], self.levels[l]);
+            let [hx, hy, hz] = here.dims.map(|d| d as usize);
+            let mut f = Vec::with_capacity(hx * hy * hz);
+            let mut a = Vec::with_capacity(hx * hy * hz);
+            for i in 0..hx * hy * hz {
+                let n = [i % hx, i / hx % hy, i / (hx * hy)];
+                f.push(children(below.dims, n).map(|c| 0.25 * fine[c]).sum::<f64>());
+                let first = n.map(|x| (x << l) as i32);
+                if self.level_of(first) as usize == l {
+                    a.push(leaf_cost(l, self.nodes[here.offset as usize + i]));
+                } else {
+                    a.push(children(below.dims, n).map(|c| 0.25 * adaptive[c]).sum::<f64>());
+                }
+            }
+            fine = f;
+            adaptive = a;
+        }
+        let top = self.node(nl - 1, [0, 0, 0]);
+        AdaptiveStats {
+            nodes_per_level,
+            cells_per_level,
+            cost_leaf: fine[0],
+            cost_global: leaf_cost(nl - 1, top),
+            cost_adaptive: adaptive[0],
+            memory_bytes: self.memory_bytes(),
+            build_seconds: self.build_seconds,
+        }
+    }
+
+    /// Checks the structure's invariants: each node's bounds are the union of its children's,
+    /// level 0 equals the leaf bounds, and every leaf cell's level names a node all of whose
+    /// leaf cells carry the same level.
+    pub fn validate(&self, leaf: &LeafBounds) -> Result<(), String> {
+        if self.dims != leaf.dims || self.nodes[..leaf.cells.len()] != leaf.cells[..] {
+            return Err("level 0 differs from the per-leaf bounds".into());
+        }
+        for l in 1..self.levels.len() {
+            let (below, here) = (self.levels[l - 1], self.levels[l]);
+            let [nx, ny, nz] = here.dims.map(|d| d as usize);
+            for i in 0..nx * ny * nz {
+                let n = [i % nx, i / nx % ny, i / (nx * ny)];
+                let u = children(below.dims, n).fold(CellBounds::EMPTY, |b, c| {
+                    b.union(self.nodes[below.offset as usize + c])
+                });
+                if u != self.nodes[here.offset as usize + i] {
+                    return Err(format!("level {l} node {n:?}: bounds are not its children's union"));
+                }
+            }
+        }
+        let [nx, ny, _] = self.dims.map(|d| d as usize);
+        for (i, &l) in self.node_level.iter().enumerate() {
+            let c = [i % nx, i / nx % ny, i / (nx * ny)].map(|x| x as i32);
+            let base = c.map(|x| (x >> l) << l);
+            for dz in 0..1i32 << l {
+                for dy in 0..1i32 << l {
+                    for dx in 0..1i32 << l {
+                        let o = [base[0] + dx, base[1] + dy, base[2] + dz];
+                        if (0..3).any(|a| o[a] >= self.dims[a] as i32) {
+                            continue;
+                        }
+                        if self.level_of(o) != l as u32 {
+                            return Err(format!(
+                                "leaf cell {o:?} has level {} inside a merged node of level {l}",
+                                self.level_of(o)
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Flat indices (within the level below) of the up to 8 children of node `n`.
+fn children(below: [u32; 3], n: [usize; 3]) -> impl Iterator<Item = usize> {
+    let [bx, by, bz] = below.map(|d| d as usize);
+    (0..8).filter_map(move |k| {
+        let c = [2 * n[0] + (k & 1), 2 * n[1] + (k >> 1 & 1), 2 * n[2] + (k >> 2)];
+        (c[0] < bx && c[1] < by && c[2] < bz).then(|| c[0] + bx * (c[1] + by * c[2]))
+    })
+}
+
+/// Lazily yields the segments of a ray (in index space) through an [`AdaptiveMajorants`]:
+/// one per merged node crossed. See the module documentation for the walk.
+#[derive(Clone, Debug)]
+pub struct AdaptiveMajorantIterator<'a> {
+    tree: &'a AdaptiveMajorants,
+    dims: [i32; 3],
+    ray: Ray,
+    lo: Vec3,
+    scale: f32,
+    /// The current leaf cell.
+    cell: [i32; 3],
+    step: [i32; 3],
+    t: f32,
+    t_exit: f32,
+    done: bool,
+}
+
+impl<'a> AdaptiveMajorantIterator<'a> {
+    /// Segments of `ray` over `[t0, t1]` with `sigma_maj = scale * max`,
+    /// `sigma_min = scale * min` of each merged node crossed.
+    pub fn new(tree: &'a AdaptiveMajorants, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
+        let lo = Vec3::from_array(tree.cell_origin.map(|c| c as f32 * CELL_WIDTH));
+        let dims = tree.dims.map(|d| d as i32);
+        let mut it = Self {
+            tree,
+            dims,
+            ray: *ray,
+            lo,
+            scale,
+            cell: [0; 3],
+            step: [0; 3],
+            t: 0.0,
+            t_exit: 0.0,
+            done: true,
+        };
+        if dims.iter().any(|&n| n <= 0) {
+            return it;
+        }
+        let hi = lo + CELL_WIDTH * Vec3::from_array(dims.map(|n| n as f32));
+        // The per-leaf DDA's entry, exactly (same slab test, same cell choice).
+        let Some((t_enter, t_exit)) = Aabb::new(lo, hi).intersect(ray, t0, t1) else {
+            return it;
+        };
+        if !(t_enter < t_exit) {
+            return it;
+        }
+        let p = ray.at(t_enter);
+        for a in 0..3 {
+            let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
+            let g = ((x - lo[a]) / CELL_WIDTH).floor();
+            it.cell[a] = if g.is_nan() {
+                0
+            } else {
+                (g as i32).clamp(0, dims[a] - 1)
+            };
+            it.step[a] = if ray.d[a] > 0.0 {
+                1
+            } else if ray.d[a] < 0.0 {
+                -1
+            } else {
+                0
+            };
+        }
+        it.t = t_enter;
+        it.t_exit = t_exit;
+        it.done = false;
+        it
+    }
+
+    /// Ray parameter where the ray leaves node `node` of level `l` along `axis`, computed
+    /// afresh from the plane's position (as the per-leaf DDA does).
+    #[inline]
+    fn crossing(&self, axis: usize, node: i32, l: u32) -> f32 {
+        let plane_node = match self.step[axis] {
+            0 => return f32::INFINITY,
+            1 => node + 1,
+            _ => node,
+        };
+        let plane = self.lo[axis] + (plane_node << l) as f32 * CELL_WIDTH;
+        (plane - self.ray.o[axis]) / self.ray.d[axis]
+    }
+}
+
+impl Iterator for AdaptiveMajorantIterator<'_> {
+    type Item = MajorantSegment;
+
+    fn next(&mut self) -> Option<MajorantSegment> {
+        while !self.done {
+            let l = self.tree.level_of(self.cell);
+            let node = self.cell.map(|c| c >> l);
+            let c = [0, 1, 2].map(|a| self.crossing(a, node[a], l));
+            let axis = if c[0] <= c[1] && c[0] <= c[2] {
+                0
+            } else if c[1] <= c[2] {
+                1
+            } else {
+                2
+            };
+            // The leaf cell just across the exit plane.
+            let next_cell = if self.step[axis] > 0 {
+                (node[axis] + 1) << l
+            } else {
+                (node[axis] << l) - 1
+            };
+            let leaving = c[axis] >= self.t_exit || next_cell < 0 || next_cell >= self.dims[axis];
+            let t_min = self.t;
+            let t_max = if leaving {
+                self.t_exit
+            } else if c[axis] > t_min {
+                c[axis]
+            } else {
+                t_min
+            };
+            let b = self.tree.node(l as usize, node);
+            if leaving {
+                self.done = true;
+            } else {
+                // The other axes: the cell of the exit point, kept inside the node just left
+                // (so no axis ever moves backwards and rounding cannot skip a node).
+                let p = self.ray.at(t_max);
+                for a in 0..3 {
+                    if a == axis {
+                        continue;
+                    }
+                    if l > 0 && self.step[a] != 0 {
+                        let g = ((p[a] - self.lo[a]) / CELL_WIDTH).floor();
+                        let first = node[a] << l;
+                        let last = (((node[a] + 1) << l) - 1).min(self.dims[a] - 1);
+                        self.cell[a] = if g.is_nan() {
+                            self.cell[a]
+                        } else {
+                            (g as i32).clamp(first, last)
+                        };
+                    }
+                }
+                self.cell[axis] = next_cell;
+                self.t = t_max;
+            }
+            if t_max > t_min {
+                return Some(MajorantSegment {
+                    t_min,
+                    t_max,
+                    sigma_maj: self.scale * b.max,
+                    sigma_min: self.scale * b.min,
+                });
+            }
+        }
+        None
+    }
+}
+
+impl std::iter::FusedIterator for AdaptiveMajorantIterator<'_> {}
+
+/// The GPU's bounds buffer: the per-leaf bounds and the global bound (as always), then a
+/// 16-slot table (8 [`CellBounds`], read as 16 `f32` values), the nodes of levels 1 and up,
+/// and the leaf cells' levels packed 4 to an `f32` value (`sum_k level[4w + k] * 16^k`, exact
+/// below 2^16) and 2 values to a `CellBounds`. Table slot `l` < 13 holds where level `l`
+/// starts (0 for level 0), [`GPU_TABLE_LEVELS`] the level count and [`GPU_TABLE_PACKED`]
+/// where the packed levels start. Integers are stored as exact `f32` values, not bit
+/// patterns, so nothing depends on how a device moves floats; every index must stay below
+/// 2^24. `shaders/common/dda.wgsl` (`adaptive_*`) reads it.
+pub const GPU_TABLE_SLOTS: usize = 16;
+pub const GPU_TABLE_LEVELS: usize = 13;
+pub const GPU_TABLE_PACKED: usize = 14;
+
+impl AdaptiveMajorants {
+    pub fn gpu_bounds(&self, leaf: &LeafBounds) -> Result<Vec<CellBounds>, String> {
+        let mut out = leaf.cells.clone();
+        out.push(leaf.global);
+        let table_at = out.len();
+        out.extend([CellBounds::point(0.0); GPU_TABLE_SLOTS / 2]);
+        let mut table = [0f32; GPU_TABLE_SLOTS];
+        for (l, lv) in self.levels.iter().enumerate().skip(1) {
+            let count = lv.dims.iter().map(|&d| d as usize).product::<usize>();
+            table[l] = out.len() as f32;
+            out.extend_from_slice(&self.nodes[lv.offset as usize..lv.offset as usize + count]);
+        }
+        table[GPU_TABLE_LEVELS] = self.levels.len() as f32;
+        table[GPU_TABLE_PACKED] = out.len() as f32;
+        let words: Vec<f32> = self
+            .node_level
+            .chunks(4)
+            .map(|c| c.iter().rev().fold(0u32, |a, &l| a * 16 + l as u32) as f32)
+            .collect();
+        out.extend(words.chunks(2).map(|p| CellBounds {
+            min: p[0],
+            max: p.get(1).copied().unwrap_or(0.0),
+        }));
+        if out.len() >= 1 << 24 {
+            return Err(format!(
+                "the adaptive majorants need {} bounds entries; the GPU layout indexes at most 2^24",
+                out.len()
+            ));
+        }
+        for (k, pair) in table.chunks(2).enumerate() {
+            out[table_at + k] = CellBounds {
+                min: pair[0],
+                max: pair[1],
+            };
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::SparseGrid;
+
+    /// A 40^3-voxel grid: an empty half, a uniform block (tiles) and a noisy block.
+    fn grid() -> (SparseGrid, LeafBounds) {
+        let n = 40usize;
+        let mut values = vec![0.0f32; n * n * n];
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let v = if x < 16 {
+                        0.0
+                    } else if y < 20 {
+                        2.0
+                    } else {
+                        ((x * 7 + y * 13 + z * 29) % 17) as f32 / 17.0
+                    };
+                    values[x + n * (y + n * z)] = v;
+                }
+            }
+        }
+        let (g, _) = SparseGrid::from_dense([n; 3], [0, 0, 0], &values, 0.0).unwrap();
+        let b = LeafBounds::build(&g);
+        (g, b)
+    }
+
+    #[test]
+    fn merging_follows_the_cost_model() {
+        let (_, leaf) = grid();
+        // Cheap steps: nothing with different bounds merges; equal bounds always do.
+        let fine = AdaptiveMajorants::build(&leaf, 1.0, 1.0, CostModel { step: 1e-6, collision: 1.0 });
+        fine.validate(&leaf).unwrap();
+        // Dear steps: everything merges into the top node.
+        let coarse = AdaptiveMajorants::build(&leaf, 1.0, 1.0, CostModel { step: 1e9, collision: 1.0 });
+        coarse.validate(&leaf).unwrap();
+        let top = coarse.levels.len() as u8 - 1;
+        assert!(coarse.node_level.iter().all(|&l| l == top));
+        let s = coarse.stats(1.0, 1.0, CostModel::DEFAULT);
+        assert_eq!(s.nodes_per_level.iter().sum::<u64>(), 1);
+        let d = AdaptiveMajorants::build(&leaf, 0.1, 1.0, CostModel::DEFAULT);
+        d.validate(&leaf).unwrap();
+        let s = d.stats(0.1, 1.0, CostModel::DEFAULT);
+        assert!(s.cost_adaptive <= s.cost_leaf.min(s.cost_global) * 1.0001, "{s:?}");
+    }
+
+    #[test]
+    fn the_gpu_layout_holds_the_table_the_nodes_and_the_levels() {
+        let (_, leaf) = grid();
+        let a = AdaptiveMajorants::build(&leaf, 0.5, 1.0, CostModel::DEFAULT);
+        let g = a.gpu_bounds(&leaf).unwrap();
+        let n0 = leaf.cells.len();
+        assert_eq!(&g[..n0], &leaf.cells[..]);
+        assert_eq!(g[n0], leaf.global);
+        let slot = |s: usize| {
+            let b = g[n0 + 1 + s / 2];
+            (if s % 2 == 0 { b.min } else { b.max }) as usize
+        };
+        assert_eq!(slot(GPU_TABLE_LEVELS), a.levels.len());
+        for (l, lv) in a.levels.iter().enumerate() {
+            let [dx, dy, dz] = lv.dims;
+            for i in 0..(dx * dy * dz) as usize {
+                assert_eq!(g[slot(l) + i], a.nodes[lv.offset as usize + i]);
+            }
+        }
+        for (i, &l) in a.node_level.iter().enumerate() {
+            let b = g[slot(GPU_TABLE_PACKED) + i / 8];
+            let w = (if (i / 4) % 2 == 0 { b.min } else { b.max }) as u32;
+            assert_eq!((w >> (4 * (i % 4))) & 15, l as u32, "cell {i}");
+        }
+    }
+}
