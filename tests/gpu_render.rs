@@ -149,6 +149,7 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
     for estimator in Estimator::ALL {
         configs.push(("cloud.gltf", estimator, MajorantMode::Leaf));
         configs.push(("cloud.gltf", estimator, MajorantMode::Global));
+        configs.push(("cloud.gltf", estimator, MajorantMode::Adaptive));
         configs.push(("chromatic_smoke.gltf", estimator, MajorantMode::Leaf));
     }
     let alpha = 1e-3 / configs.len() as f64;
@@ -263,6 +264,8 @@ fn furnace_renders_one_on_the_gpu() {
             128,
         ),
         (Estimator::Delta, MajorantMode::Leaf, true, 64),
+        (Estimator::Delta, MajorantMode::Adaptive, false, 64),
+        (Estimator::Decomposition, MajorantMode::Adaptive, true, 64),
     ];
     let alpha = 1e-3 / configs.len() as f64;
     for (i, (estimator, majorant, spectral, spp)) in configs.into_iter().enumerate() {

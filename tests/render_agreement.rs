@@ -27,7 +27,7 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
     let (ref_mean, ref_var) = moments(&reference);
     let mut configs: Vec<(Estimator, MajorantMode, Option<f32>)> = Vec::new();
     for e in Estimator::ALL {
-        for m in [MajorantMode::Global, MajorantMode::Leaf] {
+        for m in MajorantMode::ALL {
             if !(e == Estimator::Delta && m == MajorantMode::Leaf) {
                 configs.push((e, m, None));
             }

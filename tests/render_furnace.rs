@@ -13,7 +13,7 @@ fn furnace_renders_one_for_every_estimator() {
     let scene = load_scene("furnace.gltf");
     let mut configs = Vec::new();
     for estimator in Estimator::ALL {
-        for majorant in [MajorantMode::Global, MajorantMode::Leaf] {
+        for majorant in MajorantMode::ALL {
             configs.push((
                 estimator,
                 majorant,

@@ -16,7 +16,7 @@ use common::stress::*;
 use brume::integrator::{Estimator, MajorantMode, RenderSettings};
 use serde_json::json;
 
-const MODES: [MajorantMode; 2] = [MajorantMode::Global, MajorantMode::Leaf];
+const MODES: [MajorantMode; 3] = MajorantMode::ALL;
 
 struct Rendered {
     mean: Vec<f64>,
@@ -116,7 +116,7 @@ fn phase_and_albedo_extremes() {
     for (name, extra) in cases {
         let dir = temp_dir(&format!("phase-{}", name.replace(['=', ' ', ','], "_")));
         let path = StressScene::furnace(16, 0.1, furnace_medium(extra)).write(&dir);
-        furnace_all(name, &path, 64, 3 * 8);
+        furnace_all(name, &path, 64, 3 * 4 * MODES.len());
     }
     // Albedo 0 (pure absorber) and albedo 1 lit by a point light and the environment: finite,
     // no guard; albedo 0 never scatters, so the mean path length is 0.
@@ -182,7 +182,7 @@ fn geometry_extremes_in_scenes() {
     let o = on_face.grid_origin;
     on_face.camera_at = [o[0] + 0.8, o[1] + 0.8, o[2] + 16.0 * 0.1];
     cases.push(("camera on the box boundary, on cell faces".into(), on_face));
-    let n = cases.len() * 8;
+    let n = cases.len() * 4 * MODES.len();
     for (name, sc) in cases {
         let dir = temp_dir(&format!(
             "geom-{}",

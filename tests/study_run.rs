@@ -69,7 +69,7 @@ fn study_on_the_furnace_converges_at_the_monte_carlo_rate() {
         &[],
     );
     assert!(ok, "{err}");
-    assert!(out.contains("| delta local |"), "{out}");
+    assert!(out.contains("| delta adaptive |"), "{out}");
     for f in [
         "checkpoints.csv",
         "summary.md",
@@ -172,14 +172,18 @@ fn rendered_reference_is_cached_and_plots_work_without_a_font() {
 #[test]
 fn default_sweep_and_config_syntax() {
     let sweep = default_sweep();
-    // 10 global (4 b, 5 m, delta) + 6 local (4 b, one leaf-minorant decomposition, delta).
-    assert_eq!(sweep.len(), 16);
-    let c = StudyConfig::parse("weighted-delta:b=0.75:local").unwrap();
+    // 10 global (4 b, 5 m, delta) + 6 per-leaf and 6 adaptive (4 b, one local-minorant
+    // decomposition, delta).
+    assert_eq!(sweep.len(), 22);
+    let c = StudyConfig::parse("weighted-delta:b=0.75:leaf").unwrap();
     assert_eq!(
         (c.estimator, c.b, c.majorant),
         (Estimator::WeightedDelta, 0.75, MajorantMode::Leaf)
     );
-    assert_eq!(c.label, "weighted-delta b=0.75 local");
+    assert_eq!(c.label, "weighted-delta b=0.75 leaf");
+    // "local" is the default mode's alias.
+    let c = StudyConfig::parse("delta:local").unwrap();
+    assert_eq!((c.majorant, c.label.as_str()), (MajorantMode::Adaptive, "delta adaptive"));
     // m is unused with per-leaf majorants, b by analog estimators.
     assert_eq!(
         StudyConfig::parse("weighted-decomposition:m=0.03:local")

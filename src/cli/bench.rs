@@ -280,15 +280,12 @@ fn render_bench(
     println!();
     println!("estimators on scenes/cloud.gltf ({cloud_size}x{cloud_size}, {cloud_spp} spp)");
     println!(
-        "{:<24} {:<7} {:>12} {:>14} {:>14}",
+        "{:<24} {:<8} {:>12} {:>14} {:>14}",
         "estimator", "bounds", "samples/s", "lookups/path", "null/real"
     );
-    let mut delta_lookups = [0f64; 2];
+    let mut delta_lookups = [0f64; 3];
     for estimator in Estimator::ALL {
-        for (k, majorant) in [MajorantMode::Global, MajorantMode::Leaf]
-            .into_iter()
-            .enumerate()
-        {
+        for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
             let s = RenderSettings {
                 width: cloud_size,
                 height: cloud_size,
@@ -305,7 +302,7 @@ fn render_bench(
                 delta_lookups[k] = lookups;
             }
             println!(
-                "{:<24} {:<7} {:>12.0} {:>14.2} {:>14.2}",
+                "{:<24} {:<8} {:>12.0} {:>14.2} {:>14.2}",
                 estimator.name(),
                 majorant.name(),
                 samples / out.seconds,
@@ -315,8 +312,108 @@ fn render_bench(
         }
     }
     println!(
-        "local majorants cut delta tracking's density lookups per path by {:.2}x on the cloud",
-        delta_lookups[0] / delta_lookups[1].max(1e-12)
+        "per-leaf majorants cut delta tracking's density lookups per path by {:.2}x on the cloud (adaptive: {:.2}x)",
+        delta_lookups[0] / delta_lookups[1].max(1e-12),
+        delta_lookups[0] / delta_lookups[2].max(1e-12)
+    );
+    majorant_modes(&scenes, width, height, spp)?;
+    adaptive_build()?;
+    Ok(())
+}
+
+/// The three majorant modes side by side on every scene with a VDB medium, for delta and
+/// decomposition tracking: time per sample (best of three renders), the walk (segments per
+/// sample, primary and shadow rays), lookups and real collisions per sample.
+fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Result<()> {
+    use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+    println!();
+    println!(
+        "majorant modes ({width}x{height}, {spp} spp, {} threads; time per sample = best of 3 renders)",
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}",
+        "scene", "estimator", "bounds", "ns/sample", "vs global", "segs prim", "segs shad", "lookups", "real coll", "lookups/real"
+    );
+    for path in scenes {
+        let scene = brume::scene::load(path)?;
+        if scene.vdb_media.is_empty() {
+            continue;
+        }
+        for estimator in [Estimator::Delta, Estimator::Decomposition] {
+            let mut global_ns = 0.0;
+            for majorant in MajorantMode::ALL {
+                let s = RenderSettings {
+                    width,
+                    height,
+                    spp,
+                    estimator,
+                    majorant,
+                    ..RenderSettings::default()
+                };
+                let mut best = f64::INFINITY;
+                let mut out = None;
+                for _ in 0..3 {
+                    let o = render_once(&scene, &s)?;
+                    best = best.min(o.seconds);
+                    out = Some(o);
+                }
+                let out = out.unwrap();
+                let t = brume::film::totals(&out.records);
+                let n = t.samples.max(1) as f64;
+                let ns = 1e9 * best / n;
+                if majorant == MajorantMode::Global {
+                    global_ns = ns;
+                }
+                println!(
+                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2}",
+                    path.file_name().unwrap_or_default().to_string_lossy(),
+                    estimator.name(),
+                    majorant.name(),
+                    ns,
+                    global_ns / ns,
+                    (t.majorant_segments - t.shadow_segments) as f64 / n,
+                    t.shadow_segments as f64 / n,
+                    t.density_lookups as f64 / n,
+                    t.real_collisions as f64 / n,
+                    t.density_lookups as f64 / (t.real_collisions as f64).max(1.0),
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Build time and memory of the adaptive hierarchy for a 1024^3-voxel grid (128^3 leaf
+/// cells of random bounds: the build reads only the per-leaf bounds).
+fn adaptive_build() -> Result<()> {
+    use brume::volume::{AdaptiveMajorants, CellBounds, CostModel, LeafBounds};
+    let n = 128u32;
+    let mut rng = SplitMix64(1024);
+    let cells: Vec<CellBounds> = (0..n * n * n)
+        .map(|_| {
+            let a = rng.range(0.0, 1.0) as f32;
+            let b = rng.range(0.0, 1.0) as f32;
+            CellBounds {
+                min: a.min(b) * 0.2,
+                max: a.max(b),
+            }
+        })
+        .collect();
+    let global = cells.iter().copied().fold(CellBounds::EMPTY, CellBounds::union);
+    let leaf = LeafBounds {
+        cells,
+        dims: [n; 3],
+        cell_origin: [0; 3],
+        global,
+    };
+    let a = AdaptiveMajorants::build(&leaf, 50.0, 100.0, CostModel::DEFAULT);
+    println!();
+    println!(
+        "adaptive majorants of a 1024^3-voxel grid ({n}^3 leaf cells, {} threads): built in {:.3} s, {:.1} MiB",
+        rayon::current_num_threads(),
+        a.build_seconds,
+        a.memory_bytes() as f64 / (1 << 20) as f64
     );
     Ok(())
 }

@@ -4,7 +4,7 @@ use std::path::Path;
 use anyhow::{bail, Result};
 use brume_ffi::{GridClass, GridInfo, VdbFile};
 
-use brume::volume::{load_grid_from, ConversionPolicy};
+use brume::volume::{load_grid_from, AdaptiveMajorants, ConversionPolicy, CostModel};
 
 pub fn run(path: &Path, layout: bool) -> Result<()> {
     let ext = path
@@ -22,6 +22,18 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
             print!("{scene}");
             for w in &scene.warnings {
                 println!("warning: {w}");
+            }
+            // The adaptive majorants as a render builds them (for each medium's own density
+            // scale and voxel size).
+            let rs = brume::integrator::RenderScene::new(&scene, false)
+                .map_err(|e| anyhow::anyhow!(e))?;
+            for (i, m) in rs.vdb.iter().enumerate() {
+                print_adaptive(
+                    &format!("medium {i}"),
+                    &m.adaptive,
+                    m.sigma_t_bound,
+                    brume::integrator::prepare::index_per_t(&m.density),
+                );
             }
             Ok(())
         }
@@ -79,6 +91,28 @@ fn print_facts(g: &GridInfo) {
     }
 }
 
+/// The adaptive hierarchy's shape, model costs, build time and memory.
+fn print_adaptive(label: &str, a: &AdaptiveMajorants, scale: f32, index_per_t: f32) {
+    let s = a.stats(scale, index_per_t, CostModel::DEFAULT);
+    let levels: Vec<String> = s
+        .nodes_per_level
+        .iter()
+        .enumerate()
+        .filter(|(_, &n)| n > 0)
+        .map(|(l, n)| format!("{n} x {}^3", 8 << l))
+        .collect();
+    println!(
+        "{label} adaptive majorants: {} merged nodes ({}), built in {:.2} ms, {:.1} KiB; model cost per ray: adaptive {:.2}, per-leaf {:.2}, global {:.2}",
+        s.nodes_per_level.iter().sum::<u64>(),
+        levels.join(", "),
+        1e3 * s.build_seconds,
+        s.memory_bytes as f64 / 1024.0,
+        s.cost_adaptive,
+        s.cost_leaf,
+        s.cost_global
+    );
+}
+
 fn vdb(path: &Path, layout: bool) -> Result<()> {
     let file = VdbFile::open(path)?;
     println!("{}: {} grid(s)", path.display(), file.grids().len());
@@ -126,6 +160,11 @@ fn vdb(path: &Path, layout: bool) -> Result<()> {
                     b.mean_max_over_global
                 );
                 println!("  empty leaf cells  {:.1} %", 100.0 * b.empty_fraction);
+                // A bare grid has no density scale: build for Blender's default (Density 1,
+                // sigma_t = 1 per unit value per metre).
+                let index_per_t = 1.0 / loaded.grid.voxel_size.x.max(1e-30) as f32;
+                let a = AdaptiveMajorants::build(&loaded.bounds, 1.0, index_per_t, CostModel::DEFAULT);
+                print_adaptive("  adaptive (density 1)", &a, 1.0, index_per_t);
                 let wb = loaded.grid.world_bounds();
                 println!(
                     "  world bounds      {:?} .. {:?}",

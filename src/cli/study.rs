@@ -370,7 +370,7 @@ fn write_plots(
                     .map(|a| (a.0 / a.2 as f64, a.1 / a.2 as f64))
                     .collect(),
                 colour,
-                dashed: c.config.majorant == brume::integrator::MajorantMode::Leaf,
+                dashed: c.config.majorant.is_local(),
             }
         })
         .collect();

@@ -103,7 +103,7 @@ impl StudyConfig {
                 m = Some(num(v, "m")?);
             } else {
                 majorant = p.parse().map_err(|e| {
-                    format!("config {s:?}: {e} (parts are b=B, m=M, global or local)")
+                    format!("config {s:?}: {e} (parts are b=B, m=M, global, leaf or adaptive)")
                 })?;
             }
         }
@@ -115,7 +115,10 @@ impl StudyConfig {
     pub fn from_label(label: &str) -> Result<Self, String> {
         let mut spec: Vec<String> = Vec::new();
         for (i, t) in label.split(' ').enumerate() {
-            if i == 0 || t.starts_with("b=") || t.starts_with("m=") || t == "global" || t == "local"
+            if i == 0
+                || t.starts_with("b=")
+                || t.starts_with("m=")
+                || matches!(t, "global" | "leaf" | "adaptive" | "local")
             {
                 spec.push(t.to_string());
             } else if t != "leaf-minorant" {
@@ -143,12 +146,13 @@ impl StudyConfig {
 
 /// The seed paper's sweep: weighted delta tracking with b in {0.25, 0.5, 0.75, 1}, weighted
 /// decomposition tracking with m in {0.01, ..., 0.05} at b = 1, and analog delta tracking,
-/// each with the global and with per-leaf majorants. With per-leaf majorants the
-/// decomposition control is the leaf minorant and m is unused, so the five m values would be
-/// five identical renders: that row appears once. 16 configurations.
+/// each with the global bound, per-leaf majorants and the adaptive hierarchy. With local
+/// (per-leaf or merged) majorants the decomposition control is the local minorant and m is
+/// unused, so the five m values would be five identical renders: that row appears once.
+/// 22 configurations.
 pub fn default_sweep() -> Vec<StudyConfig> {
     let mut v = Vec::new();
-    for majorant in [MajorantMode::Global, MajorantMode::Leaf] {
+    for majorant in MajorantMode::ALL {
         for b in [0.25, 0.5, 0.75, 1.0] {
             v.push(StudyConfig::new(
                 Estimator::WeightedDelta,
