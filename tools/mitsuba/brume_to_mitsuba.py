@@ -1,0 +1,205 @@
+"""Render a Brume scene with Mitsuba 3, from the description `brume mitsuba` writes.
+
+Usage (normally run by `brume mitsuba`; tools/mitsuba/setup.sh installs the venv):
+
+    tools/mitsuba/.venv/bin/python brume_to_mitsuba.py scene.json -o out.exr [--variant V]
+
+`scene.json` is written by `src/cli/mitsuba.rs` from Brume's own loaded scene, with Brume's
+mappings already applied (Principled Volume coefficients, light units, materials); the VDB
+media come as `.vol` grids and the meshes as world-space PLY files next to it. This script only
+builds Mitsuba's scene dictionary and renders `runs` seeds (seed .. seed + runs - 1), writing
+`out.run<k>.exr` for each and printing `render_seconds <k> <s> <path>`; `build_seconds` is the
+scene set-up (mi.load_dict), reported apart from the render times.
+
+Mapping (README "Mitsuba 3"):
+- integrator `volpath`, max_depth from the JSON (Brume's + 1), rr_depth Mitsuba's default (5);
+- sensor `perspective`, vertical field of view (fov_axis y) at the render's aspect, near clip
+  = glTF znear, look-at from Brume's camera; `independent` sampler; `hdrfilm` with a `box`
+  filter (each sample lands in its own pixel, Brume's uniform jitter), rgb, float32;
+- VDB media: `heterogeneous` with sigma_t = `gridvolume` (the extinction per metre, already
+  scaled), constant albedo, HG phase, inside a `cube` with a `null` BSDF spanning the grid's box;
+  the grid's and the cube's to_world is Brume's world_from_medium (index to world);
+- meshes: PLY with `diffuse`, `dielectric` or `null` BSDFs, `area` emitters, `homogeneous`
+  interiors for KHR_materials_volume;
+- lights: `point` (intensity W/sr), `spot` (intensity, Mitsuba's own falloff), `directional`
+  (irradiance W/m^2); the environment as a `constant` emitter.
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import mitsuba as mi
+
+
+def pick_variant(requested):
+    """llvm_ad_rgb (JIT-compiled, vectorised) when it loads, else scalar_rgb."""
+    wanted = [requested] if requested else ["llvm_ad_rgb", "scalar_rgb"]
+    for v in wanted:
+        try:
+            mi.set_variant(v)
+            return v
+        except Exception as e:  # noqa: BLE001 - Dr.Jit raises plain errors without libLLVM
+            if requested:
+                sys.exit(f"error: Mitsuba variant {v} is not usable: {e}")
+            print(
+                f"note: Mitsuba variant {v} is not usable ({str(e).splitlines()[0]}); "
+                "falling back (install libllvm19 for llvm_ad_rgb)",
+                file=sys.stderr,
+            )
+    sys.exit("error: no Mitsuba variant could be loaded")
+
+
+def rgb(v):
+    return {"type": "rgb", "value": [float(c) for c in v]}
+
+
+def transform(rows):
+    return mi.ScalarTransform4f(rows)
+
+
+def extinction_texture(m):
+    """The `gridvolume` of one VDB medium: the .vol holds sigma_t per metre at voxel centres.
+    Mitsuba 3.9 ignores the box in the file's header (measured: the texture spans the unit
+    cube of its to_world), so to_world maps the unit cube onto the box in index space
+    (box_min, box_max), then index space to the world (Brume's world_from_medium)."""
+    T = mi.ScalarTransform4f
+    lo, hi = m["box_min"], m["box_max"]
+    extent = [b - a for a, b in zip(lo, hi)]
+    return {
+        "type": "gridvolume",
+        "filename": os.path.abspath(m["vol"]),
+        "to_world": transform(m["to_world"]) @ T().translate(lo) @ T().scale(extent),
+        "filter_type": "trilinear",
+        "wrap_mode": "clamp",
+        "raw": True,
+    }
+
+
+def build(desc):
+    T = mi.ScalarTransform4f
+    cam = desc["camera"]
+    scene = {
+        "type": "scene",
+        "integrator": {"type": "volpath", "max_depth": int(desc["max_depth"])},
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": "y",
+            "fov": float(cam["yfov_degrees"]),
+            "near_clip": float(cam["near_clip"]),
+            "far_clip": 1e7,
+            "to_world": T().look_at(origin=cam["origin"], target=cam["target"], up=cam["up"]),
+            "sampler": {"type": "independent", "sample_count": int(desc["spp"])},
+            "film": {
+                "type": "hdrfilm",
+                "width": int(desc["width"]),
+                "height": int(desc["height"]),
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+                "component_format": "float32",
+            },
+        },
+    }
+    for i, l in enumerate(desc["lights"]):
+        if l["type"] == "point":
+            e = {"type": "point", "position": l["position"], "intensity": rgb(l["intensity"])}
+        elif l["type"] == "spot":
+            p = l["position"]
+            target = [p[k] + l["direction"][k] for k in range(3)]
+            # Any up vector not parallel to the axis: the cone is symmetric.
+            up = [0, 1, 0] if abs(l["direction"][1]) < 0.9 else [1, 0, 0]
+            e = {
+                "type": "spot",
+                "to_world": T().look_at(origin=p, target=target, up=up),
+                "intensity": rgb(l["intensity"]),
+                "cutoff_angle": float(l["outer_degrees"]),
+                "beam_width": float(l["inner_degrees"]),
+            }
+        elif l["type"] == "directional":
+            e = {"type": "directional", "direction": l["direction"],
+                 "irradiance": rgb(l["irradiance"])}
+        else:
+            sys.exit(f"error: unknown light type {l['type']}")
+        scene[f"light{i}"] = e
+    if desc.get("environment"):
+        scene["environment"] = {"type": "constant", "radiance": rgb(desc["environment"])}
+
+    for i, m in enumerate(desc["vdb_media"]):
+        to_world = transform(m["to_world"])
+        lo, hi = m["box_min"], m["box_max"]
+        medium = {
+            "type": "heterogeneous",
+            "sigma_t": extinction_texture(m),
+            "albedo": {"type": "constvolume", "value": rgb(m["albedo"])},
+            "scale": 1.0,
+            "phase": {"type": "hg", "g": float(m["g"])},
+        }
+        centre = [(a + b) / 2 for a, b in zip(lo, hi)]
+        half = [(b - a) / 2 for a, b in zip(lo, hi)]
+        scene[f"medium_box{i}"] = {
+            "type": "cube",
+            "to_world": to_world @ T().translate(centre) @ T().scale(half),
+            "bsdf": {"type": "null"},
+            "interior": medium,
+        }
+
+    for i, m in enumerate(desc["meshes"]):
+        shape = {
+            "type": "ply",
+            "filename": os.path.abspath(m["ply"]),
+            "face_normals": bool(m["face_normals"]),
+        }
+        b = m["bsdf"]
+        if b["type"] == "diffuse":
+            shape["bsdf"] = {"type": "diffuse", "reflectance": rgb(b["reflectance"])}
+        elif b["type"] == "dielectric":
+            shape["bsdf"] = {"type": "dielectric", "int_ior": float(b["ior"]), "ext_ior": 1.0}
+        else:
+            shape["bsdf"] = {"type": "null"}
+        if "emission" in m:
+            shape["emitter"] = {"type": "area", "radiance": rgb(m["emission"])}
+        if "interior" in m:
+            h = m["interior"]
+            shape["interior"] = {
+                "type": "homogeneous",
+                "sigma_t": rgb(h["sigma_t"]),
+                "albedo": rgb(h["albedo"]),
+                "phase": {"type": "hg", "g": float(h["g"])},
+            }
+        scene[f"mesh{i}"] = shape
+    return scene
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("description", help="scene.json written by `brume mitsuba`")
+    p.add_argument("-o", "--output", required=True)
+    p.add_argument("--variant", help="Mitsuba variant (default llvm_ad_rgb, else scalar_rgb)")
+    args = p.parse_args(argv)
+    with open(args.description) as f:
+        desc = json.load(f)
+    variant = pick_variant(args.variant)
+    print(f"variant {variant}", flush=True)
+    import drjit as dr
+
+    if desc.get("threads"):
+        dr.set_thread_count(int(desc["threads"]))
+    t0 = time.time()
+    scene = mi.load_dict(build(desc))
+    print(f"build_seconds {time.time() - t0:.3f}", flush=True)
+    out = os.path.abspath(args.output)
+    for k in range(int(desc["runs"])):
+        t = time.time()
+        img = mi.render(scene, spp=int(desc["spp"]), seed=int(desc["seed"]) + k)
+        dr.eval(img)
+        bitmap = mi.Bitmap(img, pixel_format=mi.Bitmap.PixelFormat.RGB)
+        seconds = time.time() - t
+        path = f"{os.path.splitext(out)[0]}.run{k}.exr"
+        bitmap.write(path)
+        print(f"render_seconds {k} {seconds:.3f} {path}", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
