@@ -162,9 +162,13 @@ def build(desc):
             shape["emitter"] = {"type": "area", "radiance": rgb(m["emission"])}
         if "interior" in m:
             h = m["interior"]
+            # Mitsuba takes RGB medium parameters as reflectance-like colours in [0, 1], so the
+            # extinction goes in as a colour times a scale.
+            scale = max(max(h["sigma_t"]), 1e-30)
             shape["interior"] = {
                 "type": "homogeneous",
-                "sigma_t": rgb(h["sigma_t"]),
+                "sigma_t": rgb([c / scale for c in h["sigma_t"]]),
+                "scale": scale,
                 "albedo": rgb(h["albedo"]),
                 "phase": {"type": "hg", "g": float(h["g"])},
             }
