@@ -19,6 +19,7 @@ use glam::{Mat4, Vec3};
 use serde_json::{json, Value};
 
 use brume::film::{read_exr, write_image, AttrValue, Metadata};
+use brume::integrator::bsdf::Principled;
 use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use brume::scene::{BoundsSource, Scene, NO_INDEX};
 use brume::volume::mitsuba_vol::vol_from_grid;
@@ -59,6 +60,10 @@ pub struct MitsubaArgs {
     /// Mitsuba variant (default: llvm_ad_rgb when it loads, else scalar_rgb).
     #[arg(long)]
     pub variant: Option<String>,
+    /// Map opaque surfaces to Mitsuba's own `diffuse` (base * (1 - metallic)) instead of
+    /// Brume's Lambert + GGX model re-implemented as a Python BSDF: faster, without the GGX lobe.
+    #[arg(long)]
+    pub lambert_only: bool,
     /// Compare with this Brume EXR (needs its variance layer) and print the agreement.
     #[arg(long)]
     pub against: Option<PathBuf>,
@@ -347,13 +352,19 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
                     ));
                 }
             }
-        } else {
+        } else if args.lambert_only {
             let kd = [0, 1, 2].map(|c| mat.base_color[c] * (1.0 - mat.metallic));
             m["bsdf"] = json!({"type": "diffuse", "reflectance": kd});
-            notes.push(format!(
-                "{name}: Lambertian part only; Brume's GGX lobe (F0 {:.3}) is not mapped",
-                0.04 + (mat.base_color[0] - 0.04) * mat.metallic
-            ));
+            notes.push(format!("{name}: Lambertian part only (--lambert-only)"));
+        } else {
+            // Brume's own lobe parameters, so both sides use the same numbers.
+            let p = Principled::new(
+                Vec3::from_slice(&mat.base_color[..3]),
+                mat.metallic,
+                mat.roughness,
+            );
+            m["bsdf"] = json!({"type": "brume_opaque", "kd": p.diffuse.to_array(),
+                               "f0": p.f0.to_array(), "alpha": p.alpha, "p_spec": p.p_spec});
         }
         if mat.emission.iter().any(|&e| e > 0.0) {
             m["emission"] = json!(mat.emission);

@@ -52,6 +52,108 @@ def pick_variant(requested):
     sys.exit("error: no Mitsuba variant could be loaded")
 
 
+def register_brume_opaque():
+    """Registers `brume_opaque`: Brume's opaque surface model (src/integrator/bsdf.rs), which
+    Mitsuba has no plugin for: a Lambertian lobe `kd / pi` plus GGX reflection
+    `F(wo.h) D(h) G2 / (4 cos_o cos_i)` with Schlick's Fresnel from `f0` and Smith's
+    height-correlated masking `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))`, added without energy
+    compensation, two-sided (evaluated on the side `si.wi` is on). Parameters come from Brume's
+    own `Principled::new` via the JSON: kd, f0, alpha, p_spec (probability of sampling the
+    GGX lobe by its distribution of normals; else cosine-weighted)."""
+    import drjit as dr
+
+    class BrumeOpaque(mi.BSDF):
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.kd = mi.Color3f(*[props[f"kd{c}"] for c in "rgb"])
+            self.f0 = mi.Color3f(*[props[f"f0{c}"] for c in "rgb"])
+            self.alpha = float(props["alpha"])
+            self.p_spec = float(props["p_spec"])
+            sides = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+            diffuse = mi.BSDFFlags.DiffuseReflection | sides
+            glossy = mi.BSDFFlags.GlossyReflection | sides
+            self.m_components = [diffuse, glossy]
+            self.m_flags = diffuse | glossy
+
+        def _ggx_d(self, cos_h):
+            a2 = self.alpha * self.alpha
+            t = cos_h * cos_h * (a2 - 1.0) + 1.0
+            return a2 / (dr.pi * t * t)
+
+        def _lambda(self, cos):
+            c2 = dr.maximum(cos * cos, 1e-12)
+            return 0.5 * (dr.sqrt(1.0 + self.alpha * self.alpha * (1.0 - c2) / c2) - 1.0)
+
+        def _value_pdf(self, wi, wo):
+            """f * cos(wo) and the sampling pdf, both directions on the +z side."""
+            valid = (wi.z > 0) & (wo.z > 0)
+            h = dr.normalize(wi + wo)
+            g2 = 1.0 / (1.0 + self._lambda(wi.z) + self._lambda(wo.z))
+            m = 1.0 - dr.clip(dr.dot(wi, h), 0.0, 1.0)
+            fresnel = self.f0 + (1.0 - self.f0) * (m * m * m * m * m)
+            d = self._ggx_d(h.z)
+            f = self.kd / dr.pi + fresnel * (d * g2 / (4.0 * wi.z * wo.z))
+            pdf_spec = d * h.z / (4.0 * dr.maximum(dr.dot(wi, h), 1e-8))
+            pdf = self.p_spec * pdf_spec + (1.0 - self.p_spec) * wo.z / dr.pi
+            return dr.select(valid, f * wo.z, 0.0), dr.select(valid, pdf, 0.0)
+
+        @staticmethod
+        def _upper(si, wo):
+            """Both directions mirrored to the side si.wi is on, and the sign used."""
+            sign = dr.select(si.wi.z < 0, -1.0, 1.0)
+            wi = mi.Vector3f(si.wi.x, si.wi.y, si.wi.z * sign)
+            return wi, mi.Vector3f(wo.x, wo.y, wo.z * sign), sign
+
+        def eval(self, ctx, si, wo, active=True):
+            wi, wo, _ = self._upper(si, wo)
+            return self._value_pdf(wi, wo)[0]
+
+        def pdf(self, ctx, si, wo, active=True):
+            wi, wo, _ = self._upper(si, wo)
+            return self._value_pdf(wi, wo)[1]
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            wi, wo, _ = self._upper(si, wo)
+            return self._value_pdf(wi, wo)
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            wi, _, sign = self._upper(si, si.wi)
+            spec = sample1 < self.p_spec
+            # GGX normals with density D(h) cos(h): cos^2 = (1 - u) / (1 + (a^2 - 1) u).
+            a2 = self.alpha * self.alpha
+            cos2 = (1.0 - sample2.x) / (1.0 + (a2 - 1.0) * sample2.x)
+            sin_h = dr.sqrt(dr.maximum(1.0 - cos2, 0.0))
+            phi = 2.0 * dr.pi * sample2.y
+            h = mi.Vector3f(sin_h * dr.cos(phi), sin_h * dr.sin(phi), dr.sqrt(cos2))
+            wo_spec = 2.0 * dr.dot(wi, h) * h - wi
+            wo_diff = mi.warp.square_to_cosine_hemisphere(sample2)
+            wo = dr.select(spec, wo_spec, wo_diff)
+            value, pdf = self._value_pdf(wi, wo)
+            ok = active & (wo.z > 0) & (pdf > 0)
+            bs = mi.BSDFSample3f()
+            bs.wo = mi.Vector3f(wo.x, wo.y, wo.z * sign)
+            bs.pdf = dr.select(ok, pdf, 0.0)
+            bs.eta = 1.0
+            bs.sampled_type = dr.select(
+                spec,
+                mi.UInt32(+mi.BSDFFlags.GlossyReflection),
+                mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
+            )
+            bs.sampled_component = dr.select(spec, mi.UInt32(1), mi.UInt32(0))
+            return bs, dr.select(ok, value / pdf, 0.0)
+
+        def traverse(self, callback):
+            pass
+
+        def parameters_changed(self, keys):
+            pass
+
+        def to_string(self):
+            return f"BrumeOpaque[kd={self.kd}, f0={self.f0}, alpha={self.alpha}]"
+
+    mi.register_bsdf("brume_opaque", lambda props: BrumeOpaque(props))
+
+
 def rgb(v):
     return {"type": "rgb", "value": [float(c) for c in v]}
 
@@ -152,7 +254,13 @@ def build(desc):
             "face_normals": bool(m["face_normals"]),
         }
         b = m["bsdf"]
-        if b["type"] == "diffuse":
+        if b["type"] == "brume_opaque":
+            shape["bsdf"] = {"type": "brume_opaque", "alpha": float(b["alpha"]),
+                             "p_spec": float(b["p_spec"])}
+            for c, x, y in zip("rgb", b["kd"], b["f0"]):
+                shape["bsdf"][f"kd{c}"] = float(x)
+                shape["bsdf"][f"f0{c}"] = float(y)
+        elif b["type"] == "diffuse":
             shape["bsdf"] = {"type": "diffuse", "reflectance": rgb(b["reflectance"])}
         elif b["type"] == "dielectric":
             shape["bsdf"] = {"type": "dielectric", "int_ior": float(b["ior"]), "ext_ior": 1.0}
@@ -186,6 +294,7 @@ def main(argv):
         desc = json.load(f)
     variant = pick_variant(args.variant)
     print(f"variant {variant}", flush=True)
+    register_brume_opaque()
     import drjit as dr
 
     if desc.get("threads"):
