@@ -21,8 +21,10 @@ Mapping (README "Mitsuba 3"):
   the grid's and the cube's to_world is Brume's world_from_medium (index to world);
 - meshes: PLY with `diffuse`, `dielectric` or `null` BSDFs, `area` emitters, `homogeneous`
   interiors for KHR_materials_volume;
-- lights: `point` (intensity W/sr), `spot` (intensity, Mitsuba's own falloff), `directional`
-  (irradiance W/m^2); the environment as a `constant` emitter.
+- lights: `point` (intensity W/sr), `brume_spot` (a Python emitter with glTF's falloff, as
+  Brume), `directional` (irradiance W/m^2); the environment as a `constant` emitter;
+- opaque surfaces: `brume_opaque`, Brume's Lambert + GGX model as a Python BSDF (or Mitsuba's
+  `diffuse` with --lambert-only).
 """
 import argparse
 import json
@@ -154,6 +156,74 @@ def register_brume_opaque():
     mi.register_bsdf("brume_opaque", lambda props: BrumeOpaque(props))
 
 
+def register_brume_spot():
+    """Registers `brume_spot`: a glTF spot light as Brume lights it (src/integrator/lights.rs),
+    radiant intensity `I * a^2` with `a = clamp((cos - cos_outer) / (cos_inner - cos_outer))`
+    (denominator at least 1e-3). Mitsuba's own `spot` falls off linearly in the angle, which
+    differs in the penumbra. A point-like (delta position) emitter: only sampled towards a
+    receiver, never hit."""
+    import drjit as dr
+
+    class BrumeSpot(mi.Emitter):
+        def __init__(self, props):
+            mi.Emitter.__init__(self, props)
+            self.position = mi.Point3f(*[props[f"p{c}"] for c in "xyz"])
+            self.axis = mi.Vector3f(*[props[f"d{c}"] for c in "xyz"])
+            self.intensity = mi.Color3f(*[props[f"i{c}"] for c in "rgb"])
+            self.cos_inner = float(props["cos_inner"])
+            self.cos_outer = float(props["cos_outer"])
+            self.box = mi.ScalarBoundingBox3f(mi.ScalarPoint3f(*[props[f"p{c}"] for c in "xyz"]))
+            self.m_flags = mi.EmitterFlags.DeltaPosition
+
+        def _radiant_intensity(self, d_from_light):
+            scale = 1.0 / max(self.cos_inner - self.cos_outer, 1e-3)
+            a = dr.clip((dr.dot(self.axis, d_from_light) - self.cos_outer) * scale, 0.0, 1.0)
+            return self.intensity * (a * a)
+
+        def sample_direction(self, it, sample, active=True):
+            ds = mi.DirectionSample3f()
+            d = self.position - it.p
+            dist2 = dr.squared_norm(d)
+            dist = dr.sqrt(dist2)
+            ds.p = self.position
+            ds.n = mi.Normal3f(0.0)
+            ds.uv = mi.Point2f(0.0)
+            ds.time = it.time
+            ds.pdf = 1.0
+            ds.delta = True
+            ds.d = d / dist
+            ds.dist = dist
+            ds.emitter = mi.EmitterPtr(self)
+            return ds, self._radiant_intensity(-ds.d) / dist2
+
+        def pdf_direction(self, it, ds, active=True):
+            return mi.Float(0.0)
+
+        def eval_direction(self, it, ds, active=True):
+            return mi.Color3f(0.0)
+
+        def eval(self, si, active=True):
+            return mi.Color3f(0.0)
+
+        def sample_ray(self, time, sample1, sample2, sample3, active=True):
+            # Light tracing is not used by volpath; a ray from the light with no weight.
+            return mi.Ray3f(self.position, self.axis, time), mi.Color3f(0.0)
+
+        def bbox(self):
+            return self.box
+
+        def traverse(self, callback):
+            pass
+
+        def parameters_changed(self, keys):
+            pass
+
+        def to_string(self):
+            return f"BrumeSpot[intensity={self.intensity}]"
+
+    mi.register_emitter("brume_spot", lambda props: BrumeSpot(props))
+
+
 def rgb(v):
     return {"type": "rgb", "value": [float(c) for c in v]}
 
@@ -208,17 +278,12 @@ def build(desc):
         if l["type"] == "point":
             e = {"type": "point", "position": l["position"], "intensity": rgb(l["intensity"])}
         elif l["type"] == "spot":
-            p = l["position"]
-            target = [p[k] + l["direction"][k] for k in range(3)]
-            # Any up vector not parallel to the axis: the cone is symmetric.
-            up = [0, 1, 0] if abs(l["direction"][1]) < 0.9 else [1, 0, 0]
-            e = {
-                "type": "spot",
-                "to_world": T().look_at(origin=p, target=target, up=up),
-                "intensity": rgb(l["intensity"]),
-                "cutoff_angle": float(l["outer_degrees"]),
-                "beam_width": float(l["inner_degrees"]),
-            }
+            e = {"type": "brume_spot", "cos_inner": float(l["cos_inner"]),
+                 "cos_outer": float(l["cos_outer"])}
+            for c, p_, d_, i_ in zip("xyz", l["position"], l["direction"], l["intensity"]):
+                e[f"p{c}"], e[f"d{c}"] = float(p_), float(d_)
+            for c, i_ in zip("rgb", l["intensity"]):
+                e[f"i{c}"] = float(i_)
         elif l["type"] == "directional":
             e = {"type": "directional", "direction": l["direction"],
                  "irradiance": rgb(l["irradiance"])}
@@ -295,6 +360,7 @@ def main(argv):
     variant = pick_variant(args.variant)
     print(f"variant {variant}", flush=True)
     register_brume_opaque()
+    register_brume_spot()
     import drjit as dr
 
     if desc.get("threads"):
