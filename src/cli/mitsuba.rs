@@ -185,6 +185,12 @@ fn translate_and_render(
             output_tail(&out, 20)
         );
     }
+    // The script's notes (a variant fallback) matter even when it succeeds.
+    for line in String::from_utf8_lossy(&out.stderr).lines() {
+        if line.starts_with("note:") {
+            eprintln!("mitsuba: {line}");
+        }
+    }
     let stdout = String::from_utf8_lossy(&out.stdout);
     let field = |name: &str| {
         stdout

@@ -94,7 +94,9 @@ def register_brume_opaque():
             m = 1.0 - dr.clip(dr.dot(wi, h), 0.0, 1.0)
             fresnel = self.f0 + (1.0 - self.f0) * (m * m * m * m * m)
             d = self._ggx_d(h.z)
-            f = self.kd / dr.pi + fresnel * (d * g2 / (4.0 * wi.z * wo.z))
+            # Guarded denominators: the scalar variants raise on a division by zero, and the
+            # invalid cases are masked below anyway.
+            f = self.kd / dr.pi + fresnel * (d * g2 / dr.maximum(4.0 * wi.z * wo.z, 1e-12))
             pdf_spec = d * h.z / (4.0 * dr.maximum(dr.dot(wi, h), 1e-8))
             pdf = self.p_spec * pdf_spec + (1.0 - self.p_spec) * wo.z / dr.pi
             return dr.select(valid, f * wo.z, 0.0), dr.select(valid, pdf, 0.0)
@@ -142,7 +144,7 @@ def register_brume_opaque():
                 mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
             )
             bs.sampled_component = dr.select(spec, mi.UInt32(1), mi.UInt32(0))
-            return bs, dr.select(ok, value / pdf, 0.0)
+            return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
 
         def traverse(self, callback):
             pass
@@ -172,7 +174,9 @@ def register_brume_spot():
             self.intensity = mi.Color3f(*[props[f"i{c}"] for c in "rgb"])
             self.cos_inner = float(props["cos_inner"])
             self.cos_outer = float(props["cos_outer"])
-            self.box = mi.ScalarBoundingBox3f(mi.ScalarPoint3f(*[props[f"p{c}"] for c in "xyz"]))
+            # Scalar types have no Scalar prefix in the scalar variants.
+            box, point = (getattr(mi, "Scalar" + n, getattr(mi, n)) for n in ("BoundingBox3f", "Point3f"))
+            self.box = box(point(*[props[f"p{c}"] for c in "xyz"]))
             self.m_flags = mi.EmitterFlags.DeltaPosition
 
         def _radiant_intensity(self, d_from_light):
@@ -183,7 +187,7 @@ def register_brume_spot():
         def sample_direction(self, it, sample, active=True):
             ds = mi.DirectionSample3f()
             d = self.position - it.p
-            dist2 = dr.squared_norm(d)
+            dist2 = dr.maximum(dr.squared_norm(d), 1e-20)
             dist = dr.sqrt(dist2)
             ds.p = self.position
             ds.n = mi.Normal3f(0.0)
@@ -193,7 +197,8 @@ def register_brume_spot():
             ds.delta = True
             ds.d = d / dist
             ds.dist = dist
-            ds.emitter = mi.EmitterPtr(self)
+            # A pointer type in the JIT variants, the object itself in the scalar ones.
+            ds.emitter = mi.EmitterPtr(self) if hasattr(mi, "EmitterPtr") else self
             return ds, self._radiant_intensity(-ds.d) / dist2
 
         def pdf_direction(self, it, ds, active=True):
