@@ -254,6 +254,10 @@ fn rows(m: &Mat4) -> Value {
 fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
     let file = scene.source.display();
     let cam = &scene.camera;
+    if scene.inside_medium(cam.position()) {
+        // Mitsuba would need the sensor's own `medium`; not mapped.
+        bail!("{file}: the camera is inside a medium, which brume mitsuba does not map");
+    }
     let camera = json!({
         "origin": cam.position().to_array(),
         "target": (cam.position() + cam.forward()).to_array(),
