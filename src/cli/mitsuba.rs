@@ -138,8 +138,8 @@ pub fn run(args: &MitsubaArgs) -> Result<()> {
     let python = find_mitsuba_python()?;
     let script = script_path()?;
     let started = Instant::now();
-    let scene = brume::scene::load(&args.scene)
-        .with_context(|| format!("loading {}", args.scene.display()))?;
+    // Scene errors already name the file and the JSON pointer.
+    let scene = brume::scene::load(&args.scene)?;
     let dir = match &args.keep {
         Some(d) => d.clone(),
         None => std::env::temp_dir().join(format!("brume-mitsuba-{}", std::process::id())),
