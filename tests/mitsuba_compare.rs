@@ -20,7 +20,7 @@ fn mitsuba_python() -> Result<PathBuf, String> {
     let out = Command::new(&p)
         .args(["-c", "import mitsuba"])
         .output()
-        .map_err(|e| format!("{}: {e}", p.display()))?;
+        .map_err(|e| format!("{}: {e} (run tools/mitsuba/setup.sh)", p.display()))?;
     if out.status.success() {
         Ok(p)
     } else {
@@ -52,7 +52,7 @@ fn vol_texels_align_with_brume_voxels() {
     let python = match mitsuba_python() {
         Ok(p) => p,
         Err(why) => {
-            say(&format!("SKIPPED mitsuba_compare alignment: {why}"));
+            say(&format!("SKIPPED: mitsuba_compare alignment: {why}"));
             return;
         }
     };
@@ -148,7 +148,7 @@ fn cloud_agrees_with_mitsuba() {
     let python = match mitsuba_python() {
         Ok(p) => p,
         Err(why) => {
-            say(&format!("SKIPPED mitsuba_compare cloud: {why}"));
+            say(&format!("SKIPPED: mitsuba_compare cloud: {why}"));
             return;
         }
     };
