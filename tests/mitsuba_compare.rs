@@ -57,7 +57,9 @@ fn vol_texels_align_with_brume_voxels() {
         }
     };
     let dims = [5, 4, 3];
-    let values: Vec<f32> = (0..60).map(|i| ((i * 7) % 13) as f32 * 0.25 + 0.5).collect();
+    let values: Vec<f32> = (0..60)
+        .map(|i| ((i * 7) % 13) as f32 * 0.25 + 0.5)
+        .collect();
     let (grid, _) = SparseGrid::from_dense(dims, [-3, 2, 10], &values, 0.0).unwrap();
     let scale = 3.0f32;
     let vol = vol_from_grid(&grid, &[scale]).unwrap();
@@ -134,7 +136,10 @@ fn vol_texels_align_with_brume_voxels() {
         let err = (m - brume).abs();
         worst = worst.max(err);
         // Mitsuba computes texel coordinates in float32 through two transforms.
-        assert!(err < 1e-4 * (1.0 + brume.abs()), "index point {p}: Mitsuba {m}, Brume {brume}");
+        assert!(
+            err < 1e-4 * (1.0 + brume.abs()),
+            "index point {p}: Mitsuba {m}, Brume {brume}"
+        );
     }
     say(&format!(
         "mitsuba_compare: {} lookups, largest |Mitsuba - Brume| {worst:.2e}",

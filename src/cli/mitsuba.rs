@@ -83,7 +83,10 @@ pub fn find_mitsuba_python() -> Result<PathBuf> {
         if imports_mitsuba(&p) {
             return Ok(p);
         }
-        bail!("BRUME_MITSUBA_PYTHON={} cannot `import mitsuba`", p.display());
+        bail!(
+            "BRUME_MITSUBA_PYTHON={} cannot `import mitsuba`",
+            p.display()
+        );
     }
     let venv = Path::new("tools/mitsuba/.venv/bin/python");
     [
@@ -386,8 +389,13 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         if mat.interior_medium != NO_INDEX {
             let h = &scene.homogeneous_media[mat.interior_medium as usize];
             let sigma_t = h.sigma_t();
-            let albedo =
-                [0, 1, 2].map(|c| if sigma_t[c] > 0.0 { h.sigma_s[c] / sigma_t[c] } else { 0.0 });
+            let albedo = [0, 1, 2].map(|c| {
+                if sigma_t[c] > 0.0 {
+                    h.sigma_s[c] / sigma_t[c]
+                } else {
+                    0.0
+                }
+            });
             m["interior"] = json!({"sigma_t": sigma_t, "albedo": albedo, "g": h.g});
         }
         meshes.push(m);

@@ -75,8 +75,8 @@ pub fn nonzero_index_box(grid: &SparseGrid) -> Option<([i64; 3], [i64; 3])> {
             for cx in 0..nx {
                 let entry = grid.cells[grid.cell_index(cx, cy, cz)];
                 let cell = [cx, cy, cz];
-                let base = [0, 1, 2]
-                    .map(|a| (cell[a] as i64 + grid.cell_origin[a] as i64) * BRICK_DIM);
+                let base =
+                    [0, 1, 2].map(|a| (cell[a] as i64 + grid.cell_origin[a] as i64) * BRICK_DIM);
                 if entry & CONSTANT_BIT != 0 {
                     if grid.constants[(entry & !CONSTANT_BIT) as usize] != 0.0 {
                         grow(base, base.map(|b| b + BRICK_DIM - 1));
@@ -150,7 +150,12 @@ impl VolGrid {
         for v in ints {
             out.extend_from_slice(&v.to_le_bytes());
         }
-        for v in self.bbox_min.iter().chain(&self.bbox_max).chain(&self.values) {
+        for v in self
+            .bbox_min
+            .iter()
+            .chain(&self.bbox_max)
+            .chain(&self.values)
+        {
             out.extend_from_slice(&v.to_le_bytes());
         }
         out
@@ -186,10 +191,7 @@ mod tests {
         assert_eq!(vol.bbox_max, [8.5, 0.5, 8.5]);
         let b = vol.to_bytes();
         assert_eq!(&b[..4], b"VOL\x03");
-        assert_eq!(
-            [4, 8, 12, 16, 20].map(|o| le_i32(&b, o)),
-            [1, 5, 4, 3, 1]
-        );
+        assert_eq!([4, 8, 12, 16, 20].map(|o| le_i32(&b, o)), [1, 5, 4, 3, 1]);
         assert_eq!(le_f32(&b, 24), 3.5);
         assert_eq!(le_f32(&b, 44), 8.5);
         assert_eq!(b.len(), 48 + 4 * 5 * 4 * 3);
@@ -218,7 +220,9 @@ mod tests {
     #[test]
     fn texel_centres_reproduce_brume_lookups() {
         let dims = [4, 3, 5];
-        let values: Vec<f32> = (0..60).map(|i| ((i * 37) % 11) as f32 * 0.1 + 0.05).collect();
+        let values: Vec<f32> = (0..60)
+            .map(|i| ((i * 37) % 11) as f32 * 0.1 + 0.05)
+            .collect();
         let (grid, _) = SparseGrid::from_dense(dims, [-2, 6, 1], &values, 0.0).unwrap();
         let vol = vol_from_grid(&grid, &[1.0]).unwrap();
         let texture = |p: DVec3| -> f64 {
@@ -226,8 +230,8 @@ mod tests {
             let mut idx = [0i64; 3];
             let mut f = [0f64; 3];
             for a in 0..3 {
-                let u = (p[a] - vol.bbox_min[a] as f64)
-                    / (vol.bbox_max[a] - vol.bbox_min[a]) as f64;
+                let u =
+                    (p[a] - vol.bbox_min[a] as f64) / (vol.bbox_max[a] - vol.bbox_min[a]) as f64;
                 let t = u * n[a] as f64 - 0.5;
                 let t0 = t.floor();
                 idx[a] = t0 as i64;
@@ -252,7 +256,11 @@ mod tests {
             let h = |k: u32| ((s * 2654435761u32.wrapping_add(k)) % 10007) as f64 / 10007.0;
             let p = DVec3::new(-5.0 + 10.0 * h(1), 3.0 + 9.0 * h(2), -2.0 + 11.0 * h(3));
             let brume = grid.sample_trilinear(p) as f64;
-            assert!((texture(p) - brume).abs() < 1e-5, "at {p}: {} vs {brume}", texture(p));
+            assert!(
+                (texture(p) - brume).abs() < 1e-5,
+                "at {p}: {} vs {brume}",
+                texture(p)
+            );
         }
     }
 
