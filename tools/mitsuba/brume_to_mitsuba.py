@@ -11,7 +11,7 @@ builds Mitsuba's scene dictionary and renders `runs` seeds (seed .. seed + runs 
 `out.run<k>.exr` for each and printing `render_seconds <k> <s> <path>`; `build_seconds` is the
 scene set-up (mi.load_dict), reported apart from the render times.
 
-Mapping (README "Mitsuba 3"):
+Mapping (README "Comparing against Mitsuba 3"):
 - integrator `volpath`, max_depth from the JSON (Brume's + 1), rr_depth Mitsuba's default (5);
 - sensor `perspective`, vertical field of view (fov_axis y) at the render's aspect, near clip
   = glTF znear, look-at from Brume's camera; `independent` sampler; `hdrfilm` with a `box`
@@ -19,8 +19,8 @@ Mapping (README "Mitsuba 3"):
 - VDB media: `heterogeneous` with sigma_t = `gridvolume` (the extinction per metre, already
   scaled), constant albedo, HG phase, inside a `cube` with a `null` BSDF spanning the grid's box;
   the grid's and the cube's to_world is Brume's world_from_medium (index to world);
-- meshes: PLY with `diffuse`, `dielectric` or `null` BSDFs, `area` emitters, `homogeneous`
-  interiors for KHR_materials_volume;
+- meshes: PLY with `brume_opaque` (below), `dielectric` or `null` BSDFs, `area` emitters,
+  `homogeneous` interiors for KHR_materials_volume;
 - lights: `point` (intensity W/sr), `brume_spot` (a Python emitter with glTF's falloff, as
   Brume), `directional` (irradiance W/m^2); the environment as a `constant` emitter;
 - opaque surfaces: `brume_opaque`, Brume's Lambert + GGX model as a Python BSDF (or Mitsuba's
@@ -28,7 +28,6 @@ Mapping (README "Mitsuba 3"):
 """
 import argparse
 import json
-import math
 import os
 import sys
 import time
@@ -285,10 +284,11 @@ def build(desc):
         elif l["type"] == "spot":
             e = {"type": "brume_spot", "cos_inner": float(l["cos_inner"]),
                  "cos_outer": float(l["cos_outer"])}
-            for c, p_, d_, i_ in zip("xyz", l["position"], l["direction"], l["intensity"]):
-                e[f"p{c}"], e[f"d{c}"] = float(p_), float(d_)
-            for c, i_ in zip("rgb", l["intensity"]):
-                e[f"i{c}"] = float(i_)
+            # Plugin properties are scalars here: one per component.
+            for c, pos, axis in zip("xyz", l["position"], l["direction"]):
+                e[f"p{c}"], e[f"d{c}"] = float(pos), float(axis)
+            for c, intensity in zip("rgb", l["intensity"]):
+                e[f"i{c}"] = float(intensity)
         elif l["type"] == "directional":
             e = {"type": "directional", "direction": l["direction"],
                  "irradiance": rgb(l["irradiance"])}
