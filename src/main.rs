@@ -32,7 +32,8 @@ enum Command {
     Render(cli::render::RenderArgs),
     /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/CYCLES.md).
     Cycles(cli::cycles::CyclesArgs),
-    /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba, README "Comparing against Mitsuba 3").
+    /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba; README "Comparing against
+    /// Mitsuba 3").
     Mitsuba(cli::mitsuba::MitsubaArgs),
     /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
     Compare(cli::compare::CompareArgs),

@@ -1,9 +1,9 @@
-//! Brume against Mitsuba 3 (README "Comparing against Mitsuba 3"): the voxel-centre alignment of the `.vol`
-//! grids `brume mitsuba` writes, checked through Mitsuba's own texture lookups, and the cloud
-//! scene rendered by both (image means within 1 %, no more than 1 % of 8x8 blocks failing a
-//! z-test at 99.9 %). Needs a Python that can `import mitsuba` (tools/mitsuba/setup.sh
-//! installs one); without it each test prints a visible SKIPPED line and returns. Seeds are
-//! fixed on both sides, so the outcome is deterministic.
+//! Brume against Mitsuba 3 (README "Comparing against Mitsuba 3"): the voxel-centre alignment
+//! of the `.vol` grids `brume mitsuba` writes, checked through Mitsuba's own texture lookups,
+//! and the cloud scene rendered by both (image means within 1 %, no more than 1 % of 8x8
+//! blocks failing a z-test at 99.9 %). Needs a Python that can `import mitsuba`
+//! (tools/mitsuba/setup.sh installs one); without it each test prints a visible SKIPPED line
+//! and returns. Seeds are fixed on both sides, so the outcome is deterministic.
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
