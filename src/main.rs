@@ -32,6 +32,9 @@ enum Command {
     Render(cli::render::RenderArgs),
     /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/CYCLES.md).
     Cycles(cli::cycles::CyclesArgs),
+    /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba; README "Comparing against
+    /// Mitsuba 3").
+    Mitsuba(cli::mitsuba::MitsubaArgs),
     /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
     Compare(cli::compare::CompareArgs),
     /// Error against time for a sweep of estimator configurations (tables and plots).
@@ -55,6 +58,7 @@ fn main() -> ExitCode {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
         Command::Render(args) => cli::render::run(&args),
         Command::Cycles(args) => cli::cycles::run(&args),
+        Command::Mitsuba(args) => cli::mitsuba::run(&args),
         Command::Compare(args) => cli::compare::run(&args),
         Command::Study(args) => cli::study::run(&args),
         Command::Bench { which } => cli::bench::run(which),

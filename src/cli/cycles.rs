@@ -13,8 +13,9 @@ use std::time::Instant;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
-use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
-use brume::study::stats::erfc;
+use brume::film::{read_exr, write_image, AttrValue, Metadata};
+
+use super::reference::{compare, merge_runs, output_tail, read_runs, seconds_list};
 
 /// One line that says how to get a Python with bpy.
 const INSTALL_HINT: &str = "no Python with bpy found: run tools/cycles/ci.sh (Python 3.11 venv \
@@ -142,37 +143,12 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     let out = cmd
         .output()
         .with_context(|| format!("running {}", python.display()))?;
-    let stdout = String::from_utf8_lossy(&out.stdout);
     if !out.status.success() {
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        let tail: Vec<&str> = stdout.lines().chain(stderr.lines()).collect();
-        bail!(
-            "Cycles failed ({}):\n{}",
-            out.status,
-            tail[tail.len().saturating_sub(20)..].join("\n")
-        );
+        bail!("Cycles failed ({}):\n{}", out.status, output_tail(&out, 20));
     }
-    let mut render_seconds = Vec::new();
-    let mut files = Vec::new();
-    for line in stdout.lines() {
-        let f: Vec<&str> = line.split_whitespace().collect();
-        if f.len() == 4 && f[0] == "render_seconds" {
-            render_seconds.push(f[2].parse::<f64>().unwrap_or(f64::NAN));
-            files.push(PathBuf::from(f[3]));
-        }
-    }
-    if files.len() != args.runs as usize {
-        bail!(
-            "expected {} Cycles images, the script reported {}",
-            args.runs,
-            files.len()
-        );
-    }
-    let images = files
-        .iter()
-        .map(read_exr)
-        .collect::<Result<Vec<_>, _>>()
-        .context("reading Cycles output")?;
+    let runs = read_runs(&String::from_utf8_lossy(&out.stdout), args.runs, "Cycles")?;
+    let render_seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
+    let images: Vec<_> = runs.into_iter().map(|r| r.image).collect();
     let total: f64 = render_seconds.iter().sum();
     let mut meta = Metadata::new();
     meta.set("brume:renderer", AttrValue::Text("cycles (bpy 5.0)".into()))
@@ -193,11 +169,7 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
         args.width,
         args.height,
         total,
-        render_seconds
-            .iter()
-            .map(|s| format!("{s:.2}"))
-            .collect::<Vec<_>>()
-            .join(" "),
+        seconds_list(&render_seconds),
         started.elapsed().as_secs_f64()
     );
     if let Some(brume_path) = &args.against {
@@ -206,184 +178,4 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
         println!("{a}");
     }
     Ok(())
-}
-
-/// Averages independent runs; with two or more, the variance of the mean is the unbiased
-/// sample variance across runs divided by their number.
-pub fn merge_runs(images: &[Image], spp: u32, attributes: Metadata) -> Result<Image> {
-    let first = images.first().ok_or_else(|| anyhow!("no images"))?;
-    let (w, h) = (first.width, first.height);
-    if images.iter().any(|i| i.width != w || i.height != h) {
-        bail!("Cycles runs differ in size");
-    }
-    let k = images.len() as f64;
-    let n = w * h;
-    let mut rgb = vec![[0f32; 3]; n];
-    let mut var = vec![[0f32; 3]; n];
-    for p in 0..n {
-        for c in 0..3 {
-            let mean = images.iter().map(|i| i.rgb[p][c] as f64).sum::<f64>() / k;
-            let ss: f64 = images
-                .iter()
-                .map(|i| (i.rgb[p][c] as f64 - mean).powi(2))
-                .sum();
-            rgb[p][c] = mean as f32;
-            var[p][c] = if k > 1.0 {
-                (ss / (k - 1.0) / k) as f32
-            } else {
-                0.0
-            };
-        }
-    }
-    Ok(Image {
-        width: w,
-        height: h,
-        rgb,
-        alpha: Some(vec![1.0; n]),
-        variance: (k > 1.0).then_some(var),
-        samples: Some(vec![spp as f32 * k as f32; n]),
-        attributes,
-    })
-}
-
-/// Agreement of two renders of the same scene.
-#[derive(Debug, Clone)]
-pub struct Agreement {
-    /// (mean(b) - mean(a)) / mean(a) over all pixels, per channel and for R+G+B.
-    pub mean_rel_diff: [f64; 4],
-    /// z-score of the R+G+B image-mean difference.
-    pub mean_z: f64,
-    pub blocks: usize,
-    pub failed_blocks: usize,
-    /// Largest |z| of any block and channel.
-    pub max_block_z: f64,
-}
-
-impl std::fmt::Display for Agreement {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let m = self.mean_rel_diff;
-        write!(
-            f,
-            "mean_rel_diff {:+.4} (R {:+.4} G {:+.4} B {:+.4}) mean_z {:+.2} \
-             blocks_failed {}/{} ({:.2} %) max_block_z {:.2}",
-            m[3],
-            m[0],
-            m[1],
-            m[2],
-            self.mean_z,
-            self.failed_blocks,
-            self.blocks,
-            100.0 * self.failed_blocks as f64 / self.blocks.max(1) as f64,
-            self.max_block_z
-        )
-    }
-}
-
-/// Image mean relative difference of `b` against `a`, and a z-test per `block`x`block` block
-/// and channel with both variance layers; a block fails when any channel rejects at the
-/// Sidak-corrected level for three channels, so the block test is at `alpha`.
-pub fn compare(a: &Image, b: &Image, block: usize, alpha: f64) -> Result<Agreement> {
-    if a.width != b.width || a.height != b.height {
-        bail!(
-            "sizes differ: {}x{} vs {}x{}",
-            a.width,
-            a.height,
-            b.width,
-            b.height
-        );
-    }
-    let (va, vb) = match (&a.variance, &b.variance) {
-        (Some(x), Some(y)) => (x, y),
-        _ => bail!("both images need a variance layer (Cycles: --runs >= 2)"),
-    };
-    let n = a.width * a.height;
-    let mut sum = [[0f64; 4]; 2];
-    let mut var_sum = 0f64;
-    for p in 0..n {
-        for c in 0..3 {
-            sum[0][c] += a.rgb[p][c] as f64;
-            sum[1][c] += b.rgb[p][c] as f64;
-            var_sum += va[p][c] as f64 + vb[p][c] as f64;
-        }
-    }
-    for s in &mut sum {
-        s[3] = s[0] + s[1] + s[2];
-    }
-    let mean_rel_diff = std::array::from_fn(|c| (sum[1][c] - sum[0][c]) / sum[0][c]);
-    let mean_z = (sum[1][3] - sum[0][3]) / var_sum.sqrt();
-
-    let alpha_channel = 1.0 - (1.0 - alpha).powf(1.0 / 3.0);
-    let z_crit = normal_quantile(1.0 - alpha_channel / 2.0);
-    let (bw, bh) = (a.width / block, a.height / block);
-    let (mut failed, mut max_z) = (0, 0f64);
-    for by in 0..bh {
-        for bx in 0..bw {
-            let mut d = [0f64; 3];
-            let mut v = [0f64; 3];
-            let mut sum_a = [0f64; 3];
-            for y in by * block..(by + 1) * block {
-                for x in bx * block..(bx + 1) * block {
-                    let p = y * a.width + x;
-                    for c in 0..3 {
-                        d[c] += b.rgb[p][c] as f64 - a.rgb[p][c] as f64;
-                        sum_a[c] += a.rgb[p][c] as f64;
-                        v[c] += va[p][c] as f64 + vb[p][c] as f64;
-                    }
-                }
-            }
-            let mut fail = false;
-            for c in 0..3 {
-                // Float rounding (a constant background, 0.3 vs 0.30000001 across runs)
-                // must not count: a variance floor at 1e-6 of the block's value.
-                let scale = sum_a[c].abs() + (sum_a[c] + d[c]).abs();
-                let v_eff = v[c] + (1e-6 * scale).powi(2);
-                let z = if v_eff > 0.0 {
-                    d[c] / v_eff.sqrt()
-                } else if d[c] == 0.0 {
-                    0.0
-                } else {
-                    f64::INFINITY
-                };
-                max_z = max_z.max(z.abs());
-                fail |= z.abs() > z_crit;
-            }
-            failed += fail as usize;
-        }
-    }
-    Ok(Agreement {
-        mean_rel_diff,
-        mean_z,
-        blocks: bw * bh,
-        failed_blocks: failed,
-        max_block_z: max_z,
-    })
-}
-
-/// Standard normal quantile by bisection on the CDF (erfc by Numerical Recipes' Chebyshev
-/// fit, relative error < 1.2e-7).
-fn normal_quantile(p: f64) -> f64 {
-    let cdf = |z: f64| 0.5 * erfc(-z / std::f64::consts::SQRT_2);
-    let (mut lo, mut hi) = (-40.0, 40.0);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if cdf(mid) < p {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn normal_quantile_matches_tables() {
-        assert!((erfc(0.5) - 0.4795001).abs() < 1e-6);
-        assert!((erfc(-1.0) - 1.8427008).abs() < 1e-6);
-        assert!((normal_quantile(0.975) - 1.959964).abs() < 1e-4);
-        assert!((normal_quantile(0.9995) - 3.290527).abs() < 1e-4);
-    }
 }

@@ -3,5 +3,7 @@ pub mod bench_gpu;
 pub mod compare;
 pub mod cycles;
 pub mod info;
+pub mod mitsuba;
+pub mod reference;
 pub mod render;
 pub mod study;

@@ -24,4 +24,5 @@ pub use grid::{GridStats, SparseGrid, CONSTANT_BIT, DEFAULT_MAX_CELLS};
 pub use reference::VdbReference;
 pub use segment::MajorantSegment;
 pub mod load;
+pub mod mitsuba_vol;
 pub use load::{load_grid, load_grid_from, LoadError, LoadedGrid};

@@ -1,0 +1,484 @@
+//! `brume mitsuba`: render a Brume scene with Mitsuba 3 (the `mitsuba` Python wheel), a second
+//! reference renderer independent of Cycles, and optionally compare with a Brume render.
+//!
+//! Unlike `brume cycles`, whose script re-reads the glTF with Blender's importer, this command
+//! loads the scene with Brume's own loader and hands Mitsuba what Brume renders: each VDB
+//! medium's density as a `.vol` grid written from Brume's converted grid
+//! (`brume::volume::mitsuba_vol`, voxel-centre aligned), the meshes as world-space PLY files,
+//! and a JSON description of camera, lights, environment and materials with Brume's mappings
+//! (Principled Volume coefficients, light units) already applied. `tools/mitsuba/
+//! brume_to_mitsuba.py` only builds Mitsuba's scene dictionary from it and renders `--runs`
+//! seeds; the runs are merged as for Cycles (`super::reference`).
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
+use glam::{Mat4, Vec3};
+use serde_json::{json, Value};
+
+use brume::film::{read_exr, write_image, AttrValue, Metadata};
+use brume::integrator::bsdf::Principled;
+use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use brume::scene::{BoundsSource, Scene, NO_INDEX};
+use brume::volume::mitsuba_vol::vol_from_grid;
+
+use super::reference::{compare, merge_runs, output_tail, read_runs, seconds_list};
+
+const INSTALL_HINT: &str = "no Python with Mitsuba 3 found: run tools/mitsuba/setup.sh (venv \
+     tools/mitsuba/.venv with `pip install mitsuba`), or set BRUME_MITSUBA_PYTHON to a python \
+     that can `import mitsuba`";
+
+#[derive(Args, Debug)]
+pub struct MitsubaArgs {
+    /// The Brume scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output EXR (beauty RGBA; `variance.*` when --runs > 1; `samples.Y`).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel of each run.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    #[arg(long, default_value_t = 240)]
+    pub height: u32,
+    /// Independent Mitsuba renders (seeds seed..seed+runs-1), averaged; their spread gives the
+    /// variance layer, so use at least 4 for a block z-test.
+    #[arg(long, default_value_t = 1)]
+    pub runs: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Mitsuba threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<u32>,
+    /// Brume's maximum number of scattering events (Mitsuba's max_depth is one more: it
+    /// counts path segments, so its 2 is direct lighting).
+    #[arg(long, default_value_t = 256)]
+    pub max_depth: u32,
+    /// Mitsuba variant (default: llvm_ad_rgb when it loads, else scalar_rgb).
+    #[arg(long)]
+    pub variant: Option<String>,
+    /// Map opaque surfaces to Mitsuba's own `diffuse` (base * (1 - metallic)) instead of
+    /// Brume's Lambert + GGX model re-implemented as a Python BSDF: faster, without the GGX lobe.
+    #[arg(long)]
+    pub lambert_only: bool,
+    /// Compare with this Brume EXR (needs its variance layer) and print the agreement.
+    #[arg(long)]
+    pub against: Option<PathBuf>,
+    /// Keep the translated scene (JSON, .vol, .ply) in this folder instead of a temporary one.
+    #[arg(long)]
+    pub keep: Option<PathBuf>,
+    /// Do not render: compare the existing --output with --against.
+    #[arg(long, requires = "against")]
+    pub reuse: bool,
+}
+
+/// A Python that imports mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to
+/// the working directory or the source tree.
+pub fn find_mitsuba_python() -> Result<PathBuf> {
+    if let Some(p) = std::env::var_os("BRUME_MITSUBA_PYTHON") {
+        let p = PathBuf::from(p);
+        if imports_mitsuba(&p) {
+            return Ok(p);
+        }
+        bail!(
+            "BRUME_MITSUBA_PYTHON={} cannot `import mitsuba`",
+            p.display()
+        );
+    }
+    let venv = Path::new("tools/mitsuba/.venv/bin/python");
+    [
+        venv.to_path_buf(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(venv),
+    ]
+    .into_iter()
+    .find(|p| imports_mitsuba(p))
+    .ok_or_else(|| anyhow!(INSTALL_HINT))
+}
+
+fn imports_mitsuba(python: &Path) -> bool {
+    Command::new(python)
+        .args(["-c", "import mitsuba"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// The translation script: `BRUME_MITSUBA_SCRIPT`, else `tools/mitsuba/brume_to_mitsuba.py`
+/// in the working directory or the source tree.
+fn script_path() -> Result<PathBuf> {
+    if let Some(p) = std::env::var_os("BRUME_MITSUBA_SCRIPT") {
+        return Ok(PathBuf::from(p));
+    }
+    let rel = Path::new("tools/mitsuba/brume_to_mitsuba.py");
+    [
+        rel.to_path_buf(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
+    .ok_or_else(|| anyhow!("{} not found", rel.display()))
+}
+
+pub fn run(args: &MitsubaArgs) -> Result<()> {
+    if args.runs == 0 || args.spp == 0 {
+        bail!("--runs and --spp must be at least 1");
+    }
+    if args.width == 0 || args.height == 0 {
+        bail!("--width and --height must be at least 1");
+    }
+    if args.reuse {
+        let a = compare(
+            &read_exr(args.against.as_ref().unwrap())?,
+            &read_exr(&args.output)?,
+            8,
+            0.001,
+        )?;
+        println!("{a}");
+        return Ok(());
+    }
+    let python = find_mitsuba_python()?;
+    let script = script_path()?;
+    let started = Instant::now();
+    // Scene errors already name the file and the JSON pointer.
+    let scene = brume::scene::load(&args.scene)?;
+    let dir = match &args.keep {
+        Some(d) => d.clone(),
+        None => std::env::temp_dir().join(format!("brume-mitsuba-{}", std::process::id())),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let result = translate_and_render(args, &scene, &python, &script, &dir, started);
+    if args.keep.is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    result
+}
+
+fn translate_and_render(
+    args: &MitsubaArgs,
+    scene: &Scene,
+    python: &Path,
+    script: &Path,
+    dir: &Path,
+    started: Instant,
+) -> Result<()> {
+    let description = describe(scene, args, dir)?;
+    let json_path = dir.join("scene.json");
+    std::fs::write(&json_path, serde_json::to_string_pretty(&description)?)
+        .with_context(|| format!("writing {}", json_path.display()))?;
+    let prepare_seconds = started.elapsed().as_secs_f64();
+
+    let mut cmd = Command::new(python);
+    cmd.arg(script)
+        .arg(&json_path)
+        .arg("-o")
+        .arg(dir.join("mitsuba.exr"));
+    if let Some(v) = &args.variant {
+        cmd.args(["--variant", v]);
+    }
+    let out = cmd
+        .output()
+        .with_context(|| format!("running {}", python.display()))?;
+    if !out.status.success() {
+        bail!(
+            "Mitsuba failed on {} ({}):\n{}",
+            args.scene.display(),
+            out.status,
+            output_tail(&out, 20)
+        );
+    }
+    // The script's notes (a variant fallback) matter even when it succeeds.
+    for line in String::from_utf8_lossy(&out.stderr).lines() {
+        if line.starts_with("note:") {
+            eprintln!("mitsuba: {line}");
+        }
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let field = |name: &str| {
+        stdout
+            .lines()
+            .find_map(|l| l.strip_prefix(name).map(|v| v.trim().to_string()))
+    };
+    let variant = field("variant ").unwrap_or_else(|| "?".into());
+    let build_seconds: f64 = field("build_seconds ")
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(f64::NAN);
+    let runs = read_runs(&stdout, args.runs, "Mitsuba")?;
+    let seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
+    let images: Vec<_> = runs.into_iter().map(|r| r.image).collect();
+    let total: f64 = seconds.iter().sum();
+    let mut meta = Metadata::new();
+    meta.set(
+        "brume:renderer",
+        AttrValue::Text(format!("mitsuba ({variant})")),
+    )
+    .set("brume:spp", AttrValue::Int((args.spp * args.runs) as i32))
+    .set("brume:mitsuba_runs", AttrValue::Int(args.runs as i32))
+    .set("brume:render_seconds", AttrValue::Double(total))
+    .set(
+        "brume:mitsuba_seconds_per_run",
+        AttrValue::Text(seconds_list(&seconds)),
+    )
+    .set(
+        "brume:scene",
+        AttrValue::Text(args.scene.display().to_string()),
+    );
+    let merged = merge_runs(&images, args.spp, meta)?;
+    write_image(&args.output, &merged)?;
+    eprintln!(
+        "mitsuba ({variant}): {} run(s) x {} spp, {}x{}, render {:.2} s (per run {}), \
+         translation {:.2} s, Mitsuba scene set-up {:.2} s, wall {:.2} s",
+        args.runs,
+        args.spp,
+        args.width,
+        args.height,
+        total,
+        seconds_list(&seconds),
+        prepare_seconds,
+        build_seconds,
+        started.elapsed().as_secs_f64()
+    );
+    if let Some(brume_path) = &args.against {
+        let brume = read_exr(brume_path)?;
+        let a = compare(&brume, &merged, 8, 0.001)?;
+        println!("{a}");
+    }
+    Ok(())
+}
+
+/// Row-major 4x4 rows of a glam (column-major) matrix, as Mitsuba's `ScalarTransform4f`
+/// takes them.
+fn rows(m: &Mat4) -> Value {
+    json!((0..4).map(|r| m.row(r).to_array()).collect::<Vec<_>>())
+}
+
+/// The JSON the script reads, writing the `.vol` and `.ply` files it names into `dir`.
+fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
+    let file = scene.source.display();
+    let cam = &scene.camera;
+    if scene.inside_medium(cam.position()) {
+        // Mitsuba would need the sensor's own `medium`; not mapped.
+        bail!("{file}: the camera is inside a medium, which brume mitsuba does not map");
+    }
+    let camera = json!({
+        "origin": cam.position().to_array(),
+        "target": (cam.position() + cam.forward()).to_array(),
+        "up": cam.up().to_array(),
+        "yfov_degrees": cam.yfov.to_degrees(),
+        "near_clip": cam.znear,
+    });
+
+    let mut lights = Vec::new();
+    for l in &scene.lights {
+        lights.push(match l.kind {
+            LIGHT_POINT => json!({"type": "point", "position": l.position,
+                                  "intensity": l.intensity}),
+            LIGHT_SPOT => json!({"type": "spot", "position": l.position,
+                                 "direction": l.direction, "intensity": l.intensity,
+                                 "cos_inner": l.cos_inner, "cos_outer": l.cos_outer}),
+            LIGHT_DIRECTIONAL => json!({"type": "directional", "direction": l.direction,
+                                        "irradiance": l.intensity}),
+            k => bail!("{file}: light kind {k} has no Mitsuba mapping"),
+        });
+    }
+    if scene.environment.map.is_some() {
+        eprintln!(
+            "mitsuba: note: {file}: the environment map is not decoded by Brume either; \
+             only its constant colour * strength is mapped"
+        );
+    }
+
+    let mut vdb_media = Vec::new();
+    for (i, m) in scene.vdb_media.iter().enumerate() {
+        let at = format!("{file}: {}", m.pointer);
+        if m.emits() {
+            bail!(
+                "{at}: emitting media (emission or blackbody) are not mapped to Mitsuba: its \
+                 `volpath` integrator has no volume emission in the released variants"
+            );
+        }
+        if m.bounds_source == BoundsSource::Mesh {
+            bail!(
+                "{at}: a VDB medium bounded by a mesh (`mesh`) is not mapped to Mitsuba; \
+                 only media bounded by their grid"
+            );
+        }
+        let sigma_t = m.sigma_t_per_density();
+        let sigma_s = m.sigma_s_per_density();
+        // A single channel when extinction is grey; else per-channel extinction grids, since
+        // Mitsuba's `heterogeneous` scales its grid by one scalar.
+        let grey = sigma_t.iter().all(|&s| s == sigma_t[0]);
+        let scales: Vec<f32> = if grey {
+            vec![sigma_t[0]]
+        } else {
+            sigma_t.to_vec()
+        };
+        let grid = &m.grids[0];
+        let vol = vol_from_grid(&grid.volume.grid, &scales).map_err(|e| {
+            anyhow!(
+                "{at}: {} grid '{}' cannot be written for Mitsuba: {e}",
+                grid.path.display(),
+                grid.name
+            )
+        })?;
+        let vol_path = dir.join(format!("medium{i}.vol"));
+        vol.write(&vol_path)
+            .with_context(|| format!("writing {}", vol_path.display()))?;
+        let albedo = [0, 1, 2].map(|c| {
+            if sigma_t[c] > 0.0 {
+                sigma_s[c] / sigma_t[c]
+            } else {
+                0.0
+            }
+        });
+        vdb_media.push(json!({
+            "vol": vol_path,
+            "channels": scales.len(),
+            "to_world": rows(&m.world_from_medium),
+            "box_min": vol.bbox_min,
+            "box_max": vol.bbox_max,
+            "albedo": albedo,
+            "g": m.anisotropy,
+        }));
+    }
+
+    let mut meshes = Vec::new();
+    let mut notes = Vec::new();
+    for (k, inst) in scene.instances.iter().enumerate() {
+        let mat = &scene.materials[inst.material as usize];
+        let name = scene.material_names[inst.material as usize]
+            .clone()
+            .unwrap_or_else(|| format!("material {}", inst.material));
+        let ply = dir.join(format!("mesh{k}.ply"));
+        let has_normals = write_ply(scene, inst, &ply)?;
+        let mut m = json!({"ply": ply, "face_normals": !has_normals});
+        if mat.transmission > 0.0 {
+            if (mat.ior - 1.0).abs() < 1e-6 {
+                m["bsdf"] = json!({"type": "null"});
+            } else {
+                m["bsdf"] = json!({"type": "dielectric", "ior": mat.ior});
+                if mat.base_color[..3].iter().any(|&c| c != 1.0) {
+                    notes.push(format!(
+                        "{name}: dielectric base colour is not mapped (Mitsuba's is white)"
+                    ));
+                }
+            }
+        } else if args.lambert_only {
+            let kd = [0, 1, 2].map(|c| mat.base_color[c] * (1.0 - mat.metallic));
+            m["bsdf"] = json!({"type": "diffuse", "reflectance": kd});
+            notes.push(format!("{name}: Lambertian part only (--lambert-only)"));
+        } else {
+            // Brume's own lobe parameters, so both sides use the same numbers.
+            let p = Principled::new(
+                Vec3::from_slice(&mat.base_color[..3]),
+                mat.metallic,
+                mat.roughness,
+            );
+            m["bsdf"] = json!({"type": "brume_opaque", "kd": p.diffuse.to_array(),
+                               "f0": p.f0.to_array(), "alpha": p.alpha, "p_spec": p.p_spec});
+        }
+        if mat.emission.iter().any(|&e| e > 0.0) {
+            m["emission"] = json!(mat.emission);
+            if mat.flags & brume::scene::material::MATERIAL_DOUBLE_SIDED != 0 {
+                notes.push(format!(
+                    "{name}: double-sided emission is mapped to Mitsuba's one-sided area light"
+                ));
+            }
+        }
+        if mat.interior_medium != NO_INDEX {
+            let h = &scene.homogeneous_media[mat.interior_medium as usize];
+            let sigma_t = h.sigma_t();
+            let albedo = [0, 1, 2].map(|c| {
+                if sigma_t[c] > 0.0 {
+                    h.sigma_s[c] / sigma_t[c]
+                } else {
+                    0.0
+                }
+            });
+            m["interior"] = json!({"sigma_t": sigma_t, "albedo": albedo, "g": h.g});
+        }
+        meshes.push(m);
+    }
+    notes.sort();
+    notes.dedup();
+    for n in &notes {
+        eprintln!("mitsuba: note: {file}: {n}");
+    }
+
+    let env = scene.environment.radiance;
+    Ok(json!({
+        "scene": scene.source,
+        "width": args.width,
+        "height": args.height,
+        "spp": args.spp,
+        "seed": args.seed,
+        "runs": args.runs,
+        "threads": args.threads,
+        // Brume counts scattering events; Mitsuba counts path segments.
+        "max_depth": args.max_depth.saturating_add(1),
+        "camera": camera,
+        "lights": lights,
+        "environment": env.iter().any(|&c| c > 0.0).then_some(env),
+        "vdb_media": vdb_media,
+        "meshes": meshes,
+    }))
+}
+
+/// Writes instance `inst`'s world-space triangles as a binary PLY; returns whether it has
+/// shading normals (all vertices with a non-zero normal).
+fn write_ply(scene: &Scene, inst: &brume::scene::Instance, path: &Path) -> Result<bool> {
+    use std::collections::HashMap;
+    use std::io::Write;
+    let tris = &scene.triangles[inst.first_triangle as usize..][..inst.triangle_count as usize];
+    let mut index: HashMap<u32, u32> = HashMap::new();
+    let mut order = Vec::new();
+    let faces: Vec<[u32; 3]> = tris
+        .iter()
+        .map(|t| {
+            t.vertices.map(|v| {
+                *index.entry(v).or_insert_with(|| {
+                    order.push(v);
+                    order.len() as u32 - 1
+                })
+            })
+        })
+        .collect();
+    let verts: Vec<_> = order.iter().map(|&v| scene.vertices[v as usize]).collect();
+    let has_normals = verts
+        .iter()
+        .all(|v| Vec3::from(v.normal).length_squared() > 0.0);
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\n",
+        verts.len()
+    );
+    if has_normals {
+        header.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+    }
+    header.push_str(&format!(
+        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        faces.len()
+    ));
+    let mut bytes = header.into_bytes();
+    for v in &verts {
+        let mut fl = v.position.to_vec();
+        if has_normals {
+            fl.extend_from_slice(&v.normal);
+        }
+        for f in fl {
+            bytes.extend_from_slice(&f.to_le_bytes());
+        }
+    }
+    for f in &faces {
+        bytes.push(3);
+        for &i in f {
+            bytes.extend_from_slice(&(i as i32).to_le_bytes());
+        }
+    }
+    let mut file =
+        std::fs::File::create(path).with_context(|| format!("writing {}", path.display()))?;
+    file.write_all(&bytes)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(has_normals)
+}
