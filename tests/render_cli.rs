@@ -130,6 +130,8 @@ fn every_example_scene_renders_to_a_finite_exr_with_logs() {
                 "path_length_sum" => t.path_length_sum,
                 "guard_fired" => t.guard_fired,
                 "majorant_violations" => t.majorant_violations,
+                "majorant_segments" => t.majorant_segments,
+                "shadow_segments" => t.shadow_segments,
                 other => panic!("unexpected total {other}"),
             };
             assert_eq!(logged, v, "{name}: {k}");
