@@ -11,7 +11,9 @@ use brume::backend::cpu::{self, RenderOutput};
 use brume::film::{
     totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
 };
-use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator};
+use brume::integrator::{
+    Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
+};
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
 #[derive(Args, Debug)]
@@ -57,6 +59,10 @@ pub struct RenderArgs {
     pub generic: bool,
     #[arg(long)]
     pub seed: Option<u32>,
+    /// What drives pixel jitter, light, scattering and roulette decisions: sobol
+    /// (Owen-scrambled, the default) or independent (the PCG stream of each sample).
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -112,6 +118,10 @@ impl RenderArgs {
         s.force_spectral = self.spectral;
         s.generic = self.generic;
         s.seed = self.seed.or(scene.seed).unwrap_or(s.seed);
+        s.sampler = self
+            .sampler
+            .or(parse_opt::<SamplerKind>(&scene.sampler)?)
+            .unwrap_or(s.sampler);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.tile_size = self.tile_size;
         Ok(s)
@@ -305,6 +315,10 @@ fn write_outputs(
     };
     let mut meta = info.to_metadata();
     meta.set("brume:features", AttrValue::Text(out.features.name()));
+    meta.set(
+        "brume:sampler",
+        AttrValue::Text(settings.sampler.name().into()),
+    );
     if let Some(v) = gpu_variant {
         // The WGSL variant the wavefront kernels were specialised for.
         meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));

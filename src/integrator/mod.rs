@@ -10,4 +10,4 @@ pub mod settings;
 pub mod tile;
 
 pub use prepare::{FeatureFlags, RenderScene};
-pub use settings::{Estimator, MajorantMode, RenderSettings, ShadowEstimator};
+pub use settings::{Estimator, MajorantMode, RenderSettings, SamplerKind, ShadowEstimator};
