@@ -6,7 +6,7 @@
 mod common;
 use common::render::*;
 
-use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+use brume::integrator::{Estimator, MajorantMode, RenderSettings, SamplerKind};
 
 fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -41,8 +41,17 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
         }
         // Signed weights (control above the density in empty space) give heavy-tailed pixel
         // estimates: more samples make the per-pixel normal approximation hold.
-        if estimator == Estimator::WeightedDecomposition && majorant == MajorantMode::Global {
+        let heavy_tailed =
+            estimator == Estimator::WeightedDecomposition && majorant == MajorantMode::Global;
+        if heavy_tailed {
             s.spp = 1024;
+            // Even so its per-pixel test is seed-fragile whatever the sampler: at 1024 spp and
+            // seeds 15, 100..=103, one pixel (its three channels) fails at 3 of 5 seeds with
+            // the independent sampler and at 3 of 5 with Sobol (at 4096 spp: 1 and 2 of 5).
+            // The free flights that make the tail draw from the PCG stream either way, so the
+            // per-pixel test keeps the streams it was calibrated on; the Sobol default is
+            // checked on the image mean below.
+            s.sampler = SamplerKind::Independent;
         }
         let out = render(&scene, &s);
         let (mean, var) = moments(&out);
@@ -60,6 +69,19 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
         assert_eq!(a.failing, 0, "{estimator} {majorant:?}: {a:?}");
         assert!(a.mean_z < 3.3, "{estimator} {majorant:?}: {a:?}");
         assert_eq!(t.majorant_violations, 0);
+        if heavy_tailed {
+            let sobol = RenderSettings {
+                sampler: SamplerKind::Sobol,
+                ..s.clone()
+            };
+            let (mean, var) = moments(&render(&scene, &sobol));
+            let a = compare((&mean, &var), (&ref_mean, &ref_var), alpha);
+            println!(
+                "{estimator} {majorant:?} sobol: mean {:.5} vs {:.5} (z {:.2})",
+                a.mean_a, a.mean_b, a.mean_z
+            );
+            assert!(a.mean_z < 3.3, "{estimator} {majorant:?} sobol: {a:?}");
+        }
     }
 }
 
@@ -130,6 +152,41 @@ fn images_do_not_depend_on_the_thread_count() {
             .collect::<Vec<_>>()
     };
     assert_eq!(bits(&one), bits(&three));
+}
+
+/// Progressive passes continue each pixel's sequence: 16 spp in passes of 1 equal 16 spp in
+/// one pass (up to the f64 order of merging passes into the film), for both samplers.
+#[test]
+fn images_do_not_depend_on_the_pass_split() {
+    let scene = load_scene("cornell_smoke.gltf");
+    for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
+        let s = RenderSettings {
+            width: 12,
+            height: 9,
+            spp: 16,
+            seed: 4,
+            sampler,
+            max_pass_spp: 16,
+            ..RenderSettings::default()
+        };
+        let once = render(&scene, &s);
+        let passes = render(
+            &scene,
+            &RenderSettings {
+                max_pass_spp: 1,
+                ..s.clone()
+            },
+        );
+        for (a, b) in once.film.pixels().iter().zip(passes.film.pixels()) {
+            for c in 0..3 {
+                let (x, y) = (a.mean[c], b.mean[c]);
+                assert!(
+                    (x - y).abs() <= 1e-12 * (1.0 + x.abs()),
+                    "{sampler}: one pass {x}, passes of 1 spp {y}"
+                );
+            }
+        }
+    }
 }
 
 #[test]

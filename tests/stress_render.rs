@@ -440,7 +440,8 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     use brume::integrator::media::TrackingConfig;
     use brume::integrator::path::{radiance, PathLimits, PathStats};
     use brume::integrator::{Absorption, RenderScene};
-    use brume::sampling::Rng;
+    use brume::integrator::SamplerKind;
+    use brume::sampling::sobol::Sampler;
     use glam::Vec2;
     let dir = temp_dir("dense-chromatic");
     let sc = StressScene::furnace(
@@ -470,8 +471,8 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
         };
         let (mut sum, mut sum2, mut max_beta, mut max_l) = (0f64, 0f64, 0f32, 0f32);
         for i in 0..n {
-            let mut rng = Rng::new(i, k as u32, 41);
-            let u = rng.uniform_vec2();
+            let mut rng = Sampler::new(SamplerKind::Independent, i, k as u32, 41);
+            let u = rng.rng.uniform_vec2();
             // The central third of the image: rays through the fog's core.
             let film = Vec2::new(0.35, 0.35) + 0.3 * u;
             let mut st = PathStats::default();

@@ -75,6 +75,36 @@ fn path_rng(ps: GpuPathState) -> Rng {
     return Rng(ps.rng_state, ps.rng_inc);
 }
 
+// Sampler::get2d / get1d (src/sampling/sobol.rs) for the path of batch entry `sample_id`:
+// its pixel and global sample index follow from the entry while the batch runs (generate's
+// mapping), so the path state needs no extra field. SAMPLER_SOBOL: the Owen-scrambled Sobol
+// point of `block`; otherwise the path's stream in call order (the independent sampler).
+fn path_pixel(sample_id: u32) -> u32 {
+    return wf.pixel0 + sample_id / wf.spp_batch;
+}
+
+fn path_sample_index(sample_id: u32) -> u32 {
+    return wf.s0 + sample_id % wf.spp_batch;
+}
+
+fn sampler_2d(sample_id: u32, block: u32, rng: ptr<function, Rng>) -> vec2<f32> {
+    if (SAMPLER_SOBOL) {
+        return sobol_point(path_pixel(sample_id), path_sample_index(sample_id), block, wf.seed);
+    }
+    let x = rng_uniform(rng);
+    let y = rng_uniform(rng);
+    return vec2<f32>(x, y);
+}
+
+// The block's first coordinate (Sampler::get1d).
+fn sampler_1d(sample_id: u32, block: u32, rng: ptr<function, Rng>) -> f32 {
+    if (SAMPLER_SOBOL) {
+        let p = sobol_point_u32(path_pixel(sample_id), path_sample_index(sample_id), block, wf.seed);
+        return f32(p.x >> 8u) * (1.0 / 16777216.0);
+    }
+    return rng_uniform(rng);
+}
+
 // A world-space point in the medium's index space (rows of grid_info.index_from_world).
 fn index_point(p: vec3<f32>) -> vec3<f32> {
     return grid_index_point(grid_info, p);
@@ -126,14 +156,15 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
 // russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput after
 // rr_depth events, or earlier once max(beta) < rr_throughput: survive with probability
 // min(max(beta), 0.95), then divide by it.
-fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, rng: ptr<function, Rng>) -> bool {
+fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, sample_id: u32,
+                    rng: ptr<function, Rng>) -> bool {
     let a = abs(*beta);
     let q_beta = max(a.x, max(a.y, a.z));
     if (depth < wf.rr_depth && !(q_beta < wf.rr_throughput)) {
         return true;
     }
     let q = min(q_beta, 0.95);
-    if (!(q > 0.0) || rng_uniform(rng) >= q) {
+    if (!(q > 0.0) || sampler_1d(sample_id, bounce_dim(depth - 1u, DIM_RR), rng) >= q) {
         return false;
     }
     *beta /= q;
@@ -146,7 +177,7 @@ fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng) {
     var rng = rng_in;
     // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
     var beta = ps.beta;
-    let alive = russian_roulette(&beta, ps.depth, &rng);
+    let alive = russian_roulette(&beta, ps.depth, ps.sample_id, &rng);
     ps.beta = beta;
     ps.rng_state = rng.state;
     ps.rng_inc = rng.inc;

@@ -1,7 +1,7 @@
 // Mirrors the sample loop of render_tile (src/integrator/tile.rs) and the start of
 // radiance (src/integrator/path.rs): Stage::Generate. For each free slot (the done queue of the
 // previous iteration; every slot in the first), take the next camera sample of the batch, open
-// its stream Rng::new(pixel, sample, seed), jitter, Camera::generate_ray and Camera::t_min
+// its stream Rng::new(pixel, sample, seed), jitter (sampler block DIM_JITTER), Camera::generate_ray and Camera::t_min
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
 // the escape stage when the scene has neither media nor surfaces).
 
@@ -20,10 +20,9 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = wf.pixel0 + sample_id / wf.spp_batch;
     let sample = wf.s0 + sample_id % wf.spp_batch;
     var rng = rng_new(pixel, sample, wf.seed);
-    let jx = rng_uniform(&rng);
-    let jy = rng_uniform(&rng);
-    let fx = (f32(pixel % wf.width) + jx) / f32(wf.width);
-    let fy = (f32(pixel / wf.width) + jy) / f32(wf.height);
+    let j = sampler_2d(sample_id, DIM_JITTER, &rng);
+    let fx = (f32(pixel % wf.width) + j.x) / f32(wf.width);
+    let fy = (f32(pixel / wf.width) + j.y) / f32(wf.height);
     // Camera::generate_ray: the pinhole is column 3 of world_from_camera.
     let local = vec3<f32>((2.0 * fx - 1.0) * wf.tan_half * wf.aspect,
                           (1.0 - 2.0 * fy) * wf.tan_half, -1.0);

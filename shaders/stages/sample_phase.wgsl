@@ -28,10 +28,9 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
         let n_side = select(-ng, ng, dot(ng, wo) >= 0.0);
         let frame = frame_from_z(shading_normal(tri, ps.hit_b1, ps.hit_b2, n_side));
         let bsdf = principled_new(mat.base_color.xyz, mat.metallic, mat.roughness);
-        let u_lobe = rng_uniform(&rng);
-        let u0 = rng_uniform(&rng);
-        let u1 = rng_uniform(&rng);
-        let s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, vec2<f32>(u0, u1));
+        let u_lobe = sampler_1d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_LOBE), &rng);
+        let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
+        let s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, u_dir);
         var wi = vec3<f32>(0.0);
         if (s.valid) {
             wi = frame_from_local(frame, s.wi);
@@ -50,9 +49,8 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 // #endif
     if (!at_surface) {
-        let u0 = rng_uniform(&rng);
-        let u1 = rng_uniform(&rng);
-        let s = hg_sample(medium_phase_g(ps.medium), -ps.d, vec2<f32>(u0, u1));
+        let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
+        let s = hg_sample(medium_phase_g(ps.medium), -ps.d, u_dir);
         ps.beta *= s.weight;
         ps.d = s.wi;
         ps.prev_pdf = s.pdf;

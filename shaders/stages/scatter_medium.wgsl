@@ -1,6 +1,7 @@
 // Mirrors the medium-scattering arm of radiance (src/integrator/path.rs), its first half:
 // Stage::ScatterMedium. Count the event and apply the depth limit, then next-event estimation:
-// Lights::sample at the scattering point with the path's next three uniforms, the phase
+// Lights::sample at the scattering point with the sampler's light-selection and light blocks
+// of this bounce (or the path's next three uniforms), the phase
 // function's value and the MIS weight (power heuristic unless the light is a delta). The
 // unoccluded contribution goes to the shadow stage, which multiplies it by the transmittance
 // with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
@@ -27,10 +28,10 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     var rng = path_rng(ps);
     let p = ps.o;
     let wo = -ps.d;
-    let u_select = rng_uniform(&rng);
-    let ux = rng_uniform(&rng);
-    let uy = rng_uniform(&rng);
-    let ls = light_sample(p, u_select, vec2<f32>(ux, uy));
+    let bounce = ps.depth - 1u;
+    let u_select = sampler_1d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT_SELECT), &rng);
+    let u_light = sampler_2d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT), &rng);
+    let ls = light_sample(p, u_select, u_light);
     if (ls.valid) {
         let f = hg_p(medium_phase_g(ps.medium), wo, ls.wi);
         if (f > 0.0 && ls.pdf > 0.0) {

@@ -57,7 +57,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
         let f = fresnel_dielectric(dot(n, wo), eta);
         let reflected = 2.0 * dot(n, wo) * n - wo;
         var wi = reflected;
-        if (rng_uniform(&rng) >= f) {
+        if (sampler_1d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_LOBE), &rng) >= f) {
             var wt = vec3<f32>(0.0);
             if (refract(wo, n, eta, &wt)) {
                 // Radiance is compressed by eta^2 entering a denser medium.
@@ -82,10 +82,10 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     let bsdf = principled_new(mat.base_color.xyz, mat.metallic, mat.roughness);
     let wo_l = frame_to_local(frame, wo);
     let p_off = offset_origin(p, n_side, n_side);
-    let u_select = rng_uniform(&rng);
-    let ux = rng_uniform(&rng);
-    let uy = rng_uniform(&rng);
-    let ls = light_sample(p_off, u_select, vec2<f32>(ux, uy));
+    let bounce = ps.depth - 1u;
+    let u_select = sampler_1d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT_SELECT), &rng);
+    let u_light = sampler_2d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT), &rng);
+    let ls = light_sample(p_off, u_select, u_light);
     if (ls.valid && dot(n_side, ls.wi) > 0.0) {
         let wi_l = frame_to_local(frame, ls.wi);
         let f = principled_eval(bsdf, wo_l, wi_l) * abs(wi_l.z);

@@ -99,6 +99,7 @@ pub fn render_observed(
         width: settings.width,
         height: settings.height,
         seed: settings.seed,
+        sampler: settings.sampler,
     };
     let rects = tiles(settings.width, settings.height, settings.tile_size);
     let mut film = Film::new(settings.width, settings.height);

@@ -12,7 +12,8 @@ use brume::film::{
     totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
 };
 use brume::integrator::{
-    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator,
+    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind,
+    ShadowEstimator,
 };
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
@@ -68,6 +69,10 @@ pub struct RenderArgs {
     pub generic: bool,
     #[arg(long)]
     pub seed: Option<u32>,
+    /// What drives pixel jitter, light, scattering and roulette decisions: sobol
+    /// (Owen-scrambled, the default) or independent (the PCG stream of each sample).
+    #[arg(long)]
+    pub sampler: Option<SamplerKind>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -153,6 +158,10 @@ impl RenderArgs {
         s.rr_throughput = self.rr_throughput.unwrap_or(s.rr_throughput);
         s.generic = self.generic;
         s.seed = self.seed.or(scene.seed).unwrap_or(s.seed);
+        s.sampler = self
+            .sampler
+            .or(parse_opt::<SamplerKind>(&scene.sampler)?)
+            .unwrap_or(s.sampler);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.tile_size = self.tile_size;
         Ok(s)
@@ -351,6 +360,10 @@ fn write_outputs(
         AttrValue::Text(settings.absorption.name().to_string()),
     );
     meta.set("brume:rr_throughput", AttrValue::Float(settings.rr_throughput));
+    meta.set(
+        "brume:sampler",
+        AttrValue::Text(settings.sampler.name().into()),
+    );
     if let Some(v) = gpu_variant {
         // The WGSL variant the wavefront kernels were specialised for.
         meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));

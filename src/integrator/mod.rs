@@ -10,4 +10,6 @@ pub mod settings;
 pub mod tile;
 
 pub use prepare::{FeatureFlags, RenderScene};
-pub use settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
+pub use settings::{
+    Absorption, Estimator, MajorantMode, RenderSettings, SamplerKind, ShadowEstimator,
+};

@@ -12,8 +12,11 @@ use super::media::{
 };
 use super::prepare::{RenderScene, SurfaceKind};
 use crate::math::Ray;
+use crate::sampling::sobol::{
+    bounce_dim, DIM_LIGHT, DIM_LIGHT_SELECT, DIM_LOBE, DIM_RR, DIM_SCATTER,
+};
 use crate::sampling::warp::Frame;
-use crate::sampling::Rng;
+use crate::sampling::{Decision, Rng, Sampler};
 use crate::volume::phase::HenyeyGreenstein;
 
 /// Limits of one path.
@@ -185,21 +188,23 @@ fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM
 
 /// Next-event estimation from `p`: one light sample, its visibility and transmittance, weighted
 /// against the scattering strategy by the power heuristic. `scatter(wi)` gives the scattering
-/// factor (phase value, or BSDF times cosine) and its sampling pdf.
+/// factor (phase value, or BSDF times cosine) and its sampling pdf. `bounce` picks the
+/// sampler's light-selection and light-sample blocks.
 #[allow(clippy::too_many_arguments)]
 fn next_event<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: bool>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     p: Vec3,
     medium: Option<u32>,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
+    bounce: u32,
     stats: &mut MediaStats,
     scatter: impl Fn(Vec3) -> (Vec3, f32),
 ) -> Vec3 {
-    let Some(ls) = rs
-        .lights
-        .sample(rs.scene, p, rng.uniform_f32(), rng.uniform_vec2())
-    else {
+    // Selection before position: the independent sampler draws in this order.
+    let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
+    let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
+    let Some(ls) = rs.lights.sample(rs.scene, p, u_select, u_light) else {
         return Vec3::ZERO;
     };
     let (f, pdf_scatter) = scatter(ls.wi);
@@ -212,7 +217,16 @@ fn next_event<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: b
     } else {
         f32::INFINITY
     };
-    let tr = transmittance::<SURF, HET, HOM, CHROM>(rs, cfg, p, ls.wi, dist, medium, rng, stats);
+    let tr = transmittance::<SURF, HET, HOM, CHROM>(
+        rs,
+        cfg,
+        p,
+        ls.wi,
+        dist,
+        medium,
+        &mut sampler.rng,
+        stats,
+    );
     let w = if ls.is_delta {
         1.0
     } else {
@@ -240,7 +254,7 @@ pub fn radiance<
     limits: &PathLimits,
     film: Vec2,
     aspect: f32,
-    rng: &mut Rng,
+    sampler: &mut Sampler,
     stats: &mut PathStats,
 ) -> Vec3 {
     let scene = rs.scene;
@@ -273,7 +287,7 @@ pub fn radiance<
                 t_hit,
                 medium,
                 beta,
-                rng,
+                &mut sampler.rng,
                 &mut stats.media,
                 &mut l,
             );
@@ -304,20 +318,22 @@ pub fn radiance<
                             cfg,
                             p,
                             medium,
-                            rng,
+                            sampler,
+                            depth - 1,
                             &mut stats.media,
                             |wi| {
                                 let f = phase.p(wo, wi);
                                 (Vec3::splat(f), f)
                             },
                         );
-                    let ps = phase.sample(wo, rng.uniform_vec2());
+                    let ps = phase.sample(wo, sampler.get2d(bounce_dim(depth - 1, DIM_SCATTER)));
                     beta *= ps.weight;
                     ray = Ray::new(p, ps.wi);
                     t0 = 0.0;
                     prev_pdf = ps.pdf;
                     specular = false;
-                    if !russian_roulette(&mut beta, depth, limits, rng) {
+                    let rr = &mut Decision::new(sampler, bounce_dim(depth - 1, DIM_RR));
+                    if !russian_roulette(&mut beta, depth, limits, rr) {
                         break;
                     }
                     stats.max_beta = stats.max_beta.max(beta.max_element());
@@ -372,7 +388,7 @@ pub fn radiance<
                 let n = if entering { ng } else { -ng };
                 let eta = if entering { mat.ior } else { 1.0 / mat.ior };
                 let f = fresnel_dielectric(n.dot(wo), eta);
-                let wi = if rng.uniform_f32() < f {
+                let wi = if sampler.get1d(bounce_dim(depth - 1, DIM_LOBE)) < f {
                     2.0 * n.dot(wo) * n - wo
                 } else {
                     match refract(wo, n, eta) {
@@ -412,7 +428,8 @@ pub fn radiance<
                         cfg,
                         p_off,
                         medium,
-                        rng,
+                        sampler,
+                        depth - 1,
                         &mut stats.media,
                         |wi| {
                             if n_side.dot(wi) <= 0.0 {
@@ -422,7 +439,9 @@ pub fn radiance<
                             (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
                         },
                     );
-                let Some(s) = bsdf.sample(wo_l, rng.uniform_f32(), rng.uniform_vec2()) else {
+                let u_lobe = sampler.get1d(bounce_dim(depth - 1, DIM_LOBE));
+                let u_dir = sampler.get2d(bounce_dim(depth - 1, DIM_SCATTER));
+                let Some(s) = bsdf.sample(wo_l, u_lobe, u_dir) else {
                     break;
                 };
                 let wi = frame.from_local(s.wi);
@@ -436,7 +455,8 @@ pub fn radiance<
                 specular = false;
             }
         }
-        if !russian_roulette(&mut beta, depth, limits, rng) {
+        let rr = &mut Decision::new(sampler, bounce_dim(depth - 1, DIM_RR));
+        if !russian_roulette(&mut beta, depth, limits, rr) {
             break;
         }
         stats.max_beta = stats.max_beta.max(beta.max_element());
@@ -463,7 +483,7 @@ fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3) -> V
 /// Unbiased Russian roulette on the throughput after `rr_depth` events, or earlier once the
 /// throughput's largest channel is below `rr_throughput` (a path darkened by absorption
 /// weights): survive with probability `min(max(beta), 0.95)`, then divide by it.
-fn russian_roulette(beta: &mut Vec3, depth: u32, limits: &PathLimits, rng: &mut Rng) -> bool {
+fn russian_roulette(beta: &mut Vec3, depth: u32, limits: &PathLimits, rng: &mut Decision) -> bool {
     let q = beta.abs().max_element();
     if depth < limits.rr_depth && !(q < limits.rr_throughput) {
         return true;

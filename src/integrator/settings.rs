@@ -2,6 +2,8 @@
 use std::fmt;
 use std::str::FromStr;
 
+pub use crate::sampling::SamplerKind;
+
 /// Free-flight (distance) sampling in heterogeneous media.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Estimator {
@@ -173,6 +175,9 @@ pub struct RenderSettings {
     /// Run the unspecialised path (every effect enabled) to measure what specialisation saves.
     pub generic: bool,
     pub seed: u32,
+    /// What drives the fixed-layout decisions of a path (pixel jitter, light and scattering
+    /// samples, roulette): Owen-scrambled Sobol (default) or the independent PCG stream.
+    pub sampler: SamplerKind,
     /// Longest path, in scattering events (media and surfaces).
     pub max_depth: u32,
     /// Russian roulette starts after this many scattering events.
@@ -207,6 +212,7 @@ impl Default for RenderSettings {
             absorption: Absorption::Weight,
             generic: false,
             seed: 0,
+            sampler: SamplerKind::Sobol,
             max_depth: 256,
             rr_depth: 8,
             rr_throughput: 0.5,

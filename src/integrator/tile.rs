@@ -7,7 +7,8 @@ use super::media::TrackingConfig;
 use super::path::{radiance, PathLimits, PathStats};
 use super::prepare::{FeatureFlags, RenderScene};
 use crate::film::{TileBuffer, TileRecord, TileRect};
-use crate::sampling::Rng;
+use crate::sampling::sobol::DIM_JITTER;
+use crate::sampling::{Sampler, SamplerKind};
 
 /// Everything a tile needs, shared by all tiles of a render.
 pub struct TileContext<'a> {
@@ -17,6 +18,7 @@ pub struct TileContext<'a> {
     pub width: u32,
     pub height: u32,
     pub seed: u32,
+    pub sampler: SamplerKind,
 }
 
 /// A rendered tile: its samples, its log record and per-pixel density lookups (for the cost
@@ -31,7 +33,8 @@ pub struct TileOutput {
 pub type TileFn = fn(&TileContext, &TileRect, u32, u32, u32) -> TileOutput;
 
 /// Renders samples `[s0, s0 + n)` of every pixel of `rect` in pass `pass`. Each (pixel,
-/// sample) has its own random stream, so the image does not depend on tiling or threads.
+/// sample) has its own random stream and its own Sobol points at its global sample index, so
+/// the image depends neither on tiling, threads nor the split into passes.
 pub fn render_tile<
     const SURF: bool,
     const HET: bool,
@@ -57,8 +60,8 @@ pub fn render_tile<
             let pixel = y * ctx.width + x;
             let before = total.media.tracking.lookups + total.media.emission_lookups;
             for s in s0..s0 + n {
-                let mut rng = Rng::new(pixel, s, ctx.seed);
-                let jitter = rng.uniform_vec2();
+                let mut sampler = Sampler::new(ctx.sampler, pixel, s, ctx.seed);
+                let jitter = sampler.get2d(DIM_JITTER);
                 let film = Vec2::new(
                     (x as f32 + jitter.x) / ctx.width as f32,
                     (y as f32 + jitter.y) / ctx.height as f32,
@@ -69,7 +72,7 @@ pub fn render_tile<
                     &ctx.limits,
                     film,
                     aspect,
-                    &mut rng,
+                    &mut sampler,
                     &mut total,
                 );
                 buffer.add_sample(x, y, l.to_array());

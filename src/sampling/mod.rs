@@ -3,7 +3,9 @@
 pub mod chi2;
 pub mod discrete;
 pub mod rng;
+pub mod sobol;
 pub mod warp;
 
 pub use discrete::{sample_discrete, DiscreteSample};
 pub use rng::Rng;
+pub use sobol::{Decision, Sampler, SamplerKind};

@@ -5,7 +5,8 @@
 //! ```json
 //! "extensions": { "BRUME_render": {
 //!     "estimator": "weighted-delta", "b": 0.75, "m": 0.02, "majorant": "local",
-//!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0 } }
+//!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0,
+//!     "sampler": "sobol" } }
 //! ```
 use super::error::{Ctx, SceneError};
 use super::json::Obj;
@@ -26,6 +27,8 @@ pub struct SceneRenderSettings {
     pub height: Option<u32>,
     pub max_depth: Option<u32>,
     pub seed: Option<u32>,
+    /// "sobol" or "independent".
+    pub sampler: Option<String>,
 }
 
 const ESTIMATORS: [&str; 4] = [
@@ -55,6 +58,7 @@ pub fn read_render_settings(
             "height",
             "maxDepth",
             "seed",
+            "sampler",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -95,5 +99,6 @@ pub fn read_render_settings(
         height: count(ctx, "height", 32768.0)?.filter(|&h| h > 0),
         max_depth: count(ctx, "maxDepth", 1e6)?,
         seed: count(ctx, "seed", u32::MAX as f32)?,
+        sampler: choice(ctx, "sampler", &["sobol", "independent"])?,
     })
 }

@@ -19,7 +19,11 @@
 //! ```
 //!
 //! Each path keeps its own stream `Rng::new(pixel, sample, seed)` and draws from it in the
-//! CPU's order (the shadow stage runs before the direction stage for that reason). Results agree
+//! CPU's order (the shadow stage runs before the direction stage for that reason). The
+//! fixed-layout decisions (jitter, light selection and sample, lobe, direction, roulette) come
+//! from `shaders/common/sobol.wgsl` by dimension block when `settings.sampler` is Sobol (the
+//! `SAMPLER_SOBOL` specialisation), the path's pixel and sample index following from its batch
+//! entry, so the path state does not grow. Results agree
 //! with the CPU statistically, and with the same seed nearly bit for bit (rounding of WGSL's
 //! transcendentals may flip a rare decision).
 //!
@@ -55,7 +59,9 @@ use crate::integrator::blackbody;
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
 use crate::integrator::settings::{Absorption, ShadowEstimator};
-use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::integrator::{
+    Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings, SamplerKind,
+};
 use crate::volume::SparseGrid;
 
 /// Path slots in flight.
@@ -275,9 +281,10 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
     }
 }
 
-fn specs(features: FeatureFlags) -> Vec<Spec> {
+fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
     let f = effective(features);
     vec![
+        Spec::bool("SAMPLER_SOBOL", sampler == SamplerKind::Sobol),
         Spec::bool("FEATURE_SURFACES", f.surfaces),
         Spec::bool("FEATURE_HOMOGENEOUS", f.homogeneous),
         Spec::bool("FEATURE_HETEROGENEOUS", f.heterogeneous),
@@ -887,7 +894,7 @@ pub fn render_with_timings(
             )
         }),
     };
-    let sp = specs(features);
+    let sp = specs(features, settings.sampler);
     let g = grid.as_ref();
     let mut kernels = Vec::new();
     for &s in &stages {

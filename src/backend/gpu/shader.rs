@@ -43,6 +43,8 @@ pub mod files {
     pub const MATH: ShaderFile = shader_file!("common/math.wgsl");
     /// `sampling::Rng`.
     pub const RNG: ShaderFile = shader_file!("common/rng.wgsl");
+    /// `sampling::sobol`: Owen-scrambled padded 2D Sobol points.
+    pub const SOBOL: ShaderFile = shader_file!("common/sobol.wgsl");
     /// `SparseGrid` lookups.
     pub const GRID: ShaderFile = shader_file!("common/grid.wgsl");
     /// `DdaMajorantIterator`.
@@ -81,6 +83,7 @@ pub mod files {
     pub const STAGE_ACCUMULATE: ShaderFile = shader_file!("stages/accumulate.wgsl");
     /// Test kernels comparing the mirrors with the CPU.
     pub const TEST_RNG: ShaderFile = shader_file!("tests/rng.wgsl");
+    pub const TEST_SOBOL: ShaderFile = shader_file!("tests/sobol.wgsl");
     pub const TEST_GRID: ShaderFile = shader_file!("tests/grid.wgsl");
     pub const TEST_DDA: ShaderFile = shader_file!("tests/dda.wgsl");
     pub const TEST_PHASE: ShaderFile = shader_file!("tests/phase.wgsl");
@@ -321,6 +324,14 @@ pub const TEST_RNG_MODULE: Module = Module {
     default_specs: &[Spec::u32("DRAWS", 16)],
 };
 
+/// Scrambled Sobol points (test).
+pub const TEST_SOBOL_MODULE: Module = Module {
+    label: "test_sobol",
+    files: &[TYPES, RNG, SOBOL, TEST_SOBOL],
+    entry_point: "sobol_points",
+    default_specs: &[],
+};
+
 /// Grid lookups at given index points (test).
 pub const TEST_GRID_MODULE: Module = Module {
     label: "test_grid",
@@ -364,6 +375,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_HETEROGENEOUS", true),
     Spec::bool("FEATURE_CHROMATIC", true),
     Spec::bool("FEATURE_EMISSION", true),
+    // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
+    Spec::bool("SAMPLER_SOBOL", true),
 ];
 
 macro_rules! wavefront_module {
@@ -371,8 +384,8 @@ macro_rules! wavefront_module {
         pub const $name: Module = Module {
             label: $label,
             files: &[
-                TYPES, MATH, RNG, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF, SURFACES,
-                MEDIA, LIGHTS, $file,
+                TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF,
+                SURFACES, MEDIA, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,
@@ -447,6 +460,7 @@ pub const MODULES: &[Module] = &[
     TRANSMITTANCE_MODULE,
     DISTANCE_MODULE,
     TEST_RNG_MODULE,
+    TEST_SOBOL_MODULE,
     TEST_GRID_MODULE,
     TEST_DDA_MODULE,
     TEST_PHASE_MODULE,
