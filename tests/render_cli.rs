@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 
 use brume::film::{read_exr, read_tile_log, totals};
 
-const SCENES: [&str; 7] = [
+const SCENES: [&str; 10] = [
     "cloud",
     "cornell_smoke",
     "glass_volume",
@@ -14,6 +14,9 @@ const SCENES: [&str; 7] = [
     "chromatic",
     "chromatic_smoke",
     "furnace",
+    "plume_sun",
+    "plume_sky",
+    "dense_fog",
 ];
 
 fn scene(name: &str) -> PathBuf {
