@@ -178,7 +178,20 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     meta.set("brume:renderer", AttrValue::Text("cycles (bpy 5.0)".into()))
         .set("brume:spp", AttrValue::Int((args.spp * args.runs) as i32))
         .set("brume:cycles_runs", AttrValue::Int(args.runs as i32))
-        .set("brume:render_seconds", AttrValue::Double(total))
+        .set("brume:render_seconds", AttrValue::Double(total));
+    // Cycles' own timings, summed over the runs (each run's EXR has them as stamp metadata).
+    if let Some(t) = images
+        .iter()
+        .map(|i| CyclesTimes::from_metadata(&i.attributes))
+        .collect::<Option<Vec<_>>>()
+    {
+        let sum = |f: fn(&CyclesTimes) -> f64| t.iter().map(f).sum::<f64>();
+        meta.set("brume:seconds", AttrValue::Double(sum(|t| t.total)))
+            .set("brume:cycles_setup_seconds", AttrValue::Double(sum(|t| t.total - t.render)))
+            .set("brume:cycles_path_tracing_seconds", AttrValue::Double(sum(|t| t.render)))
+            .set("brume:cycles_sync_seconds", AttrValue::Double(sum(|t| t.sync)));
+    }
+    meta
         .set(
             "brume:scene",
             AttrValue::Text(args.scene.display().to_string()),
@@ -206,6 +219,43 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
         println!("{a}");
     }
     Ok(())
+}
+
+/// The timings Cycles writes into each render's EXR (`cycles.<view layer>.total_time`,
+/// `render_time`, `synchronization_time`, as `[HH:]MM:SS.cc`), in seconds. `total` runs from
+/// the start of the render session: scene and device update (BVH, volume octree, images) and
+/// then path tracing (`render`); `sync` is Blender's conversion of its data to Cycles, timed
+/// separately.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CyclesTimes {
+    pub total: f64,
+    pub render: f64,
+    pub sync: f64,
+}
+
+impl CyclesTimes {
+    pub fn from_metadata(meta: &Metadata) -> Option<Self> {
+        let field = |name: &str| {
+            meta.iter()
+                .find(|(k, _)| k.starts_with("cycles.") && k.ends_with(name))
+                .and_then(|(_, v)| match v {
+                    AttrValue::Text(t) => parse_cycles_time(t),
+                    _ => None,
+                })
+        };
+        Some(CyclesTimes {
+            total: field(".total_time")?,
+            render: field(".render_time")?,
+            sync: field(".synchronization_time").unwrap_or(0.0),
+        })
+    }
+}
+
+/// Blender's `[[HH:]MM:]SS.ff` time stamps in seconds.
+pub fn parse_cycles_time(t: &str) -> Option<f64> {
+    t.trim()
+        .split(':')
+        .try_fold(0.0, |acc, part| Some(acc * 60.0 + part.parse::<f64>().ok()?))
 }
 
 /// Averages independent runs; with two or more, the variance of the mean is the unbiased
@@ -378,6 +428,20 @@ fn normal_quantile(p: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cycles_time_stamps_parse() {
+        assert_eq!(parse_cycles_time("00:01.25"), Some(1.25));
+        assert_eq!(parse_cycles_time("01:02:03.50"), Some(3723.5));
+        assert_eq!(parse_cycles_time("x"), None);
+        let m = Metadata::new()
+            .with("cycles.ViewLayer.total_time", AttrValue::Text("00:03.00".into()))
+            .with("cycles.ViewLayer.render_time", AttrValue::Text("00:02.25".into()));
+        assert_eq!(
+            CyclesTimes::from_metadata(&m),
+            Some(CyclesTimes { total: 3.0, render: 2.25, sync: 0.0 })
+        );
+    }
 
     #[test]
     fn normal_quantile_matches_tables() {
