@@ -23,6 +23,8 @@ use clap::Args;
 use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
 use brume::study::stats::{self, ImageMean};
 
+const RENDERERS: [&str; 4] = ["brume", "brume-spectral", "mitsuba", "cycles"];
+
 /// The example scenes the table is about (one row per renderer each).
 pub const DEFAULT_SCENES: [&str; 3] = [
     "scenes/plume_sun.gltf",
@@ -49,7 +51,8 @@ pub struct PeersArgs {
     /// Folder for the images (SCENE/RENDERER-seedS.exr) and peers.md.
     #[arg(long, default_value = "out/peers")]
     pub out: PathBuf,
-    /// Renderers to run, of brume, mitsuba, cycles (default: all three).
+    /// Renderers to run, of brume, brume-spectral (Brume with spectral tracking forced, as
+    /// `brume render --spectral`), mitsuba, cycles (default: brume, mitsuba, cycles).
     #[arg(long, value_delimiter = ',', default_value = "brume,mitsuba,cycles")]
     pub renderers: Vec<String>,
 }
@@ -88,8 +91,8 @@ pub fn run(args: &PeersArgs) -> Result<()> {
         bail!("--spp, --width, --height and --threads must be at least 1");
     }
     for r in &args.renderers {
-        if !["brume", "mitsuba", "cycles"].contains(&r.as_str()) {
-            bail!("unknown renderer {r:?} (brume, mitsuba, cycles)");
+        if !RENDERERS.contains(&r.as_str()) {
+            bail!("unknown renderer {r:?} (brume, brume-spectral, mitsuba, cycles)");
         }
     }
     let scenes: Vec<PathBuf> = if args.scenes.is_empty() {
@@ -110,12 +113,13 @@ pub fn run(args: &PeersArgs) -> Result<()> {
         let dir = args.out.join(scene.file_stem().unwrap_or_default());
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
         let mut rows = Vec::new();
-        for renderer in ["brume", "mitsuba", "cycles"] {
+        for renderer in RENDERERS {
             if !args.renderers.iter().any(|r| r == renderer) {
                 continue;
             }
             let outcome = match renderer {
-                "brume" => brume_renders(scene, &dir, args)?,
+                "brume" => brume_renders(scene, &dir, args, false)?,
+                "brume-spectral" => brume_renders(scene, &dir, args, true)?,
                 "mitsuba" => peer_renders("mitsuba", scene, &dir, args)?,
                 _ => peer_renders("cycles", scene, &dir, args)?,
             };
@@ -189,16 +193,16 @@ impl Table {
                 format!("{:+.3} % (z {:+.2})", 100.0 * d / b.mean.mean, z)
             };
             let (eff_ratio, var_ratio, brume_diff) = match brume {
-                Some(b) if r.renderer != "brume" => {
-                    let mut eff = format!("{:.2}", b.efficiency() / r.efficiency());
+                Some(b) if !r.renderer.starts_with("brume") => {
+                    let mut eff = sig3(b.efficiency() / r.efficiency());
                     // The peer's fixed set-up left out: what longer renders tend to.
                     if let Some(setup) = r.setup.filter(|&s| s < r.seconds) {
                         let without = 1.0 / ((r.seconds - setup) * r.variance);
-                        let _ = write!(eff, " ({:.2} without set-up)", b.efficiency() / without);
+                        let _ = write!(eff, " ({} without set-up)", sig3(b.efficiency() / without));
                     }
                     (
                         eff,
-                        format!("{:.3}", b.per_sample_variance() / r.per_sample_variance()),
+                        sig3(b.per_sample_variance() / r.per_sample_variance()),
                         diff(b, r),
                     )
                 }
@@ -210,10 +214,10 @@ impl Table {
             };
             let _ = writeln!(
                 self.text,
-                "| {scene} | {} | {:.2} | {} | {:.3e} | {:.3e} | {eff_ratio} | {var_ratio} | {:.5} | {vs_mitsuba} | {brume_diff} |",
+                "| {scene} | {} | {} | {} | {:.3e} | {:.3e} | {eff_ratio} | {var_ratio} | {:.5} | {vs_mitsuba} | {brume_diff} |",
                 r.renderer,
-                r.seconds,
-                r.setup.map_or(String::new(), |s| format!("{s:.2}")),
+                sig3(r.seconds),
+                r.setup.map_or(String::new(), sig3),
                 r.variance,
                 r.efficiency(),
                 r.mean.mean,
@@ -224,7 +228,12 @@ impl Table {
 
 /// Brume in this process: one render per seed on a pool of `--threads` threads; the time is
 /// the render loop's own (scene loading and preparation excluded, as `brume render` reports).
-fn brume_renders(scene_path: &Path, dir: &Path, args: &PeersArgs) -> Result<Outcome> {
+fn brume_renders(
+    scene_path: &Path,
+    dir: &Path,
+    args: &PeersArgs,
+    spectral: bool,
+) -> Result<Outcome> {
     use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings};
     let scene = brume::scene::load(scene_path)?;
     scene
@@ -234,6 +243,7 @@ fn brume_renders(scene_path: &Path, dir: &Path, args: &PeersArgs) -> Result<Outc
         width: args.width,
         height: args.height,
         spp: args.spp,
+        force_spectral: spectral,
         ..RenderSettings::default()
     };
     if let Some(e) = &scene.render.estimator {
@@ -245,7 +255,8 @@ fn brume_renders(scene_path: &Path, dir: &Path, args: &PeersArgs) -> Result<Outc
     if let Some(d) = scene.render.max_depth {
         base.max_depth = d;
     }
-    let rs = RenderScene::new(&scene, false).map_err(|e| anyhow!(e))?;
+    let name = if spectral { "brume-spectral" } else { "brume" };
+    let rs = RenderScene::new(&scene, spectral).map_err(|e| anyhow!(e))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads as usize)
         .build()?;
@@ -265,16 +276,16 @@ fn brume_renders(scene_path: &Path, dir: &Path, args: &PeersArgs) -> Result<Outc
             )
         });
         let mut meta = Metadata::new();
-        meta.set("brume:renderer", AttrValue::Text("brume".into()))
+        meta.set("brume:renderer", AttrValue::Text(name.into()))
             .set("brume:seconds", AttrValue::Double(out.seconds))
             .set("brume:seed", AttrValue::Int(seed as i32))
             .set("brume:spp", AttrValue::Int(out.spp as i32));
         let image = Image::from_film(&out.film, &meta);
-        write_image(dir.join(format!("brume-seed{seed}.exr")), &image)?;
+        write_image(dir.join(format!("{name}-seed{seed}.exr")), &image)?;
         seconds.push(out.seconds);
         images.push(image);
     }
-    Ok(Outcome::Done(row("brume", &images, &seconds, None, args.spp)?))
+    Ok(Outcome::Done(row(name, &images, &seconds, None, args.spp)?))
 }
 
 /// Mitsuba or Cycles through `brume mitsuba` / `brume cycles` (this executable), one process
@@ -368,6 +379,19 @@ fn failure_reason(which: &str, stderr: &[u8]) -> String {
     line.trim_start_matches("error:").trim().to_string()
 }
 
+/// Three significant digits, without an exponent between 0.001 and 10^4.
+fn sig3(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-3..4).contains(&mag) {
+        format!("{:.*}", (2 - mag).max(0) as usize, x)
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
 fn row(
     renderer: &'static str,
     images: &[Image],
@@ -391,6 +415,14 @@ fn row(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ratios_keep_three_significant_digits() {
+        assert_eq!(sig3(0.01234), "0.0123");
+        assert_eq!(sig3(2.4), "2.40");
+        assert_eq!(sig3(625.507), "626");
+        assert_eq!(sig3(12345.0), "1.23e4");
+    }
 
     #[test]
     fn failure_reasons_are_one_line() {
