@@ -251,7 +251,10 @@ fn scene_render_settings_are_defaults_the_command_line_overrides() {
 
 #[test]
 fn ctrl_c_keeps_what_has_accumulated() {
-    let exr = tmp("interrupted.exr");
+    // A folder of its own: the other tests write (atomically, through .tmp files) into the
+    // shared one at the same time, and the check below looks for leftover .tmp files.
+    let exr = tmp("ctrl-c").join("interrupted.exr");
+    std::fs::create_dir_all(exr.parent().unwrap()).unwrap();
     let child = Command::new(env!("CARGO_BIN_EXE_brume"))
         .args([
             "render",
