@@ -32,7 +32,9 @@ fn the_table_has_brumes_row_and_skips_a_missing_peer_in_one_line() {
         let cells: Vec<&str> = line.split('|').map(str::trim).collect();
         // seconds, per-pixel variance, efficiency and mean are positive numbers.
         for k in [3, 5, 6, 9] {
-            let v: f64 = cells[k].parse().unwrap_or_else(|_| panic!("{name}: {:?}", cells));
+            let v: f64 = cells[k]
+                .parse()
+                .unwrap_or_else(|_| panic!("{name}: {:?}", cells));
             assert!(v > 0.0 && v.is_finite(), "{name}: {cells:?}");
         }
     }
@@ -43,7 +45,11 @@ fn the_table_has_brumes_row_and_skips_a_missing_peer_in_one_line() {
     assert!(skip.contains("BRUME_BPY_PYTHON"), "{skip}");
     let md = std::fs::read_to_string(out.join("peers.md")).unwrap();
     assert_eq!(md, stdout);
-    for f in ["brume-seed0.exr", "brume-seed1.exr", "brume-spectral-seed0.exr"] {
+    for f in [
+        "brume-seed0.exr",
+        "brume-seed1.exr",
+        "brume-spectral-seed0.exr",
+    ] {
         assert!(out.join("plume_sun").join(f).is_file(), "{f}");
     }
     let _ = std::fs::remove_dir_all(&out);

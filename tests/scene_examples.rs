@@ -416,7 +416,11 @@ fn dense_fog() {
     assert_eq!(m.anisotropy, 0.5);
     check_medium_bounds(m, Mat4::from_scale(Vec3::splat(1.5)));
     let albedo = [0.95f32, 0.8, 0.6];
-    assert!(close(&m.sigma_s_per_density(), &albedo.map(|a| 7.0 * a), 1e-6));
+    assert!(close(
+        &m.sigma_s_per_density(),
+        &albedo.map(|a| 7.0 * a),
+        1e-6
+    ));
     assert!(close(
         &m.sigma_a_per_density(),
         &albedo.map(|a| 7.0 * (1.0 - a)),

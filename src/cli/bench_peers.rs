@@ -290,7 +290,12 @@ fn brume_renders(
 
 /// Mitsuba or Cycles through `brume mitsuba` / `brume cycles` (this executable), one process
 /// per seed; the seconds come from the EXR each writes.
-fn peer_renders(which: &'static str, scene: &Path, dir: &Path, args: &PeersArgs) -> Result<Outcome> {
+fn peer_renders(
+    which: &'static str,
+    scene: &Path,
+    dir: &Path,
+    args: &PeersArgs,
+) -> Result<Outcome> {
     let exe = std::env::current_exe().context("finding the brume executable")?;
     let mut images = Vec::new();
     let mut seconds = Vec::new();
@@ -317,7 +322,8 @@ fn peer_renders(which: &'static str, scene: &Path, dir: &Path, args: &PeersArgs)
         if !o.status.success() {
             return Ok(Outcome::Skipped(failure_reason(which, &o.stderr)));
         }
-        let image = read_exr(&out).with_context(|| format!("reading {which}'s {}", out.display()))?;
+        let image =
+            read_exr(&out).with_context(|| format!("reading {which}'s {}", out.display()))?;
         let (s, setup) = reported_seconds(which, &image.attributes).ok_or_else(|| {
             anyhow!(
                 "{}: no render time in its metadata (brume:seconds or brume:render_seconds)",
@@ -341,7 +347,9 @@ fn peer_renders(which: &'static str, scene: &Path, dir: &Path, args: &PeersArgs)
         images.push(image);
     }
     let setup = (setups.len() == seconds.len()).then(|| stats::mean_std(&setups).0);
-    Ok(Outcome::Done(row(which, &images, &seconds, setup, args.spp)?))
+    Ok(Outcome::Done(row(
+        which, &images, &seconds, setup, args.spp,
+    )?))
 }
 
 /// The seconds a peer reports, and the set-up part of them when it says so. Cycles:

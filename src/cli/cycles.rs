@@ -187,15 +187,23 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     {
         let sum = |f: fn(&CyclesTimes) -> f64| t.iter().map(f).sum::<f64>();
         meta.set("brume:seconds", AttrValue::Double(sum(|t| t.total)))
-            .set("brume:cycles_setup_seconds", AttrValue::Double(sum(|t| t.total - t.render)))
-            .set("brume:cycles_path_tracing_seconds", AttrValue::Double(sum(|t| t.render)))
-            .set("brume:cycles_sync_seconds", AttrValue::Double(sum(|t| t.sync)));
+            .set(
+                "brume:cycles_setup_seconds",
+                AttrValue::Double(sum(|t| t.total - t.render)),
+            )
+            .set(
+                "brume:cycles_path_tracing_seconds",
+                AttrValue::Double(sum(|t| t.render)),
+            )
+            .set(
+                "brume:cycles_sync_seconds",
+                AttrValue::Double(sum(|t| t.sync)),
+            );
     }
-    meta
-        .set(
-            "brume:scene",
-            AttrValue::Text(args.scene.display().to_string()),
-        );
+    meta.set(
+        "brume:scene",
+        AttrValue::Text(args.scene.display().to_string()),
+    );
     let merged = merge_runs(&images, args.spp, meta)?;
     write_image(&args.output, &merged)?;
     let _ = std::fs::remove_dir_all(&tmp);
@@ -253,9 +261,9 @@ impl CyclesTimes {
 
 /// Blender's `[[HH:]MM:]SS.ff` time stamps in seconds.
 pub fn parse_cycles_time(t: &str) -> Option<f64> {
-    t.trim()
-        .split(':')
-        .try_fold(0.0, |acc, part| Some(acc * 60.0 + part.parse::<f64>().ok()?))
+    t.trim().split(':').try_fold(0.0, |acc, part| {
+        Some(acc * 60.0 + part.parse::<f64>().ok()?)
+    })
 }
 
 /// Averages independent runs; with two or more, the variance of the mean is the unbiased
@@ -435,11 +443,21 @@ mod tests {
         assert_eq!(parse_cycles_time("01:02:03.50"), Some(3723.5));
         assert_eq!(parse_cycles_time("x"), None);
         let m = Metadata::new()
-            .with("cycles.ViewLayer.total_time", AttrValue::Text("00:03.00".into()))
-            .with("cycles.ViewLayer.render_time", AttrValue::Text("00:02.25".into()));
+            .with(
+                "cycles.ViewLayer.total_time",
+                AttrValue::Text("00:03.00".into()),
+            )
+            .with(
+                "cycles.ViewLayer.render_time",
+                AttrValue::Text("00:02.25".into()),
+            );
         assert_eq!(
             CyclesTimes::from_metadata(&m),
-            Some(CyclesTimes { total: 3.0, render: 2.25, sync: 0.0 })
+            Some(CyclesTimes {
+                total: 3.0,
+                render: 2.25,
+                sync: 0.0
+            })
         );
     }
 

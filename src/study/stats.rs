@@ -159,7 +159,10 @@ pub fn image_mean(renders: &[&[[f32; 3]]]) -> Result<ImageMean, String> {
 
 fn check_renders(renders: &[&[[f32; 3]]]) -> Result<(), String> {
     if renders.len() < 2 {
-        return Err(format!("{} render(s): the variance needs at least 2 seeds", renders.len()));
+        return Err(format!(
+            "{} render(s): the variance needs at least 2 seeds",
+            renders.len()
+        ));
     }
     let n = renders[0].len();
     if n == 0 || renders.iter().any(|r| r.len() != n) {
@@ -192,7 +195,9 @@ mod tests {
         // image mean agrees with its actual spread over many trials.
         let mut state = 12345u64;
         let mut uniform = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let (n, trials) = (200, 400);
@@ -216,16 +221,28 @@ mod tests {
         }
         let (_, sd) = mean_std(&means);
         let ratio = sd * sd / est;
-        assert!((0.8..1.25).contains(&ratio), "actual / estimated variance {ratio}");
+        assert!(
+            (0.8..1.25).contains(&ratio),
+            "actual / estimated variance {ratio}"
+        );
     }
 
     #[test]
     fn differences_have_signed_z_scores() {
-        let a = ImageMean { mean: 1.0, variance: 0.01 };
-        let b = ImageMean { mean: 0.9, variance: 0.03 };
+        let a = ImageMean {
+            mean: 1.0,
+            variance: 0.01,
+        };
+        let b = ImageMean {
+            mean: 0.9,
+            variance: 0.03,
+        };
         let (d, z) = a.difference(&b);
         assert!((d - 0.1).abs() < 1e-12 && (z - 0.5).abs() < 1e-12);
-        let c = ImageMean { mean: 1.0, variance: 0.0 };
+        let c = ImageMean {
+            mean: 1.0,
+            variance: 0.0,
+        };
         assert_eq!(c.difference(&c), (0.0, 0.0));
     }
 }
