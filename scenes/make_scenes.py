@@ -6,6 +6,14 @@
   the environment with weight 1, so the exact image is 1 everywhere: the white furnace.
 - chromatic_smoke.gltf: the smoke grid with strongly chromatic extinction (Principled Volume
   absorptionColor far from grey), lit by a sun and sky: the case spectral tracking exists for.
+- plume_sun.gltf, plume_sky.gltf: a thin procedural smoke plume (scenes/vdb/plume.vdb, optical
+  depth across it of order 1-3) with albedo 0.9 (color 0.9, absorptionColor 0, so
+  sigma_s = 0.9 d and sigma_a = 0.1 d), lit by a sun over a black background, or by a
+  constant sky alone.
+- dense_fog.gltf: an icosahedral fog volume of nearly constant density (optical depth ~20
+  through its centre) with chromatic albedo: color (0.95, 0.8, 0.6), absorptionColor 0, so the
+  extinction is grey (sigma_t = densityScale * d) and sigma_a = 1 - color; HG g = 0.5; a sun
+  plus a constant sky.
 """
 import base64
 import json
@@ -94,6 +102,72 @@ def chromatic_smoke():
     write("scenes/chromatic_smoke.gltf", doc)
 
 
+SUN_ROTATION = [-0.3303661, 0.2432103, 0.0885213, 0.9076734]  # as cloud.gltf
+
+
+def plume(name, sun, sky):
+    """The plume grid spans about [-1, 1]^3 (height along y); scale 2 makes it 4 m tall. Its
+    column integral across the axis is 0.060 grid units at most and 0.039 at the median height
+    (printed by make_grids), so with the node's scale 2 densityScale 20 gives optical depths
+    across the plume of about 1.6 (median) to 2.4 (largest): thin, as smoke from a chimney."""
+    nodes = [
+        {"name": "camera_node", "camera": 0, "translation": [0.0, 0.0, 9.0]},
+        {"name": "plume", "scale": [2.0, 2.0, 2.0], "extensions": {"BRUME_medium_vdb": {
+            "uri": "vdb/plume.vdb", "densityGrid": "density", "densityScale": PLUME_DENSITY_SCALE,
+            "color": [0.9, 0.9, 0.9], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.0}}},
+    ]
+    ext = {}
+    used = ["BRUME_medium_vdb"]
+    if sun:
+        nodes.append({"name": "sun", "rotation": SUN_ROTATION, "extensions": {"KHR_lights_punctual": {"light": 0}}})
+        ext["KHR_lights_punctual"] = {"lights": [{"name": "sun", "type": "directional", "color": [1.0, 0.97, 0.9], "intensity": 3.0}]}
+        used.append("KHR_lights_punctual")
+    if sky:
+        ext["BRUME_environment"] = {"color": [0.55, 0.7, 1.0], "strength": 1.0}
+        used.append("BRUME_environment")
+    doc = {
+        "asset": {"version": "2.0", "generator": "brume scenes/make_scenes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": list(range(len(nodes)))}],
+        "nodes": nodes,
+        "cameras": [{"name": "camera", "type": "perspective", "perspective": {"yfov": 0.55, "znear": 0.05}}],
+        "extensions": ext,
+        "extensionsUsed": used,
+    }
+    write(f"scenes/{name}", doc)
+
+
+def dense_fog():
+    """The icosahedral fog (scenes/vdb/icosa_fog.vdb, about 1.7 x 1.7 x 2 grid units, density 1
+    inside) scaled by 1.5: optical depth DENSE_FOG_SCALE * ~3 m ~ 20 through its centre."""
+    doc = {
+        "asset": {"version": "2.0", "generator": "brume scenes/make_scenes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2]}],
+        "nodes": [
+            {"name": "camera_node", "camera": 0, "translation": [0.0, 0.0, 8.0]},
+            {"name": "sun", "rotation": SUN_ROTATION, "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "fog", "scale": [1.5, 1.5, 1.5], "extensions": {"BRUME_medium_vdb": {
+                "uri": "vdb/icosa_fog.vdb", "densityGrid": "density", "densityScale": DENSE_FOG_SCALE,
+                "color": [0.95, 0.8, 0.6], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.5}}},
+        ],
+        "cameras": [{"name": "camera", "type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.05}}],
+        "extensions": {
+            "KHR_lights_punctual": {"lights": [{"name": "sun", "type": "directional", "color": [1.0, 0.97, 0.9], "intensity": 3.0}]},
+            "BRUME_environment": {"color": [0.5, 0.6, 0.8], "strength": 0.5},
+        },
+        "extensionsUsed": ["KHR_lights_punctual", "BRUME_medium_vdb", "BRUME_environment"],
+    }
+    write("scenes/dense_fog.gltf", doc)
+
+
+PLUME_DENSITY_SCALE = 20.0
+DENSE_FOG_SCALE = 7.0
+
+
 if __name__ == "__main__":
     furnace()
     chromatic_smoke()
+    plume("plume_sun.gltf", sun=True, sky=False)
+    plume("plume_sky.gltf", sun=False, sky=True)
+    dense_fog()

@@ -10,6 +10,9 @@ vdb_tool -quiet -sphere r=1.0 dim=64 name=surface -write keep=1 "$out/sphere_ls.
     -ls2fog name=density -write "$out/sphere_fog.vdb"
 vdb_tool -quiet -platonic f=12 s=1.0 dim=64 name=surface -ls2fog name=density \
     -write "$out/dodeca_fog.vdb"
+# dense_fog.gltf: an icosahedron, nearly constant density inside (mostly active tiles).
+vdb_tool -quiet -platonic f=20 s=1.0 dim=64 name=surface -ls2fog name=density \
+    -write "$out/icosa_fog.vdb"
 # Procedural clouds, smoke, fire and a tile block, written through Brume's OpenVDB shim.
 cargo run --release --quiet --example make_grids -- "$out"
 ls -l "$out"

@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 
 use brume::film::{read_exr, read_tile_log, totals};
 
-const SCENES: [&str; 7] = [
+const SCENES: [&str; 10] = [
     "cloud",
     "cornell_smoke",
     "glass_volume",
@@ -14,6 +14,9 @@ const SCENES: [&str; 7] = [
     "chromatic",
     "chromatic_smoke",
     "furnace",
+    "plume_sun",
+    "plume_sky",
+    "dense_fog",
 ];
 
 fn scene(name: &str) -> PathBuf {
@@ -250,7 +253,10 @@ fn scene_render_settings_are_defaults_the_command_line_overrides() {
 
 #[test]
 fn ctrl_c_keeps_what_has_accumulated() {
-    let exr = tmp("interrupted.exr");
+    // A folder of its own: the other tests write (atomically, through .tmp files) into the
+    // shared one at the same time, and the check below looks for leftover .tmp files.
+    let exr = tmp("ctrl-c").join("interrupted.exr");
+    std::fs::create_dir_all(exr.parent().unwrap()).unwrap();
     let child = Command::new(env!("CARGO_BIN_EXE_brume"))
         .args([
             "render",

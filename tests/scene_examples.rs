@@ -345,3 +345,102 @@ fn chromatic() {
         ]
     );
 }
+
+/// The plume scenes: one VDB medium of albedo 0.9 (color 0.9, absorptionColor 0:
+/// sigma_s = 0.9 * 20, sigma_a = (1 - 0.9) * (1 - sqrt 0) * 20 per unit density), isotropic.
+fn check_plume(s: &Scene) {
+    assert_eq!((s.triangles.len(), s.vdb_media.len()), (0, 1));
+    let c = &s.camera;
+    assert!(c.position().distance(Vec3::new(0.0, 0.0, 9.0)) < 1e-6);
+    assert!(c.forward().dot(Vec3::NEG_Z) > 1.0 - 1e-6);
+    assert_eq!(c.yfov, 0.55);
+    let m = &s.vdb_media[0];
+    assert!(m.vdb_path.ends_with("vdb/plume.vdb"));
+    assert_eq!(m.anisotropy, 0.0);
+    check_medium_bounds(m, Mat4::from_scale(Vec3::splat(2.0)));
+    assert!(close(&m.sigma_s_per_density(), &[18.0; 3], 1e-6));
+    assert!(close(&m.sigma_a_per_density(), &[2.0; 3], 1e-5));
+    let (ss, sa) = (m.sigma_s_per_density()[0], m.sigma_a_per_density()[0]);
+    assert!((ss / (ss + sa) - 0.9).abs() < 1e-6, "albedo");
+}
+
+#[test]
+fn plume_sun() {
+    let s = load("plume_sun.gltf");
+    check_plume(&s);
+    assert_eq!(s.lights.len(), 1);
+    assert_eq!(s.lights[0].kind, scene::lights::LIGHT_DIRECTIONAL);
+    assert!(close(&s.lights[0].intensity, &[3.0, 2.91, 2.7], 1e-6));
+    assert!(close(&s.environment.radiance, &[0.0; 3], 0.0));
+    assert_eq!(
+        effects(&s),
+        [
+            "media",
+            "heterogeneous media",
+            "scattering",
+            "absorption",
+            "punctual lights"
+        ]
+    );
+}
+
+#[test]
+fn plume_sky() {
+    let s = load("plume_sky.gltf");
+    check_plume(&s);
+    assert!(s.lights.is_empty());
+    assert!(close(&s.environment.radiance, &[0.55, 0.7, 1.0], 1e-6));
+    assert_eq!(
+        effects(&s),
+        [
+            "media",
+            "heterogeneous media",
+            "scattering",
+            "absorption",
+            "environment light"
+        ]
+    );
+}
+
+/// Grey extinction (7 per unit density), chromatic albedo (0.95, 0.8, 0.6): absorptionColor 0
+/// makes sigma_a = 1 - color, so no spectral tracking is needed; HG g = 0.5; sun and sky.
+#[test]
+fn dense_fog() {
+    let s = load("dense_fog.gltf");
+    assert_eq!(
+        (s.triangles.len(), s.vdb_media.len(), s.lights.len()),
+        (0, 1, 1)
+    );
+    let m = &s.vdb_media[0];
+    assert!(m.vdb_path.ends_with("vdb/icosa_fog.vdb"));
+    assert_eq!(m.anisotropy, 0.5);
+    check_medium_bounds(m, Mat4::from_scale(Vec3::splat(1.5)));
+    let albedo = [0.95f32, 0.8, 0.6];
+    assert!(close(
+        &m.sigma_s_per_density(),
+        &albedo.map(|a| 7.0 * a),
+        1e-6
+    ));
+    assert!(close(
+        &m.sigma_a_per_density(),
+        &albedo.map(|a| 7.0 * (1.0 - a)),
+        1e-5
+    ));
+    let t: Vec<f32> = (0..3)
+        .map(|c| m.sigma_s_per_density()[c] + m.sigma_a_per_density()[c])
+        .collect();
+    assert!(close(&t, &[7.0; 3], 1e-6), "grey extinction {t:?}");
+    assert!(close(&s.environment.radiance, &[0.25, 0.3, 0.4], 1e-6));
+    assert_eq!(
+        effects(&s),
+        [
+            "media",
+            "heterogeneous media",
+            "scattering",
+            "absorption",
+            "anisotropic phase",
+            "punctual lights",
+            "environment light"
+        ]
+    );
+}

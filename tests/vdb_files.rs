@@ -7,13 +7,15 @@ use brume::volume::{load_grid, ConversionPolicy, LoadError, LoadedGrid};
 use brume_ffi::{write_float_grids, GridClass, GridSpec, ReadOptions, SampleOrder, VdbFile};
 use glam::DVec3;
 
-const EXAMPLE_GRIDS: [&str; 6] = [
+const EXAMPLE_GRIDS: [&str; 8] = [
     "cloud",
     "smoke",
     "fire",
     "sphere_fog",
     "dodeca_fog",
     "tiles",
+    "plume",
+    "icosa_fog",
 ];
 
 fn example(name: &str) -> PathBuf {

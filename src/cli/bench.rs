@@ -54,6 +54,10 @@ pub enum Which {
         #[arg(long, default_value_t = 4)]
         spp: u32,
     },
+    /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
+    /// not installed): render time, per-pixel variance from two seeds, efficiency
+    /// 1 / (time x variance), the ratios, and the image mean against Mitsuba's with its z-score.
+    Peers(super::bench_peers::PeersArgs),
 }
 
 pub fn run(which: Which) -> Result<()> {
@@ -78,6 +82,7 @@ pub fn run(which: Which) -> Result<()> {
             height,
             spp,
         } => super::bench_gpu::run(&scene, width, height, spp),
+        Which::Peers(args) => super::bench_peers::run(&args),
     }
 }
 

@@ -159,6 +159,17 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
             "brume:scene",
             AttrValue::Text(args.scene.display().to_string()),
         );
+    if let Some(t) = images
+        .iter()
+        .map(|i| CyclesTimes::from_metadata(&i.attributes))
+        .collect::<Option<Vec<_>>>()
+    {
+        let sum = |f: fn(&CyclesTimes) -> f64| t.iter().map(f).sum::<f64>();
+        meta.set("brume:seconds", AttrValue::Double(sum(|t| t.total)))
+            .set("brume:cycles_setup_seconds", AttrValue::Double(sum(|t| t.total - t.render)))
+            .set("brume:cycles_path_tracing_seconds", AttrValue::Double(sum(|t| t.render)))
+            .set("brume:cycles_sync_seconds", AttrValue::Double(sum(|t| t.sync)));
+    }
     let merged = merge_runs(&images, args.spp, meta)?;
     write_image(&args.output, &merged)?;
     let _ = std::fs::remove_dir_all(&tmp);
@@ -179,3 +190,41 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     }
     Ok(())
 }
+
+/// The timings Cycles writes into each render's EXR (`cycles.<view layer>.total_time`,
+/// `render_time`, `synchronization_time`, as `[HH:]MM:SS.cc`), in seconds. `total` runs from
+/// the start of the render session: scene and device update (BVH, volume octree, images) and
+/// then path tracing (`render`); `sync` is Blender's conversion of its data to Cycles, timed
+/// separately.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CyclesTimes {
+    pub total: f64,
+    pub render: f64,
+    pub sync: f64,
+}
+
+impl CyclesTimes {
+    pub fn from_metadata(meta: &Metadata) -> Option<Self> {
+        let field = |name: &str| {
+            meta.iter()
+                .find(|(k, _)| k.starts_with("cycles.") && k.ends_with(name))
+                .and_then(|(_, v)| match v {
+                    AttrValue::Text(t) => parse_cycles_time(t),
+                    _ => None,
+                })
+        };
+        Some(CyclesTimes {
+            total: field(".total_time")?,
+            render: field(".render_time")?,
+            sync: field(".synchronization_time").unwrap_or(0.0),
+        })
+    }
+}
+
+/// Blender's `[[HH:]MM:]SS.ff` time stamps in seconds.
+pub fn parse_cycles_time(t: &str) -> Option<f64> {
+    t.trim()
+        .split(':')
+        .try_fold(0.0, |acc, part| Some(acc * 60.0 + part.parse::<f64>().ok()?))
+}
+

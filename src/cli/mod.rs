@@ -1,5 +1,6 @@
 pub mod bench;
 pub mod bench_gpu;
+pub mod bench_peers;
 pub mod compare;
 pub mod cycles;
 pub mod info;

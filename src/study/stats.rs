@@ -84,3 +84,165 @@ pub fn mean_std(v: &[f64]) -> (f64, f64) {
     let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
     (m, var.sqrt())
 }
+
+/// Per-pixel variance of one render, pooled over pixels and RGB channels, from renders of the
+/// same image with different seeds: the mean over values of their sample variance across the
+/// renders (`k - 1` in the denominator). With two renders A and B this is
+/// `mean((A - B)^2) / 2`.
+pub fn seed_variance(renders: &[&[[f32; 3]]]) -> Result<f64, String> {
+    check_renders(renders)?;
+    let k = renders.len() as f64;
+    let n = renders[0].len();
+    let mut sum = 0f64;
+    for p in 0..n {
+        for c in 0..3 {
+            let m = renders.iter().map(|r| r[p][c] as f64).sum::<f64>() / k;
+            sum += renders
+                .iter()
+                .map(|r| (r[p][c] as f64 - m).powi(2))
+                .sum::<f64>()
+                / (k - 1.0);
+        }
+    }
+    Ok(sum / (3 * n) as f64)
+}
+
+/// Mean over pixels and RGB of renders averaged over seeds, with the variance of that mean.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImageMean {
+    pub mean: f64,
+    /// Variance of `mean`: the sample variance across seeds of each pixel's R + G + B (so the
+    /// correlation of a pixel's channels counts), summed over pixels (pixels are rendered with
+    /// independent random streams), divided by `(3 n)^2` and by the number of seeds. It uses
+    /// every pixel's spread, so it is much steadier than the spread of the seeds' image means
+    /// (one degree of freedom per extra seed).
+    pub variance: f64,
+}
+
+impl ImageMean {
+    /// `self.mean - other.mean` and its z-score with both variances.
+    pub fn difference(&self, other: &ImageMean) -> (f64, f64) {
+        let d = self.mean - other.mean;
+        let v = self.variance + other.variance;
+        let z = if v > 0.0 {
+            d / v.sqrt()
+        } else if d == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY.copysign(d)
+        };
+        (d, z)
+    }
+}
+
+/// [`ImageMean`] of renders of one image with different seeds (at least two).
+pub fn image_mean(renders: &[&[[f32; 3]]]) -> Result<ImageMean, String> {
+    check_renders(renders)?;
+    let k = renders.len() as f64;
+    let n = renders[0].len();
+    let (mut total, mut var_sum) = (0f64, 0f64);
+    for p in 0..n {
+        let sums: Vec<f64> = renders
+            .iter()
+            .map(|r| r[p].iter().map(|&v| v as f64).sum())
+            .collect();
+        let m = sums.iter().sum::<f64>() / k;
+        total += m;
+        var_sum += sums.iter().map(|s| (s - m).powi(2)).sum::<f64>() / (k - 1.0);
+    }
+    let values = (3 * n) as f64;
+    Ok(ImageMean {
+        mean: total / values,
+        variance: var_sum / (values * values) / k,
+    })
+}
+
+fn check_renders(renders: &[&[[f32; 3]]]) -> Result<(), String> {
+    if renders.len() < 2 {
+        return Err(format!(
+            "{} render(s): the variance needs at least 2 seeds",
+            renders.len()
+        ));
+    }
+    let n = renders[0].len();
+    if n == 0 || renders.iter().any(|r| r.len() != n) {
+        return Err("renders are empty or differ in size".into());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_seed_variance_is_half_the_mean_squared_difference() {
+        let a = [[1.0f32, 2.0, 3.0], [0.0, 0.0, 0.0]];
+        let b = [[2.0f32, 2.0, 1.0], [1.0, 0.0, 0.0]];
+        // Squared differences 1, 0, 4, 1, 0, 0: mean 1, half of it 0.5.
+        assert!((seed_variance(&[&a, &b]).unwrap() - 0.5).abs() < 1e-12);
+        let m = image_mean(&[&a, &b]).unwrap();
+        assert!((m.mean - 12.0 / 12.0).abs() < 1e-12);
+        // Pixel sums: (6, 5) and (0, 1): sample variances 0.5 and 0.5, sum 1, / 6^2 / 2.
+        assert!((m.variance - 1.0 / 36.0 / 2.0).abs() < 1e-12);
+        assert!(seed_variance(&[&a]).is_err());
+        assert!(image_mean(&[&a, &b[..1]]).is_err());
+    }
+
+    #[test]
+    fn image_mean_variance_matches_the_spread_of_means() {
+        // Independent noise per pixel and seed: the estimated variance of the seed-averaged
+        // image mean agrees with its actual spread over many trials.
+        let mut state = 12345u64;
+        let mut uniform = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (n, trials) = (200, 400);
+        let mut means = Vec::new();
+        let mut est = 0.0;
+        for _ in 0..trials {
+            let imgs: Vec<Vec<[f32; 3]>> = (0..2)
+                .map(|_| {
+                    (0..n)
+                        .map(|_| {
+                            let shared = uniform() as f32;
+                            [shared, shared + uniform() as f32, 0.5]
+                        })
+                        .collect()
+                })
+                .collect();
+            let refs: Vec<&[[f32; 3]]> = imgs.iter().map(|v| v.as_slice()).collect();
+            let m = image_mean(&refs).unwrap();
+            means.push(m.mean);
+            est += m.variance / trials as f64;
+        }
+        let (_, sd) = mean_std(&means);
+        let ratio = sd * sd / est;
+        assert!(
+            (0.8..1.25).contains(&ratio),
+            "actual / estimated variance {ratio}"
+        );
+    }
+
+    #[test]
+    fn differences_have_signed_z_scores() {
+        let a = ImageMean {
+            mean: 1.0,
+            variance: 0.01,
+        };
+        let b = ImageMean {
+            mean: 0.9,
+            variance: 0.03,
+        };
+        let (d, z) = a.difference(&b);
+        assert!((d - 0.1).abs() < 1e-12 && (z - 0.5).abs() < 1e-12);
+        let c = ImageMean {
+            mean: 1.0,
+            variance: 0.0,
+        };
+        assert_eq!(c.difference(&c), (0.0, 0.0));
+    }
+}

@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 7] = [
+pub const EXAMPLE_SCENES: [&str; 10] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -22,6 +22,9 @@ pub const EXAMPLE_SCENES: [&str; 7] = [
     "chromatic.gltf",
     "chromatic_smoke.gltf",
     "furnace.gltf",
+    "plume_sun.gltf",
+    "plume_sky.gltf",
+    "dense_fog.gltf",
 ];
 
 pub fn load_scene(name: &str) -> Scene {
