@@ -23,7 +23,41 @@ use clap::Args;
 use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
 use brume::study::stats::{self, ImageMean};
 
-const RENDERERS: [&str; 4] = ["brume", "brume-spectral", "mitsuba", "cycles"];
+const RENDERERS: [&str; 10] = [
+    "brume",
+    "brume-before",
+    "brume-event",
+    "brume-no-rr-guard",
+    "brume-leaf",
+    "brume-global",
+    "brume-independent",
+    "brume-spectral",
+    "mitsuba",
+    "cycles",
+];
+
+/// Brume's variants for ablations: each changes one default (`brume-before` restores every
+/// default of the version before absorption weights, adaptive majorants and Sobol points).
+fn brume_variant(name: &str, s: &mut brume::integrator::RenderSettings) -> bool {
+    use brume::integrator::{Absorption, MajorantMode, SamplerKind};
+    match name {
+        "brume" => {}
+        "brume-before" => {
+            s.absorption = Absorption::Event;
+            s.rr_throughput = 0.0;
+            s.majorant = MajorantMode::Leaf;
+            s.sampler = SamplerKind::Independent;
+        }
+        "brume-event" => s.absorption = Absorption::Event,
+        "brume-no-rr-guard" => s.rr_throughput = 0.0,
+        "brume-leaf" => s.majorant = MajorantMode::Leaf,
+        "brume-global" => s.majorant = MajorantMode::Global,
+        "brume-independent" => s.sampler = SamplerKind::Independent,
+        "brume-spectral" => s.force_spectral = true,
+        _ => return false,
+    }
+    true
+}
 
 /// The example scenes the table is about (one row per renderer each).
 pub const DEFAULT_SCENES: [&str; 3] = [
@@ -51,8 +85,11 @@ pub struct PeersArgs {
     /// Folder for the images (SCENE/RENDERER-seedS.exr) and peers.md.
     #[arg(long, default_value = "out/peers")]
     pub out: PathBuf,
-    /// Renderers to run, of brume, brume-spectral (Brume with spectral tracking forced, as
-    /// `brume render --spectral`), mitsuba, cycles (default: brume, mitsuba, cycles).
+    /// Renderers to run, of brume, its ablation variants (brume-before: the previous
+    /// defaults, absorption events, per-leaf majorants, independent sampler, no early
+    /// roulette; brume-event, brume-no-rr-guard, brume-leaf, brume-global, brume-independent,
+    /// brume-spectral: one default changed each), mitsuba, cycles (default: brume, mitsuba,
+    /// cycles).
     #[arg(long, value_delimiter = ',', default_value = "brume,mitsuba,cycles")]
     pub renderers: Vec<String>,
 }
@@ -92,7 +129,7 @@ pub fn run(args: &PeersArgs) -> Result<()> {
     }
     for r in &args.renderers {
         if !RENDERERS.contains(&r.as_str()) {
-            bail!("unknown renderer {r:?} (brume, brume-spectral, mitsuba, cycles)");
+            bail!("unknown renderer {r:?} (one of {})", RENDERERS.join(", "));
         }
     }
     let scenes: Vec<PathBuf> = if args.scenes.is_empty() {
@@ -118,10 +155,9 @@ pub fn run(args: &PeersArgs) -> Result<()> {
                 continue;
             }
             let outcome = match renderer {
-                "brume" => brume_renders(scene, &dir, args, false)?,
-                "brume-spectral" => brume_renders(scene, &dir, args, true)?,
                 "mitsuba" => peer_renders("mitsuba", scene, &dir, args)?,
-                _ => peer_renders("cycles", scene, &dir, args)?,
+                "cycles" => peer_renders("cycles", scene, &dir, args)?,
+                brume => brume_renders(scene, &dir, args, brume)?,
             };
             match outcome {
                 Outcome::Done(row) => {
@@ -232,7 +268,7 @@ fn brume_renders(
     scene_path: &Path,
     dir: &Path,
     args: &PeersArgs,
-    spectral: bool,
+    name: &'static str,
 ) -> Result<Outcome> {
     use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings};
     let scene = brume::scene::load(scene_path)?;
@@ -243,7 +279,6 @@ fn brume_renders(
         width: args.width,
         height: args.height,
         spp: args.spp,
-        force_spectral: spectral,
         ..RenderSettings::default()
     };
     if let Some(e) = &scene.render.estimator {
@@ -255,8 +290,10 @@ fn brume_renders(
     if let Some(d) = scene.render.max_depth {
         base.max_depth = d;
     }
-    let name = if spectral { "brume-spectral" } else { "brume" };
-    let rs = RenderScene::new(&scene, spectral).map_err(|e| anyhow!(e))?;
+    if !brume_variant(name, &mut base) {
+        bail!("unknown Brume variant {name}");
+    }
+    let rs = RenderScene::new(&scene, base.force_spectral).map_err(|e| anyhow!(e))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads as usize)
         .build()?;

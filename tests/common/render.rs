@@ -126,3 +126,24 @@ pub fn compare(a: (&[f64], &[f64]), b: (&[f64], &[f64]), alpha: f64) -> Agreemen
         mean_z,
     }
 }
+
+/// `b` x `b` block means of per-pixel [`moments`] (`w` x `h` pixels, RGB), with the variance
+/// of each block mean (the pixels are independent): a heavy-tailed estimator's rare large
+/// weights are better represented in a block's pooled samples than in one pixel's, so the
+/// normal approximation of a z-test holds at fewer samples per pixel.
+pub fn block_moments(m: &(Vec<f64>, Vec<f64>), w: usize, h: usize, b: usize) -> (Vec<f64>, Vec<f64>) {
+    let (bw, bh) = (w / b, h / b);
+    let mut mean = vec![0.0; bw * bh * 3];
+    let mut var = vec![0.0; bw * bh * 3];
+    let n = (b * b) as f64;
+    for y in 0..bh * b {
+        for x in 0..bw * b {
+            for c in 0..3 {
+                let i = ((y / b) * bw + x / b) * 3 + c;
+                mean[i] += m.0[(y * w + x) * 3 + c] / n;
+                var[i] += m.1[(y * w + x) * 3 + c] / (n * n);
+            }
+        }
+    }
+    (mean, var)
+}
