@@ -102,7 +102,15 @@ fn distance_samplers_score_the_right_expectations() {
             let mut st = TrackingStats::default();
             let (mut esc, mut sca, mut abs) =
                 (Moments::default(), Moments::default(), Moments::default());
-            for i in 0..samples(N) {
+            // A non-bounding majorant (b < 1) makes the weights heavy-tailed: the rare large
+            // escape weights are under-represented in 200,000 samples (measured on the local
+            // ramp at b = 0.75: z -3.7 at 200,000 and -3.6 at 800,000 samples of one stream,
+            // -1.7 at 3,200,000), so the normal approximation needs 16 times the samples.
+            let n = match which {
+                Sampler::WeightedDelta(b) if b < 1.0 => 16 * N,
+                _ => N,
+            };
+            for i in 0..samples(n) {
                 let mut rng = Rng::new(i, 1, 11);
                 let e = sample(&s, which, &mut rng, &mut st);
                 let (mut xe, mut xs, mut xa) = (0.0, 0.0, 0.0);
