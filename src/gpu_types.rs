@@ -320,6 +320,9 @@ pub const PATH_FLAG_SPECULAR: u32 = 1;
 /// [`GpuPathState::flags`] bit: the path stopped at an opaque surface (its hit fields
 /// describe it) and the next direction is to be sampled from the BSDF, not the phase function.
 pub const PATH_FLAG_SURFACE: u32 = 2;
+/// [`GpuPathState::flags`] bit: the free flight of the current bounce has drawn its sampler
+/// point (`radiance`'s `flight_started`); cleared at every scattering event.
+pub const PATH_FLAG_FLIGHT_STARTED: u32 = 4;
 
 /// A shadow ray of next-event estimation, one slot per path (a path has at most one pending).
 #[repr(C)]

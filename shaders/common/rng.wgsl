@@ -1,4 +1,5 @@
-// Mirrors src/sampling/rng.rs (`pcg_hash`, `Rng::new`, `Rng::next_u32`, `Rng::uniform_f32`):
+// Mirrors src/sampling/rng.rs (`pcg_hash`, `Rng::new`, `Rng::next_u32`, `Rng::uniform_f32`,
+// `Rng::queue_uniforms`):
 // PCG-RXS-M-XS-32 with u32-only wrapping arithmetic, which is exactly WGSL's u32 semantics, so
 // the streams equal the CPU's bit for bit (tests/gpu_rng.rs). Keep the two in lockstep.
 
@@ -10,6 +11,8 @@ const INC_SALT: u32 = 0x9E3779B9u;
 struct Rng {
     state: u32,
     inc: u32, // odd: which of the 2^31 LCG streams
+    queued: vec2<u32>, // 24-bit uniforms handed out before the stream resumes (x first)
+    n_queued: u32,
 }
 
 // The RXS-M-XS output permutation.
@@ -32,12 +35,25 @@ fn rng_next_u32(rng: ptr<function, Rng>) -> u32 {
 // Rng::new: hashed start AND hashed increment; the first output is discarded.
 fn rng_new(pixel_index: u32, sample_index: u32, seed: u32) -> Rng {
     let h = pcg_hash(pcg_hash(pcg_hash(seed) ^ pixel_index) ^ sample_index);
-    var rng = Rng(h, (pcg_hash(h ^ INC_SALT) << 1u) | 1u);
+    var rng = Rng(h, (pcg_hash(h ^ INC_SALT) << 1u) | 1u, vec2<u32>(0u), 0u);
     rng_next_u32(&rng);
     return rng;
 }
 
 // Uniform in [0, 1): the top 24 bits times 2^-24, exact in f32 and never 1.
 fn rng_uniform(rng: ptr<function, Rng>) -> f32 {
-    return f32(rng_next_u32(rng) >> 8u) * (1.0 / 16777216.0);
+    var v = 0u;
+    if ((*rng).n_queued > 0u) {
+        (*rng).n_queued -= 1u;
+        v = (*rng).queued[1u - (*rng).n_queued];
+    } else {
+        v = rng_next_u32(rng) >> 8u;
+    }
+    return f32(v) * (1.0 / 16777216.0);
+}
+
+// Rng::queue_uniforms: the next two rng_uniform calls return a then b (top 24 bits).
+fn rng_queue_uniforms(rng: ptr<function, Rng>, a: u32, b: u32) {
+    (*rng).queued = vec2<u32>(a >> 8u, b >> 8u);
+    (*rng).n_queued = 2u;
 }

@@ -8,7 +8,7 @@
 const SOBOL_SALT: u32 = 0x5EED50B0u;
 const DIM_JITTER: u32 = 0u;
 const DIMS_PER_BOUNCE: u32 = 6u;
-const DIM_DISTANCE: u32 = 0u; // reserved: the free flights draw from the path's Rng
+const DIM_DISTANCE: u32 = 0u; // the first two draws of a bounce's first free flight
 const DIM_LIGHT_SELECT: u32 = 1u;
 const DIM_LIGHT: u32 = 2u;
 const DIM_LOBE: u32 = 3u;

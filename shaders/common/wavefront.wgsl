@@ -72,7 +72,7 @@ fn add_tracking_stats(s: Stats, shadow: bool, ps: ptr<function, GpuPathState>) {
 
 // The path's random stream (the state lives in the path, between stages).
 fn path_rng(ps: GpuPathState) -> Rng {
-    return Rng(ps.rng_state, ps.rng_inc);
+    return Rng(ps.rng_state, ps.rng_inc, vec2<u32>(0u), 0u);
 }
 
 // Sampler::get2d / get1d (src/sampling/sobol.rs) for the path of batch entry `sample_id`:
@@ -94,6 +94,15 @@ fn sampler_2d(sample_id: u32, block: u32, rng: ptr<function, Rng>) -> vec2<f32> 
     let x = rng_uniform(rng);
     let y = rng_uniform(rng);
     return vec2<f32>(x, y);
+}
+
+// Sampler::queue_on_stream: under SAMPLER_SOBOL, block `block`'s point becomes the next two
+// uniforms of `rng` (the first exponential depth and event choice of a free flight).
+fn sampler_queue_on_stream(sample_id: u32, block: u32, rng: ptr<function, Rng>) {
+    if (SAMPLER_SOBOL) {
+        let p = sobol_point_u32(path_pixel(sample_id), path_sample_index(sample_id), block, wf.seed);
+        rng_queue_uniforms(rng, p.x, p.y);
+    }
 }
 
 // The block's first coordinate (Sampler::get1d).

@@ -24,10 +24,17 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     var t_event = 0.0;
     var weight = vec3<f32>(1.0);
     var in_homogeneous = false;
+    // radiance's flight_started: the first flight after each scattering event starts from
+    // the sampler's point DIM_DISTANCE; one continued past a null interface does not.
+    var rng0 = path_rng(ps);
+    if ((ps.flags & PATH_FLAG_FLIGHT_STARTED) == 0u) {
+        sampler_queue_on_stream(ps.sample_id, bounce_dim(ps.depth, DIM_DISTANCE), &rng0);
+        ps.flags |= PATH_FLAG_FLIGHT_STARTED;
+    }
 // #if FEATURE_HOMOGENEOUS
     in_homogeneous = ps.medium != NO_INDEX;
     if (in_homogeneous) {
-        var rng = path_rng(ps);
+        var rng = rng0;
         let ev = sample_homogeneous(homogeneous[ps.medium], t_hit - ps.t0, wf.absorption_weight != 0u, &rng);
         ps.rng_state = rng.state;
         ps.rng_inc = rng.inc;
@@ -40,7 +47,7 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     if (!in_homogeneous) {
         var te = vec2<f32>(0.0);
         if (medium_interval(ps.o, ps.d, ps.t0, t_hit, &te)) {
-            var tr = medium_tracker(ps.o, ps.d, path_rng(ps), wf.tracking.estimator);
+            var tr = medium_tracker(ps.o, ps.d, rng0, wf.tracking.estimator);
             let dda = medium_dda(tr, te.x, te.y);
             tracking_sample_distance(&tr, dda, te.y, ps.beta);
             ps.rng_state = tr.rng.state;

@@ -19,6 +19,7 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     let absorbed = all(ps.beta == vec3<f32>(0.0));
     if (!absorbed) {
         ps.depth += 1u;
+        ps.flags &= ~PATH_FLAG_FLIGHT_STARTED;
     }
     if (absorbed || ps.depth > wf.max_depth) {
         paths[slot] = ps;

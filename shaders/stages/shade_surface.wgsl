@@ -44,6 +44,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     ps.depth += 1u;
+    ps.flags &= ~PATH_FLAG_FLIGHT_STARTED;
     if (ps.depth > wf.max_depth) {
         paths[slot] = ps;
         queue_push(queue_done_out(), slot);

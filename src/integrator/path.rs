@@ -13,7 +13,7 @@ use super::media::{
 use super::prepare::{RenderScene, SurfaceKind};
 use crate::math::Ray;
 use crate::sampling::sobol::{
-    bounce_dim, DIM_LIGHT, DIM_LIGHT_SELECT, DIM_LOBE, DIM_RR, DIM_SCATTER,
+    bounce_dim, DIM_DISTANCE, DIM_LIGHT, DIM_LIGHT_SELECT, DIM_LOBE, DIM_RR, DIM_SCATTER,
 };
 use crate::sampling::warp::Frame;
 use crate::sampling::{Decision, Rng, Sampler};
@@ -264,6 +264,8 @@ pub fn radiance<
     let mut beta = Vec3::ONE;
     let mut l = Vec3::ZERO;
     let mut depth = 0u32;
+    // Whether this bounce's free flight has drawn its sampler point (DIM_DISTANCE).
+    let mut flight_started = false;
     // Whether the last direction was chosen by a delta distribution (no MIS), and its pdf.
     let mut specular = true;
     let mut prev_pdf = 0.0f32;
@@ -279,6 +281,12 @@ pub fn radiance<
         };
         let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
         if HET || HOM {
+            // The first flight after each scattering event starts from the sampler's
+            // stratified point; one continued past a null interface does not reuse it.
+            if !flight_started {
+                sampler.queue_on_stream(bounce_dim(depth, DIM_DISTANCE));
+                flight_started = true;
+            }
             let (ev, phase) = sample_media::<HET, HOM, EMIT, ABS, CHROM>(
                 rs,
                 cfg,
@@ -291,6 +299,7 @@ pub fn radiance<
                 &mut stats.media,
                 &mut l,
             );
+            sampler.rng.clear_queue();
             if collisions(&stats.media) - start_collisions > limits.max_collisions {
                 stats.guard_fired += 1;
                 break;
@@ -306,6 +315,7 @@ pub fn radiance<
                         break;
                     }
                     depth += 1;
+                    flight_started = false;
                     if depth > limits.max_depth {
                         break;
                     }
@@ -381,6 +391,7 @@ pub fn radiance<
             }
             SurfaceKind::Dielectric => {
                 depth += 1;
+                flight_started = false;
                 if depth > limits.max_depth {
                     break;
                 }
@@ -409,6 +420,7 @@ pub fn radiance<
             }
             SurfaceKind::Opaque => {
                 depth += 1;
+                flight_started = false;
                 if depth > limits.max_depth {
                     break;
                 }

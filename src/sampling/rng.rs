@@ -53,6 +53,11 @@ pub struct Rng {
     state: u32,
     /// Odd LCG increment: which of the 2^31 streams this generator walks.
     inc: u32,
+    /// Uniforms handed out by the next `uniform_f32` calls before the stream resumes (24-bit
+    /// numerators, `queued[2 - n_queued]` first): how a sampler's stratified point reaches
+    /// the first draws of a free flight without every tracker taking a sampler.
+    queued: [u32; 2],
+    n_queued: u32,
 }
 
 impl Rng {
@@ -62,6 +67,8 @@ impl Rng {
         let mut rng = Rng {
             state: h,
             inc: (pcg_hash(h ^ INC_SALT) << 1) | 1,
+            queued: [0; 2],
+            n_queued: 0,
         };
         // The first output is a function of `h` alone; discarding it makes the first value
         // used depend on the increment too.
@@ -85,7 +92,28 @@ impl Rng {
     /// representable in f32 and 1.0 is never returned (`1 - u` is never 0, `ln(1 - u)` finite).
     #[inline]
     pub fn uniform_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+        let v = if self.n_queued > 0 {
+            self.n_queued -= 1;
+            self.queued[1 - self.n_queued as usize]
+        } else {
+            self.next_u32() >> 8
+        };
+        v as f32 * (1.0 / 16_777_216.0)
+    }
+
+    /// The next two `uniform_f32` calls return `a` then `b` (32-bit values, of which the top
+    /// 24 bits are kept, as for the stream's own outputs); the stream does not advance for
+    /// them. See [`Rng::clear_queue`].
+    #[inline]
+    pub fn queue_uniforms(&mut self, a: u32, b: u32) {
+        self.queued = [a >> 8, b >> 8];
+        self.n_queued = 2;
+    }
+
+    /// Drops queued values that were not drawn (so they never reach an unrelated decision).
+    #[inline]
+    pub fn clear_queue(&mut self) {
+        self.n_queued = 0;
     }
 
     /// Two uniforms, drawn in order `x` then `y`.

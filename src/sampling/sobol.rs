@@ -43,7 +43,7 @@
 //! ```text
 //! block            coords   decision
 //! 0                2D       pixel jitter (x, y)
-//! 1 + 6d + 0       2D       distance sampling: first exponential step, event choice  [reserved]
+//! 1 + 6d + 0       2D       free flight: first exponential depth, first event choice
 //! 1 + 6d + 1       1D       light selection (next-event estimation)
 //! 1 + 6d + 2       2D       light sample (point on the light / environment direction)
 //! 1 + 6d + 3       1D       lobe choice: BSDF lobe, or dielectric Fresnel reflect/refract
@@ -52,9 +52,12 @@
 //! ```
 //!
 //! The free-flight loops (delta, ratio and decomposition tracking) draw an unbounded number of
-//! uniforms per ray, so they keep the PCG [`Rng`] of the same (pixel, sample, seed); pbrt-v4
-//! likewise seeds an RNG for majorant sampling. Block `1 + 6d + 0` is reserved so that feeding
-//! the first free-flight step from the sampler later does not shift the other blocks.
+//! uniforms per ray, so they draw from the PCG [`Rng`] of the same (pixel, sample, seed), as
+//! pbrt-v4 seeds an RNG for majorant sampling; but the FIRST two draws of the first free
+//! flight after each scattering event (the first tentative collision's exponential depth and
+//! its event choice, which decide most single scattering in thin media) are block `1 + 6d + 0`,
+//! queued on the stream ([`Sampler::queue_on_stream`]); a flight continued past a null
+//! interface draws from the stream alone, so no point serves two decisions.
 //!
 //! [`SamplerKind::Independent`] reproduces the pre-Sobol renders exactly: every decision then
 //! draws from the path's [`Rng`] in call order, as before.
@@ -236,6 +239,17 @@ impl Sampler {
         match self.kind {
             SamplerKind::Sobol => sobol_point(self.pixel, self.sample, block, self.seed),
             SamplerKind::Independent => self.rng.uniform_vec2(),
+        }
+    }
+
+    /// Queues block `block`'s 2D point as the next two uniforms of the path's stream, for the
+    /// first draws of a free flight (its first exponential depth and first event choice);
+    /// nothing for the independent sampler, whose stream draws them itself.
+    #[inline]
+    pub fn queue_on_stream(&mut self, block: u32) {
+        if self.kind == SamplerKind::Sobol {
+            let (x, y) = sobol_point_u32(self.pixel, self.sample, block, self.seed);
+            self.rng.queue_uniforms(x, y);
         }
     }
 
