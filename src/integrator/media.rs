@@ -134,17 +134,17 @@ impl TrackingConfig {
         }
     }
 
-    /// The control extinction of the decomposition estimators (none for the others). With
-    /// local bounds the control is the per-leaf minorant (a true minorant: no negative
-    /// residual); with the global bound it is `m * bound`, capped by the global minorant for
-    /// analog decomposition (which must not exceed `sigma_t`) and uncapped for the weighted
-    /// estimator (signed weights where the control exceeds the density).
+    /// The control extinction of decomposition tracking and residual ratio tracking. With
+    /// local bounds (per-leaf or adaptive) it is the segment's minorant for every estimator:
+    /// a true minorant, so no residual is negative, and where a segment is uniform (tiles,
+    /// the inside of a fog) the residual vanishes and the control is the whole answer. The
+    /// delta-type distance samplers never look at it. With the global bound it is `m * bound`,
+    /// capped by the global minorant for analog decomposition (which must not exceed
+    /// `sigma_t`) and uncapped for the weighted estimator (signed weights where the control
+    /// exceeds the density); none for the delta-type estimators.
     pub fn control(&self) -> ControlExtinction {
-        let local = self.majorant.is_local();
-        match (self.estimator, local, self.m) {
-            (Estimator::Decomposition | Estimator::WeightedDecomposition, true, _) => {
-                ControlExtinction::SegmentMinorant
-            }
+        match (self.estimator, self.majorant.is_local(), self.m) {
+            (_, true, _) => ControlExtinction::SegmentMinorant,
             (Estimator::Decomposition, false, Some(m)) => {
                 ControlExtinction::FractionOfBoundCapped(m)
             }
@@ -153,6 +153,19 @@ impl TrackingConfig {
                 ControlExtinction::FractionOfBound(m.unwrap_or(super::settings::DEFAULT_WEIGHTED_M))
             }
             _ => ControlExtinction::None,
+        }
+    }
+
+    /// Whether shadow rays use residual ratio tracking (Novak et al. 2014) rather than ratio
+    /// tracking: `--shadow auto` takes it whenever there is a control. With the local
+    /// minorant as control it never costs more lookups than ratio tracking (its residual
+    /// majorant `sigma_maj - sigma_min` is at most `sigma_maj`) and is exact, with no lookup,
+    /// across uniform segments, where ratio tracking's first collision would zero the estimate.
+    pub fn residual_shadow(&self) -> bool {
+        match self.shadow {
+            ShadowEstimator::Ratio => false,
+            ShadowEstimator::ResidualRatio => true,
+            ShadowEstimator::Auto => self.control() != ControlExtinction::None,
         }
     }
 
@@ -523,15 +536,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
     } else {
         let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
         let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-        let residual = match cfg.shadow {
-            ShadowEstimator::Ratio => false,
-            ShadowEstimator::ResidualRatio => true,
-            ShadowEstimator::Auto => matches!(
-                cfg.estimator,
-                Estimator::Decomposition | Estimator::WeightedDecomposition
-            ),
-        };
-        let t = if residual {
+        let t = if cfg.residual_shadow() {
             tracking::residual_ratio::transmittance(
                 segs,
                 t1,

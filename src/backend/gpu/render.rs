@@ -58,7 +58,7 @@ use crate::gpu_types::{
 use crate::integrator::blackbody;
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
-use crate::integrator::settings::{Absorption, ShadowEstimator};
+use crate::integrator::settings::Absorption;
 use crate::integrator::{
     Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings, SamplerKind,
 };
@@ -486,14 +486,7 @@ fn medium_params(
             Estimator::WeightedDecomposition => GpuEstimator::WeightedDecomposition,
         }
     };
-    let residual = match cfg.shadow {
-        ShadowEstimator::Ratio => false,
-        ShadowEstimator::ResidualRatio => true,
-        ShadowEstimator::Auto => matches!(
-            cfg.estimator,
-            Estimator::Decomposition | Estimator::WeightedDecomposition
-        ),
-    };
+    let residual = cfg.residual_shadow();
     let shadow = if spectral {
         GpuEstimator::Spectral
     } else if residual {
