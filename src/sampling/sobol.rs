@@ -108,9 +108,9 @@ pub fn owen_scramble(v: u32, seed: u32) -> u32 {
     laine_karras(v.reverse_bits(), seed).reverse_bits()
 }
 
-/// Sobol dimension 1 (primitive polynomial `x + 1`, all `m_k = 1`) as 32-bit fixed point.
-#[inline]
-pub fn sobol_dim1(mut i: u32) -> u32 {
+/// Sobol dimension 1 (primitive polynomial `x + 1`, all `m_k = 1`) as 32-bit fixed point,
+/// bit by bit: `XOR of v_k over the set bits k of i`.
+pub const fn sobol_dim1_bitwise(mut i: u32) -> u32 {
     let mut v = 1u32 << 31;
     let mut r = 0u32;
     while i != 0 {
@@ -123,6 +123,33 @@ pub fn sobol_dim1(mut i: u32) -> u32 {
     r
 }
 
+/// [`sobol_dim1_bitwise`] of every byte value in each of the 4 byte positions: the map is
+/// linear over GF(2) in the bits of `i`, so `sobol_dim1(i)` is the XOR of 4 table entries
+/// (the scrambled indices have ~16 set bits of 32, and a 32-step loop with an unpredictable
+/// branch per bit cost more than the rest of a point).
+const DIM1_BYTES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            t[k][b] = sobol_dim1_bitwise((b as u32) << (8 * k));
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// Sobol dimension 1 as 32-bit fixed point (equal to [`sobol_dim1_bitwise`], by table).
+#[inline]
+pub fn sobol_dim1(i: u32) -> u32 {
+    DIM1_BYTES[0][(i & 0xff) as usize]
+        ^ DIM1_BYTES[1][(i >> 8 & 0xff) as usize]
+        ^ DIM1_BYTES[2][(i >> 16 & 0xff) as usize]
+        ^ DIM1_BYTES[3][(i >> 24) as usize]
+}
+
 /// The unscrambled 2D Sobol point `i` (dimensions 0 and 1) as 32-bit fixed point.
 #[inline]
 pub fn sobol_2d(i: u32) -> (u32, u32) {
@@ -132,20 +159,40 @@ pub fn sobol_2d(i: u32) -> (u32, u32) {
 /// Seed of one dimension block of one pixel.
 #[inline]
 pub fn block_seed(pixel: u32, block: u32, seed: u32) -> u32 {
-    pcg_hash(pcg_hash(pcg_hash(seed ^ SOBOL_SALT) ^ pixel) ^ block)
+    pcg_hash(pixel_seed(pixel, seed) ^ block)
+}
+
+/// The part of [`block_seed`] shared by every block of a pixel (a sampler keeps it).
+#[inline]
+pub fn pixel_seed(pixel: u32, seed: u32) -> u32 {
+    pcg_hash(pcg_hash(seed ^ SOBOL_SALT) ^ pixel)
 }
 
 /// The scrambled 2D point of `(pixel, sample, block)` as 32-bit fixed point: the bits the
 /// WGSL mirror must reproduce.
 #[inline]
 pub fn sobol_point_u32(pixel: u32, sample: u32, block: u32, seed: u32) -> (u32, u32) {
-    let s = block_seed(pixel, block, seed);
+    point_from_pixel_seed(pixel_seed(pixel, seed), sample, block)
+}
+
+/// [`sobol_point_u32`] from the pixel's [`pixel_seed`].
+#[inline]
+fn point_from_pixel_seed(pixel_seed: u32, sample: u32, block: u32) -> (u32, u32) {
+    let s = pcg_hash(pixel_seed ^ block);
     let i = owen_scramble(sample, pcg_hash(s));
     let (x, y) = sobol_2d(i);
     (
         owen_scramble(x, pcg_hash(s ^ 1)),
         owen_scramble(y, pcg_hash(s ^ 2)),
     )
+}
+
+/// The first coordinate of [`point_from_pixel_seed`] alone (a 1D decision needs no `y`).
+#[inline]
+fn x_from_pixel_seed(pixel_seed: u32, sample: u32, block: u32) -> u32 {
+    let s = pcg_hash(pixel_seed ^ block);
+    let i = owen_scramble(sample, pcg_hash(s));
+    owen_scramble(i.reverse_bits(), pcg_hash(s ^ 1))
 }
 
 /// [`sobol_point_u32`] in `[0, 1)^2`: the top 24 bits, exact in f32, never 1.
@@ -213,9 +260,9 @@ pub struct Sampler {
     /// The (pixel, sample, seed) stream: free flights and transmittance always draw from it.
     pub rng: Rng,
     kind: SamplerKind,
-    pixel: u32,
+    /// [`pixel_seed`] of the pixel and render seed (shared by every block of the path).
+    pixel_seed: u32,
     sample: u32,
-    seed: u32,
 }
 
 impl Sampler {
@@ -223,9 +270,8 @@ impl Sampler {
         Sampler {
             rng: Rng::new(pixel, sample, seed),
             kind,
-            pixel,
+            pixel_seed: pixel_seed(pixel, seed),
             sample,
-            seed,
         }
     }
 
@@ -237,7 +283,10 @@ impl Sampler {
     #[inline]
     pub fn get2d(&mut self, block: u32) -> Vec2 {
         match self.kind {
-            SamplerKind::Sobol => sobol_point(self.pixel, self.sample, block, self.seed),
+            SamplerKind::Sobol => {
+                let (x, y) = point_from_pixel_seed(self.pixel_seed, self.sample, block);
+                Vec2::new(to_unit(x), to_unit(y))
+            }
             SamplerKind::Independent => self.rng.uniform_vec2(),
         }
     }
@@ -248,7 +297,7 @@ impl Sampler {
     #[inline]
     pub fn queue_on_stream(&mut self, block: u32) {
         if self.kind == SamplerKind::Sobol {
-            let (x, y) = sobol_point_u32(self.pixel, self.sample, block, self.seed);
+            let (x, y) = point_from_pixel_seed(self.pixel_seed, self.sample, block);
             self.rng.queue_uniforms(x, y);
         }
     }
@@ -257,10 +306,7 @@ impl Sampler {
     #[inline]
     pub fn get1d(&mut self, block: u32) -> f32 {
         match self.kind {
-            SamplerKind::Sobol => {
-                let (x, _) = sobol_point_u32(self.pixel, self.sample, block, self.seed);
-                to_unit(x)
-            }
+            SamplerKind::Sobol => to_unit(x_from_pixel_seed(self.pixel_seed, self.sample, block)),
             SamplerKind::Independent => self.rng.uniform_f32(),
         }
     }
@@ -461,5 +507,22 @@ mod tests {
         let expected = h.expected(n, &pdf, 1e-9);
         let out = chi2_test(&h.counts, &expected, 5.0);
         assert!(out.p_value >= alpha, "HG g={g}: {out:?}");
+    }
+}
+
+#[cfg(test)]
+mod fast_path_tests {
+    use super::*;
+
+    #[test]
+    fn the_byte_tables_and_the_1d_path_equal_the_definitions() {
+        let mut x = 0x1234_5678u32;
+        for _ in 0..100_000 {
+            x = pcg_hash(x);
+            assert_eq!(sobol_dim1(x), sobol_dim1_bitwise(x));
+            let (pixel, sample, block, seed) = (x % 4099, x >> 20, x % 61, x ^ 0x55);
+            let p = sobol_point_u32(pixel, sample, block, seed);
+            assert_eq!(x_from_pixel_seed(pixel_seed(pixel, seed), sample, block), p.0);
+        }
     }
 }

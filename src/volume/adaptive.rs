@@ -209,7 +209,7 @@ impl AdaptiveMajorants {
     }
 
     /// Bounds of node `n` of level `l`.
-    #[inline]
+    #[inline(always)]
     pub fn node(&self, l: usize, n: [i32; 3]) -> CellBounds {
         let lv = &self.levels[l];
         let [dx, dy, _] = lv.dims.map(|d| d as usize);
@@ -217,7 +217,7 @@ impl AdaptiveMajorants {
             [lv.offset as usize + n[0] as usize + dx * (n[1] as usize + dy * n[2] as usize)]
     }
 
-    #[inline]
+    #[inline(always)]
     fn level_of(&self, c: [i32; 3]) -> u32 {
         let [nx, ny, _] = self.dims.map(|d| d as usize);
         self.node_level[c[0] as usize + nx * (c[1] as usize + ny * c[2] as usize)] as u32
@@ -408,7 +408,7 @@ impl<'a> AdaptiveMajorantIterator<'a> {
 
     /// Ray parameter where the ray leaves node `node` of level `l` along `axis`, computed
     /// afresh from the plane's position (as the per-leaf DDA does).
-    #[inline]
+    #[inline(always)]
     fn crossing(&self, axis: usize, node: i32, l: u32) -> f32 {
         let plane_node = match self.step[axis] {
             0 => return f32::INFINITY,
@@ -426,8 +426,13 @@ impl Iterator for AdaptiveMajorantIterator<'_> {
     fn next(&mut self) -> Option<MajorantSegment> {
         while !self.done {
             let l = self.tree.level_of(self.cell);
-            let node = self.cell.map(|c| c >> l);
-            let c = [0, 1, 2].map(|a| self.crossing(a, node[a], l));
+            let node = [self.cell[0] >> l, self.cell[1] >> l, self.cell[2] >> l];
+            // Written out: an array map here compiled to a call per segment.
+            let c = [
+                self.crossing(0, node[0], l),
+                self.crossing(1, node[1], l),
+                self.crossing(2, node[2], l),
+            ];
             let axis = if c[0] <= c[1] && c[0] <= c[2] {
                 0
             } else if c[1] <= c[2] {
