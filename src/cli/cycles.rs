@@ -6,16 +6,18 @@
 //! them into one EXR laid out like Brume's (beauty, `variance.R/G/B` = variance of the pixel
 //! mean estimated across the runs, `samples.Y`). With `--against brume.exr` it prints the image
 //! mean relative difference and an 8x8 block z-test (docs/CYCLES.md).
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use brume::film::{read_exr, write_image, AttrValue, Metadata};
 
-use super::reference::{compare, merge_runs, output_tail, read_runs, seconds_list};
+use super::reference::{
+    compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
+};
 
 /// One line that says how to get a Python with bpy.
 const INSTALL_HINT: &str = "no Python with bpy found: run tools/cycles/ci.sh (Python 3.11 venv \
@@ -61,46 +63,19 @@ pub struct CyclesArgs {
 /// A Python that imports bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the
 /// working directory or the source tree), then `python3` on the PATH.
 pub fn find_bpy_python() -> Result<PathBuf> {
-    if let Some(p) = std::env::var_os("BRUME_BPY_PYTHON") {
-        let p = PathBuf::from(p);
-        if imports_bpy(&p) {
-            return Ok(p);
-        }
-        bail!("BRUME_BPY_PYTHON={} cannot `import bpy`", p.display());
-    }
-    let venv = Path::new("tools/cycles/.venv/bin/python");
-    let candidates = [
-        venv.to_path_buf(),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(venv),
-        PathBuf::from("python3"),
-    ];
-    candidates
-        .into_iter()
-        .find(|p| imports_bpy(p))
-        .ok_or_else(|| anyhow!(INSTALL_HINT))
-}
-
-fn imports_bpy(python: &Path) -> bool {
-    Command::new(python)
-        .args(["-c", "import bpy"])
-        .output()
-        .is_ok_and(|o| o.status.success())
+    find_python(
+        "BRUME_BPY_PYTHON",
+        "tools/cycles/.venv/bin/python",
+        "bpy",
+        true,
+        INSTALL_HINT,
+    )
 }
 
 /// The translation script: `BRUME_CYCLES_SCRIPT`, else `tools/cycles/brume_to_cycles.py` in
 /// the working directory or the source tree.
 fn script_path() -> Result<PathBuf> {
-    if let Some(p) = std::env::var_os("BRUME_CYCLES_SCRIPT") {
-        return Ok(PathBuf::from(p));
-    }
-    let rel = Path::new("tools/cycles/brume_to_cycles.py");
-    [
-        rel.to_path_buf(),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel),
-    ]
-    .into_iter()
-    .find(|p| p.is_file())
-    .ok_or_else(|| anyhow!("{} not found", rel.display()))
+    find_script("BRUME_CYCLES_SCRIPT", "tools/cycles/brume_to_cycles.py")
 }
 
 pub fn run(args: &CyclesArgs) -> Result<()> {

@@ -24,7 +24,9 @@ use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use brume::scene::{BoundsSource, Scene, NO_INDEX};
 use brume::volume::mitsuba_vol::vol_from_grid;
 
-use super::reference::{compare, merge_runs, output_tail, read_runs, seconds_list};
+use super::reference::{
+    compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
+};
 
 const INSTALL_HINT: &str = "no Python with Mitsuba 3 found: run tools/mitsuba/setup.sh (venv \
      tools/mitsuba/.venv with `pip install mitsuba`), or set BRUME_MITSUBA_PYTHON to a python \
@@ -78,47 +80,19 @@ pub struct MitsubaArgs {
 /// A Python that imports mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to
 /// the working directory or the source tree.
 pub fn find_mitsuba_python() -> Result<PathBuf> {
-    if let Some(p) = std::env::var_os("BRUME_MITSUBA_PYTHON") {
-        let p = PathBuf::from(p);
-        if imports_mitsuba(&p) {
-            return Ok(p);
-        }
-        bail!(
-            "BRUME_MITSUBA_PYTHON={} cannot `import mitsuba`",
-            p.display()
-        );
-    }
-    let venv = Path::new("tools/mitsuba/.venv/bin/python");
-    [
-        venv.to_path_buf(),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(venv),
-    ]
-    .into_iter()
-    .find(|p| imports_mitsuba(p))
-    .ok_or_else(|| anyhow!(INSTALL_HINT))
-}
-
-fn imports_mitsuba(python: &Path) -> bool {
-    Command::new(python)
-        .args(["-c", "import mitsuba"])
-        .output()
-        .is_ok_and(|o| o.status.success())
+    find_python(
+        "BRUME_MITSUBA_PYTHON",
+        "tools/mitsuba/.venv/bin/python",
+        "mitsuba",
+        false,
+        INSTALL_HINT,
+    )
 }
 
 /// The translation script: `BRUME_MITSUBA_SCRIPT`, else `tools/mitsuba/brume_to_mitsuba.py`
 /// in the working directory or the source tree.
 fn script_path() -> Result<PathBuf> {
-    if let Some(p) = std::env::var_os("BRUME_MITSUBA_SCRIPT") {
-        return Ok(PathBuf::from(p));
-    }
-    let rel = Path::new("tools/mitsuba/brume_to_mitsuba.py");
-    [
-        rel.to_path_buf(),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel),
-    ]
-    .into_iter()
-    .find(|p| p.is_file())
-    .ok_or_else(|| anyhow!("{} not found", rel.display()))
+    find_script("BRUME_MITSUBA_SCRIPT", "tools/mitsuba/brume_to_mitsuba.py")
 }
 
 pub fn run(args: &MitsubaArgs) -> Result<()> {

@@ -3,7 +3,8 @@
 //! runs, samples), reading the per-run report of their Python scripts, and the agreement
 //! summary printed by `--against` (image mean relative difference and an 8x8 block z-test,
 //! README "Comparing against Cycles").
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 
 use anyhow::{anyhow, bail, Context, Result};
 
@@ -15,6 +16,58 @@ use brume::study::stats::erfc;
 pub struct RunReport {
     pub seconds: f64,
     pub image: Image,
+}
+
+/// A Python that can `import module`: `$env_var` (an error if it cannot), then `venv_python`
+/// next to the working directory, then the same in the source tree, then `python3` on the
+/// PATH when `path_python`; `hint` says how to get one.
+pub fn find_python(
+    env_var: &str,
+    venv_python: &str,
+    module: &str,
+    path_python: bool,
+    hint: &str,
+) -> Result<PathBuf> {
+    let imports = |python: &Path| {
+        Command::new(python)
+            .args(["-c", &format!("import {module}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if let Some(p) = std::env::var_os(env_var) {
+        let p = PathBuf::from(p);
+        if imports(&p) {
+            return Ok(p);
+        }
+        bail!("{env_var}={} cannot `import {module}`", p.display());
+    }
+    let venv = Path::new(venv_python);
+    let mut candidates = vec![
+        venv.to_path_buf(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(venv),
+    ];
+    if path_python {
+        candidates.push(PathBuf::from("python3"));
+    }
+    candidates
+        .into_iter()
+        .find(|p| imports(p))
+        .ok_or_else(|| anyhow!(hint.to_string()))
+}
+
+/// A translation script: `$env_var`, else `rel` in the working directory or the source tree.
+pub fn find_script(env_var: &str, rel: &str) -> Result<PathBuf> {
+    if let Some(p) = std::env::var_os(env_var) {
+        return Ok(PathBuf::from(p));
+    }
+    let rel = Path::new(rel);
+    [
+        rel.to_path_buf(),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(rel),
+    ]
+    .into_iter()
+    .find(|p| p.is_file())
+    .ok_or_else(|| anyhow!("{} not found", rel.display()))
 }
 
 /// The runs a script reported, in order; an error unless there are exactly `runs` of them.

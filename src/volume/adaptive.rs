@@ -36,8 +36,9 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::bounds::{CellBounds, LeafBounds};
+use super::dda::enter_box;
 use super::segment::MajorantSegment;
-use crate::math::{Aabb, Ray, Vec3};
+use crate::math::{Ray, Vec3};
 
 /// Edge of one level-0 cell in index units.
 const CELL_WIDTH: f32 = 8.0;
@@ -386,34 +387,12 @@ impl<'a> AdaptiveMajorantIterator<'a> {
             t_exit: 0.0,
             done: true,
         };
-        if dims.iter().any(|&n| n <= 0) {
-            return it;
-        }
-        let hi = lo + CELL_WIDTH * Vec3::from_array(dims.map(|n| n as f32));
-        // The per-leaf DDA's entry, exactly (same slab test, same cell choice).
-        let Some((t_enter, t_exit)) = Aabb::new(lo, hi).intersect(ray, t0, t1) else {
+        let Some(e) = enter_box(lo, Vec3::splat(CELL_WIDTH), dims, ray, t0, t1) else {
             return it;
         };
-        if !(t_enter < t_exit) {
-            return it;
-        }
-        let p = ray.at(t_enter);
-        for a in 0..3 {
-            let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
-            let g = ((x - lo[a]) / CELL_WIDTH).floor();
-            it.cell[a] = if g.is_nan() {
-                0
-            } else {
-                (g as i32).clamp(0, dims[a] - 1)
-            };
-            it.step[a] = if ray.d[a] > 0.0 {
-                1
-            } else if ray.d[a] < 0.0 {
-                -1
-            } else {
-                0
-            };
-        }
+        it.cell = e.cell;
+        it.step = e.step;
+        let (t_enter, t_exit) = (e.t_enter, e.t_exit);
         it.t = t_enter;
         it.t_exit = t_exit;
         it.done = false;

@@ -19,6 +19,68 @@ use crate::math::{Aabb, Ray, Vec3};
 /// Edge of one bounds cell in index units.
 const CELL_WIDTH: f32 = 8.0;
 
+/// Where a ray enters a box of `dims` cells of size `width` from `lo`, clipped to `[t0, t1]`:
+/// the entry cell, the step direction per axis and the overlap. Shared by the per-leaf DDA and
+/// the adaptive walk, so both start the same way bit for bit.
+pub(crate) struct BoxEntry {
+    pub cell: [i32; 3],
+    /// -1, 0 or +1: the direction the cell index moves along each axis. 0 for `d == ±0.0`,
+    /// so an axis-parallel ray never steps on that axis.
+    pub step: [i32; 3],
+    pub t_enter: f32,
+    pub t_exit: f32,
+}
+
+/// [`BoxEntry`] of `ray`, or `None` when the overlap is empty (or the box is).
+pub(crate) fn enter_box(
+    lo: Vec3,
+    width: Vec3,
+    dims: [i32; 3],
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+) -> Option<BoxEntry> {
+    if dims.iter().any(|&n| n <= 0) {
+        return None;
+    }
+    let hi = lo + width * Vec3::from_array(dims.map(|n| n as f32));
+    // The same slab test a renderer would use for the box, so the tiling is exact.
+    let (t_enter, t_exit) = Aabb::new(lo, hi).intersect(ray, t0, t1)?;
+    // Written positively so NaN parameters are rejected too; an empty overlap yields nothing.
+    if !(t_enter < t_exit) {
+        return None;
+    }
+    let p = ray.at(t_enter);
+    let mut cell = [0; 3];
+    let mut step = [0; 3];
+    for a in 0..3 {
+        // On an axis the ray does not move along, `t_enter` may be infinite and `t * 0`
+        // NaN: the coordinate is simply the origin's.
+        let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
+        let g = ((x - lo[a]) / width[a]).floor();
+        // Rounding can put the entry point a hair outside the box: clamp into it.
+        cell[a] = if g.is_nan() {
+            0
+        } else {
+            (g as i32).clamp(0, dims[a] - 1)
+        };
+        // `-0.0 > 0.0` and `-0.0 < 0.0` are both false: no step, as for `+0.0`.
+        step[a] = if ray.d[a] > 0.0 {
+            1
+        } else if ray.d[a] < 0.0 {
+            -1
+        } else {
+            0
+        };
+    }
+    Some(BoxEntry {
+        cell,
+        step,
+        t_enter,
+        t_exit,
+    })
+}
+
 /// Lazily yields the majorant segments of a ray in index space. Allocates nothing; the
 /// tracking loop pulls segments until it collides or runs out.
 #[derive(Clone, Debug)]
@@ -113,42 +175,15 @@ impl<'a> DdaMajorantIterator<'a> {
             t_exit: 0.0,
             done: true,
         };
-        if dims.iter().any(|&n| n <= 0) {
-            return it;
-        }
-        let hi = lo + width * Vec3::from_array(dims.map(|n| n as f32));
-        // The same slab test a renderer would use for the box, so the tiling is exact.
-        let Some((t_enter, t_exit)) = Aabb::new(lo, hi).intersect(ray, t0, t1) else {
+        let Some(e) = enter_box(lo, width, dims, ray, t0, t1) else {
             return it;
         };
-        // Written positively so NaN parameters are rejected too; an empty overlap yields
-        // nothing.
-        let overlaps = t_enter < t_exit;
-        if !overlaps {
-            return it;
-        }
-        let p = ray.at(t_enter);
+        it.cell = e.cell;
+        it.step = e.step;
         for a in 0..3 {
-            // On an axis the ray does not move along, `t_enter` may be infinite and `t * 0`
-            // NaN: the coordinate is simply the origin's.
-            let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
-            let g = ((x - lo[a]) / width[a]).floor();
-            // Rounding can put the entry point a hair outside the box: clamp into it.
-            it.cell[a] = if g.is_nan() {
-                0
-            } else {
-                (g as i32).clamp(0, dims[a] - 1)
-            };
-            // `-0.0 > 0.0` and `-0.0 < 0.0` are both false: no step, as for `+0.0`.
-            it.step[a] = if ray.d[a] > 0.0 {
-                1
-            } else if ray.d[a] < 0.0 {
-                -1
-            } else {
-                0
-            };
             it.next_crossing[a] = it.crossing(a);
         }
+        let (t_enter, t_exit) = (e.t_enter, e.t_exit);
         it.t = t_enter;
         it.t_exit = t_exit;
         it.done = false;
