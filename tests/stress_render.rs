@@ -446,8 +446,8 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     // most max(beta): the throughput never exceeds 1 (the bound tested here, per path).
     use brume::integrator::media::TrackingConfig;
     use brume::integrator::path::{radiance, PathLimits, PathStats};
-    use brume::integrator::{Absorption, RenderScene};
     use brume::integrator::SamplerKind;
+    use brume::integrator::{Absorption, RenderScene};
     use brume::sampling::sobol::Sampler;
     use glam::Vec2;
     let dir = temp_dir("dense-chromatic");
@@ -464,7 +464,10 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     assert!(f.heterogeneous && f.absorption && !f.surfaces && !f.chromatic && !f.emission);
     let n = 40_000u32;
     let mut results = Vec::new();
-    for (k, absorption) in [Absorption::Event, Absorption::Weight].into_iter().enumerate() {
+    for (k, absorption) in [Absorption::Event, Absorption::Weight]
+        .into_iter()
+        .enumerate()
+    {
         let s = RenderSettings {
             absorption,
             ..RenderSettings::default()
@@ -509,8 +512,17 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
         weight.2
     );
     // The hazard the weight form removes is real here (not a vacuous bound).
-    assert!(event.2 > 2.0, "absorption as an event: throughput only {}", event.2);
+    assert!(
+        event.2 > 2.0,
+        "absorption as an event: throughput only {}",
+        event.2
+    );
     // Same expectation: two independent estimates, z-test at 99.9 %.
     let z = (event.0 - weight.0).abs() / (event.1 + weight.1).sqrt();
-    assert!(z < 3.29, "event {:?} vs weight {:?}: z {z:.2}", event, weight);
+    assert!(
+        z < 3.29,
+        "event {:?} vs weight {:?}: z {z:.2}",
+        event,
+        weight
+    );
 }

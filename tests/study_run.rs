@@ -183,7 +183,10 @@ fn default_sweep_and_config_syntax() {
     assert_eq!(c.label, "weighted-delta b=0.75 leaf");
     // "local" is the default mode's alias.
     let c = StudyConfig::parse("delta:local").unwrap();
-    assert_eq!((c.majorant, c.label.as_str()), (MajorantMode::Adaptive, "delta adaptive"));
+    assert_eq!(
+        (c.majorant, c.label.as_str()),
+        (MajorantMode::Adaptive, "delta adaptive")
+    );
     // m is unused with per-leaf majorants, b by analog estimators.
     assert_eq!(
         StudyConfig::parse("weighted-decomposition:m=0.03:local")

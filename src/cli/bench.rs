@@ -338,7 +338,16 @@ fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Resu
     );
     println!(
         "{:<22} {:<14} {:<9} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}",
-        "scene", "estimator", "bounds", "ns/sample", "vs global", "segs prim", "segs shad", "lookups", "real coll", "lookups/real"
+        "scene",
+        "estimator",
+        "bounds",
+        "ns/sample",
+        "vs global",
+        "segs prim",
+        "segs shad",
+        "lookups",
+        "real coll",
+        "lookups/real"
     );
     for path in scenes {
         let scene = brume::scene::load(path)?;
@@ -405,7 +414,10 @@ fn adaptive_build() -> Result<()> {
             }
         })
         .collect();
-    let global = cells.iter().copied().fold(CellBounds::EMPTY, CellBounds::union);
+    let global = cells
+        .iter()
+        .copied()
+        .fold(CellBounds::EMPTY, CellBounds::union);
     let leaf = LeafBounds {
         cells,
         dims: [n; 3],

@@ -141,9 +141,18 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     {
         let sum = |f: fn(&CyclesTimes) -> f64| t.iter().map(f).sum::<f64>();
         meta.set("brume:seconds", AttrValue::Double(sum(|t| t.total)))
-            .set("brume:cycles_setup_seconds", AttrValue::Double(sum(|t| t.total - t.render)))
-            .set("brume:cycles_path_tracing_seconds", AttrValue::Double(sum(|t| t.render)))
-            .set("brume:cycles_sync_seconds", AttrValue::Double(sum(|t| t.sync)));
+            .set(
+                "brume:cycles_setup_seconds",
+                AttrValue::Double(sum(|t| t.total - t.render)),
+            )
+            .set(
+                "brume:cycles_path_tracing_seconds",
+                AttrValue::Double(sum(|t| t.render)),
+            )
+            .set(
+                "brume:cycles_sync_seconds",
+                AttrValue::Double(sum(|t| t.sync)),
+            );
     }
     let merged = merge_runs(&images, args.spp, meta)?;
     write_image(&args.output, &merged)?;
@@ -198,8 +207,7 @@ impl CyclesTimes {
 
 /// Blender's `[[HH:]MM:]SS.ff` time stamps in seconds.
 pub fn parse_cycles_time(t: &str) -> Option<f64> {
-    t.trim()
-        .split(':')
-        .try_fold(0.0, |acc, part| Some(acc * 60.0 + part.parse::<f64>().ok()?))
+    t.trim().split(':').try_fold(0.0, |acc, part| {
+        Some(acc * 60.0 + part.parse::<f64>().ok()?)
+    })
 }
-

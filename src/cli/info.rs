@@ -163,7 +163,8 @@ fn vdb(path: &Path, layout: bool) -> Result<()> {
                 // A bare grid has no density scale: build for Blender's default (Density 1,
                 // sigma_t = 1 per unit value per metre).
                 let index_per_t = 1.0 / loaded.grid.voxel_size.x.max(1e-30) as f32;
-                let a = AdaptiveMajorants::build(&loaded.bounds, 1.0, index_per_t, CostModel::DEFAULT);
+                let a =
+                    AdaptiveMajorants::build(&loaded.bounds, 1.0, index_per_t, CostModel::DEFAULT);
                 print_adaptive("  adaptive (density 1)", &a, 1.0, index_per_t);
                 let wb = loaded.grid.world_bounds();
                 println!(

@@ -12,8 +12,7 @@ use brume::film::{
     totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
 };
 use brume::integrator::{
-    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind,
-    ShadowEstimator,
+    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
 };
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
@@ -359,7 +358,10 @@ fn write_outputs(
         "brume:absorption",
         AttrValue::Text(settings.absorption.name().to_string()),
     );
-    meta.set("brume:rr_throughput", AttrValue::Float(settings.rr_throughput));
+    meta.set(
+        "brume:rr_throughput",
+        AttrValue::Float(settings.rr_throughput),
+    );
     meta.set(
         "brume:sampler",
         AttrValue::Text(settings.sampler.name().into()),

@@ -200,12 +200,20 @@ fn segments<'a>(
 ) -> Segments<'a> {
     let bounds = &m.density.grid.bounds;
     match mode {
-        MajorantMode::Leaf => {
-            Segments::Dda(DdaMajorantIterator::new(bounds, ray_i, t0, t1, m.sigma_t_bound))
-        }
-        MajorantMode::Global => {
-            Segments::Dda(DdaMajorantIterator::global(bounds, ray_i, t0, t1, m.sigma_t_bound))
-        }
+        MajorantMode::Leaf => Segments::Dda(DdaMajorantIterator::new(
+            bounds,
+            ray_i,
+            t0,
+            t1,
+            m.sigma_t_bound,
+        )),
+        MajorantMode::Global => Segments::Dda(DdaMajorantIterator::global(
+            bounds,
+            ray_i,
+            t0,
+            t1,
+            m.sigma_t_bound,
+        )),
         MajorantMode::Adaptive => Segments::Adaptive(AdaptiveMajorantIterator::new(
             &m.adaptive,
             ray_i,
@@ -465,7 +473,9 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     // With absorption as a weight the grey view has no absorption coefficient at all, so the
     // ABS = false view compiles it out of the lookups.
     match (ABS, cfg.absorption) {
-        (true, Absorption::Event) => sample_grey::<EMIT, true>(m, ray, t0, t1, beta, cfg, rng, stats, l),
+        (true, Absorption::Event) => {
+            sample_grey::<EMIT, true>(m, ray, t0, t1, beta, cfg, rng, stats, l)
+        }
         _ => sample_grey::<EMIT, false>(m, ray, t0, t1, beta, cfg, rng, stats, l),
     }
 }

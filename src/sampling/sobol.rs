@@ -522,7 +522,10 @@ mod fast_path_tests {
             assert_eq!(sobol_dim1(x), sobol_dim1_bitwise(x));
             let (pixel, sample, block, seed) = (x % 4099, x >> 20, x % 61, x ^ 0x55);
             let p = sobol_point_u32(pixel, sample, block, seed);
-            assert_eq!(x_from_pixel_seed(pixel_seed(pixel, seed), sample, block), p.0);
+            assert_eq!(
+                x_from_pixel_seed(pixel_seed(pixel, seed), sample, block),
+                p.0
+            );
         }
     }
 }

@@ -217,8 +217,7 @@ impl AdaptiveMajorants {
     pub fn node(&self, l: usize, n: [i32; 3]) -> CellBounds {
         let lv = &self.levels[l];
         let [dx, dy, _] = lv.dims.map(|d| d as usize);
-        self.nodes
-            [lv.offset as usize + n[0] as usize + dx * (n[1] as usize + dy * n[2] as usize)]
+        self.nodes[lv.offset as usize + n[0] as usize + dx * (n[1] as usize + dy * n[2] as usize)]
     }
 
     #[inline(always)]
@@ -248,7 +247,8 @@ impl AdaptiveMajorants {
                 nodes_per_level[l as usize] += 1;
             }
         }
-        let chord = |l: usize| (2.0 / 3.0) * CELL_WIDTH as f64 * (1u64 << l) as f64 / index_per_t as f64;
+        let chord =
+            |l: usize| (2.0 / 3.0) * CELL_WIDTH as f64 * (1u64 << l) as f64 / index_per_t as f64;
         let leaf_cost = |l: usize, b: CellBounds| {
             cost.step as f64 + cost.collision as f64 * (scale * b.max).max(0.0) as f64 * chord(l)
         };
@@ -269,7 +269,11 @@ impl AdaptiveMajorants {
                 if self.level_of(first) as usize == l {
                     a.push(leaf_cost(l, self.nodes[here.offset as usize + i]));
                 } else {
-                    a.push(children(below.dims, n).map(|c| 0.25 * adaptive[c]).sum::<f64>());
+                    a.push(
+                        children(below.dims, n)
+                            .map(|c| 0.25 * adaptive[c])
+                            .sum::<f64>(),
+                    );
                 }
             }
             fine = f;
@@ -303,7 +307,9 @@ impl AdaptiveMajorants {
                     b.union(self.nodes[below.offset as usize + c])
                 });
                 if u != self.nodes[here.offset as usize + i] {
-                    return Err(format!("level {l} node {n:?}: bounds are not its children's union"));
+                    return Err(format!(
+                        "level {l} node {n:?}: bounds are not its children's union"
+                    ));
                 }
             }
         }
@@ -336,7 +342,11 @@ impl AdaptiveMajorants {
 fn children(below: [u32; 3], n: [usize; 3]) -> impl Iterator<Item = usize> {
     let [bx, by, bz] = below.map(|d| d as usize);
     (0..8).filter_map(move |k| {
-        let c = [2 * n[0] + (k & 1), 2 * n[1] + (k >> 1 & 1), 2 * n[2] + (k >> 2)];
+        let c = [
+            2 * n[0] + (k & 1),
+            2 * n[1] + (k >> 1 & 1),
+            2 * n[2] + (k >> 2),
+        ];
         (c[0] < bx && c[1] < by && c[2] < bz).then(|| c[0] + bx * (c[1] + by * c[2]))
     })
 }
@@ -419,7 +429,8 @@ impl Iterator for AdaptiveMajorantIterator<'_> {
     fn next(&mut self) -> Option<MajorantSegment> {
         while !self.done {
             let [_, nx, nxy] = self.level_index[0];
-            let l = self.node_level[(self.cell[0] as u32 + nx * self.cell[1] as u32
+            let l = self.node_level[(self.cell[0] as u32
+                + nx * self.cell[1] as u32
                 + nxy * self.cell[2] as u32) as usize] as u32;
             let node = [self.cell[0] >> l, self.cell[1] >> l, self.cell[2] >> l];
             // Written out: an array map here compiled to a call per segment.
@@ -575,10 +586,26 @@ mod tests {
     fn merging_follows_the_cost_model() {
         let (_, leaf) = grid();
         // Cheap steps: nothing with different bounds merges; equal bounds always do.
-        let fine = AdaptiveMajorants::build(&leaf, 1.0, 1.0, CostModel { step: 1e-6, collision: 1.0 });
+        let fine = AdaptiveMajorants::build(
+            &leaf,
+            1.0,
+            1.0,
+            CostModel {
+                step: 1e-6,
+                collision: 1.0,
+            },
+        );
         fine.validate(&leaf).unwrap();
         // Dear steps: everything merges into the top node.
-        let coarse = AdaptiveMajorants::build(&leaf, 1.0, 1.0, CostModel { step: 1e9, collision: 1.0 });
+        let coarse = AdaptiveMajorants::build(
+            &leaf,
+            1.0,
+            1.0,
+            CostModel {
+                step: 1e9,
+                collision: 1.0,
+            },
+        );
         coarse.validate(&leaf).unwrap();
         let top = coarse.levels.len() as u8 - 1;
         assert!(coarse.node_level.iter().all(|&l| l == top));
@@ -587,7 +614,10 @@ mod tests {
         let d = AdaptiveMajorants::build(&leaf, 0.1, 1.0, CostModel::DEFAULT);
         d.validate(&leaf).unwrap();
         let s = d.stats(0.1, 1.0, CostModel::DEFAULT);
-        assert!(s.cost_adaptive <= s.cost_leaf.min(s.cost_global) * 1.0001, "{s:?}");
+        assert!(
+            s.cost_adaptive <= s.cost_leaf.min(s.cost_global) * 1.0001,
+            "{s:?}"
+        );
     }
 
     #[test]

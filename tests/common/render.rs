@@ -131,7 +131,12 @@ pub fn compare(a: (&[f64], &[f64]), b: (&[f64], &[f64]), alpha: f64) -> Agreemen
 /// of each block mean (the pixels are independent): a heavy-tailed estimator's rare large
 /// weights are better represented in a block's pooled samples than in one pixel's, so the
 /// normal approximation of a z-test holds at fewer samples per pixel.
-pub fn block_moments(m: &(Vec<f64>, Vec<f64>), w: usize, h: usize, b: usize) -> (Vec<f64>, Vec<f64>) {
+pub fn block_moments(
+    m: &(Vec<f64>, Vec<f64>),
+    w: usize,
+    h: usize,
+    b: usize,
+) -> (Vec<f64>, Vec<f64>) {
     let (bw, bh) = (w / b, h / b);
     let mut mean = vec![0.0; bw * bh * 3];
     let mut var = vec![0.0; bw * bh * 3];

@@ -707,16 +707,15 @@ pub fn render_with_timings(
             // The emission grids follow the density in the same buffers.
             let fields = emission_fields(m, features);
             let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
-            let (mut gg, mut infos) =
-                GpuGrid::upload_with(
-                    ctx,
-                    &g.grid,
-                    &g.bounds,
-                    (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive),
-                    m.sigma_t_bound,
-                    &extra,
-                )
-                    .map_err(GpuRenderError::Limits)?;
+            let (mut gg, mut infos) = GpuGrid::upload_with(
+                ctx,
+                &g.grid,
+                &g.bounds,
+                (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive),
+                m.sigma_t_bound,
+                &extra,
+            )
+            .map_err(GpuRenderError::Limits)?;
             gg.info.index_from_world = affine_rows(m.density.index_from_world);
             ctx.queue
                 .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));

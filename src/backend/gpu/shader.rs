@@ -13,8 +13,9 @@
 //! can be traced back. [`MODULES`] lists every module Brume builds; `tests/gpu_wgsl.rs`
 //! validates each with naga.
 use crate::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuQueue, GpuWideCounter, PATH_FLAG_SPECULAR,
-    PATH_FLAG_FLIGHT_STARTED, PATH_FLAG_SURFACE, SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
+    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuQueue, GpuWideCounter,
+    PATH_FLAG_FLIGHT_STARTED, PATH_FLAG_SPECULAR, PATH_FLAG_SURFACE, SURFACE_DIELECTRIC,
+    SURFACE_NULL, SURFACE_OPAQUE,
 };
 use std::fmt::Write;
 
