@@ -2,6 +2,7 @@
 #![allow(dead_code, unused_imports)]
 pub mod gpu;
 pub mod grids;
+pub mod reference;
 pub mod render;
 pub mod stats;
 pub mod stress;

@@ -1,0 +1,70 @@
+//! The cloud rendered by Brume and by a reference renderer (`brume cycles`, `brume mitsuba`),
+//! compared by the command's own `--against` agreement: the image means within 1 % and at
+//! most 1 % of the 8x8 blocks failing the block z-test. Shared by the reference tests.
+use std::path::Path;
+use std::process::Command;
+
+/// Renders `scenes/cloud.gltf` at 32x24 with Brume (256 spp, seed 7) into `dir`, then with
+/// `brume <peer> ... --spp <peer_spp> --runs 4 --seed 1 --against brume.exr` (the peer's
+/// Python given by `python_env`), asserts the agreement and returns the peer's summary line.
+pub fn cloud_agrees_with(
+    peer: &str,
+    peer_spp: &str,
+    python_env: (&str, &Path),
+    dir: &Path,
+) -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("scenes/cloud.gltf");
+    let (brume_exr, peer_exr) = (dir.join("brume.exr"), dir.join(format!("{peer}.exr")));
+    let size = ["--width", "32", "--height", "24"];
+    let exe = env!("CARGO_BIN_EXE_brume");
+
+    let st = Command::new(exe)
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&brume_exr)
+        .args(["--spp", "256", "--seed", "7"])
+        .args(size)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+
+    let out = Command::new(exe)
+        .arg(peer)
+        .arg(&scene)
+        .arg("-o")
+        .arg(&peer_exr)
+        .args(["--spp", peer_spp, "--runs", "4", "--seed", "1"])
+        .args(size)
+        .arg("--against")
+        .arg(&brume_exr)
+        .env(python_env.0, python_env.1)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let field = |name: &str| -> String {
+        let words: Vec<&str> = stdout.split_whitespace().collect();
+        let i = words.iter().position(|w| *w == name).expect(name);
+        words[i + 1].to_string()
+    };
+    let rel: f64 = field("mean_rel_diff").parse().unwrap();
+    let failed = field("blocks_failed");
+    let (bad, total) = failed.split_once('/').unwrap();
+    let (bad, total): (usize, usize) = (bad.parse().unwrap(), total.parse().unwrap());
+    assert!(rel.abs() < 0.01, "image means differ by {rel}");
+    assert!(
+        bad as f64 <= 0.01 * total as f64,
+        "{bad} of {total} blocks fail"
+    );
+    stdout.trim().to_string()
+}
