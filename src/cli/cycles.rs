@@ -17,6 +17,7 @@ use brume::film::{read_exr, write_image, AttrValue, Metadata};
 
 use super::reference::{
     compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
+    ReferenceRun,
 };
 
 /// One line that says how to get a Python with bpy.
@@ -26,38 +27,11 @@ const INSTALL_HINT: &str = "no Python with bpy found: run tools/cycles/ci.sh (Py
 
 #[derive(Args, Debug)]
 pub struct CyclesArgs {
-    /// The Brume scene (.gltf).
-    pub scene: PathBuf,
-    /// Output EXR (beauty RGBA; `variance.*` when --runs > 1; `samples.Y`).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Samples per pixel of each run.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
-    #[arg(long, default_value_t = 320)]
-    pub width: u32,
-    #[arg(long, default_value_t = 240)]
-    pub height: u32,
-    /// Independent Cycles renders (seeds seed..seed+runs-1), averaged; their spread gives the
-    /// variance layer, so use at least 4 for a block z-test.
-    #[arg(long, default_value_t = 1)]
-    pub runs: u32,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u32,
-    /// Cycles threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<u32>,
-    #[arg(long, default_value_t = 256)]
-    pub max_depth: u32,
-    /// Compare with this Brume EXR (needs its variance layer) and print the agreement.
-    #[arg(long)]
-    pub against: Option<PathBuf>,
+    #[command(flatten)]
+    pub run: ReferenceRun,
     /// Also save the Blender scene built from the glTF (.blend), for inspection.
     #[arg(long)]
     pub save_blend: Option<PathBuf>,
-    /// Do not render: compare the existing --output with --against.
-    #[arg(long, requires = "against")]
-    pub reuse: bool,
 }
 
 /// A Python that imports bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the
@@ -79,13 +53,13 @@ fn script_path() -> Result<PathBuf> {
 }
 
 pub fn run(args: &CyclesArgs) -> Result<()> {
-    if args.runs == 0 || args.spp == 0 {
+    if args.run.runs == 0 || args.run.spp == 0 {
         bail!("--runs and --spp must be at least 1");
     }
-    if args.reuse {
+    if args.run.reuse {
         let a = compare(
-            &read_exr(args.against.as_ref().unwrap())?,
-            &read_exr(&args.output)?,
+            &read_exr(args.run.against.as_ref().unwrap())?,
+            &read_exr(&args.run.output)?,
             8,
             0.001,
         )?;
@@ -99,16 +73,16 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     let stem = tmp.join("cycles.exr");
     let mut cmd = Command::new(&python);
     cmd.arg(&script)
-        .arg(&args.scene)
+        .arg(&args.run.scene)
         .arg("-o")
         .arg(&stem)
-        .args(["--spp", &args.spp.to_string()])
-        .args(["--width", &args.width.to_string()])
-        .args(["--height", &args.height.to_string()])
-        .args(["--seed", &args.seed.to_string()])
-        .args(["--runs", &args.runs.to_string()])
-        .args(["--max-depth", &args.max_depth.to_string()]);
-    if let Some(t) = args.threads {
+        .args(["--spp", &args.run.spp.to_string()])
+        .args(["--width", &args.run.width.to_string()])
+        .args(["--height", &args.run.height.to_string()])
+        .args(["--seed", &args.run.seed.to_string()])
+        .args(["--runs", &args.run.runs.to_string()])
+        .args(["--max-depth", &args.run.max_depth.to_string()]);
+    if let Some(t) = args.run.threads {
         cmd.args(["--threads", &t.to_string()]);
     }
     if let Some(b) = &args.save_blend {
@@ -121,18 +95,25 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     if !out.status.success() {
         bail!("Cycles failed ({}):\n{}", out.status, output_tail(&out, 20));
     }
-    let runs = read_runs(&String::from_utf8_lossy(&out.stdout), args.runs, "Cycles")?;
+    let runs = read_runs(
+        &String::from_utf8_lossy(&out.stdout),
+        args.run.runs,
+        "Cycles",
+    )?;
     let render_seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
     let images: Vec<_> = runs.into_iter().map(|r| r.image).collect();
     let total: f64 = render_seconds.iter().sum();
     let mut meta = Metadata::new();
     meta.set("brume:renderer", AttrValue::Text("cycles (bpy 5.0)".into()))
-        .set("brume:spp", AttrValue::Int((args.spp * args.runs) as i32))
-        .set("brume:cycles_runs", AttrValue::Int(args.runs as i32))
+        .set(
+            "brume:spp",
+            AttrValue::Int((args.run.spp * args.run.runs) as i32),
+        )
+        .set("brume:cycles_runs", AttrValue::Int(args.run.runs as i32))
         .set("brume:render_seconds", AttrValue::Double(total))
         .set(
             "brume:scene",
-            AttrValue::Text(args.scene.display().to_string()),
+            AttrValue::Text(args.run.scene.display().to_string()),
         );
     if let Some(t) = images
         .iter()
@@ -154,20 +135,20 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
                 AttrValue::Double(sum(|t| t.sync)),
             );
     }
-    let merged = merge_runs(&images, args.spp, meta)?;
-    write_image(&args.output, &merged)?;
+    let merged = merge_runs(&images, args.run.spp, meta)?;
+    write_image(&args.run.output, &merged)?;
     let _ = std::fs::remove_dir_all(&tmp);
     eprintln!(
         "cycles: {} run(s) x {} spp, {}x{}, render {:.2} s (per run {}), wall {:.2} s",
-        args.runs,
-        args.spp,
-        args.width,
-        args.height,
+        args.run.runs,
+        args.run.spp,
+        args.run.width,
+        args.run.height,
         total,
         seconds_list(&render_seconds),
         started.elapsed().as_secs_f64()
     );
-    if let Some(brume_path) = &args.against {
+    if let Some(brume_path) = &args.run.against {
         let brume = read_exr(brume_path)?;
         let a = compare(&brume, &merged, 8, 0.001)?;
         println!("{a}");

@@ -26,6 +26,7 @@ use brume::volume::mitsuba_vol::vol_from_grid;
 
 use super::reference::{
     compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
+    ReferenceRun,
 };
 
 const INSTALL_HINT: &str = "no Python with Mitsuba 3 found: run tools/mitsuba/setup.sh (venv \
@@ -34,31 +35,8 @@ const INSTALL_HINT: &str = "no Python with Mitsuba 3 found: run tools/mitsuba/se
 
 #[derive(Args, Debug)]
 pub struct MitsubaArgs {
-    /// The Brume scene (.gltf or .glb).
-    pub scene: PathBuf,
-    /// Output EXR (beauty RGBA; `variance.*` when --runs > 1; `samples.Y`).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Samples per pixel of each run.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
-    #[arg(long, default_value_t = 320)]
-    pub width: u32,
-    #[arg(long, default_value_t = 240)]
-    pub height: u32,
-    /// Independent Mitsuba renders (seeds seed..seed+runs-1), averaged; their spread gives the
-    /// variance layer, so use at least 4 for a block z-test.
-    #[arg(long, default_value_t = 1)]
-    pub runs: u32,
-    #[arg(long, default_value_t = 0)]
-    pub seed: u32,
-    /// Mitsuba threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<u32>,
-    /// Brume's maximum number of scattering events (Mitsuba's max_depth is one more: it
-    /// counts path segments, so its 2 is direct lighting).
-    #[arg(long, default_value_t = 256)]
-    pub max_depth: u32,
+    #[command(flatten)]
+    pub run: ReferenceRun,
     /// Mitsuba variant (default: llvm_ad_rgb when it loads, else scalar_rgb).
     #[arg(long)]
     pub variant: Option<String>,
@@ -66,15 +44,9 @@ pub struct MitsubaArgs {
     /// Brume's Lambert + GGX model re-implemented as a Python BSDF: faster, without the GGX lobe.
     #[arg(long)]
     pub lambert_only: bool,
-    /// Compare with this Brume EXR (needs its variance layer) and print the agreement.
-    #[arg(long)]
-    pub against: Option<PathBuf>,
     /// Keep the translated scene (JSON, .vol, .ply) in this folder instead of a temporary one.
     #[arg(long)]
     pub keep: Option<PathBuf>,
-    /// Do not render: compare the existing --output with --against.
-    #[arg(long, requires = "against")]
-    pub reuse: bool,
 }
 
 /// A Python that imports mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to
@@ -96,16 +68,16 @@ fn script_path() -> Result<PathBuf> {
 }
 
 pub fn run(args: &MitsubaArgs) -> Result<()> {
-    if args.runs == 0 || args.spp == 0 {
+    if args.run.runs == 0 || args.run.spp == 0 {
         bail!("--runs and --spp must be at least 1");
     }
-    if args.width == 0 || args.height == 0 {
+    if args.run.width == 0 || args.run.height == 0 {
         bail!("--width and --height must be at least 1");
     }
-    if args.reuse {
+    if args.run.reuse {
         let a = compare(
-            &read_exr(args.against.as_ref().unwrap())?,
-            &read_exr(&args.output)?,
+            &read_exr(args.run.against.as_ref().unwrap())?,
+            &read_exr(&args.run.output)?,
             8,
             0.001,
         )?;
@@ -116,7 +88,7 @@ pub fn run(args: &MitsubaArgs) -> Result<()> {
     let script = script_path()?;
     let started = Instant::now();
     // Scene errors already name the file and the JSON pointer.
-    let scene = brume::scene::load(&args.scene)?;
+    let scene = brume::scene::load(&args.run.scene)?;
     let dir = match &args.keep {
         Some(d) => d.clone(),
         None => std::env::temp_dir().join(format!("brume-mitsuba-{}", std::process::id())),
@@ -157,7 +129,7 @@ fn translate_and_render(
     if !out.status.success() {
         bail!(
             "Mitsuba failed on {} ({}):\n{}",
-            args.scene.display(),
+            args.run.scene.display(),
             out.status,
             output_tail(&out, 20)
         );
@@ -178,7 +150,7 @@ fn translate_and_render(
     let build_seconds: f64 = field("build_seconds ")
         .and_then(|s| s.parse().ok())
         .unwrap_or(f64::NAN);
-    let runs = read_runs(&stdout, args.runs, "Mitsuba")?;
+    let runs = read_runs(&stdout, args.run.runs, "Mitsuba")?;
     let seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
     let images: Vec<_> = runs.into_iter().map(|r| r.image).collect();
     let total: f64 = seconds.iter().sum();
@@ -187,8 +159,11 @@ fn translate_and_render(
         "brume:renderer",
         AttrValue::Text(format!("mitsuba ({variant})")),
     )
-    .set("brume:spp", AttrValue::Int((args.spp * args.runs) as i32))
-    .set("brume:mitsuba_runs", AttrValue::Int(args.runs as i32))
+    .set(
+        "brume:spp",
+        AttrValue::Int((args.run.spp * args.run.runs) as i32),
+    )
+    .set("brume:mitsuba_runs", AttrValue::Int(args.run.runs as i32))
     .set("brume:render_seconds", AttrValue::Double(total))
     .set(
         "brume:mitsuba_seconds_per_run",
@@ -196,24 +171,24 @@ fn translate_and_render(
     )
     .set(
         "brume:scene",
-        AttrValue::Text(args.scene.display().to_string()),
+        AttrValue::Text(args.run.scene.display().to_string()),
     );
-    let merged = merge_runs(&images, args.spp, meta)?;
-    write_image(&args.output, &merged)?;
+    let merged = merge_runs(&images, args.run.spp, meta)?;
+    write_image(&args.run.output, &merged)?;
     eprintln!(
         "mitsuba ({variant}): {} run(s) x {} spp, {}x{}, render {:.2} s (per run {}), \
          translation {:.2} s, Mitsuba scene set-up {:.2} s, wall {:.2} s",
-        args.runs,
-        args.spp,
-        args.width,
-        args.height,
+        args.run.runs,
+        args.run.spp,
+        args.run.width,
+        args.run.height,
         total,
         seconds_list(&seconds),
         prepare_seconds,
         build_seconds,
         started.elapsed().as_secs_f64()
     );
-    if let Some(brume_path) = &args.against {
+    if let Some(brume_path) = &args.run.against {
         let brume = read_exr(brume_path)?;
         let a = compare(&brume, &merged, 8, 0.001)?;
         println!("{a}");
@@ -383,14 +358,14 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
     let env = scene.environment.radiance;
     Ok(json!({
         "scene": scene.source,
-        "width": args.width,
-        "height": args.height,
-        "spp": args.spp,
-        "seed": args.seed,
-        "runs": args.runs,
-        "threads": args.threads,
+        "width": args.run.width,
+        "height": args.run.height,
+        "spp": args.run.spp,
+        "seed": args.run.seed,
+        "runs": args.run.runs,
+        "threads": args.run.threads,
         // Brume counts scattering events; Mitsuba counts path segments.
-        "max_depth": args.max_depth.saturating_add(1),
+        "max_depth": args.run.max_depth.saturating_add(1),
         "camera": camera,
         "lights": lights,
         "environment": env.iter().any(|&c| c > 0.0).then_some(env),

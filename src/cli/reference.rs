@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
 
 use brume::film::{read_exr, Image, Metadata};
 use brume::study::stats::erfc;
@@ -16,6 +17,41 @@ use brume::study::stats::erfc;
 pub struct RunReport {
     pub seconds: f64,
     pub image: Image,
+}
+
+/// The options every reference-renderer command (`brume cycles`, `brume mitsuba`) takes.
+#[derive(Args, Debug)]
+pub struct ReferenceRun {
+    /// The Brume scene (.gltf or .glb).
+    pub scene: PathBuf,
+    /// Output EXR (beauty RGBA; `variance.*` when --runs > 1; `samples.Y`).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Samples per pixel of each run.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    #[arg(long, default_value_t = 240)]
+    pub height: u32,
+    /// Independent renders (seeds seed..seed+runs-1), averaged; their spread gives the
+    /// variance layer, so use at least 4 for a block z-test.
+    #[arg(long, default_value_t = 1)]
+    pub runs: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// The reference renderer's threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<u32>,
+    /// Brume's maximum number of scattering events (mapped to the renderer's own depth).
+    #[arg(long, default_value_t = 256)]
+    pub max_depth: u32,
+    /// Compare with this Brume EXR (needs its variance layer) and print the agreement.
+    #[arg(long)]
+    pub against: Option<PathBuf>,
+    /// Do not render: compare the existing --output with --against.
+    #[arg(long, requires = "against")]
+    pub reuse: bool,
 }
 
 /// A Python that can `import module`: `$env_var` (an error if it cannot), then `venv_python`
