@@ -57,6 +57,13 @@ pub struct CostModel {
 }
 
 impl CostModel {
+    /// The model's cost of one segment over a node of level `l` with bounds `b`: a step plus
+    /// the expected tentative collisions on a random chord (`2 s / 3` for a cube of side `s`).
+    pub fn node_cost(&self, l: usize, b: CellBounds, scale: f32, index_per_t: f32) -> f64 {
+        let chord = (2.0 / 3.0) * CELL_WIDTH as f64 * (1u64 << l) as f64 / index_per_t as f64;
+        self.step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
+    }
+
     /// Measured on the example scenes (2-core x86-64, one thread, CPU time of 128x128 x 32
     /// spp renders with step costs 1, 2, 3, 4): a segment (the walk's index arithmetic, three
     /// plane crossings and a chain of dependent loads, then the loop's per-segment work) costs
@@ -87,6 +94,9 @@ pub struct AdaptiveMajorants {
     pub nodes: Vec<CellBounds>,
     /// Per leaf cell, the level of the merged node containing it.
     pub node_level: Vec<u8>,
+    /// Per level: first node and the node grid's x and x*y extents (derived from `levels`,
+    /// kept flat for the walk, which reads it at every segment).
+    level_index: [[u32; 3]; MAX_LEVEL as usize + 1],
     /// Wall time of [`AdaptiveMajorants::build`].
     pub build_seconds: f64,
 }
@@ -136,10 +146,8 @@ impl AdaptiveMajorants {
             levels.push(Level { dims, offset });
         }
         // Bottom-up costs and choices.
-        let chord = |l: usize| (2.0 / 3.0) * CELL_WIDTH * (1u32 << l) as f32 / index_per_t;
         let leaf_cost = |l: usize, b: CellBounds| {
-            let sigma = (scale * b.max).max(0.0);
-            let c = cost.step + cost.collision * sigma * chord(l);
+            let c = cost.node_cost(l, b, scale, index_per_t) as f32;
             if c.is_finite() {
                 c
             } else {
@@ -186,12 +194,17 @@ impl AdaptiveMajorants {
                 0
             })
             .collect();
+        let mut level_index = [[0u32; 3]; MAX_LEVEL as usize + 1];
+        for (k, lv) in levels.iter().enumerate() {
+            level_index[k] = [lv.offset, lv.dims[0], lv.dims[0] * lv.dims[1]];
+        }
         AdaptiveMajorants {
             dims: leaf.dims,
             cell_origin: leaf.cell_origin,
             levels,
             nodes,
             node_level,
+            level_index,
             build_seconds: start.elapsed().as_secs_f64(),
         }
     }
@@ -247,11 +260,7 @@ impl AdaptiveMajorants {
                 nodes_per_level[l as usize] += 1;
             }
         }
-        let chord =
-            |l: usize| (2.0 / 3.0) * CELL_WIDTH as f64 * (1u64 << l) as f64 / index_per_t as f64;
-        let leaf_cost = |l: usize, b: CellBounds| {
-            cost.step as f64 + cost.collision as f64 * (scale * b.max).max(0.0) as f64 * chord(l)
-        };
+        let leaf_cost = |l: usize, b: CellBounds| cost.node_cost(l, b, scale, index_per_t);
         let mut fine: Vec<f64> = self.nodes[..self.node_level.len()]
             .iter()
             .map(|&b| leaf_cost(0, b))
@@ -359,8 +368,8 @@ pub struct AdaptiveMajorantIterator<'a> {
     /// segment, and a chain of dependent loads through the tree cost more than its arithmetic.
     node_level: &'a [u8],
     nodes: &'a [CellBounds],
-    /// Per level: first node and the node grid's x and x*y extents.
-    level_index: [[u32; 3]; MAX_LEVEL as usize + 1],
+    /// [`AdaptiveMajorants::level_index`].
+    level_index: &'a [[u32; 3]; MAX_LEVEL as usize + 1],
     dims: [i32; 3],
     ray: Ray,
     lo: Vec3,
@@ -379,14 +388,10 @@ impl<'a> AdaptiveMajorantIterator<'a> {
     pub fn new(tree: &'a AdaptiveMajorants, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
         let lo = Vec3::from_array(tree.cell_origin.map(|c| c as f32 * CELL_WIDTH));
         let dims = tree.dims.map(|d| d as i32);
-        let mut level_index = [[0u32; 3]; MAX_LEVEL as usize + 1];
-        for (k, lv) in tree.levels.iter().enumerate() {
-            level_index[k] = [lv.offset, lv.dims[0], lv.dims[0] * lv.dims[1]];
-        }
         let mut it = Self {
             node_level: &tree.node_level,
             nodes: &tree.nodes,
-            level_index,
+            level_index: &tree.level_index,
             dims,
             ray: *ray,
             lo,
