@@ -119,6 +119,25 @@ def add_shaders(nt, outs):
 WRAP = {33071: "EXTEND", 33648: "MIRROR", 10497: "REPEAT"}
 
 
+def linear_float_copy(img):
+    """The image sRGB-decoded into a float buffer read as Non-Color. Cycles keeps an 8-bit sRGB
+    image as bytes and decodes after interpolating (`compress_as_srgb`), so a blend of a dark
+    and a bright texel comes out darker than the blend of their linear values, which is what
+    glTF asks for and Brume does (1 % darker on scenes/textured_backdrop.gltf, 32 % of blocks
+    failing; BRUME_CYCLES_NATIVE_TEXTURE=1 keeps the native path to show it)."""
+    import numpy as np
+    w, h = img.size
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    rgb = px.reshape(-1, 4)[:, :3]
+    px.reshape(-1, 4)[:, :3] = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    out = bpy.data.images.new(img.name + ".linear", w, h, alpha=True, float_buffer=True)
+    out.colorspace_settings.name = "Non-Color"
+    out.pixels.foreach_set(px)
+    out.pack()
+    return out
+
+
 def texture_node(nt, gltf, info, base_dir):
     """An Image Texture node reading `info` (a glTF textureInfo) as Brume does
     (src/scene/texture.rs): sRGB-decoded, bilinear unless the sampler's magFilter is NEAREST,
@@ -132,6 +151,8 @@ def texture_node(nt, gltf, info, base_dir):
     from urllib.parse import unquote
     img = bpy.data.images.load(os.path.join(base_dir, unquote(uri)), check_existing=True)
     img.colorspace_settings.name = "sRGB"
+    if img.is_float is False and os.environ.get("BRUME_CYCLES_NATIVE_TEXTURE") != "1":
+        img = linear_float_copy(img)
     node = nt.nodes.new("ShaderNodeTexImage")
     node.image = img
     sampler = gltf.get("samplers", [])[tex["sampler"]] if "sampler" in tex else {}
