@@ -66,6 +66,36 @@ pub struct GpuHomogeneousMedium {
 }
 const _: () = assert!(size_of::<GpuHomogeneousMedium>() == 32);
 
+/// The texture coordinates (TEXCOORD_0) of a [`GpuTriangle`]'s corners, same slot.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangleUv {
+    pub uv0: [f32; 2],
+    pub uv1: [f32; 2],
+    pub uv2: [f32; 2],
+}
+const _: () = assert!(size_of::<GpuTriangleUv>() == 24);
+
+/// A texture use (`scene::TextureRef`) with its image's place in the texel pool.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTexture {
+    /// `KHR_texture_transform` row `(a, b, c)`: `u' = a u + b v + c`.
+    pub row0: [f32; 3],
+    /// First texel of the image in the pool.
+    pub offset: u32,
+    /// Row `(d, e, f)`: `v' = d u + e v + f`.
+    pub row1: [f32; 3],
+    pub width: u32,
+    pub height: u32,
+    /// `scene::texture::WRAP_*` along u and v.
+    pub wrap_s: u32,
+    pub wrap_t: u32,
+    /// 1: nearest texel, 0: bilinear.
+    pub nearest: u32,
+}
+const _: () = assert!(size_of::<GpuTexture>() == 48);
+
 /// `SurfaceKind` values of [`GpuTriangle::kind`].
 pub const SURFACE_OPAQUE: u32 = 0;
 pub const SURFACE_DIELECTRIC: u32 = 1;

@@ -102,6 +102,12 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         "GpuTriangle",
         [p0, triangle, p1, material, p2, light_pdf, n0, kind, n1, interior, n2, _pad0]
     ),
+    layout!(GpuTriangleUv, "GpuTriangleUv", [uv0, uv1, uv2]),
+    layout!(
+        GpuTexture,
+        "GpuTexture",
+        [row0, offset, row1, width, height, wrap_s, wrap_t, nearest]
+    ),
     layout!(GpuAreaLight, "GpuAreaLight", [cdf, prim]),
     layout!(
         GpuHomogeneousMedium,

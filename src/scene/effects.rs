@@ -37,6 +37,8 @@ pub struct Effects {
     pub camera_inside_medium: bool,
     /// Non-zero environment radiance.
     pub environment_light: bool,
+    /// A base-colour or emissive texture on a material some triangle uses.
+    pub textures: bool,
 }
 
 impl Effects {
@@ -93,6 +95,11 @@ impl Effects {
         });
         e.punctual_lights = !scene.lights.is_empty();
         e.environment_light = scene.environment.radiance.iter().any(|&c| c > 0.0);
+        e.textures = scene.instances.iter().any(|i| {
+            let m = &scene.materials[i.material as usize];
+            m.base_color_texture != crate::scene::NO_INDEX
+                || m.emissive_texture != crate::scene::NO_INDEX
+        });
         e.lights_inside_media = scene
             .lights
             .iter()
@@ -119,6 +126,7 @@ impl Effects {
             (self.lights_inside_media, "lights inside media"),
             (self.camera_inside_medium, "camera inside medium"),
             (self.environment_light, "environment light"),
+            (self.textures, "textures"),
         ];
         all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
     }

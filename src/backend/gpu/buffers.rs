@@ -7,7 +7,7 @@ use super::device::{GpuContext, GpuGrid};
 use super::graph::Stage;
 use super::render::GpuRenderError;
 use super::shader::{Module, Spec};
-use super::upload::Geometry;
+use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
     GpuEmissionParams, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue, GpuShadowRay,
     GpuWavefrontCounters, GpuWavefrontParams,
@@ -66,6 +66,12 @@ pub(super) struct Buffers {
     pub(super) materials: wgpu::Buffer,
     /// `GpuAreaLight`s: the area lights' selection CDF.
     pub(super) area_lights: wgpu::Buffer,
+    /// `GpuTriangleUv`s, like `bvh_triangles`.
+    pub(super) triangle_uvs: wgpu::Buffer,
+    /// `GpuTexture`s, indexed like `Scene::textures`.
+    pub(super) textures: wgpu::Buffer,
+    /// The texel pool (linear RGBA).
+    pub(super) texels: wgpu::Buffer,
     /// `GpuHomogeneousMedium`s, indexed like `RenderScene::homogeneous`.
     pub(super) homogeneous: wgpu::Buffer,
     /// Bound in place of the grid's buffers when the scene has no VDB medium (the kernels
@@ -86,6 +92,7 @@ impl Buffers {
         samples: u64,
         emission: &GpuEmissionParams,
         geometry: &Geometry,
+        textures: &Textures,
     ) -> Buffers {
         let timestamps = ctx.timestamp_queries;
         // The counters, then two timestamps per stage.
@@ -125,6 +132,9 @@ impl Buffers {
                 ctx.storage_buffer("materials", &rs.scene.materials)
             },
             area_lights: ctx.storage_buffer("area lights", &geometry.area_lights),
+            triangle_uvs: ctx.storage_buffer("triangle uvs", &geometry.triangle_uvs),
+            textures: ctx.storage_buffer("textures", &textures.records),
+            texels: ctx.storage_buffer("texels", &textures.texels),
             homogeneous: {
                 let mut h: Vec<GpuHomogeneousMedium> = rs
                     .homogeneous
@@ -219,6 +229,9 @@ impl Buffers {
             (1, 10) => &self.materials,
             (1, 11) => &self.area_lights,
             (1, 12) => &self.homogeneous,
+            (1, 13) => &self.triangle_uvs,
+            (1, 14) => &self.textures,
+            (1, 15) => &self.texels,
             _ => return None,
         })
     }

@@ -117,6 +117,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
         (f.homogeneous, "homogeneous"),
         (f.emission, "emission"),
         (f.chromatic, "spectral"),
+        (f.textures, "textures"),
     ]
     .into_iter()
     .filter(|(b, _)| *b)
@@ -137,6 +138,7 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
         emission: features.emission && features.heterogeneous,
         chromatic: features.chromatic && media,
         absorption: features.absorption && media,
+        textures: features.textures && features.surfaces,
         ..features
     }
 }
@@ -150,5 +152,6 @@ pub(super) fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
         Spec::bool("FEATURE_HETEROGENEOUS", f.heterogeneous),
         Spec::bool("FEATURE_CHROMATIC", f.chromatic),
         Spec::bool("FEATURE_EMISSION", f.emission),
+        Spec::bool("FEATURE_TEXTURES", f.textures),
     ]
 }

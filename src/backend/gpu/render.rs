@@ -48,7 +48,7 @@ use super::dispatch::Wavefront;
 use super::graph::specs;
 pub use super::graph::{variant_name, Stage};
 use super::shader;
-use super::upload::{upload_grid, wavefront_params, Geometry};
+use super::upload::{upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter};
@@ -174,9 +174,19 @@ pub fn render_with_timings(
     let slots = (WAVEFRONT_SIZE as u64).min(plan.largest) as u32;
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
+    let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
 
     let timestamps = ctx.timestamp_queries;
-    let bufs = Buffers::new(ctx, rs, &params, slots, plan.largest, &emission, &geometry);
+    let bufs = Buffers::new(
+        ctx,
+        rs,
+        &params,
+        slots,
+        plan.largest,
+        &emission,
+        &geometry,
+        &textures,
+    );
     let sp = specs(features, settings.sampler);
     let g = grid.as_ref();
     let mut kernels = Vec::new();

@@ -1,5 +1,6 @@
 //! The scene as the GPU reads it: the VDB medium's grid, tracking parameters and emission,
-//! the surfaces (CWBVH, triangles, area lights) and the per-render parameters, each built from
+//! the surfaces (CWBVH, triangles, area lights, texture coordinates), the textures and the
+//! per-render parameters, each built from
 //! the CPU's `RenderScene` exactly as the CPU integrator would use it.
 use bytemuck::Zeroable;
 use glam::Vec3;
@@ -8,8 +9,8 @@ use super::device::{byte_size, GpuContext, GpuGrid};
 use super::render::GpuRenderError;
 use crate::gpu_types::{
     GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo, GpuMajorantMode,
-    GpuTrackingParams, GpuTriangle, GpuWavefrontParams, SURFACE_DIELECTRIC, SURFACE_NULL,
-    SURFACE_OPAQUE,
+    GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuWavefrontParams,
+    SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
 };
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
@@ -117,6 +118,8 @@ pub(super) fn medium_params(
 pub(super) struct Geometry {
     pub(super) nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
     pub(super) triangles: Vec<GpuTriangle>,
+    /// Texture coordinates of `triangles`, same order.
+    pub(super) triangle_uvs: Vec<GpuTriangleUv>,
     pub(super) area_lights: Vec<GpuAreaLight>,
 }
 
@@ -126,6 +129,7 @@ impl Geometry {
         let mut g = Geometry {
             nodes: vec![bytemuck::Zeroable::zeroed()],
             triangles: vec![GpuTriangle::zeroed()],
+            triangle_uvs: vec![GpuTriangleUv::zeroed()],
             area_lights: vec![GpuAreaLight::zeroed()],
         };
         let Some(bvh) = scene.bvh.cwbvh() else {
@@ -140,6 +144,7 @@ impl Geometry {
         }
         let mut slot_of = vec![crate::scene::NO_INDEX; scene.triangles.len()];
         let mut triangles = Vec::with_capacity(bvh.primitive_indices.len());
+        let mut triangle_uvs = Vec::with_capacity(bvh.primitive_indices.len());
         for (slot, &t) in bvh.primitive_indices.iter().enumerate() {
             let t = t as usize;
             let tri = scene.triangles.get(t).ok_or_else(|| {
@@ -167,6 +172,15 @@ impl Geometry {
                 n2: n(2),
                 _pad0: 0,
             });
+            let uv = |k: usize| {
+                let v = &scene.vertices[tri.vertices[k] as usize];
+                [v.u, v.v]
+            };
+            triangle_uvs.push(GpuTriangleUv {
+                uv0: uv(0),
+                uv1: uv(1),
+                uv2: uv(2),
+            });
         }
         if bvh.nodes.is_empty() || triangles.is_empty() {
             return Ok(g);
@@ -185,6 +199,7 @@ impl Geometry {
         }
         g.nodes = bvh.nodes.clone();
         g.triangles = triangles;
+        g.triangle_uvs = triangle_uvs;
         if !area_lights.is_empty() {
             g.area_lights = area_lights;
         }
@@ -318,4 +333,61 @@ pub(super) fn wavefront_params(
         medium_params(rs, cfg, features, &mut params);
     }
     params
+}
+
+/// The scene's textures as the GPU reads them: one `GpuTexture` per texture use and every
+/// decoded image in one pool of linear RGBA texels (each at least one element).
+pub(super) struct Textures {
+    pub(super) records: Vec<GpuTexture>,
+    pub(super) texels: Vec<[f32; 4]>,
+}
+
+impl Textures {
+    /// The pool, or the one-line reason it cannot be bound (`max_binding` bytes at most).
+    pub(super) fn new(scene: &crate::scene::Scene, max_binding: u64) -> Result<Textures, String> {
+        let mut texels: Vec<[f32; 4]> = Vec::new();
+        let mut offsets = Vec::with_capacity(scene.images.len());
+        for img in &scene.images {
+            offsets.push(texels.len() as u32);
+            texels.extend_from_slice(&img.texels);
+        }
+        let bytes = (texels.len() * 16) as u64;
+        if bytes > max_binding || texels.len() > u32::MAX as usize {
+            return Err(format!(
+                "the textures need {} of texels, more than the device's {} storage binding",
+                super::device::byte_size(bytes),
+                super::device::byte_size(max_binding)
+            ));
+        }
+        let records: Vec<GpuTexture> = scene
+            .textures
+            .iter()
+            .map(|t| {
+                let img = &scene.images[t.image_slot as usize];
+                let m = t.transform;
+                GpuTexture {
+                    row0: [m[0], m[1], m[2]],
+                    offset: offsets[t.image_slot as usize],
+                    row1: [m[3], m[4], m[5]],
+                    width: img.width,
+                    height: img.height,
+                    wrap_s: t.wrap[0],
+                    wrap_t: t.wrap[1],
+                    nearest: t.nearest as u32,
+                }
+            })
+            .collect();
+        Ok(Textures {
+            records: if records.is_empty() {
+                vec![GpuTexture::zeroed()]
+            } else {
+                records
+            },
+            texels: if texels.is_empty() {
+                vec![[0.0; 4]]
+            } else {
+                texels
+            },
+        })
+    }
 }
