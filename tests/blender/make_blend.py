@@ -156,8 +156,16 @@ def sequence_scene(vdb_dir, seq_dir):
 
 
 def procedural_scene():
+    """A Volume object whose grids come from geometry nodes (a Volume Cube), no file."""
     obj, mat = volume_object("procedural", "")
     principled(mat)
+    ng = bpy.data.node_groups.new("cube", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    out = ng.nodes.new("NodeGroupOutput")
+    cube = ng.nodes.new("GeometryNodeVolumeCube")
+    ng.links.new(cube.outputs["Volume"], out.inputs[0])
+    mod = obj.modifiers.new("cube", "NODES")
+    mod.node_group = ng
 
 
 def main(argv):

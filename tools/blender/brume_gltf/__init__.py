@@ -131,11 +131,15 @@ class glTF2ExportUserExtension:
         log = export_settings["log"]
         original = log.error
 
+        pending = []  # the exporter logs "Extension hook X fails on M", then the exception
+
         def error(message, popup=False, _original=original):
-            if str(message).startswith("Extension hook"):
-                self._error(str(message))
-            elif self.errors and self.errors[-1].startswith("Extension hook") and "\n" not in self.errors[-1]:
-                self.errors[-1] += "\n    " + str(message)
+            text = str(message)
+            if text.startswith("Extension hook"):
+                self._error(f"{text} (another add-on; the exporter would write the file without its output)")
+                pending[:] = [len(self.errors) - 1]
+            elif pending:
+                self.errors[pending.pop()] += f": {text}"
             return _original(message, popup)
 
         log.error = error

@@ -104,18 +104,19 @@ def medium_fields(obj, frame, depsgraph):
     """(fields without `uri`, absolute .vdb path, warnings) for a Volume object."""
     warnings = []
     vol = obj.data
+    if vol.packed_file is not None:
+        raise Refused("its .vdb is packed into the .blend: unpack it (File > External Data > Unpack Resources)")
+    # An empty path comes back from a saved .blend as a relative folder ("//../../").
+    if not vol.filepath or os.path.isdir(bpy.path.abspath(vol.filepath, library=vol.library)):
+        raise Refused(
+            "is a procedural volume (no .vdb file): Brume renders volumes read from OpenVDB files; "
+            "bake the grids to a .vdb (e.g. with a simulation or bake node) and load that file"
+        )
     if any(m.show_render for m in obj.modifiers):
         names = ", ".join(f"'{m.name}' ({m.type})" for m in obj.modifiers if m.show_render)
         raise Refused(
             f"has modifiers {names}: Brume reads the .vdb file as it is; bake the result to a .vdb "
             "(e.g. with a simulation cache) and load that, or disable the modifiers for render"
-        )
-    if vol.packed_file is not None:
-        raise Refused("its .vdb is packed into the .blend: unpack it (File > External Data > Unpack Resources)")
-    if not vol.filepath:
-        raise Refused(
-            "is a procedural volume (no .vdb file): Brume renders volumes read from OpenVDB files; "
-            "write the grids to a .vdb and load that file in the Volume object"
         )
     path = frame_file(vol, frame)
     if path is None:
