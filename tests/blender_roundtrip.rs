@@ -273,6 +273,23 @@ fn sequences_procedural_volumes_and_failing_hooks() {
     assert_eq!(s.vdb_media[0].uri, "seq_0002.vdb");
     assert!(copied_dir.join("seq_0002.vdb").is_file());
     assert!(!copied_dir.join("seq_0001.vdb").exists());
+    // The World's map is copied too, with the Mapping node's rotation.
+    assert_eq!(s.environment.map, Some(copied_dir.join("sky.exr")));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let env = &doc["extensions"]["BRUME_environment"];
+    assert_eq!(env["uri"], "sky.exr");
+    let num = |v: &serde_json::Value| v.as_f64().unwrap() as f32;
+    let color: Vec<f32> = env["color"].as_array().unwrap().iter().map(num).collect();
+    assert_eq!(color, [1.0, 1.0, 1.0]);
+    assert!((num(&env["strength"]) - 0.7).abs() < 1e-7);
+    let rotation: Vec<f32> = env["rotation"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(num)
+        .collect();
+    assert_eq!(rotation, [0.1, 0.2, 0.3]);
 
     // A procedural volume (geometry nodes, no file) is refused, and nothing is written.
     let blend = cx.make_blend("procedural", "procedural.blend");
@@ -314,6 +331,44 @@ fn sequences_procedural_volumes_and_failing_hooks() {
             .unwrap()
             .trim()
     ));
+
+    // Installed from a zip as through the add-on preferences, exported with the exporter's
+    // defaults (GLB, lighting mode SPEC, cameras and lights off): the add-on still writes the
+    // medium, COMPAT units (the point light's 300 W as 300 / 4 pi W/sr) and the camera.
+    let home = cx.path("home");
+    std::fs::create_dir_all(&home).unwrap();
+    let blend = cx.make_blend("fire", "fire.blend");
+    let glb = cx.path("installed.glb");
+    let o = Command::new(&cx.python)
+        .arg(root().join("tests/blender/install_zip.py"))
+        .arg(&blend)
+        .arg(&glb)
+        .env("HOME", &home)
+        .env_remove("BLENDER_USER_SCRIPTS")
+        .env_remove("BLENDER_USER_CONFIG")
+        .output()
+        .unwrap();
+    assert_ok(&o, "install_zip.py");
+    let installed = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        installed.contains("installed ") && installed.contains(home.to_str().unwrap()),
+        "{installed}"
+    );
+    let s = brume::scene::load(&glb).unwrap();
+    assert_eq!(s.vdb_media.len(), 1);
+    assert_eq!(s.cameras.len(), 1);
+    let lamp = s
+        .lights
+        .iter()
+        .find(|l| l.kind == brume::scene::lights::LIGHT_POINT)
+        .unwrap();
+    let want = 300.0 / (4.0 * std::f32::consts::PI);
+    assert!(
+        (lamp.intensity[2] - want).abs() < 1e-4 * want,
+        "{:?}",
+        lamp.intensity
+    );
+    say("blender_roundtrip: add-on installed from a zip and exported with the exporter's defaults: 1 medium, 1 camera, COMPAT units");
 
     // A missing .blend is a clear error.
     let o = cx.import_blend(&cx.path("missing.blend"), &cx.path("m.gltf"), &[]);

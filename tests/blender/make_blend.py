@@ -11,7 +11,8 @@ KIND:
   ground is a rough metal with single-scattering GGX: the one Principled BSDF set-up whose
   Cycles rendering is Brume's surface model exactly, so the comparison tests the volume.
 - `sequence`: a Volume object on a VDB sequence (copies of example files named
-  seq_0001.vdb .. seq_0003.vdb in --seq-dir), scene frame 2.
+  seq_0001.vdb .. seq_0003.vdb in --seq-dir), scene frame 2, and a World lit by an
+  equirectangular map (sky.exr in --seq-dir) rotated by a Mapping node.
 - `procedural`: a Volume object with no file (what geometry nodes produce).
 """
 import argparse
@@ -153,6 +154,24 @@ def sequence_scene(vdb_dir, seq_dir):
     nt, pv = principled(mat)
     pv.inputs["Density"].default_value = 1.5
     bpy.context.scene.frame_set(2)
+    # An equirectangular map through Texture Coordinate.Generated -> Mapping (rotation).
+    sky = bpy.data.images.new("sky", 8, 4, float_buffer=True)
+    sky.filepath_raw = os.path.join(seq_dir, "sky.exr")
+    sky.file_format = "OPEN_EXR"
+    sky.save()
+    world = bpy.data.worlds.new("world")
+    world.use_nodes = True
+    nt = world.node_tree
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = sky
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.1, 0.2, 0.3)
+    coords = nt.nodes.new("ShaderNodeTexCoord")
+    nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    nt.nodes["Background"].inputs["Strength"].default_value = 0.7
+    bpy.context.scene.world = world
 
 
 def procedural_scene():

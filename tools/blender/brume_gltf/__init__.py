@@ -63,7 +63,7 @@ def draw_export(context, layout):
     header.label(text="Brume")
     if body:
         body.prop(context.scene.brume_gltf, "copy_vdb")
-        body.label(text="Lighting mode is forced to Standard (COMPAT), frame to the current one")
+        body.label(text="Forced: lighting mode Standard, current frame, cameras and lights included")
 
 
 def _say(kind, msg):
@@ -125,6 +125,11 @@ class glTF2ExportUserExtension:
             # SPEC writes a Sun of strength 3 as 2049 lux; Brume reads COMPAT units.
             export_settings["gltf_lighting_mode"] = "COMPAT"
             self._warn(f"lighting mode {mode} replaced by COMPAT (Standard), the units Brume reads", export_settings)
+        # The exporter's own defaults leave cameras and lights out: a Brume scene needs them.
+        for key, what in (("gltf_cameras", "Cameras"), ("gltf_lights", "Punctual Lights")):
+            if not export_settings.get(key):
+                export_settings[key] = True
+                self._warn(f"'Include > {what}' was off in the exporter options: turned on for Brume", export_settings)
         # The exporter jumps to frame 0 otherwise: VDB sequences and transforms of the current frame.
         export_settings["gltf_current_frame"] = True
         # Other add-ons' hook failures are only logged by the exporter: record them too.
