@@ -7,6 +7,7 @@
 //!   exported back, gives the same medium fields and world-from-medium matrix (1e-5);
 //! - a VDB sequence exports the current frame's file, a procedural volume is refused, and an
 //!   exporter-hook exception fails the conversion with nothing written.
+//!
 //! Needs a Python that can `import bpy` (tools/cycles/ci.sh installs one); without it each test
 //! prints a SKIPPED line on stderr and passes. Seeds are fixed on both sides.
 mod common;
@@ -253,9 +254,13 @@ fn sequences_procedural_volumes_and_failing_hooks() {
         (&["--frame", "3"][..], "seq_0003.vdb"),
     ] {
         let out = cx.path("sequence.gltf");
-        assert_ok(
-            &cx.import_blend(&blend, &out, extra),
-            "import-blend sequence",
+        let o = cx.import_blend(&blend, &out, extra);
+        assert_ok(&o, "import-blend sequence");
+        let warned = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(
+            warned.contains("import-blend: warning: Volume 'sequence': material 'sequence_material', Principled Volume node 'Principled Volume': 'Color' is linked (Noise Texture node")
+                && warned.contains("the socket's own colour, clamped to [0, 1], is used"),
+            "{warned}"
         );
         let s = brume::scene::load(&out).unwrap();
         assert_eq!(s.vdb_media.len(), 1);

@@ -12,7 +12,8 @@ KIND:
   Cycles rendering is Brume's surface model exactly, so the comparison tests the volume.
 - `sequence`: a Volume object on a VDB sequence (copies of example files named
   seq_0001.vdb .. seq_0003.vdb in --seq-dir), scene frame 2, and a World lit by an
-  equirectangular map (sky.exr in --seq-dir) rotated by a Mapping node.
+  equirectangular map (sky.exr in --seq-dir) rotated by a Mapping node; a Noise Texture drives
+  the Principled Volume's colour (a warning: the socket's own colour is exported).
 - `procedural`: a Volume object with no file (what geometry nodes produce).
 """
 import argparse
@@ -153,6 +154,9 @@ def sequence_scene(vdb_dir, seq_dir):
     vol.frame_duration = 3
     nt, pv = principled(mat)
     pv.inputs["Density"].default_value = 1.5
+    # A texture on the colour, which Brume cannot express: a warning, not a refusal.
+    noise = nt.nodes.new("ShaderNodeTexNoise")
+    nt.links.new(noise.outputs["Color"], pv.inputs["Color"])
     bpy.context.scene.frame_set(2)
     # An equirectangular map through Texture Coordinate.Generated -> Mapping (rotation).
     sky = bpy.data.images.new("sky", 8, 4, float_buffer=True)

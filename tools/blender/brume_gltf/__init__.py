@@ -130,6 +130,8 @@ class glTF2ExportUserExtension:
             if not export_settings.get(key):
                 export_settings[key] = True
                 self._warn(f"'Include > {what}' was off in the exporter options: turned on for Brume", export_settings)
+        if not export_settings.get("gltf_yup", True):
+            self._warn("'+Y Up' is off: the scene stays Z-up, but Brume (like glTF) takes +Y as up", export_settings)
         # The exporter jumps to frame 0 otherwise: VDB sequences and transforms of the current frame.
         export_settings["gltf_current_frame"] = True
         # Other add-ons' hook failures are only logged by the exporter: record them too.

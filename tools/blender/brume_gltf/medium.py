@@ -162,8 +162,20 @@ def medium_fields(obj, frame, depsgraph):
             raise Refused(f"{where}: '{name}' {c} lies outside [0, 1], which Brume does not accept")
         return c
 
+    def soft(read, fallback, consequence):
+        """What Brume cannot express outside the density is a warning, not a refusal."""
+        try:
+            return read()
+        except Refused as e:
+            warnings.append(f"{e}; {consequence}")
+            return fallback()
+
+    def own_rgb(name):
+        return [min(max(float(c), 0.0), 1.0) for c in ins[name].default_value[:3]]
+
     fields = {}
-    # Density: Density socket times the Density Attribute grid.
+    # Density: Density socket times the Density Attribute grid. Without it there is nothing
+    # to render, so what cannot be read here is a refusal.
     d = affine_of("Density")
     attr = grid_attribute("Density Attribute")
     if d.grid is None:
@@ -183,46 +195,63 @@ def medium_fields(obj, frame, depsgraph):
         raise Refused(f"{where}: negative density scale {scale}")
     fields["densityScale"] = scale * f
 
-    fields["color"] = rgb("Color")
+    for name, key in (("Color", "color"), ("Absorption Color", "absorptionColor")):
+        fields[key] = soft(lambda: rgb(name), lambda: own_rgb(name), "the socket's own colour, clamped to [0, 1], is used")
     if grid_attribute("Color Attribute") is not None:
         warnings.append(f"{where}: 'Color Attribute' grid '{ins['Color Attribute'].default_value}' is ignored (Brume has no colour grid)")
-    fields["absorptionColor"] = rgb("Absorption Color")
-    g = affine_of("Anisotropy")
-    if g.grid is not None:
-        raise Refused(f"{where}: 'Anisotropy' reads a grid; Brume's anisotropy is a constant")
-    if not -1.0 < g.offset < 1.0:
-        raise Refused(f"{where}: 'Anisotropy' {g.offset} must lie strictly between -1 and 1")
-    fields["anisotropy"] = g.offset
 
-    # Emission: Strength (constant or scale * grid) times Color.
-    e = affine_of("Emission Strength")
-    if e.grid is not None and e.offset != 0.0:
-        raise Refused(f"{where}: 'Emission Strength' = {e.scale} * {e.grid} + {e.offset}: Brume has no emission offset")
-    strength = e.scale if e.grid is not None else e.offset
-    try:
-        ecol = color(ins["Emission Color"], "Brume reads a constant emission colour")
-    except Unsupported as err:
-        raise Refused(f"{where}: {err}")
-    peak = max(ecol)
-    if min(ecol) < 0.0:
-        raise Refused(f"{where}: negative 'Emission Color' {ecol}")
-    if peak > 1.0:  # Brume's colours lie in [0, 1]: move the excess into the strength
-        ecol = [c / peak for c in ecol]
-        strength *= peak
-    if strength < 0.0:
-        raise Refused(f"{where}: negative emission strength {strength}")
-    if strength > 0.0 and peak > 0.0:
-        if e.grid is not None:
-            fields["emissionGrid"] = e.grid
-        fields["emissionStrength"] = strength * f
-        fields["emissionColor"] = ecol
+    def anisotropy():
+        g = affine_of("Anisotropy")
+        if g.grid is not None:
+            raise Refused(f"{where}: 'Anisotropy' reads a grid; Brume's anisotropy is a constant")
+        if not -1.0 < g.offset < 1.0:
+            raise Refused(f"{where}: 'Anisotropy' {g.offset} must lie strictly between -1 and 1")
+        return g.offset
 
-    # Blackbody: Temperature socket times the Temperature Attribute grid.
-    b = affine_of("Blackbody Intensity")
-    if b.grid is not None:
-        raise Refused(f"{where}: 'Blackbody Intensity' reads a grid; Brume's is a constant")
-    intensity = b.offset
-    if intensity > 0.0:
+    fields["anisotropy"] = soft(
+        anisotropy,
+        lambda: min(max(float(ins["Anisotropy"].default_value), -0.999), 0.999),
+        "the socket's own value, within (-1, 1), is used",
+    )
+
+    def emission():
+        """Emission Strength (constant or scale * grid) times Emission Color."""
+        e = affine_of("Emission Strength")
+        if e.grid is not None and e.offset != 0.0:
+            raise Refused(f"{where}: 'Emission Strength' = {e.scale} * {e.grid} + {e.offset}: Brume has no emission offset")
+        strength = e.scale if e.grid is not None else e.offset
+        try:
+            ecol = color(ins["Emission Color"], "Brume reads a constant emission colour")
+        except Unsupported as err:
+            raise Refused(f"{where}: {err}")
+        peak = max(ecol)
+        if min(ecol) < 0.0:
+            raise Refused(f"{where}: negative 'Emission Color' {ecol}")
+        if peak > 1.0:  # Brume's colours lie in [0, 1]: move the excess into the strength
+            ecol = [c / peak for c in ecol]
+            strength *= peak
+        if strength < 0.0:
+            raise Refused(f"{where}: negative emission strength {strength}")
+        out = {}
+        if strength > 0.0 and peak > 0.0:
+            if e.grid is not None:
+                out["emissionGrid"] = e.grid
+            out["emissionStrength"] = strength * f
+            out["emissionColor"] = ecol
+        return out
+
+    fields.update(soft(emission, dict, "no emission exported"))
+
+    def blackbody():
+        """Temperature socket times the Temperature Attribute grid."""
+        b = affine_of("Blackbody Intensity")
+        if b.grid is not None:
+            raise Refused(f"{where}: 'Blackbody Intensity' reads a grid; Brume's is a constant")
+        intensity = b.offset
+        if intensity < 0.0:
+            raise Refused(f"{where}: negative 'Blackbody Intensity' {intensity}")
+        if intensity == 0.0:
+            return {}  # Cycles adds no blackbody emission at all then
         t = affine_of("Temperature")
         attr = grid_attribute("Temperature Attribute")
         if t.grid is None:
@@ -246,13 +275,15 @@ def medium_fields(obj, frame, depsgraph):
             # the constant term (1 - I) * 5.67e-14 / pi W m^-3 sr^-1 changes by |1 - f| times
             # that, far below anything visible.
             intensity *= f
-        fields["temperatureGrid"] = grid
-        fields["blackbodyIntensity"] = intensity
-        fields["blackbodyTint"] = tint
-        fields["temperatureScale"] = tscale
-        fields["temperatureOffset"] = toffset
-    elif intensity < 0.0:
-        raise Refused(f"{where}: negative 'Blackbody Intensity' {intensity}")
+        return {
+            "temperatureGrid": grid,
+            "blackbodyIntensity": intensity,
+            "blackbodyTint": tint,
+            "temperatureScale": tscale,
+            "temperatureOffset": toffset,
+        }
+
+    fields.update(soft(blackbody, dict, "no blackbody emission exported"))
 
     if source(mat.node_tree.get_output_node("CYCLES").inputs["Surface"]) is not None:
         warnings.append(f"material '{mat.name}': the Surface output is ignored on a Volume object")
