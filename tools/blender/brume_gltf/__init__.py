@@ -116,7 +116,14 @@ class glTF2ExportUserExtension:
     # Hooks (names and arguments fixed by the exporter).
 
     def pre_export_hook(self, export_settings):
+        # First, so that the post-export callback sees this export even if the rest raises.
         export_settings["brume_gltf"] = self
+        try:
+            self._prepare(export_settings)
+        except Exception as e:  # noqa: BLE001
+            self._error(f"export settings: internal error {e!r}\n{traceback.format_exc()}")
+
+    def _prepare(self, export_settings):
         self.gltf_dir = os.path.abspath(export_settings["gltf_filedirectory"])
         scene = bpy.context.scene
         self.copy = bool(getattr(scene, "brume_gltf", None) and scene.brume_gltf.copy_vdb)
@@ -160,6 +167,8 @@ class glTF2ExportUserExtension:
                 self._light(blender_object, export_settings)
             elif kind == "MESH":
                 self._mesh(blender_object)
+        except BrumeExportError as e:
+            self._error(f"{blender_object.type.title()} '{blender_object.name}': {e}")
         except Exception as e:  # noqa: BLE001 - the export must fail, not drop the volume
             self._error(f"{blender_object.type.title()} '{blender_object.name}': internal error {e!r}\n{traceback.format_exc()}")
 
@@ -175,7 +184,10 @@ class glTF2ExportUserExtension:
                 self._warn(w, export_settings)
             if fields is not None:
                 if image is not None:
-                    fields["uri"] = self._place(image)
+                    try:
+                        fields["uri"] = self._place(image)
+                    except BrumeExportError as e:
+                        self._warn(f"world: {e}; map left out", export_settings)
                 gltf2_plan.extensions[ENVIRONMENT] = self.Extension(ENVIRONMENT, fields, required=False)
             gltf2_plan.extensions[RENDER] = self.Extension(RENDER, render_fields(scene), required=False)
             for obj in scene.objects:
