@@ -7,13 +7,14 @@
 - an equirectangular Environment Texture feeding the Background colour gives `uri` (the image
   file, relative to the glTF or copied beside it) with color [1, 1, 1], as Cycles replaces the
   colour by the texture;
-- a Mapping node (type Point) between Texture Coordinate.Generated and the texture gives
-  `rotation`: its Euler XYZ rotation in radians, in Blender's Z-up world axes (the lookup is
-  rotated exactly as Cycles does); location and scale are not expressible.
+- a Mapping node between Texture Coordinate.Generated and the texture gives `rotation`: its
+  Euler XYZ rotation in radians, in Blender's Z-up world axes, as a Point mapping (a Texture
+  mapping's inverse rotation is converted); location and scale are not expressible.
 """
 import os
 
 import bpy
+from mathutils import Euler
 
 from .nodes import Unsupported, affine, describe, source
 
@@ -55,8 +56,8 @@ def _texture(tex, warnings):
     node = vec.node
     if node.bl_idname == "ShaderNodeTexCoord" and vec.name == "Generated":
         return path, rotation
-    if node.bl_idname != "ShaderNodeMapping" or node.vector_type != "POINT":
-        warnings.append(f"world: the map's Vector comes from {describe(node)}; only Texture Coordinate.Generated through a Mapping node (Point) is read; default mapping used")
+    if node.bl_idname != "ShaderNodeMapping":
+        warnings.append(f"world: the map's Vector comes from {describe(node)}; only Texture Coordinate.Generated through a Mapping node is read; default mapping used")
         return path, rotation
     src = source(node.inputs["Vector"])
     if src is None or src.node.bl_idname != "ShaderNodeTexCoord" or src.name != "Generated":
@@ -70,7 +71,13 @@ def _texture(tex, warnings):
     if source(rot) is not None:
         warnings.append(f"world: {describe(node)} 'Rotation' is linked; zero rotation used")
         return path, rotation
-    return path, [float(v) for v in rot.default_value]
+    euler = Euler(rot.default_value, "XYZ")
+    if node.vector_type == "TEXTURE":
+        # Texture mapping applies the inverse transform: the same lookup as a Point mapping
+        # by the inverse rotation.
+        euler = euler.to_matrix().inverted().to_euler("XYZ")
+    # Point, Vector and Normal rotate a direction alike (no location, unit scale).
+    return path, [float(v) for v in euler]
 
 
 def environment_fields(world):
