@@ -35,6 +35,9 @@ enum Command {
     /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba; README "Comparing against
     /// Mitsuba 3").
     Mitsuba(cli::mitsuba::MitsubaArgs),
+    /// Convert a Blender scene (.blend) to a Brume glTF scene with the tools/blender add-on
+    /// (bpy, as `brume cycles` finds it; README "From Blender").
+    ImportBlend(cli::import_blend::ImportBlendArgs),
     /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
     Compare(cli::compare::CompareArgs),
     /// Error against time for a sweep of estimator configurations (tables and plots).
@@ -59,6 +62,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cli::render::run(&args),
         Command::Cycles(args) => cli::cycles::run(&args),
         Command::Mitsuba(args) => cli::mitsuba::run(&args),
+        Command::ImportBlend(args) => cli::import_blend::run(&args),
         Command::Compare(args) => cli::compare::run(&args),
         Command::Study(args) => cli::study::run(&args),
         Command::Bench { which } => cli::bench::run(which),

@@ -3,6 +3,7 @@ pub mod bench_gpu;
 pub mod bench_peers;
 pub mod compare;
 pub mod cycles;
+pub mod import_blend;
 pub mod info;
 pub mod mitsuba;
 pub mod reference;

@@ -80,3 +80,25 @@ pub fn scene_agrees_with(
     );
     stdout.trim().to_string()
 }
+
+/// Asserts the agreement line that `brume cycles|mitsuba --against` printed (`stdout`): image
+/// means within 1 % and at most 1 % of the blocks failing the block z-test. Returns the line.
+pub fn assert_agreement(stdout: &str) -> String {
+    let words: Vec<&str> = stdout.split_whitespace().collect();
+    let field = |name: &str| -> &str {
+        let i = words
+            .iter()
+            .position(|w| *w == name)
+            .unwrap_or_else(|| panic!("no {name} in:\n{stdout}"));
+        words[i + 1]
+    };
+    let rel: f64 = field("mean_rel_diff").parse().unwrap();
+    let (bad, total) = field("blocks_failed").split_once('/').unwrap();
+    let (bad, total): (usize, usize) = (bad.parse().unwrap(), total.parse().unwrap());
+    assert!(rel.abs() < 0.01, "image means differ by {rel}:\n{stdout}");
+    assert!(
+        bad as f64 <= 0.01 * total as f64,
+        "{bad} of {total} blocks fail:\n{stdout}"
+    );
+    stdout.trim().to_string()
+}

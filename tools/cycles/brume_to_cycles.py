@@ -9,6 +9,10 @@ With `--runs K > 1` it renders K independent images (seeds seed .. seed+K-1) and
 `out.run<k>.exr` for each; `brume cycles` merges them into one EXR with a variance layer.
 Each render's time is printed as `render_seconds <k> <s>`.
 
+A `.blend` instead of a glTF is rendered as it is, with only the render settings below changed
+(tests/blender_roundtrip.rs compares it with Brume's render of its export). `--save-blend X
+--no-render` saves the Blender scene built from a glTF without rendering it.
+
 The Blender scene is built as follows (docs/CYCLES.md has the table and the reasons):
 - meshes, camera and lights by Blender's own glTF importer, lighting mode "COMPAT"
   (point/spot: W = 4 pi * intensity, sun: W/m^2 = intensity), which is Brume's factor-1
@@ -421,7 +425,20 @@ def configure_render(scene, args):
     img.exr_codec = "ZIP"
 
 
+def open_blend(args):
+    """A .blend rendered as it is, with only the render settings of `configure_render` (the
+    reference for tools/blender's exporter: tests/blender_roundtrip.rs)."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.scene))
+    scene = bpy.context.scene
+    if scene.camera is None:
+        sys.exit(f"error: {args.scene}: the scene has no active camera")
+    configure_render(scene, args)
+    return scene
+
+
 def build_scene(args):
+    if args.scene.lower().endswith(".blend"):
+        return open_blend(args)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     gltf_path = os.path.abspath(args.scene)
     with open(gltf_path) as f:
@@ -523,12 +540,15 @@ def main(argv):
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--max-depth", type=int, default=256)
     p.add_argument("--save-blend", help="also save the built scene as a .blend")
+    p.add_argument("--no-render", action="store_true", help="build (and save) the scene only")
     args = p.parse_args(argv)
     t0 = time.time()
     scene = build_scene(args)
     print(f"build_seconds {time.time() - t0:.3f}", flush=True)
     if args.save_blend:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save_blend))
+    if args.no_render:
+        return
     out = os.path.abspath(args.output)
     for k in range(args.runs):
         scene.cycles.seed = args.seed + k

@@ -1,0 +1,213 @@
+"""Builds the .blend files of tests/blender_roundtrip.rs with bpy (as a user would in Blender).
+
+    python make_blend.py KIND out.blend --vdb-dir scenes/vdb [--seq-dir DIR]
+
+KIND:
+- `fire`: a Volume object reading fire.vdb, parented to a rotated and scaled empty, itself
+  rotated and non-uniformly scaled, render space Object (Blender's default); a Principled Volume
+  with density, colour, absorption, anisotropy, emission from the `flame` grid through a Math
+  node, blackbody from the `temperature` grid through a Map Range node; a sun, a point light, a
+  camera, a ground plane and a constant world. Lights are punctual (radius and angle 0) and the
+  ground is a rough metal with single-scattering GGX: the one Principled BSDF set-up whose
+  Cycles rendering is Brume's surface model exactly, so the comparison tests the volume.
+- `sequence`: a Volume object on a VDB sequence (copies of example files named
+  seq_0001.vdb .. seq_0003.vdb in --seq-dir), scene frame 2, and a World lit by an
+  equirectangular map (sky.exr in --seq-dir) rotated by a Mapping node; a Noise Texture drives
+  the Principled Volume's colour (a warning: the socket's own colour is exported).
+- `procedural`: a Volume object with no file (what geometry nodes produce).
+"""
+import argparse
+import math
+import os
+import shutil
+import sys
+
+import bpy
+from mathutils import Euler, Matrix
+
+
+def principled(mat):
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    pv = nt.nodes.new("ShaderNodeVolumePrincipled")
+    nt.links.new(pv.outputs[0], out.inputs["Volume"])
+    return nt, pv
+
+
+def volume_object(name, filepath):
+    vol = bpy.data.volumes.new(name)
+    vol.filepath = filepath
+    obj = bpy.data.objects.new(name, vol)
+    bpy.context.scene.collection.objects.link(obj)
+    mat = bpy.data.materials.new(name + "_material")
+    mat.use_nodes = True
+    vol.materials.append(mat)
+    return obj, mat
+
+
+def fire_scene(vdb_dir):
+    scene = bpy.context.scene
+    rig = bpy.data.objects.new("rig", None)
+    scene.collection.objects.link(rig)
+    rig.location = (0.15, -0.1, 1.25)
+    rig.rotation_euler = Euler((0.0, 0.0, math.radians(30.0)))
+    rig.scale = (1.2, 1.2, 1.2)
+
+    obj, mat = volume_object("fire", os.path.join(vdb_dir, "fire.vdb"))
+    obj.parent = rig
+    obj.location = (0.05, 0.0, 0.02)
+    obj.rotation_euler = Euler((math.radians(90.0), math.radians(10.0), math.radians(-20.0)))
+    obj.scale = (0.7, 0.8, 0.75)
+    vol = obj.data
+    assert vol.render.space == "OBJECT"  # Blender's default, on purpose
+    vol.render.precision = "FULL"  # Cycles' default HALF quantises the grid; Brume reads floats
+    vol.render.clipping = 0.0
+    mat.cycles.volume_interpolation = "LINEAR"
+
+    nt, pv = principled(mat)
+    pv.inputs["Density"].default_value = 2.5
+    pv.inputs["Density Attribute"].default_value = "density"
+    pv.inputs["Color"].default_value = (0.7, 0.6, 0.5, 1.0)
+    pv.inputs["Absorption Color"].default_value = (0.2, 0.3, 0.1, 1.0)
+    pv.inputs["Anisotropy"].default_value = 0.3
+    flame = nt.nodes.new("ShaderNodeAttribute")
+    flame.attribute_name = "flame"
+    mul = nt.nodes.new("ShaderNodeMath")
+    mul.operation = "MULTIPLY"
+    mul.inputs[0].default_value = 3.0
+    nt.links.new(flame.outputs["Fac"], mul.inputs[1])
+    nt.links.new(mul.outputs[0], pv.inputs["Emission Strength"])
+    pv.inputs["Emission Color"].default_value = (1.0, 0.5, 0.2, 1.0)
+    pv.inputs["Blackbody Intensity"].default_value = 0.8
+    pv.inputs["Blackbody Tint"].default_value = (1.0, 0.9, 0.8, 1.0)
+    temp = nt.nodes.new("ShaderNodeAttribute")
+    temp.attribute_name = "temperature"
+    rng = nt.nodes.new("ShaderNodeMapRange")
+    rng.clamp = False
+    rng.inputs["From Min"].default_value = 0.0
+    rng.inputs["From Max"].default_value = 1.0
+    rng.inputs["To Min"].default_value = 0.0
+    rng.inputs["To Max"].default_value = 1400.0
+    nt.links.new(temp.outputs["Fac"], rng.inputs["Value"])
+    nt.links.new(rng.outputs["Result"], pv.inputs["Temperature"])
+    pv.inputs["Temperature Attribute"].default_value = ""  # else Cycles multiplies by the grid again
+
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 2.0
+    sun.angle = 0.0
+    sun_obj = bpy.data.objects.new("sun", sun)
+    scene.collection.objects.link(sun_obj)
+    sun_obj.rotation_euler = Euler((math.radians(40.0), math.radians(15.0), math.radians(30.0)))
+    lamp = bpy.data.lights.new("lamp", "POINT")
+    lamp.energy = 300.0
+    lamp.shadow_soft_size = 0.0
+    lamp.color = (0.8, 0.9, 1.0)
+    lamp_obj = bpy.data.objects.new("lamp", lamp)
+    scene.collection.objects.link(lamp_obj)
+    lamp_obj.location = (-2.5, -2.0, 3.0)
+
+    mesh = bpy.data.meshes.new("ground")
+    s = 6.0
+    mesh.from_pydata([(-s, -s, 0), (s, -s, 0), (s, s, 0), (-s, s, 0)], [], [(0, 1, 2, 3)])
+    ground = bpy.data.objects.new("ground", mesh)
+    scene.collection.objects.link(ground)
+    gm = bpy.data.materials.new("ground")
+    gm.use_nodes = True
+    bsdf = gm.node_tree.nodes["Principled BSDF"]
+    bsdf.distribution = "GGX"
+    bsdf.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 1.0
+    mesh.materials.append(gm)
+
+    cam = bpy.data.cameras.new("camera")
+    cam.lens = 35.0
+    cam_obj = bpy.data.objects.new("camera", cam)
+    scene.collection.objects.link(cam_obj)
+    cam_obj.matrix_world = Matrix.LocRotScale(
+        (0.0, -7.0, 1.6), Euler((math.radians(86.0), 0.0, 0.0)), None
+    )
+    scene.camera = cam_obj
+
+    world = bpy.data.worlds.new("world")
+    world.use_nodes = True
+    bg = world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.4, 0.5, 0.6, 1.0)
+    bg.inputs["Strength"].default_value = 0.05
+    scene.world = world
+    scene.render.resolution_x = 32
+    scene.render.resolution_y = 24
+    scene.render.resolution_percentage = 100
+    scene.cycles.samples = 64
+
+
+def sequence_scene(vdb_dir, seq_dir):
+    os.makedirs(seq_dir, exist_ok=True)
+    for k, src in enumerate(["cloud.vdb", "smoke.vdb", "plume.vdb"], start=1):
+        shutil.copyfile(os.path.join(vdb_dir, src), os.path.join(seq_dir, f"seq_{k:04d}.vdb"))
+    obj, mat = volume_object("sequence", os.path.join(seq_dir, "seq_0001.vdb"))
+    vol = obj.data
+    vol.is_sequence = True
+    vol.frame_start = 1
+    vol.frame_duration = 3
+    nt, pv = principled(mat)
+    pv.inputs["Density"].default_value = 1.5
+    # A texture on the colour, which Brume cannot express: a warning, not a refusal.
+    noise = nt.nodes.new("ShaderNodeTexNoise")
+    nt.links.new(noise.outputs["Color"], pv.inputs["Color"])
+    bpy.context.scene.frame_set(2)
+    # An equirectangular map through Texture Coordinate.Generated -> Mapping (rotation).
+    sky = bpy.data.images.new("sky", 8, 4, float_buffer=True)
+    sky.filepath_raw = os.path.join(seq_dir, "sky.exr")
+    sky.file_format = "OPEN_EXR"
+    sky.save()
+    world = bpy.data.worlds.new("world")
+    world.use_nodes = True
+    nt = world.node_tree
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    tex.image = sky
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.1, 0.2, 0.3)
+    coords = nt.nodes.new("ShaderNodeTexCoord")
+    nt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    nt.nodes["Background"].inputs["Strength"].default_value = 0.7
+    bpy.context.scene.world = world
+
+
+def procedural_scene():
+    """A Volume object whose grids come from geometry nodes (a Volume Cube), no file."""
+    obj, mat = volume_object("procedural", "")
+    principled(mat)
+    ng = bpy.data.node_groups.new("cube", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    out = ng.nodes.new("NodeGroupOutput")
+    cube = ng.nodes.new("GeometryNodeVolumeCube")
+    ng.links.new(cube.outputs["Volume"], out.inputs[0])
+    mod = obj.modifiers.new("cube", "NODES")
+    mod.node_group = ng
+
+
+def main(argv):
+    p = argparse.ArgumentParser()
+    p.add_argument("kind", choices=["fire", "sequence", "procedural"])
+    p.add_argument("out")
+    p.add_argument("--vdb-dir", required=True)
+    p.add_argument("--seq-dir")
+    args = p.parse_args(argv)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    vdb_dir = os.path.abspath(args.vdb_dir)
+    if args.kind == "fire":
+        fire_scene(vdb_dir)
+    elif args.kind == "sequence":
+        sequence_scene(vdb_dir, os.path.abspath(args.seq_dir))
+    else:
+        procedural_scene()
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.out))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
