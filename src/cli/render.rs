@@ -1,6 +1,6 @@
 //! `brume render`: a scene file to an EXR, with tile logs and a cost map.
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -8,8 +8,10 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 
 use brume::backend::cpu::{self, RenderOutput};
+use brume::film::part::{self, Coverage, PartInfo};
 use brume::film::{
-    totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
+    totals, write_cost_map, write_exr_with_state, AttrValue, CostMetric, Metadata, RenderInfo,
+    TileLogWriter,
 };
 use brume::integrator::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
@@ -72,9 +74,24 @@ pub struct RenderArgs {
     /// (Owen-scrambled, the default) or independent (the PCG stream of each sample).
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
-    /// Worker threads (default: all cores).
+    /// Worker threads (default: $SLURM_CPUS_PER_TASK under Slurm, else all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Render only sample indices START..END (half-open) of every pixel, with the random
+    /// numbers and Sobol points a whole render uses for them: a part for `brume merge`.
+    #[arg(long, value_name = "START..END", value_parser = parse_samples, conflicts_with_all = ["spp", "time"])]
+    pub samples: Option<(u32, u32)>,
+    /// Render only the pixels in [x0, x1) x [y0, y1) (CPU backend).
+    #[arg(long, value_name = "x0,y0,x1,y1", value_parser = parse_region)]
+    pub region: Option<[u32; 4]>,
+    /// Write the accumulated image (to --output, atomically) every SECONDS, at the first pass
+    /// boundary after it; SIGTERM and Ctrl-C also write what has accumulated (CPU backend).
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint: Option<f64>,
+    /// Continue this checkpoint (or part) from the sample index it reached to the target
+    /// (--samples END or --spp): the same image as an uninterrupted render, bit for bit.
+    #[arg(long, value_name = "PART.exr")]
+    pub resume: Option<PathBuf>,
     /// Longest path in scattering events (default 256).
     #[arg(long)]
     pub max_depth: Option<u32>,
@@ -163,8 +180,45 @@ impl RenderArgs {
             .unwrap_or(s.sampler);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.tile_size = self.tile_size;
+        if let Some((start, end)) = self.samples {
+            if start == end {
+                return Err(anyhow!(
+                    "--samples {start}..{end} is empty: nothing to render"
+                ));
+            }
+            s.sample_start = start;
+            s.spp = end;
+        }
+        s.region = self.region;
         Ok(s)
     }
+}
+
+fn parse_samples(s: &str) -> Result<(u32, u32), String> {
+    brume::film::part::parse_range(s)
+}
+
+fn parse_region(s: &str) -> Result<[u32; 4], String> {
+    brume::film::part::parse_region(s)
+}
+
+/// The worker count: `--threads`, else `SLURM_CPUS_PER_TASK` (Slurm without cgroups lets a
+/// task see every core of the node, but it was allocated only these), else every core.
+pub fn thread_count(flag: Option<usize>) -> (usize, &'static str) {
+    if let Some(n) = flag.filter(|&n| n > 0) {
+        return (n, "--threads");
+    }
+    if let Some(n) = std::env::var("SLURM_CPUS_PER_TASK")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n > 0)
+    {
+        return (n, "SLURM_CPUS_PER_TASK");
+    }
+    (
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        "all cores",
+    )
 }
 
 fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<Option<T>> {
@@ -240,7 +294,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();
-        // A second Ctrl-C kills as usual; the first stops after the current tiles.
+        // Ctrl-C, and SIGTERM (what Slurm and farm managers send before a kill; ctrlc's
+        // `termination` feature): stop after the current tiles and write what has accumulated
+        // at whole passes. A second signal kills as usual.
         let _ = ctrlc::set_handler(move || {
             if stop.swap(true, Ordering::SeqCst) {
                 std::process::exit(130);
@@ -248,10 +304,25 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             eprintln!("\ninterrupted: finishing, writing what has accumulated");
         });
     }
+    let (threads, threads_from) = thread_count(args.threads);
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
+        .num_threads(threads)
         .build()?;
     let threads = pool.current_num_threads();
+    eprintln!("threads: {threads} (from {threads_from})");
+    let part = PartContext::new(args, &settings)?;
+    let resume = match &args.resume {
+        Some(path) => Some(part.resume_from(path, &settings)?),
+        None => None,
+    };
+    if let Some((_, cpu::Resume { reached, .. })) = &resume {
+        eprintln!(
+            "resume: {} holds samples {}..{reached}; rendering {reached}..{}",
+            args.resume.as_ref().unwrap().display(),
+            settings.sample_start,
+            settings.spp
+        );
+    }
     let bar = std::io::stderr().is_terminal().then(|| {
         let bar = indicatif::ProgressBar::new(settings.spp.max(1) as u64);
         bar.set_style(
@@ -267,8 +338,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
     };
     // The GPU when asked or when auto finds a usable one; otherwise the CPU, saying why.
+    let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
+    let cpu_only = args.checkpoint.is_some() || args.resume.is_some() || args.region.is_some();
+    if cpu_only && args.backend == Backend::Gpu {
+        return Err(anyhow!(
+            "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
+        ));
+    }
     let gpu = match args.backend {
         Backend::Cpu => None,
+        Backend::Auto if cpu_only => None,
         Backend::Gpu | Backend::Auto => match brume::backend::gpu::GpuContext::new() {
             // A software adapter (Mesa's llvmpipe) runs the wavefront kernels on the same CPU
             // cores, an order of magnitude slower than the CPU backend: auto skips it.
@@ -325,62 +404,216 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     };
     let (out, backend, variant): (RenderOutput, String, Option<String>) = match on_gpu {
         Some(done) => done,
-        None => (
-            pool.install(|| cpu::render(&rs, &settings, &stop, &progress)),
-            format!("cpu ({threads} threads)"),
-            None,
-        ),
+        None => {
+            let backend = format!("cpu ({threads} threads)");
+            let mut last = std::time::Instant::now();
+            let mut checkpoint_error = None;
+            let mut observer = |view: &cpu::PassView| {
+                let Some(every) = args.checkpoint else { return };
+                if last.elapsed().as_secs_f64() < every || checkpoint_error.is_some() {
+                    return;
+                }
+                let meta = part.metadata(
+                    &settings,
+                    view.spp,
+                    earlier + view.seconds,
+                    &backend,
+                    None,
+                    true,
+                    features,
+                );
+                match write_exr_with_state(&args.output, view.film, &meta) {
+                    Ok(()) => eprintln!(
+                        "checkpoint: {} at sample {}",
+                        args.output.display(),
+                        settings.sample_start + view.spp
+                    ),
+                    Err(e) => checkpoint_error = Some(e),
+                }
+                last = std::time::Instant::now();
+            };
+            let out = pool.install(|| {
+                cpu::render_resumed(
+                    &rs,
+                    &settings,
+                    resume.map(|(_, r)| r),
+                    &stop,
+                    &progress,
+                    &mut observer,
+                )
+            });
+            if let Some(e) = checkpoint_error {
+                return Err(anyhow!(e).context("writing a checkpoint"));
+            }
+            (out, backend, None)
+        }
     };
-    write_outputs(args, &settings, &out, &backend, variant.as_deref())
+    let mut out = out;
+    out.seconds += earlier;
+    write_outputs(args, &part, &settings, &out, &backend, variant.as_deref())
+}
+
+/// What the header of a part needs that the settings do not hold: the scene's content hash,
+/// the camera, the Brume version.
+struct PartContext {
+    scene: String,
+    scene_hash: String,
+    settings_key: String,
+}
+
+impl PartContext {
+    fn new(args: &RenderArgs, settings: &RenderSettings) -> Result<Self> {
+        Ok(Self {
+            scene: args.scene.display().to_string(),
+            scene_hash: part::scene_hash(&args.scene)?,
+            settings_key: part::settings_key(settings, args.camera.as_deref()),
+        })
+    }
+
+    /// The header of a render of `settings` that holds `spp` samples of its range so far.
+    #[allow(clippy::too_many_arguments)]
+    fn metadata(
+        &self,
+        settings: &RenderSettings,
+        spp: u32,
+        seconds: f64,
+        backend: &str,
+        gpu_variant: Option<&str>,
+        interrupted: bool,
+        features: brume::integrator::FeatureFlags,
+    ) -> Metadata {
+        let info = RenderInfo {
+            estimator: settings.estimator.name().to_string(),
+            b: settings.b,
+            m: settings.m_or_default().unwrap_or(f32::NAN),
+            majorant_mode: settings.majorant.name().to_string(),
+            spp,
+            seconds,
+            seed: settings.seed as u64,
+            scene: self.scene.clone(),
+            backend: backend.to_string(),
+        };
+        let mut meta = info.to_metadata();
+        meta.set("brume:features", AttrValue::Text(features.name()));
+        meta.set(
+            "brume:absorption",
+            AttrValue::Text(settings.absorption.name().to_string()),
+        );
+        meta.set(
+            "brume:rr_throughput",
+            AttrValue::Float(settings.rr_throughput),
+        );
+        meta.set(
+            "brume:sampler",
+            AttrValue::Text(settings.sampler.name().into()),
+        );
+        if let Some(v) = gpu_variant {
+            // The WGSL variant the wavefront kernels were specialised for.
+            meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));
+        }
+        meta.set(
+            "brume:specialised",
+            AttrValue::Text((!settings.generic).to_string()),
+        );
+        meta.set(
+            "brume:interrupted",
+            AttrValue::Text(interrupted.to_string()),
+        );
+        let (start, end) = (settings.sample_start, settings.spp);
+        let region = settings
+            .region
+            .unwrap_or([0, 0, settings.width, settings.height]);
+        PartInfo {
+            scene_hash: self.scene_hash.clone(),
+            settings: self.settings_key.clone(),
+            seed: settings.seed.to_string(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            width: settings.width,
+            height: settings.height,
+            coverage: vec![Coverage {
+                start,
+                end: start + spp,
+                region,
+            }],
+            // A time-limited render (spp 0) has no end to continue to.
+            target: (end != 0).then_some((start, end)),
+            seconds,
+            parts: 1,
+        }
+        .write_into(&mut meta);
+        meta
+    }
+
+    /// Reads a checkpoint to continue: same scene, settings, seed, version and size; one
+    /// sample range starting where this render starts, over the same region. Returns its
+    /// render seconds and where to pick up.
+    fn resume_from(&self, path: &Path, settings: &RenderSettings) -> Result<(f64, cpu::Resume)> {
+        let p = part::read_part(path)?;
+        let here = self.metadata(
+            settings,
+            0,
+            0.0,
+            "",
+            None,
+            false,
+            brume::integrator::FeatureFlags::ALL,
+        );
+        let mine = PartInfo::from_metadata(Path::new("(this render)"), &here)?;
+        mine.check_same_image(Path::new("this render"), &p.info, path)?;
+        let region = mine.coverage[0].region;
+        let reached = match p.info.coverage[..] {
+            [c] if c.start == settings.sample_start && c.region == region => c.end,
+            [] if settings.sample_start == 0 => 0,
+            _ => {
+                return Err(anyhow!(
+                    "{}: holds samples {} but this render covers {}..{}@{},{},{},{}: not its checkpoint",
+                    path.display(),
+                    p.metadata.text("brume:coverage").unwrap_or(""),
+                    settings.sample_start,
+                    settings.spp,
+                    region[0],
+                    region[1],
+                    region[2],
+                    region[3]
+                ))
+            }
+        };
+        if settings.spp != 0 && reached > settings.spp {
+            return Err(anyhow!(
+                "{}: reached sample {reached}, past this render's end {}",
+                path.display(),
+                settings.spp
+            ));
+        }
+        Ok((
+            p.info.seconds,
+            cpu::Resume {
+                film: p.film,
+                reached,
+            },
+        ))
+    }
 }
 
 fn write_outputs(
     args: &RenderArgs,
+    part: &PartContext,
     settings: &RenderSettings,
     out: &RenderOutput,
     backend: &str,
     gpu_variant: Option<&str>,
 ) -> Result<()> {
-    let info = RenderInfo {
-        estimator: settings.estimator.name().to_string(),
-        b: settings.b,
-        m: settings.m_or_default().unwrap_or(f32::NAN),
-        majorant_mode: settings.majorant.name().to_string(),
-        spp: out.spp,
-        seconds: out.seconds,
-        seed: settings.seed as u64,
-        scene: args.scene.display().to_string(),
-        backend: backend.to_string(),
-    };
-    let mut meta = info.to_metadata();
-    meta.set("brume:features", AttrValue::Text(out.features.name()));
-    meta.set(
-        "brume:absorption",
-        AttrValue::Text(settings.absorption.name().to_string()),
+    let meta = part.metadata(
+        settings,
+        out.spp,
+        out.seconds,
+        backend,
+        gpu_variant,
+        out.interrupted,
+        out.features,
     );
-    meta.set(
-        "brume:rr_throughput",
-        AttrValue::Float(settings.rr_throughput),
-    );
-    meta.set(
-        "brume:sampler",
-        AttrValue::Text(settings.sampler.name().into()),
-    );
-    if let Some(v) = gpu_variant {
-        // The WGSL variant the wavefront kernels were specialised for.
-        meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));
-    }
-    meta.set(
-        "brume:specialised",
-        AttrValue::Text((!settings.generic).to_string()),
-    );
-    meta.set(
-        "brume:interrupted",
-        AttrValue::Text(out.interrupted.to_string()),
-    );
-    meta.set("brume:width", AttrValue::Int(settings.width as i32));
-    meta.set("brume:height", AttrValue::Int(settings.height as i32));
-    write_exr(&args.output, &out.film, &meta)
+    // With the accumulator state, so any render can be merged or resumed exactly.
+    write_exr_with_state(&args.output, &out.film, &meta)
         .with_context(|| format!("writing {}", args.output.display()))?;
     let t = totals(&out.records);
     if let Some(path) = &args.tile_log {

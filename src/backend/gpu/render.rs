@@ -47,7 +47,7 @@ use glam::Vec3;
 
 use super::device::{byte_size, GpuContext, GpuGrid};
 use super::shader::{self, Module, Spec};
-use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
+use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
     GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
@@ -681,6 +681,12 @@ pub fn render_with_timings(
     let start = Instant::now();
     supports(rs).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
+    if settings.region.is_some() {
+        // Batches are whole rows of the image; a region split is a CPU feature.
+        return Err(GpuRenderError::Unsupported(
+            "--region renders on the CPU backend only (--samples works on both)".into(),
+        ));
+    }
     // As on the CPU: the generic variant has every feature on.
     let features = if settings.generic {
         FeatureFlags::ALL
@@ -734,15 +740,20 @@ pub fn render_with_timings(
         let rows = (max_batch / (w as u64 * n as u64)).clamp(1, h as u64);
         rows * w as u64 * n as u64
     };
-    let target = if settings.spp == 0 {
+    // spp 0 is "until the time limit"; without one it is the empty range [0, 0).
+    let target = if settings.spp == 0 && settings.time_limit.is_some() {
         u32::MAX
     } else {
         settings.spp
     };
-    let largest = pass_sizes(target.min(1 << 16), settings.max_pass_spp)
-        .map(|(_, n)| batch_max_samples(n))
-        .max()
-        .unwrap_or(1);
+    let largest = pass_schedule(
+        settings.sample_start,
+        target.min(1 << 16),
+        settings.max_pass_spp,
+    )
+    .map(|(_, _, n)| batch_max_samples(n))
+    .max()
+    .unwrap_or(1);
     if largest * 16 > limit {
         return Err(GpuRenderError::Limits(format!(
             "one row of {w} pixels at {} samples per pass needs {} of sample buffer; the device binds {}",
@@ -910,7 +921,10 @@ pub fn render_with_timings(
     let mut lookups = vec![0u64; (w * h) as usize];
     let mut spp = 0u32;
     let mut interrupted = false;
-    'passes: for (pass, (s0, n)) in pass_sizes(target, settings.max_pass_spp).enumerate() {
+    // Samples [sample_start, spp) in the CPU's pass schedule, so GPU parts merge with CPU ones.
+    'passes: for (pass, s0, n) in
+        pass_schedule(settings.sample_start, target, settings.max_pass_spp)
+    {
         if stop.load(Ordering::Relaxed)
             || settings
                 .time_limit
@@ -942,7 +956,7 @@ pub fn render_with_timings(
                 y1,
                 index: tile,
             };
-            let mut r = TileRecord::new(pass as u32, &rect);
+            let mut r = TileRecord::new(pass, &rect);
             r.samples = params.total_samples as u64;
             r.wall_ns = batch_start.elapsed().as_nanos() as u64;
             r.density_lookups = counters.wide(GpuWideCounter::Lookups);
