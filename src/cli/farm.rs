@@ -146,7 +146,7 @@ fn write_scripts(args: &SlurmArgs) -> Result<FarmFiles> {
         r#"{header}#SBATCH --job-name=brume-render
 #SBATCH --array=0-{last}
 #SBATCH --cpus-per-task={cpus}
-#SBATCH --output={logs}/task-%a.log
+#SBATCH --output={logs_raw}/task-%a.log
 #SBATCH --requeue
 # Written by `brume farm slurm`: task i renders sample range RANGES[i] of every pixel into its
 # own part, checkpointing every {ckpt} s and on SIGTERM; a requeued or resubmitted task
@@ -161,8 +161,9 @@ echo "brume farm: task $i of {tasks}, samples ${{RANGES[$i]}}, $SLURM_CPUS_PER_T
 exec {brume} render {scene} -o "$part" --samples "${{RANGES[$i]}}" --checkpoint {ckpt} --backend cpu "${{resume[@]}}" {extra}
 "#,
         last = args.tasks - 1,
+        // sbatch reads #SBATCH lines without a shell: no quotes there.
+        logs_raw = dir.join("logs").display(),
         cpus = args.cpus_per_task,
-        logs = quote(&dir.join("logs").display().to_string()),
         ckpt = args.checkpoint,
         ranges = ranges
             .iter()
@@ -178,14 +179,14 @@ exec {brume} render {scene} -o "$part" --samples "${{RANGES[$i]}}" --checkpoint 
     let merge = format!(
         r#"{header}#SBATCH --job-name=brume-merge
 #SBATCH --cpus-per-task=1
-#SBATCH --output={logs}/merge.log
+#SBATCH --output={logs_raw}/merge.log
 # Written by `brume farm slurm`: submit with --dependency=afterok:<array job>
 # --kill-on-invalid-dep=yes, so it runs only when every task succeeded.
 set -euo pipefail
 exec {brume} merge {parts} -o {output} --spp {spp}
 "#,
         spp = args.spp,
-        logs = quote(&dir.join("logs").display().to_string()),
+        logs_raw = dir.join("logs").display(),
         brume = quote(&brume.display().to_string()),
         parts = parts
             .iter()
