@@ -634,6 +634,13 @@ fn write_outputs(
         )?;
     }
     let samples = t.samples.max(1) as f64;
+    // Passes of this run (a part's pass indices start where its range does).
+    let passes = out
+        .records
+        .iter()
+        .map(|r| r.pass)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
     println!(
         "{}: {} spp in {:.2} s ({:.0} samples/s{}), {} tiles x {} passes",
         args.output.display(),
@@ -645,18 +652,8 @@ fn write_outputs(
         } else {
             ""
         },
-        out.records.len()
-            / (out
-                .records
-                .iter()
-                .map(|r| r.pass)
-                .max()
-                .map_or(1, |p| p as usize + 1)),
-        out.records
-            .iter()
-            .map(|r| r.pass)
-            .max()
-            .map_or(0, |p| p + 1),
+        out.records.len() / passes.max(1),
+        passes,
     );
     println!(
         "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} majorant_segments {} shadow_segments {} path_length_sum {} guard_fired {} majorant_violations {}",
