@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::{self, RenderOutput, Resume};
 use brume::film::part::{self, Coverage, PartInfo};
-use brume::film::{read_exr, write_exr_with_state, Film, Metadata};
+use brume::film::{read_exr, write_exr_with_state, Metadata};
 use brume::integrator::{RenderScene, RenderSettings, SamplerKind};
 use proptest::prelude::*;
 
