@@ -53,7 +53,7 @@ pub struct SlurmArgs {
     #[arg(long)]
     pub submit: bool,
     /// With --submit: wait for the merge, then report (failed tasks and how to resubmit).
-    #[arg(long)]
+    #[arg(long, requires = "submit")]
     pub wait: bool,
     /// Seconds --wait waits at most.
     #[arg(long, default_value_t = 86400.0)]

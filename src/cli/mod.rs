@@ -9,4 +9,5 @@ pub mod merge;
 pub mod mitsuba;
 pub mod reference;
 pub mod render;
+pub mod render_part;
 pub mod study;
