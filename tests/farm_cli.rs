@@ -181,15 +181,15 @@ fn merge_refuses_parts_of_other_images_overlaps_truncated_and_nan_parts() {
     );
     std::fs::remove_file(d.join("ab.exr")).unwrap();
 
-    refused(&d, &[&a, &other_scene], &other_scene, "a different scene");
+    refused(&d, &[&a, &other_scene], &other_scene, "not the same scene");
     refused(
         &d,
         &[&a, &other_settings],
         &other_settings,
-        "a different settings",
+        "not the same settings",
     );
-    refused(&d, &[&a, &other_seed], &other_seed, "a different seed");
-    refused(&d, &[&a, &other_size], &other_size, "a different size");
+    refused(&d, &[&a, &other_seed], &other_seed, "not the same seed");
+    refused(&d, &[&a, &other_size], &other_size, "not the same size");
     refused(&d, &[&a, &b, &overlap], &overlap, "overlaps");
 
     // Another Brume version: the same part with its header changed.
@@ -198,7 +198,7 @@ fn merge_refuses_parts_of_other_images_overlaps_truncated_and_nan_parts() {
     let mut meta = p.metadata.clone();
     meta.set("brume:version", AttrValue::Text("0.0.1-other".into()));
     write_exr_with_state(&version, &p.film, &meta).unwrap();
-    refused(&d, &[&a, &version], &version, "a different Brume version");
+    refused(&d, &[&a, &version], &version, "not the same Brume version");
 
     // A part cut short (a copy interrupted mid-transfer).
     let truncated = d.join("truncated.exr");
@@ -307,7 +307,7 @@ fn a_render_killed_after_its_first_checkpoint_resumes_to_the_uninterrupted_image
     .wait_with_output()
     .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("a different seed"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not the same seed"));
 }
 
 #[test]
