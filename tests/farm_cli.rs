@@ -375,3 +375,86 @@ fn the_thread_pool_follows_slurm_cpus_per_task_or_the_flag() {
     let p = read_part(&out).unwrap();
     let _: &PartInfo = &p.info;
 }
+
+#[test]
+fn the_farm_scripts_run_without_slurm_and_a_rerun_task_resumes_its_part() {
+    // `brume farm slurm` without --submit writes the scripts; here they run as Slurm would run
+    // them (SLURM_ARRAY_TASK_ID, SLURM_CPUS_PER_TASK), one after the other.
+    let d = dir("scripts");
+    let final_exr = d.join("final.exr");
+    let work = d.join("work");
+    let o = ok(
+        brume(&[
+            "farm",
+            "slurm",
+            &scene("cloud"),
+            "-o",
+            final_exr.to_str().unwrap(),
+            "--spp",
+            "10",
+            "--tasks",
+            "3",
+            "--cpus-per-task",
+            "2",
+            "--checkpoint",
+            "60",
+            "--dir",
+            work.to_str().unwrap(),
+            "--",
+            "--width",
+            "40",
+            "--height",
+            "24",
+        ]),
+        "farm slurm",
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("--dependency=afterok:$A --kill-on-invalid-dep=yes"),
+        "{out}"
+    );
+    let script = std::fs::read_to_string(work.join("render.sbatch")).unwrap();
+    for needle in [
+        "#SBATCH --array=0-2",
+        "#SBATCH --cpus-per-task=2",
+        "#SBATCH --requeue",
+        "RANGES=(0..3 3..6 6..10)",
+        "--checkpoint 60",
+    ] {
+        assert!(script.contains(needle), "{needle}:\n{script}");
+    }
+    let task = |i: u32| {
+        let o = Command::new("bash")
+            .arg(work.join("render.sbatch"))
+            .env("SLURM_ARRAY_TASK_ID", i.to_string())
+            .env("SLURM_CPUS_PER_TASK", "2")
+            .output()
+            .unwrap();
+        ok(o, &format!("task {i}"))
+    };
+    for i in 0..3 {
+        let err = String::from_utf8_lossy(&task(i).stderr).into_owned();
+        assert!(
+            err.contains("threads: 2 (from SLURM_CPUS_PER_TASK)"),
+            "{err}"
+        );
+    }
+    // A requeued task finds its part and resumes it (here: already complete, nothing to do).
+    let err = String::from_utf8_lossy(&task(1).stderr).into_owned();
+    assert!(
+        err.contains("resume:") && err.contains("rendering 6..6"),
+        "{err}"
+    );
+    ok(
+        Command::new("bash")
+            .arg(work.join("merge.sbatch"))
+            .output()
+            .unwrap(),
+        "merge",
+    );
+    let single = d.join("single.exr");
+    ok(render("cloud", &single, &["--spp", "10"]), "single");
+    let (m, s) = (read_part(&final_exr).unwrap(), read_part(&single).unwrap());
+    assert_rounding_equal(&m.film, &s.film, "farm scripts");
+    assert_eq!(m.info.parts, 3);
+}

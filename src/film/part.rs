@@ -375,9 +375,16 @@ pub fn scene_hash(scene: &Path) -> Result<String, PartError> {
     for uri in uris {
         h.eat(uri.as_bytes());
         h.eat(&[0]);
-        if let Ok(data) = std::fs::read(base.join(&uri)) {
-            h.eat(&(data.len() as u64).to_le_bytes());
-            h.eat(&data);
+        // Streamed: a referenced VDB can be larger than memory allows to hold twice.
+        if let Ok(mut f) = std::fs::File::open(base.join(&uri)) {
+            use std::io::Read;
+            let mut buf = vec![0u8; 1 << 20];
+            loop {
+                match f.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => h.eat(&buf[..n]),
+                }
+            }
         }
     }
     Ok(format!("{:016x}", h.0))
