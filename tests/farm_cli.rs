@@ -91,9 +91,11 @@ fn parts_and_regions_merged_by_the_cli_equal_one_render() {
         .iter()
         .map(|p| read_part(Path::new(p)).unwrap().info.seconds)
         .sum();
-    assert_eq!(
-        m.info.seconds, parts_seconds,
-        "total time is the parts' sum"
+    // The parts' sum (in another order: seconds need no bit-exact sum).
+    assert!(
+        (m.info.seconds - parts_seconds).abs() <= 1e-12 * parts_seconds,
+        "total time {} is not the parts' sum {parts_seconds}",
+        m.info.seconds
     );
     assert_eq!(m.info.parts, 4);
     assert_eq!(
@@ -457,4 +459,28 @@ fn the_farm_scripts_run_without_slurm_and_a_rerun_task_resumes_its_part() {
     let (m, s) = (read_part(&final_exr).unwrap(), read_part(&single).unwrap());
     assert_rounding_equal(&m.film, &s.film, "farm scripts");
     assert_eq!(m.info.parts, 3);
+}
+
+#[test]
+fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_cli() {
+    let d = dir("gpu-refuse");
+    let out = d.join("x.exr");
+    for extra in [
+        ["--checkpoint", "5"],
+        ["--region", "0,0,8,8"],
+        ["--resume", "nowhere.exr"],
+    ] {
+        let sc = scene("cloud");
+        let mut args = vec!["render", "--backend", "gpu"];
+        args.extend([sc.as_str(), "-o", out.to_str().unwrap(), "--spp", "1"]);
+        args.extend(extra);
+        let o = brume(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{extra:?}");
+        assert!(err.contains("CPU backend only"), "{extra:?}: {err}");
+    }
+    let o = render("cloud", &out, &["--samples", "4..4"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("is empty"));
+    assert!(!out.exists());
 }

@@ -244,6 +244,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     settings
         .validate()
         .map_err(|e| anyhow!("invalid settings: {e}"))?;
+    let cpu_only = args.checkpoint.is_some() || args.resume.is_some() || args.region.is_some();
+    if cpu_only && args.backend == Backend::Gpu {
+        return Err(anyhow!(
+            "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
+        ));
+    }
     // Fail on unwritable outputs before spending the render.
     for p in [
         Some(&args.output),
@@ -338,12 +344,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     };
     // The GPU when asked or when auto finds a usable one; otherwise the CPU, saying why.
     let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
-    let cpu_only = args.checkpoint.is_some() || args.resume.is_some() || args.region.is_some();
-    if cpu_only && args.backend == Backend::Gpu {
-        return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
-        ));
-    }
     let gpu = match args.backend {
         Backend::Cpu => None,
         Backend::Auto if cpu_only => None,
