@@ -30,6 +30,13 @@ enum Command {
     },
     /// Render a scene to an EXR (GPU or CPU backend).
     Render(cli::render::RenderArgs),
+    /// Merge partial renders of one image (sample ranges, regions, farm tasks) into one EXR.
+    Merge(cli::merge::MergeArgs),
+    /// Render one image on a cluster: `brume farm slurm` writes/submits a job array + merge.
+    Farm {
+        #[command(subcommand)]
+        which: cli::farm::FarmWhich,
+    },
     /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/CYCLES.md).
     Cycles(cli::cycles::CyclesArgs),
     /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba; README "Comparing against
@@ -60,6 +67,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
         Command::Render(args) => cli::render::run(&args),
+        Command::Merge(args) => cli::merge::run(&args),
+        Command::Farm { which } => cli::farm::run(&which),
         Command::Cycles(args) => cli::cycles::run(&args),
         Command::Mitsuba(args) => cli::mitsuba::run(&args),
         Command::ImportBlend(args) => cli::import_blend::run(&args),

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::film::{tiles, Film, TileRecord};
+use crate::film::{tiles, Film, TileRecord, TileRect};
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::path::PathLimits;
 use crate::integrator::tile::{specialised, TileContext, TileOutput};
@@ -48,6 +48,59 @@ pub fn pass_sizes(spp: u32, max_pass_spp: u32) -> impl Iterator<Item = (u32, u32
     })
 }
 
+/// The passes of samples `[start, end)`: the passes of the one global schedule
+/// (`pass_sizes(u32::MAX, max_pass_spp)`: 1, 1, 2, 4, ... up to `max_pass_spp`, then
+/// `max_pass_spp` each) clipped to the range, as `(pass index, first sample, count)`.
+///
+/// Every range, part or resume uses this same schedule, so a render of `[0, n)` has exactly
+/// the passes it always had, a range split at pass boundaries of the schedule folds the very
+/// same per-pass tile buffers in the same order (bit for bit), and a resume at a checkpoint
+/// (always a pass boundary) continues the schedule of the uninterrupted render.
+pub fn pass_schedule(
+    start: u32,
+    end: u32,
+    max_pass_spp: u32,
+) -> impl Iterator<Item = (u32, u32, u32)> {
+    pass_sizes(u32::MAX, max_pass_spp)
+        .enumerate()
+        .map(|(pass, (s0, n))| (pass as u32, s0, s0.saturating_add(n)))
+        .take_while(move |&(_, s0, _)| s0 < end)
+        .filter_map(move |(pass, s0, s1)| {
+            let (a, b) = (s0.max(start), s1.min(end));
+            (a < b).then_some((pass, a, b - a))
+        })
+}
+
+/// The tiles of the image, clipped to `region` (`[x0, y0, x1, y1)`, half-open) when given;
+/// tiles outside it are dropped. Clipped tiles keep their index, so they merge in the same
+/// order as in a whole-image render.
+pub fn region_tiles(settings: &RenderSettings) -> Vec<TileRect> {
+    let all = tiles(settings.width, settings.height, settings.tile_size);
+    match settings.region {
+        None => all,
+        Some([x0, y0, x1, y1]) => all
+            .into_iter()
+            .filter_map(|t| {
+                let r = TileRect {
+                    x0: t.x0.max(x0),
+                    y0: t.y0.max(y0),
+                    x1: t.x1.min(x1),
+                    y1: t.y1.min(y1),
+                    index: t.index,
+                };
+                (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
+            })
+            .collect(),
+    }
+}
+
+/// Where a resumed render picks up: the checkpoint's film and the sample index it reached
+/// (every pixel of the region holds samples `[settings.sample_start, reached)`).
+pub struct Resume {
+    pub film: Film,
+    pub reached: u32,
+}
+
 /// What [`render_observed`] shows its observer after each completed pass.
 pub struct PassView<'a> {
     /// The film so far (whole passes only).
@@ -80,6 +133,21 @@ pub fn render_observed(
     progress: Progress,
     observer: &mut dyn FnMut(&PassView),
 ) -> RenderOutput {
+    render_resumed(rs, settings, None, stop, progress, observer)
+}
+
+/// [`render_observed`] over samples `[settings.sample_start, settings.spp)` of the pixels in
+/// `settings.region`, starting from a checkpoint when `resume` is given. `spp` in the output
+/// and in the views counts the samples per pixel of the whole range so far (the checkpoint's
+/// included).
+pub fn render_resumed(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    resume: Option<Resume>,
+    stop: &AtomicBool,
+    progress: Progress,
+    observer: &mut dyn FnMut(&PassView),
+) -> RenderOutput {
     let start = Instant::now();
     let features = if settings.generic {
         FeatureFlags::ALL
@@ -101,19 +169,26 @@ pub fn render_observed(
         seed: settings.seed,
         sampler: settings.sampler,
     };
-    let rects = tiles(settings.width, settings.height, settings.tile_size);
-    let mut film = Film::new(settings.width, settings.height);
+    let rects = region_tiles(settings);
+    let (mut film, first) = match resume {
+        Some(r) => (r.film, r.reached),
+        None => (
+            Film::new(settings.width, settings.height),
+            settings.sample_start,
+        ),
+    };
     let mut records = Vec::new();
     let mut lookups = vec![0u64; (settings.width * settings.height) as usize];
     // With only a time limit, passes continue until it runs out.
-    let target = if settings.spp == 0 {
+    // spp 0 is "until the time limit"; without one it is the empty range [0, 0).
+    let target = if settings.spp == 0 && settings.time_limit.is_some() {
         u32::MAX
     } else {
         settings.spp
     };
-    let mut spp = 0u32;
+    let mut spp = first - settings.sample_start;
     let mut interrupted = false;
-    for (pass, (s0, n)) in pass_sizes(target, settings.max_pass_spp).enumerate() {
+    for (pass, s0, n) in pass_schedule(first, target, settings.max_pass_spp) {
         if stop.load(Ordering::Relaxed)
             || settings
                 .time_limit
@@ -124,7 +199,7 @@ pub fn render_observed(
         }
         let outputs: Vec<Option<TileOutput>> = rects
             .par_iter()
-            .map(|r| (!stop.load(Ordering::Relaxed)).then(|| tile_fn(&ctx, r, pass as u32, s0, n)))
+            .map(|r| (!stop.load(Ordering::Relaxed)).then(|| tile_fn(&ctx, r, pass, s0, n)))
             .collect();
         if outputs.iter().any(Option::is_none) {
             // Interrupted mid-pass: keep the image consistent at whole passes.
@@ -165,7 +240,21 @@ pub fn render_observed(
 
 #[cfg(test)]
 mod tests {
-    use super::pass_sizes;
+    use super::{pass_schedule, pass_sizes};
+
+    #[test]
+    fn the_schedule_of_0_n_is_the_old_one_and_ranges_clip_it() {
+        for spp in [1, 2, 3, 7, 16, 100] {
+            let old: Vec<_> = pass_sizes(spp, 16).collect();
+            let new: Vec<_> = pass_schedule(0, spp, 16).map(|p| (p.1, p.2)).collect();
+            assert_eq!(old, new);
+        }
+        assert_eq!(
+            pass_schedule(3, 21, 8).collect::<Vec<_>>(),
+            [(2, 3, 1), (3, 4, 4), (4, 8, 8), (5, 16, 5)]
+        );
+        assert_eq!(pass_schedule(5, 5, 8).count(), 0);
+    }
 
     #[test]
     fn passes_cover_the_samples_exactly() {

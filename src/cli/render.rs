@@ -7,10 +7,9 @@ use std::sync::Arc;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 
+use super::render_part::PartContext;
 use brume::backend::cpu::{self, RenderOutput};
-use brume::film::{
-    totals, write_cost_map, write_exr, AttrValue, CostMetric, RenderInfo, TileLogWriter,
-};
+use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, TileLogWriter};
 use brume::integrator::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
 };
@@ -72,9 +71,24 @@ pub struct RenderArgs {
     /// (Owen-scrambled, the default) or independent (the PCG stream of each sample).
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
-    /// Worker threads (default: all cores).
+    /// Worker threads (default: $SLURM_CPUS_PER_TASK under Slurm, else all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Render only sample indices START..END (half-open) of every pixel, with the random
+    /// numbers and Sobol points a whole render uses for them: a part for `brume merge`.
+    #[arg(long, value_name = "START..END", value_parser = parse_samples, conflicts_with_all = ["spp", "time"])]
+    pub samples: Option<(u32, u32)>,
+    /// Render only the pixels in [x0, x1) x [y0, y1) (CPU backend).
+    #[arg(long, value_name = "x0,y0,x1,y1", value_parser = parse_region)]
+    pub region: Option<[u32; 4]>,
+    /// Write the accumulated image (to --output, atomically) every SECONDS, at the first pass
+    /// boundary after it; SIGTERM and Ctrl-C also write what has accumulated (CPU backend).
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint: Option<f64>,
+    /// Continue this checkpoint (or part) from the sample index it reached to the target
+    /// (--samples END or --spp): the same image as an uninterrupted render, bit for bit.
+    #[arg(long, value_name = "PART.exr")]
+    pub resume: Option<PathBuf>,
     /// Longest path in scattering events (default 256).
     #[arg(long)]
     pub max_depth: Option<u32>,
@@ -163,8 +177,45 @@ impl RenderArgs {
             .unwrap_or(s.sampler);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.tile_size = self.tile_size;
+        if let Some((start, end)) = self.samples {
+            if start == end {
+                return Err(anyhow!(
+                    "--samples {start}..{end} is empty: nothing to render"
+                ));
+            }
+            s.sample_start = start;
+            s.spp = end;
+        }
+        s.region = self.region;
         Ok(s)
     }
+}
+
+fn parse_samples(s: &str) -> Result<(u32, u32), String> {
+    brume::film::part::parse_range(s)
+}
+
+fn parse_region(s: &str) -> Result<[u32; 4], String> {
+    brume::film::part::parse_region(s)
+}
+
+/// The worker count: `--threads`, else `SLURM_CPUS_PER_TASK` (Slurm without cgroups lets a
+/// task see every core of the node, but it was allocated only these), else every core.
+pub fn thread_count(flag: Option<usize>) -> (usize, &'static str) {
+    if let Some(n) = flag.filter(|&n| n > 0) {
+        return (n, "--threads");
+    }
+    if let Some(n) = std::env::var("SLURM_CPUS_PER_TASK")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n > 0)
+    {
+        return (n, "SLURM_CPUS_PER_TASK");
+    }
+    (
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        "all cores",
+    )
 }
 
 fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<Option<T>> {
@@ -193,6 +244,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     settings
         .validate()
         .map_err(|e| anyhow!("invalid settings: {e}"))?;
+    let cpu_only = args.checkpoint.is_some() || args.resume.is_some() || args.region.is_some();
+    if cpu_only && args.backend == Backend::Gpu {
+        return Err(anyhow!(
+            "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
+        ));
+    }
     // Fail on unwritable outputs before spending the render.
     for p in [
         Some(&args.output),
@@ -240,7 +297,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();
-        // A second Ctrl-C kills as usual; the first stops after the current tiles.
+        // Ctrl-C, and SIGTERM (what Slurm and farm managers send before a kill; ctrlc's
+        // `termination` feature): stop after the current tiles and write what has accumulated
+        // at whole passes. A second signal kills as usual.
         let _ = ctrlc::set_handler(move || {
             if stop.swap(true, Ordering::SeqCst) {
                 std::process::exit(130);
@@ -248,12 +307,29 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             eprintln!("\ninterrupted: finishing, writing what has accumulated");
         });
     }
+    let (threads, threads_from) = thread_count(args.threads);
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
+        .num_threads(threads)
         .build()?;
     let threads = pool.current_num_threads();
+    eprintln!("threads: {threads} (from {threads_from})");
+    let part = PartContext::new(args, &settings)?;
+    let resume = match &args.resume {
+        Some(path) => Some(part.resume_from(path, &settings)?),
+        None => None,
+    };
+    if let Some((_, cpu::Resume { reached, .. })) = &resume {
+        eprintln!(
+            "resume: {} holds samples {}..{reached}; rendering {reached}..{}",
+            args.resume.as_ref().unwrap().display(),
+            settings.sample_start,
+            settings.spp
+        );
+    }
     let bar = std::io::stderr().is_terminal().then(|| {
-        let bar = indicatif::ProgressBar::new(settings.spp.max(1) as u64);
+        let bar = indicatif::ProgressBar::new(
+            settings.spp.saturating_sub(settings.sample_start).max(1) as u64,
+        );
         bar.set_style(
             indicatif::ProgressStyle::with_template(
                 "{bar:40} {pos}/{len} spp  {elapsed_precise} eta {eta}",
@@ -267,8 +343,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
     };
     // The GPU when asked or when auto finds a usable one; otherwise the CPU, saying why.
+    let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
     let gpu = match args.backend {
         Backend::Cpu => None,
+        Backend::Auto if cpu_only => None,
         Backend::Gpu | Backend::Auto => match brume::backend::gpu::GpuContext::new() {
             // A software adapter (Mesa's llvmpipe) runs the wavefront kernels on the same CPU
             // cores, an order of magnitude slower than the CPU backend: auto skips it.
@@ -325,62 +403,74 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     };
     let (out, backend, variant): (RenderOutput, String, Option<String>) = match on_gpu {
         Some(done) => done,
-        None => (
-            pool.install(|| cpu::render(&rs, &settings, &stop, &progress)),
-            format!("cpu ({threads} threads)"),
-            None,
-        ),
+        None => {
+            let backend = format!("cpu ({threads} threads)");
+            let mut last = std::time::Instant::now();
+            let mut checkpoint_error = None;
+            let mut observer = |view: &cpu::PassView| {
+                let Some(every) = args.checkpoint else { return };
+                if last.elapsed().as_secs_f64() < every || checkpoint_error.is_some() {
+                    return;
+                }
+                let meta = part.metadata(
+                    &settings,
+                    view.spp,
+                    earlier + view.seconds,
+                    &backend,
+                    None,
+                    true,
+                    features,
+                );
+                match write_exr_with_state(&args.output, view.film, &meta) {
+                    Ok(()) => eprintln!(
+                        "checkpoint: {} at sample {}",
+                        args.output.display(),
+                        settings.sample_start + view.spp
+                    ),
+                    Err(e) => checkpoint_error = Some(e),
+                }
+                last = std::time::Instant::now();
+            };
+            let out = pool.install(|| {
+                cpu::render_resumed(
+                    &rs,
+                    &settings,
+                    resume.map(|(_, r)| r),
+                    &stop,
+                    &progress,
+                    &mut observer,
+                )
+            });
+            if let Some(e) = checkpoint_error {
+                return Err(anyhow!(e).context("writing a checkpoint"));
+            }
+            (out, backend, None)
+        }
     };
-    write_outputs(args, &settings, &out, &backend, variant.as_deref())
+    let mut out = out;
+    out.seconds += earlier;
+    write_outputs(args, &part, &settings, &out, &backend, variant.as_deref())
 }
 
 fn write_outputs(
     args: &RenderArgs,
+    part: &PartContext,
     settings: &RenderSettings,
     out: &RenderOutput,
     backend: &str,
     gpu_variant: Option<&str>,
 ) -> Result<()> {
-    let info = RenderInfo {
-        estimator: settings.estimator.name().to_string(),
-        b: settings.b,
-        m: settings.m_or_default().unwrap_or(f32::NAN),
-        majorant_mode: settings.majorant.name().to_string(),
-        spp: out.spp,
-        seconds: out.seconds,
-        seed: settings.seed as u64,
-        scene: args.scene.display().to_string(),
-        backend: backend.to_string(),
-    };
-    let mut meta = info.to_metadata();
-    meta.set("brume:features", AttrValue::Text(out.features.name()));
-    meta.set(
-        "brume:absorption",
-        AttrValue::Text(settings.absorption.name().to_string()),
+    let meta = part.metadata(
+        settings,
+        out.spp,
+        out.seconds,
+        backend,
+        gpu_variant,
+        out.interrupted,
+        out.features,
     );
-    meta.set(
-        "brume:rr_throughput",
-        AttrValue::Float(settings.rr_throughput),
-    );
-    meta.set(
-        "brume:sampler",
-        AttrValue::Text(settings.sampler.name().into()),
-    );
-    if let Some(v) = gpu_variant {
-        // The WGSL variant the wavefront kernels were specialised for.
-        meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));
-    }
-    meta.set(
-        "brume:specialised",
-        AttrValue::Text((!settings.generic).to_string()),
-    );
-    meta.set(
-        "brume:interrupted",
-        AttrValue::Text(out.interrupted.to_string()),
-    );
-    meta.set("brume:width", AttrValue::Int(settings.width as i32));
-    meta.set("brume:height", AttrValue::Int(settings.height as i32));
-    write_exr(&args.output, &out.film, &meta)
+    // With the accumulator state, so any render can be merged or resumed exactly.
+    write_exr_with_state(&args.output, &out.film, &meta)
         .with_context(|| format!("writing {}", args.output.display()))?;
     let t = totals(&out.records);
     if let Some(path) = &args.tile_log {
@@ -401,6 +491,13 @@ fn write_outputs(
         )?;
     }
     let samples = t.samples.max(1) as f64;
+    // Passes of this run (a part's pass indices start where its range does).
+    let passes = out
+        .records
+        .iter()
+        .map(|r| r.pass)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
     println!(
         "{}: {} spp in {:.2} s ({:.0} samples/s{}), {} tiles x {} passes",
         args.output.display(),
@@ -412,18 +509,8 @@ fn write_outputs(
         } else {
             ""
         },
-        out.records.len()
-            / (out
-                .records
-                .iter()
-                .map(|r| r.pass)
-                .max()
-                .map_or(1, |p| p as usize + 1)),
-        out.records
-            .iter()
-            .map(|r| r.pass)
-            .max()
-            .map_or(0, |p| p + 1),
+        out.records.len() / passes.max(1),
+        passes,
     );
     println!(
         "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} majorant_segments {} shadow_segments {} path_length_sum {} guard_fired {} majorant_violations {}",

@@ -221,6 +221,33 @@ impl Film {
         }
     }
 
+    /// A film holding `pixels` (row-major from the top-left), e.g. a state read back from a
+    /// file; `None` when their number is not `width * height`.
+    pub fn from_pixels(width: u32, height: u32, pixels: Vec<PixelStats>) -> Option<Self> {
+        (pixels.len() == width as usize * height as usize).then_some(Self {
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    /// Folds another film of the same size into this one, pixel by pixel, as if its samples
+    /// had been added here ([`PixelStats::merge`]); pixels without samples in either change
+    /// nothing.
+    ///
+    /// # Panics
+    /// If the sizes differ.
+    pub fn merge_film(&mut self, other: &Film) {
+        assert_eq!(
+            (self.width, self.height),
+            (other.width, other.height),
+            "films of different sizes"
+        );
+        for (dst, src) in self.pixels.iter_mut().zip(&other.pixels) {
+            dst.merge(src);
+        }
+    }
+
     /// Statistics of pixel `(x, y)`.
     pub fn pixel(&self, x: u32, y: u32) -> &PixelStats {
         &self.pixels[self.index(x, y)]

@@ -89,6 +89,15 @@ pub fn write_exr(
 /// `samples.Y` where present.
 pub fn write_image(path: impl AsRef<Path>, image: &Image) -> Result<(), FilmError> {
     let path = path.as_ref();
+    let channels = image_channels(path, image)?;
+    encode(path, image.width, image.height, channels, &image.attributes)
+}
+
+/// The f32 channels [`write_image`] writes for `image`, checked against its size.
+fn image_channels<'a>(
+    path: &Path,
+    image: &'a Image,
+) -> Result<Vec<(&'a str, Vec<f32>)>, FilmError> {
     let n = image.width * image.height;
     let mut channels: Vec<(&str, Vec<f32>)> = Vec::with_capacity(8);
     check_len(path, "rgb", image.rgb.len(), n)?;
@@ -112,7 +121,29 @@ pub fn write_image(path: impl AsRef<Path>, image: &Image) -> Result<(), FilmErro
         check_len(path, "samples", samples.len(), n)?;
         channels.push(("samples.Y", samples.clone()));
     }
-    encode(path, image.width, image.height, channels, &image.attributes)
+    Ok(channels)
+}
+
+/// [`write_exr`] plus the film's exact accumulator state as `u32` channels
+/// ([`super::part::STATE_CHANNELS`]), so that a merge or a resume continues from the very
+/// same f64 values instead of their f32 roundings.
+pub fn write_exr_with_state(
+    path: impl AsRef<Path>,
+    film: &Film,
+    metadata: &Metadata,
+) -> Result<(), FilmError> {
+    let path = path.as_ref();
+    let image = Image::from_film(film, metadata);
+    let mut list: Vec<(String, FlatSamples)> = image_channels(path, &image)?
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), FlatSamples::F32(v)))
+        .collect();
+    list.extend(
+        super::part::state_channels(film)
+            .into_iter()
+            .map(|(n, v)| (n, FlatSamples::U32(v))),
+    );
+    encode_any(path, image.width, image.height, list, metadata)
 }
 
 /// Writes one map as an EXR, atomically: `values` of length `width * height` become channel
@@ -169,6 +200,21 @@ fn encode(
     channels: Vec<(&str, Vec<f32>)>,
     metadata: &Metadata,
 ) -> Result<(), FilmError> {
+    let list = channels
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), FlatSamples::F32(v)))
+        .collect();
+    encode_any(path, width, height, list, metadata)
+}
+
+/// [`encode`] for channels of any sample type.
+fn encode_any(
+    path: &Path,
+    width: usize,
+    height: usize,
+    channels: Vec<(String, FlatSamples)>,
+    metadata: &Metadata,
+) -> Result<(), FilmError> {
     let invalid = |reason: String| FilmError::InvalidInput {
         path: path.to_path_buf(),
         reason,
@@ -199,7 +245,7 @@ fn encode(
     }
     let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
         .into_iter()
-        .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
+        .map(|(name, values)| AnyChannel::new(name.as_str(), values))
         .collect();
     // ZIP over 16 scan lines, increasing line order: lossless, and the pixel blocks land in
     // the file in the same order every time.
@@ -225,7 +271,16 @@ fn encode(
 /// custom attributes. Errors name the file: missing, a directory, not an EXR, missing channels,
 /// parts of different sizes.
 pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
+    read_exr_with_state(path).map(|(image, _)| image)
+}
+
+/// [`read_exr`], also returning the `u32` channels by name (the accumulator state written by
+/// [`write_exr_with_state`], read back bit for bit).
+pub fn read_exr_with_state(
+    path: impl AsRef<Path>,
+) -> Result<(Image, BTreeMap<String, Vec<u32>>), FilmError> {
     let path = path.as_ref();
+    let mut raw_u32: BTreeMap<String, Vec<u32>> = BTreeMap::new();
     let meta = std::fs::metadata(path).map_err(|e| FilmError::io("read", path, e))?;
     if meta.is_dir() {
         let e = std::io::Error::other("it is a directory, not a file");
@@ -279,6 +334,9 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
             .unwrap_or_default();
         for channel in &layer.channel_data.list {
             let name = format!("{prefix}{}", String::from_utf8_lossy(channel.name.bytes()));
+            if let FlatSamples::U32(v) = &channel.sample_data {
+                raw_u32.insert(name.clone(), v.clone());
+            }
             by_name.insert(name, channel.sample_data.values_as_f32().collect());
         }
     }
@@ -325,15 +383,18 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
         .get("samples.Y")
         .or_else(|| by_name.get("samples"))
         .cloned();
-    Ok(Image {
-        width,
-        height,
-        rgb,
-        alpha: by_name.get("A").cloned(),
-        variance,
-        samples,
-        attributes: attributes.sorted(),
-    })
+    Ok((
+        Image {
+            width,
+            height,
+            rgb,
+            alpha: by_name.get("A").cloned(),
+            variance,
+            samples,
+            attributes: attributes.sorted(),
+        },
+        raw_u32,
+    ))
 }
 
 fn zip3(r: &[f32], g: &[f32], b: &[f32]) -> Vec<[f32; 3]> {
@@ -346,7 +407,7 @@ fn zip3(r: &[f32], g: &[f32], b: &[f32]) -> Vec<[f32; 3]> {
 
 /// Keeps the attribute types [`AttrValue`] can hold; the exr crate has already parsed the
 /// standard ones (channels, compression, windows) into their own fields.
-fn collect_attributes(
+pub(crate) fn collect_attributes(
     other: &std::collections::HashMap<Text, AttributeValue>,
     into: &mut Metadata,
 ) {

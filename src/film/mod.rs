@@ -16,6 +16,7 @@ pub mod cost_map;
 pub mod error;
 pub mod exr_io;
 pub mod metadata;
+pub mod part;
 pub mod tile_log;
 pub mod tiles;
 
@@ -23,7 +24,10 @@ pub use accum::{Film, PixelStats, TileBuffer};
 pub use atomic::{write_atomically, AtomicFile};
 pub use cost_map::{cost_map_from_tiles, per_sample, write_cost_map, CostMetric};
 pub use error::FilmError;
-pub use exr_io::{read_exr, write_exr, write_exr_single, write_image, Image};
+pub use exr_io::{
+    read_exr, read_exr_with_state, write_exr, write_exr_single, write_exr_with_state, write_image,
+    Image,
+};
 pub use metadata::{AttrValue, Metadata, RenderInfo};
 pub use tile_log::{read_tile_log, totals, TileLogWriter, TileRecord, TileTotals};
 pub use tiles::{tiles, TileRect};

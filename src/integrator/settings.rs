@@ -156,8 +156,13 @@ pub const DEFAULT_WEIGHTED_M: f32 = 0.02;
 pub struct RenderSettings {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel to reach (a time limit may stop earlier).
+    /// Samples per pixel to reach (a time limit may stop earlier): the render covers sample
+    /// indices `[sample_start, spp)` of every pixel.
     pub spp: u32,
+    /// First sample index rendered (a farm part renders `[sample_start, spp)`); 0 by default.
+    pub sample_start: u32,
+    /// Only the pixels in `[x0, x1) x [y0, y1)` (`[x0, y0, x1, y1]`); the whole image if `None`.
+    pub region: Option<[u32; 4]>,
     /// Wall-clock budget in seconds: no new pass starts after it.
     pub time_limit: Option<f64>,
     pub estimator: Estimator,
@@ -202,6 +207,8 @@ impl Default for RenderSettings {
             width: 320,
             height: 240,
             spp: 16,
+            sample_start: 0,
+            region: None,
             time_limit: None,
             estimator: Estimator::Delta,
             b: 1.0,
@@ -244,6 +251,20 @@ impl RenderSettings {
         if let Some(m) = self.m {
             if !(m >= 0.0 && m.is_finite()) {
                 return Err(format!("minorant fraction m = {m} must be >= 0 and finite"));
+            }
+        }
+        if self.spp != 0 && self.sample_start > self.spp {
+            return Err(format!(
+                "sample range {}..{} ends before it starts",
+                self.sample_start, self.spp
+            ));
+        }
+        if let Some([x0, y0, x1, y1]) = self.region {
+            if !(x0 < x1 && y0 < y1 && x1 <= self.width && y1 <= self.height) {
+                return Err(format!(
+                    "region {x0},{y0},{x1},{y1} is empty or not inside the {}x{} image",
+                    self.width, self.height
+                ));
             }
         }
         if self.spp == 0 && self.time_limit.is_none() {

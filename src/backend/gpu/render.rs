@@ -49,7 +49,7 @@ use super::graph::specs;
 pub use super::graph::{variant_name, Stage};
 use super::shader;
 use super::upload::{upload_grid, wavefront_params, Geometry, Textures};
-use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
+use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter};
 use crate::integrator::media::TrackingConfig;
@@ -160,6 +160,12 @@ pub fn render_with_timings(
     let start = Instant::now();
     supports(rs).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
+    if settings.region.is_some() {
+        // Batches are whole rows of the image; a region split is a CPU feature.
+        return Err(GpuRenderError::Unsupported(
+            "--region renders on the CPU backend only (--samples works on both)".into(),
+        ));
+    }
     // As on the CPU: the generic variant has every feature on.
     let features = if settings.generic {
         FeatureFlags::ALL
@@ -208,7 +214,10 @@ pub fn render_with_timings(
     let mut lookups = vec![0u64; (w * h) as usize];
     let mut spp = 0u32;
     let mut interrupted = false;
-    'passes: for (pass, (s0, n)) in pass_sizes(plan.target, settings.max_pass_spp).enumerate() {
+    // Samples [sample_start, spp) in the CPU's pass schedule, so GPU parts merge with CPU ones.
+    'passes: for (pass, s0, n) in
+        pass_schedule(settings.sample_start, plan.target, settings.max_pass_spp)
+    {
         if stop.load(Ordering::Relaxed)
             || settings
                 .time_limit
@@ -239,7 +248,7 @@ pub fn render_with_timings(
                 y1,
                 index: pending.len() as u32,
             };
-            let mut r = batch_record(pass as u32, &rect, &counters);
+            let mut r = batch_record(pass, &rect, &counters);
             r.samples = params.total_samples as u64;
             r.wall_ns = batch_start.elapsed().as_nanos() as u64;
             pending.push((r, iterations, stage_ns, samples));
@@ -294,7 +303,8 @@ struct BatchPlan {
 impl BatchPlan {
     fn new(settings: &RenderSettings, limit: u64) -> Result<BatchPlan, GpuRenderError> {
         let (w, h) = (settings.width, settings.height);
-        let target = if settings.spp == 0 {
+        // spp 0 is "until the time limit"; without one it is the empty range [0, 0).
+        let target = if settings.spp == 0 && settings.time_limit.is_some() {
             u32::MAX
         } else {
             settings.spp
@@ -304,10 +314,14 @@ impl BatchPlan {
             max_batch: MAX_BATCH_SAMPLES.min(limit / 16).max(1),
             largest: 1,
         };
-        plan.largest = pass_sizes(target.min(1 << 16), settings.max_pass_spp)
-            .map(|(_, n)| plan.max_samples(w, h, n))
-            .max()
-            .unwrap_or(1);
+        plan.largest = pass_schedule(
+            settings.sample_start,
+            target.min(1 << 16),
+            settings.max_pass_spp,
+        )
+        .map(|(_, _, n)| plan.max_samples(w, h, n))
+        .max()
+        .unwrap_or(1);
         if plan.largest * 16 > limit {
             return Err(GpuRenderError::Limits(format!(
                 "one row of {w} pixels at {} samples per pass needs {} of sample buffer; the device binds {}",

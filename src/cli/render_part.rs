@@ -1,0 +1,157 @@
+//! The part header of a `brume render` output (`brume::film::part`): what a merge or a resume
+//! needs to know about the render, and the checks a resume makes against its checkpoint.
+use std::path::Path;
+
+use anyhow::{anyhow, Result};
+
+use super::render::RenderArgs;
+use brume::backend::cpu;
+use brume::film::part::{self, Coverage, PartInfo};
+use brume::film::{AttrValue, Metadata, RenderInfo};
+use brume::integrator::RenderSettings;
+
+/// What the header of a part needs that the settings do not hold: the scene's content hash,
+/// the camera, the Brume version.
+pub struct PartContext {
+    scene: String,
+    scene_hash: String,
+    settings_key: String,
+}
+
+impl PartContext {
+    pub fn new(args: &RenderArgs, settings: &RenderSettings) -> Result<Self> {
+        Ok(Self {
+            scene: args.scene.display().to_string(),
+            scene_hash: part::scene_hash(&args.scene)?,
+            settings_key: part::settings_key(settings, args.camera.as_deref()),
+        })
+    }
+
+    /// The header of a render of `settings` that holds `spp` samples of its range so far.
+    #[allow(clippy::too_many_arguments)]
+    pub fn metadata(
+        &self,
+        settings: &RenderSettings,
+        spp: u32,
+        seconds: f64,
+        backend: &str,
+        gpu_variant: Option<&str>,
+        interrupted: bool,
+        features: brume::integrator::FeatureFlags,
+    ) -> Metadata {
+        let info = RenderInfo {
+            estimator: settings.estimator.name().to_string(),
+            b: settings.b,
+            m: settings.m_or_default().unwrap_or(f32::NAN),
+            majorant_mode: settings.majorant.name().to_string(),
+            spp,
+            seconds,
+            seed: settings.seed as u64,
+            scene: self.scene.clone(),
+            backend: backend.to_string(),
+        };
+        let mut meta = info.to_metadata();
+        meta.set("brume:features", AttrValue::Text(features.name()));
+        meta.set(
+            "brume:absorption",
+            AttrValue::Text(settings.absorption.name().to_string()),
+        );
+        meta.set(
+            "brume:rr_throughput",
+            AttrValue::Float(settings.rr_throughput),
+        );
+        meta.set(
+            "brume:sampler",
+            AttrValue::Text(settings.sampler.name().into()),
+        );
+        if let Some(v) = gpu_variant {
+            // The WGSL variant the wavefront kernels were specialised for.
+            meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));
+        }
+        meta.set(
+            "brume:specialised",
+            AttrValue::Text((!settings.generic).to_string()),
+        );
+        meta.set(
+            "brume:interrupted",
+            AttrValue::Text(interrupted.to_string()),
+        );
+        let (start, end) = (settings.sample_start, settings.spp);
+        let region = settings
+            .region
+            .unwrap_or([0, 0, settings.width, settings.height]);
+        PartInfo {
+            scene_hash: self.scene_hash.clone(),
+            settings: self.settings_key.clone(),
+            seed: settings.seed.to_string(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            width: settings.width,
+            height: settings.height,
+            coverage: vec![Coverage {
+                start,
+                end: start + spp,
+                region,
+            }],
+            // A time-limited render (spp 0) has no end to continue to.
+            target: (end != 0).then_some((start, end)),
+            seconds,
+            parts: 1,
+        }
+        .write_into(&mut meta);
+        meta
+    }
+
+    /// Reads a checkpoint to continue: same scene, settings, seed, version and size; one
+    /// sample range starting where this render starts, over the same region. Returns its
+    /// render seconds and where to pick up.
+    pub fn resume_from(
+        &self,
+        path: &Path,
+        settings: &RenderSettings,
+    ) -> Result<(f64, cpu::Resume)> {
+        let p = part::read_part(path)?;
+        let here = self.metadata(
+            settings,
+            0,
+            0.0,
+            "",
+            None,
+            false,
+            brume::integrator::FeatureFlags::ALL,
+        );
+        let mine = PartInfo::from_metadata(Path::new("(this render)"), &here)?;
+        mine.check_same_image(Path::new("this render"), &p.info, path)?;
+        let region = mine.coverage[0].region;
+        let reached = match p.info.coverage[..] {
+            [c] if c.start == settings.sample_start && c.region == region => c.end,
+            [] if settings.sample_start == 0 => 0,
+            _ => {
+                return Err(anyhow!(
+                    "{}: holds samples {} but this render covers {}..{}@{},{},{},{}: not its checkpoint",
+                    path.display(),
+                    p.metadata.text("brume:coverage").unwrap_or(""),
+                    settings.sample_start,
+                    settings.spp,
+                    region[0],
+                    region[1],
+                    region[2],
+                    region[3]
+                ))
+            }
+        };
+        if settings.spp != 0 && reached > settings.spp {
+            return Err(anyhow!(
+                "{}: reached sample {reached}, past this render's end {}",
+                path.display(),
+                settings.spp
+            ));
+        }
+        Ok((
+            p.info.seconds,
+            cpu::Resume {
+                film: p.film,
+                reached,
+            },
+        ))
+    }
+}
