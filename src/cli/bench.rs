@@ -185,8 +185,9 @@ fn render_once(
     scene: &brume::scene::Scene,
     settings: &brume::integrator::RenderSettings,
 ) -> Result<brume::backend::cpu::RenderOutput> {
-    let rs = brume::integrator::RenderScene::new(scene, settings.force_spectral)
+    let mut rs = brume::integrator::RenderScene::new(scene, settings.force_spectral)
         .map_err(|e| anyhow::anyhow!(e))?;
+    rs.lights.set_env_sampling(settings.env_sampling);
     Ok(brume::backend::cpu::render(
         &rs,
         settings,

@@ -37,6 +37,8 @@ pub struct Effects {
     pub camera_inside_medium: bool,
     /// Non-zero environment radiance.
     pub environment_light: bool,
+    /// The environment's radiance varies with direction (an image that is not constant).
+    pub environment_map: bool,
 }
 
 impl Effects {
@@ -93,6 +95,12 @@ impl Effects {
         });
         e.punctual_lights = !scene.lights.is_empty();
         e.environment_light = scene.environment.radiance.iter().any(|&c| c > 0.0);
+        e.environment_map = e.environment_light
+            && scene
+                .environment
+                .image
+                .as_ref()
+                .is_some_and(|m| m.constant().is_none());
         e.lights_inside_media = scene
             .lights
             .iter()
@@ -119,6 +127,7 @@ impl Effects {
             (self.lights_inside_media, "lights inside media"),
             (self.camera_inside_medium, "camera inside medium"),
             (self.environment_light, "environment light"),
+            (self.environment_map, "environment map"),
         ];
         all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
     }

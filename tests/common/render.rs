@@ -32,7 +32,8 @@ pub fn load_scene(name: &str) -> Scene {
 }
 
 pub fn render(scene: &Scene, settings: &RenderSettings) -> RenderOutput {
-    let rs = RenderScene::new(scene, settings.force_spectral).unwrap();
+    let mut rs = RenderScene::new(scene, settings.force_spectral).unwrap();
+    rs.lights.set_env_sampling(settings.env_sampling);
     cpu::render(&rs, settings, &AtomicBool::new(false), &|_, _, _| {})
 }
 

@@ -231,6 +231,14 @@ pub enum GpuRenderError {
 
 /// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.
 pub fn supports(rs: &RenderScene) -> Result<(), String> {
+    if rs
+        .lights
+        .environment
+        .as_ref()
+        .is_some_and(|e| e.map.is_some())
+    {
+        return Err("an environment map; the GPU integrator samples a constant sky only".into());
+    }
     if rs.vdb.len() > 1 {
         return Err(format!(
             "{} VDB media; the GPU integrator binds one grid",
@@ -764,8 +772,13 @@ pub fn render_with_timings(
         height: h,
         path_count: slots,
         light_count: rs.lights.punctual.len() as u32,
-        env: rs.lights.environment.unwrap_or(Vec3::ZERO).to_array(),
-        env_pdf: rs.lights.pdf_environment(),
+        env: rs
+            .lights
+            .environment
+            .as_ref()
+            .map_or(Vec3::ZERO, |e| e.radiance)
+            .to_array(),
+        env_pdf: rs.lights.pdf_environment(Vec3::Z),
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
         rr_throughput: settings.rr_throughput,
