@@ -53,12 +53,16 @@ pub fn read_environment_image(path: &Path) -> Result<Decoded, String> {
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    let file_len = std::fs::metadata(path)
+        .map_err(|e| format!("cannot read: {e}"))?
+        .len();
     let (width, height, mut rgb) = match ext.as_deref() {
         Some("exr") => {
+            check_exr_header(path, file_len)?;
             let img = crate::film::exr_io::read_exr(path).map_err(|e| e.to_string())?;
             (img.width, img.height, img.rgb)
         }
-        Some("hdr") => read_hdr(path)?,
+        Some("hdr") => read_hdr(path, file_len)?,
         _ => {
             return Err("unsupported image format: expected an equirectangular .exr or .hdr".into())
         }
@@ -102,18 +106,56 @@ pub fn read_environment_image(path: &Path) -> Result<Decoded, String> {
     })
 }
 
+/// The most pixels per byte of file any real map reaches: deflate (EXR's ZIP) compresses at
+/// most ~1032:1, i.e. 12-byte float RGB pixels need at least ~0.012 bytes each; Radiance's
+/// run-length encoding at most 127 repeats per 2 bytes and component. A header claiming more
+/// is corrupt, and is refused before the decoder allocates what it claims (a 1 KB file
+/// claiming 2 GB of pixels would otherwise abort the process on the failed allocation).
+const MAX_PIXELS_PER_BYTE: u64 = 256;
+
+fn check_claimed_size(width: u64, height: u64, file_len: u64) -> Result<(), String> {
+    if width > MAX_SIDE as u64 || height > MAX_SIDE as u64 {
+        return Err(format!(
+            "the image is {width}x{height} pixels, larger than {MAX_SIDE} on a side"
+        ));
+    }
+    if width * height > MAX_PIXELS_PER_BYTE * file_len {
+        return Err(format!(
+            "the header claims {width}x{height} pixels, more than a file of {file_len} bytes can \
+             hold: the file is corrupt or truncated"
+        ));
+    }
+    Ok(())
+}
+
+/// Checks the sizes an EXR's headers claim before decoding it.
+fn check_exr_header(path: &Path, file_len: u64) -> Result<(), String> {
+    let meta = std::panic::catch_unwind(|| exr::meta::MetaData::read_from_file(path, false))
+        .map_err(|_| "the EXR header reader panicked on this file".to_string())?
+        .map_err(|e| format!("not a readable OpenEXR file: {e}"))?;
+    let mut total = 0u64;
+    for h in meta.headers.iter() {
+        let (w, hgt) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+        check_claimed_size(w, hgt, file_len)?;
+        total += w * hgt * h.channels.list.len() as u64;
+    }
+    // All parts' channels are decoded at once.
+    if total > 4 * MAX_PIXELS_PER_BYTE * file_len {
+        return Err(format!(
+            "the headers claim {total} samples, more than a file of {file_len} bytes can hold"
+        ));
+    }
+    Ok(())
+}
+
 /// Radiance RGBE through the `image` crate's HDR decoder (linear f32 RGB).
-fn read_hdr(path: &Path) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+fn read_hdr(path: &Path, file_len: u64) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
     let file = std::fs::File::open(path).map_err(|e| format!("cannot open: {e}"))?;
     let decoder = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
         .map_err(|e| format!("not a Radiance HDR image: {e}"))?;
     let meta = decoder.metadata();
     let (w, h) = (meta.width as usize, meta.height as usize);
-    if w == 0 || h == 0 || w > MAX_SIDE as usize || h > MAX_SIDE as usize {
-        return Err(format!(
-            "the image is {w}x{h} pixels (must be 1 to {MAX_SIDE} on a side)"
-        ));
-    }
+    check_claimed_size(w as u64, h as u64, file_len)?;
     let pixels = decoder
         .read_image_hdr()
         .map_err(|e| format!("cannot decode the Radiance HDR image: {e}"))?;
