@@ -10,6 +10,10 @@
   depth across it of order 1-3) with albedo 0.9 (color 0.9, absorptionColor 0, so
   sigma_s = 0.9 d and sigma_a = 0.1 d), lit by a sun over a black background, or by a
   constant sky alone.
+- textured_backdrop.gltf: the cloud in front of a textured backdrop (base-colour texture,
+  clamped), on a textured ground (repeat, KHR_texture_transform scale and rotation, nearest
+  filter) beside an emissive sign (emissive texture), under a sun and a sky: textures/*.png
+  are written here too.
 - dense_fog.gltf: an icosahedral fog volume of nearly constant density (optical depth ~20
   through its centre) with chromatic albedo: color (0.95, 0.8, 0.6), absorptionColor 0, so the
   extinction is grey (sigma_t = densityScale * d) and sigma_a = 1 - color; HG g = 0.5; a sun
@@ -17,7 +21,9 @@
 """
 import base64
 import json
+import math
 import struct
+import zlib
 
 
 def cube(half):
@@ -161,6 +167,119 @@ def dense_fog():
     write("scenes/dense_fog.gltf", doc)
 
 
+def write_png(path, width, height, pixel):
+    """An 8-bit RGB PNG; pixel(x, y) -> (r, g, b) in 0..255, y = 0 the top row."""
+    rows = b"".join(b"\0" + bytes(c for x in range(width) for c in pixel(x, y)) for y in range(height))
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b"")
+    with open(path, "wb") as f:
+        f.write(png)
+    print("wrote", path)
+
+
+def textures():
+    import os
+    os.makedirs("scenes/textures", exist_ok=True)
+    # Backdrop: a coloured gradient with a dark grid, so both filtering and orientation show.
+    def backdrop(x, y):
+        if x % 16 == 0 or y % 16 == 0:
+            return (30, 30, 40)
+        return (40 + x * 215 // 127, 60 + y * 160 // 127, 200 - x * 150 // 127)
+    write_png("scenes/textures/backdrop.png", 128, 128, backdrop)
+    # Ground: a 4x4 checker of two stone tones (read with nearest filtering).
+    write_png("scenes/textures/checker.png", 4, 4, lambda x, y: (200, 190, 170) if (x + y) % 2 else (70, 80, 90))
+    # Sign: warm and cool stripes, emitted.
+    write_png("scenes/textures/sign.png", 32, 8, lambda x, y: (255, 180, 60) if (x // 4) % 2 else (60, 140, 255))
+
+
+def quads_buffer(quads):
+    """Meshes of one quad each: quads = [(corners (4 x 3), uvs (4 x 2))]. Positions, normals,
+    uvs, indices in one buffer; accessor k*4 + 0..3 = indices, POSITION, NORMAL, TEXCOORD_0."""
+    data = b""
+    views, accessors = [], []
+    for corners, uvs in quads:
+        e1 = [corners[1][i] - corners[0][i] for i in range(3)]
+        e2 = [corners[2][i] - corners[0][i] for i in range(3)]
+        n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+        ln = math.sqrt(sum(c * c for c in n))
+        n = [c / ln for c in n]
+        parts = [
+            (struct.pack("<6H", 0, 1, 2, 0, 2, 3) + b"\0" * 4, {"componentType": 5123, "count": 6, "type": "SCALAR"}, 34963),
+            (b"".join(struct.pack("<3f", *v) for v in corners), {"componentType": 5126, "count": 4, "type": "VEC3",
+                "min": [min(v[i] for v in corners) for i in range(3)], "max": [max(v[i] for v in corners) for i in range(3)]}, 34962),
+            (struct.pack("<3f", *n) * 4, {"componentType": 5126, "count": 4, "type": "VEC3"}, 34962),
+            (b"".join(struct.pack("<2f", *t) for t in uvs), {"componentType": 5126, "count": 4, "type": "VEC2"}, 34962),
+        ]
+        for blob, acc, target in parts:
+            length = len(blob) - (4 if target == 34963 else 0)
+            views.append({"buffer": 0, "byteOffset": len(data), "byteLength": length, "target": target})
+            acc["bufferView"] = len(views) - 1
+            accessors.append(acc)
+            data += blob
+    return {
+        "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+        "bufferViews": views,
+        "accessors": accessors,
+    }
+
+
+def textured_backdrop():
+    textures()
+    quads = [
+        # Backdrop, facing +z, behind the cloud: uv (0, 0) top-left as glTF wants.
+        ([(-4.0, -1.0, -3.0), (4.0, -1.0, -3.0), (4.0, 5.0, -3.0), (-4.0, 5.0, -3.0)], [(0, 1), (1, 1), (1, 0), (0, 0)]),
+        # Ground, facing +y.
+        ([(-6.0, -1.0, 4.0), (6.0, -1.0, 4.0), (6.0, -1.0, -3.0), (-6.0, -1.0, -3.0)], [(0, 1), (1, 1), (1, 0), (0, 0)]),
+        # Emissive sign, facing +z, to the right of the cloud.
+        ([(2.2, 2.4, -2.0), (3.6, 2.4, -2.0), (3.6, 2.75, -2.0), (2.2, 2.75, -2.0)], [(0, 1), (1, 1), (1, 0), (0, 0)]),
+    ]
+    meshes = [{"name": name, "primitives": [{"attributes": {"POSITION": 4 * k + 1, "NORMAL": 4 * k + 2, "TEXCOORD_0": 4 * k + 3},
+                                             "indices": 4 * k, "material": k}]}
+              for k, name in enumerate(["backdrop", "ground", "sign"])]
+    lambert = {"metallicFactor": 0.0, "roughnessFactor": 1.0}
+    doc = {
+        "asset": {"version": "2.0", "generator": "brume scenes/make_scenes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3, 4, 5]}],
+        "nodes": [
+            {"name": "camera_node", "camera": 0, "translation": [0.0, 1.2, 9.0], "rotation": [-0.0499792, 0.0, 0.0, 0.9987503]},
+            {"name": "sun", "rotation": SUN_ROTATION, "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "cloud", "translation": [-0.6, 1.4, 0.0], "scale": [1.6, 1.6, 1.6], "extensions": {"BRUME_medium_vdb": {
+                "uri": "vdb/cloud.vdb", "densityGrid": "density", "densityScale": 8.0,
+                "color": [1.0, 1.0, 1.0], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.6}}},
+            {"name": "backdrop", "mesh": 0},
+            {"name": "ground", "mesh": 1},
+            {"name": "sign", "mesh": 2},
+        ],
+        "cameras": [{"name": "camera", "type": "perspective", "perspective": {"yfov": 0.75, "znear": 0.05}}],
+        "meshes": meshes,
+        "materials": [
+            {"name": "backdrop", "pbrMetallicRoughness": dict(lambert, baseColorTexture={"index": 0})},
+            {"name": "ground", "pbrMetallicRoughness": dict(lambert, baseColorFactor=[0.9, 0.9, 0.9, 1.0], baseColorTexture={"index": 1,
+                "extensions": {"KHR_texture_transform": {"scale": [6.0, 3.5], "rotation": 0.3, "offset": [0.25, 0.0]}}})},
+            {"name": "sign", "pbrMetallicRoughness": dict(lambert, baseColorFactor=[0.05, 0.05, 0.05, 1.0]),
+             "emissiveFactor": [1.0, 1.0, 1.0], "emissiveTexture": {"index": 2},
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 6.0}}},
+        ],
+        "textures": [{"source": 0, "sampler": 0}, {"source": 1, "sampler": 1}, {"source": 2, "sampler": 0}],
+        "images": [{"uri": "textures/backdrop.png"}, {"uri": "textures/checker.png"}, {"uri": "textures/sign.png"}],
+        "samplers": [
+            {"magFilter": 9729, "minFilter": 9987, "wrapS": 33071, "wrapT": 33071},
+            {"magFilter": 9728, "minFilter": 9728, "wrapS": 10497, "wrapT": 10497},
+        ],
+        "extensions": {
+            "KHR_lights_punctual": {"lights": [{"name": "sun", "type": "directional", "color": [1.0, 0.97, 0.9], "intensity": 3.0}]},
+            "BRUME_environment": {"color": [0.45, 0.62, 1.0], "strength": 0.4},
+        },
+        "extensionsUsed": ["KHR_lights_punctual", "BRUME_medium_vdb", "BRUME_environment", "KHR_texture_transform",
+                           "KHR_materials_emissive_strength"],
+    }
+    doc.update(quads_buffer(quads))
+    write("scenes/textured_backdrop.gltf", doc)
+
+
 PLUME_DENSITY_SCALE = 20.0
 DENSE_FOG_SCALE = 7.0
 
@@ -171,3 +290,4 @@ if __name__ == "__main__":
     plume("plume_sun.gltf", sun=True, sky=False)
     plume("plume_sky.gltf", sun=False, sky=True)
     dense_fog()
+    textured_backdrop()

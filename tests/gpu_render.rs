@@ -350,6 +350,30 @@ fn surface_scenes_agree_with_the_cpu() {
     }
 }
 
+/// Base-colour, emissive (with light sampling of the textured emitter), nearest and bilinear,
+/// clamped and repeated textures with `KHR_texture_transform`: GPU against CPU.
+#[test]
+fn textured_scene_agrees_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("textured_scene_agrees_with_the_cpu") else {
+        return;
+    };
+    let scene = load_scene("textured_backdrop.gltf");
+    let rs = RenderScene::new(&scene, false).unwrap();
+    assert!(rs.features.textures);
+    assert!(gpu::render::variant_name(rs.features).contains("textures"));
+    let estimators = [Estimator::Delta, Estimator::WeightedDecomposition];
+    let alpha = 1e-3 / estimators.len() as f64;
+    for (i, estimator) in estimators.into_iter().enumerate() {
+        let s = RenderSettings {
+            estimator,
+            ..settings(32, 24, 32, 1700 + i as u32)
+        };
+        let label = format!("textured_backdrop.gltf {estimator}");
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
+        print_parity(&label, &scene, &s, &g, &c);
+    }
+}
+
 /// Both samplers are replayed by the GPU: with the same seed the GPU image equals the CPU image
 /// to rounding in nearly every pixel value (a wrong dimension block or draw order on either
 /// side would make almost every value differ). Passes of 1, 2 and 4 spp (max_pass_spp 4):

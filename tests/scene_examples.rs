@@ -444,3 +444,37 @@ fn dense_fog() {
         ]
     );
 }
+
+#[test]
+fn textured_backdrop() {
+    let s = load("textured_backdrop.gltf");
+    check_winding(&s);
+    assert_eq!(s.vdb_media.len(), 1);
+    assert_eq!(s.textures.len(), 3);
+    assert_eq!(s.images.len(), 3);
+    let dims: Vec<(u32, u32)> = s.images.iter().map(|i| (i.width, i.height)).collect();
+    assert_eq!(dims, [(128, 128), (4, 4), (32, 8)]);
+    // The backdrop clamps and blends, the ground repeats the nearest texel under a transform.
+    use scene::texture::{WRAP_CLAMP, WRAP_REPEAT};
+    assert_eq!((s.textures[0].wrap, s.textures[0].nearest), ([WRAP_CLAMP; 2], false));
+    assert_eq!((s.textures[1].wrap, s.textures[1].nearest), ([WRAP_REPEAT; 2], true));
+    assert_ne!(s.textures[1].transform, scene::texture::IDENTITY_TRANSFORM);
+    // The sign's emission is textured: its triangles are light sources.
+    let sign = &s.materials[2];
+    assert_eq!(sign.emissive_texture, 2);
+    assert!(s.mean_emission_luminance(sign) > 0.0);
+    assert_eq!(
+        effects(&s),
+        [
+            "surfaces",
+            "media",
+            "heterogeneous media",
+            "scattering",
+            "surface emission",
+            "anisotropic phase",
+            "punctual lights",
+            "environment light",
+            "textures"
+        ]
+    );
+}

@@ -140,7 +140,7 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     ls.wi = to / dist;
     ls.dist = dist;
     let cos_l = dot(n_l, -ls.wi);
-    ls.li = emitted(materials[t.material], cos_l);
+    ls.li = emitted(materials[t.material], triangle_uv(area_lights[i].prim, b1, b2), cos_l);
     ls.pdf = pmf * t.light_pdf * d2 / max(abs(cos_l), 1e-8);
     ls.is_delta = false;
     ls.valid = true;

@@ -5,7 +5,8 @@
 // offset, shading_normal (src/integrator/path.rs), emitted and Lights::pdf_area
 // (src/integrator/lights.rs). The nodes are obvhs' 80-byte CwBvhNode as built for the CPU;
 // the triangles are uploaded in the BVH's primitive order (GpuTriangle), so a leaf's
-// primitive slot indexes them directly. Needs wavefront.wgsl (wf) and tracking.wgsl (F32_MAX).
+// primitive slot indexes them directly. Needs wavefront.wgsl (wf), tracking.wgsl (F32_MAX)
+// and textures.wgsl (emission_at).
 
 @group(1) @binding(8) var<storage, read> bvh_nodes: array<CwBvhNode>;
 @group(1) @binding(9) var<storage, read> bvh_triangles: array<GpuTriangle>;
@@ -200,11 +201,12 @@ fn shading_normal(t: GpuTriangle, b1: f32, b2: f32, side: vec3<f32>) -> vec3<f32
     return ns;
 }
 
-// emitted: glTF materials emit from the front face, both faces when double-sided.
-fn emitted(m: Material, cos_l: f32) -> vec3<f32> {
+// emitted: glTF materials emit from the front face, both faces when double-sided; uv is the
+// hit's texture coordinate (textures.wgsl).
+fn emitted(m: Material, uv: vec2<f32>, cos_l: f32) -> vec3<f32> {
     let double_sided = (m.flags & MATERIAL_DOUBLE_SIDED) != 0u;
     if (cos_l > 0.0 || (double_sided && cos_l < 0.0)) {
-        return m.emission;
+        return emission_at(m, uv);
     }
     return vec3<f32>(0.0);
 }

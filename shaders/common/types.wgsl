@@ -122,6 +122,25 @@ struct GpuTriangle {
     _pad0: u32,
 }
 
+// GpuTriangleUv: TEXCOORD_0 at a GpuTriangle's corners, same slot.
+struct GpuTriangleUv {
+    uv0: vec2<f32>,
+    uv1: vec2<f32>,
+    uv2: vec2<f32>,
+}
+
+// GpuTexture: a texture use (scene::TextureRef) and its image in the texel pool.
+struct GpuTexture {
+    row0: vec3<f32>,    // KHR_texture_transform: u' = dot(row0, (u, v, 1))
+    offset: u32,        // first texel of the image in `texels`
+    row1: vec3<f32>,    // v' = dot(row1, (u, v, 1))
+    width: u32,
+    height: u32,
+    wrap_s: u32,        // TEXTURE_WRAP_*
+    wrap_t: u32,
+    nearest: u32,       // 1: nearest texel, 0: bilinear
+}
+
 // GpuAreaLight: one entry of the area lights' selection CDF.
 struct GpuAreaLight {
     cdf: f32,

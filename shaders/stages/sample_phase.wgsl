@@ -27,7 +27,8 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
         let ng = normalize_or_zero(triangle_cross(tri));
         let n_side = select(-ng, ng, dot(ng, wo) >= 0.0);
         let frame = frame_from_z(shading_normal(tri, ps.hit_b1, ps.hit_b2, n_side));
-        let bsdf = principled_new(mat.base_color.xyz, mat.metallic, mat.roughness);
+        let uv = triangle_uv(ps.hit_prim, ps.hit_b1, ps.hit_b2);
+        let bsdf = principled_new(base_color_at(mat, uv), mat.metallic, mat.roughness);
         let u_lobe = sampler_1d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_LOBE), &rng);
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
         let s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, u_dir);

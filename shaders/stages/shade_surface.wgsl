@@ -23,8 +23,9 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     let wo = -ps.d;
     let ng = normalize_or_zero(triangle_cross(tri));
     let cos_o = dot(ng, wo);
+    let uv = triangle_uv(ps.hit_prim, ps.hit_b1, ps.hit_b2);
     if (any(mat.emission != vec3<f32>(0.0))) {
-        let le = emitted(mat, cos_o);
+        let le = emitted(mat, uv, cos_o);
         if (any(le != vec3<f32>(0.0))) {
             var w = 1.0;
             if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
@@ -62,7 +63,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
             var wt = vec3<f32>(0.0);
             if (refract(wo, n, eta, &wt)) {
                 // Radiance is compressed by eta^2 entering a denser medium.
-                ps.beta *= mat.base_color.xyz / (eta * eta);
+                ps.beta *= base_color_at(mat, uv) / (eta * eta);
                 if (FEATURE_HOMOGENEOUS) {
                     ps.medium = enter_or_leave(tri.interior, entering);
                 }
@@ -80,7 +81,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     let n_side = select(-ng, ng, cos_o >= 0.0);
     let ns = shading_normal(tri, ps.hit_b1, ps.hit_b2, n_side);
     let frame = frame_from_z(ns);
-    let bsdf = principled_new(mat.base_color.xyz, mat.metallic, mat.roughness);
+    let bsdf = principled_new(base_color_at(mat, uv), mat.metallic, mat.roughness);
     let wo_l = frame_to_local(frame, wo);
     let p_off = offset_origin(p, n_side, n_side);
     let bounce = ps.depth - 1u;

@@ -6,6 +6,7 @@
 //! Textures are not decoded: factors only.
 //!
 //! Everything works in a local frame whose z is the shading normal flipped to `wo`'s side.
+use crate::math::luminance;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -29,10 +30,6 @@ pub struct BsdfSample {
     /// `f * |cos| / pdf`.
     pub weight: Vec3,
     pub pdf: f32,
-}
-
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
 impl Principled {

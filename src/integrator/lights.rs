@@ -55,10 +55,6 @@ pub struct Lights {
     pub area: Option<AreaLights>,
 }
 
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
-
 impl Lights {
     pub fn new(scene: &Scene) -> Lights {
         let mut tris = Vec::new();
@@ -66,7 +62,9 @@ impl Lights {
         let mut lum = Vec::new();
         for (k, t) in scene.triangles.iter().enumerate() {
             let mat = &scene.materials[scene.instances[t.instance as usize].material as usize];
-            let l = luminance(Vec3::from(mat.emission));
+            // Weighted by the mean over its emissive texture: any positive weight where the
+            // emission can be non-zero keeps the estimator unbiased; the mean keeps it efficient.
+            let l = scene.mean_emission_luminance(mat);
             if l > 0.0 {
                 let [a, b, c] = scene.triangle_corners(k);
                 let area = 0.5 * (b - a).cross(c - a).length();
@@ -192,7 +190,7 @@ impl Lights {
         let mat = &scene.materials
             [scene.instances[scene.triangles[t].instance as usize].material as usize];
         let cos_l = n_l.dot(-wi);
-        let li = emitted(mat, cos_l);
+        let li = emitted(scene, mat, scene.uv_at(t, b1, b2), cos_l);
         let pdf_area = area.lum[i] / area.total;
         let pdf = pmf * pdf_area * d2 / cos_l.abs().max(1e-8);
         Some(LightSample {
@@ -233,13 +231,13 @@ impl Lights {
     }
 }
 
-/// Radiance leaving an emissive surface at cosine `cos_l` with its front normal: glTF
-/// materials emit from the front face, both faces when double-sided.
+/// Radiance leaving an emissive surface at texture coordinate `uv` and cosine `cos_l` with its
+/// front normal: glTF materials emit from the front face, both faces when double-sided.
 #[inline]
-pub fn emitted(mat: &crate::scene::Material, cos_l: f32) -> Vec3 {
+pub fn emitted(scene: &Scene, mat: &crate::scene::Material, uv: Vec2, cos_l: f32) -> Vec3 {
     let double = mat.flags & crate::scene::material::MATERIAL_DOUBLE_SIDED != 0;
     if cos_l > 0.0 || (double && cos_l < 0.0) {
-        Vec3::from(mat.emission)
+        scene.emission_at(mat, uv)
     } else {
         Vec3::ZERO
     }

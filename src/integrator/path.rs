@@ -370,8 +370,9 @@ pub fn radiance<
         let [a, b, c] = scene.triangle_corners(h.triangle as usize);
         let ng = (b - a).cross(c - a).normalize_or_zero();
         let cos_o = ng.dot(wo);
+        let uv = scene.uv_at(h.triangle as usize, h.b1, h.b2);
         if mat.emission != [0.0; 3] {
-            let le = emitted(mat, cos_o);
+            let le = emitted(scene, mat, uv, cos_o);
             if le != Vec3::ZERO {
                 let w = if specular {
                     1.0
@@ -405,7 +406,7 @@ pub fn radiance<
                     match refract(wo, n, eta) {
                         Some(wt) => {
                             // Radiance is compressed by eta^2 entering a denser medium.
-                            beta *= Vec3::from_slice(&mat.base_color[..3]) / (eta * eta);
+                            beta *= scene.base_color_at(mat, uv) / (eta * eta);
                             if HOM {
                                 medium = enter_or_leave(mat.interior_medium, entering);
                             }
@@ -427,11 +428,8 @@ pub fn radiance<
                 let n_side = if cos_o >= 0.0 { ng } else { -ng };
                 let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side);
                 let frame = Frame::from_z(ns);
-                let bsdf = Principled::new(
-                    Vec3::from_slice(&mat.base_color[..3]),
-                    mat.metallic,
-                    mat.roughness,
-                );
+                let bsdf =
+                    Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
                 let wo_l = frame.to_local(wo);
                 let p_off = offset(p, n_side, n_side);
                 l += beta

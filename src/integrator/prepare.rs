@@ -42,6 +42,11 @@ pub struct FeatureFlags {
     pub emission: bool,
     pub absorption: bool,
     pub chromatic: bool,
+    /// Some material used by a triangle has a base-colour or emissive texture. The GPU
+    /// variants cut texture code and bindings without it; the CPU path tests the material's
+    /// texture index per hit instead of doubling its variants (a predictable branch beside a
+    /// BVH query), and has no texture code at all without `surfaces`.
+    pub textures: bool,
 }
 
 impl FeatureFlags {
@@ -52,8 +57,10 @@ impl FeatureFlags {
         emission: true,
         absorption: true,
         chromatic: true,
+        textures: true,
     };
 
+    /// The flags the CPU's tile renderer is specialised on (`textures` is not one).
     pub fn as_array(&self) -> [bool; 6] {
         [
             self.surfaces,
@@ -75,13 +82,16 @@ impl FeatureFlags {
             "absorption",
             "chromatic",
         ];
-        let on: Vec<_> = self
+        let mut on: Vec<_> = self
             .as_array()
             .iter()
             .zip(names)
             .filter(|(b, _)| **b)
             .map(|(_, n)| n)
             .collect();
+        if self.textures {
+            on.push("textures");
+        }
         if on.is_empty() {
             "empty".into()
         } else {
@@ -238,6 +248,7 @@ impl<'s> RenderScene<'s> {
             emission: vdb.iter().any(|v| v.emission.is_some()),
             absorption,
             chromatic,
+            textures: crate::scene::Effects::of(scene).textures,
         };
         Ok(RenderScene {
             scene,

@@ -82,3 +82,9 @@ impl Aabb {
         Some((t_near, t_far))
     }
 }
+
+/// Rec. 709 luminance of linear RGB (the weights of sRGB primaries).
+#[inline]
+pub fn luminance(c: glam::Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}

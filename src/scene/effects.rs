@@ -39,6 +39,8 @@ pub struct Effects {
     pub environment_light: bool,
     /// The environment's radiance varies with direction (an image that is not constant).
     pub environment_map: bool,
+    /// A base-colour or emissive texture on a material some triangle uses.
+    pub textures: bool,
 }
 
 impl Effects {
@@ -101,6 +103,11 @@ impl Effects {
                 .image
                 .as_ref()
                 .is_some_and(|m| m.constant().is_none());
+        e.textures = scene.instances.iter().any(|i| {
+            let m = &scene.materials[i.material as usize];
+            m.base_color_texture != crate::scene::NO_INDEX
+                || m.emissive_texture != crate::scene::NO_INDEX
+        });
         e.lights_inside_media = scene
             .lights
             .iter()
@@ -128,6 +135,7 @@ impl Effects {
             (self.camera_inside_medium, "camera inside medium"),
             (self.environment_light, "environment light"),
             (self.environment_map, "environment map"),
+            (self.textures, "textures"),
         ];
         all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
     }

@@ -2,17 +2,19 @@
 //! `KHR_materials_volume` puts inside closed meshes.
 //!
 //! What Brume keeps of a glTF material, and what it approximates:
-//! - base colour factor and texture reference, metallic and roughness factors: enough for a
-//!   diffuse lobe plus a rough GGX specular lobe. The metallic-roughness *texture*, normal,
-//!   occlusion and `KHR_texture_transform` are ignored (a warning says so).
+//! - base colour factor and texture, metallic and roughness factors: enough for a diffuse lobe
+//!   plus a rough GGX specular lobe. The metallic-roughness *texture*, normal and occlusion
+//!   textures are ignored (a warning says so).
 //! - emission = `emissiveFactor * emissiveStrength` (`KHR_materials_emissive_strength`), read as
 //!   radiance in W m^-2 sr^-1 with the same factor 1 as the lights (see `lights.rs`).
 //! - `KHR_materials_transmission` factor and `KHR_materials_ior` (default 1.5) for dielectrics.
-//! - Textures are referenced, not decoded: pixel decoding belongs to the texture module.
+//! - Base-colour and emissive textures (with `KHR_texture_transform`) are decoded and sampled
+//!   by `texture.rs`.
 use bytemuck::{Pod, Zeroable};
 
 use super::error::{Ctx, SceneError};
 use super::json::{check_all, check_f32, Obj};
+use super::texture::{texture_ref, TextureRef};
 use super::{BRUME_MATERIALS_VOLUME_SCATTERING, NO_INDEX};
 
 /// Surface description, 64 bytes, uploaded as is.
@@ -65,17 +67,6 @@ impl Default for Material {
             _pad: 0,
         }
     }
-}
-
-/// A texture the materials reference; pixels are not decoded here.
-#[derive(Clone, Debug, PartialEq)]
-pub struct TextureRef {
-    /// glTF texture index.
-    pub texture: usize,
-    /// glTF image index.
-    pub image: usize,
-    /// Image URI as written in the file (`None` for images in buffer views).
-    pub uri: Option<String>,
 }
 
 /// A homogeneous medium, 32 bytes: coefficients per metre, linear RGB.
@@ -326,34 +317,4 @@ fn read_volume_scattering(
     let albedo = obj.rgb(ctx, "albedo", [0.0; 3], 0.0, 1.0)?;
     let g = obj.number(ctx, "anisotropy", 0.0, -1.0, 1.0, true)?;
     Ok((albedo, g))
-}
-
-fn texture_ref(
-    ctx: &mut Ctx,
-    textures: &mut Vec<TextureRef>,
-    info: &gltf::texture::Info,
-    pointer: &str,
-) -> u32 {
-    if info.tex_coord() != 0 {
-        ctx.warn(
-            format!("{pointer}/texCoord"),
-            "only TEXCOORD_0 is supported; using it",
-        );
-    }
-    let tex = info.texture();
-    let image = tex.source();
-    let uri = match image.source() {
-        gltf::image::Source::Uri { uri, .. } => Some(uri.to_owned()),
-        gltf::image::Source::View { .. } => None,
-    };
-    let r = TextureRef {
-        texture: tex.index(),
-        image: image.index(),
-        uri,
-    };
-    if let Some(k) = textures.iter().position(|t| *t == r) {
-        return k as u32;
-    }
-    textures.push(r);
-    (textures.len() - 1) as u32
 }

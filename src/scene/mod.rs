@@ -4,7 +4,8 @@
 //!
 //! Supported: `.gltf` (embedded base64 or external buffers) and `.glb`; node hierarchies with
 //! TRS or matrices; perspective cameras; triangle meshes (lists, strips, fans); the
-//! metallic-roughness material factors; `KHR_lights_punctual`, `KHR_materials_emissive_strength`,
+//! metallic-roughness material factors with base-colour and emissive textures (PNG, JPEG,
+//! `KHR_texture_transform`); `KHR_lights_punctual`, `KHR_materials_emissive_strength`,
 //! `KHR_materials_transmission`, `KHR_materials_ior`, `KHR_materials_volume`; and Brume's own
 //! `BRUME_environment` (scene), `BRUME_materials_volume_scattering` (material) and
 //! `BRUME_medium_vdb` (node, see `docs/BRUME_medium_vdb.md`).
@@ -31,6 +32,7 @@ pub mod mesh;
 mod nodes;
 pub mod render_settings;
 mod summary;
+pub mod texture;
 
 use std::path::{Path, PathBuf};
 
@@ -40,12 +42,13 @@ pub use camera::{Camera, CameraEntry, CameraSource};
 pub use effects::Effects;
 pub use error::SceneError;
 pub use lights::{Environment, PunctualLight, RADIOMETRIC_PER_PHOTOMETRIC};
-pub use material::{HomogeneousMedium, Material, TextureRef};
+pub use material::{HomogeneousMedium, Material};
 pub use media::{
     load_grid, transform_aabb, BoundsSource, LoadedGrid, VdbMediumDesc, MAX_TEMPERATURE_K,
 };
 pub use mesh::{Instance, Triangle, Vertex};
 pub use render_settings::SceneRenderSettings;
+pub use texture::{TextureImage, TextureRef};
 
 use crate::accel::TriangleBvh;
 use crate::math::{Aabb, Ray};
@@ -83,7 +86,10 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Names of `materials`, same order.
     pub material_names: Vec<Option<String>>,
+    /// Texture uses of the materials (`Material::base_color_texture`, `emissive_texture`).
     pub textures: Vec<TextureRef>,
+    /// Decoded images of `textures` (`TextureRef::image_slot`).
+    pub images: Vec<TextureImage>,
     /// `KHR_materials_volume` media, each bounded by the closed meshes of its material.
     pub homogeneous_media: Vec<HomogeneousMedium>,
     /// `BRUME_medium_vdb` media.
@@ -115,8 +121,9 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         materials,
         names: material_names,
         media: homogeneous_media,
-        textures,
+        mut textures,
     } = material::read_materials(&mut ctx, doc)?;
+    let images = texture::read_images(&ctx, doc, &loaded.buffers, &loaded.base_dir, &mut textures)?;
     let default_material = (materials.len() - 1) as u32;
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
     let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
@@ -154,6 +161,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         materials,
         material_names,
         textures,
+        images,
         homogeneous_media,
         vdb_media,
         lights,

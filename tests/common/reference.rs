@@ -4,17 +4,29 @@
 use std::path::Path;
 use std::process::Command;
 
-/// Renders `scenes/cloud.gltf` at 32x24 with Brume (256 spp, seed 7) into `dir`, then with
-/// `brume <peer> ... --spp <peer_spp> --runs 4 --seed 1 --against brume.exr` (the peer's
-/// Python given by `python_env`), asserts the agreement and returns the peer's summary line.
+/// [`scene_agrees_with`] on `scenes/cloud.gltf`.
 pub fn cloud_agrees_with(
     peer: &str,
     peer_spp: &str,
     python_env: (&str, &Path),
     dir: &Path,
 ) -> String {
+    scene_agrees_with(peer, "scenes/cloud.gltf", peer_spp, python_env, dir)
+}
+
+/// Renders `scene` (relative to the repository) at 32x24 with Brume (256 spp, seed 7) into
+/// `dir`, then with `brume <peer> ... --spp <peer_spp> --runs 4 --seed 1 --against brume.exr`
+/// (the peer's Python given by `python_env`), asserts the agreement and returns the peer's
+/// summary line.
+pub fn scene_agrees_with(
+    peer: &str,
+    scene: &str,
+    peer_spp: &str,
+    python_env: (&str, &Path),
+    dir: &Path,
+) -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = root.join("scenes/cloud.gltf");
+    let scene = root.join(scene);
     let (brume_exr, peer_exr) = (dir.join("brume.exr"), dir.join(format!("{peer}.exr")));
     let size = ["--width", "32", "--height", "24"];
     let exe = env!("CARGO_BIN_EXE_brume");

@@ -19,6 +19,8 @@ The Blender scene is built as follows (docs/CYCLES.md has the table and the reas
   Lambert(base * (1 - metallic)) + GGX with Schlick Fresnel (Metallic BSDF, F82 tint white,
   which is exactly Schlick), smooth Glass BSDF for transmission, Transparent BSDF for an
   index-matched boundary, front-face-only emission unless double-sided;
+- base-colour and emissive textures as Image Texture nodes (sRGB, Linear or Closest, the
+  sampler's wrap mode, KHR_texture_transform composed with glTF's flipped v into UV math);
 - `KHR_materials_volume` + `BRUME_materials_volume_scattering` as Volume Scatter + Volume
   Absorption with sigma_s = albedo * sigma_t, sigma_a = (1 - albedo) * sigma_t;
 - each `BRUME_medium_vdb` node as a Volume object reading the .vdb, placed at
@@ -116,7 +118,92 @@ def add_shaders(nt, outs):
     return acc
 
 
-def build_surface_material(mat, gm):
+WRAP = {33071: "EXTEND", 33648: "MIRROR", 10497: "REPEAT"}
+
+
+def linear_float_copy(img):
+    """The image sRGB-decoded into a float buffer read as Non-Color. Cycles keeps an 8-bit sRGB
+    image as bytes and decodes after interpolating (`compress_as_srgb`), so a blend of a dark
+    and a bright texel comes out darker than the blend of their linear values, which is what
+    glTF asks for and Brume does (1 % darker on scenes/textured_backdrop.gltf, 32 % of blocks
+    failing; BRUME_CYCLES_NATIVE_TEXTURE=1 keeps the native path to show it)."""
+    import numpy as np
+    w, h = img.size
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    rgb = px.reshape(-1, 4)[:, :3]
+    px.reshape(-1, 4)[:, :3] = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    out = bpy.data.images.new(img.name + ".linear", w, h, alpha=True, float_buffer=True)
+    out.colorspace_settings.name = "Non-Color"
+    out.pixels.foreach_set(px)
+    out.pack()
+    return out
+
+
+def texture_node(nt, gltf, info, base_dir):
+    """An Image Texture node reading `info` (a glTF textureInfo) as Brume does
+    (src/scene/texture.rs): sRGB-decoded, bilinear unless the sampler's magFilter is NEAREST,
+    the sampler's wrap mode, and KHR_texture_transform applied to TEXCOORD_0. Returns its
+    Color output (linear RGB)."""
+    tex = gltf["textures"][info["index"]]
+    image = gltf["images"][tex["source"]]
+    uri = image.get("uri")
+    if uri is None or uri.startswith("data:"):
+        sys.exit("error: only textures in image files next to the glTF are mapped to Cycles")
+    from urllib.parse import unquote
+    img = bpy.data.images.load(os.path.join(base_dir, unquote(uri)), check_existing=True)
+    img.colorspace_settings.name = "sRGB"
+    if img.is_float is False and os.environ.get("BRUME_CYCLES_NATIVE_TEXTURE") != "1":
+        img = linear_float_copy(img)
+    node = nt.nodes.new("ShaderNodeTexImage")
+    node.image = img
+    sampler = gltf.get("samplers", [])[tex["sampler"]] if "sampler" in tex else {}
+    node.interpolation = "Closest" if sampler.get("magFilter") == 9728 else "Linear"
+    wrap_s = WRAP[sampler.get("wrapS", 10497)]
+    wrap_t = WRAP[sampler.get("wrapT", 10497)]
+    if wrap_s != wrap_t:
+        sys.exit("error: Cycles has one extension mode per image; wrapS and wrapT differ")
+    node.extension = wrap_s
+    # glTF's v points down from the image's top row, Blender's up from its bottom row:
+    # uv_g = (u_b, 1 - v_b). KHR_texture_transform (M = T R S) acts on uv_g; the result goes
+    # back to Blender's convention. Composed into one affine map of Blender's UV.
+    t = info.get("extensions", {}).get("KHR_texture_transform", {})
+    ox, oy = t.get("offset", [0.0, 0.0])
+    sx, sy = t.get("scale", [1.0, 1.0])
+    r = t.get("rotation", 0.0)
+    a, b, c = math.cos(r) * sx, math.sin(r) * sy, ox
+    d, e, f = -math.sin(r) * sx, math.cos(r) * sy, oy
+    rows = [((a, -b), b + c), ((-d, e), 1.0 - e - f)]
+    uv = nt.nodes.new("ShaderNodeUVMap")
+    out = []
+    for (cu, cv), k in rows:
+        dot = nt.nodes.new("ShaderNodeVectorMath")
+        dot.operation = "DOT_PRODUCT"
+        nt.links.new(uv.outputs["UV"], dot.inputs[0])
+        dot.inputs[1].default_value = (cu, cv, 0.0)
+        add = nt.nodes.new("ShaderNodeMath")
+        add.operation = "ADD"
+        nt.links.new(dot.outputs["Value"], add.inputs[0])
+        add.inputs[1].default_value = k
+        out.append(add.outputs[0])
+    comb = nt.nodes.new("ShaderNodeCombineXYZ")
+    nt.links.new(out[0], comb.inputs[0])
+    nt.links.new(out[1], comb.inputs[1])
+    nt.links.new(comb.outputs[0], node.inputs["Vector"])
+    return node.outputs["Color"]
+
+
+def scaled_color(nt, color_out, factor, offset=None):
+    """`factor * color_out (+ offset)` as a Vector Math node; factor and offset are RGB."""
+    m = nt.nodes.new("ShaderNodeVectorMath")
+    m.operation = "MULTIPLY_ADD"
+    nt.links.new(color_out, m.inputs[0])
+    m.inputs[1].default_value = tuple(factor)
+    m.inputs[2].default_value = tuple(offset or (0.0, 0.0, 0.0))
+    return m.outputs["Vector"]
+
+
+def build_surface_material(mat, gm, gltf, base_dir):
     """Brume's surface model (src/integrator/bsdf.rs, prepare.rs) as Cycles nodes."""
     pbr = gm.get("pbrMetallicRoughness", {})
     base = pbr.get("baseColorFactor", [1, 1, 1, 1])[:3]
@@ -149,6 +236,12 @@ def build_surface_material(mat, gm):
         spec.fresnel_type = "F82"  # with a white edge tint F82-tint is exactly Schlick
         f0 = [0.04 + (c - 0.04) * metallic for c in base]
         spec.inputs["Base Color"].default_value = f0 + [1.0]
+        if "baseColorTexture" in pbr:
+            tex = texture_node(nt, gltf, pbr["baseColorTexture"], base_dir)
+            kd = scaled_color(nt, tex, [c * (1 - metallic) for c in base])
+            nt.links.new(kd, diffuse.inputs["Color"])
+            ks = scaled_color(nt, tex, [c * metallic for c in base], [0.04 * (1 - metallic)] * 3)
+            nt.links.new(ks, spec.inputs["Base Color"])
         spec.inputs["Edge Tint"].default_value = (1, 1, 1, 1)
         # Brume keeps alpha = max(roughness^2, 2e-3).
         spec.inputs["Roughness"].default_value = max(roughness, math.sqrt(2e-3))
@@ -159,6 +252,9 @@ def build_surface_material(mat, gm):
         em = nt.nodes.new("ShaderNodeEmission")
         em.inputs["Color"].default_value = list(emissive) + [1.0]
         em.inputs["Strength"].default_value = strength  # radiance = colour * strength
+        if "emissiveTexture" in gm:
+            tex = texture_node(nt, gltf, gm["emissiveTexture"], base_dir)
+            nt.links.new(scaled_color(nt, tex, emissive), em.inputs["Color"])
         lit = add_shaders(nt, [shader, em.outputs[0]])
         if gm.get("doubleSided", False):
             shader = lit
@@ -417,7 +513,7 @@ def build_scene(args):
     for mat in bpy.data.materials:
         gm = by_name.get(mat.name)
         if gm is not None:
-            build_surface_material(mat, gm)
+            build_surface_material(mat, gm, gltf, base_dir)
 
     # Media.
     worlds = world_matrices(gltf)

@@ -2,11 +2,20 @@
 //! ([`shader`]). The WGSL mirrors of the CPU physics live in `shaders/common/`, one file per
 //! concept, each opening with a comment naming the Rust code it mirrors; the shared structs are
 //! declared once in [`crate::gpu_types`].
+//!
+//! The wavefront integrator, one concept per module: the stage graph and its WGSL variants
+//! ([`graph`]), the scene as the GPU reads it (`upload`), every buffer and the kernels bound
+//! to them (`buffers`), the per-batch scheduler (`dispatch`) and the render loop over passes
+//! and batches ([`render`]).
 pub mod device;
 pub mod shader;
 
 pub use device::{GpuContext, GpuGrid, GpuUnavailable};
 pub use shader::{Module, ShaderFile, Spec};
+mod buffers;
+mod dispatch;
+pub mod graph;
 pub mod render;
+mod upload;
 
 pub use render::{render, supports, GpuRenderError, Stage};

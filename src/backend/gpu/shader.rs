@@ -66,6 +66,8 @@ pub mod files {
     pub const BSDF: ShaderFile = shader_file!("common/bsdf.wgsl");
     /// The CWBVH closest-hit query, `intersect_triangle`, `shading_normal`, `emitted`.
     pub const SURFACES: ShaderFile = shader_file!("common/surfaces.wgsl");
+    /// `TextureRef::sample`, `Scene::uv_at`, `base_color_at`, `emission_at`.
+    pub const TEXTURES: ShaderFile = shader_file!("common/textures.wgsl");
     /// `sample_homogeneous`, `transmittance_homogeneous`, `enter_or_leave`.
     pub const MEDIA: ShaderFile = shader_file!("common/media.wgsl");
     /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
@@ -195,6 +197,9 @@ pub fn shared_constants() -> String {
         ("SURFACE_DIELECTRIC", SURFACE_DIELECTRIC),
         ("SURFACE_NULL", SURFACE_NULL),
         ("NO_INDEX", crate::scene::NO_INDEX),
+        ("TEXTURE_WRAP_REPEAT", crate::scene::texture::WRAP_REPEAT),
+        ("TEXTURE_WRAP_CLAMP", crate::scene::texture::WRAP_CLAMP),
+        ("TEXTURE_WRAP_MIRROR", crate::scene::texture::WRAP_MIRROR),
         (
             "MATERIAL_DOUBLE_SIDED",
             crate::scene::material::MATERIAL_DOUBLE_SIDED,
@@ -377,6 +382,7 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_HETEROGENEOUS", true),
     Spec::bool("FEATURE_CHROMATIC", true),
     Spec::bool("FEATURE_EMISSION", true),
+    Spec::bool("FEATURE_TEXTURES", true),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];
@@ -387,7 +393,7 @@ macro_rules! wavefront_module {
             label: $label,
             files: &[
                 TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF,
-                SURFACES, MEDIA, LIGHTS, $file,
+                TEXTURES, SURFACES, MEDIA, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,

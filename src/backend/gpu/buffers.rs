@@ -1,0 +1,290 @@
+//! Every buffer of a render ([`Buffers`]) and the kernels bound to them ([`Kernel`]): the
+//! bindings each entry point uses come from naga's analysis, so a kernel binds only what it
+//! reads and the storage-buffer limit is checked per stage.
+use bytemuck::Zeroable;
+
+use super::device::{GpuContext, GpuGrid};
+use super::graph::Stage;
+use super::render::GpuRenderError;
+use super::shader::{Module, Spec};
+use super::upload::{Geometry, Textures};
+use crate::gpu_types::{
+    GpuEmissionParams, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue, GpuShadowRay,
+    GpuWavefrontCounters, GpuWavefrontParams,
+};
+use crate::integrator::{blackbody, RenderScene};
+
+/// The `(group, binding)` pairs `module`'s entry point uses, from naga's analysis (the same
+/// one wgpu derives the pipeline layout from).
+fn used_bindings(module: &Module, specs: &[Spec]) -> Result<Vec<(u32, u32)>, String> {
+    let source = module.source(specs);
+    let m = naga::front::wgsl::parse_str(&source).map_err(|e| e.emit_to_string(&source))?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&m)
+    .map_err(|e| e.emit_to_string(&source))?;
+    let ep = m
+        .entry_points
+        .iter()
+        .position(|e| e.name == module.entry_point)
+        .ok_or_else(|| format!("no entry point {}", module.entry_point))?;
+    let fi = info.get_entry_point(ep);
+    Ok(m.global_variables
+        .iter()
+        .filter(|(h, _)| !fi[*h].is_empty())
+        .filter_map(|(_, v)| v.binding.as_ref().map(|b| (b.group, b.binding)))
+        .collect())
+}
+
+/// A pipeline and its bind groups for both parities.
+pub(super) struct Kernel {
+    pub(super) pipeline: wgpu::ComputePipeline,
+    pub(super) groups: [Vec<wgpu::BindGroup>; 2],
+}
+
+/// Every buffer of a render.
+pub(super) struct Buffers {
+    pub(super) params: [wgpu::Buffer; 2],
+    pub(super) paths: wgpu::Buffer,
+    pub(super) queues: wgpu::Buffer,
+    pub(super) counters: wgpu::Buffer,
+    pub(super) shadows: wgpu::Buffer,
+    pub(super) lights: wgpu::Buffer,
+    pub(super) samples: wgpu::Buffer,
+    pub(super) args: wgpu::Buffer,
+    /// `GpuEmissionParams` (zero when the medium does not emit).
+    pub(super) emission: wgpu::Buffer,
+    /// `blackbody::table()` as vec4 rows.
+    pub(super) blackbody: wgpu::Buffer,
+    /// obvhs' CWBVH nodes (one zero node when the scene has no triangles).
+    pub(super) bvh_nodes: wgpu::Buffer,
+    /// `GpuTriangle`s in the BVH's primitive order.
+    pub(super) bvh_triangles: wgpu::Buffer,
+    /// The scene's materials, as loaded.
+    pub(super) materials: wgpu::Buffer,
+    /// `GpuAreaLight`s: the area lights' selection CDF.
+    pub(super) area_lights: wgpu::Buffer,
+    /// `GpuTriangleUv`s, like `bvh_triangles`.
+    pub(super) triangle_uvs: wgpu::Buffer,
+    /// `GpuTexture`s, indexed like `Scene::textures`.
+    pub(super) textures: wgpu::Buffer,
+    /// The texel pool (linear RGBA).
+    pub(super) texels: wgpu::Buffer,
+    /// `GpuHomogeneousMedium`s, indexed like `RenderScene::homogeneous`.
+    pub(super) homogeneous: wgpu::Buffer,
+    /// Bound in place of the grid's buffers when the scene has no VDB medium (the kernels
+    /// specialised without one never read them).
+    pub(super) no_grid: (wgpu::Buffer, wgpu::Buffer),
+    pub(super) readback: wgpu::Buffer,
+    pub(super) timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+}
+
+impl Buffers {
+    /// Allocates every buffer of a render of `rs` with `slots` path slots and a sample buffer
+    /// of `samples` entries, uploading what is known before the first batch.
+    pub(super) fn new(
+        ctx: &GpuContext,
+        rs: &RenderScene,
+        params: &GpuWavefrontParams,
+        slots: u32,
+        samples: u64,
+        emission: &GpuEmissionParams,
+        geometry: &Geometry,
+        textures: &Textures,
+    ) -> Buffers {
+        let timestamps = ctx.timestamp_queries;
+        // The counters, then two timestamps per stage.
+        let readback_size =
+            (std::mem::size_of::<GpuWavefrontCounters>() + 16 * Stage::COUNT) as u64;
+        Buffers {
+            params: [
+                ctx.uniform_buffer("wavefront params 0", params),
+                ctx.uniform_buffer("wavefront params 1", params),
+            ],
+            paths: ctx.storage_buffer_zeroed(
+                "paths",
+                slots as u64 * std::mem::size_of::<GpuPathState>() as u64,
+            ),
+            queues: ctx.storage_buffer_zeroed("queues", GpuQueue::COUNT as u64 * slots as u64 * 4),
+            counters: ctx.storage_buffer_zeroed(
+                "counters",
+                std::mem::size_of::<GpuWavefrontCounters>() as u64,
+            ),
+            shadows: ctx.storage_buffer_zeroed(
+                "shadow rays",
+                slots as u64 * std::mem::size_of::<GpuShadowRay>() as u64,
+            ),
+            // A binding holds at least one element: an unused zero light when there are none.
+            lights: if rs.lights.punctual.is_empty() {
+                ctx.storage_buffer("lights", &[crate::scene::PunctualLight::zeroed()])
+            } else {
+                ctx.storage_buffer("lights", &rs.lights.punctual)
+            },
+            samples: ctx.storage_buffer_zeroed("samples", samples * 16),
+            emission: ctx.uniform_buffer("emission", emission),
+            bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
+            bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),
+            materials: if rs.scene.materials.is_empty() {
+                ctx.storage_buffer("materials", &[crate::scene::Material::zeroed()])
+            } else {
+                ctx.storage_buffer("materials", &rs.scene.materials)
+            },
+            area_lights: ctx.storage_buffer("area lights", &geometry.area_lights),
+            triangle_uvs: ctx.storage_buffer("triangle uvs", &geometry.triangle_uvs),
+            textures: ctx.storage_buffer("textures", &textures.records),
+            texels: ctx.storage_buffer("texels", &textures.texels),
+            homogeneous: {
+                let mut h: Vec<GpuHomogeneousMedium> = rs
+                    .homogeneous
+                    .iter()
+                    .map(|m| GpuHomogeneousMedium {
+                        sigma_a: m.sigma_a.to_array(),
+                        g: m.phase.g,
+                        sigma_s: m.sigma_s.to_array(),
+                        _pad0: 0.0,
+                    })
+                    .collect();
+                if h.is_empty() {
+                    h.push(GpuHomogeneousMedium::zeroed());
+                }
+                ctx.storage_buffer("homogeneous media", &h)
+            },
+            no_grid: (
+                ctx.uniform_buffer("no grid", &GpuGridInfo::default()),
+                ctx.storage_buffer_zeroed("no grid data", 16),
+            ),
+            blackbody: {
+                let rows: Vec<[f32; 4]> = blackbody::table()
+                    .iter()
+                    .map(|c| [c.x, c.y, c.z, 0.0])
+                    .collect();
+                let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("blackbody table"),
+                    size: (rows.len() * 16) as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
+                b
+            },
+            args: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("dispatch args"),
+                size: GpuQueue::COUNT as u64 * 12,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+                mapped_at_creation: false,
+            }),
+            readback: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("counters read-back"),
+                size: readback_size,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            timestamps: timestamps.then(|| {
+                let n = 2 * Stage::ALL.len() as u32;
+                (
+                    ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+                        label: Some("stage timestamps"),
+                        ty: wgpu::QueryType::Timestamp,
+                        count: n,
+                    }),
+                    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("timestamps"),
+                        size: n as u64 * 8,
+                        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                        mapped_at_creation: false,
+                    }),
+                )
+            }),
+        }
+    }
+
+    fn get<'a>(
+        &'a self,
+        grid: Option<&'a GpuGrid>,
+        parity: usize,
+        g: u32,
+        b: u32,
+    ) -> Option<&'a wgpu::Buffer> {
+        let (no_info, no_data) = &self.no_grid;
+        Some(match (g, b) {
+            (0, 0) => grid.map_or(no_info, |g| &g.info_buffer),
+            (0, 1) => grid.map_or(no_data, |g| &g.cells),
+            (0, 2) => grid.map_or(no_data, |g| &g.bricks),
+            (0, 3) => grid.map_or(no_data, |g| &g.constants),
+            (0, 4) => grid.map_or(no_data, |g| &g.bounds),
+            (0, 5) => &self.emission,
+            (0, 6) => &self.blackbody,
+            (1, 0) => &self.params[parity],
+            (1, 1) => &self.paths,
+            (1, 2) => &self.queues,
+            (1, 3) => &self.counters,
+            (1, 4) => &self.shadows,
+            (1, 5) => &self.lights,
+            (1, 6) => &self.samples,
+            (1, 7) => &self.args,
+            (1, 8) => &self.bvh_nodes,
+            (1, 9) => &self.bvh_triangles,
+            (1, 10) => &self.materials,
+            (1, 11) => &self.area_lights,
+            (1, 12) => &self.homogeneous,
+            (1, 13) => &self.triangle_uvs,
+            (1, 14) => &self.textures,
+            (1, 15) => &self.texels,
+            _ => return None,
+        })
+    }
+}
+
+pub(super) fn kernel(
+    ctx: &GpuContext,
+    module: &Module,
+    specs: &[Spec],
+    bufs: &Buffers,
+    grid: Option<&GpuGrid>,
+) -> Result<Kernel, GpuRenderError> {
+    let dev = |e: String| GpuRenderError::Device(format!("{}: {e}", module.label));
+    let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
+    let used = used_bindings(module, specs).map_err(dev)?;
+    // Every binding but the uniforms (grid header, emission, blackbody table, params) is a
+    // storage buffer.
+    let storage = used
+        .iter()
+        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (0, 6) | (1, 0)))
+        .count() as u32;
+    if storage > ctx.limits.max_storage_buffers_per_shader_stage {
+        return Err(GpuRenderError::Limits(format!(
+            "{} binds {storage} storage buffers; the device allows {} per stage",
+            module.label, ctx.limits.max_storage_buffers_per_shader_stage
+        )));
+    }
+    let max_group = used.iter().map(|u| u.0 + 1).max().unwrap_or(0);
+    let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let mut groups: [Vec<wgpu::BindGroup>; 2] = [Vec::new(), Vec::new()];
+    for (parity, out) in groups.iter_mut().enumerate() {
+        for g in 0..max_group {
+            let mut entries = Vec::new();
+            for &(ug, ub) in used.iter().filter(|u| u.0 == g) {
+                let buffer = bufs.get(grid, parity, ug, ub).ok_or_else(|| {
+                    dev(format!(
+                        "binding ({ug}, {ub}) has no buffer (no grid uploaded?)"
+                    ))
+                })?;
+                entries.push(wgpu::BindGroupEntry {
+                    binding: ub,
+                    resource: buffer.as_entire_binding(),
+                });
+            }
+            out.push(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(module.label),
+                layout: &pipeline.get_bind_group_layout(g),
+                entries: &entries,
+            }));
+        }
+    }
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(dev(e.to_string()));
+    }
+    Ok(Kernel { pipeline, groups })
+}

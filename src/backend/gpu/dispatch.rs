@@ -1,0 +1,207 @@
+//! The scheduler: one batch of camera samples run to completion as wavefront iterations,
+//! each iteration the stage kernels over their queues' indirect arguments (timed by GPU
+//! timestamps or, without them, by the host clock around each stage submitted alone).
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use super::buffers::{Buffers, Kernel};
+use super::device::GpuContext;
+use super::graph::Stage;
+use super::render::GpuRenderError;
+use crate::gpu_types::{GpuQueue, GpuWavefrontCounters, GpuWavefrontParams};
+
+/// The scheduler: the kernels of one render and the loop over iterations.
+pub(super) struct Wavefront<'a> {
+    pub(super) ctx: &'a GpuContext,
+    pub(super) bufs: &'a Buffers,
+    pub(super) kernels: Vec<(Stage, Kernel)>,
+    pub(super) reset: Kernel,
+    pub(super) args: Kernel,
+    pub(super) slots: u32,
+    pub(super) period_ns: f64,
+}
+
+pub(super) type BatchResult = (
+    GpuWavefrontCounters,
+    u32,
+    [u64; Stage::COUNT],
+    Vec<[f32; 4]>,
+);
+
+impl Wavefront<'_> {
+    pub(super) fn run_batch(
+        &mut self,
+        params: &GpuWavefrontParams,
+        stop: &AtomicBool,
+    ) -> Result<Option<BatchResult>, GpuRenderError> {
+        let ctx = self.ctx;
+        let dev = |e: String| GpuRenderError::Device(e);
+        for parity in 0..2u32 {
+            let p = GpuWavefrontParams { parity, ..*params };
+            ctx.queue.write_buffer(
+                &self.bufs.params[parity as usize],
+                0,
+                bytemuck::bytes_of(&p),
+            );
+        }
+        // Every slot free: the done queue of parity 0 lists them all.
+        let mut counters = GpuWavefrontCounters::default();
+        counters.queue_count[GpuQueue::Done0 as usize] = self.slots;
+        ctx.queue
+            .write_buffer(&self.bufs.counters, 0, bytemuck::bytes_of(&counters));
+        let slots: Vec<u32> = (0..self.slots).collect();
+        ctx.queue.write_buffer(
+            &self.bufs.queues,
+            GpuQueue::Done0 as u64 * self.slots as u64 * 4,
+            bytemuck::cast_slice(&slots),
+        );
+        let mut stage_ns = [0u64; Stage::COUNT];
+        let mut iteration = 0u32;
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                return Ok(None);
+            }
+            let parity = iteration & 1;
+            let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let c = self.iteration(parity, &mut stage_ns)?;
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(dev(e.to_string()));
+            }
+            iteration += 1;
+            if c.live == 0 && c.next_sample >= params.total_samples {
+                counters = c;
+                break;
+            }
+            // Every live path waits in the medium queue the next iteration reads; none there
+            // means a path was lost between stages: stop instead of spinning.
+            let next_medium = if parity == 0 {
+                GpuQueue::Medium1
+            } else {
+                GpuQueue::Medium0
+            };
+            if c.live > 0 && c.queue_count[next_medium as usize] == 0 {
+                return Err(dev(format!(
+                    "wavefront stalled after {iteration} iterations: {} live paths in no queue",
+                    c.live
+                )));
+            }
+        }
+        let mut samples: Vec<[f32; 4]> = ctx.read_buffer(&self.bufs.samples);
+        samples.truncate(params.total_samples as usize);
+        Ok(Some((counters, iteration, stage_ns, samples)))
+    }
+
+    /// One compute pass: `kernel` over `workgroups` (direct) or the indirect arguments of
+    /// `queue`, with timestamps at `query` when timing on the GPU.
+    fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kernel: &Kernel,
+        parity: u32,
+        queue: Option<GpuQueue>,
+        query: Option<u32>,
+    ) {
+        let timestamp_writes = match (&self.bufs.timestamps, query) {
+            (Some((set, _)), Some(q)) => Some(wgpu::ComputePassTimestampWrites {
+                query_set: set,
+                beginning_of_pass_write_index: Some(2 * q),
+                end_of_pass_write_index: Some(2 * q + 1),
+            }),
+            _ => None,
+        };
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: None,
+            timestamp_writes,
+        });
+        pass.set_pipeline(&kernel.pipeline);
+        for (g, group) in kernel.groups[parity as usize].iter().enumerate() {
+            pass.set_bind_group(g as u32, group, &[]);
+        }
+        match queue {
+            Some(q) => pass.dispatch_workgroups_indirect(&self.bufs.args, q as u64 * 12),
+            None => pass.dispatch_workgroups(1, 1, 1),
+        }
+    }
+
+    /// Runs one iteration and returns the counters after it.
+    fn iteration(
+        &self,
+        parity: u32,
+        stage_ns: &mut [u64; Stage::COUNT],
+    ) -> Result<GpuWavefrontCounters, GpuRenderError> {
+        let ctx = self.ctx;
+        let gpu_timing = self.bufs.timestamps.is_some();
+        let new_encoder = || {
+            ctx.device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+        };
+        let mut encoder = new_encoder();
+        self.encode(&mut encoder, &self.reset, parity, None, None);
+        for (i, (stage, kernel)) in self.kernels.iter().enumerate() {
+            let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
+            if stage.needs_args() {
+                self.encode(&mut encoder, &self.args, parity, None, None);
+            }
+            let q = stage.input_queue(parity);
+            if gpu_timing {
+                self.encode(&mut encoder, kernel, parity, Some(q), Some(i as u32));
+            } else {
+                // Host timing: submit what came before, then this stage alone.
+                ctx.queue
+                    .submit([std::mem::replace(&mut encoder, new_encoder()).finish()]);
+                wait(ctx)?;
+                let t = Instant::now();
+                self.encode(&mut encoder, kernel, parity, Some(q), None);
+                ctx.queue
+                    .submit([std::mem::replace(&mut encoder, new_encoder()).finish()]);
+                wait(ctx)?;
+                stage_ns[k] += t.elapsed().as_nanos() as u64;
+            }
+        }
+        encoder.copy_buffer_to_buffer(
+            &self.bufs.counters,
+            0,
+            &self.bufs.readback,
+            0,
+            std::mem::size_of::<GpuWavefrontCounters>() as u64,
+        );
+        if let Some((set, resolve)) = &self.bufs.timestamps {
+            // Only the queries of the dispatched stages were written.
+            let n = 2 * self.kernels.len() as u32;
+            encoder.resolve_query_set(set, 0..n, resolve, 0);
+            encoder.copy_buffer_to_buffer(resolve, 0, &self.bufs.readback, 128, n as u64 * 8);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.bufs
+            .readback
+            .map_async(wgpu::MapMode::Read, .., move |r| {
+                let _ = tx.send(r);
+            });
+        wait(ctx)?;
+        rx.recv()
+            .map_err(|e| GpuRenderError::Device(e.to_string()))?
+            .map_err(|e| GpuRenderError::Device(e.to_string()))?;
+        let data = self.bufs.readback.get_mapped_range(..).expect("mapped");
+        let counters: GpuWavefrontCounters =
+            bytemuck::pod_read_unaligned(&data[..std::mem::size_of::<GpuWavefrontCounters>()]);
+        if gpu_timing {
+            let ts: &[u64] = bytemuck::cast_slice(&data[128..128 + 2 * 8 * Stage::ALL.len()]);
+            for (i, (stage, _)) in self.kernels.iter().enumerate() {
+                let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
+                let dt = ts[2 * i + 1].saturating_sub(ts[2 * i]);
+                stage_ns[k] += (dt as f64 * self.period_ns) as u64;
+            }
+        }
+        drop(data);
+        self.bufs.readback.unmap();
+        Ok(counters)
+    }
+}
+
+fn wait(ctx: &GpuContext) -> Result<(), GpuRenderError> {
+    ctx.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map(|_| ())
+        .map_err(|e| GpuRenderError::Device(e.to_string()))
+}

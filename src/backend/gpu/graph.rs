@@ -1,0 +1,157 @@
+//! The wavefront's stage graph and its WGSL variants: the stages named once ([`Stage`]), which
+//! of them a scene's [`FeatureFlags`] need, and the specialisation constants that cut the code
+//! of absent features at assembly ([`variant_name`], [`specs`]).
+use super::shader::{self, Module, Spec};
+use crate::gpu_types::GpuQueue;
+use crate::integrator::{FeatureFlags, SamplerKind};
+
+/// The wavefront stages, in the order an iteration runs them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    /// Camera rays for free slots (`tile::render_tile`, `Camera::generate_ray`).
+    Generate,
+    /// The first surface along each ray (`TriangleBvh::closest_hit` over obvhs' CWBVH).
+    Intersect,
+    /// Free flight up to that surface through the homogeneous medium the path is in or the
+    /// VDB medium it crosses (`path::sample_media`, `media::sample_vdb`,
+    /// `media::sample_homogeneous`), gathering volume emission.
+    SampleMedium,
+    /// Depth limit and next-event estimation at a medium scattering event.
+    ScatterMedium,
+    /// Emission, null interfaces, smooth dielectrics and next-event estimation at opaque
+    /// surfaces (the surface half of `path::radiance`).
+    ShadeSurface,
+    /// Shadow-ray transmittance through media and null interfaces (`path::transmittance`).
+    TraceShadow,
+    /// The next direction (phase function or BSDF) and Russian roulette.
+    SamplePhase,
+    /// Environment light for rays that leave the scene.
+    Escape,
+    /// A finished path's radiance to its camera sample's entry.
+    Accumulate,
+}
+
+impl Stage {
+    pub const COUNT: usize = 9;
+    pub const ALL: [Stage; Stage::COUNT] = [
+        Stage::Generate,
+        Stage::Intersect,
+        Stage::SampleMedium,
+        Stage::ScatterMedium,
+        Stage::ShadeSurface,
+        Stage::TraceShadow,
+        Stage::SamplePhase,
+        Stage::Escape,
+        Stage::Accumulate,
+    ];
+
+    pub fn name(self) -> &'static str {
+        self.module().label
+    }
+
+    /// The WGSL module (its last file is the stage's, its entry point the stage's).
+    pub fn module(self) -> Module {
+        match self {
+            Stage::Generate => shader::STAGE_GENERATE_MODULE,
+            Stage::Intersect => shader::STAGE_INTERSECT_MODULE,
+            Stage::SampleMedium => shader::STAGE_SAMPLE_MEDIUM_MODULE,
+            Stage::ScatterMedium => shader::STAGE_SCATTER_MEDIUM_MODULE,
+            Stage::ShadeSurface => shader::STAGE_SHADE_SURFACE_MODULE,
+            Stage::TraceShadow => shader::STAGE_TRACE_SHADOW_MODULE,
+            Stage::SamplePhase => shader::STAGE_SAMPLE_PHASE_MODULE,
+            Stage::Escape => shader::STAGE_ESCAPE_MODULE,
+            Stage::Accumulate => shader::STAGE_ACCUMULATE_MODULE,
+        }
+    }
+
+    /// The queue the stage consumes in an iteration of parity `parity`. (The intersect stage
+    /// only annotates the paths of the medium queue, which the medium stage then consumes.)
+    pub fn input_queue(self, parity: u32) -> GpuQueue {
+        let pick = |a: GpuQueue, b: GpuQueue| if parity == 0 { a } else { b };
+        match self {
+            Stage::Generate => pick(GpuQueue::Done0, GpuQueue::Done1),
+            Stage::Intersect | Stage::SampleMedium => pick(GpuQueue::Medium0, GpuQueue::Medium1),
+            Stage::ScatterMedium => GpuQueue::Scatter,
+            Stage::ShadeSurface => GpuQueue::Surface,
+            Stage::TraceShadow => GpuQueue::Shadow,
+            Stage::SamplePhase => GpuQueue::Phase,
+            Stage::Escape => GpuQueue::Escape,
+            Stage::Accumulate => pick(GpuQueue::Done1, GpuQueue::Done0),
+        }
+    }
+
+    /// Whether the indirect arguments must be recomputed before this stage: a stage since
+    /// the last computation may have appended to its input queue. (The phase queue is
+    /// complete when the shadow stage's arguments are computed, whatever the stage list: only
+    /// the scatter and surface stages, both earlier, append to it.)
+    pub(super) fn needs_args(self) -> bool {
+        self != Stage::SamplePhase
+    }
+
+    /// The stages a scene with `features` needs: kernels for effects the scene lacks are not
+    /// dispatched (no intersection or surface shading without surfaces, no medium scattering
+    /// without media, nothing between generation and escape with neither).
+    pub fn for_features(features: FeatureFlags) -> Vec<Stage> {
+        let media = features.heterogeneous || features.homogeneous;
+        let surfaces = features.surfaces;
+        Stage::ALL
+            .into_iter()
+            .filter(|s| match s {
+                Stage::Generate | Stage::Escape | Stage::Accumulate => true,
+                Stage::Intersect | Stage::ShadeSurface => surfaces,
+                Stage::ScatterMedium => media,
+                Stage::SampleMedium | Stage::TraceShadow | Stage::SamplePhase => media || surfaces,
+            })
+            .collect()
+    }
+}
+
+/// The WGSL variant name of `features`: the effects the kernels are specialised for, in
+/// `FeatureFlags` order (`surfaces`, `vdb`, `homogeneous`, `emission`, `spectral`), e.g.
+/// `wavefront[surfaces+vdb+emission]`.
+pub fn variant_name(features: FeatureFlags) -> String {
+    let f = effective(features);
+    let on: Vec<&str> = [
+        (f.surfaces, "surfaces"),
+        (f.heterogeneous, "vdb"),
+        (f.homogeneous, "homogeneous"),
+        (f.emission, "emission"),
+        (f.chromatic, "spectral"),
+        (f.textures, "textures"),
+    ]
+    .into_iter()
+    .filter(|(b, _)| *b)
+    .map(|(_, n)| n)
+    .collect();
+    if on.is_empty() {
+        "wavefront[empty]".into()
+    } else {
+        format!("wavefront[{}]", on.join("+"))
+    }
+}
+
+/// The flags the kernels are specialised for: `features` less what cannot apply (emission
+/// and spectral tracking need a medium).
+fn effective(features: FeatureFlags) -> FeatureFlags {
+    let media = features.heterogeneous || features.homogeneous;
+    FeatureFlags {
+        emission: features.emission && features.heterogeneous,
+        chromatic: features.chromatic && media,
+        absorption: features.absorption && media,
+        textures: features.textures && features.surfaces,
+        ..features
+    }
+}
+
+pub(super) fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
+    let f = effective(features);
+    vec![
+        Spec::bool("SAMPLER_SOBOL", sampler == SamplerKind::Sobol),
+        Spec::bool("FEATURE_SURFACES", f.surfaces),
+        Spec::bool("FEATURE_HOMOGENEOUS", f.homogeneous),
+        Spec::bool("FEATURE_HETEROGENEOUS", f.heterogeneous),
+        Spec::bool("FEATURE_CHROMATIC", f.chromatic),
+        Spec::bool("FEATURE_EMISSION", f.emission),
+        Spec::bool("FEATURE_TEXTURES", f.textures),
+    ]
+}

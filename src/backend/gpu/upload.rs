@@ -1,0 +1,398 @@
+//! The scene as the GPU reads it: the VDB medium's grid, tracking parameters and emission,
+//! the surfaces (CWBVH, triangles, area lights, texture coordinates), the textures and the
+//! per-render parameters, each built from
+//! the CPU's `RenderScene` exactly as the CPU integrator would use it.
+use bytemuck::Zeroable;
+use glam::Vec3;
+
+use super::device::{byte_size, GpuContext, GpuGrid};
+use super::render::GpuRenderError;
+use crate::gpu_types::{
+    GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo, GpuMajorantMode,
+    GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuWavefrontParams,
+    SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
+};
+use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
+use crate::integrator::prepare::SurfaceKind;
+use crate::integrator::settings::Absorption;
+use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::volume::SparseGrid;
+
+pub(super) fn affine_rows(m: glam::Affine3A) -> [[f32; 4]; 3] {
+    let (a, t) = (m.matrix3, m.translation);
+    let row = |r: usize| [a.col(0)[r], a.col(1)[r], a.col(2)[r], t[r]];
+    [row(0), row(1), row(2)]
+}
+
+/// The estimator ids and tracking parameters of `rs`'s medium under `cfg`, as the CPU's
+/// `sample_vdb` / `transmittance_vdb` choose them.
+pub(super) fn medium_params(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    features: FeatureFlags,
+    p: &mut GpuWavefrontParams,
+) {
+    let Some(m) = rs.vdb.first() else { return };
+    let bound = m.sigma_t_bound;
+    if bound.is_nan() || bound <= 0.0 {
+        return;
+    }
+    let spectral = features.chromatic && (!m.grey || cfg.force_spectral);
+    let weight = cfg.absorption == Absorption::Weight;
+    // GreyView: the grey sigma_s per unit density is the channel mean (absorption as an
+    // event) or sigma_t (as a weight: the trackers see no absorption).
+    let sigma_s = if weight {
+        bound
+    } else {
+        (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0
+    };
+    // GreyView: sigma_a = max(sigma_t - sigma_s, 0) per unit density when any medium absorbs.
+    let albedo = if features.absorption {
+        sigma_s / bound
+    } else {
+        1.0
+    };
+    let (control_mode, control_value) = GpuControlMode::from_control(cfg.control());
+    let estimator = if spectral {
+        GpuEstimator::Spectral
+    } else {
+        match cfg.estimator {
+            Estimator::Delta => GpuEstimator::Delta,
+            Estimator::WeightedDelta => GpuEstimator::WeightedDelta,
+            Estimator::Decomposition => GpuEstimator::Decomposition,
+            Estimator::WeightedDecomposition => GpuEstimator::WeightedDecomposition,
+        }
+    };
+    let residual = cfg.residual_shadow();
+    let shadow = if spectral {
+        GpuEstimator::Spectral
+    } else if residual {
+        GpuEstimator::ResidualRatio
+    } else {
+        GpuEstimator::Ratio
+    };
+    let sigma_t = m.sigma_a + m.sigma_s;
+    let per_channel = |num: Vec3, den: Vec3| {
+        Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO).to_array()
+    };
+    p.has_medium = 1;
+    p.medium_lo = m.world_bounds.min.to_array();
+    p.medium_hi = m.world_bounds.max.to_array();
+    p.phase_g = m.phase.g;
+    p.spectral = spectral as u32;
+    // The RGB factor of a scattering event: GreyView::scatter_albedo, or RgbView's
+    // scatter_albedo for spectral tracking (the albedo with absorption as a weight, else 1);
+    // albedo_rgb splits spectral lookups as RgbView's coefficients do.
+    (p.scatter_albedo, p.albedo_rgb) = match (spectral, weight) {
+        (true, true) => (per_channel(m.sigma_s, sigma_t), [1.0; 3]),
+        (true, false) => ([1.0; 3], per_channel(m.sigma_s, sigma_t)),
+        (false, _) if sigma_s > 0.0 => ((m.sigma_s / sigma_s).to_array(), [0.0; 3]),
+        (false, _) => ([0.0; 3], [0.0; 3]),
+    };
+    p.shadow_estimator = shadow as u32;
+    p.tracking = GpuTrackingParams {
+        estimator: estimator as u32,
+        majorant_mode: match cfg.majorant {
+            MajorantMode::Leaf => GpuMajorantMode::PerCell,
+            MajorantMode::Global => GpuMajorantMode::Global,
+            MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
+        } as u32,
+        control_mode: control_mode as u32,
+        spectral_mode: 0,
+        b: cfg.b(),
+        control_value,
+        albedo,
+        control_albedo: sigma_s / bound,
+        channel_scale: (sigma_t / bound).to_array(),
+        seed: 0,
+        majorant_channel_scale: 1.0,
+        samples_per_ray: 0,
+        invocation_count: 0,
+        _pad0: 0,
+    };
+}
+
+/// The scene's surfaces as the GPU reads them: obvhs' CWBVH nodes, the triangles in its
+/// primitive order and the area lights' selection CDF (each at least one element: a binding
+/// cannot be empty; a zero node has no children, so traversal ends at once).
+pub(super) struct Geometry {
+    pub(super) nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
+    pub(super) triangles: Vec<GpuTriangle>,
+    /// Texture coordinates of `triangles`, same order.
+    pub(super) triangle_uvs: Vec<GpuTriangleUv>,
+    pub(super) area_lights: Vec<GpuAreaLight>,
+}
+
+impl Geometry {
+    pub(super) fn new(rs: &RenderScene) -> Result<Geometry, String> {
+        let scene = rs.scene;
+        let mut g = Geometry {
+            nodes: vec![bytemuck::Zeroable::zeroed()],
+            triangles: vec![GpuTriangle::zeroed()],
+            triangle_uvs: vec![GpuTriangleUv::zeroed()],
+            area_lights: vec![GpuAreaLight::zeroed()],
+        };
+        let Some(bvh) = scene.bvh.cwbvh() else {
+            return Ok(g);
+        };
+        // Selection density of each area light, by scene triangle.
+        let mut light_pdf = vec![0.0f32; scene.triangles.len()];
+        if let Some(area) = &rs.lights.area {
+            for (i, &t) in area.triangles.iter().enumerate() {
+                light_pdf[t as usize] = area.selection_pdf(i);
+            }
+        }
+        let mut slot_of = vec![crate::scene::NO_INDEX; scene.triangles.len()];
+        let mut triangles = Vec::with_capacity(bvh.primitive_indices.len());
+        let mut triangle_uvs = Vec::with_capacity(bvh.primitive_indices.len());
+        for (slot, &t) in bvh.primitive_indices.iter().enumerate() {
+            let t = t as usize;
+            let tri = scene.triangles.get(t).ok_or_else(|| {
+                format!("the BVH names triangle {t} of {}", scene.triangles.len())
+            })?;
+            slot_of[t] = slot as u32;
+            let [p0, p1, p2] = scene.triangle_corners(t);
+            let n = |k: usize| scene.vertices[tri.vertices[k] as usize].normal;
+            let material = scene.instances[tri.instance as usize].material;
+            triangles.push(GpuTriangle {
+                p0: p0.to_array(),
+                triangle: t as u32,
+                p1: p1.to_array(),
+                material,
+                p2: p2.to_array(),
+                light_pdf: light_pdf[t],
+                n0: n(0),
+                kind: match rs.kinds[material as usize] {
+                    SurfaceKind::Opaque => SURFACE_OPAQUE,
+                    SurfaceKind::Dielectric => SURFACE_DIELECTRIC,
+                    SurfaceKind::Null => SURFACE_NULL,
+                },
+                n1: n(1),
+                interior: scene.materials[material as usize].interior_medium,
+                n2: n(2),
+                _pad0: 0,
+            });
+            let uv = |k: usize| {
+                let v = &scene.vertices[tri.vertices[k] as usize];
+                [v.u, v.v]
+            };
+            triangle_uvs.push(GpuTriangleUv {
+                uv0: uv(0),
+                uv1: uv(1),
+                uv2: uv(2),
+            });
+        }
+        if bvh.nodes.is_empty() || triangles.is_empty() {
+            return Ok(g);
+        }
+        let mut area_lights = Vec::new();
+        if let Some(area) = &rs.lights.area {
+            for (&t, &cdf) in area.triangles.iter().zip(area.cdf()) {
+                let prim = slot_of[t as usize];
+                if prim == crate::scene::NO_INDEX {
+                    return Err(format!(
+                        "emissive triangle {t} is not in the BVH; the GPU cannot sample it"
+                    ));
+                }
+                area_lights.push(GpuAreaLight { cdf, prim });
+            }
+        }
+        g.nodes = bvh.nodes.clone();
+        g.triangles = triangles;
+        g.triangle_uvs = triangle_uvs;
+        if !area_lights.is_empty() {
+            g.area_lights = area_lights;
+        }
+        Ok(g)
+    }
+}
+
+/// The grids the emission of `m` reads, in the order [`emission_params`] expects them: the
+/// emission grid, then the temperature grid (none when `features` has no emission).
+fn emission_fields(m: &VdbMedium, features: FeatureFlags) -> Vec<GridField> {
+    let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
+        return Vec::new();
+    };
+    e.grid
+        .iter()
+        .cloned()
+        .chain(e.blackbody.as_ref().map(|b| b.temperature.clone()))
+        .collect()
+}
+
+/// `GpuEmissionParams` of `m`'s `Emission`, with the headers of the grids
+/// [`emission_fields`] listed.
+fn emission_params(
+    m: &VdbMedium,
+    features: FeatureFlags,
+    infos: &[GpuGridInfo],
+) -> GpuEmissionParams {
+    let mut p = GpuEmissionParams::default();
+    let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
+        return p;
+    };
+    let mut next = infos.iter();
+    p.strength_color = e.strength_color.to_array();
+    if e.grid.is_some() {
+        p.grid = *next.next().expect("emission grid uploaded");
+        p.has_grid = 1;
+    }
+    if let Some(b) = &e.blackbody {
+        p.temperature = *next.next().expect("temperature grid uploaded");
+        p.has_blackbody = 1;
+        p.tint = b.tint.to_array();
+        p.temperature_scale = b.scale;
+        p.temperature_offset = b.offset;
+        p.intensity = b.intensity;
+    }
+    p
+}
+
+/// The VDB medium's grid on the GPU, with the medium's own world -> index map and sigma_t per
+/// unit value, its emission grids following the density in the same buffers, and the
+/// emission uniform pointing into them (`None` and zero emission without a VDB medium).
+pub(super) fn upload_grid(
+    ctx: &GpuContext,
+    rs: &RenderScene,
+    features: FeatureFlags,
+    cfg: &TrackingConfig,
+) -> Result<(Option<GpuGrid>, GpuEmissionParams), GpuRenderError> {
+    let limit = ctx.limits.max_storage_buffer_binding_size;
+    let m = match rs.vdb.first() {
+        Some(m) if features.heterogeneous => m,
+        _ => return Ok((None, GpuEmissionParams::default())),
+    };
+    let g = &m.density.grid;
+    let bounds_bytes = (g.bounds.cells.len() as u64 + 1) * 8;
+    if bounds_bytes > limit {
+        return Err(GpuRenderError::Limits(format!(
+            "the grid's bounds need {}; the device binds at most {}",
+            byte_size(bounds_bytes),
+            byte_size(limit)
+        )));
+    }
+    let fields = emission_fields(m, features);
+    let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
+    let (mut gg, mut infos) = GpuGrid::upload_with(
+        ctx,
+        &g.grid,
+        &g.bounds,
+        (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive),
+        m.sigma_t_bound,
+        &extra,
+    )
+    .map_err(GpuRenderError::Limits)?;
+    gg.info.index_from_world = affine_rows(m.density.index_from_world);
+    ctx.queue
+        .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
+    for (info, f) in infos.iter_mut().zip(&fields) {
+        info.index_from_world = affine_rows(f.index_from_world);
+    }
+    let emission = emission_params(m, features, &infos);
+    Ok((Some(gg), emission))
+}
+
+/// The render's `GpuWavefrontParams` before any batch: camera, lights, limits and the VDB
+/// medium's tracking parameters (the batch fields are set per batch).
+pub(super) fn wavefront_params(
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    cfg: &TrackingConfig,
+    features: FeatureFlags,
+    slots: u32,
+) -> GpuWavefrontParams {
+    let (w, h) = (settings.width, settings.height);
+    let mut params = GpuWavefrontParams {
+        camera: affine_rows(glam::Affine3A::from_mat4(rs.scene.camera.world_from_camera)),
+        tan_half: (0.5 * rs.scene.camera.yfov).tan(),
+        aspect: w as f32 / h as f32,
+        znear: rs.scene.camera.znear,
+        seed: settings.seed,
+        forward: rs.scene.camera.forward().to_array(),
+        width: w,
+        height: h,
+        path_count: slots,
+        light_count: rs.lights.punctual.len() as u32,
+        env: rs
+            .lights
+            .environment
+            .as_ref()
+            .map_or(Vec3::ZERO, |e| e.radiance)
+            .to_array(),
+        env_pdf: rs.lights.pdf_environment(Vec3::Z),
+        max_depth: settings.max_depth,
+        rr_depth: settings.rr_depth,
+        rr_throughput: settings.rr_throughput,
+        absorption_weight: (settings.absorption == Absorption::Weight) as u32,
+        max_collisions: settings.max_collisions_per_path.min(u32::MAX as u64) as u32,
+        has_env: rs.lights.environment.is_some() as u32,
+        camera_medium: rs.camera_medium.unwrap_or(crate::scene::NO_INDEX),
+        area_count: rs
+            .lights
+            .area
+            .as_ref()
+            .map_or(0, |a| a.triangles.len() as u32),
+        ..Default::default()
+    };
+    if features.heterogeneous {
+        medium_params(rs, cfg, features, &mut params);
+    }
+    params
+}
+
+/// The scene's textures as the GPU reads them: one `GpuTexture` per texture use and every
+/// decoded image in one pool of linear RGBA texels (each at least one element).
+pub(super) struct Textures {
+    pub(super) records: Vec<GpuTexture>,
+    pub(super) texels: Vec<[f32; 4]>,
+}
+
+impl Textures {
+    /// The pool, or the one-line reason it cannot be bound (`max_binding` bytes at most).
+    pub(super) fn new(scene: &crate::scene::Scene, max_binding: u64) -> Result<Textures, String> {
+        let mut texels: Vec<[f32; 4]> = Vec::new();
+        let mut offsets = Vec::with_capacity(scene.images.len());
+        for img in &scene.images {
+            offsets.push(texels.len() as u32);
+            texels.extend_from_slice(&img.texels);
+        }
+        let bytes = (texels.len() * 16) as u64;
+        if bytes > max_binding || texels.len() > u32::MAX as usize {
+            return Err(format!(
+                "the textures need {} of texels, more than the device's {} storage binding",
+                super::device::byte_size(bytes),
+                super::device::byte_size(max_binding)
+            ));
+        }
+        let records: Vec<GpuTexture> = scene
+            .textures
+            .iter()
+            .map(|t| {
+                let img = &scene.images[t.image_slot as usize];
+                let m = t.transform;
+                GpuTexture {
+                    row0: [m[0], m[1], m[2]],
+                    offset: offsets[t.image_slot as usize],
+                    row1: [m[3], m[4], m[5]],
+                    width: img.width,
+                    height: img.height,
+                    wrap_s: t.wrap[0],
+                    wrap_t: t.wrap[1],
+                    nearest: t.nearest as u32,
+                }
+            })
+            .collect();
+        Ok(Textures {
+            records: if records.is_empty() {
+                vec![GpuTexture::zeroed()]
+            } else {
+                records
+            },
+            texels: if texels.is_empty() {
+                vec![[0.0; 4]]
+            } else {
+                texels
+            },
+        })
+    }
+}

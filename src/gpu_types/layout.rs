@@ -1,0 +1,213 @@
+//! [`SHARED_STRUCTS`]: the Rust layout of every host/WGSL shared struct, which
+//! `tests/gpu_wgsl.rs` compares with naga's layout of `shaders/common/types.wgsl`.
+use std::mem::{offset_of, size_of};
+
+use super::*;
+
+/// The Rust layout of one shared struct: its WGSL name, size and `(member, offset)` list.
+pub struct StructLayout {
+    pub name: &'static str,
+    pub size: usize,
+    pub members: &'static [(&'static str, usize)],
+}
+
+macro_rules! layout {
+    ($t:ty, $wgsl:literal, [$($f:ident),* $(,)?]) => {
+        StructLayout {
+            name: $wgsl,
+            size: size_of::<$t>(),
+            members: &[$((stringify!($f), offset_of!($t, $f))),*],
+        }
+    };
+}
+
+/// Every host/WGSL shared struct, as Rust lays it out. The WGSL structs carry the same names
+/// and member names; `tests/gpu_wgsl.rs` checks them with naga's layouter.
+pub const SHARED_STRUCTS: &[StructLayout] = &[
+    layout!(
+        GpuGridInfo,
+        "GpuGridInfo",
+        [
+            dims,
+            brick_count,
+            cell_origin,
+            constant_count,
+            index_from_world,
+            background,
+            density_scale,
+            global_bounds_index,
+            cell_offset
+        ]
+    ),
+    layout!(GpuRay, "GpuRay", [o, t_min, d, t_max]),
+    layout!(
+        GpuMajorantSegment,
+        "GpuMajorantSegment",
+        [t_min, t_max, sigma_maj, sigma_min]
+    ),
+    layout!(CellBounds, "CellBounds", [min, max]),
+    layout!(
+        GpuTrackingParams,
+        "GpuTrackingParams",
+        [
+            estimator,
+            majorant_mode,
+            control_mode,
+            spectral_mode,
+            b,
+            control_value,
+            albedo,
+            control_albedo,
+            channel_scale,
+            seed,
+            majorant_channel_scale,
+            samples_per_ray,
+            invocation_count,
+            _pad0
+        ]
+    ),
+    layout!(
+        GpuTrackingStats,
+        "GpuTrackingStats",
+        [
+            lookups,
+            null_collisions,
+            real_collisions,
+            control_collisions,
+            majorant_violations,
+            invalid_majorants,
+            collision_cap_hits,
+            roulette_kills,
+            max_abs_weight_bits,
+            segments,
+            _pad1,
+            _pad2
+        ]
+    ),
+    layout!(
+        GpuPathState,
+        "GpuPathState",
+        [
+            o, t0, d, prev_pdf, beta, sample_id, l, depth, rng_state, rng_inc, flags, collisions,
+            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, _pad0, _pad1
+        ]
+    ),
+    layout!(
+        GpuShadowRay,
+        "GpuShadowRay",
+        [o, dist, wi, medium, contribution, _pad1]
+    ),
+    layout!(
+        GpuTriangle,
+        "GpuTriangle",
+        [p0, triangle, p1, material, p2, light_pdf, n0, kind, n1, interior, n2, _pad0]
+    ),
+    layout!(GpuTriangleUv, "GpuTriangleUv", [uv0, uv1, uv2]),
+    layout!(
+        GpuTexture,
+        "GpuTexture",
+        [row0, offset, row1, width, height, wrap_s, wrap_t, nearest]
+    ),
+    layout!(GpuAreaLight, "GpuAreaLight", [cdf, prim]),
+    layout!(
+        GpuHomogeneousMedium,
+        "GpuHomogeneousMedium",
+        [sigma_a, g, sigma_s, _pad0]
+    ),
+    CWBVH_NODE_LAYOUT,
+    layout!(
+        crate::scene::Material,
+        "Material",
+        [
+            base_color,
+            emission,
+            metallic,
+            roughness,
+            transmission,
+            ior,
+            base_color_texture,
+            interior_medium,
+            emissive_texture,
+            flags,
+            _pad
+        ]
+    ),
+    layout!(
+        GpuWavefrontCounters,
+        "GpuWavefrontCounters",
+        [
+            queue_count,
+            next_sample,
+            live,
+            guard_fired,
+            majorant_violations,
+            invalid_majorants,
+            collision_cap_hits,
+            _pad0,
+            wide,
+            _pad1,
+            _pad2
+        ]
+    ),
+    layout!(
+        GpuWavefrontParams,
+        "GpuWavefrontParams",
+        [
+            camera,
+            tan_half,
+            aspect,
+            znear,
+            seed,
+            forward,
+            width,
+            height,
+            pixel0,
+            s0,
+            spp_batch,
+            total_samples,
+            path_count,
+            light_count,
+            parity,
+            env,
+            env_pdf,
+            max_depth,
+            rr_depth,
+            max_collisions,
+            has_env,
+            medium_lo,
+            phase_g,
+            medium_hi,
+            has_medium,
+            scatter_albedo,
+            spectral,
+            albedo_rgb,
+            shadow_estimator,
+            tracking,
+            camera_medium,
+            area_count,
+            rr_throughput,
+            absorption_weight
+        ]
+    ),
+    layout!(
+        GpuEmissionParams,
+        "GpuEmissionParams",
+        [
+            grid,
+            temperature,
+            strength_color,
+            has_grid,
+            tint,
+            has_blackbody,
+            temperature_scale,
+            temperature_offset,
+            intensity,
+            _pad0
+        ]
+    ),
+    layout!(
+        crate::scene::PunctualLight,
+        "PunctualLight",
+        [position, kind, direction, range, intensity, cos_inner, cos_outer, _pad]
+    ),
+];

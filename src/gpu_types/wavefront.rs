@@ -1,0 +1,338 @@
+//! The wavefront integrator's path state, shadow rays, queues, counters and per-iteration
+//! parameters, and the VDB medium's emission uniform.
+use bytemuck::{Pod, Zeroable};
+use std::mem::size_of;
+
+use super::{GpuGridInfo, GpuTrackingParams};
+
+/// The state of one path of the wavefront integrator, one slot per path in flight: what
+/// `integrator::path::radiance` keeps in local variables between loop iterations. Kept as
+/// small as the stages allow (Cycles' `state_template.h` rule): it is read and written by every
+/// stage.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPathState {
+    /// Ray origin, world space, metres (after a medium scattering event: the event's point).
+    pub o: [f32; 3],
+    /// Start of the ray's parameter interval, metres (camera near plane, past a null
+    /// interface, else 0).
+    pub t0: f32,
+    /// Unit ray direction, world space.
+    pub d: [f32; 3],
+    /// Solid-angle density (sr^-1) with which `d` was sampled; 0 for the camera ray.
+    pub prev_pdf: f32,
+    /// Path throughput `beta` per RGB channel (dimensionless).
+    pub beta: [f32; 3],
+    /// Index of this camera sample within the batch (`pixel - pixel0) * spp_batch + s`.
+    pub sample_id: u32,
+    /// Radiance gathered so far, W m^-2 sr^-1 per RGB channel.
+    pub l: [f32; 3],
+    /// Scattering events so far (media and surfaces).
+    pub depth: u32,
+    /// `Rng::state` of the path's stream `Rng::new(pixel, sample, seed)`.
+    pub rng_state: u32,
+    /// `Rng::inc` of the same stream (odd).
+    pub rng_inc: u32,
+    /// `PATH_FLAG_*` bits.
+    pub flags: u32,
+    /// Tentative collisions (null, real, control) of every free flight and shadow ray of the
+    /// path, for the `max_collisions_per_path` guard.
+    pub collisions: u32,
+    /// Density and emission lookups of the path (its pixel's cost-map entry).
+    pub lookups: u32,
+    /// The homogeneous medium (`KHR_materials_volume`) the path is in, as an index into the
+    /// homogeneous media, or `NO_INDEX` (`radiance`'s `medium`).
+    pub medium: u32,
+    /// The surface the current ray hits first: its slot in the BVH's triangle order
+    /// ([`GpuTriangle`]), `NO_INDEX` when it hits none (set by the intersect stage).
+    pub hit_prim: u32,
+    /// Ray parameter (metres, the direction being unit) of that hit.
+    pub hit_t: f32,
+    /// Barycentric weight of the hit triangle's second vertex.
+    pub hit_b1: f32,
+    /// Barycentric weight of its third vertex.
+    pub hit_b2: f32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+    /// Padding to a 16-byte row.
+    pub _pad1: u32,
+}
+const _: () = assert!(size_of::<GpuPathState>() == 112);
+
+/// [`GpuPathState::flags`] bit: the last direction was chosen by a delta distribution (the
+/// camera, a smooth dielectric), so no MIS applies when it meets an emitter.
+pub const PATH_FLAG_SPECULAR: u32 = 1;
+/// [`GpuPathState::flags`] bit: the path stopped at an opaque surface (its hit fields
+/// describe it) and the next direction is to be sampled from the BSDF, not the phase function.
+pub const PATH_FLAG_SURFACE: u32 = 2;
+/// [`GpuPathState::flags`] bit: the free flight of the current bounce has drawn its sampler
+/// point (`radiance`'s `flight_started`); cleared at every scattering event.
+pub const PATH_FLAG_FLIGHT_STARTED: u32 = 4;
+
+/// A shadow ray of next-event estimation, one slot per path (a path has at most one pending).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuShadowRay {
+    /// Origin, world space, metres.
+    pub o: [f32; 3],
+    /// Distance to the light, metres (`+inf` for directional and environment light).
+    pub dist: f32,
+    /// Unit direction towards the light.
+    pub wi: [f32; 3],
+    /// The homogeneous medium at the origin (`NO_INDEX`: none).
+    pub medium: u32,
+    /// `beta * L_i * f * w_mis / pdf` per RGB channel: added to the path's radiance times the
+    /// transmittance the ray finds.
+    pub contribution: [f32; 3],
+    /// Padding to a 16-byte row.
+    pub _pad1: f32,
+}
+const _: () = assert!(size_of::<GpuShadowRay>() == 48);
+
+/// The work queues of the wavefront integrator; `GpuWavefrontCounters::queue_count` index.
+/// Each queue holds path slot indices. The medium and done queues are double-buffered by
+/// iteration parity (`GpuWavefrontParams::parity`): a stage reads `X0 + parity` and appends
+/// to `X0 + 1 - parity` what the next iteration consumes.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuQueue {
+    /// Paths whose current ray must be tracked through the media (parity 0).
+    Medium0 = 0,
+    /// The same, parity 1.
+    Medium1 = 1,
+    /// Finished paths (accumulated, then regenerated next iteration), parity 0.
+    Done0 = 2,
+    /// The same, parity 1.
+    Done1 = 3,
+    /// Paths that scattered in a medium (next-event estimation pending).
+    Scatter = 4,
+    /// Paths with a shadow ray to trace.
+    Shadow = 5,
+    /// Paths whose next direction is to be sampled from the phase function.
+    Phase = 6,
+    /// Paths whose ray left the scene.
+    Escape = 7,
+    /// Paths whose ray reached the surface it hits (no medium event before it).
+    Surface = 8,
+}
+
+impl GpuQueue {
+    pub const COUNT: usize = 9;
+    pub const ALL: [GpuQueue; 9] = [
+        GpuQueue::Medium0,
+        GpuQueue::Medium1,
+        GpuQueue::Done0,
+        GpuQueue::Done1,
+        GpuQueue::Scatter,
+        GpuQueue::Shadow,
+        GpuQueue::Phase,
+        GpuQueue::Escape,
+        GpuQueue::Surface,
+    ];
+
+    /// The WGSL constant name (`QUEUE_MEDIUM0`, ...).
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            GpuQueue::Medium0 => "QUEUE_MEDIUM0",
+            GpuQueue::Medium1 => "QUEUE_MEDIUM1",
+            GpuQueue::Done0 => "QUEUE_DONE0",
+            GpuQueue::Done1 => "QUEUE_DONE1",
+            GpuQueue::Scatter => "QUEUE_SCATTER",
+            GpuQueue::Shadow => "QUEUE_SHADOW",
+            GpuQueue::Phase => "QUEUE_PHASE",
+            GpuQueue::Escape => "QUEUE_ESCAPE",
+            GpuQueue::Surface => "QUEUE_SURFACE",
+        }
+    }
+}
+
+/// 64-bit counters of [`GpuWavefrontCounters::wide`]: pair `2k` (low word), `2k + 1` (high).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuWideCounter {
+    Lookups = 0,
+    NullCollisions = 1,
+    RealCollisions = 2,
+    ControlCollisions = 3,
+    ShadowLookups = 4,
+    DepthSum = 5,
+    /// Emission and temperature grid reads (`MediaStats::emission_lookups`).
+    EmissionLookups = 6,
+    /// Majorant segments walked (`TrackingStats::segments`).
+    Segments = 7,
+    /// Majorant segments walked by shadow rays (`MediaStats::shadow_segments`).
+    ShadowSegments = 8,
+}
+
+impl GpuWideCounter {
+    pub const ALL: [GpuWideCounter; 9] = [
+        GpuWideCounter::Lookups,
+        GpuWideCounter::NullCollisions,
+        GpuWideCounter::RealCollisions,
+        GpuWideCounter::ControlCollisions,
+        GpuWideCounter::ShadowLookups,
+        GpuWideCounter::DepthSum,
+        GpuWideCounter::EmissionLookups,
+        GpuWideCounter::Segments,
+        GpuWideCounter::ShadowSegments,
+    ];
+
+    pub fn wgsl_name(self) -> &'static str {
+        match self {
+            GpuWideCounter::Lookups => "WIDE_LOOKUPS",
+            GpuWideCounter::NullCollisions => "WIDE_NULL_COLLISIONS",
+            GpuWideCounter::RealCollisions => "WIDE_REAL_COLLISIONS",
+            GpuWideCounter::ControlCollisions => "WIDE_CONTROL_COLLISIONS",
+            GpuWideCounter::ShadowLookups => "WIDE_SHADOW_LOOKUPS",
+            GpuWideCounter::DepthSum => "WIDE_DEPTH_SUM",
+            GpuWideCounter::EmissionLookups => "WIDE_EMISSION_LOOKUPS",
+            GpuWideCounter::Segments => "WIDE_SEGMENTS",
+            GpuWideCounter::ShadowSegments => "WIDE_SHADOW_SEGMENTS",
+        }
+    }
+}
+
+/// Queue lengths, the sample dispenser and the render's counters, all atomics in WGSL.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuWavefrontCounters {
+    /// Entries in each [`GpuQueue`].
+    pub queue_count: [u32; 9],
+    /// Next camera sample of the batch to start (may overshoot `total_samples`).
+    pub next_sample: u32,
+    /// Paths started and not yet accumulated.
+    pub live: u32,
+    /// Paths ended by the `max_collisions_per_path` guard.
+    pub guard_fired: u32,
+    /// `TrackingStats::majorant_violations`.
+    pub majorant_violations: u32,
+    /// `TrackingStats::invalid_majorants`.
+    pub invalid_majorants: u32,
+    /// `TrackingStats::collision_cap_hits`.
+    pub collision_cap_hits: u32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+    /// [`GpuWideCounter`] pairs (low, high) of 64-bit totals.
+    pub wide: [u32; 18],
+    /// Padding to a 16-byte row.
+    pub _pad1: u32,
+    /// Padding to a 16-byte row.
+    pub _pad2: u32,
+}
+const _: () = assert!(size_of::<GpuWavefrontCounters>() == 144);
+
+impl GpuWavefrontCounters {
+    pub fn wide(&self, c: GpuWideCounter) -> u64 {
+        let k = 2 * c as usize;
+        self.wide[k] as u64 | (self.wide[k + 1] as u64) << 32
+    }
+}
+
+/// Everything the wavefront stages read: camera, batch, lights, limits and the medium. One
+/// uniform per iteration parity.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuWavefrontParams {
+    /// Rows of `Camera::world_from_camera` (rigid; column 3 is the pinhole).
+    pub camera: [[f32; 4]; 3],
+    /// `tan(yfov / 2)`.
+    pub tan_half: f32,
+    /// Image width / height.
+    pub aspect: f32,
+    /// Near distance, metres.
+    pub znear: f32,
+    /// Seed of the RNG streams.
+    pub seed: u32,
+    /// Unit viewing direction (`Camera::forward`).
+    pub forward: [f32; 3],
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+    /// First pixel (row-major index) of the batch.
+    pub pixel0: u32,
+    /// First sample index of the batch (the pass's first sample).
+    pub s0: u32,
+    /// Samples per pixel in the batch.
+    pub spp_batch: u32,
+    /// Camera samples in the batch (pixels * spp_batch).
+    pub total_samples: u32,
+    /// Wavefront size: path slots.
+    pub path_count: u32,
+    /// Number of punctual lights.
+    pub light_count: u32,
+    /// Iteration parity (0 or 1): which medium/done queues are read.
+    pub parity: u32,
+    /// Constant environment radiance (0 when absent).
+    pub env: [f32; 3],
+    /// `Lights::pdf_environment`.
+    pub env_pdf: f32,
+    /// `PathLimits::max_depth`.
+    pub max_depth: u32,
+    /// `PathLimits::rr_depth`.
+    pub rr_depth: u32,
+    /// `PathLimits::max_collisions` (clamped to u32).
+    pub max_collisions: u32,
+    /// 1 when the scene has an environment light.
+    pub has_env: u32,
+    /// World bounds of the VDB medium, minimum corner.
+    pub medium_lo: [f32; 3],
+    /// Henyey-Greenstein `g` of the medium.
+    pub phase_g: f32,
+    /// World bounds of the VDB medium, maximum corner.
+    pub medium_hi: [f32; 3],
+    /// 1 when the scene has a VDB medium.
+    pub has_medium: u32,
+    /// `GreyView::scatter_albedo`: RGB factor of a grey scattering event.
+    pub scatter_albedo: [f32; 3],
+    /// 1 when the medium is tracked spectrally (`ESTIMATOR_SPECTRAL`).
+    pub spectral: u32,
+    /// Per-channel `sigma_s / sigma_t` (spectral lookups).
+    pub albedo_rgb: [f32; 3],
+    /// The [`GpuEstimator`] of shadow rays (ratio, residual ratio or spectral).
+    pub shadow_estimator: u32,
+    /// The free-flight estimator and its knobs, the medium's grey optics.
+    pub tracking: GpuTrackingParams,
+    /// The homogeneous medium around the camera (`RenderScene::camera_medium`), `NO_INDEX`
+    /// when none.
+    pub camera_medium: u32,
+    /// Entries of the area lights' CDF (0: no area lights).
+    pub area_count: u32,
+    /// `PathLimits::rr_throughput`: roulette before `rr_depth` below this throughput.
+    pub rr_throughput: f32,
+    /// 1 when absorption is a weight (`Absorption::Weight`): grey homogeneous media scatter
+    /// at every real collision with the RGB albedo as weight.
+    pub absorption_weight: u32,
+}
+const _: () = assert!(size_of::<GpuWavefrontParams>() == 288);
+
+/// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
+/// wavefront render. The grids' headers point into the density grid's buffers
+/// ([`GpuGridInfo::cell_offset`]); their `index_from_world` maps world points to each grid's
+/// own index space (`GridField::index_from_world`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuEmissionParams {
+    /// The emission grid that scales `strength_color` (`emissionGrid`, e.g. `flame`).
+    pub grid: GpuGridInfo,
+    /// The temperature grid of the blackbody term (`temperatureGrid`).
+    pub temperature: GpuGridInfo,
+    /// `emissionStrength * emissionColor`, radiance per metre (W m^-3 sr^-1), not multiplied
+    /// by density.
+    pub strength_color: [f32; 3],
+    /// 1 when `grid` is present (else the grid factor is 1).
+    pub has_grid: u32,
+    /// `blackbodyTint` (RGB multiplier of the blackbody term).
+    pub tint: [f32; 3],
+    /// 1 when the blackbody term is present.
+    pub has_blackbody: u32,
+    /// Kelvin per unit of the temperature grid (`temperatureScale`).
+    pub temperature_scale: f32,
+    /// Kelvin added (`temperatureOffset`).
+    pub temperature_offset: f32,
+    /// `blackbodyIntensity` `I`: radiance `(sigma_SB 1e-6 / pi) ((1 - I) + I T^4) C(T)`.
+    pub intensity: f32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+}
+const _: () = assert!(size_of::<GpuEmissionParams>() == 240);
