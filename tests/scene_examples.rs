@@ -456,8 +456,14 @@ fn textured_backdrop() {
     assert_eq!(dims, [(128, 128), (4, 4), (32, 8)]);
     // The backdrop clamps and blends, the ground repeats the nearest texel under a transform.
     use scene::texture::{WRAP_CLAMP, WRAP_REPEAT};
-    assert_eq!((s.textures[0].wrap, s.textures[0].nearest), ([WRAP_CLAMP; 2], false));
-    assert_eq!((s.textures[1].wrap, s.textures[1].nearest), ([WRAP_REPEAT; 2], true));
+    assert_eq!(
+        (s.textures[0].wrap, s.textures[0].nearest),
+        ([WRAP_CLAMP; 2], false)
+    );
+    assert_eq!(
+        (s.textures[1].wrap, s.textures[1].nearest),
+        ([WRAP_REPEAT; 2], true)
+    );
     assert_ne!(s.textures[1].transform, scene::texture::IDENTITY_TRANSFORM);
     // The sign's emission is textured: its triangles are light sources.
     let sign = &s.materials[2];
