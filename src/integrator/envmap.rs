@@ -33,6 +33,8 @@
 //! `p(u, v)` is the direction above with solid-angle density
 //! `p(u, v) / (2 pi^2 sin(theta))`, since `dOmega = sin(theta) dtheta dphi` and
 //! `(theta, phi) = (pi v, 2 pi (0.5 - u))`.
+// Comparisons are written negated (`!(pdf > 0.0)`) so that a NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 use glam::{Mat3, Vec2, Vec3};
 use std::f32::consts::PI;
 use std::sync::Arc;

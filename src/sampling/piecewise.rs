@@ -17,6 +17,8 @@
 //! and `integral`, the function's integral over the unit square. Sums run in f64 so a 4k-wide
 //! row keeps its small entries. A sample never lands in a zero-valued cell: the binary search
 //! picks the last entry whose CDF is `<= u`, and a zero cell has an empty CDF interval.
+// Comparisons are written negated (`!(pdf > 0.0)`) so that a NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 /// A piecewise-constant function on `[0, 1)^2`, `nu` cells across and `nv` down, ready to
 /// sample in proportion to its value.
