@@ -87,6 +87,7 @@ pub(super) struct Buffers {
 impl Buffers {
     /// Allocates every buffer of a render of `rs` with `slots` path slots and a sample buffer
     /// of `samples` entries, uploading what is known before the first batch.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         ctx: &GpuContext,
         rs: &RenderScene,
