@@ -438,9 +438,9 @@ pub(super) fn env_map_upload(
     let bytes = data.len() as u64 * 4;
     if bytes > max_binding || data.len() > u32::MAX as usize {
         return Err(format!(
-            "the environment map and its distribution need {} MiB, more than the device's {} MiB storage binding",
-            bytes >> 20,
-            max_binding >> 20
+            "the environment map and its distribution need {}, more than the device's {} storage binding",
+            byte_size(bytes),
+            byte_size(max_binding)
         ));
     }
     Ok((info, data))
