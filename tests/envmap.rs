@@ -1,7 +1,8 @@
 //! Environment maps (`BRUME_environment.uri`): Blender's equirectangular convention (known
 //! directions land on known pixels), importance sampling (pdf integrates to 1, chi-square of
 //! drawn directions against the pdf), the loader's errors on bad files, and an environment map
-//! seen through an absorbing slab against the analytic transmittance (per-pixel z-tests).
+//! seen through an absorbing slab against the analytic transmittance (per-pixel z-tests); a
+//! constant map renders exactly the constant environment.
 mod common;
 use common::render::*;
 
@@ -434,4 +435,29 @@ fn map_through_an_absorbing_slab_matches_the_analytic_transmittance() {
     );
     assert_eq!(a.failing, 0, "{a:?}");
     assert!(a.mean_z < inverse_normal_two_sided(1e-3 / 3.0), "{a:?}");
+}
+
+#[test]
+fn a_constant_map_renders_exactly_the_constant_environment() {
+    // The cloud under its constant sky, and under the same sky times a map of ones: the same
+    // estimator and random numbers, so the same image to the bit.
+    let scene = load_scene("cloud.gltf");
+    let mut mapped = load_scene("cloud.gltf");
+    mapped.environment.image = Some(Arc::new(EnvironmentImage {
+        width: 8,
+        height: 4,
+        rgb: vec![[1.0; 3]; 32],
+    }));
+    mapped.environment.rotation = [0.5, 0.1, -0.3];
+    let s = RenderSettings {
+        width: 16,
+        height: 12,
+        spp: 8,
+        seed: 11,
+        ..RenderSettings::default()
+    };
+    let (a, _) = moments(&render(&scene, &s));
+    let (b, _) = moments(&render(&mapped, &s));
+    assert!(a.iter().any(|&v| v > 0.0));
+    assert_eq!(a, b);
 }
