@@ -69,3 +69,25 @@ fn textured_backdrop_agrees_with_cycles() {
     ));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The HDR-sky cloud: an environment map with a small bright sun, rotated, lights the cloud
+/// (README: environment maps). Same agreement as the cloud: the sky seen directly tests the
+/// lookup convention and rotation, the cloud the importance sampling and MIS.
+#[test]
+fn hdr_sky_cloud_agrees_with_cycles() {
+    let Some(python) = bpy_python() else {
+        say("SKIPPED cycles_compare: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)");
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("brume-cycles-sky-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let summary = common::reference::scene_agrees_with(
+        "cycles",
+        "scenes/cloud_sky.gltf",
+        "32",
+        ("BRUME_BPY_PYTHON", &python),
+        &dir,
+    );
+    say(&format!("cycles_compare: cloud_sky 32x24: {summary}"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

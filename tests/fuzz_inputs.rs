@@ -7,6 +7,9 @@
 //!    in `tests/fuzz/gltf/` are mutated structurally (wrong types, out-of-range, huge and tiny
 //!    numbers, NaN-like strings, missing and unknown fields, odd URIs) and sometimes as text.
 //!
+//! 3. the environment-map loader (`scene::envmap::read_environment_image`): bytes of the `.exr`
+//!    and `.hdr` maps in `tests/fuzz/envmap/` mutated as the VDB files are.
+//!
 //! Property: no panic, abort, crash or hang; every input gives either a clear error (non-empty,
 //! naming the file) or a valid result (grid bounds validate, values finite and non-negative;
 //! an accepted scene validates, its medium parameters are in range and a tiny render of it is
@@ -39,6 +42,7 @@ use serde_json::{json, Value};
 /// file in a process of its own).
 const CI_VDB_ITERATIONS: u64 = 160;
 const CI_GLTF_ITERATIONS: u64 = 1000;
+const CI_ENVMAP_ITERATIONS: u64 = 1000;
 /// A child that reports no progress for this long is hung.
 const HANG_SECONDS: u64 = 30;
 /// Address-space limit of the worker, KiB: corrupt sizes then fail to allocate quickly.
@@ -69,13 +73,33 @@ fn fuzz_dir(kind: &str) -> PathBuf {
         .join(kind)
 }
 
-/// The corpus files of `kind` ("vdb" or "gltf"), sorted by name.
+/// The extensions of campaign `kind`'s corpus files.
+fn corpus_extensions(kind: &str) -> &'static [&'static str] {
+    match kind {
+        "vdb" => &["vdb"],
+        "envmap" => &["exr", "hdr"],
+        _ => &["gltf"],
+    }
+}
+
+/// The file an input of `kind` is written to: an environment map keeps the extension its
+/// bytes claim (Radiance files start with `#?`), so both decoders see mutated inputs.
+fn input_name(kind: &str, bytes: &[u8]) -> &'static str {
+    match kind {
+        "vdb" => "input.vdb",
+        "envmap" if bytes.starts_with(b"#?") => "input.hdr",
+        "envmap" => "input.exr",
+        _ => "input.gltf",
+    }
+}
+
+/// The corpus files of `kind` ("vdb", "gltf" or "envmap"), sorted by name.
 fn corpus(kind: &str) -> Vec<(String, Vec<u8>)> {
-    let ext = if kind == "vdb" { "vdb" } else { "gltf" };
+    let exts = corpus_extensions(kind);
     let mut files: Vec<_> = std::fs::read_dir(fuzz_dir(kind))
         .unwrap()
         .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == ext))
+        .filter(|p| p.extension().is_some_and(|x| exts.iter().any(|e| x == *e)))
         .map(|p| {
             (
                 p.file_name().unwrap().to_string_lossy().into_owned(),
@@ -350,10 +374,10 @@ fn input(kind: &str, corpus: &[(String, Vec<u8>)], seed: u64, i: u64) -> Vec<u8>
         seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ i.wrapping_mul(0xD1B5_4A32_D192_ED03),
     );
     rng.next_u64();
-    if kind == "vdb" {
-        mutate_bytes(&mut rng, corpus)
-    } else {
+    if kind == "gltf" {
         mutate_gltf(&mut rng, corpus)
+    } else {
+        mutate_bytes(&mut rng, corpus)
     }
 }
 
@@ -492,6 +516,52 @@ fn check_gltf(path: &Path) -> Result<Verdict, String> {
     Ok(Verdict::Accepted)
 }
 
+/// An environment map: refused with a message, or decoded into finite, non-negative pixels of
+/// the size it claims, whose light samples and lookups are finite.
+fn check_envmap(path: &Path) -> Result<Verdict, String> {
+    use brume::integrator::envmap::EnvLight;
+    let decoded = match brume::scene::envmap::read_environment_image(path) {
+        Ok(d) => d,
+        Err(e) => {
+            return if e.trim().is_empty() {
+                Err("empty error message".into())
+            } else {
+                Ok(Verdict::Refused)
+            };
+        }
+    };
+    let img = decoded.image;
+    if img.width == 0 || img.height == 0 || img.rgb.len() != (img.width * img.height) as usize {
+        return Err(format!(
+            "accepted a {}x{} image with {} pixels",
+            img.width,
+            img.height,
+            img.rgb.len()
+        ));
+    }
+    if !img.rgb.iter().flatten().all(|c| c.is_finite() && *c >= 0.0) {
+        return Err("accepted a non-finite or negative pixel".into());
+    }
+    let env = brume::scene::Environment {
+        radiance: [1.0; 3],
+        map: None,
+        image: Some(std::sync::Arc::new(img)),
+        rotation: [0.3, 0.2, 0.1],
+    };
+    if let Some(light) = EnvLight::new(&env) {
+        for k in 0..16 {
+            let u = glam::Vec2::new((k as f32 + 0.5) / 16.0, ((k * 7) % 16) as f32 / 16.0);
+            if let Some(s) = light.sample(u) {
+                let ok = s.le.is_finite() && s.pdf.is_finite() && s.pdf > 0.0;
+                if !ok || !light.le(s.wi).is_finite() || !light.pdf(s.wi).is_finite() {
+                    return Err(format!("light sample {s:?}"));
+                }
+            }
+        }
+    }
+    Ok(Verdict::Accepted)
+}
+
 // ---------------------------------------------------------------------------------------------
 // Worker (child process) and campaign (parent)
 
@@ -524,24 +594,18 @@ fn fuzz_worker() {
     let start = Instant::now();
     let (mut accepted, mut refused, mut done, mut reader_crashed) = (0u64, 0u64, 0u64, 0u64);
     let mut rss_warm = None;
-    let path = state.join(if kind == "vdb" {
-        "input.vdb"
-    } else {
-        "input.gltf"
-    });
     for i in from..from + count {
         if start.elapsed().as_secs_f64() > deadline {
             break;
         }
         std::fs::write(state.join("progress"), i.to_string()).unwrap();
         let bytes = input(&kind, &corpus, seed, i);
+        let path = state.join(input_name(&kind, &bytes));
         std::fs::write(&path, &bytes).unwrap();
-        let verdict = catch_unwind(AssertUnwindSafe(|| {
-            if kind == "vdb" {
-                check_vdb(&path)
-            } else {
-                check_gltf(&path)
-            }
+        let verdict = catch_unwind(AssertUnwindSafe(|| match kind.as_str() {
+            "vdb" => check_vdb(&path),
+            "envmap" => check_envmap(&path),
+            _ => check_gltf(&path),
         }));
         match verdict {
             Ok(Ok(Verdict::Accepted)) => accepted += 1,
@@ -733,9 +797,10 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
 
 /// Saves the input of iteration `i` for the report (and for the corpus).
 fn save(kind: &str, state: &Path, corpus: &[(String, Vec<u8>)], seed: u64, i: u64, what: &str) {
-    let ext = if kind == "vdb" { "vdb" } else { "gltf" };
+    let bytes = input(kind, corpus, seed, i);
+    let ext = input_name(kind, &bytes).trim_start_matches("input.");
     let p = state.join(format!("{what}-seed{seed}-{i}.{ext}"));
-    std::fs::write(&p, input(kind, corpus, seed, i)).unwrap();
+    std::fs::write(&p, bytes).unwrap();
     println!("saved {}", p.display());
 }
 
@@ -770,6 +835,14 @@ fn fuzz_gltf_medium_parser() {
     assert!(c.accepted > 0 && c.refused > 0, "{c:?}");
 }
 
+#[test]
+fn fuzz_envmap_loader() {
+    let c = campaign("envmap", 1, CI_ENVMAP_ITERATIONS, 120.0);
+    assert_clean(&c);
+    assert_eq!(c.iterations, CI_ENVMAP_ITERATIONS);
+    assert!(c.accepted > 0 && c.refused > 0, "{c:?}");
+}
+
 fn long_seconds() -> f64 {
     std::env::var("BRUME_FUZZ_SECONDS")
         .ok()
@@ -792,8 +865,75 @@ fn long_fuzz_vdb_loader() {
 
 #[test]
 #[ignore = "long mode: BRUME_FUZZ_SECONDS (default 600)"]
+fn long_fuzz_envmap_loader() {
+    assert_clean(&campaign(
+        "envmap",
+        long_seed(),
+        u64::MAX / 2,
+        long_seconds(),
+    ));
+}
+
+#[test]
+#[ignore = "long mode: BRUME_FUZZ_SECONDS (default 600)"]
 fn long_fuzz_gltf_medium_parser() {
     assert_clean(&campaign("gltf", long_seed(), u64::MAX / 2, long_seconds()));
+}
+
+/// Writes the environment-map seed corpus (run once; the files are committed): a small sky as
+/// a float EXR, as a flat Radiance file and as a run-length-encoded one (the `image` crate's
+/// encoder), and a grey (`Y`-only) EXR.
+#[test]
+#[ignore = "regenerates tests/fuzz/envmap"]
+fn write_envmap_corpus() {
+    use brume::scene::envmap::{write_environment_exr, EnvironmentImage};
+    let dir = fuzz_dir("envmap");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (16u32, 8u32);
+    let rgb: Vec<[f32; 3]> = (0..w * h)
+        .map(|k| {
+            let (i, j) = (k % w, k / w);
+            let sun = if (i, j) == (5, 2) { 50.0 } else { 0.0 };
+            [
+                0.2 + 0.05 * j as f32 + sun,
+                0.3 + 0.01 * i as f32,
+                0.6 + sun,
+            ]
+        })
+        .collect();
+    let sky = EnvironmentImage {
+        width: w,
+        height: h,
+        rgb: rgb.clone(),
+    };
+    write_environment_exr(&dir.join("sky.exr"), &sky).unwrap();
+    brume::film::write_exr_single(
+        dir.join("grey.exr"),
+        8,
+        4,
+        &(0..32).map(|k| k as f32 * 0.25).collect::<Vec<_>>(),
+        &brume::film::Metadata::new(),
+    )
+    .unwrap();
+    let mut flat = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+    for p in &rgb {
+        // RGBE: a shared exponent e with max(p) in [2^(e-1), 2^e), mantissas scaled to 256.
+        let e = p[0].max(p[1]).max(p[2]).log2().floor() as i32 + 1;
+        let scale = 256.0 / 2f32.powi(e);
+        flat.extend_from_slice(&[
+            (p[0] * scale) as u8,
+            (p[1] * scale) as u8,
+            (p[2] * scale) as u8,
+            (e + 128) as u8,
+        ]);
+    }
+    std::fs::write(dir.join("flat.hdr"), flat).unwrap();
+    let mut rle = Vec::new();
+    let pixels: Vec<image::Rgb<f32>> = rgb.iter().map(|p| image::Rgb(*p)).collect();
+    image::codecs::hdr::HdrEncoder::new(&mut rle)
+        .encode(&pixels, w as usize, h as usize)
+        .unwrap();
+    std::fs::write(dir.join("rle.hdr"), rle).unwrap();
 }
 
 /// Writes the seed corpora (run once; the files are committed).

@@ -484,3 +484,31 @@ fn textured_backdrop() {
         ]
     );
 }
+
+/// The cloud under the procedural HDR sky: no punctual light, the map decoded with its
+/// rotation, "environment map" among the effects, the sun where `scenes/make_sky.rs` put it
+/// (cloud.gltf's sun direction): the brightest direction of the map's light.
+#[test]
+fn cloud_sky() {
+    let s = load("cloud_sky.gltf");
+    assert!(s.lights.is_empty());
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let img = s.environment.image.as_ref().expect("the map is decoded");
+    assert_eq!((img.width, img.height), (256, 128));
+    assert_eq!(s.environment.rotation, [0.1, -0.15, 0.6]);
+    assert_eq!(
+        effects(&s),
+        [
+            "media",
+            "heterogeneous media",
+            "scattering",
+            "anisotropic phase",
+            "environment light",
+            "environment map"
+        ]
+    );
+    let light = brume::integrator::envmap::EnvLight::new(&s.environment).unwrap();
+    let sun = Vec3::new(0.383, 0.643, 0.663).normalize();
+    assert!(light.le(sun).min_element() > 500.0, "{}", light.le(sun));
+    assert!(light.le(-sun).max_element() < 1.0);
+}

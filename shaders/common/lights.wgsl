@@ -92,6 +92,17 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
         return ls;
     }
     if (wf.has_env != 0u && k == wf.light_count) {
+// #if FEATURE_ENV_MAP
+        let es = env_sample(u);
+        ls.wi = es.wi;
+        ls.dist = f32_inf();
+        ls.li = es.le;
+        ls.pdf = pmf * es.pdf;
+        ls.is_delta = false;
+        ls.valid = es.valid;
+        return ls;
+// #endif
+// #if !FEATURE_ENV_MAP
         ls.wi = uniform_sphere(u);
         ls.dist = f32_inf();
         ls.li = wf.env;
@@ -99,6 +110,7 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
         ls.is_delta = false;
         ls.valid = true;
         return ls;
+// #endif
     }
 // #if FEATURE_SURFACES
     if (wf.area_count == 0u) {

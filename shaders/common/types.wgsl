@@ -141,6 +141,23 @@ struct GpuTexture {
     nearest: u32,       // 1: nearest texel, 0: bilinear
 }
 
+// GpuEnvMap: the environment map's header (src/gpu_types/envmap.rs).
+struct GpuEnvMap {
+    row0: vec4<f32>,    // rows of lookup_from_world (xyz)
+    row1: vec4<f32>,
+    row2: vec4<f32>,
+    scale: vec3<f32>,   // color * strength
+    integral: f32,      // PiecewiseConstant2D::integral
+    width: u32,
+    height: u32,
+    func_offset: u32,   // offsets in env_data (floats); the pixels start at 0
+    cond_offset: u32,
+    marg_offset: u32,
+    uniform: u32,       // 1: uniform sphere sampling
+    _pad0: u32,
+    _pad1: u32,
+}
+
 // GpuAreaLight: one entry of the area lights' selection CDF.
 struct GpuAreaLight {
     cdf: f32,

@@ -1,6 +1,7 @@
 // Mirrors the no-hit branch of radiance (src/integrator/path.rs): Stage::Escape. A ray that
 // leaves the scene gathers the environment, MIS-weighted against light sampling
 // (Lights::pdf_environment) unless its direction came from a delta distribution; the path ends.
+// With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl).
 
 @compute @workgroup_size(64)
 fn escape(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -11,10 +12,20 @@ fn escape(@builtin(global_invocation_id) id: vec3<u32>) {
     if (wf.has_env != 0u) {
         var ps = paths[slot];
         var w = 1.0;
+// #if FEATURE_ENV_MAP
+        // The map: radiance and light-sampling density depend on the direction.
+        let le = env_le(ps.d);
+        if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
+            w = power_heuristic(ps.prev_pdf, light_pmf() * env_pdf(ps.d));
+        }
+// #endif
+// #if !FEATURE_ENV_MAP
+        let le = wf.env;
         if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
             w = power_heuristic(ps.prev_pdf, wf.env_pdf);
         }
-        ps.l += ps.beta * wf.env * w;
+// #endif
+        ps.l += ps.beta * le * w;
         paths[slot] = ps;
     }
     queue_push(queue_done_out(), slot);

@@ -27,6 +27,12 @@ pub enum Which {
         cloud_size: u32,
         #[arg(long, default_value_t = 8)]
         cloud_spp: u32,
+        /// Only the environment-map section (HDR sky vs constant sky, sampling ablation).
+        #[arg(long)]
+        env_only: bool,
+        /// Samples per pixel of the environment-map section's timed renders.
+        #[arg(long, default_value_t = 32)]
+        env_spp: u32,
     },
     /// Trilinear lookups per second: Brume's brick layout against OpenVDB's accessor +
     /// BoxSampler (through the shim, one batch call), on the same points.
@@ -69,7 +75,14 @@ pub fn run(which: Which) -> Result<()> {
             height,
             cloud_size,
             cloud_spp,
-        } => render_bench(scenes, spp, width, height, cloud_size, cloud_spp),
+            env_only,
+            env_spp,
+        } => {
+            if !env_only {
+                render_bench(scenes, spp, width, height, cloud_size, cloud_spp)?;
+            }
+            super::bench_env::env_map_bench(width, height, env_spp, &render_once)
+        }
         Which::Lookups {
             files,
             grid,
@@ -185,8 +198,9 @@ fn render_once(
     scene: &brume::scene::Scene,
     settings: &brume::integrator::RenderSettings,
 ) -> Result<brume::backend::cpu::RenderOutput> {
-    let rs = brume::integrator::RenderScene::new(scene, settings.force_spectral)
+    let mut rs = brume::integrator::RenderScene::new(scene, settings.force_spectral)
         .map_err(|e| anyhow::anyhow!(e))?;
+    rs.lights.set_env_sampling(settings.env_sampling);
     Ok(brume::backend::cpu::render(
         &rs,
         settings,

@@ -236,9 +236,10 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         });
     }
     if scene.environment.map.is_some() {
-        eprintln!(
-            "mitsuba: note: {file}: the environment map is not decoded by Brume either; \
-             only its constant colour * strength is mapped"
+        // A reference without the map would disagree for a reason that is not Brume's.
+        bail!(
+            "{file}: /extensions/BRUME_environment/uri: the Mitsuba converter does not map \
+             environment maps yet; compare this scene with `brume cycles`"
         );
     }
 

@@ -1,4 +1,5 @@
 pub mod bench;
+pub mod bench_env;
 pub mod bench_gpu;
 pub mod bench_peers;
 pub mod compare;

@@ -71,6 +71,10 @@ pub struct RenderArgs {
     /// (Owen-scrambled, the default) or independent (the PCG stream of each sample).
     #[arg(long)]
     pub sampler: Option<SamplerKind>,
+    /// How next-event estimation draws environment-map directions: importance (by the
+    /// map's luminance, the default) or uniform (the ablation baseline).
+    #[arg(long, value_enum, default_value_t)]
+    pub env_sampling: brume::integrator::envmap::EnvSampling,
     /// Worker threads (default: $SLURM_CPUS_PER_TASK under Slurm, else all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -176,6 +180,7 @@ impl RenderArgs {
             .or(parse_opt::<SamplerKind>(&scene.sampler)?)
             .unwrap_or(s.sampler);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
+        s.env_sampling = self.env_sampling;
         s.tile_size = self.tile_size;
         if let Some((start, end)) = self.samples {
             if start == end {
@@ -271,7 +276,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             ));
         }
     }
-    let rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
+    let mut rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
+    rs.lights.set_env_sampling(settings.env_sampling);
     let features = if settings.generic {
         brume::integrator::FeatureFlags::ALL
     } else {

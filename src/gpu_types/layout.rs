@@ -25,6 +25,25 @@ macro_rules! layout {
 /// and member names; `tests/gpu_wgsl.rs` checks them with naga's layouter.
 pub const SHARED_STRUCTS: &[StructLayout] = &[
     layout!(
+        GpuEnvMap,
+        "GpuEnvMap",
+        [
+            row0,
+            row1,
+            row2,
+            scale,
+            integral,
+            width,
+            height,
+            func_offset,
+            cond_offset,
+            marg_offset,
+            uniform,
+            _pad0,
+            _pad1
+        ]
+    ),
+    layout!(
         GpuGridInfo,
         "GpuGridInfo",
         [

@@ -13,6 +13,7 @@
 //! parameters and enumerations), [`geometry`] (triangles, lights, homogeneous media, BVH
 //! nodes), [`wavefront`] (path state, queues, counters, parameters, emission) and [`layout`]
 //! (the layout table the WGSL test checks).
+pub mod envmap;
 pub mod geometry;
 pub mod grid;
 pub mod layout;
@@ -20,6 +21,7 @@ pub mod tracking;
 pub mod wavefront;
 
 pub use crate::volume::CellBounds;
+pub use envmap::*;
 pub use geometry::*;
 pub use grid::*;
 pub use layout::*;

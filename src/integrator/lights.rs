@@ -1,8 +1,9 @@
-//! Light sampling for next-event estimation: punctual lights (delta), the constant
-//! environment and emissive triangles, one chosen uniformly per estimate.
+//! Light sampling for next-event estimation: punctual lights (delta), the environment
+//! (constant or mapped, see [`super::envmap`]) and emissive triangles, one chosen uniformly per
+//! estimate.
 use glam::{Vec2, Vec3};
 
-use crate::sampling::warp::{uniform_sphere, uniform_sphere_pdf};
+pub use super::envmap::{EnvLight, EnvSampling};
 use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{PunctualLight, Scene};
 
@@ -49,14 +50,13 @@ pub struct LightSample {
 
 pub struct Lights {
     pub punctual: Vec<PunctualLight>,
-    /// Constant environment radiance, when non-zero.
-    pub environment: Option<Vec3>,
+    /// The environment, when it emits.
+    pub environment: Option<EnvLight>,
     pub area: Option<AreaLights>,
 }
 
 impl Lights {
     pub fn new(scene: &Scene) -> Lights {
-        let env = Vec3::from(scene.environment.radiance);
         let mut tris = Vec::new();
         let mut weights = Vec::new();
         let mut lum = Vec::new();
@@ -94,7 +94,7 @@ impl Lights {
         });
         Lights {
             punctual: scene.lights.clone(),
-            environment: (env.max_element() > 0.0).then_some(env),
+            environment: EnvLight::new(&scene.environment),
             area,
         }
     }
@@ -151,14 +151,14 @@ impl Lights {
             });
         }
         k -= self.punctual.len();
-        if let Some(env) = self.environment {
+        if let Some(env) = &self.environment {
             if k == 0 {
-                let wi = uniform_sphere(u);
+                let s = env.sample(u)?;
                 return Some(LightSample {
-                    wi,
+                    wi: s.wi,
                     dist: f32::INFINITY,
-                    li: env,
-                    pdf: pmf * uniform_sphere_pdf(),
+                    li: s.le,
+                    pdf: pmf * s.pdf,
                     is_delta: false,
                 });
             }
@@ -204,11 +204,18 @@ impl Lights {
 
     /// Selection-weighted solid-angle density of sampling direction `wi` towards the
     /// environment (for MIS of paths that escape).
-    pub fn pdf_environment(&self) -> f32 {
-        if self.environment.is_some() {
-            self.pmf() * uniform_sphere_pdf()
-        } else {
-            0.0
+    pub fn pdf_environment(&self, wi: Vec3) -> f32 {
+        match &self.environment {
+            Some(env) => self.pmf() * env.pdf(wi),
+            None => 0.0,
+        }
+    }
+
+    /// How next-event estimation draws environment-map directions (no effect on a constant
+    /// environment, which is sampled uniformly).
+    pub fn set_env_sampling(&mut self, sampling: EnvSampling) {
+        if let Some(m) = self.environment.as_mut().and_then(|e| e.map.as_mut()) {
+            m.sampling = sampling;
         }
     }
 

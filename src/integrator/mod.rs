@@ -2,6 +2,7 @@
 //! (prepared media and lights, BSDFs, the specialisation on scene features).
 pub mod blackbody;
 pub mod bsdf;
+pub mod envmap;
 pub mod lights;
 pub mod media;
 pub mod path;

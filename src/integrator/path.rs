@@ -352,13 +352,13 @@ pub fn radiance<
             }
         }
         let Some(h) = hit else {
-            if let Some(env) = rs.lights.environment {
+            if let Some(env) = &rs.lights.environment {
                 let w = if specular {
                     1.0
                 } else {
-                    power_heuristic(prev_pdf, rs.lights.pdf_environment())
+                    power_heuristic(prev_pdf, rs.lights.pdf_environment(ray.d))
                 };
-                l += beta * env * w;
+                l += beta * env.le(ray.d) * w;
             }
             break;
         };

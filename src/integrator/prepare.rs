@@ -47,6 +47,10 @@ pub struct FeatureFlags {
     /// texture index per hit instead of doubling its variants (a predictable branch beside a
     /// BVH query), and has no texture code at all without `surfaces`.
     pub textures: bool,
+    /// The environment is a map (not constant). The GPU variants cut the map's lookup,
+    /// sampling and bindings without it; the CPU path matches on the light (one branch per
+    /// escape and environment sample, no variant).
+    pub env_map: bool,
 }
 
 impl FeatureFlags {
@@ -58,6 +62,7 @@ impl FeatureFlags {
         absorption: true,
         chromatic: true,
         textures: true,
+        env_map: true,
     };
 
     /// The flags the CPU's tile renderer is specialised on (`textures` is not one).
@@ -91,6 +96,9 @@ impl FeatureFlags {
             .collect();
         if self.textures {
             on.push("textures");
+        }
+        if self.env_map {
+            on.push("envmap");
         }
         if on.is_empty() {
             "empty".into()
@@ -249,12 +257,18 @@ impl<'s> RenderScene<'s> {
             absorption,
             chromatic,
             textures: crate::scene::Effects::of(scene).textures,
+            env_map: false,
+        };
+        let lights = Lights::new(scene);
+        let features = FeatureFlags {
+            env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
+            ..features
         };
         Ok(RenderScene {
             scene,
             vdb,
             homogeneous,
-            lights: Lights::new(scene),
+            lights,
             kinds,
             camera_medium,
             features,

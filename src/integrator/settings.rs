@@ -199,6 +199,8 @@ pub struct RenderSettings {
     /// Guard against runaway paths: at most this many tentative collisions per path before it
     /// is ended and counted (`guard_fired` in the tile log).
     pub max_collisions_per_path: u64,
+    /// How next-event estimation draws environment-map directions (the ablation switch).
+    pub env_sampling: super::envmap::EnvSampling,
 }
 
 impl Default for RenderSettings {
@@ -226,6 +228,7 @@ impl Default for RenderSettings {
             tile_size: 16,
             max_pass_spp: 16,
             max_collisions_per_path: 1 << 22,
+            env_sampling: super::envmap::EnvSampling::Importance,
         }
     }
 }

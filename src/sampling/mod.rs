@@ -2,6 +2,7 @@
 //! chi-square harness that tests them.
 pub mod chi2;
 pub mod discrete;
+pub mod piecewise;
 pub mod rng;
 pub mod sobol;
 pub mod warp;

@@ -37,6 +37,8 @@ pub struct Effects {
     pub camera_inside_medium: bool,
     /// Non-zero environment radiance.
     pub environment_light: bool,
+    /// The environment's radiance varies with direction (an image that is not constant).
+    pub environment_map: bool,
     /// A base-colour or emissive texture on a material some triangle uses.
     pub textures: bool,
 }
@@ -95,6 +97,12 @@ impl Effects {
         });
         e.punctual_lights = !scene.lights.is_empty();
         e.environment_light = scene.environment.radiance.iter().any(|&c| c > 0.0);
+        e.environment_map = e.environment_light
+            && scene
+                .environment
+                .image
+                .as_ref()
+                .is_some_and(|m| m.constant().is_none());
         e.textures = scene.instances.iter().any(|i| {
             let m = &scene.materials[i.material as usize];
             m.base_color_texture != crate::scene::NO_INDEX
@@ -126,6 +134,7 @@ impl Effects {
             (self.lights_inside_media, "lights inside media"),
             (self.camera_inside_medium, "camera inside medium"),
             (self.environment_light, "environment light"),
+            (self.environment_map, "environment map"),
             (self.textures, "textures"),
         ];
         all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()

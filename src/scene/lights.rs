@@ -15,10 +15,12 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use std::path::PathBuf;
 
+use super::envmap::{read_environment_image, EnvironmentImage};
 use super::error::{Ctx, SceneError};
 use super::json::{check_all, check_f32, Obj};
 use super::nodes::PlacedNode;
 use super::BRUME_ENVIRONMENT;
+use std::sync::Arc;
 
 /// W/sr per cd and W/m^2 per lux: deliberately 1 (see the module documentation).
 pub const RADIOMETRIC_PER_PHOTOMETRIC: f32 = 1.0;
@@ -135,14 +137,19 @@ pub fn read_lights(
 #[derive(Clone, Debug, PartialEq)]
 pub struct Environment {
     /// Constant radiance, W m^-2 sr^-1: `color * strength`. Zero without `BRUME_environment`.
+    /// With a map, the radiance from direction `w` is `map(w) * radiance`.
     pub radiance: [f32; 3],
-    /// Absolute path of an equirectangular EXR map (multiplied by `radiance`). Checked to exist;
-    /// not decoded yet.
+    /// Absolute path of the equirectangular map (`uri`), when given.
     pub map: Option<PathBuf>,
+    /// Its decoded pixels.
+    pub image: Option<Arc<EnvironmentImage>>,
+    /// Euler XYZ rotation in radians of Blender's Mapping node (type Point) applied to the
+    /// lookup direction in Blender's Z-up axes; see `integrator::envmap` for the convention.
+    pub rotation: [f32; 3],
 }
 
 /// Reads the scene-level `BRUME_environment` extension:
-/// `{"color": [r, g, b], "strength": s, "uri": "optional.exr"}`.
+/// `{"color": [r, g, b], "strength": s, "uri": "optional.exr|.hdr", "rotation": [rx, ry, rz]}`.
 pub fn read_environment(
     ctx: &mut Ctx,
     doc: &gltf::Document,
@@ -152,14 +159,18 @@ pub fn read_environment(
         return Ok(Environment {
             radiance: [0.0; 3],
             map: None,
+            image: None,
+            rotation: [0.0; 3],
         });
     };
     let obj = Obj::new(ctx, value, format!("/extensions/{BRUME_ENVIRONMENT}"))?;
-    obj.warn_unknown(ctx, &["color", "strength", "uri"]);
+    obj.warn_unknown(ctx, &["color", "strength", "uri", "rotation"]);
     let color = obj.rgb(ctx, "color", [1.0; 3], 0.0, 1.0)?;
     let strength = obj.number(ctx, "strength", 1.0, 0.0, f32::MAX, false)?;
-    let map = match obj.string(ctx, "uri")? {
-        None => None,
+    // Any finite angle; Blender does not wrap them either.
+    let rotation = obj.rgb(ctx, "rotation", [0.0; 3], -1e6, 1e6)?;
+    let (map, image) = match obj.string(ctx, "uri")? {
+        None => (None, None),
         Some(uri) => {
             let path = super::document::resolve_uri(ctx, &uri, base, &obj.at("uri"))?;
             if !path.is_file() {
@@ -171,15 +182,29 @@ pub fn read_environment(
                     ),
                 ));
             }
-            ctx.warn(
-                obj.at("uri"),
-                "environment maps are not decoded yet; the constant radiance is used alone",
-            );
-            Some(path)
+            let decoded = read_environment_image(&path).map_err(|e| {
+                ctx.invalid(
+                    obj.at("uri"),
+                    format!("environment map {}: {e}", path.display()),
+                )
+            })?;
+            if decoded.negative_pixels > 0 {
+                ctx.warn(
+                    obj.at("uri"),
+                    format!(
+                        "environment map {}: {} pixels with negative components were clamped to 0",
+                        path.display(),
+                        decoded.negative_pixels
+                    ),
+                );
+            }
+            (Some(path), Some(Arc::new(decoded.image)))
         }
     };
     Ok(Environment {
         radiance: color.map(|c| c * strength),
         map,
+        image,
+        rotation,
     })
 }

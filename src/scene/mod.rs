@@ -22,6 +22,7 @@
 pub mod camera;
 mod document;
 pub mod effects;
+pub mod envmap;
 pub mod error;
 mod json;
 pub mod lights;

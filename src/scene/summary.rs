@@ -82,10 +82,18 @@ fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
         o,
         "environment: radiance {:?}{}",
         s.environment.radiance,
-        s.environment
-            .map
-            .as_ref()
-            .map_or(String::new(), |p| format!(", map {}", p.display()))
+        s.environment.map.as_ref().map_or(String::new(), |p| {
+            let (w, h) = s
+                .environment
+                .image
+                .as_ref()
+                .map_or((0, 0), |m| (m.width, m.height));
+            format!(
+                ", map {} ({w}x{h}), rotation {:?}",
+                p.display(),
+                s.environment.rotation
+            )
+        })
     )?;
     writeln!(
         o,

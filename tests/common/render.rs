@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 11] = [
+pub const EXAMPLE_SCENES: [&str; 12] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -26,6 +26,7 @@ pub const EXAMPLE_SCENES: [&str; 11] = [
     "plume_sky.gltf",
     "dense_fog.gltf",
     "textured_backdrop.gltf",
+    "cloud_sky.gltf",
 ];
 
 pub fn load_scene(name: &str) -> Scene {
@@ -33,7 +34,8 @@ pub fn load_scene(name: &str) -> Scene {
 }
 
 pub fn render(scene: &Scene, settings: &RenderSettings) -> RenderOutput {
-    let rs = RenderScene::new(scene, settings.force_spectral).unwrap();
+    let mut rs = RenderScene::new(scene, settings.force_spectral).unwrap();
+    rs.lights.set_env_sampling(settings.env_sampling);
     cpu::render(&rs, settings, &AtomicBool::new(false), &|_, _, _| {})
 }
 

@@ -30,7 +30,9 @@ The Blender scene is built as follows (docs/CYCLES.md has the table and the reas
 - each `BRUME_medium_vdb` node as a Volume object reading the .vdb, placed at
   (Y-up to Z-up) * (node world matrix); the grid's own transform is applied by Blender as by
   Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one;
-- `BRUME_environment` as a constant world background color * strength;
+- `BRUME_environment` as the world background: color * strength, times an Environment
+  Texture (equirectangular, through a Mapping node with the same Euler rotation) when `uri`
+  is given;
 - render settings that remove avoidable differences (see `configure_render`).
 """
 import argparse
@@ -375,6 +377,30 @@ def build_medium(name, ext, base_dir, world_from_node):
     return obj
 
 
+def build_environment_map(nt, bg, env, base_dir):
+    """`BRUME_environment.uri`: Texture Coordinate.Generated -> Mapping (Point, Euler XYZ
+    `rotation`) -> Environment Texture (equirectangular, Linear) -> x `color` -> Background,
+    whose Strength is `strength`. Brume's lookup is defined to be exactly this node chain
+    (src/integrator/envmap.rs); the image is read as Non-Color data (linear radiance)."""
+    coord = nt.nodes.new("ShaderNodeTexCoord")
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.vector_type = "POINT"
+    mapping.inputs["Rotation"].default_value = list(env.get("rotation", [0.0, 0.0, 0.0]))
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    tex.projection = "EQUIRECTANGULAR"
+    tex.interpolation = "Linear"
+    tex.image = bpy.data.images.load(os.path.join(base_dir, env["uri"]), check_existing=True)
+    tex.image.colorspace_settings.name = "Non-Color"
+    # color x texture, channel by channel (colours convert to vectors and back losslessly).
+    mul = nt.nodes.new("ShaderNodeVectorMath")
+    mul.operation = "MULTIPLY"
+    mul.inputs[1].default_value = list(env.get("color", [1, 1, 1]))
+    nt.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], mul.inputs[0])
+    nt.links.new(mul.outputs["Vector"], bg.inputs["Color"])
+
+
 def configure_render(scene, args):
     scene.render.engine = "CYCLES"
     c = scene.cycles
@@ -522,6 +548,8 @@ def build_scene(args):
     if env is not None:
         bg.inputs["Color"].default_value = list(env.get("color", [1, 1, 1])) + [1.0]
         bg.inputs["Strength"].default_value = env.get("strength", 1.0)
+        if env.get("uri"):
+            build_environment_map(world.node_tree, bg, env, base_dir)
     else:
         bg.inputs["Strength"].default_value = 0.0
     configure_render(scene, args)

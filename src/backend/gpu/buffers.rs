@@ -9,8 +9,8 @@ use super::render::GpuRenderError;
 use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
-    GpuEmissionParams, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue, GpuShadowRay,
-    GpuWavefrontCounters, GpuWavefrontParams,
+    GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
+    GpuShadowRay, GpuWavefrontCounters, GpuWavefrontParams,
 };
 use crate::integrator::{blackbody, RenderScene};
 
@@ -72,6 +72,9 @@ pub(super) struct Buffers {
     pub(super) textures: wgpu::Buffer,
     /// The texel pool (linear RGBA).
     pub(super) texels: wgpu::Buffer,
+    /// `GpuEnvMap` (uniform) and the map's pixels and distribution (`f32`s).
+    pub(super) env_map: wgpu::Buffer,
+    pub(super) env_data: wgpu::Buffer,
     /// `GpuHomogeneousMedium`s, indexed like `RenderScene::homogeneous`.
     pub(super) homogeneous: wgpu::Buffer,
     /// Bound in place of the grid's buffers when the scene has no VDB medium (the kernels
@@ -84,6 +87,7 @@ pub(super) struct Buffers {
 impl Buffers {
     /// Allocates every buffer of a render of `rs` with `slots` path slots and a sample buffer
     /// of `samples` entries, uploading what is known before the first batch.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         ctx: &GpuContext,
         rs: &RenderScene,
@@ -93,6 +97,7 @@ impl Buffers {
         emission: &GpuEmissionParams,
         geometry: &Geometry,
         textures: &Textures,
+        env_map: &(GpuEnvMap, Vec<f32>),
     ) -> Buffers {
         let timestamps = ctx.timestamp_queries;
         // The counters, then two timestamps per stage.
@@ -135,6 +140,8 @@ impl Buffers {
             triangle_uvs: ctx.storage_buffer("triangle uvs", &geometry.triangle_uvs),
             textures: ctx.storage_buffer("textures", &textures.records),
             texels: ctx.storage_buffer("texels", &textures.texels),
+            env_map: ctx.uniform_buffer("environment map", &env_map.0),
+            env_data: ctx.storage_buffer("environment map data", &env_map.1),
             homogeneous: {
                 let mut h: Vec<GpuHomogeneousMedium> = rs
                     .homogeneous
@@ -232,6 +239,8 @@ impl Buffers {
             (1, 13) => &self.triangle_uvs,
             (1, 14) => &self.textures,
             (1, 15) => &self.texels,
+            (1, 16) => &self.env_map,
+            (1, 17) => &self.env_data,
             _ => return None,
         })
     }
@@ -247,11 +256,12 @@ pub(super) fn kernel(
     let dev = |e: String| GpuRenderError::Device(format!("{}: {e}", module.label));
     let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
     let used = used_bindings(module, specs).map_err(dev)?;
-    // Every binding but the uniforms (grid header, emission, blackbody table, params) is a
+    // Every binding but the uniforms (grid header, emission, blackbody table, params, the
+    // environment map's header) is a
     // storage buffer.
     let storage = used
         .iter()
-        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (0, 6) | (1, 0)))
+        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (0, 6) | (1, 0) | (1, 16)))
         .count() as u32;
     if storage > ctx.limits.max_storage_buffers_per_shader_stage {
         return Err(GpuRenderError::Limits(format!(

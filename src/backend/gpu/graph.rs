@@ -118,6 +118,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
         (f.emission, "emission"),
         (f.chromatic, "spectral"),
         (f.textures, "textures"),
+        (f.env_map, "envmap"),
     ]
     .into_iter()
     .filter(|(b, _)| *b)
@@ -153,5 +154,6 @@ pub(super) fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
         Spec::bool("FEATURE_CHROMATIC", f.chromatic),
         Spec::bool("FEATURE_EMISSION", f.emission),
         Spec::bool("FEATURE_TEXTURES", f.textures),
+        Spec::bool("FEATURE_ENV_MAP", f.env_map),
     ]
 }

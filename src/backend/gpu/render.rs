@@ -48,7 +48,7 @@ use super::dispatch::Wavefront;
 use super::graph::specs;
 pub use super::graph::{variant_name, Stage};
 use super::shader;
-use super::upload::{upload_grid, wavefront_params, Geometry, Textures};
+use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter};
@@ -181,6 +181,7 @@ pub fn render_with_timings(
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
     let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
+    let env_map = env_map_upload(rs, settings, limit).map_err(GpuRenderError::Limits)?;
 
     let timestamps = ctx.timestamp_queries;
     let bufs = Buffers::new(
@@ -192,6 +193,7 @@ pub fn render_with_timings(
         &emission,
         &geometry,
         &textures,
+        &env_map,
     );
     let sp = specs(features, settings.sampler);
     let g = grid.as_ref();

@@ -70,6 +70,8 @@ pub mod files {
     pub const TEXTURES: ShaderFile = shader_file!("common/textures.wgsl");
     /// `sample_homogeneous`, `transmittance_homogeneous`, `enter_or_leave`.
     pub const MEDIA: ShaderFile = shader_file!("common/media.wgsl");
+    /// `EnvironmentMap`: Blender's equirectangular lookup and the map's importance sampling.
+    pub const ENVMAP: ShaderFile = shader_file!("common/envmap.wgsl");
     /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
     pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
@@ -383,6 +385,7 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_CHROMATIC", true),
     Spec::bool("FEATURE_EMISSION", true),
     Spec::bool("FEATURE_TEXTURES", true),
+    Spec::bool("FEATURE_ENV_MAP", true),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];
@@ -393,7 +396,7 @@ macro_rules! wavefront_module {
             label: $label,
             files: &[
                 TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF,
-                TEXTURES, SURFACES, MEDIA, LIGHTS, $file,
+                TEXTURES, SURFACES, MEDIA, ENVMAP, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,

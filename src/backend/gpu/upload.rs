@@ -313,8 +313,13 @@ pub(super) fn wavefront_params(
         height: h,
         path_count: slots,
         light_count: rs.lights.punctual.len() as u32,
-        env: rs.lights.environment.unwrap_or(Vec3::ZERO).to_array(),
-        env_pdf: rs.lights.pdf_environment(),
+        env: rs
+            .lights
+            .environment
+            .as_ref()
+            .map_or(Vec3::ZERO, |e| e.radiance)
+            .to_array(),
+        env_pdf: rs.lights.pdf_environment(Vec3::Z),
         max_depth: settings.max_depth,
         rr_depth: settings.rr_depth,
         rr_throughput: settings.rr_throughput,
@@ -390,4 +395,53 @@ impl Textures {
             },
         })
     }
+}
+
+/// The environment map's header and data buffer (`GpuEnvMap::from_map`), with the sampling
+/// strategy of `settings`. A constant environment (bound only by the generic variant, which
+/// compiles the map code in) becomes a one-pixel map of value 1 scaled by the radiance and
+/// sampled uniformly: exactly the constant environment's estimator. Fails with a one-line
+/// reason when the data exceed one storage binding.
+pub(super) fn env_map_upload(
+    rs: &RenderScene,
+    settings: &crate::integrator::RenderSettings,
+    max_binding: u64,
+) -> Result<(crate::gpu_types::GpuEnvMap, Vec<f32>), String> {
+    use crate::gpu_types::GpuEnvMap;
+    use crate::integrator::envmap::EnvSampling;
+    let Some(env) = &rs.lights.environment else {
+        return Ok((GpuEnvMap::default(), vec![0.0; 4]));
+    };
+    let (mut info, data) = match &env.map {
+        Some(map) => GpuEnvMap::from_map(map),
+        None => {
+            let info = GpuEnvMap {
+                row0: [1.0, 0.0, 0.0, 0.0],
+                row1: [0.0, 1.0, 0.0, 0.0],
+                row2: [0.0, 0.0, 1.0, 0.0],
+                scale: env.radiance.to_array(),
+                integral: 1.0,
+                width: 1,
+                height: 1,
+                func_offset: 3,
+                cond_offset: 4,
+                marg_offset: 6,
+                uniform: 1,
+                ..Default::default()
+            };
+            (info, vec![1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.0])
+        }
+    };
+    if settings.env_sampling == EnvSampling::Uniform {
+        info.uniform = 1;
+    }
+    let bytes = data.len() as u64 * 4;
+    if bytes > max_binding || data.len() > u32::MAX as usize {
+        return Err(format!(
+            "the environment map and its distribution need {}, more than the device's {} storage binding",
+            byte_size(bytes),
+            byte_size(max_binding)
+        ));
+    }
+    Ok((info, data))
 }
