@@ -25,4 +25,4 @@ pub use reference::VdbReference;
 pub use segment::MajorantSegment;
 pub mod load;
 pub mod mitsuba_vol;
-pub use load::{load_grid, load_grid_from, LoadError, LoadedGrid};
+pub use load::{load_grid, load_grid_from, load_scene_grid, GridLoadError, LoadError, LoadedGrid};
