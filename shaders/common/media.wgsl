@@ -1,6 +1,7 @@
 // Mirrors the homogeneous media of src/integrator/media.rs (sample_homogeneous,
 // transmittance_homogeneous: KHR_materials_volume media inside closed meshes, sampled in
-// closed form, no tracking and no lookups) and enter_or_leave (src/integrator/path.rs). Needs
+// closed form, no tracking and no lookups) and MediumStack::cross (src/integrator/stack.rs) for
+// a stack of depth one (the GPU refuses nested media, see backend::gpu::render::supports). Needs
 // rng.wgsl, tracking.wgsl (sample_exponential, EVENT_*) and wavefront.wgsl (wf).
 
 @group(1) @binding(12) var<storage, read> homogeneous: array<GpuHomogeneousMedium>;
@@ -70,10 +71,17 @@ fn exp_neg(sigma_t: vec3<f32>, d: f32) -> vec3<f32> {
     return select(exp(-sigma_t * d), vec3<f32>(1.0), sigma_t == vec3<f32>(0.0));
 }
 
-// enter_or_leave: crossing a boundary inwards enters its interior medium (if any); outwards
-// leaves to no medium (media do not nest).
-fn enter_or_leave(interior: u32, entering: bool) -> u32 {
-    return select(NO_INDEX, interior, entering && interior != NO_INDEX);
+// MediumStack::cross with one entry: crossing a boundary inwards enters its interior medium;
+// outwards leaves it (back to no medium); a boundary without a medium (thin-walled) changes
+// nothing, nor does leaving a medium the path is not in.
+fn enter_or_leave(current: u32, interior: u32, entering: bool) -> u32 {
+    if (interior == NO_INDEX) {
+        return current;
+    }
+    if (entering) {
+        return interior;
+    }
+    return select(current, NO_INDEX, current == interior);
 }
 
 // The phase function's g where the path is: its homogeneous medium's, else the VDB medium's.

@@ -36,7 +36,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     if (tri.kind == SURFACE_NULL) {
         // An index-matched boundary: only the medium changes; no event, no roulette.
         if (FEATURE_HOMOGENEOUS) {
-            ps.medium = enter_or_leave(tri.interior, cos_o > 0.0);
+            ps.medium = enter_or_leave(ps.medium, tri.interior, cos_o > 0.0);
         }
         ps.t0 = ps.hit_t + 1e-4 * (1.0 + ps.hit_t);
         paths[slot] = ps;
@@ -64,7 +64,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
                 // Radiance is compressed by eta^2 entering a denser medium.
                 ps.beta *= mat.base_color.xyz / (eta * eta);
                 if (FEATURE_HOMOGENEOUS) {
-                    ps.medium = enter_or_leave(tri.interior, entering);
+                    ps.medium = enter_or_leave(ps.medium, tri.interior, entering);
                 }
                 wi = wt;
             }

@@ -63,7 +63,7 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         }
 // #if FEATURE_HOMOGENEOUS
         let entering = dot(triangle_cross(tri), sh.wi) < 0.0;
-        medium = enter_or_leave(tri.interior, entering);
+        medium = enter_or_leave(medium, tri.interior, entering);
 // #endif
         t0 = h.t + 1e-4 * (1.0 + h.t);
         if (t0 >= sh.dist) {

@@ -81,7 +81,8 @@ pub fn render_observed(
     observer: &mut dyn FnMut(&PassView),
 ) -> RenderOutput {
     let start = Instant::now();
-    let features = if settings.generic {
+    // Overlapping media run the generic variant (see `tile::specialised`): say so.
+    let features = if settings.generic || rs.features.overlapping {
         FeatureFlags::ALL
     } else {
         rs.features

@@ -4,9 +4,11 @@ pub mod blackbody;
 pub mod bsdf;
 pub mod lights;
 pub mod media;
+pub mod mixture;
 pub mod path;
 pub mod prepare;
 pub mod settings;
+pub mod stack;
 pub mod tile;
 
 pub use prepare::{FeatureFlags, RenderScene};

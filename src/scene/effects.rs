@@ -37,6 +37,10 @@ pub struct Effects {
     pub camera_inside_medium: bool,
     /// Non-zero environment radiance.
     pub environment_light: bool,
+    /// Two VDB media whose world bounds overlap (their coefficients add).
+    pub overlapping_media: bool,
+    /// A VDB medium inside (or across) a `KHR_materials_volume` mesh, or such meshes nested.
+    pub nested_media: bool,
 }
 
 impl Effects {
@@ -99,6 +103,9 @@ impl Effects {
             .filter(|l| l.kind != LIGHT_DIRECTIONAL)
             .any(|l| scene.inside_medium(Vec3::from(l.position)));
         e.camera_inside_medium = scene.inside_medium(scene.camera.position());
+        let nesting = super::nesting::Nesting::of(scene);
+        e.overlapping_media = nesting.overlapping;
+        e.nested_media = nesting.nested;
         e
     }
 
@@ -119,6 +126,8 @@ impl Effects {
             (self.lights_inside_media, "lights inside media"),
             (self.camera_inside_medium, "camera inside medium"),
             (self.environment_light, "environment light"),
+            (self.overlapping_media, "overlapping media"),
+            (self.nested_media, "nested media"),
         ];
         all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
     }

@@ -10,6 +10,7 @@ pub mod convert;
 pub mod dda;
 pub mod error;
 pub mod grid;
+pub mod merge;
 pub mod phase;
 pub mod reference;
 pub mod segment;

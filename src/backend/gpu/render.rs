@@ -121,6 +121,18 @@ pub enum GpuRenderError {
 
 /// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.
 pub fn supports(rs: &RenderScene) -> Result<(), String> {
+    if rs.features.overlapping {
+        return Err(
+            "overlapping media (VDB media that overlap, or a VDB medium inside a \
+             KHR_materials_volume mesh); the GPU integrator tracks one medium at a time"
+                .into(),
+        );
+    }
+    if rs.features.nested {
+        return Err(
+            "nested KHR_materials_volume meshes; the GPU integrator keeps no medium stack".into(),
+        );
+    }
     if rs.vdb.len() > 1 {
         return Err(format!(
             "{} VDB media; the GPU integrator binds one grid",
