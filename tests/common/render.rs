@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 10] = [
+pub const EXAMPLE_SCENES: [&str; 12] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -25,6 +25,8 @@ pub const EXAMPLE_SCENES: [&str; 10] = [
     "plume_sun.gltf",
     "plume_sky.gltf",
     "dense_fog.gltf",
+    "fire2.gltf",
+    "smoke_tank.gltf",
 ];
 
 pub fn load_scene(name: &str) -> Scene {
