@@ -467,3 +467,41 @@ fn overlapping_media_with_different_albedos_add_their_coefficients() {
         }
     }
 }
+
+#[test]
+fn overlapping_emitting_grids_add_their_emission() {
+    // Emission through an emission grid is linear in the grid's values too: two media whose
+    // emission grid is their own density emit what one medium emitting through the summed
+    // grid does, so each medium's emission is collected at every tentative collision.
+    let d = dir("emission");
+    write_grid(&d.join("a.vdb"), blob_voxels(N));
+    write_grid(&d.join("b.vdb"), shifted());
+    write_grid(&d.join("sum.vdb"), summed());
+    let m = |uri: &str| {
+        let mut m = medium(uri, false);
+        m["emissionGrid"] = json!("density");
+        m["emissionStrength"] = json!(2.0);
+        m["emissionColor"] = json!([1.0, 0.5, 0.2]);
+        m
+    };
+    let two = write_scene(&d, "two.gltf", &scene(vec![m("a.vdb"), m("b.vdb")]));
+    let one = write_scene(&d, "one.gltf", &scene(vec![m("sum.vdb")]));
+    let load = |p: &Path| brume::scene::load(p).unwrap_or_else(|e| panic!("{e}"));
+    let (two, one) = (load(&two), load(&one));
+    assert!(RenderScene::new(&two, false).unwrap().features.emission);
+    let alpha = 1e-3 / 4.0;
+    let mut seed = 400;
+    for e in [Estimator::Delta, Estimator::Decomposition] {
+        for m in [MajorantMode::Global, MajorantMode::Adaptive] {
+            agree(
+                &two,
+                &one,
+                &settings(e, m, seed),
+                1,
+                alpha,
+                &format!("emission {e} {m:?}"),
+            );
+            seed += 1;
+        }
+    }
+}
