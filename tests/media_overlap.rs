@@ -505,3 +505,37 @@ fn overlapping_emitting_grids_add_their_emission() {
         }
     }
 }
+
+#[test]
+fn twenty_overlapping_media_add_like_one() {
+    // More media along a ray than the inline span buffer holds (16): twenty copies of the
+    // absorbing blob, each with a twentieth of the density scale, attenuate as one.
+    let d = dir("twenty");
+    write_grid(&d.join("grid.vdb"), blob_voxels(N));
+    let path = absorbing_scene(&d, &[], true);
+    let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let medium = doc["nodes"][1].clone();
+    let mut nodes = vec![doc["nodes"][0].clone()];
+    for _ in 0..20 {
+        let mut m = medium.clone();
+        m["extensions"]["BRUME_medium_vdb"]["densityScale"] = json!(0.15);
+        nodes.push(m);
+    }
+    doc["scenes"][0]["nodes"] = json!((0..nodes.len()).collect::<Vec<_>>());
+    doc["nodes"] = json!(nodes);
+    let path = write_scene(&d, "twenty.gltf", &doc);
+    let scene = brume::scene::load(&path).unwrap();
+    let rs = RenderScene::new(&scene, false).unwrap();
+    assert_eq!(rs.vdb.len(), 20);
+    let grid = &rs.vdb[0];
+    let ray_w = Ray::new(
+        glam::Vec3::new(0.0, 0.0, 3.0),
+        glam::Vec3::new(0.0, 0.0, -1.0),
+    );
+    let ray_i = Ray::new(
+        grid.density.index_from_world.transform_point3(ray_w.o),
+        grid.density.index_from_world.transform_vector3(ray_w.d),
+    );
+    let tau = optical_depth(&grid.density.grid.grid, &ray_i, 0.0, 6.0, 3.0);
+    pencil_agrees(&path, (-tau).exp(), "twenty media");
+}

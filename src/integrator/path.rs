@@ -55,25 +55,52 @@ fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
     }
 }
 
-/// Sorted, disjoint intervals of the VDB media along `ray` within `[t0, t1]`.
-fn vdb_intervals(
-    rs: &RenderScene,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-    out: &mut [(usize, f32, f32); 16],
-) -> usize {
-    let mut n = 0;
-    for (k, m) in rs.vdb.iter().enumerate().take(16) {
-        if let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) {
-            if b > a {
-                out[n] = (k, a, b);
-                n += 1;
-            }
+/// The VDB media along a ray: `(medium, t_min, t_max)` sorted by `t_min`; up to 16 inline
+/// (no allocation on the hot path), any number on the heap.
+enum Spans {
+    Inline([(usize, f32, f32); 16], usize),
+    Heap(Vec<(usize, f32, f32)>),
+}
+
+impl std::ops::Deref for Spans {
+    type Target = [(usize, f32, f32)];
+    fn deref(&self) -> &Self::Target {
+        match self {
+            Spans::Inline(a, n) => &a[..*n],
+            Spans::Heap(v) => v,
         }
     }
-    out[..n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1));
-    n
+}
+
+/// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, sorted by
+/// start (disjoint unless media overlap).
+fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
+    let mut out = Spans::Inline([(0usize, 0f32, 0f32); 16], 0);
+    for (k, m) in rs.vdb.iter().enumerate() {
+        let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) else {
+            continue;
+        };
+        if !(b > a) {
+            continue;
+        }
+        match &mut out {
+            Spans::Inline(arr, n) if *n < arr.len() => {
+                arr[*n] = (k, a, b);
+                *n += 1;
+            }
+            Spans::Inline(arr, n) => {
+                let mut v = arr[..*n].to_vec();
+                v.push((k, a, b));
+                out = Spans::Heap(v);
+            }
+            Spans::Heap(v) => v.push((k, a, b)),
+        }
+    }
+    match &mut out {
+        Spans::Inline(arr, n) => arr[..*n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
+        Spans::Heap(v) => v.sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
+    }
+    out
 }
 
 /// Whether sorted intervals overlap one another.
@@ -106,14 +133,11 @@ fn sample_media<
     l: &mut Vec3,
 ) -> (MediumEvent, HenyeyGreenstein) {
     if MIX && HET {
-        let mut iv = [(0usize, 0f32, 0f32); 16];
-        let n = vdb_intervals(rs, ray, t0, t1, &mut iv);
+        let iv = vdb_intervals(rs, ray, t0, t1);
+        let n = iv.len();
         let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
-        if (hom.is_some() && n > 0) || intervals_overlap(&iv[..n]) {
-            let spans: Vec<_> = iv[..n]
-                .iter()
-                .map(|&(k, a, b)| (&rs.vdb[k], a, b))
-                .collect();
+        if (hom.is_some() && n > 0) || intervals_overlap(&iv) {
+            let spans: Vec<_> = iv.iter().map(|&(k, a, b)| (&rs.vdb[k], a, b)).collect();
             return sample_mixture::<EMIT, ABS, CHROM>(
                 &spans, hom, ray, t0, t1, beta, cfg, rng, stats, l,
             );
@@ -131,9 +155,7 @@ fn sample_media<
     }
     let mut weight = Vec3::ONE;
     if HET {
-        let mut iv = [(0usize, 0f32, 0f32); 16];
-        let n = vdb_intervals(rs, ray, t0, t1, &mut iv);
-        for &(k, a, b) in &iv[..n] {
+        for &(k, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
             let m = &rs.vdb[k];
             match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, cfg, rng, stats, l) {
                 MediumEvent::Escape { weight: w } => weight *= w,
@@ -191,9 +213,7 @@ fn transmittance<
             }
         }
         if HET && (MIX || medium.is_none()) {
-            let mut iv = [(0usize, 0f32, 0f32); 16];
-            let n = vdb_intervals(rs, &ray, t0, t1, &mut iv);
-            for &(k, a, b) in &iv[..n] {
+            for &(k, a, b) in vdb_intervals(rs, &ray, t0, t1).iter() {
                 tr *= transmittance_vdb::<CHROM>(&rs.vdb[k], &ray, a, b, cfg, rng, stats);
                 if tr == Vec3::ZERO {
                     return tr;
