@@ -400,8 +400,8 @@ fn nested_boxes_keep_a_medium_stack() {
     let scene = brume::scene::load(&path).unwrap();
     let rs = RenderScene::new(&scene, false).unwrap();
     assert!(rs.features.nested && !rs.features.overlapping);
-    let tau = 0.3 * 1.2 + 1.2 * 0.8;
-    pencil_agrees(&path, (-tau as f64).exp(), "nested boxes");
+    let tau: f64 = 0.3 * 1.2 + 1.2 * 0.8;
+    pencil_agrees(&path, (-tau).exp(), "nested boxes");
 }
 
 #[test]
