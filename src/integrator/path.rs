@@ -56,7 +56,9 @@ fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
 }
 
 /// The VDB media along a ray: `(medium, t_min, t_max)` sorted by `t_min`; up to 16 inline
-/// (no allocation on the hot path), any number on the heap.
+/// (no allocation on the hot path), any number on the heap. (The size difference is the
+/// point: the inline variant lives on the stack of one flight.)
+#[allow(clippy::large_enum_variant)]
 enum Spans {
     Inline([(usize, f32, f32); 16], usize),
     Heap(Vec<(usize, f32, f32)>),
@@ -80,7 +82,8 @@ fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
         let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) else {
             continue;
         };
-        if !(b > a) {
+        // NaN ends are skipped too.
+        if b.partial_cmp(&a) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         match &mut out {
