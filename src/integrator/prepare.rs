@@ -116,6 +116,8 @@ pub struct RenderScene<'s> {
     pub camera_medium: Option<u32>,
     /// The media around the camera, outermost first: every camera path's medium stack.
     pub camera_media: MediumStack,
+    /// The deepest nesting of media meshes (1: media meshes, none inside another; 0: none).
+    pub nesting_depth: usize,
     pub features: FeatureFlags,
 }
 
@@ -243,6 +245,7 @@ impl<'s> RenderScene<'s> {
             kinds,
             camera_medium,
             camera_media,
+            nesting_depth: nesting.deepest().map_or(0, |m| m.depth),
             features,
         })
     }

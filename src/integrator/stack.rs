@@ -58,6 +58,11 @@ impl MediumStack {
         (self.len > 0).then(|| self.media[self.len as usize - 1])
     }
 
+    /// The media, outermost first.
+    pub fn entries(&self) -> &[u32] {
+        &self.media[..self.len as usize]
+    }
+
     pub fn len(&self) -> usize {
         self.len as usize
     }

@@ -51,7 +51,7 @@ use super::shader;
 use super::upload::{upload_grid, wavefront_params, Geometry};
 use crate::backend::cpu::{pass_sizes, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
-use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter};
+use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter, GPU_MAX_NESTED_MEDIA, STACK_NONE};
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
 
@@ -128,10 +128,17 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
                 .into(),
         );
     }
-    if rs.features.nested {
-        return Err(
-            "nested KHR_materials_volume meshes; the GPU integrator keeps no medium stack".into(),
-        );
+    if rs.nesting_depth > GPU_MAX_NESTED_MEDIA {
+        return Err(format!(
+            "KHR_materials_volume meshes nested {} deep; the GPU medium stack holds {GPU_MAX_NESTED_MEDIA}",
+            rs.nesting_depth
+        ));
+    }
+    if rs.features.nested && rs.homogeneous.len() >= STACK_NONE as usize {
+        return Err(format!(
+            "{} homogeneous media with nested meshes; the GPU medium stack indexes fewer than {STACK_NONE}",
+            rs.homogeneous.len()
+        ));
     }
     if rs.vdb.len() > 1 {
         return Err(format!(
