@@ -29,9 +29,11 @@
 //!
 //! What runs: everything the CPU integrator does for one VDB medium (every estimator, both
 //! majorant modes, spectral tracking of chromatic media, volume emission), homogeneous media
-//! in closed meshes (grey and chromatic), opaque, dielectric and null-interface surfaces over
-//! obvhs' CWBVH, punctual, environment and area lights with NEE and MIS, Russian roulette and
-//! the collision guard. [`supports`] refuses more than one VDB medium with a one-line reason.
+//! in closed meshes (grey and chromatic, nested up to three deep on a per-path medium stack),
+//! opaque, dielectric and null-interface surfaces over obvhs' CWBVH, punctual, environment and
+//! area lights with NEE and MIS, Russian roulette and the collision guard. [`supports`]
+//! refuses, with a one-line reason, more than one VDB medium, overlapping media (the CPU's
+//! `integrator::mixture` is not mirrored) and media meshes nested deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!

@@ -66,7 +66,7 @@ pub mod files {
     pub const BSDF: ShaderFile = shader_file!("common/bsdf.wgsl");
     /// The CWBVH closest-hit query, `intersect_triangle`, `shading_normal`, `emitted`.
     pub const SURFACES: ShaderFile = shader_file!("common/surfaces.wgsl");
-    /// `sample_homogeneous`, `transmittance_homogeneous`, `enter_or_leave`.
+    /// `sample_homogeneous`, `transmittance_homogeneous`, `stack_cross`.
     pub const MEDIA: ShaderFile = shader_file!("common/media.wgsl");
     /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
     pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
