@@ -126,6 +126,35 @@ fn fire() -> [GridSpec; 3] {
     [density, temperature, flame]
 }
 
+/// The two-file fire (`fire2.gltf`): smoke and flame as separate caches, as simulators write
+/// them, overlapping where the flame burns inside the smoke. The smoke is a rising, widening
+/// column above and around the flame; the flame file holds the flame's own density and its
+/// temperature. Coarser than `fire()` (voxel 1/20) so the two files stay small.
+fn fire2() -> (GridSpec, [GridSpec; 2]) {
+    let voxel = 1.0 / 20.0;
+    let mut smoke = GridSpec::fog("density", voxel as f64, [0.0; 3]);
+    voxelize(&mut smoke, 20, voxel, |p| {
+        let h = ((p[1] + 0.6) / 1.6).clamp(0.0, 1.0);
+        let r = len([p[0] - 0.1 * (3.0 * p[1]).sin(), 0.0, p[2]]);
+        let radius = 0.25 + 0.45 * h;
+        let d = (1.0 - r / radius) + 0.4 * fbm(p.map(|c| c * 3.5), 31);
+        (d * 1.5).clamp(0.0, 1.0) * (1.0 - h).powf(0.7) * 0.8
+    });
+    let field = |p: [f32; 3]| {
+        let r = len([p[0], (p[1] + 0.45) * 0.7, p[2]]);
+        (1.0 - r / 0.5) + 0.35 * fbm(p.map(|c| c * 4.0), 37)
+    };
+    let mut flame = GridSpec::fog("density", voxel as f64, [0.0; 3]);
+    voxelize(&mut flame, 20, voxel, |p| {
+        ((field(p) - 0.2) * 2.0).clamp(0.0, 1.0)
+    });
+    let mut temperature = GridSpec::fog("temperature", voxel as f64, [0.0; 3]);
+    voxelize(&mut temperature, 20, voxel, |p| {
+        (field(p) * 1.4).clamp(0.0, 1.0)
+    });
+    (smoke, [flame, temperature])
+}
+
 /// A thin smoke plume: a rising column that widens with height, meanders and is displaced by
 /// noise, its density falling off with radius (Gaussian profile) and with height (smoke
 /// spreads and thins as it rises). Values under 0.02 are dropped so the grid stays sparse.
@@ -228,4 +257,7 @@ fn main() {
     write("fire.vdb", &fire());
     write("tiles.vdb", &[tiles()]);
     write("plume.vdb", &[plume()]);
+    let (smoke, flame) = fire2();
+    write("fire2_smoke.vdb", &[smoke]);
+    write("fire2_flame.vdb", &flame);
 }

@@ -14,6 +14,14 @@
   clamped), on a textured ground (repeat, KHR_texture_transform scale and rotation, nearest
   filter) beside an emissive sign (emissive texture), under a sun and a sky: textures/*.png
   are written here too.
+- fire2.gltf: a fire made of two overlapping grids from separate files, as simulators cache
+  them: the smoke (scenes/vdb/fire2_smoke.vdb, dark, scattering) and the flame
+  (scenes/vdb/fire2_flame.vdb: its own density, an emission colour and blackbody emission from
+  its temperature grid), over a floor. Where they overlap their coefficients and emission add.
+- smoke_tank.gltf: a smoke plume (scenes/vdb/smoke.vdb) inside a glass tank: a closed
+  dielectric box (ior 1.33, KHR_materials_volume with a faint blue-green water tint) around the
+  VDB medium, which adds to the tank's homogeneous medium inside it (nested media), lit by a
+  sun and sky over a floor.
 - dense_fog.gltf: an icosahedral fog volume of nearly constant density (optical depth ~20
   through its centre) with chromatic albedo: color (0.95, 0.8, 0.6), absorptionColor 0, so the
   extinction is grey (sigma_t = densityScale * d) and sigma_a = 1 - color; HG g = 0.5; a sun
@@ -225,6 +233,47 @@ def quads_buffer(quads):
     }
 
 
+FLOOR = ([(-6.0, -1.5, -6.0), (-6.0, -1.5, 6.0), (6.0, -1.5, 6.0), (6.0, -1.5, -6.0)], [0, 1, 2, 0, 2, 3])
+
+
+def flat_meshes(meshes):
+    """Flat-shaded triangle meshes in one buffer: mesh k gets accessors 3k (indices), 3k + 1
+    (POSITION) and 3k + 2 (NORMAL, the face normal at each corner), corners unshared."""
+    data = b""
+    views, accessors = [], []
+    for positions, indices in meshes:
+        pos, nrm = [], []
+        for t in range(0, len(indices), 3):
+            a, b, c = (positions[i] for i in indices[t:t + 3])
+            u = [b[k] - a[k] for k in range(3)]
+            v = [c[k] - a[k] for k in range(3)]
+            n = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+            ln = sum(x * x for x in n) ** 0.5
+            n = [x / ln for x in n]
+            pos += [a, b, c]
+            nrm += [n, n, n]
+        ind = b"".join(struct.pack("<H", i) for i in range(len(pos)))
+        ind += b"\0" * (-len(ind) % 4)
+        blobs = [(ind, 34963), (b"".join(struct.pack("<3f", *p) for p in pos), 34962),
+                 (b"".join(struct.pack("<3f", *n) for n in nrm), 34962)]
+        for blob, target in blobs:
+            views.append({"buffer": 0, "byteOffset": len(data), "byteLength": len(blob), "target": target})
+            data += blob
+        k = len(views) - 3
+        lo = [min(p[i] for p in pos) for i in range(3)]
+        hi = [max(p[i] for p in pos) for i in range(3)]
+        accessors += [
+            {"bufferView": k, "componentType": 5123, "count": len(pos), "type": "SCALAR"},
+            {"bufferView": k + 1, "componentType": 5126, "count": len(pos), "type": "VEC3", "min": lo, "max": hi},
+            {"bufferView": k + 2, "componentType": 5126, "count": len(pos), "type": "VEC3"},
+        ]
+    return {
+        "buffers": [{"byteLength": len(data), "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+        "bufferViews": views,
+        "accessors": accessors,
+    }
+
+
 def textured_backdrop():
     textures()
     quads = [
@@ -278,6 +327,72 @@ def textured_backdrop():
     }
     doc.update(quads_buffer(quads))
     write("scenes/textured_backdrop.gltf", doc)
+def fire2():
+    doc = {
+        "asset": {"version": "2.0", "generator": "brume scenes/make_scenes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "nodes": [
+            {"name": "camera_node", "camera": 0, "translation": [0.0, 0.3, 6.5]},
+            {"name": "floor", "mesh": 0},
+            {"name": "smoke", "scale": [1.6, 1.6, 1.6], "extensions": {"BRUME_medium_vdb": {
+                "uri": "vdb/fire2_smoke.vdb", "densityGrid": "density", "densityScale": 3.0,
+                "color": [0.25, 0.25, 0.25], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.2}}},
+            {"name": "flame", "scale": [1.6, 1.6, 1.6], "extensions": {"BRUME_medium_vdb": {
+                "uri": "vdb/fire2_flame.vdb", "densityGrid": "density", "densityScale": 1.5,
+                "color": [0.5, 0.5, 0.5], "absorptionColor": [0.0, 0.0, 0.0],
+                "emissionGrid": "density", "emissionStrength": 3.0, "emissionColor": [1.0, 0.45, 0.1],
+                "temperatureGrid": "temperature", "blackbodyIntensity": 1.0,
+                "temperatureScale": 1000.0, "temperatureOffset": 0.0}}},
+        ],
+        "cameras": [{"name": "camera", "type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.05}}],
+        "meshes": [{"name": "floor", "primitives": [{"attributes": {"POSITION": 1, "NORMAL": 2}, "indices": 0, "material": 0}]}],
+        "materials": [{"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.2, 0.2, 1], "metallicFactor": 0, "roughnessFactor": 1}}],
+        "extensions": {"BRUME_environment": {"color": [1.0, 1.0, 1.0], "strength": 0.02}},
+        "extensionsUsed": ["BRUME_medium_vdb", "BRUME_environment"],
+    }
+    doc.update(flat_meshes([FLOOR]))
+    write("scenes/fire2.gltf", doc)
+
+
+def smoke_tank():
+    """The tank is 2.4 x 2.6 x 2.4 m of water-tinted glass (ior 1.33: the tank and its
+    contents as one dielectric volume, as a glass tank of water is usually modelled), the
+    smoke grid (scale 1) inside it with densityScale 12."""
+    tank_p, tank_i = cube(1.0)
+    tank_p = [(1.2 * x, 1.3 * y - 0.15, 1.2 * z) for x, y, z in tank_p]
+    doc = {
+        "asset": {"version": "2.0", "generator": "brume scenes/make_scenes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "nodes": [
+            {"name": "camera_node", "camera": 0, "translation": [0.0, 0.4, 7.0]},
+            {"name": "sun", "rotation": SUN_ROTATION, "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "floor_and_tank", "mesh": 0},
+            {"name": "smoke", "translation": [0.0, -0.15, 0.0], "scale": [1.0, 1.0, 1.0], "extensions": {"BRUME_medium_vdb": {
+                "uri": "vdb/smoke.vdb", "densityGrid": "density", "densityScale": 12.0,
+                "color": [0.8, 0.8, 0.8], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.3}}},
+        ],
+        "cameras": [{"name": "camera", "type": "perspective", "perspective": {"yfov": 0.6, "znear": 0.05}}],
+        "meshes": [{"name": "floor_and_tank", "primitives": [
+            {"attributes": {"POSITION": 1, "NORMAL": 2}, "indices": 0, "material": 0},
+            {"attributes": {"POSITION": 4, "NORMAL": 5}, "indices": 3, "material": 1}]}],
+        "materials": [
+            {"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0, "roughnessFactor": 1}},
+            {"name": "water_glass", "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0, "roughnessFactor": 0},
+             "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.33},
+                            "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationDistance": 4.0,
+                                                     "attenuationColor": [0.85, 0.95, 0.95]}}},
+        ],
+        "extensions": {
+            "KHR_lights_punctual": {"lights": [{"name": "sun", "type": "directional", "color": [1.0, 0.97, 0.9], "intensity": 3.0}]},
+            "BRUME_environment": {"color": [0.5, 0.6, 0.8], "strength": 0.5},
+        },
+        "extensionsUsed": ["KHR_lights_punctual", "BRUME_medium_vdb", "BRUME_environment",
+                           "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_volume"],
+    }
+    doc.update(flat_meshes([FLOOR, (tank_p, tank_i)]))
+    write("scenes/smoke_tank.gltf", doc)
 
 
 PLUME_DENSITY_SCALE = 20.0
@@ -291,3 +406,5 @@ if __name__ == "__main__":
     plume("plume_sky.gltf", sun=False, sky=True)
     dense_fog()
     textured_backdrop()
+    fire2()
+    smoke_tank()

@@ -1,4 +1,6 @@
-//! Brume against Blender Cycles on the cloud and the textured backdrop (docs/CYCLES.md): the image means agree
+//! Brume against Blender Cycles (docs/CYCLES.md) on the cloud, the textured backdrop, the cloud
+//! under an HDR sky map and the two-grid fire (overlapping media: Cycles adds overlapping volume
+//! objects' coefficients as Brume does): the image means agree
 //! within 1 % and no 8x8 block fails a z-test at 99.9 %. Needs a Python that can `import bpy`
 //! (tools/cycles/ci.sh installs one); without it the test says so on stderr and passes.
 //! Seeds are fixed on both sides, so the outcome is deterministic.
@@ -35,59 +37,48 @@ fn say(msg: &str) {
     let _ = writeln!(std::io::stderr(), "{msg}");
 }
 
-#[test]
-fn cloud_agrees_with_cycles() {
+/// Renders example scene `scene` with Brume and Cycles (4 runs x `cycles_spp`) at 32x24 and
+/// asserts their agreement (`common::reference::scene_agrees_with`), or says SKIPPED.
+fn agrees_with_cycles(label: &str, scene: &str, cycles_spp: &str) {
     let Some(python) = bpy_python() else {
         say("SKIPPED cycles_compare: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)");
         return;
     };
-    let dir = std::env::temp_dir().join(format!("brume-cycles-test-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("brume-cycles-{label}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let summary =
-        common::reference::cloud_agrees_with("cycles", "32", ("BRUME_BPY_PYTHON", &python), &dir);
-    say(&format!("cycles_compare: cloud 32x24: {summary}"));
+    let summary = common::reference::scene_agrees_with(
+        scene,
+        "cycles",
+        cycles_spp,
+        ("BRUME_BPY_PYTHON", &python),
+        &dir,
+    );
+    say(&format!("cycles_compare: {label} 32x24: {summary}"));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
+fn cloud_agrees_with_cycles() {
+    agrees_with_cycles("cloud", "cloud.gltf", "32");
+}
+
+/// Base-colour and emissive textures: bilinear and nearest, clamped and repeated, with
+/// KHR_texture_transform (README: textures).
+#[test]
 fn textured_backdrop_agrees_with_cycles() {
-    let Some(python) = bpy_python() else {
-        say("SKIPPED cycles_compare: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)");
-        return;
-    };
-    let dir = std::env::temp_dir().join(format!("brume-cycles-tex-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let summary = common::reference::scene_agrees_with(
-        "cycles",
-        "scenes/textured_backdrop.gltf",
-        "64",
-        ("BRUME_BPY_PYTHON", &python),
-        &dir,
-    );
-    say(&format!(
-        "cycles_compare: textured_backdrop 32x24: {summary}"
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
+    agrees_with_cycles("textured_backdrop", "textured_backdrop.gltf", "64");
 }
 
 /// The HDR-sky cloud: an environment map with a small bright sun, rotated, lights the cloud
-/// (README: environment maps). Same agreement as the cloud: the sky seen directly tests the
-/// lookup convention and rotation, the cloud the importance sampling and MIS.
+/// (README: environment maps). The sky seen directly tests the lookup convention and
+/// rotation, the cloud the importance sampling and MIS.
 #[test]
 fn hdr_sky_cloud_agrees_with_cycles() {
-    let Some(python) = bpy_python() else {
-        say("SKIPPED cycles_compare: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)");
-        return;
-    };
-    let dir = std::env::temp_dir().join(format!("brume-cycles-sky-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let summary = common::reference::scene_agrees_with(
-        "cycles",
-        "scenes/cloud_sky.gltf",
-        "32",
-        ("BRUME_BPY_PYTHON", &python),
-        &dir,
-    );
-    say(&format!("cycles_compare: cloud_sky 32x24: {summary}"));
-    let _ = std::fs::remove_dir_all(&dir);
+    agrees_with_cycles("cloud_sky", "cloud_sky.gltf", "32");
+}
+
+/// Smoke and flame from two overlapping grids: their coefficients and emission add.
+#[test]
+fn two_grid_fire_agrees_with_cycles() {
+    agrees_with_cycles("fire2", "fire2.gltf", "32");
 }

@@ -312,6 +312,55 @@ fn fire() {
 }
 
 #[test]
+fn fire2() {
+    let s = load("fire2.gltf");
+    assert_eq!(
+        (s.triangles.len(), s.lights.len(), s.vdb_media.len()),
+        (2, 0, 2)
+    );
+    let files: Vec<_> = s
+        .vdb_media
+        .iter()
+        .map(|m| {
+            m.vdb_path
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    assert_eq!(files, ["fire2_smoke.vdb", "fire2_flame.vdb"]);
+    assert!(!s.vdb_media[0].emits() && s.vdb_media[1].emits());
+    for m in &s.vdb_media {
+        check_medium_bounds(m, Mat4::from_scale(Vec3::splat(1.6)));
+    }
+    let e = effects(&s);
+    assert!(
+        e.contains(&"overlapping media") && !e.contains(&"nested media"),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn smoke_tank() {
+    let s = load("smoke_tank.gltf");
+    assert_eq!(
+        (s.triangles.len(), s.lights.len(), s.vdb_media.len()),
+        (14, 1, 1)
+    );
+    assert_eq!(s.homogeneous_media.len(), 1);
+    check_winding(&s);
+    let e = effects(&s);
+    assert!(
+        e.contains(&"nested media") && !e.contains(&"overlapping media"),
+        "{e:?}"
+    );
+    let rs = brume::integrator::RenderScene::new(&s, false).unwrap();
+    // The smoke adds to the tank's medium: the mixture runs.
+    assert!(rs.features.nested && rs.features.overlapping);
+}
+
+#[test]
 fn chromatic() {
     let s = load("chromatic.gltf");
     assert_eq!(

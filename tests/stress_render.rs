@@ -486,7 +486,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             // The central third of the image: rays through the fog's core.
             let film = Vec2::new(0.35, 0.35) + 0.3 * u;
             let mut st = PathStats::default();
-            let l = radiance::<false, true, false, false, true, false>(
+            let l = radiance::<false, true, false, false, true, false, false>(
                 &rs, &cfg, &limits, film, 1.0, &mut rng, &mut st,
             );
             assert!(l.is_finite() && l.min_element() >= 0.0, "{l}");

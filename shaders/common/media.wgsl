@@ -1,6 +1,8 @@
 // Mirrors the homogeneous media of src/integrator/media.rs (sample_homogeneous,
 // transmittance_homogeneous: KHR_materials_volume media inside closed meshes, sampled in
-// closed form, no tracking and no lookups) and enter_or_leave (src/integrator/path.rs). Needs
+// closed form, no tracking and no lookups) and MediumStack::cross (src/integrator/stack.rs) for
+// a stack of three entries (GpuPathState::medium and ::outer; backend::gpu::render::supports
+// refuses deeper nesting). Needs
 // rng.wgsl, tracking.wgsl (sample_exponential, EVENT_*) and wavefront.wgsl (wf).
 
 @group(1) @binding(12) var<storage, read> homogeneous: array<GpuHomogeneousMedium>;
@@ -70,10 +72,70 @@ fn exp_neg(sigma_t: vec3<f32>, d: f32) -> vec3<f32> {
     return select(exp(-sigma_t * d), vec3<f32>(1.0), sigma_t == vec3<f32>(0.0));
 }
 
-// enter_or_leave: crossing a boundary inwards enters its interior medium (if any); outwards
-// leaves to no medium (media do not nest).
-fn enter_or_leave(interior: u32, entering: bool) -> u32 {
-    return select(NO_INDEX, interior, entering && interior != NO_INDEX);
+// MediumStack::cross on the GPU's stack of three: `top` (NO_INDEX: empty) and `outer`, the two
+// entries below it as 16-bit halves (low: the next one down; STACK_NONE: none). Crossing a
+// boundary inwards pushes its interior medium (a full stack ignores the push, as on the CPU;
+// backend::gpu::render::supports refuses scenes that nest deeper); outwards removes that
+// medium's topmost entry; a boundary without a medium (thin-walled) changes nothing.
+const STACK_NONE: u32 = 0xFFFFu;
+
+// Returns the new (top, outer).
+fn stack_cross(top: u32, outer: u32, interior: u32, entering: bool) -> vec2<u32> {
+    if (interior == NO_INDEX) {
+        return vec2<u32>(top, outer);
+    }
+    // Unpack, outermost first.
+    var e = array<u32, 3>(NO_INDEX, NO_INDEX, NO_INDEX);
+    var n = 0u;
+    let below2 = outer >> 16u;
+    let below1 = outer & STACK_NONE;
+    if (below2 != STACK_NONE) {
+        e[n] = below2;
+        n += 1u;
+    }
+    if (below1 != STACK_NONE) {
+        e[n] = below1;
+        n += 1u;
+    }
+    if (top != NO_INDEX) {
+        e[n] = top;
+        n += 1u;
+    }
+    if (entering) {
+        if (n < 3u) {
+            e[n] = interior;
+            n += 1u;
+        }
+    } else {
+        // Remove the topmost entry of `interior`, if any.
+        var k = 3u;
+        for (var i = 0u; i < 3u; i++) {
+            if (i < n && e[i] == interior) {
+                k = i;
+            }
+        }
+        if (k < n) {
+            for (var j = 0u; j < 2u; j++) {
+                if (j >= k) {
+                    e[j] = e[j + 1u];
+                }
+            }
+            n -= 1u;
+        }
+    }
+    var new_top = NO_INDEX;
+    var b1 = STACK_NONE;
+    var b2 = STACK_NONE;
+    if (n > 0u) {
+        new_top = e[n - 1u];
+    }
+    if (n > 1u) {
+        b1 = e[n - 2u];
+    }
+    if (n > 2u) {
+        b2 = e[n - 3u];
+    }
+    return vec2<u32>(new_top, b1 | (b2 << 16u));
 }
 
 // The phase function's g where the path is: its homogeneous medium's, else the VDB medium's.

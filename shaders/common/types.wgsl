@@ -92,7 +92,7 @@ struct GpuPathState {
     hit_t: f32,         // its ray parameter, m
     hit_b1: f32,        // barycentric weight of corner 1
     hit_b2: f32,        // barycentric weight of corner 2
-    _pad0: u32,
+    outer: u32,         // the two media below `medium` on the stack, 16 bits each (STACK_NONE: none)
     _pad1: u32,
 }
 
@@ -103,7 +103,7 @@ struct GpuShadowRay {
     wi: vec3<f32>,           // unit direction to the light
     medium: u32,             // homogeneous medium at the origin (NO_INDEX: none)
     contribution: vec3<f32>, // beta L_i f w / pdf, times the transmittance found
-    _pad1: f32,
+    outer: u32,              // the media below `medium` (GpuPathState::outer)
 }
 
 // GpuTriangle: a triangle in the BVH's primitive order, with what shading and shadow rays need.
@@ -267,6 +267,10 @@ struct GpuWavefrontParams {
     area_count: u32,             // entries of the area lights' CDF
     rr_throughput: f32,          // roulette before rr_depth below this throughput
     absorption_weight: u32,      // 1: grey homogeneous media scatter with the albedo as weight
+    camera_outer: u32,           // the media below camera_medium (GpuPathState::outer)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.

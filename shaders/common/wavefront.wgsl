@@ -201,7 +201,7 @@ fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng) {
 // Queues a shadow ray from `o` towards a light `light_dist` away (inf: directional or
 // environment) carrying `contribution`; it stops just short of the light, as on the CPU.
 fn push_shadow_ray(slot: u32, o: vec3<f32>, wi: vec3<f32>, light_dist: f32, medium: u32,
-                   contribution: vec3<f32>) {
+                   outer: u32, contribution: vec3<f32>) {
     var dist = f32_inf();
     if (light_dist <= F32_MAX) {
         dist = light_dist * (1.0 - 1e-4);
@@ -211,6 +211,7 @@ fn push_shadow_ray(slot: u32, o: vec3<f32>, wi: vec3<f32>, light_dist: f32, medi
     sh.dist = dist;
     sh.wi = wi;
     sh.medium = medium;
+    sh.outer = outer;
     sh.contribution = contribution;
     shadows[slot] = sh;
     queue_push(QUEUE_SHADOW, slot);

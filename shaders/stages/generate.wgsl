@@ -45,6 +45,7 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>) {
     ps.collisions = 0u;
     ps.lookups = 0u;
     ps.medium = wf.camera_medium;
+    ps.outer = wf.camera_outer;
     ps.hit_prim = NO_INDEX;
     paths[slot] = ps;
     if (FEATURE_HETEROGENEOUS || FEATURE_HOMOGENEOUS || FEATURE_SURFACES) {

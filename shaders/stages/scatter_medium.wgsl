@@ -40,7 +40,7 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
             if (!ls.is_delta) {
                 w = power_heuristic(ls.pdf, f);
             }
-            push_shadow_ray(slot, p, ls.wi, ls.dist, ps.medium, ps.beta * ls.li * (f * w / ls.pdf));
+            push_shadow_ray(slot, p, ls.wi, ls.dist, ps.medium, ps.outer, ps.beta * ls.li * (f * w / ls.pdf));
         }
     }
     ps.rng_state = rng.state;

@@ -37,7 +37,9 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
     if (tri.kind == SURFACE_NULL) {
         // An index-matched boundary: only the medium changes; no event, no roulette.
         if (FEATURE_HOMOGENEOUS) {
-            ps.medium = enter_or_leave(tri.interior, cos_o > 0.0);
+            let m = stack_cross(ps.medium, ps.outer, tri.interior, cos_o > 0.0);
+            ps.medium = m.x;
+            ps.outer = m.y;
         }
         ps.t0 = ps.hit_t + 1e-4 * (1.0 + ps.hit_t);
         paths[slot] = ps;
@@ -65,7 +67,9 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
                 // Radiance is compressed by eta^2 entering a denser medium.
                 ps.beta *= base_color_at(mat, uv) / (eta * eta);
                 if (FEATURE_HOMOGENEOUS) {
-                    ps.medium = enter_or_leave(tri.interior, entering);
+                    let m = stack_cross(ps.medium, ps.outer, tri.interior, entering);
+                    ps.medium = m.x;
+                    ps.outer = m.y;
                 }
                 wi = wt;
             }
@@ -97,7 +101,7 @@ fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
             if (!ls.is_delta) {
                 w = power_heuristic(ls.pdf, pdf_bsdf);
             }
-            push_shadow_ray(slot, p_off, ls.wi, ls.dist, ps.medium, ps.beta * ls.li * f * (w / ls.pdf));
+            push_shadow_ray(slot, p_off, ls.wi, ls.dist, ps.medium, ps.outer, ps.beta * ls.li * f * (w / ls.pdf));
         }
     }
     ps.rng_state = rng.state;

@@ -21,6 +21,7 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     let sh = shadows[slot];
     var t = vec3<f32>(1.0);
     var medium = sh.medium;
+    var outer = sh.outer;
     var t0 = 0.0;
     for (var crossing = 0u; crossing < MAX_SHADOW_CROSSINGS; crossing++) {
         let h = bvh_closest_hit(sh.o, sh.wi, t0, sh.dist);
@@ -63,7 +64,9 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         }
 // #if FEATURE_HOMOGENEOUS
         let entering = dot(triangle_cross(tri), sh.wi) < 0.0;
-        medium = enter_or_leave(tri.interior, entering);
+        let m = stack_cross(medium, outer, tri.interior, entering);
+        medium = m.x;
+        outer = m.y;
 // #endif
         t0 = h.t + 1e-4 * (1.0 + h.t);
         if (t0 >= sh.dist) {

@@ -149,7 +149,8 @@ pub fn render_resumed(
     observer: &mut dyn FnMut(&PassView),
 ) -> RenderOutput {
     let start = Instant::now();
-    let features = if settings.generic {
+    // Overlapping media run the generic variant (see `tile::specialised`): say so.
+    let features = if settings.generic || rs.features.overlapping {
         FeatureFlags::ALL
     } else {
         rs.features

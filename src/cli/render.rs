@@ -289,6 +289,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         features.name(),
         if settings.generic {
             "generic, forced"
+        } else if features.overlapping {
+            // tile::specialised: the mixture is compiled into the generic variant only.
+            "generic: the mixture of overlapping media runs in the generic variant"
         } else {
             "specialised"
         },

@@ -108,13 +108,13 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         "GpuPathState",
         [
             o, t0, d, prev_pdf, beta, sample_id, l, depth, rng_state, rng_inc, flags, collisions,
-            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, _pad0, _pad1
+            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, outer, _pad1
         ]
     ),
     layout!(
         GpuShadowRay,
         "GpuShadowRay",
-        [o, dist, wi, medium, contribution, _pad1]
+        [o, dist, wi, medium, contribution, outer]
     ),
     layout!(
         GpuTriangle,
@@ -205,7 +205,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             camera_medium,
             area_count,
             rr_throughput,
-            absorption_weight
+            absorption_weight,
+            camera_outer,
+            _pad0,
+            _pad1,
+            _pad2
         ]
     ),
     layout!(

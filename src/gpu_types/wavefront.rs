@@ -52,12 +52,19 @@ pub struct GpuPathState {
     pub hit_b1: f32,
     /// Barycentric weight of its third vertex.
     pub hit_b2: f32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
+    /// The media below `medium` on the path's medium stack (`integrator::stack`), 16 bits
+    /// each: the next one down in the low half, the one below it in the high half,
+    /// [`STACK_NONE`] where there is none (the GPU stack holds three entries).
+    pub outer: u32,
     /// Padding to a 16-byte row.
     pub _pad1: u32,
 }
 const _: () = assert!(size_of::<GpuPathState>() == 112);
+
+/// An empty 16-bit half of [`GpuPathState::outer`] and [`GpuShadowRay::outer`].
+pub const STACK_NONE: u32 = 0xFFFF;
+/// Media a GPU path can be inside at once: `medium` and the two halves of `outer`.
+pub const GPU_MAX_NESTED_MEDIA: usize = 3;
 
 /// [`GpuPathState::flags`] bit: the last direction was chosen by a delta distribution (the
 /// camera, a smooth dielectric), so no MIS applies when it meets an emitter.
@@ -84,8 +91,8 @@ pub struct GpuShadowRay {
     /// `beta * L_i * f * w_mis / pdf` per RGB channel: added to the path's radiance times the
     /// transmittance the ray finds.
     pub contribution: [f32; 3],
-    /// Padding to a 16-byte row.
-    pub _pad1: f32,
+    /// The media below `medium` on the path's stack ([`GpuPathState::outer`]).
+    pub outer: u32,
 }
 const _: () = assert!(size_of::<GpuShadowRay>() == 48);
 
@@ -303,8 +310,16 @@ pub struct GpuWavefrontParams {
     /// 1 when absorption is a weight (`Absorption::Weight`): grey homogeneous media scatter
     /// at every real collision with the RGB albedo as weight.
     pub absorption_weight: u32,
+    /// The media below `camera_medium` around the camera ([`GpuPathState::outer`]).
+    pub camera_outer: u32,
+    /// Padding to a 16-byte row.
+    pub _pad0: u32,
+    /// Padding to a 16-byte row.
+    pub _pad1: u32,
+    /// Padding to a 16-byte row.
+    pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuWavefrontParams>() == 288);
+const _: () = assert!(size_of::<GpuWavefrontParams>() == 304);
 
 /// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
 /// wavefront render. The grids' headers point into the density grid's buffers

@@ -191,7 +191,7 @@ pub struct MediaStats {
 
 /// The majorant segments of `ray` (world) over `[t0, t1]` in `m`'s index space.
 #[inline]
-fn segments<'a>(
+pub(super) fn segments<'a>(
     m: &'a VdbMedium,
     ray_i: &Ray,
     t0: f32,
@@ -230,6 +230,9 @@ fn segments<'a>(
 pub enum Segments<'a> {
     Dda(DdaMajorantIterator<'a>),
     Adaptive(AdaptiveMajorantIterator<'a>),
+    /// One segment of constant bounds: a homogeneous medium added to VDB media
+    /// (`integrator::mixture`).
+    Constant(Option<crate::volume::MajorantSegment>),
 }
 
 impl Iterator for Segments<'_> {
@@ -240,30 +243,31 @@ impl Iterator for Segments<'_> {
         match self {
             Segments::Dda(it) => it.next(),
             Segments::Adaptive(it) => it.next(),
+            Segments::Constant(seg) => seg.take(),
         }
     }
 }
 
 /// The grey view of a VDB medium along one ray (`sigma_t` equal in all channels; the RGB
 /// albedo is applied as a weight at scattering events).
-struct GreyView<'a, const EMIT: bool, const ABS: bool> {
-    m: &'a VdbMedium,
-    ray_i: Ray,
-    ray_w: Ray,
+pub(super) struct GreyView<'a, const EMIT: bool, const ABS: bool> {
+    pub(super) m: &'a VdbMedium,
+    pub(super) ray_i: Ray,
+    pub(super) ray_w: Ray,
     /// Grey coefficients per unit density: `sigma_s` is the channel mean (absorption as an
     /// event) or `sigma_t` (absorption as a weight: no absorption events).
-    sigma_a: f32,
-    sigma_s: f32,
-    control: ControlExtinction,
-    control_albedo: f32,
+    pub(super) sigma_a: f32,
+    pub(super) sigma_s: f32,
+    pub(super) control: ControlExtinction,
+    pub(super) control_albedo: f32,
     /// Path throughput when the flight started (emission is weighted by it).
-    beta: Vec3,
-    emitted: Cell<Vec3>,
-    emission_lookups: Cell<u64>,
+    pub(super) beta: Vec3,
+    pub(super) emitted: Cell<Vec3>,
+    pub(super) emission_lookups: Cell<u64>,
 }
 
 impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
-    fn new(m: &'a VdbMedium, ray_w: &Ray, cfg: &TrackingConfig, beta: Vec3) -> Self {
+    pub(super) fn new(m: &'a VdbMedium, ray_w: &Ray, cfg: &TrackingConfig, beta: Vec3) -> Self {
         let ray_i = Ray::new(
             m.density.index_from_world.transform_point3(ray_w.o),
             m.density.index_from_world.transform_vector3(ray_w.d),
@@ -299,7 +303,7 @@ impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
     }
 
     /// RGB factor of a scattering event chosen with the grey `sigma_s`.
-    fn scatter_albedo(&self) -> Vec3 {
+    pub(super) fn scatter_albedo(&self) -> Vec3 {
         if self.sigma_s > 0.0 {
             self.m.sigma_s / self.sigma_s
         } else {
@@ -336,25 +340,25 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
 }
 
 /// The RGB view of a VDB medium along one ray, for spectral tracking.
-struct RgbView<'a, const EMIT: bool> {
-    m: &'a VdbMedium,
-    ray_i: Ray,
-    ray_w: Ray,
+pub(super) struct RgbView<'a, const EMIT: bool> {
+    pub(super) m: &'a VdbMedium,
+    pub(super) ray_i: Ray,
+    pub(super) ray_w: Ray,
     /// Coefficients per unit density as the tracker sees them: the medium's own, or with
     /// absorption as a weight `(0, sigma_t)` (every real collision scatters; the RGB albedo is
     /// applied afterwards by [`RgbView::scatter_albedo`]).
-    sigma_a: Vec3,
-    sigma_s: Vec3,
+    pub(super) sigma_a: Vec3,
+    pub(super) sigma_s: Vec3,
     /// RGB factor of a scattering event: the albedo `sigma_s / sigma_t` per channel when
     /// absorption is a weight (a clear channel scatters nothing), 1 when it is an event.
-    scatter_albedo: Vec3,
-    beta: Vec3,
-    emitted: Cell<Vec3>,
-    emission_lookups: Cell<u64>,
+    pub(super) scatter_albedo: Vec3,
+    pub(super) beta: Vec3,
+    pub(super) emitted: Cell<Vec3>,
+    pub(super) emission_lookups: Cell<u64>,
 }
 
 impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
-    fn new(m: &'a VdbMedium, ray_w: &Ray, absorption: Absorption, beta: Vec3) -> Self {
+    pub(super) fn new(m: &'a VdbMedium, ray_w: &Ray, absorption: Absorption, beta: Vec3) -> Self {
         let (sigma_a, sigma_s, scatter_albedo) = match absorption {
             Absorption::Event => (m.sigma_a, m.sigma_s, Vec3::ONE),
             Absorption::Weight => {
@@ -418,7 +422,7 @@ pub enum MediumEvent {
     Escape { weight: Vec3 },
 }
 
-fn from_grey(e: Event<f32>, albedo: Vec3) -> MediumEvent {
+pub(super) fn from_grey(e: Event<f32>, albedo: Vec3) -> MediumEvent {
     match e {
         Event::Scatter { t, weight } => MediumEvent::Scatter {
             t,
@@ -648,6 +652,6 @@ pub fn transmittance_homogeneous(h: &HomogeneousMedium, d: f32) -> Vec3 {
 /// `exp(-sigma_t d)` per channel, with a clear channel (`sigma_t = 0`) transmitting 1 even over
 /// an infinite distance, where `0 * inf` would be NaN (an open mesh, a ray that never leaves).
 #[inline]
-fn exp_neg(sigma_t: Vec3, d: f32) -> Vec3 {
+pub(super) fn exp_neg(sigma_t: Vec3, d: f32) -> Vec3 {
     Vec3::select(sigma_t.cmpeq(Vec3::ZERO), Vec3::ONE, (-sigma_t * d).exp())
 }

@@ -5,9 +5,11 @@ pub mod bsdf;
 pub mod envmap;
 pub mod lights;
 pub mod media;
+pub mod mixture;
 pub mod path;
 pub mod prepare;
 pub mod settings;
+pub mod stack;
 pub mod tile;
 
 pub use prepare::{FeatureFlags, RenderScene};

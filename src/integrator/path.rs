@@ -10,7 +10,9 @@ use super::media::{
     sample_homogeneous, sample_vdb, transmittance_homogeneous, transmittance_vdb, MediaStats,
     MediumEvent, TrackingConfig,
 };
+use super::mixture::sample_mixture;
 use super::prepare::{RenderScene, SurfaceKind};
+use super::stack::MediumStack;
 use crate::math::Ray;
 use crate::sampling::sobol::{
     bounce_dim, DIM_DISTANCE, DIM_LIGHT, DIM_LIGHT_SELECT, DIM_LOBE, DIM_RR, DIM_SCATTER,
@@ -53,29 +55,65 @@ fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
     }
 }
 
-/// Sorted, disjoint intervals of the VDB media along `ray` within `[t0, t1]`.
-fn vdb_intervals(
-    rs: &RenderScene,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-    out: &mut [(usize, f32, f32); 16],
-) -> usize {
-    let mut n = 0;
-    for (k, m) in rs.vdb.iter().enumerate().take(16) {
-        if let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) {
-            if b > a {
-                out[n] = (k, a, b);
-                n += 1;
-            }
+/// The VDB media along a ray: `(medium, t_min, t_max)` sorted by `t_min`; up to 16 inline
+/// (no allocation on the hot path), any number on the heap. (The size difference is the
+/// point: the inline variant lives on the stack of one flight.)
+#[allow(clippy::large_enum_variant)]
+enum Spans {
+    Inline([(usize, f32, f32); 16], usize),
+    Heap(Vec<(usize, f32, f32)>),
+}
+
+impl std::ops::Deref for Spans {
+    type Target = [(usize, f32, f32)];
+    fn deref(&self) -> &Self::Target {
+        match self {
+            Spans::Inline(a, n) => &a[..*n],
+            Spans::Heap(v) => v,
         }
     }
-    out[..n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1));
-    n
+}
+
+/// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, sorted by
+/// start (disjoint unless media overlap).
+fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
+    let mut out = Spans::Inline([(0usize, 0f32, 0f32); 16], 0);
+    for (k, m) in rs.vdb.iter().enumerate() {
+        let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) else {
+            continue;
+        };
+        // NaN ends are skipped too.
+        if b.partial_cmp(&a) != Some(std::cmp::Ordering::Greater) {
+            continue;
+        }
+        match &mut out {
+            Spans::Inline(arr, n) if *n < arr.len() => {
+                arr[*n] = (k, a, b);
+                *n += 1;
+            }
+            Spans::Inline(arr, n) => {
+                let mut v = arr[..*n].to_vec();
+                v.push((k, a, b));
+                out = Spans::Heap(v);
+            }
+            Spans::Heap(v) => v.push((k, a, b)),
+        }
+    }
+    match &mut out {
+        Spans::Inline(arr, n) => arr[..*n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
+        Spans::Heap(v) => v.sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
+    }
+    out
+}
+
+/// Whether sorted intervals overlap one another.
+fn intervals_overlap(iv: &[(usize, f32, f32)]) -> bool {
+    iv.windows(2).any(|w| w[1].1 < w[0].2)
 }
 
 /// The free flight along `ray` over `[t0, t1]` through whatever media lie there: the
-/// homogeneous medium the path is in, or the VDB media the ray crosses.
+/// homogeneous medium the path is in, the VDB media the ray crosses, or, with `MIX` (a scene
+/// with overlapping or nested media), their sum where they overlap (`mixture`).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn sample_media<
@@ -84,6 +122,7 @@ fn sample_media<
     const EMIT: bool,
     const ABS: bool,
     const CHROM: bool,
+    const MIX: bool,
 >(
     rs: &RenderScene,
     cfg: &TrackingConfig,
@@ -96,6 +135,17 @@ fn sample_media<
     stats: &mut MediaStats,
     l: &mut Vec3,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    if MIX && HET {
+        let iv = vdb_intervals(rs, ray, t0, t1);
+        let n = iv.len();
+        let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
+        if (hom.is_some() && n > 0) || intervals_overlap(&iv) {
+            let spans: Vec<_> = iv.iter().map(|&(k, a, b)| (&rs.vdb[k], a, b)).collect();
+            return sample_mixture::<EMIT, ABS, CHROM>(
+                &spans, hom, ray, t0, t1, beta, cfg, rng, stats, l,
+            );
+        }
+    }
     if HOM {
         if let Some(h) = medium {
             let h = &rs.homogeneous[h as usize];
@@ -108,9 +158,7 @@ fn sample_media<
     }
     let mut weight = Vec3::ONE;
     if HET {
-        let mut iv = [(0usize, 0f32, 0f32); 16];
-        let n = vdb_intervals(rs, ray, t0, t1, &mut iv);
-        for &(k, a, b) in &iv[..n] {
+        for &(k, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
             let m = &rs.vdb[k];
             match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, cfg, rng, stats, l) {
                 MediumEvent::Escape { weight: w } => weight *= w,
@@ -131,15 +179,23 @@ fn sample_media<
 }
 
 /// Transmittance from `p` along unit `wi` over distance `dist`, through media and null
-/// interfaces; 0 when an opaque or refracting surface blocks.
+/// interfaces; 0 when an opaque or refracting surface blocks. Overlapping media multiply
+/// their transmittances (extinction adds), so each is estimated on its own (`MIX`: VDB media
+/// inside a homogeneous one too).
 #[allow(clippy::too_many_arguments)]
-fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: bool>(
+fn transmittance<
+    const SURF: bool,
+    const HET: bool,
+    const HOM: bool,
+    const CHROM: bool,
+    const MIX: bool,
+>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     p: Vec3,
     wi: Vec3,
     dist: f32,
-    mut medium: Option<u32>,
+    mut media: MediumStack,
     rng: &mut Rng,
     stats: &mut MediaStats,
 ) -> Vec3 {
@@ -153,15 +209,14 @@ fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM
             None
         };
         let t1 = hit.map_or(dist, |h| h.t);
+        let medium = media.top();
         if HOM {
             if let Some(h) = medium {
                 tr *= transmittance_homogeneous(&rs.homogeneous[h as usize], t1 - t0);
             }
         }
-        if HET && medium.is_none() {
-            let mut iv = [(0usize, 0f32, 0f32); 16];
-            let n = vdb_intervals(rs, &ray, t0, t1, &mut iv);
-            for &(k, a, b) in &iv[..n] {
+        if HET && (MIX || medium.is_none()) {
+            for &(k, a, b) in vdb_intervals(rs, &ray, t0, t1).iter() {
                 tr *= transmittance_vdb::<CHROM>(&rs.vdb[k], &ray, a, b, cfg, rng, stats);
                 if tr == Vec3::ZERO {
                     return tr;
@@ -177,7 +232,7 @@ fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM
         if HOM {
             let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
             let entering = (b - a).cross(c - a).dot(wi) < 0.0;
-            medium = enter_or_leave(rs.scene.materials[mat_index].interior_medium, entering);
+            media.cross(rs.scene.materials[mat_index].interior_medium, entering);
         }
         t0 = h.t + 1e-4 * (1.0 + h.t);
         if t0 >= dist {
@@ -191,11 +246,17 @@ fn transmittance<const SURF: bool, const HET: bool, const HOM: bool, const CHROM
 /// factor (phase value, or BSDF times cosine) and its sampling pdf. `bounce` picks the
 /// sampler's light-selection and light-sample blocks.
 #[allow(clippy::too_many_arguments)]
-fn next_event<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: bool>(
+fn next_event<
+    const SURF: bool,
+    const HET: bool,
+    const HOM: bool,
+    const CHROM: bool,
+    const MIX: bool,
+>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     p: Vec3,
-    medium: Option<u32>,
+    media: MediumStack,
     sampler: &mut Sampler,
     bounce: u32,
     stats: &mut MediaStats,
@@ -217,13 +278,13 @@ fn next_event<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: b
     } else {
         f32::INFINITY
     };
-    let tr = transmittance::<SURF, HET, HOM, CHROM>(
+    let tr = transmittance::<SURF, HET, HOM, CHROM, MIX>(
         rs,
         cfg,
         p,
         ls.wi,
         dist,
-        medium,
+        media,
         &mut sampler.rng,
         stats,
     );
@@ -235,10 +296,6 @@ fn next_event<const SURF: bool, const HET: bool, const HOM: bool, const CHROM: b
     tr * ls.li * f * (w / ls.pdf)
 }
 
-fn enter_or_leave(interior: u32, entering: bool) -> Option<u32> {
-    (entering && interior != crate::scene::NO_INDEX).then_some(interior)
-}
-
 /// Radiance along the camera ray through film point `film` (in [0,1]^2).
 #[allow(clippy::too_many_arguments)]
 pub fn radiance<
@@ -248,6 +305,7 @@ pub fn radiance<
     const EMIT: bool,
     const ABS: bool,
     const CHROM: bool,
+    const MIX: bool,
 >(
     rs: &RenderScene,
     cfg: &TrackingConfig,
@@ -260,7 +318,11 @@ pub fn radiance<
     let scene = rs.scene;
     let mut ray = scene.camera.generate_ray(film.x, film.y, aspect);
     let mut t0 = scene.camera.t_min(film.x, film.y, aspect);
-    let mut medium = if HOM { rs.camera_medium } else { None };
+    let mut media = if HOM {
+        rs.camera_media
+    } else {
+        MediumStack::EMPTY
+    };
     let mut beta = Vec3::ONE;
     let mut l = Vec3::ZERO;
     let mut depth = 0u32;
@@ -287,13 +349,13 @@ pub fn radiance<
                 sampler.queue_on_stream(bounce_dim(depth, DIM_DISTANCE));
                 flight_started = true;
             }
-            let (ev, phase) = sample_media::<HET, HOM, EMIT, ABS, CHROM>(
+            let (ev, phase) = sample_media::<HET, HOM, EMIT, ABS, CHROM, MIX>(
                 rs,
                 cfg,
                 &ray,
                 t0,
                 t_hit,
-                medium,
+                media.top(),
                 beta,
                 &mut sampler.rng,
                 &mut stats.media,
@@ -323,11 +385,11 @@ pub fn radiance<
                     let wo = -ray.d;
                     // Next-event estimation with the phase function.
                     l += beta
-                        * next_event::<SURF, HET, HOM, CHROM>(
+                        * next_event::<SURF, HET, HOM, CHROM, MIX>(
                             rs,
                             cfg,
                             p,
-                            medium,
+                            media,
                             sampler,
                             depth - 1,
                             &mut stats.media,
@@ -385,7 +447,7 @@ pub fn radiance<
         match rs.kinds[mat_index] {
             SurfaceKind::Null => {
                 if HOM {
-                    medium = enter_or_leave(mat.interior_medium, cos_o > 0.0);
+                    media.cross(mat.interior_medium, cos_o > 0.0);
                 }
                 t0 = h.t + 1e-4 * (1.0 + h.t);
                 continue;
@@ -408,7 +470,7 @@ pub fn radiance<
                             // Radiance is compressed by eta^2 entering a denser medium.
                             beta *= scene.base_color_at(mat, uv) / (eta * eta);
                             if HOM {
-                                medium = enter_or_leave(mat.interior_medium, entering);
+                                media.cross(mat.interior_medium, entering);
                             }
                             wt
                         }
@@ -433,11 +495,11 @@ pub fn radiance<
                 let wo_l = frame.to_local(wo);
                 let p_off = offset(p, n_side, n_side);
                 l += beta
-                    * next_event::<SURF, HET, HOM, CHROM>(
+                    * next_event::<SURF, HET, HOM, CHROM, MIX>(
                         rs,
                         cfg,
                         p_off,
-                        medium,
+                        media,
                         sampler,
                         depth - 1,
                         &mut stats.media,

@@ -5,7 +5,9 @@ use glam::{Affine3A, Mat4, Vec3};
 
 use super::lights::Lights;
 use super::media::{Blackbody, Emission, GridField, HomogeneousMedium, VdbMedium};
-use crate::scene::{Material, Scene, NO_INDEX};
+use super::stack::{MediumStack, MAX_NESTED_MEDIA};
+use crate::scene::nesting::Nesting;
+use crate::scene::{Material, Scene};
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::{AdaptiveMajorants, CostModel};
 use std::sync::Arc;
@@ -51,6 +53,13 @@ pub struct FeatureFlags {
     /// sampling and bindings without it; the CPU path matches on the light (one branch per
     /// escape and environment sample, no variant).
     pub env_map: bool,
+    /// Media that add along some ray: overlapping VDB media, or a VDB medium inside a
+    /// homogeneous one (`integrator::mixture`). Not part of [`FeatureFlags::as_array`]: the
+    /// CPU compiles the mixture into the generic variant only (`tile::specialised`).
+    pub overlapping: bool,
+    /// Closed media meshes nested in one another or around a VDB medium (the medium stack
+    /// holds more than one entry).
+    pub nested: bool,
 }
 
 impl FeatureFlags {
@@ -63,6 +72,8 @@ impl FeatureFlags {
         chromatic: true,
         textures: true,
         env_map: true,
+        overlapping: true,
+        nested: true,
     };
 
     /// The flags the CPU's tile renderer is specialised on (`textures` is not one).
@@ -86,10 +97,13 @@ impl FeatureFlags {
             "emission",
             "absorption",
             "chromatic",
+            "overlapping",
+            "nested",
         ];
         let mut on: Vec<_> = self
             .as_array()
             .iter()
+            .chain(&[self.overlapping, self.nested])
             .zip(names)
             .filter(|(b, _)| **b)
             .map(|(_, n)| n)
@@ -116,8 +130,12 @@ pub struct RenderScene<'s> {
     pub lights: Lights,
     /// Per material.
     pub kinds: Vec<SurfaceKind>,
-    /// The homogeneous medium around the camera, if any.
+    /// The homogeneous medium around the camera, if any (the top of `camera_media`).
     pub camera_medium: Option<u32>,
+    /// The media around the camera, outermost first: every camera path's medium stack.
+    pub camera_media: MediumStack,
+    /// The deepest nesting of media meshes (1: media meshes, none inside another; 0: none).
+    pub nesting_depth: usize,
     pub features: FeatureFlags,
 }
 
@@ -136,13 +154,9 @@ pub fn index_per_t(f: &GridField) -> f32 {
     (m.x_axis.length() + m.y_axis.length() + m.z_axis.length()) / 3.0
 }
 
-fn overlaps(a: &crate::math::Aabb, b: &crate::math::Aabb) -> bool {
-    !a.is_empty() && !b.is_empty() && a.min.cmplt(b.max).all() && b.min.cmplt(a.max).all()
-}
-
 impl<'s> RenderScene<'s> {
     /// Prepares `scene`. Fails (with the file named) on configurations the integrators do not
-    /// handle: overlapping VDB media, or a VDB medium overlapping a homogeneous medium's mesh.
+    /// handle: closed media meshes nested deeper than [`MAX_NESTED_MEDIA`].
     pub fn new(scene: &'s Scene, force_spectral: bool) -> Result<Self, String> {
         let file = scene.source.display();
         let mut vdb = Vec::new();
@@ -195,13 +209,6 @@ impl<'s> RenderScene<'s> {
                 emission,
             });
         }
-        for (i, a) in vdb.iter().enumerate() {
-            for b in &vdb[i + 1..] {
-                if overlaps(&a.world_bounds, &b.world_bounds) {
-                    return Err(format!("{file}: two BRUME_medium_vdb media overlap; Brume does not add overlapping media yet"));
-                }
-            }
-        }
         let homogeneous: Vec<HomogeneousMedium> = scene
             .homogeneous_media
             .iter()
@@ -212,34 +219,23 @@ impl<'s> RenderScene<'s> {
             })
             .collect();
         let kinds: Vec<SurfaceKind> = scene.materials.iter().map(surface_kind).collect();
-        let mut camera_medium = None;
-        let cam = scene.camera.position();
-        let mut used_homogeneous = false;
-        for (k, inst) in scene.instances.iter().enumerate() {
-            let mat = &scene.materials[inst.material as usize];
-            if mat.interior_medium == NO_INDEX
-                || homogeneous[mat.interior_medium as usize]
-                    .sigma_t()
-                    .max_element()
-                    <= 0.0
-            {
-                continue;
-            }
-            used_homogeneous = true;
-            let tris =
-                inst.first_triangle as usize..(inst.first_triangle + inst.triangle_count) as usize;
-            let bounds = tris
-                .flat_map(|t| scene.triangle_corners(t))
-                .fold(crate::math::Aabb::EMPTY, |b, p| b.union_point(p));
-            if vdb.iter().any(|v| overlaps(&v.world_bounds, &bounds)) {
-                return Err(format!(
-                    "{file}: a BRUME_medium_vdb medium overlaps the KHR_materials_volume mesh of instance {k}; nested media are not supported yet"
-                ));
-            }
-            if scene.inside_instance(cam, k) {
-                camera_medium = Some(mat.interior_medium);
-            }
+        let nesting = Nesting::of(scene);
+        if let Some(m) = nesting.deepest().filter(|m| m.depth > MAX_NESTED_MEDIA) {
+            let inst = &scene.instances[m.instance];
+            return Err(format!(
+                "{file}: /nodes/{}: the KHR_materials_volume mesh {} (primitive {}) lies inside \
+                 {} other media meshes, {} nested media in all; Brume's medium stack holds at \
+                 most {MAX_NESTED_MEDIA}",
+                inst.node,
+                inst.mesh,
+                inst.primitive,
+                m.depth - 1,
+                m.depth
+            ));
         }
+        let used_homogeneous = !nesting.meshes.is_empty();
+        let camera_media = MediumStack::from_outermost(&nesting.camera);
+        let camera_medium = camera_media.top();
         let absorption = vdb.iter().any(|v| v.sigma_a.max_element() > 0.0)
             || (used_homogeneous && homogeneous.iter().any(|h| h.sigma_a.max_element() > 0.0));
         let chromatic = force_spectral
@@ -256,6 +252,8 @@ impl<'s> RenderScene<'s> {
             emission: vdb.iter().any(|v| v.emission.is_some()),
             absorption,
             chromatic,
+            overlapping: nesting.overlapping || (nesting.nested && !vdb.is_empty()),
+            nested: nesting.nested,
             textures: crate::scene::Effects::of(scene).textures,
             env_map: false,
         };
@@ -271,6 +269,8 @@ impl<'s> RenderScene<'s> {
             lights,
             kinds,
             camera_medium,
+            camera_media,
+            nesting_depth: nesting.deepest().map_or(0, |m| m.depth),
             features,
         })
     }

@@ -42,6 +42,7 @@ pub fn render_tile<
     const EMIT: bool,
     const ABS: bool,
     const CHROM: bool,
+    const MIX: bool,
 >(
     ctx: &TileContext,
     rect: &TileRect,
@@ -66,7 +67,7 @@ pub fn render_tile<
                     (x as f32 + jitter.x) / ctx.width as f32,
                     (y as f32 + jitter.y) / ctx.height as f32,
                 );
-                let l = radiance::<SURF, HET, HOM, EMIT, ABS, CHROM>(
+                let l = radiance::<SURF, HET, HOM, EMIT, ABS, CHROM, MIX>(
                     ctx.rs,
                     &ctx.cfg,
                     &ctx.limits,
@@ -118,13 +119,20 @@ fn pick5<const A: bool, const B: bool, const C: bool, const D: bool, const E: bo
     f: &[bool; 6],
 ) -> TileFn {
     if f[5] {
-        render_tile::<A, B, C, D, E, true>
+        render_tile::<A, B, C, D, E, true, false>
     } else {
-        render_tile::<A, B, C, D, E, false>
+        render_tile::<A, B, C, D, E, false, false>
     }
 }
 
-/// The tile renderer compiled for exactly `features` (the generic one when all are on).
+/// The tile renderer compiled for exactly `features` (the generic one when all are on). The
+/// mixture of overlapping media (`MIX`) is compiled into the generic variant only: a scene
+/// with `features.overlapping` runs the generic code (`backend::cpu` then reports every
+/// feature on), every other scene a variant without the mixture, so the 64 specialised
+/// variants do not double.
 pub fn specialised(features: FeatureFlags) -> TileFn {
+    if features.overlapping {
+        return render_tile::<true, true, true, true, true, true, true>;
+    }
     pick0(&features.as_array())
 }

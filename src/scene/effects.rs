@@ -41,6 +41,10 @@ pub struct Effects {
     pub environment_map: bool,
     /// A base-colour or emissive texture on a material some triangle uses.
     pub textures: bool,
+    /// Two VDB media whose world bounds overlap (their coefficients add).
+    pub overlapping_media: bool,
+    /// A VDB medium inside (or across) a `KHR_materials_volume` mesh, or such meshes nested.
+    pub nested_media: bool,
 }
 
 impl Effects {
@@ -114,6 +118,9 @@ impl Effects {
             .filter(|l| l.kind != LIGHT_DIRECTIONAL)
             .any(|l| scene.inside_medium(Vec3::from(l.position)));
         e.camera_inside_medium = scene.inside_medium(scene.camera.position());
+        let nesting = super::nesting::Nesting::of(scene);
+        e.overlapping_media = nesting.overlapping;
+        e.nested_media = nesting.nested;
         e
     }
 
@@ -136,6 +143,8 @@ impl Effects {
             (self.environment_light, "environment light"),
             (self.environment_map, "environment map"),
             (self.textures, "textures"),
+            (self.overlapping_media, "overlapping media"),
+            (self.nested_media, "nested media"),
         ];
         all.iter().filter(|(on, _)| *on).map(|(_, n)| *n).collect()
     }

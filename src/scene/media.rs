@@ -15,7 +15,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use brume_ffi::VdbFile;
 use glam::DMat4;
 
 use glam::{Mat4, Vec3};
@@ -25,7 +24,7 @@ use super::json::Obj;
 use super::nodes::PlacedNode;
 use super::BRUME_MEDIUM_VDB;
 use crate::math::Aabb;
-use crate::volume::{self, ConversionPolicy};
+use crate::volume::{self, GridLoadError};
 
 /// One grid of a medium, read and converted to Brume's layout (shared: several media may use
 /// the same file).
@@ -61,23 +60,11 @@ impl PartialEq for LoadedGrid {
     }
 }
 
-/// Why a grid could not be loaded: the file, or the grid inside it.
-#[derive(Clone, Debug, PartialEq)]
-pub enum GridLoadError {
-    File(String),
-    Grid(String),
-}
-
-/// The one place grids are read: through the OpenVDB shim and [`volume::load_grid_from`],
-/// which applies Brume's load policy (float grids only, level sets converted to fog, NaN/Inf
-/// refused, negatives clamped). Returns the grid and the policy's warnings.
+/// The one place a scene reads grids: through [`volume::load_scene_grid`], which owns
+/// OpenVDB and applies Brume's load policy (float grids only, level sets converted to fog,
+/// NaN/Inf refused, negatives clamped). Returns the grid and the policy's warnings.
 pub fn load_grid(path: &Path, grid: &str) -> Result<(LoadedGrid, Vec<String>), GridLoadError> {
-    let file = VdbFile::open(path).map_err(|e| GridLoadError::File(e.message))?;
-    let loaded =
-        volume::load_grid_from(&file, grid, ConversionPolicy::default()).map_err(|e| match e {
-            volume::LoadError::Vdb(e) => GridLoadError::Grid(e.message),
-            volume::LoadError::Volume { source, .. } => GridLoadError::Grid(source.to_string()),
-        })?;
+    let loaded = volume::load_scene_grid(path, grid)?;
     let m = loaded.grid.world_from_index;
     let vdb_world_from_index = DMat4::from(m).as_mat4();
     let b = loaded.grid.index_bounds();

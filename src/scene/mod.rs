@@ -29,6 +29,7 @@ pub mod lights;
 pub mod material;
 pub mod media;
 pub mod mesh;
+pub mod nesting;
 mod nodes;
 pub mod render_settings;
 mod summary;

@@ -94,3 +94,23 @@ pub fn load_grid_from(
         warnings,
     })
 }
+
+/// Why a scene's grid could not be loaded: the file itself (missing, truncated, not a VDB),
+/// or the named grid inside it (absent, not `float`, NaN/Inf values, ...). The scene loader
+/// blames a different glTF field for each (`uri` or the grid's name field).
+#[derive(Clone, Debug, PartialEq)]
+pub enum GridLoadError {
+    File(String),
+    Grid(String),
+}
+
+/// Opens `path` and converts grid `grid_name` under the default load policy, classifying a
+/// failure as the file's or the grid's. This is how the scene loader reads grids: OpenVDB's
+/// types stay in this module.
+pub fn load_scene_grid(path: &Path, grid_name: &str) -> Result<LoadedGrid, GridLoadError> {
+    let file = VdbFile::open(path).map_err(|e| GridLoadError::File(e.message))?;
+    load_grid_from(&file, grid_name, ConversionPolicy::default()).map_err(|e| match e {
+        LoadError::Vdb(e) => GridLoadError::Grid(e.message),
+        LoadError::Volume { source, .. } => GridLoadError::Grid(source.to_string()),
+    })
+}

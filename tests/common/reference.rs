@@ -1,4 +1,4 @@
-//! The cloud rendered by Brume and by a reference renderer (`brume cycles`, `brume mitsuba`),
+//! An example scene (the cloud, the two-grid fire) rendered by Brume and by a reference renderer (`brume cycles`, `brume mitsuba`),
 //! compared by the command's own `--against` agreement: the image means within 1 % and at
 //! most 1 % of the 8x8 blocks failing the block z-test. Shared by the reference tests.
 use std::path::Path;
@@ -11,22 +11,19 @@ pub fn cloud_agrees_with(
     python_env: (&str, &Path),
     dir: &Path,
 ) -> String {
-    scene_agrees_with(peer, "scenes/cloud.gltf", peer_spp, python_env, dir)
+    scene_agrees_with("cloud.gltf", peer, peer_spp, python_env, dir)
 }
 
-/// Renders `scene` (relative to the repository) at 32x24 with Brume (256 spp, seed 7) into
-/// `dir`, then with `brume <peer> ... --spp <peer_spp> --runs 4 --seed 1 --against brume.exr`
-/// (the peer's Python given by `python_env`), asserts the agreement and returns the peer's
-/// summary line.
+/// As [`cloud_agrees_with`], for the example scene `name` (in `scenes/`).
 pub fn scene_agrees_with(
+    name: &str,
     peer: &str,
-    scene: &str,
     peer_spp: &str,
     python_env: (&str, &Path),
     dir: &Path,
 ) -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = root.join(scene);
+    let scene = root.join("scenes").join(name);
     let (brume_exr, peer_exr) = (dir.join("brume.exr"), dir.join(format!("{peer}.exr")));
     let size = ["--width", "32", "--height", "24"];
     let exe = env!("CARGO_BIN_EXE_brume");

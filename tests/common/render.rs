@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 12] = [
+pub const EXAMPLE_SCENES: [&str; 14] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -27,6 +27,8 @@ pub const EXAMPLE_SCENES: [&str; 12] = [
     "dense_fog.gltf",
     "textured_backdrop.gltf",
     "cloud_sky.gltf",
+    "fire2.gltf",
+    "smoke_tank.gltf",
 ];
 
 pub fn load_scene(name: &str) -> Scene {

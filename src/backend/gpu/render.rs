@@ -29,9 +29,11 @@
 //!
 //! What runs: everything the CPU integrator does for one VDB medium (every estimator, both
 //! majorant modes, spectral tracking of chromatic media, volume emission), homogeneous media
-//! in closed meshes (grey and chromatic), opaque, dielectric and null-interface surfaces over
-//! obvhs' CWBVH, punctual, environment and area lights with NEE and MIS, Russian roulette and
-//! the collision guard. [`supports`] refuses more than one VDB medium with a one-line reason.
+//! in closed meshes (grey and chromatic, nested up to three deep on a per-path medium stack),
+//! opaque, dielectric and null-interface surfaces over obvhs' CWBVH, punctual, environment and
+//! area lights with NEE and MIS, Russian roulette and the collision guard. [`supports`]
+//! refuses, with a one-line reason, more than one VDB medium, overlapping media (the CPU's
+//! `integrator::mixture` is not mirrored) and media meshes nested deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!
@@ -51,7 +53,7 @@ use super::shader;
 use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
-use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter};
+use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter, GPU_MAX_NESTED_MEDIA, STACK_NONE};
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
 
@@ -121,6 +123,25 @@ pub enum GpuRenderError {
 
 /// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.
 pub fn supports(rs: &RenderScene) -> Result<(), String> {
+    if rs.features.overlapping {
+        return Err(
+            "overlapping media (VDB media that overlap, or a VDB medium inside a \
+             KHR_materials_volume mesh); the GPU integrator tracks one medium at a time"
+                .into(),
+        );
+    }
+    if rs.nesting_depth > GPU_MAX_NESTED_MEDIA {
+        return Err(format!(
+            "KHR_materials_volume meshes nested {} deep; the GPU medium stack holds {GPU_MAX_NESTED_MEDIA}",
+            rs.nesting_depth
+        ));
+    }
+    if rs.features.nested && rs.homogeneous.len() >= STACK_NONE as usize {
+        return Err(format!(
+            "{} homogeneous media with nested meshes; the GPU medium stack indexes fewer than {STACK_NONE}",
+            rs.homogeneous.len()
+        ));
+    }
     if rs.vdb.len() > 1 {
         return Err(format!(
             "{} VDB media; the GPU integrator binds one grid",

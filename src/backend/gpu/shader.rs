@@ -68,7 +68,7 @@ pub mod files {
     pub const SURFACES: ShaderFile = shader_file!("common/surfaces.wgsl");
     /// `TextureRef::sample`, `Scene::uv_at`, `base_color_at`, `emission_at`.
     pub const TEXTURES: ShaderFile = shader_file!("common/textures.wgsl");
-    /// `sample_homogeneous`, `transmittance_homogeneous`, `enter_or_leave`.
+    /// `sample_homogeneous`, `transmittance_homogeneous`, `stack_cross`.
     pub const MEDIA: ShaderFile = shader_file!("common/media.wgsl");
     /// `EnvironmentMap`: Blender's equirectangular lookup and the map's importance sampling.
     pub const ENVMAP: ShaderFile = shader_file!("common/envmap.wgsl");

@@ -9,7 +9,7 @@ use super::device::{byte_size, GpuContext, GpuGrid};
 use super::render::GpuRenderError;
 use crate::gpu_types::{
     GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo, GpuMajorantMode,
-    GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuWavefrontParams,
+    GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuWavefrontParams, STACK_NONE,
     SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
 };
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
@@ -292,6 +292,21 @@ pub(super) fn upload_grid(
     Ok((Some(gg), emission))
 }
 
+/// `GpuPathState::outer` of a stack whose entries (outermost first) are `media`: the two
+/// below the top as 16-bit halves, `STACK_NONE` where there is none. (`supports` refuses
+/// deeper stacks and medium indices that do not fit 16 bits.)
+pub(super) fn gpu_outer(media: &[u32]) -> u32 {
+    let n = media.len();
+    let at = |k: usize| -> u32 {
+        if n > k {
+            media[n - 1 - k] & STACK_NONE
+        } else {
+            STACK_NONE
+        }
+    };
+    at(1) | (at(2) << 16)
+}
+
 /// The render's `GpuWavefrontParams` before any batch: camera, lights, limits and the VDB
 /// medium's tracking parameters (the batch fields are set per batch).
 pub(super) fn wavefront_params(
@@ -327,6 +342,7 @@ pub(super) fn wavefront_params(
         max_collisions: settings.max_collisions_per_path.min(u32::MAX as u64) as u32,
         has_env: rs.lights.environment.is_some() as u32,
         camera_medium: rs.camera_medium.unwrap_or(crate::scene::NO_INDEX),
+        camera_outer: gpu_outer(rs.camera_media.entries()),
         area_count: rs
             .lights
             .area

@@ -1,0 +1,473 @@
+//! Free flight through overlapping media: several VDB media whose supports overlap along a
+//! ray, and the homogeneous medium around or inside them (the top of the path's
+//! [`MediumStack`](super::stack::MediumStack)).
+//!
+//! Extinction, scattering, absorption and emission ADD where media overlap (the radiative
+//! transfer equation is linear in them; Cycles, Mitsuba 3 and pbrt-v4's `MediumInterface`
+//! users all sum coefficients). The free flight therefore tracks ONE medium whose coefficients
+//! are the sums:
+//!
+//! ```text
+//! sigma_a(x) = sum_k sigma_a,k(x)      sigma_s(x) = sum_k sigma_s,k(x)
+//! Le(x)      = sum_k Le,k(x)           (emission grid and blackbody of every medium)
+//! sigma_maj  = sum_k sigma_maj,k       (per piece of ray: volume::merge::MergedSegments)
+//! sigma_c    = sum_k sigma_min,k       (decomposition's control: the summed minorants)
+//! ```
+//!
+//! so every estimator of `volume::tracking` (delta, weighted delta, decomposition, weighted
+//! decomposition, spectral) runs unchanged and stays unbiased: each only assumes a medium
+//! with coefficients at a point and segments whose bounds hold, and the sums are such a
+//! medium. A homogeneous medium is one more part with one constant segment whose minorant is
+//! its extinction, so decomposition takes it entirely in closed form (no lookups).
+//!
+//! The choice at a tentative collision: EVALUATE EVERY MEDIUM AND SUM, rather than picking
+//! one medium in proportion to its share of the majorant. Picking would be unbiased too, but
+//! its null-collision probability is `1 - sigma_t,k / sigma_maj,k` for the PICKED medium, so
+//! where one medium is dense and another thin it rejects many collisions the sum would accept;
+//! worse, it has no single control for decomposition tracking and no sum to weigh emission
+//! by. Summing costs one lookup per overlapping medium per collision, which is what the
+//! summed majorant pays for anyway.
+//!
+//! A real scattering event of the sum then picks WHICH medium scattered, to use its phase
+//! function and RGB albedo: the standard mixture `sum_k sigma_s,k(x) p_k / sigma_s(x)`,
+//! sampled by choosing `k` with probability `q_k` proportional to its scattering coefficient
+//! at `x` (one extra uniform and one lookup per medium, at scattering events only) and
+//! weighting by `sigma_s,k / (q_k sigma_s(x))`, which is medium `k`'s own albedo factor for
+//! grey media and the per-channel correction for RGB ones. Next-event estimation and the next
+//! direction both use the chosen medium's phase function: a one-sample estimator of the
+//! mixture, unbiased with MIS inside the chosen lobe. Control (lookup-free) scattering events
+//! also pick by lookup at `x`: the event's position is distributed as the sum's, whatever
+//! component produced it.
+//!
+//! The control's split into absorption and scattering: each medium's control has its own
+//! albedo `alpha_k`; the merged stream only knows `sigma_c = sum_k c_k`, so the control used is
+//! `(sigma_a, sigma_s) = ((1 - alpha_max) sigma_c, alpha_min sigma_c)`, which is below
+//! `sum_k ((1 - alpha_k) c_k, alpha_k c_k)` component by component, as analog decomposition
+//! requires (exact when the albedos agree, e.g. absorption as a weight: every albedo 1).
+//!
+//! Shadow rays need none of this: the transmittance of a sum is the product of
+//! transmittances, so `path::transmittance` multiplies independent per-medium estimates
+//! (unbiased, and cheaper than tracking the sum: medium `k` is looked up at its own rate).
+// Comparisons such as `!(x > 0.0)` are written negated on purpose: NaN takes the safe branch.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use std::cell::Cell;
+
+use glam::Vec3;
+
+use super::media::{
+    from_grey, segments, GreyView, HomogeneousMedium, MediaStats, MediumEvent, RgbView, Segments,
+    TrackingConfig, VdbMedium,
+};
+use super::settings::{Absorption, Estimator};
+use crate::math::Ray;
+use crate::sampling::Rng;
+use crate::volume::merge::MergedSegments;
+use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::tracking::{
+    self, spectral::SpectralProbabilities, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium,
+    MediumRgb,
+};
+use crate::volume::MajorantSegment;
+
+/// The VDB media along one ray: each with the part `[a, b]` of the ray it may touch.
+pub type VdbSpan<'a> = (&'a VdbMedium, f32, f32);
+
+/// Free flight along world `ray` over `[t0, t1]` through the sum of the VDB media `vdb` (each
+/// over its span) and the homogeneous medium `hom` (over all of `[t0, t1]`). Returns the
+/// event and, for a scattering event, the phase function of the medium that scattered.
+/// Emission met on the way is added to `l` (already weighted by `beta`).
+#[allow(clippy::too_many_arguments)]
+pub fn sample_mixture<const EMIT: bool, const ABS: bool, const CHROM: bool>(
+    vdb: &[VdbSpan],
+    hom: Option<&HomogeneousMedium>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> (MediumEvent, HenyeyGreenstein) {
+    let chromatic_hom = hom.is_some_and(|h| {
+        let s = h.sigma_t();
+        s.x != s.y || s.y != s.z
+    });
+    if CHROM && (cfg.force_spectral || chromatic_hom || vdb.iter().any(|v| !v.0.grey)) {
+        return sample_rgb::<EMIT>(vdb, hom, ray, t0, t1, beta, cfg, rng, stats, l);
+    }
+    match (ABS, cfg.absorption) {
+        (true, Absorption::Event) => {
+            sample_grey::<EMIT, true>(vdb, hom, ray, t0, t1, beta, cfg, rng, stats, l)
+        }
+        _ => sample_grey::<EMIT, false>(vdb, hom, ray, t0, t1, beta, cfg, rng, stats, l),
+    }
+}
+
+/// One constant segment: a homogeneous medium's bounds over `[t0, t1]`.
+fn constant(t0: f32, t1: f32, sigma_maj: f32, sigma_min: f32) -> Segments<'static> {
+    Segments::Constant(Some(MajorantSegment {
+        t_min: t0,
+        t_max: t1,
+        sigma_maj,
+        sigma_min,
+    }))
+}
+
+/// Draws index `k` with probability `w[k] / sum(w)` (`None` when every weight is 0) and
+/// returns it with its probability.
+fn pick(w: &[f32], u: f32) -> Option<(usize, f32)> {
+    let total: f32 = w.iter().sum();
+    if !(total > 0.0) {
+        return None;
+    }
+    let x = u * total;
+    let mut acc = 0.0;
+    let mut last = None;
+    for (k, &wk) in w.iter().enumerate() {
+        if wk > 0.0 {
+            acc += wk;
+            last = Some(k);
+            if x < acc {
+                return Some((k, wk / total));
+            }
+        }
+    }
+    // Rounding left `x` at the top of the CDF: the last positive entry.
+    last.map(|k| (k, w[k] / total))
+}
+
+/// A homogeneous medium as the grey trackers see it (as `GreyView` sees a VDB medium).
+struct HomGrey {
+    sigma_a: f32,
+    sigma_s: f32,
+    /// RGB factor of a scattering event: `sigma_s / grey sigma_s`.
+    albedo: Vec3,
+    phase: HenyeyGreenstein,
+}
+
+impl HomGrey {
+    fn new(h: &HomogeneousMedium, absorption: Absorption, abs: bool) -> HomGrey {
+        let sigma_t = h.sigma_t().max_element();
+        let sigma_s = match absorption {
+            Absorption::Weight => sigma_t,
+            Absorption::Event => h.sigma_s.element_sum() / 3.0,
+        };
+        HomGrey {
+            sigma_a: if abs {
+                (sigma_t - sigma_s).max(0.0)
+            } else {
+                0.0
+            },
+            sigma_s,
+            albedo: if sigma_s > 0.0 {
+                h.sigma_s / sigma_s
+            } else {
+                Vec3::ZERO
+            },
+            phase: h.phase,
+        }
+    }
+}
+
+/// The sum of grey views (see the module doc).
+struct GreyMix<'a, const EMIT: bool, const ABS: bool> {
+    views: Vec<GreyView<'a, EMIT, ABS>>,
+    hom: Option<HomGrey>,
+    control: ControlExtinction,
+    /// Smallest and largest control albedo of the parts.
+    alpha_min: f32,
+    alpha_max: f32,
+    /// Lookups beyond the one per `coeffs` call the trackers count.
+    extra_lookups: Cell<u64>,
+}
+
+impl<const EMIT: bool, const ABS: bool> Medium for GreyMix<'_, EMIT, ABS> {
+    #[inline]
+    fn coeffs(&self, t: f32) -> Coeffs {
+        let mut k = self.hom.as_ref().map_or(Coeffs::ZERO, |h| Coeffs {
+            sigma_a: h.sigma_a,
+            sigma_s: h.sigma_s,
+        });
+        for v in &self.views {
+            let c = v.coeffs(t);
+            k.sigma_a += c.sigma_a;
+            k.sigma_s += c.sigma_s;
+        }
+        let n = self.views.len() as u64;
+        self.extra_lookups
+            .set(self.extra_lookups.get() + n.saturating_sub(1));
+        k
+    }
+
+    #[inline]
+    fn control(&self, seg: &MajorantSegment) -> Coeffs {
+        let sigma_c = self.control.sigma_c(seg);
+        Coeffs {
+            sigma_a: (1.0 - self.alpha_max) * sigma_c,
+            sigma_s: self.alpha_min * sigma_c,
+        }
+    }
+
+    #[inline]
+    fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
+        if EMIT {
+            for v in &self.views {
+                v.on_collision(t, sigma_maj, w);
+            }
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sample_grey<const EMIT: bool, const ABS: bool>(
+    vdb: &[VdbSpan],
+    hom: Option<&HomogeneousMedium>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> (MediumEvent, HenyeyGreenstein) {
+    let views: Vec<GreyView<EMIT, ABS>> = vdb
+        .iter()
+        .map(|(m, _, _)| GreyView::new(m, ray, cfg, beta))
+        .collect();
+    let hom = hom.map(|h| HomGrey::new(h, cfg.absorption, ABS));
+    let albedos = views.iter().map(|v| v.control_albedo).chain(
+        hom.as_ref()
+            .map(|h| h.sigma_s / (h.sigma_a + h.sigma_s).max(f32::MIN_POSITIVE)),
+    );
+    let (alpha_min, alpha_max) =
+        albedos.fold((1.0f32, 0.0f32), |(lo, hi), a| (lo.min(a), hi.max(a)));
+    let mut streams: Vec<Segments> = views
+        .iter()
+        .zip(vdb)
+        .map(|(v, &(m, a, b))| segments(m, &v.ray_i, a, b, cfg.majorant))
+        .collect();
+    if let Some(h) = &hom {
+        let sigma_t = h.sigma_a + h.sigma_s;
+        streams.push(constant(t0, t1, sigma_t, sigma_t));
+    }
+    let mix = GreyMix {
+        views,
+        hom,
+        control: cfg.control(),
+        alpha_min,
+        alpha_max,
+        extra_lookups: Cell::new(0),
+    };
+    let segs = MergedSegments::new(streams);
+    let st = &mut stats.tracking;
+    let e = match cfg.estimator {
+        Estimator::Delta => tracking::delta::sample_distance(segs, t1, &mix, rng, st),
+        Estimator::WeightedDelta => {
+            tracking::weighted_delta::sample_distance(segs, t1, cfg.b, &mix, rng, st)
+        }
+        Estimator::Decomposition => {
+            tracking::decomposition::sample_distance(segs, t1, &mix, rng, st)
+        }
+        Estimator::WeightedDecomposition => {
+            tracking::weighted_decomposition::sample_distance(segs, t1, cfg.b, &mix, rng, st)
+        }
+    };
+    if EMIT {
+        for v in &mix.views {
+            *l += v.emitted.get();
+            stats.emission_lookups += v.emission_lookups.get();
+        }
+    }
+    let mut phase = HenyeyGreenstein::new(0.0);
+    let e = match e {
+        Event::Scatter { t, weight } => {
+            // Which medium scattered: in proportion to its grey sigma_s at t.
+            let mut w: Vec<f32> = mix.views.iter().map(|v| v.coeffs(t).sigma_s).collect();
+            stats.tracking.lookups += mix.views.len() as u64;
+            w.extend(mix.hom.as_ref().map(|h| h.sigma_s));
+            match pick(&w, rng.uniform_f32()) {
+                Some((k, _)) if k < mix.views.len() => {
+                    phase = mix.views[k].m.phase;
+                    from_grey(Event::Scatter { t, weight }, mix.views[k].scatter_albedo())
+                }
+                Some(_) => {
+                    let h = mix
+                        .hom
+                        .as_ref()
+                        .expect("the last part is the homogeneous one");
+                    phase = h.phase;
+                    from_grey(Event::Scatter { t, weight }, h.albedo)
+                }
+                // No medium scatters at t (only a majorant violation gets here): the event
+                // carries no light.
+                None => MediumEvent::Absorb,
+            }
+        }
+        other => from_grey(other, Vec3::ZERO),
+    };
+    stats.tracking.lookups += mix.extra_lookups.get();
+    (e, phase)
+}
+
+/// A homogeneous medium as spectral tracking sees it (as `RgbView` sees a VDB medium).
+struct HomRgb {
+    /// The tracker's coefficients: the medium's, or `(0, sigma_t)` with absorption as a weight.
+    sigma_a: Vec3,
+    sigma_s: Vec3,
+    h: HomogeneousMedium,
+}
+
+/// The sum of RGB views (see the module doc).
+struct RgbMix<'a, const EMIT: bool> {
+    views: Vec<RgbView<'a, EMIT>>,
+    hom: Option<HomRgb>,
+    extra_lookups: Cell<u64>,
+}
+
+impl<const EMIT: bool> MediumRgb for RgbMix<'_, EMIT> {
+    #[inline]
+    fn coeffs(&self, t: f32) -> CoeffsRgb {
+        let mut k = self.hom.as_ref().map_or(CoeffsRgb::default(), |h| {
+            CoeffsRgb::new(h.sigma_a, h.sigma_s)
+        });
+        for v in &self.views {
+            let c = v.coeffs(t);
+            k.sigma_a += c.sigma_a;
+            k.sigma_s += c.sigma_s;
+        }
+        let n = self.views.len() as u64;
+        self.extra_lookups
+            .set(self.extra_lookups.get() + n.saturating_sub(1));
+        k
+    }
+
+    #[inline]
+    fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
+        if EMIT {
+            for v in &self.views {
+                v.on_collision(t, sigma_maj, w);
+            }
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sample_rgb<const EMIT: bool>(
+    vdb: &[VdbSpan],
+    hom: Option<&HomogeneousMedium>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> (MediumEvent, HenyeyGreenstein) {
+    let views: Vec<RgbView<EMIT>> = vdb
+        .iter()
+        .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, beta))
+        .collect();
+    let hom = hom.map(|h| {
+        let (sigma_a, sigma_s) = match cfg.absorption {
+            Absorption::Event => (h.sigma_a, h.sigma_s),
+            Absorption::Weight => (Vec3::ZERO, h.sigma_t()),
+        };
+        HomRgb {
+            sigma_a,
+            sigma_s,
+            h: *h,
+        }
+    });
+    let mut streams: Vec<Segments> = views
+        .iter()
+        .zip(vdb)
+        .map(|(v, &(m, a, b))| segments(m, &v.ray_i, a, b, cfg.majorant))
+        .collect();
+    if let Some(h) = &hom {
+        let sigma_t = h.sigma_a + h.sigma_s;
+        streams.push(constant(
+            t0,
+            t1,
+            sigma_t.max_element(),
+            sigma_t.min_element(),
+        ));
+    }
+    let mix = RgbMix {
+        views,
+        hom,
+        extra_lookups: Cell::new(0),
+    };
+    let e = tracking::spectral::sample_distance(
+        MergedSegments::new(streams),
+        t1,
+        cfg.b(),
+        &mix,
+        beta,
+        SpectralProbabilities::HistoryAwareMax,
+        rng,
+        &mut stats.tracking,
+    );
+    if EMIT {
+        for v in &mix.views {
+            *l += v.emitted.get();
+            stats.emission_lookups += v.emission_lookups.get();
+        }
+    }
+    let mut phase = HenyeyGreenstein::new(0.0);
+    let e = match e {
+        Event::Scatter { t, weight } => {
+            // Per part at t: the true sigma_s (RGB) and the tracker's sigma_s (the same, or
+            // sigma_t with absorption as a weight).
+            let mut s_true: Vec<Vec3> = Vec::with_capacity(mix.views.len() + 1);
+            let mut s_view = Vec3::ZERO;
+            for v in &mix.views {
+                let d = v.m.density.at_index(v.ray_i.at(t));
+                s_true.push(v.m.sigma_s * d);
+                s_view += v.sigma_s * d;
+            }
+            stats.tracking.lookups += mix.views.len() as u64;
+            if let Some(h) = &mix.hom {
+                s_true.push(h.h.sigma_s);
+                s_view += h.sigma_s;
+            }
+            let q: Vec<f32> = s_true.iter().map(|s| s.element_sum()).collect();
+            match pick(&q, rng.uniform_f32()) {
+                Some((k, q_k)) => {
+                    phase = if k < mix.views.len() {
+                        mix.views[k].m.phase
+                    } else {
+                        mix.hom.as_ref().expect("the last part").h.phase
+                    };
+                    let den = s_view * q_k;
+                    let f = Vec3::select(den.cmpgt(Vec3::ZERO), s_true[k] / den, Vec3::ZERO);
+                    MediumEvent::Scatter {
+                        t,
+                        weight: weight * f,
+                    }
+                }
+                None => MediumEvent::Absorb,
+            }
+        }
+        Event::Absorb { .. } => MediumEvent::Absorb,
+        Event::Escape { weight } => MediumEvent::Escape { weight },
+    };
+    stats.tracking.lookups += mix.extra_lookups.get();
+    (e, phase)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pick;
+
+    #[test]
+    fn pick_follows_the_weights_and_skips_zeros() {
+        assert_eq!(pick(&[0.0, 0.0], 0.5), None);
+        assert_eq!(pick(&[0.0, 2.0, 0.0], 0.999_999), Some((1, 1.0)));
+        assert_eq!(pick(&[1.0, 3.0], 0.2), Some((0, 0.25)));
+        assert_eq!(pick(&[1.0, 3.0], 0.3), Some((1, 0.75)));
+    }
+}
