@@ -201,6 +201,12 @@ fn example_scenes_round_trip_through_blender() {
             continue;
         }
         let stem = scene.file_stem().unwrap().to_str().unwrap().to_string();
+        if !original.homogeneous_media.is_empty() {
+            // brume_to_cycles.py turns KHR_materials_volume into a mesh volume shader, which
+            // the add-on refuses (README: From Blender, what is refused): no round trip.
+            println!("blender_roundtrip: {stem}: skipped (a KHR_materials_volume mesh medium; the add-on refuses mesh volume shaders)");
+            continue;
+        }
         let blend = cx.path(&format!("{stem}.blend"));
         let o = Command::new(&cx.python)
             .arg(root().join("tools/cycles/brume_to_cycles.py"))
