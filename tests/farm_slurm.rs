@@ -114,13 +114,19 @@ fn job_state(cluster: &Cluster, id: &str) -> String {
         .to_string()
 }
 
+/// Written straight to the process's stderr, so the figures and a skip stay visible in a
+/// passing run (libtest captures `println!` and `eprintln!`).
+fn say(msg: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{msg}");
+}
+
 #[test]
 fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted() {
     let cluster = match Cluster::start() {
         Ok(c) => c,
         Err(why) => {
-            println!("SKIPPED: farm_slurm: {why}");
-            eprintln!("SKIPPED: farm_slurm: {why}");
+            say(&format!("SKIPPED: farm_slurm: {why}"));
             return;
         }
     };
@@ -157,8 +163,7 @@ fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted
         .lines()
         .find(|l| l.starts_with("merged:"))
         .expect("a merged: line");
-    println!("{line}");
-    println!("farm_slurm: {TASKS} tasks");
+    say(&format!("farm_slurm: {TASKS} tasks; {line}"));
     let merged = read_part(&final_exr).unwrap();
     assert_rounding_equal(&merged.film, &single.film, "slurm 4 tasks");
     assert_eq!(merged.info.parts, TASKS);
@@ -169,10 +174,10 @@ fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted
             log.contains("threads: 1 (from SLURM_CPUS_PER_TASK)"),
             "task {i} log:\n{log}"
         );
-        println!(
-            "task {i}: {}",
+        say(&format!(
+            "farm_slurm: task {i}: {}",
             log.lines().find(|l| l.starts_with("threads:")).unwrap()
-        );
+        ));
     }
 
     // 2. A task that fails: its part path is taken by a folder, so its render cannot write.
@@ -182,7 +187,10 @@ fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted
     let t0 = Instant::now();
     let o = farm(&cluster, &final2, &dir);
     let (out, err) = text(&o);
-    println!("{out}{err}");
+    say(&format!(
+        "farm_slurm: failing run reported: {}",
+        format!("{out}{err}").trim()
+    ));
     assert!(!o.status.success(), "a failed task went unnoticed");
     assert!(err.contains("task 2 FAILED"), "{err}");
     assert!(!final2.exists());
@@ -225,8 +233,8 @@ fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted
     assert_eq!(state, "COMPLETED");
     let merged2 = read_part(&final2).unwrap();
     assert_rounding_equal(&merged2.film, &single.film, "slurm after resubmit");
-    println!(
+    say(&format!(
         "farm_slurm: the array with a failing task 2, its resubmit alone and the merge: {:.1} s",
         t0.elapsed().as_secs_f64()
-    );
+    ));
 }
