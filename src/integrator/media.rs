@@ -487,6 +487,34 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
 /// [`sample_vdb`] for a grey view (`sigma_t` equal in every channel).
 #[allow(clippy::too_many_arguments)]
 #[inline]
+/// The grey free-flight estimator `cfg` selects (delta, weighted delta, decomposition or
+/// weighted decomposition tracking) over `segs`, for one medium or a mixture.
+pub(super) fn grey_free_flight<I, M>(
+    cfg: &TrackingConfig,
+    segs: I,
+    t1: f32,
+    medium: &M,
+    rng: &mut Rng,
+    st: &mut TrackingStats,
+) -> Event<f32>
+where
+    I: IntoIterator<Item = crate::volume::MajorantSegment>,
+    M: Medium,
+{
+    match cfg.estimator {
+        Estimator::Delta => tracking::delta::sample_distance(segs, t1, medium, rng, st),
+        Estimator::WeightedDelta => {
+            tracking::weighted_delta::sample_distance(segs, t1, cfg.b, medium, rng, st)
+        }
+        Estimator::Decomposition => {
+            tracking::decomposition::sample_distance(segs, t1, medium, rng, st)
+        }
+        Estimator::WeightedDecomposition => {
+            tracking::weighted_decomposition::sample_distance(segs, t1, cfg.b, medium, rng, st)
+        }
+    }
+}
+
 fn sample_grey<const EMIT: bool, const ABS: bool>(
     m: &VdbMedium,
     ray: &Ray,
@@ -500,19 +528,7 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
 ) -> MediumEvent {
     let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
     let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-    let st = &mut stats.tracking;
-    let e = match cfg.estimator {
-        Estimator::Delta => tracking::delta::sample_distance(segs, t1, &view, rng, st),
-        Estimator::WeightedDelta => {
-            tracking::weighted_delta::sample_distance(segs, t1, cfg.b, &view, rng, st)
-        }
-        Estimator::Decomposition => {
-            tracking::decomposition::sample_distance(segs, t1, &view, rng, st)
-        }
-        Estimator::WeightedDecomposition => {
-            tracking::weighted_decomposition::sample_distance(segs, t1, cfg.b, &view, rng, st)
-        }
-    };
+    let e = grey_free_flight(cfg, segs, t1, &view, rng, &mut stats.tracking);
     if EMIT {
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();

@@ -59,7 +59,7 @@ use super::media::{
     from_grey, segments, GreyView, HomogeneousMedium, MediaStats, MediumEvent, RgbView, Segments,
     TrackingConfig, VdbMedium,
 };
-use super::settings::{Absorption, Estimator};
+use super::settings::Absorption;
 use crate::math::Ray;
 use crate::sampling::Rng;
 use crate::volume::merge::MergedSegments;
@@ -262,19 +262,7 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
         extra_lookups: Cell::new(0),
     };
     let segs = MergedSegments::new(streams);
-    let st = &mut stats.tracking;
-    let e = match cfg.estimator {
-        Estimator::Delta => tracking::delta::sample_distance(segs, t1, &mix, rng, st),
-        Estimator::WeightedDelta => {
-            tracking::weighted_delta::sample_distance(segs, t1, cfg.b, &mix, rng, st)
-        }
-        Estimator::Decomposition => {
-            tracking::decomposition::sample_distance(segs, t1, &mix, rng, st)
-        }
-        Estimator::WeightedDecomposition => {
-            tracking::weighted_decomposition::sample_distance(segs, t1, cfg.b, &mix, rng, st)
-        }
-    };
+    let e = super::media::grey_free_flight(cfg, segs, t1, &mix, rng, &mut stats.tracking);
     if EMIT {
         for v in &mix.views {
             *l += v.emitted.get();
