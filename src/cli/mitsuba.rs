@@ -68,20 +68,7 @@ fn script_path() -> Result<PathBuf> {
 }
 
 pub fn run(args: &MitsubaArgs) -> Result<()> {
-    if args.run.runs == 0 || args.run.spp == 0 {
-        bail!("--runs and --spp must be at least 1");
-    }
-    if args.run.width == 0 || args.run.height == 0 {
-        bail!("--width and --height must be at least 1");
-    }
-    if args.run.reuse {
-        let a = compare(
-            &read_exr(args.run.against.as_ref().unwrap())?,
-            &read_exr(&args.run.output)?,
-            8,
-            0.001,
-        )?;
-        println!("{a}");
+    if args.run.check_or_reuse()? {
         return Ok(());
     }
     let python = find_mitsuba_python()?;

@@ -54,6 +54,31 @@ pub struct ReferenceRun {
     pub reuse: bool,
 }
 
+impl ReferenceRun {
+    /// Checks the counts, then with `--reuse` compares the existing `--output` with
+    /// `--against` and prints the agreement: `true` when that is all there is to do.
+    pub fn check_or_reuse(&self) -> Result<bool> {
+        if self.runs == 0 || self.spp == 0 {
+            bail!("--runs and --spp must be at least 1");
+        }
+        if self.width == 0 || self.height == 0 {
+            bail!("--width and --height must be at least 1");
+        }
+        if !self.reuse {
+            return Ok(false);
+        }
+        let against = self
+            .against
+            .as_ref()
+            .expect("clap: --reuse requires --against");
+        println!(
+            "{}",
+            compare(&read_exr(against)?, &read_exr(&self.output)?, 8, 0.001)?
+        );
+        Ok(true)
+    }
+}
+
 /// A Python that can `import module`: `$env_var` (an error if it cannot), then `venv_python`
 /// next to the working directory, then the same in the source tree, then `python3` on the
 /// PATH when `path_python`; `hint` says how to get one.
