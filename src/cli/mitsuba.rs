@@ -197,7 +197,7 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         // Mitsuba would need the sensor's own `medium`; not mapped.
         bail!("{file}: the camera is inside a medium, which brume mitsuba does not map");
     }
-    if brume::scene::Effects::of(scene).textures {
+    if scene.uses_textures() {
         // Not mapped yet; rendering the factors alone would be a silent wrong answer.
         bail!("{file}: base-colour and emissive textures are not mapped to Mitsuba (brume cycles maps them)");
     }

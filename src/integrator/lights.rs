@@ -190,7 +190,7 @@ impl Lights {
         let mat = &scene.materials
             [scene.instances[scene.triangles[t].instance as usize].material as usize];
         let cos_l = n_l.dot(-wi);
-        let li = emitted(scene, mat, scene.uv_at(t, b1, b2), cos_l);
+        let li = emitted(scene, mat, scene.material_uv(mat, t, b1, b2), cos_l);
         let pdf_area = area.lum[i] / area.total;
         let pdf = pmf * pdf_area * d2 / cos_l.abs().max(1e-8);
         Some(LightSample {

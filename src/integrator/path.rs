@@ -432,7 +432,7 @@ pub fn radiance<
         let [a, b, c] = scene.triangle_corners(h.triangle as usize);
         let ng = (b - a).cross(c - a).normalize_or_zero();
         let cos_o = ng.dot(wo);
-        let uv = scene.uv_at(h.triangle as usize, h.b1, h.b2);
+        let uv = scene.material_uv(mat, h.triangle as usize, h.b1, h.b2);
         if mat.emission != [0.0; 3] {
             let le = emitted(scene, mat, uv, cos_o);
             if le != Vec3::ZERO {

@@ -254,7 +254,7 @@ impl<'s> RenderScene<'s> {
             chromatic,
             overlapping: nesting.overlapping || (nesting.nested && !vdb.is_empty()),
             nested: nesting.nested,
-            textures: crate::scene::Effects::of(scene).textures,
+            textures: scene.uses_textures(),
             env_map: false,
         };
         let lights = Lights::new(scene);

@@ -107,11 +107,7 @@ impl Effects {
                 .image
                 .as_ref()
                 .is_some_and(|m| m.constant().is_none());
-        e.textures = scene.instances.iter().any(|i| {
-            let m = &scene.materials[i.material as usize];
-            m.base_color_texture != crate::scene::NO_INDEX
-                || m.emissive_texture != crate::scene::NO_INDEX
-        });
+        e.textures = scene.uses_textures();
         e.lights_inside_media = scene
             .lights
             .iter()

@@ -194,7 +194,33 @@ impl TextureRef {
     }
 }
 
+impl Material {
+    /// Whether a base-colour or emissive texture modulates this material.
+    #[inline]
+    pub fn is_textured(&self) -> bool {
+        self.base_color_texture != NO_INDEX || self.emissive_texture != NO_INDEX
+    }
+}
+
 impl Scene {
+    /// Whether a material some triangle uses is textured (the `textures` effect).
+    pub fn uses_textures(&self) -> bool {
+        self.instances
+            .iter()
+            .any(|i| self.materials[i.material as usize].is_textured())
+    }
+
+    /// The texture coordinate `mat` reads at barycentrics `(b1, b2)` of triangle `t`: zero
+    /// for an untextured material, whose lookups never read it (no vertex loads per hit).
+    #[inline]
+    pub fn material_uv(&self, mat: &Material, t: usize, b1: f32, b2: f32) -> Vec2 {
+        if mat.is_textured() {
+            self.uv_at(t, b1, b2)
+        } else {
+            Vec2::ZERO
+        }
+    }
+
     /// Texture coordinate of triangle `t` at barycentrics `(b1, b2)` of its second and third
     /// vertices.
     #[inline]
