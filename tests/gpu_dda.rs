@@ -83,13 +83,7 @@ fn wgsl_dda_segments_equal_cpu() {
         (GpuMajorantMode::PerCell, None),
         (GpuMajorantMode::Global, None),
         (GpuMajorantMode::Adaptive, Some(CostModel::DEFAULT)),
-        (
-            GpuMajorantMode::Adaptive,
-            Some(CostModel {
-                step: 20.0,
-                collision: 1.0,
-            }),
-        ),
+        (GpuMajorantMode::Adaptive, Some(CostModel::uniform(20.0))),
     ];
     for (mode, cost) in modes {
         let global = mode == GpuMajorantMode::Global;

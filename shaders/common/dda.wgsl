@@ -1,11 +1,15 @@
-// Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `crossing`, `next`),
+// Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `next`,
+// `reciprocal_and_step`),
 // AdaptiveMajorantIterator (src/volume/adaptive.rs: `new`, `crossing`, `next`) and
 // Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.
 //
 // The same robust walk as the CPU (Amanatides & Woo 1987, as pbrt-v4's DDAMajorantIterator, with
 // plane crossings recomputed from each plane's position and segment ends clamped to be
-// non-decreasing), with the same IEEE special cases: `1 / d` is +-infinity on an axis-parallel
-// ray, `-0.0` never steps, NaN comparisons fail. The segments therefore equal the CPU's as long
+// non-decreasing, crossings as `(plane - o) * (1 / d)`), with the same special cases: an axis
+// steps only where `1 / d` is finite (so `-0.0` and subnormal components never step), NaN
+// comparisons fail. The CPU steps incrementally (flat cell index, planes moved by a cell width,
+// level-0 regions of the adaptive walk as DDA steps); the planes are exact integers, so
+// recomputing them here gives the same values. The segments therefore equal the CPU's as long
 // as the device divides and adds with IEEE rounding; an FMA contraction of the entry point
 // `o + t d` may move it by an ulp (tests/gpu_dda.rs measures it).
 
@@ -30,6 +34,7 @@ struct Dda {
     width: vec3<f32>,         // cell edge per axis
     o: vec3<f32>,             // ray origin
     d: vec3<f32>,             // ray direction
+    inv_d: vec3<f32>,         // 1 / d (dda_reciprocal)
     scale: f32,               // sigma = scale * bound
     global: bool,             // read the global bound instead of the cell's
     adaptive: bool,           // walk the adaptive hierarchy (cell is then a leaf cell)
@@ -70,7 +75,18 @@ fn aabb_intersect(lo: vec3<f32>, hi: vec3<f32>, o: vec3<f32>, d: vec3<f32>, t0: 
     return true;
 }
 
-// DdaMajorantIterator::crossing.
+// dda::reciprocal_and_step: the step is 0 unless 1 / d is finite (d = +-0, subnormal or NaN
+// never steps).
+fn dda_step(d: f32, inv: f32) -> i32 {
+    if (!(abs(inv) <= 3.40282347e38)) {
+        return 0;
+    }
+    return select(-1, 1, d > 0.0);
+}
+
+// DdaMajorantIterator: the crossing of the plane ahead along `axis`, (plane - o) * (1 / d). The
+// CPU moves the plane by one cell width per step; planes are exact integers, so computing it
+// from the cell gives the same value.
 fn dda_crossing(it: ptr<function, Dda>, axis: i32) -> f32 {
     let s = (*it).step[axis];
     if (s == 0) {
@@ -78,7 +94,7 @@ fn dda_crossing(it: ptr<function, Dda>, axis: i32) -> f32 {
     }
     let plane_cell = select((*it).cell[axis], (*it).cell[axis] + 1, s == 1);
     let plane = (*it).lo[axis] + f32(plane_cell) * (*it).width[axis];
-    return (plane - (*it).o[axis]) / (*it).d[axis];
+    return (plane - (*it).o[axis]) * (*it).inv_d[axis];
 }
 
 // DdaMajorantIterator::new (MAJORANT_PER_CELL) and ::global (MAJORANT_GLOBAL), through
@@ -88,6 +104,7 @@ fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) 
     let global = mode == MAJORANT_GLOBAL;
     it.o = o;
     it.d = d;
+    it.inv_d = vec3<f32>(1.0) / d;
     it.scale = scale;
     it.global = global;
     it.adaptive = mode == MAJORANT_ADAPTIVE;
@@ -126,8 +143,7 @@ fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) 
         let g = floor((x - it.lo[a]) / it.width[a]);
         // Clamp into the box (rounding can put the entry a hair outside); NaN -> 0.
         it.cell[a] = select(clamp(i32(g), 0, it.dims[a] - 1), 0, g != g);
-        // -0.0 compares equal to 0.0: no step, as for +0.0.
-        it.step[a] = select(select(0, -1, d[a] < 0.0), 1, d[a] > 0.0);
+        it.step[a] = dda_step(d[a], it.inv_d[a]);
         it.next_crossing[a] = dda_crossing(&it, a);
     }
     it.t = te.x;
@@ -179,7 +195,7 @@ fn adaptive_crossing(it: ptr<function, Dda>, axis: i32, node: i32, l: u32) -> f3
     }
     let plane_node = select(node, node + 1, s == 1);
     let plane = (*it).lo[axis] + f32(plane_node << l) * CELL_WIDTH;
-    return (plane - (*it).o[axis]) / (*it).d[axis];
+    return (plane - (*it).o[axis]) * (*it).inv_d[axis];
 }
 
 // AdaptiveMajorantIterator::next: one segment per merged node, then the leaf cell just across

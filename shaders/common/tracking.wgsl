@@ -66,7 +66,12 @@ struct Tracker {
     dw: vec3<f32>, // world-space ray direction
     emitted: vec3<f32>, // emission gathered by on_collision, already weighted by beta
     emission_lookups: u32, // emission and temperature grid reads
+    sum_control: bool, // ControlDepthWalk: sum the control's optical depth during the walk
+    tau_c: f32,        // the control optical depth summed so far
 }
+
+// tracking::CONTROL_DEPTH_CUTOFF: exp(-tau_c) is 0 in f32 beyond it.
+const CONTROL_DEPTH_CUTOFF: f32 = 104.0;
 
 // tracking::Event variants.
 const EVENT_ESCAPE: u32 = 0u;
@@ -574,7 +579,21 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
     var tau_left = -1.0;
     var tau_since = 0.0;
     var n_collisions = 0u;
-    while (dda_next(&dda, &seg)) {
+    loop {
+        // ControlDepthWalk::next: the walk ends once the control factor has underflowed.
+        if ((*tr).sum_control && (*tr).tau_c > CONTROL_DEPTH_CUTOFF) {
+            break;
+        }
+        if (!dda_next(&dda, &seg)) {
+            break;
+        }
+        if ((*tr).sum_control && seg.t_min < t_max) {
+            let len_c = min(seg.t_max, t_max) - seg.t_min;
+            let sigma_c = coeffs_sigma_t(control(tr, seg));
+            if (len_c > 0.0 && sigma_c > 0.0) {
+                (*tr).tau_c += sigma_c * len_c;
+            }
+        }
         if (seg.t_min >= t_max) {
             break;
         }
@@ -596,10 +615,14 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
             if (tau_left < 0.0) {
                 tau_left = sample_exponential(tracker_uniform(tr), 1.0);
             }
-            let t_next = t + tau_left / sigma_maj;
+            // The segment's optical depth decides first (a multiply, no division per segment).
+            let tau_seg = sigma_maj * (t1 - t);
+            var t_next = t1;
+            if (tau_left < tau_seg) {
+                t_next = t + tau_left / sigma_maj;
+            }
             if (!(t_next < t1)) {
                 // Escaped this segment: carry the rest of the depth.
-                let tau_seg = sigma_maj * (t1 - t);
                 tau_left = max(tau_left - tau_seg, 0.0);
                 tau_since += tau_seg;
                 break;
@@ -620,42 +643,28 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
     return exp(-tau_since);
 }
 
-// tracking::control_optical_depth: integral of sigma_c over the clipped segments (no lookups).
-fn control_optical_depth(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
-    var dda = dda_start;
-    var seg: GpuMajorantSegment;
-    var tau = 0.0;
-    while (dda_next(&dda, &seg)) {
-        if (seg.t_min >= t_max) {
-            break;
-        }
-        let len = min(seg.t_max, t_max) - seg.t_min;
-        let sigma_c = coeffs_sigma_t(control(tr, seg));
-        if (len > 0.0 && sigma_c > 0.0) {
-            tau += sigma_c * len;
-        }
-    }
-    return tau;
-}
-
 // The `transmittance` function of the estimator `(*tr).params.estimator` over the segments of
 // `dda`: grey estimates in .x, the RGB estimate of spectral tracking in .xyz.
 fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> vec3<f32> {
     let est = (*tr).params.estimator;
-    // The closed-form control factor, computed before the walk as on the CPU.
+    // The closed-form control factor is summed during the same walk (ControlDepthWalk).
+    let control_based = est == ESTIMATOR_DECOMPOSITION
+        || est == ESTIMATOR_WEIGHTED_DECOMPOSITION || est == ESTIMATOR_RESIDUAL_RATIO;
+    (*tr).sum_control = control_based;
+    (*tr).tau_c = 0.0;
+    (*tr).w = vec3<f32>(1.0);
+    (*tr).distance = false;
+    sample_free_flight(tr, dda, t_max);
+    (*tr).sum_control = false;
     var t_control = 1.0;
-    if (est == ESTIMATOR_DECOMPOSITION || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
-        || est == ESTIMATOR_RESIDUAL_RATIO) {
-        t_control = exp(-control_optical_depth(tr, dda, t_max));
-        // As on the CPU: an underflowed control factor makes the estimate 0; the walk is
-        // skipped (its weight could overflow, and 0 * inf is NaN).
+    if (control_based) {
+        // ControlDepthWalk::control_transmittance. As on the CPU, an underflowed control
+        // factor makes the estimate 0 (the residual weight could overflow: 0 * inf is NaN).
+        t_control = select(exp(-(*tr).tau_c), 0.0, (*tr).tau_c > CONTROL_DEPTH_CUTOFF);
         if (t_control == 0.0) {
             return vec3<f32>(0.0);
         }
     }
-    (*tr).w = vec3<f32>(1.0);
-    (*tr).distance = false;
-    sample_free_flight(tr, dda, t_max);
     if (est == ESTIMATOR_SPECTRAL) {
         return (*tr).w;
     }
@@ -674,6 +683,7 @@ fn tracking_sample_distance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32, be
     (*tr).w = vec3<f32>(1.0);
     (*tr).beta = beta;
     (*tr).distance = true;
+    (*tr).sum_control = false;
     (*tr).event = EVENT_ESCAPE;
     (*tr).t_event = 0.0;
     sample_free_flight(tr, dda, t_max);

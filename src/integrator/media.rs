@@ -238,7 +238,9 @@ pub enum Segments<'a> {
 impl Iterator for Segments<'_> {
     type Item = crate::volume::MajorantSegment;
 
-    #[inline]
+    // Inlined into the tracking loops: a call per segment (and the segment returned through
+    // memory) cost as much as the DDA step itself. The match is predictable within a flight.
+    #[inline(always)]
     fn next(&mut self) -> Option<Self::Item> {
         match self {
             Segments::Dda(it) => it.next(),

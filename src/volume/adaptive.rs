@@ -36,7 +36,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::bounds::{CellBounds, LeafBounds};
-use super::dda::enter_box;
+use super::dda::{first_axis, DdaState};
 use super::segment::MajorantSegment;
 use crate::math::{Ray, Vec3};
 
@@ -50,27 +50,37 @@ pub const MAX_LEVEL: u32 = 12;
 /// density lookup and the event choice).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CostModel {
-    /// One majorant segment: a DDA step and the per-segment set-up of the tracking loop.
+    /// One level-0 segment: an incremental DDA step and the tracking loop's per-segment work.
     pub step: f32,
+    /// One segment over a merged node: three plane crossings, the exit point's cell and a
+    /// fresh DDA state, and the tracking loop's per-segment work.
+    pub node_step: f32,
     /// One tentative collision.
     pub collision: f32,
 }
 
 impl CostModel {
+    /// The same cost for every segment.
+    pub const fn uniform(step: f32) -> Self {
+        CostModel {
+            step,
+            node_step: step,
+            collision: 1.0,
+        }
+    }
+
     /// The model's cost of one segment over a node of level `l` with bounds `b`: a step plus
     /// the expected tentative collisions on a random chord (`2 s / 3` for a cube of side `s`).
     pub fn node_cost(&self, l: usize, b: CellBounds, scale: f32, index_per_t: f32) -> f64 {
         let chord = (2.0 / 3.0) * CELL_WIDTH as f64 * (1u64 << l) as f64 / index_per_t as f64;
-        self.step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
+        let step = if l == 0 { self.step } else { self.node_step };
+        step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
     }
 
-    /// Measured on the example scenes (2-core x86-64, one thread, CPU time of 128x128 x 32
-    /// spp renders with step costs 1, 2, 3, 4): a segment (the walk's index arithmetic, three
-    /// plane crossings and a chain of dependent loads, then the loop's per-segment work) costs
-    /// about three tentative collisions with their lookups. Against step 1: the cloud -9 %,
-    /// the dense fog -6 %, the plume unchanged within noise.
+    /// Measured on the example scenes: see `DEFAULT_NOTE` in the README's majorant section.
     pub const DEFAULT: CostModel = CostModel {
-        step: 3.0,
+        step: 0.3,
+        node_step: 1.2,
         collision: 1.0,
     };
 }
@@ -212,15 +222,7 @@ impl AdaptiveMajorants {
     /// Every leaf cell at level 0: the per-leaf DDA's segments (for tests and `--majorant
     /// leaf` on the same code path).
     pub fn all_leaves(leaf: &LeafBounds) -> Self {
-        let mut a = Self::build(
-            leaf,
-            1.0,
-            1.0,
-            CostModel {
-                step: 0.0,
-                collision: 1.0,
-            },
-        );
+        let mut a = Self::build(leaf, 1.0, 1.0, CostModel::uniform(0.0));
         a.node_level.iter_mut().for_each(|l| *l = 0);
         a
     }
@@ -362,6 +364,9 @@ fn children(below: [u32; 3], n: [usize; 3]) -> impl Iterator<Item = usize> {
 
 /// Lazily yields the segments of a ray (in index space) through an [`AdaptiveMajorants`]:
 /// one per merged node crossed. See the module documentation for the walk.
+///
+/// Inside level-0 regions it takes the per-leaf DDA's incremental step ([`DdaState`]); a
+/// merged node costs three plane crossings, the exit point's cell and a fresh DDA state.
 #[derive(Clone, Debug)]
 pub struct AdaptiveMajorantIterator<'a> {
     /// The tree's leaf levels and node bounds, held directly: the walk reads both at every
@@ -370,16 +375,8 @@ pub struct AdaptiveMajorantIterator<'a> {
     nodes: &'a [CellBounds],
     /// [`AdaptiveMajorants::level_index`].
     level_index: &'a [[u32; 3]; MAX_LEVEL as usize + 1],
-    dims: [i32; 3],
-    ray: Ray,
-    lo: Vec3,
     scale: f32,
-    /// The current leaf cell.
-    cell: [i32; 3],
-    step: [i32; 3],
-    t: f32,
-    t_exit: f32,
-    done: bool,
+    dda: DdaState,
 }
 
 impl<'a> AdaptiveMajorantIterator<'a> {
@@ -388,118 +385,110 @@ impl<'a> AdaptiveMajorantIterator<'a> {
     pub fn new(tree: &'a AdaptiveMajorants, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
         let lo = Vec3::from_array(tree.cell_origin.map(|c| c as f32 * CELL_WIDTH));
         let dims = tree.dims.map(|d| d as i32);
-        let mut it = Self {
+        Self {
             node_level: &tree.node_level,
             nodes: &tree.nodes,
             level_index: &tree.level_index,
-            dims,
-            ray: *ray,
-            lo,
             scale,
-            cell: [0; 3],
-            step: [0; 3],
-            t: 0.0,
-            t_exit: 0.0,
-            done: true,
-        };
-        let Some(e) = enter_box(lo, Vec3::splat(CELL_WIDTH), dims, ray, t0, t1) else {
-            return it;
-        };
-        it.cell = e.cell;
-        it.step = e.step;
-        let (t_enter, t_exit) = (e.t_enter, e.t_exit);
-        it.t = t_enter;
-        it.t_exit = t_exit;
-        it.done = false;
-        it
+            dda: DdaState::enter(lo, Vec3::splat(CELL_WIDTH), dims, ray, t0, t1),
+        }
     }
 
-    /// Ray parameter where the ray leaves node `node` of level `l` along `axis`, computed
-    /// afresh from the plane's position (as the per-leaf DDA does).
+    /// Ray parameter where the ray leaves node `node` of level `l` along `axis`: the plane's
+    /// position (exact: an integer multiple of 8) times `1 / d`, as the DDA computes it, so
+    /// level 0 reproduces the DDA bit for bit.
     #[inline(always)]
     fn crossing(&self, axis: usize, node: i32, l: u32) -> f32 {
-        let plane_node = match self.step[axis] {
-            0 => return f32::INFINITY,
-            1 => node + 1,
-            _ => node,
+        let w = &self.dda;
+        let s = w.step[axis];
+        let plane_node = node + (s > 0) as i32;
+        let plane = w.lo[axis] + (plane_node << l) as f32 * CELL_WIDTH;
+        let c = (plane - w.o[axis]) * w.inv_d[axis];
+        if s == 0 {
+            f32::INFINITY
+        } else {
+            c
+        }
+    }
+
+    /// One segment over the merged node of level `l > 0` holding the current cell, then into
+    /// the leaf cell just across its exit plane.
+    #[inline(never)]
+    fn node_step(&mut self, l: u32) -> Option<MajorantSegment> {
+        let cell = self.dda.cell();
+        let node = [cell[0] >> l, cell[1] >> l, cell[2] >> l];
+        // Written out: an array map here compiled to a call per segment.
+        let c = [
+            self.crossing(0, node[0], l),
+            self.crossing(1, node[1], l),
+            self.crossing(2, node[2], l),
+        ];
+        let axis = first_axis(c);
+        let w = &mut self.dda;
+        // The leaf cell just across the exit plane.
+        let next_cell = if w.step[axis] > 0 {
+            (node[axis] + 1) << l
+        } else {
+            (node[axis] << l) - 1
         };
-        let plane = self.lo[axis] + (plane_node << l) as f32 * CELL_WIDTH;
-        (plane - self.ray.o[axis]) / self.ray.d[axis]
+        let leaving = c[axis] >= w.t_exit || next_cell < 0 || next_cell >= w.dims[axis];
+        let t_min = w.t;
+        let t_max = if leaving {
+            w.t_exit
+        } else if c[axis] > t_min {
+            c[axis]
+        } else {
+            t_min
+        };
+        let [off, lx, lxy] = self.level_index[l as usize];
+        let b = self.nodes
+            [(off + node[0] as u32 + lx * node[1] as u32 + lxy * node[2] as u32) as usize];
+        if leaving {
+            w.done = true;
+        } else {
+            // The other axes: the cell of the exit point `o + t d`, kept inside the node just
+            // left (so no axis ever moves backwards and rounding cannot skip a node).
+            // `(x - lo) * 0.125` is `(x - lo) / 8` exactly, and the saturating cast equals
+            // `floor` wherever the clamp keeps it (the node's first cell is never negative):
+            // no libm call.
+            let mut next = cell;
+            for a in 0..3 {
+                if a != axis && w.step[a] != 0 {
+                    let p = w.o[a] + t_max * w.d[a];
+                    let g = ((p - w.lo[a]) * (1.0 / CELL_WIDTH)) as i32;
+                    let first = node[a] << l;
+                    let last = (((node[a] + 1) << l) - 1).min(w.dims[a] - 1);
+                    next[a] = g.clamp(first, last);
+                }
+            }
+            next[axis] = next_cell;
+            w.set_cell(next);
+            w.t = t_max;
+        }
+        (t_max > t_min).then_some(MajorantSegment {
+            t_min,
+            t_max,
+            sigma_maj: self.scale * b.max,
+            sigma_min: self.scale * b.min,
+        })
     }
 }
 
 impl Iterator for AdaptiveMajorantIterator<'_> {
     type Item = MajorantSegment;
 
+    #[inline]
     fn next(&mut self) -> Option<MajorantSegment> {
-        while !self.done {
-            let [_, nx, nxy] = self.level_index[0];
-            let l = self.node_level[(self.cell[0] as u32
-                + nx * self.cell[1] as u32
-                + nxy * self.cell[2] as u32) as usize] as u32;
-            let node = [self.cell[0] >> l, self.cell[1] >> l, self.cell[2] >> l];
-            // Written out: an array map here compiled to a call per segment.
-            let c = [
-                self.crossing(0, node[0], l),
-                self.crossing(1, node[1], l),
-                self.crossing(2, node[2], l),
-            ];
-            let axis = if c[0] <= c[1] && c[0] <= c[2] {
-                0
-            } else if c[1] <= c[2] {
-                1
+        while !self.dda.done {
+            let l = self.node_level[self.dda.index] as u32;
+            // Level 0 first: the per-leaf cells are the nodes' first entries.
+            let seg = if l == 0 {
+                self.dda.step(self.nodes, self.scale)
             } else {
-                2
+                self.node_step(l)
             };
-            // The leaf cell just across the exit plane.
-            let next_cell = if self.step[axis] > 0 {
-                (node[axis] + 1) << l
-            } else {
-                (node[axis] << l) - 1
-            };
-            let leaving = c[axis] >= self.t_exit || next_cell < 0 || next_cell >= self.dims[axis];
-            let t_min = self.t;
-            let t_max = if leaving {
-                self.t_exit
-            } else if c[axis] > t_min {
-                c[axis]
-            } else {
-                t_min
-            };
-            let [off, lx, lxy] = self.level_index[l as usize];
-            let b = self.nodes
-                [(off + node[0] as u32 + lx * node[1] as u32 + lxy * node[2] as u32) as usize];
-            if leaving {
-                self.done = true;
-            } else {
-                // The other axes: the cell of the exit point, kept inside the node just left
-                // (so no axis ever moves backwards and rounding cannot skip a node).
-                let p = self.ray.at(t_max);
-                for a in 0..3 {
-                    if a == axis {
-                        continue;
-                    }
-                    if l > 0 && self.step[a] != 0 {
-                        let g = ((p[a] - self.lo[a]) / CELL_WIDTH).floor();
-                        let first = node[a] << l;
-                        let last = (((node[a] + 1) << l) - 1).min(self.dims[a] - 1);
-                        self.cell[a] = if g.is_nan() {
-                            self.cell[a]
-                        } else {
-                            (g as i32).clamp(first, last)
-                        };
-                    }
-                }
-                self.cell[axis] = next_cell;
-                self.t = t_max;
-            }
-            if t_max > t_min {
-                return Some(MajorantSegment {
-                    t_min,
-                    t_max,
-                    sigma_maj: self.scale * b.max,
-                    sigma_min: self.scale * b.min,
-                });
+            if seg.is_some() {
+                return seg;
             }
         }
         None
@@ -591,26 +580,10 @@ mod tests {
     fn merging_follows_the_cost_model() {
         let (_, leaf) = grid();
         // Cheap steps: nothing with different bounds merges; equal bounds always do.
-        let fine = AdaptiveMajorants::build(
-            &leaf,
-            1.0,
-            1.0,
-            CostModel {
-                step: 1e-6,
-                collision: 1.0,
-            },
-        );
+        let fine = AdaptiveMajorants::build(&leaf, 1.0, 1.0, CostModel::uniform(1e-6));
         fine.validate(&leaf).unwrap();
         // Dear steps: everything merges into the top node.
-        let coarse = AdaptiveMajorants::build(
-            &leaf,
-            1.0,
-            1.0,
-            CostModel {
-                step: 1e9,
-                collision: 1.0,
-            },
-        );
+        let coarse = AdaptiveMajorants::build(&leaf, 1.0, 1.0, CostModel::uniform(1e9));
         coarse.validate(&leaf).unwrap();
         let top = coarse.levels.len() as u8 - 1;
         assert!(coarse.node_level.iter().all(|&l| l == top));

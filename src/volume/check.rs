@@ -406,17 +406,8 @@ pub fn check_ray_bounds(
     // structures (a sparse-ish scale, a dense one, and steps so dear that everything merges)
     // must tile the ray and bound it like the DDA.
     let leaves = AdaptiveMajorants::all_leaves(bounds);
-    let merged = [0.05f32, 2.0, 1e6].map(|step| {
-        AdaptiveMajorants::build(
-            bounds,
-            1.0,
-            1.0,
-            CostModel {
-                step,
-                collision: 1.0,
-            },
-        )
-    });
+    let merged = [0.05f32, 2.0, 1e6]
+        .map(|step| AdaptiveMajorants::build(bounds, 1.0, 1.0, CostModel::uniform(step)));
     for m in &merged {
         m.validate(bounds)?;
     }

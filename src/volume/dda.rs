@@ -4,7 +4,7 @@
 //! This is the 3D-DDA of Amanatides and Woo, "A Fast Voxel Traversal Algorithm for Ray
 //! Tracing" (Eurographics 1987), as pbrt-v4's `DDAMajorantIterator` uses it, with two changes
 //! for robustness:
-//! * each plane crossing is computed afresh from the plane's position, `(plane - o) / d`,
+//! * each plane crossing is computed afresh from the plane's position, `(plane - o) * (1 / d)`,
 //!   rather than by accumulating `1 / d` steps, so errors do not grow along long rays;
 //! * segment ends are clamped to be non-decreasing and zero-length segments are skipped, so
 //!   the segments tile the ray's overlap with the cell box exactly: the first `t_min` is the
@@ -20,13 +20,10 @@ use crate::math::{Aabb, Ray, Vec3};
 const CELL_WIDTH: f32 = 8.0;
 
 /// Where a ray enters a box of `dims` cells of size `width` from `lo`, clipped to `[t0, t1]`:
-/// the entry cell, the step direction per axis and the overlap. Shared by the per-leaf DDA and
+/// the entry cell and the overlap. Shared by the per-leaf DDA and
 /// the adaptive walk, so both start the same way bit for bit.
 pub(crate) struct BoxEntry {
     pub cell: [i32; 3],
-    /// -1, 0 or +1: the direction the cell index moves along each axis. 0 for `d == ±0.0`,
-    /// so an axis-parallel ray never steps on that axis.
-    pub step: [i32; 3],
     pub t_enter: f32,
     pub t_exit: f32,
 }
@@ -52,58 +49,206 @@ pub(crate) fn enter_box(
     }
     let p = ray.at(t_enter);
     let mut cell = [0; 3];
-    let mut step = [0; 3];
     for a in 0..3 {
         // On an axis the ray does not move along, `t_enter` may be infinite and `t * 0`
         // NaN: the coordinate is simply the origin's.
         let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
-        let g = ((x - lo[a]) / width[a]).floor();
-        // Rounding can put the entry point a hair outside the box: clamp into it.
-        cell[a] = if g.is_nan() {
-            0
-        } else {
-            (g as i32).clamp(0, dims[a] - 1)
-        };
-        // `-0.0 > 0.0` and `-0.0 < 0.0` are both false: no step, as for `+0.0`.
-        step[a] = if ray.d[a] > 0.0 {
-            1
-        } else if ray.d[a] < 0.0 {
-            -1
-        } else {
-            0
-        };
+        // Rounding can put the entry point a hair outside the box: clamp into it. The
+        // saturating cast truncates, which equals `floor` wherever the clamp keeps the
+        // value (negatives all clamp to 0) and maps NaN to 0: no libm `floorf` call.
+        let g = (x - lo[a]) / width[a];
+        cell[a] = (g as i32).clamp(0, dims[a] - 1);
     }
     Some(BoxEntry {
         cell,
-        step,
         t_enter,
         t_exit,
     })
 }
 
-/// Lazily yields the majorant segments of a ray in index space. Allocates nothing; the
-/// tracking loop pulls segments until it collides or runs out.
+/// `1 / d` per axis and the step direction: -1, 0 or +1. An axis steps only when `1 / d` is
+/// finite: `d == ±0.0` (including `-0.0`, which compares equal to `0.0`) and subnormal `d`
+/// (whose reciprocal overflows) never step, so no crossing is ever `0 * inf`. A subnormal
+/// component moves the ray less than a voxel over any finite parameter range, which the
+/// bounds' one-voxel apron covers.
+#[inline]
+pub(crate) fn reciprocal_and_step(d: f32) -> (f32, i32) {
+    let inv = 1.0 / d;
+    let step = if !inv.is_finite() {
+        0
+    } else if d > 0.0 {
+        1
+    } else {
+        -1
+    };
+    (inv, step)
+}
+
+/// The state of one walk through a grid of cells: the per-leaf DDA's, and the adaptive walk's
+/// inside level-0 regions ([`crate::volume::AdaptiveMajorantIterator`] holds one).
+///
+/// Each step is incremental: the cell is a flat index moved by a per-axis stride, the plane
+/// the ray meets next along an axis moves by one cell width (exact: cell planes are integer
+/// multiples of 8 well below 2^24), and its crossing is `(plane - o) * (1 / d)`: one multiply,
+/// no division, and no error carried from step to step.
+#[derive(Clone, Debug)]
+pub(crate) struct DdaState {
+    pub dims: [i32; 3],
+    /// Index-space minimum corner of the cell box and the cell edge per axis.
+    pub lo: [f32; 3],
+    width: [f32; 3],
+    pub o: [f32; 3],
+    pub d: [f32; 3],
+    /// `1 / d` and the step direction per axis ([`reciprocal_and_step`]).
+    pub inv_d: [f32; 3],
+    pub step: [i32; 3],
+    /// Flat index of the current cell, `x + nx (y + ny z)`.
+    pub index: usize,
+    /// Change of `index` when the walk steps along each axis (0 on an axis it never steps).
+    stride: [isize; 3],
+    /// Cells left to step into along each axis before the box ends (0 on a non-stepping axis).
+    left: [i32; 3],
+    /// The current cell on the axes the walk never steps along.
+    fixed: [i32; 3],
+    /// Index-space position of the plane the ray crosses next along each axis, and the signed
+    /// cell width it moves by per step.
+    plane: [f32; 3],
+    plane_step: [f32; 3],
+    /// Ray parameter at which the ray crosses `plane` along each axis (infinite when it does
+    /// not step along it).
+    next_crossing: [f32; 3],
+    /// Start of the next segment, and where the ray leaves the box.
+    pub t: f32,
+    pub t_exit: f32,
+    pub done: bool,
+}
+
+impl DdaState {
+    /// The walk of `ray` over `[t0, t1]` through `dims` cells of edge `width` from `lo`
+    /// (`done` when the ray misses the box).
+    pub fn enter(lo: Vec3, width: Vec3, dims: [i32; 3], ray: &Ray, t0: f32, t1: f32) -> Self {
+        let mut it = Self {
+            dims,
+            lo: lo.to_array(),
+            width: width.to_array(),
+            o: ray.o.to_array(),
+            d: ray.d.to_array(),
+            inv_d: [0.0; 3],
+            step: [0; 3],
+            index: 0,
+            stride: [0; 3],
+            left: [0; 3],
+            fixed: [0; 3],
+            plane: [0.0; 3],
+            plane_step: [0.0; 3],
+            next_crossing: [f32::INFINITY; 3],
+            t: 0.0,
+            t_exit: 0.0,
+            done: true,
+        };
+        let Some(e) = enter_box(lo, width, dims, ray, t0, t1) else {
+            return it;
+        };
+        let flat = [
+            1isize,
+            dims[0] as isize,
+            dims[0] as isize * dims[1] as isize,
+        ];
+        for a in 0..3 {
+            let (inv, step) = reciprocal_and_step(ray.d[a]);
+            it.inv_d[a] = inv;
+            it.step[a] = step;
+            it.stride[a] = step as isize * flat[a];
+            it.plane_step[a] = step as f32 * width[a];
+        }
+        it.set_cell(e.cell);
+        it.t = e.t_enter;
+        it.t_exit = e.t_exit;
+        it.done = false;
+        it
+    }
+
+    /// Puts the walk in `cell` (inside the box): its flat index, the cells left per axis, and
+    /// the next plane and its crossing on each stepping axis.
+    #[inline(always)]
+    pub fn set_cell(&mut self, cell: [i32; 3]) {
+        let [nx, ny, _] = self.dims.map(|n| n as usize);
+        self.index = cell[0] as usize + nx * (cell[1] as usize + ny * cell[2] as usize);
+        self.fixed = cell;
+        for a in 0..3 {
+            let s = self.step[a];
+            if s == 0 {
+                continue;
+            }
+            self.left[a] = if s > 0 {
+                self.dims[a] - 1 - cell[a]
+            } else {
+                cell[a]
+            };
+            let plane_cell = cell[a] + (s > 0) as i32;
+            self.plane[a] = self.lo[a] + plane_cell as f32 * self.width[a];
+            self.next_crossing[a] = (self.plane[a] - self.o[a]) * self.inv_d[a];
+        }
+    }
+
+    /// The current cell's coordinates.
+    #[inline(always)]
+    pub fn cell(&self) -> [i32; 3] {
+        [0, 1, 2].map(|a| match self.step[a] {
+            0 => self.fixed[a],
+            1 => self.dims[a] - 1 - self.left[a],
+            _ => self.left[a],
+        })
+    }
+
+    /// One step: the segment over the current cell with `bounds[index]` times `scale` (`None`
+    /// for the zero-length visits of edge and corner crossings), then into the next cell or
+    /// out of the box (`done`).
+    #[inline(always)]
+    pub fn step(&mut self, bounds: &[CellBounds], scale: f32) -> Option<MajorantSegment> {
+        let axis = first_axis(self.next_crossing);
+        let crossing = self.next_crossing[axis];
+        // The last segment always ends exactly at the box exit, even if rounding puts the
+        // final plane crossing a hair before it.
+        let leaving = crossing >= self.t_exit || self.left[axis] == 0;
+        let t_min = self.t;
+        // Never move backwards, and keep t_min's own bits when the crossing merely equals it
+        // (`-0.0 == 0.0`), so consecutive segments share their ends bit for bit.
+        let t_max = if leaving {
+            self.t_exit
+        } else if crossing > t_min {
+            crossing
+        } else {
+            t_min
+        };
+        let b = bounds[self.index];
+        if leaving {
+            self.done = true;
+        } else {
+            self.index = self.index.wrapping_add_signed(self.stride[axis]);
+            self.left[axis] -= 1;
+            self.plane[axis] += self.plane_step[axis];
+            self.next_crossing[axis] = (self.plane[axis] - self.o[axis]) * self.inv_d[axis];
+            self.t = t_max;
+        }
+        (t_max > t_min).then_some(MajorantSegment {
+            t_min,
+            t_max,
+            sigma_maj: scale * b.max,
+            sigma_min: scale * b.min,
+        })
+    }
+}
+
+/// Lazily yields the majorant segments of a ray in index space, one per cell crossed
+/// ([`DdaState`]). Allocates nothing; the tracking loop pulls segments until it collides or
+/// runs out.
 #[derive(Clone, Debug)]
 pub struct DdaMajorantIterator<'a> {
     bounds: &'a [CellBounds],
-    dims: [i32; 3],
-    ray: Ray,
-    /// Index-space minimum corner of the cell box.
-    lo: Vec3,
-    /// Cell edge per axis (8 for the leaf grid, the whole box for the global bound).
-    width: Vec3,
     /// Ray density scale applied to the bounds (`sigma = scale * value`).
     scale: f32,
-    cell: [i32; 3],
-    /// -1, 0 or +1: the direction the cell index moves along each axis. 0 for `d == ±0.0`,
-    /// so an axis-parallel ray never steps on that axis.
-    step: [i32; 3],
-    /// Ray parameter at which the ray crosses into the next cell along each axis.
-    next_crossing: [f32; 3],
-    /// Start of the next segment.
-    t: f32,
-    t_exit: f32,
-    done: bool,
+    state: DdaState,
 }
 
 impl<'a> DdaMajorantIterator<'a> {
@@ -161,102 +306,34 @@ impl<'a> DdaMajorantIterator<'a> {
             scale >= 0.0,
             "a negative density scale would swap the bounds"
         );
-        let mut it = Self {
+        DdaMajorantIterator {
             bounds,
-            dims,
-            ray: *ray,
-            lo,
-            width,
             scale,
-            cell: [0; 3],
-            step: [0; 3],
-            next_crossing: [f32::INFINITY; 3],
-            t: 0.0,
-            t_exit: 0.0,
-            done: true,
-        };
-        let Some(e) = enter_box(lo, width, dims, ray, t0, t1) else {
-            return it;
-        };
-        it.cell = e.cell;
-        it.step = e.step;
-        for a in 0..3 {
-            it.next_crossing[a] = it.crossing(a);
+            state: DdaState::enter(lo, width, dims, ray, t0, t1),
         }
-        let (t_enter, t_exit) = (e.t_enter, e.t_exit);
-        it.t = t_enter;
-        it.t_exit = t_exit;
-        it.done = false;
-        it
     }
+}
 
-    /// Ray parameter where the ray leaves the current cell along `axis` (infinite when it
-    /// does not move along it).
-    #[inline]
-    fn crossing(&self, axis: usize) -> f32 {
-        let plane_cell = match self.step[axis] {
-            0 => return f32::INFINITY,
-            1 => self.cell[axis] + 1,
-            _ => self.cell[axis],
-        };
-        let plane = self.lo[axis] + plane_cell as f32 * self.width[axis];
-        (plane - self.ray.o[axis]) / self.ray.d[axis]
-    }
-
-    #[inline]
-    fn cell_bounds(&self) -> CellBounds {
-        let [x, y, z] = self.cell.map(|c| c as usize);
-        self.bounds[x + self.dims[0] as usize * (y + self.dims[1] as usize * z)]
+/// The axis whose crossing comes first; ties go to the lower axis. Written as two selects so
+/// it compiles without branches (the winning axis of a random ray is unpredictable).
+#[inline(always)]
+pub(crate) fn first_axis(c: [f32; 3]) -> usize {
+    let (m01, a01) = if c[1] < c[0] { (c[1], 1) } else { (c[0], 0) };
+    if c[2] < m01 {
+        2
+    } else {
+        a01
     }
 }
 
 impl Iterator for DdaMajorantIterator<'_> {
     type Item = MajorantSegment;
 
+    #[inline]
     fn next(&mut self) -> Option<MajorantSegment> {
-        while !self.done {
-            // The axis whose cell boundary the ray meets first.
-            let c = &self.next_crossing;
-            let axis = if c[0] <= c[1] && c[0] <= c[2] {
-                0
-            } else if c[1] <= c[2] {
-                1
-            } else {
-                2
-            };
-            let next_cell = self.cell[axis] + self.step[axis];
-            // The last segment always ends exactly at the box exit, even if rounding puts the
-            // final plane crossing a hair before it.
-            let leaving = self.next_crossing[axis] >= self.t_exit
-                || next_cell < 0
-                || next_cell >= self.dims[axis];
-            let t_min = self.t;
-            // Never move backwards, and keep t_min's own bits when the crossing merely equals
-            // it (`-0.0 == 0.0`), so consecutive segments share their ends bit for bit.
-            let crossing = self.next_crossing[axis];
-            let t_max = if leaving {
-                self.t_exit
-            } else if crossing > t_min {
-                crossing
-            } else {
-                t_min
-            };
-            let b = self.cell_bounds();
-            if leaving {
-                self.done = true;
-            } else {
-                self.cell[axis] = next_cell;
-                self.next_crossing[axis] = self.crossing(axis);
-                self.t = t_max;
-            }
-            // Crossing an edge or corner visits cells for zero length; they carry nothing.
-            if t_max > t_min {
-                return Some(MajorantSegment {
-                    t_min,
-                    t_max,
-                    sigma_maj: self.scale * b.max,
-                    sigma_min: self.scale * b.min,
-                });
+        while !self.state.done {
+            if let Some(seg) = self.state.step(self.bounds, self.scale) {
+                return Some(seg);
             }
         }
         None

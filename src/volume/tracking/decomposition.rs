@@ -30,7 +30,7 @@
 //! lookup that breaks one counts a `majorant_violation`. For controls above the minorant use
 //! weighted decomposition tracking.
 use super::{
-    check_bound, control_optical_depth, lookup, sample_free_flight, Event, Medium, TrackingStats,
+    check_bound, lookup, sample_free_flight, ControlDepthWalk, Event, Medium, TrackingStats,
     MAJORANT_TOLERANCE,
 };
 use crate::sampling::Rng;
@@ -122,20 +122,17 @@ pub fn transmittance<I, M>(
 ) -> f32
 where
     I: IntoIterator<Item = MajorantSegment>,
-    I::IntoIter: Clone,
     M: Medium + ?Sized,
 {
-    let segments = segments.into_iter();
-    let mut tr = (-control_optical_depth(segments.clone(), t_max, medium)).exp();
-    if tr == 0.0 {
-        // Nothing left to attenuate: skip the walk (as the weighted estimators must).
-        return 0.0;
-    }
+    // The control factor is summed in the same walk (`ControlDepthWalk`); the estimate is
+    // that factor unless a real residual collision zeroes it.
+    let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
+    let mut hit = false;
     // The residual is delta-tracked against the bound minus the control.
     let residual_majorant =
         |seg: &MajorantSegment| (seg.sigma_maj - medium.control(seg).sigma_t()).max(0.0);
     sample_free_flight(
-        segments,
+        &mut walk,
         t_max,
         residual_majorant,
         rng,
@@ -153,7 +150,7 @@ where
             let sigma_r = k.sigma_t() - ctl.sigma_t();
             if rng.uniform_f32() * c.sigma_maj < sigma_r {
                 stats.real_collisions += 1;
-                tr = 0.0;
+                hit = true;
                 false
             } else {
                 stats.null_collisions += 1;
@@ -161,5 +158,9 @@ where
             }
         },
     );
-    tr
+    if hit {
+        0.0
+    } else {
+        walk.control_transmittance()
+    }
 }

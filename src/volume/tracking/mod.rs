@@ -426,12 +426,19 @@ where
             if tau_left < 0.0 {
                 tau_left = sample_exponential(rng.uniform_f32(), 1.0);
             }
-            let t_next = t + tau_left / sigma_maj;
+            // The segment's optical depth decides first, with a multiply: most segments of a
+            // fine walk end before the next collision, and they then cost no division. With
+            // t1 = inf, tau_seg is inf and a collision always comes (no 0 * inf: sigma_maj > 0).
+            let tau_seg = sigma_maj * (t1 - t);
+            let t_next = if tau_left < tau_seg {
+                t + tau_left / sigma_maj
+            } else {
+                t1
+            };
             if !(t_next < t1) {
                 // Escaped this segment: carry the rest of the depth into the next one.
-                // (Never reached with t1 = inf, so no 0 * inf.) Rounding may leave a hair
-                // below 0: the next collision is then at the next segment's start.
-                let tau_seg = sigma_maj * (t1 - t);
+                // Rounding may leave a hair below 0: the next collision is then at the next
+                // segment's start.
                 tau_left = (tau_left - tau_seg).max(0.0);
                 tau_since += tau_seg;
                 break;
@@ -452,25 +459,63 @@ where
     (-tau_since).exp()
 }
 
-/// Optical depth `integral sigma_c dt` of the control component over the clipped segments:
-/// the closed-form part of decomposition and residual ratio tracking (no lookups).
-pub fn control_optical_depth<I, M>(segments: I, t_max: f32, medium: &M) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    let mut tau = 0.0f32;
-    for seg in segments {
-        if seg.t_min >= t_max {
-            break;
-        }
-        let len = seg.t_max.min(t_max) - seg.t_min;
-        let sigma_c = medium.control(&seg).sigma_t();
-        if len > 0.0 && sigma_c > 0.0 {
-            tau += sigma_c * len;
+/// Control optical depth beyond which `exp(-tau_c)` is 0 in f32 (`exp(-104) < 2^-150`): the
+/// closed-form control factor, and with it every control-based transmittance estimate, is 0.
+pub const CONTROL_DEPTH_CUTOFF: f32 = 104.0;
+
+/// The segments of a walk, summing the control's optical depth `integral sigma_c dt` over the
+/// clipped segments as the free-flight loop pulls them: the closed-form factor of
+/// decomposition, weighted decomposition and residual ratio tracking in the same walk as the
+/// residual, instead of a second walk before it. Stops the walk once the depth passes
+/// [`CONTROL_DEPTH_CUTOFF`], where the estimate is 0 whatever follows.
+pub struct ControlDepthWalk<'m, I, M: ?Sized> {
+    segments: I,
+    t_max: f32,
+    medium: &'m M,
+    /// The control optical depth of the segments pulled so far.
+    pub tau_c: f32,
+}
+
+impl<'m, I, M: Medium + ?Sized> ControlDepthWalk<'m, I, M> {
+    pub fn new(segments: I, t_max: f32, medium: &'m M) -> Self {
+        ControlDepthWalk {
+            segments,
+            t_max,
+            medium,
+            tau_c: 0.0,
         }
     }
-    tau
+
+    /// `exp(-tau_c)`, 0 when the walk was cut.
+    pub fn control_transmittance(&self) -> f32 {
+        if self.tau_c > CONTROL_DEPTH_CUTOFF {
+            0.0
+        } else {
+            (-self.tau_c).exp()
+        }
+    }
+}
+
+impl<I: Iterator<Item = MajorantSegment>, M: Medium + ?Sized> Iterator
+    for ControlDepthWalk<'_, I, M>
+{
+    type Item = MajorantSegment;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<MajorantSegment> {
+        if self.tau_c > CONTROL_DEPTH_CUTOFF {
+            return None;
+        }
+        let seg = self.segments.next()?;
+        if seg.t_min < self.t_max {
+            let len = seg.t_max.min(self.t_max) - seg.t_min;
+            let sigma_c = self.medium.control(&seg).sigma_t();
+            if len > 0.0 && sigma_c > 0.0 {
+                self.tau_c += sigma_c * len;
+            }
+        }
+        Some(seg)
+    }
 }
 
 /// Unbiased Russian roulette on `|w|` (see [`ROULETTE_THRESHOLD`]): returns the new weight,

@@ -15,7 +15,7 @@
 //! unbiased (the factors may be negative). Russian roulette as in ratio tracking, applied to the
 //! residual product (the closed-form factor is not random).
 use super::{
-    control_optical_depth, lookup, residual_majorant, roulette, sample_free_flight, Medium,
+    lookup, residual_majorant, roulette, sample_free_flight, ControlDepthWalk, Medium,
     TrackingStats, ROULETTE_THRESHOLD,
 };
 use crate::sampling::Rng;
@@ -32,20 +32,14 @@ pub fn transmittance<I, M>(
 ) -> f32
 where
     I: IntoIterator<Item = MajorantSegment>,
-    I::IntoIter: Clone,
     M: Medium + ?Sized,
 {
-    let segments = segments.into_iter();
-    let t_control = (-control_optical_depth(segments.clone(), t_max, medium)).exp();
-    if t_control == 0.0 {
-        // The closed-form factor underflowed: the estimate is 0 whatever the residual walk
-        // gives. Stop here, because that walk (a control above the density makes its factors
-        // exceed 1) could overflow to infinity, and 0 * inf is NaN.
-        return 0.0;
-    }
+    // The control factor is summed in the same walk (`ControlDepthWalk`); a walk cut at the
+    // depth where it underflows returns 0, as the estimate is then 0.
+    let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
     let mut tr = 1.0f32;
     let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
-    sample_free_flight(segments, t_max, majorant, rng, stats, |rng, stats, c| {
+    sample_free_flight(&mut walk, t_max, majorant, rng, stats, |rng, stats, c| {
         let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
         stats.null_collisions += 1;
         tr *= 1.0 - sigma_r / c.sigma_maj;
@@ -53,5 +47,9 @@ where
         tr = roulette(tr, ROULETTE_THRESHOLD, rng, stats);
         tr != 0.0
     });
+    let t_control = walk.control_transmittance();
+    if t_control == 0.0 {
+        return 0.0;
+    }
     t_control * tr
 }

@@ -22,8 +22,8 @@
 //! in proportion. Transmittance: `exp(-int sigma_c)` in closed form times the weighted
 //! residual estimate (events {real: |sigma_r|, null: |r_n|}; `w` on escape, 0 on real).
 use super::{
-    control_optical_depth, lookup, record_choice, residual_majorant, sample_free_flight, Event,
-    Medium, TrackingStats,
+    lookup, record_choice, residual_majorant, sample_free_flight, ControlDepthWalk, Event, Medium,
+    TrackingStats,
 };
 use crate::sampling::discrete::ONE_MINUS_EPSILON;
 use crate::sampling::{sample_discrete, Rng};
@@ -96,19 +96,13 @@ pub fn transmittance<I, M>(
 ) -> f32
 where
     I: IntoIterator<Item = MajorantSegment>,
-    I::IntoIter: Clone,
     M: Medium + ?Sized,
 {
-    let segments = segments.into_iter();
-    let t_control = (-control_optical_depth(segments.clone(), t_max, medium)).exp();
-    if t_control == 0.0 {
-        // As in residual ratio tracking: a zero closed-form factor makes the estimate 0, and
-        // the residual weight could overflow (0 * inf = NaN).
-        return 0.0;
-    }
+    // The control factor is summed in the same walk (`ControlDepthWalk`).
+    let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
     let mut w = 1.0f32;
     let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
-    sample_free_flight(segments, t_max, majorant, rng, stats, |rng, stats, c| {
+    sample_free_flight(&mut walk, t_max, majorant, rng, stats, |rng, stats, c| {
         let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
         let r_n = c.sigma_maj - sigma_r;
         let total = sigma_r.abs() + r_n.abs();
@@ -123,5 +117,11 @@ where
             true
         }
     });
+    let t_control = walk.control_transmittance();
+    if t_control == 0.0 {
+        // As in residual ratio tracking: a zero closed-form factor makes the estimate 0, and
+        // the residual weight could overflow (0 * inf = NaN).
+        return 0.0;
+    }
     t_control * w
 }
