@@ -454,9 +454,11 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
 ) -> MediumEvent {
     if CHROM && (!m.grey || cfg.force_spectral) {
         let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, beta);
-        let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
+        // Walked through a reference: the walk state is a few hundred bytes, and moving it down
+        // the estimator's calls copied it at every level.
+        let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
         let e = tracking::spectral::sample_distance(
-            segs,
+            &mut segs,
             t1,
             cfg.b(),
             &view,
@@ -529,8 +531,10 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
     l: &mut Vec3,
 ) -> MediumEvent {
     let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
-    let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-    let e = grey_free_flight(cfg, segs, t1, &view, rng, &mut stats.tracking);
+    // Walked through a reference: the walk state is a few hundred bytes, and moving it down
+    // the estimator's calls copied it at every level.
+    let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
+    let e = grey_free_flight(cfg, &mut segs, t1, &view, rng, &mut stats.tracking);
     if EMIT {
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();
@@ -555,9 +559,11 @@ pub fn transmittance_vdb<const CHROM: bool>(
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
         let view = RgbView::<false>::new(m, ray, Absorption::Event, Vec3::ONE);
-        let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
+        // Walked through a reference: the walk state is a few hundred bytes, and moving it down
+        // the estimator's calls copied it at every level.
+        let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
         tracking::spectral::transmittance(
-            segs,
+            &mut segs,
             t1,
             cfg.b(),
             &view,
@@ -567,10 +573,12 @@ pub fn transmittance_vdb<const CHROM: bool>(
         )
     } else {
         let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
-        let segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
+        // Walked through a reference: the walk state is a few hundred bytes, and moving it down
+        // the estimator's calls copied it at every level.
+        let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
         let t = if cfg.residual_shadow() {
             tracking::residual_ratio::transmittance(
-                segs,
+                &mut segs,
                 t1,
                 cfg.b(),
                 &view,
@@ -578,7 +586,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
                 &mut stats.tracking,
             )
         } else {
-            tracking::ratio::transmittance(segs, t1, cfg.b(), &view, rng, &mut stats.tracking)
+            tracking::ratio::transmittance(&mut segs, t1, cfg.b(), &view, rng, &mut stats.tracking)
         };
         Vec3::splat(t)
     };

@@ -59,12 +59,18 @@ impl Aabb {
     /// Axis-parallel rays (including `-0.0` components) are handled by the IEEE infinities of
     /// `1/d`; a NaN from `0 * inf` (origin on a slab plane) is ignored by `max`/`min` ordering.
     pub fn intersect(&self, ray: &Ray, t0: f32, t1: f32) -> Option<(f32, f32)> {
+        let inv_d = [0, 1, 2].map(|a| 1.0 / ray.d[a]);
+        self.intersect_inv(ray.o, inv_d, t0, t1)
+    }
+
+    /// [`intersect`](Self::intersect) with `1 / d` precomputed (bit for bit the same).
+    #[inline]
+    pub fn intersect_inv(&self, o: Vec3, inv_d: [f32; 3], t0: f32, t1: f32) -> Option<(f32, f32)> {
         let mut t_near = t0;
         let mut t_far = t1;
-        for axis in 0..3 {
-            let inv = 1.0 / ray.d[axis];
-            let mut ta = (self.min[axis] - ray.o[axis]) * inv;
-            let mut tb = (self.max[axis] - ray.o[axis]) * inv;
+        for (axis, inv) in inv_d.into_iter().enumerate() {
+            let mut ta = (self.min[axis] - o[axis]) * inv;
+            let mut tb = (self.max[axis] - o[axis]) * inv;
             if ta > tb {
                 std::mem::swap(&mut ta, &mut tb);
             }

@@ -28,12 +28,14 @@ pub(crate) struct BoxEntry {
     pub t_exit: f32,
 }
 
-/// [`BoxEntry`] of `ray`, or `None` when the overlap is empty (or the box is).
+/// [`BoxEntry`] of `ray` (with `inv_d = 1 / d` per axis), or `None` when the overlap is
+/// empty (or the box is).
 pub(crate) fn enter_box(
     lo: Vec3,
     width: Vec3,
     dims: [i32; 3],
     ray: &Ray,
+    inv_d: [f32; 3],
     t0: f32,
     t1: f32,
 ) -> Option<BoxEntry> {
@@ -42,7 +44,7 @@ pub(crate) fn enter_box(
     }
     let hi = lo + width * Vec3::from_array(dims.map(|n| n as f32));
     // The same slab test a renderer would use for the box, so the tiling is exact.
-    let (t_enter, t_exit) = Aabb::new(lo, hi).intersect(ray, t0, t1)?;
+    let (t_enter, t_exit) = Aabb::new(lo, hi).intersect_inv(ray.o, inv_d, t0, t1)?;
     // Written positively so NaN parameters are rejected too; an empty overlap yields nothing.
     if !(t_enter < t_exit) {
         return None;
@@ -55,9 +57,13 @@ pub(crate) fn enter_box(
         let x = if ray.d[a] == 0.0 { ray.o[a] } else { p[a] };
         // Rounding can put the entry point a hair outside the box: clamp into it. The
         // saturating cast truncates, which equals `floor` wherever the clamp keeps the
-        // value (negatives all clamp to 0) and maps NaN to 0: no libm `floorf` call.
-        let g = (x - lo[a]) / width[a];
-        cell[a] = (g as i32).clamp(0, dims[a] - 1);
+        // value (negatives all clamp to 0) and maps NaN to 0: no libm `floorf` call. A
+        // one-cell box (the global bound) needs no division.
+        cell[a] = if dims[a] == 1 {
+            0
+        } else {
+            (((x - lo[a]) / width[a]) as i32).clamp(0, dims[a] - 1)
+        };
     }
     Some(BoxEntry {
         cell,
@@ -146,9 +152,6 @@ impl DdaState {
             t_exit: 0.0,
             done: true,
         };
-        let Some(e) = enter_box(lo, width, dims, ray, t0, t1) else {
-            return it;
-        };
         let flat = [
             1isize,
             dims[0] as isize,
@@ -161,6 +164,9 @@ impl DdaState {
             it.stride[a] = step as isize * flat[a];
             it.plane_step[a] = step as f32 * width[a];
         }
+        let Some(e) = enter_box(lo, width, dims, ray, it.inv_d, t0, t1) else {
+            return it;
+        };
         it.set_cell(e.cell);
         it.t = e.t_enter;
         it.t_exit = e.t_exit;
