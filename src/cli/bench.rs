@@ -30,6 +30,10 @@ pub enum Which {
         /// Only the environment-map section (HDR sky vs constant sky, sampling ablation).
         #[arg(long)]
         env_only: bool,
+        /// Only the majorant-mode table (global, leaf, adaptive side by side) and the
+        /// hierarchy's build figures.
+        #[arg(long)]
+        majorants_only: bool,
         /// Samples per pixel of the environment-map section's timed renders.
         #[arg(long, default_value_t = 32)]
         env_spp: u32,
@@ -76,8 +80,18 @@ pub fn run(which: Which) -> Result<()> {
             cloud_size,
             cloud_spp,
             env_only,
+            majorants_only,
             env_spp,
         } => {
+            if majorants_only {
+                let scenes = if scenes.is_empty() {
+                    example_scenes()?
+                } else {
+                    scenes
+                };
+                majorant_modes(&scenes, width, height, spp)?;
+                return adaptive_build();
+            }
             if !env_only {
                 render_bench(scenes, spp, width, height, cloud_size, cloud_spp)?;
             }
@@ -228,6 +242,16 @@ fn worst_z(a: &brume::film::Film, b: &brume::film::Film) -> f64 {
     worst
 }
 
+/// Every `scenes/*.gltf`, sorted.
+fn example_scenes() -> Result<Vec<PathBuf>> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir("scenes")?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
+        .collect();
+    v.sort();
+    Ok(v)
+}
+
 fn render_bench(
     scenes: Vec<PathBuf>,
     spp: u32,
@@ -238,12 +262,7 @@ fn render_bench(
 ) -> Result<()> {
     use brume::integrator::{Estimator, MajorantMode, RenderSettings};
     let scenes = if scenes.is_empty() {
-        let mut v: Vec<PathBuf> = std::fs::read_dir("scenes")?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
-            .collect();
-        v.sort();
-        v
+        example_scenes()?
     } else {
         scenes
     };

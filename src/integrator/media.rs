@@ -189,6 +189,35 @@ pub struct MediaStats {
     pub emission_lookups: u64,
 }
 
+/// Evaluates `$body` with `$segs` bound to `&mut` the concrete walk of `$mode` over `$m`'s
+/// majorants (in `$ray_i`'s index space over `[$t0, $t1]`). The tracking loop is then
+/// instantiated once per walk type and the walk's step inlines into it: through the
+/// [`Segments`] enum it was a call per segment. The walk is used through a reference because
+/// its state is a few hundred bytes that moving down the estimator's calls would copy.
+macro_rules! with_walk {
+    ($m:expr, $ray_i:expr, $t0:expr, $t1:expr, $mode:expr, |$segs:ident| $body:expr) => {{
+        let m: &VdbMedium = $m;
+        match $mode {
+            MajorantMode::Adaptive => {
+                let mut walk =
+                    AdaptiveMajorantIterator::new(&m.adaptive, $ray_i, $t0, $t1, m.sigma_t_bound);
+                let $segs = &mut walk;
+                $body
+            }
+            mode => {
+                let bounds = &m.density.grid.bounds;
+                let mut walk = if mode == MajorantMode::Global {
+                    DdaMajorantIterator::global(bounds, $ray_i, $t0, $t1, m.sigma_t_bound)
+                } else {
+                    DdaMajorantIterator::new(bounds, $ray_i, $t0, $t1, m.sigma_t_bound)
+                };
+                let $segs = &mut walk;
+                $body
+            }
+        }
+    }};
+}
+
 /// The majorant segments of `ray` (world) over `[t0, t1]` in `m`'s index space.
 #[inline]
 pub(super) fn segments<'a>(
@@ -238,7 +267,7 @@ pub enum Segments<'a> {
 impl Iterator for Segments<'_> {
     type Item = crate::volume::MajorantSegment;
 
-    // Inlined into the tracking loops: a call per segment (and the segment returned through
+    // Inlined into the mixture's merge: a call per segment (and the segment returned through
     // memory) cost as much as the DDA step itself. The match is predictable within a flight.
     #[inline(always)]
     fn next(&mut self) -> Option<Self::Item> {
@@ -454,19 +483,18 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
 ) -> MediumEvent {
     if CHROM && (!m.grey || cfg.force_spectral) {
         let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, beta);
-        // Walked through a reference: the walk state is a few hundred bytes, and moving it down
-        // the estimator's calls copied it at every level.
-        let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-        let e = tracking::spectral::sample_distance(
-            &mut segs,
-            t1,
-            cfg.b(),
-            &view,
-            beta,
-            SpectralProbabilities::HistoryAwareMax,
-            rng,
-            &mut stats.tracking,
-        );
+        let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
+            tracking::spectral::sample_distance(
+                segs,
+                t1,
+                cfg.b(),
+                &view,
+                beta,
+                SpectralProbabilities::HistoryAwareMax,
+                rng,
+                &mut stats.tracking,
+            )
+        });
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();
         return match e {
@@ -531,10 +559,9 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
     l: &mut Vec3,
 ) -> MediumEvent {
     let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
-    // Walked through a reference: the walk state is a few hundred bytes, and moving it down
-    // the estimator's calls copied it at every level.
-    let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-    let e = grey_free_flight(cfg, &mut segs, t1, &view, rng, &mut stats.tracking);
+    let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
+        grey_free_flight(cfg, segs, t1, &view, rng, &mut stats.tracking)
+    });
     if EMIT {
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();
@@ -559,35 +586,34 @@ pub fn transmittance_vdb<const CHROM: bool>(
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
         let view = RgbView::<false>::new(m, ray, Absorption::Event, Vec3::ONE);
-        // Walked through a reference: the walk state is a few hundred bytes, and moving it down
-        // the estimator's calls copied it at every level.
-        let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-        tracking::spectral::transmittance(
-            &mut segs,
-            t1,
-            cfg.b(),
-            &view,
-            SpectralProbabilities::HistoryAwareMax,
-            rng,
-            &mut stats.tracking,
-        )
-    } else {
-        let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
-        // Walked through a reference: the walk state is a few hundred bytes, and moving it down
-        // the estimator's calls copied it at every level.
-        let mut segs = segments(m, &view.ray_i, t0, t1, cfg.majorant);
-        let t = if cfg.residual_shadow() {
-            tracking::residual_ratio::transmittance(
-                &mut segs,
+        with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
+            tracking::spectral::transmittance(
+                segs,
                 t1,
                 cfg.b(),
                 &view,
+                SpectralProbabilities::HistoryAwareMax,
                 rng,
                 &mut stats.tracking,
             )
-        } else {
-            tracking::ratio::transmittance(&mut segs, t1, cfg.b(), &view, rng, &mut stats.tracking)
-        };
+        })
+    } else {
+        let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
+        let residual = cfg.residual_shadow();
+        let t = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
+            if residual {
+                tracking::residual_ratio::transmittance(
+                    segs,
+                    t1,
+                    cfg.b(),
+                    &view,
+                    rng,
+                    &mut stats.tracking,
+                )
+            } else {
+                tracking::ratio::transmittance(segs, t1, cfg.b(), &view, rng, &mut stats.tracking)
+            }
+        });
         Vec3::splat(t)
     };
     stats.shadow_lookups += stats.tracking.lookups - before;

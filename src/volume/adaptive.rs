@@ -77,7 +77,10 @@ impl CostModel {
         step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
     }
 
-    /// Measured on the example scenes: see `DEFAULT_NOTE` in the README's majorant section.
+    /// Measured on the example grids (2-core x86-64, one thread, random rays and renders): a
+    /// level-0 segment (incremental DDA step and the tracking loop's per-segment work) costs
+    /// 11-16 ns, a merged node about 40 ns, a tentative collision (exponential step, lookup,
+    /// event) about 35 ns.
     pub const DEFAULT: CostModel = CostModel {
         step: 0.3,
         node_step: 1.2,
@@ -477,7 +480,9 @@ impl<'a> AdaptiveMajorantIterator<'a> {
 impl Iterator for AdaptiveMajorantIterator<'_> {
     type Item = MajorantSegment;
 
-    #[inline]
+    // Always inlined, also through `&mut` (the estimators walk through a reference): a call
+    // per segment costs as much as the step.
+    #[inline(always)]
     fn next(&mut self) -> Option<MajorantSegment> {
         while !self.dda.done {
             let l = self.node_level[self.dda.index] as u32;

@@ -335,7 +335,9 @@ pub(crate) fn first_axis(c: [f32; 3]) -> usize {
 impl Iterator for DdaMajorantIterator<'_> {
     type Item = MajorantSegment;
 
-    #[inline]
+    // Always inlined, also through `&mut` (the estimators walk through a reference): a call
+    // per segment costs as much as the step.
+    #[inline(always)]
     fn next(&mut self) -> Option<MajorantSegment> {
         while !self.state.done {
             if let Some(seg) = self.state.step(self.bounds, self.scale) {
