@@ -44,7 +44,8 @@ pub struct RenderArgs {
     /// Minorant fraction m of the decomposition estimators (control = m * bound).
     #[arg(long)]
     pub m: Option<f32>,
-    /// Majorants: global (one bound) or local (per-leaf, 3D-DDA); default local.
+    /// Majorants: global (one bound), leaf (per-leaf cells, 3D-DDA) or adaptive (the merged
+    /// hierarchy of `volume::adaptive`; `local` is an alias); default adaptive.
     #[arg(long)]
     pub majorant: Option<MajorantMode>,
     /// Shadow-ray transmittance: auto, ratio, residual-ratio.

@@ -77,12 +77,13 @@ impl CostModel {
         step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
     }
 
-    /// Measured on the example grids (2-core x86-64, one thread, random rays and renders): a
-    /// level-0 segment (incremental DDA step and the tracking loop's per-segment work) costs
-    /// 11-16 ns, a merged node about 40 ns, a tentative collision (exponential step, lookup,
-    /// event) about 35 ns.
+    /// Measured on the example grids (2-core x86-64, random rays and renders): a tentative
+    /// collision in a brick (exponential step, blended lookup, event) about 35 ns, a merged
+    /// node about 40 ns, a level-0 segment 11-16 ns alone and about 18 ns with the tracking
+    /// loop's per-segment work in a render (fitted to `brume bench render --majorants-only`:
+    /// per-leaf against global bounds on the furnace and the cloud).
     pub const DEFAULT: CostModel = CostModel {
-        step: 0.3,
+        step: 0.5,
         node_step: 1.2,
         collision: 1.0,
     };
