@@ -93,7 +93,7 @@ fn print_facts(g: &GridInfo) {
 
 /// The adaptive hierarchy's shape, model costs, build time and memory.
 fn print_adaptive(label: &str, a: &AdaptiveMajorants, scale: f32, index_per_t: f32) {
-    let s = a.stats(scale, index_per_t, CostModel::DEFAULT);
+    let s = a.stats(scale, index_per_t, a.cost);
     let levels: Vec<String> = s
         .nodes_per_level
         .iter()

@@ -191,11 +191,20 @@ impl<'s> RenderScene<'s> {
             let sigma_t = sigma_a + sigma_s;
             let density = field(density, world_from_node);
             let sigma_t_bound = sigma_t.max_element();
+            // Every tentative collision in an emitting medium also reads its emission grids
+            // (`Medium::on_collision`), so collisions cost that much more against steps.
+            let emission_reads = emission.as_ref().map_or(0, |e| {
+                e.grid.is_some() as u32 + e.blackbody.is_some() as u32
+            });
+            let cost = CostModel {
+                collision: 1.0 + emission_reads as f32,
+                ..CostModel::DEFAULT
+            };
             let adaptive = Arc::new(AdaptiveMajorants::build(
                 &density.grid.bounds,
                 sigma_t_bound,
                 index_per_t(&density),
-                CostModel::DEFAULT,
+                cost,
             ));
             vdb.push(VdbMedium {
                 density,

@@ -113,6 +113,8 @@ pub struct AdaptiveMajorants {
     level_index: [[u32; 3]; MAX_LEVEL as usize + 1],
     /// Wall time of [`AdaptiveMajorants::build`].
     pub build_seconds: f64,
+    /// The cost model it was built with.
+    pub cost: CostModel,
 }
 
 /// What the structure looks like, for `brume info`.
@@ -220,6 +222,7 @@ impl AdaptiveMajorants {
             node_level,
             level_index,
             build_seconds: start.elapsed().as_secs_f64(),
+            cost,
         }
     }
 
