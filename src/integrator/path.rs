@@ -55,12 +55,17 @@ fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
     }
 }
 
-/// The VDB media along a ray: `(medium, t_min, t_max)` sorted by `t_min`; up to 16 inline
-/// (no allocation on the hot path), any number on the heap. (The size difference is the
-/// point: the inline variant lives on the stack of one flight.)
+/// VDB media along one ray kept without allocating. Small on purpose: the spans are built,
+/// zeroed and moved for every flight and shadow ray (with 16 that was 256 bytes a time, a few
+/// percent of a sample), and scenes rarely cross more than a few media on one ray.
+const INLINE_SPANS: usize = 4;
+
+/// The VDB media along a ray: `(medium, t_min, t_max)` sorted by `t_min`; up to
+/// [`INLINE_SPANS`] inline (no allocation on the hot path), any number on the heap. (The size
+/// difference is the point: the inline variant lives on the stack of one flight.)
 #[allow(clippy::large_enum_variant)]
 enum Spans {
-    Inline([(usize, f32, f32); 16], usize),
+    Inline([(usize, f32, f32); INLINE_SPANS], usize),
     Heap(Vec<(usize, f32, f32)>),
 }
 
@@ -77,7 +82,7 @@ impl std::ops::Deref for Spans {
 /// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, sorted by
 /// start (disjoint unless media overlap).
 fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
-    let mut out = Spans::Inline([(0usize, 0f32, 0f32); 16], 0);
+    let mut out = Spans::Inline([(0usize, 0f32, 0f32); INLINE_SPANS], 0);
     for (k, m) in rs.vdb.iter().enumerate() {
         let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) else {
             continue;
