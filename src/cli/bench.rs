@@ -52,6 +52,14 @@ pub enum Which {
         #[arg(long, default_value_t = 5)]
         runs: usize,
     },
+    /// The majorant walks alone on random rays through each example grid: ns per segment
+    /// and per ray for the global, per-leaf and adaptive walks, and ns per trilinear lookup.
+    Walk {
+        /// .vdb files (default: every example grid in scenes/vdb).
+        files: Vec<PathBuf>,
+        #[arg(long, default_value = "density")]
+        grid: String,
+    },
     /// Samples per second of the GPU wavefront integrator against the CPU backend.
     Gpu {
         /// Scene to render.
@@ -103,6 +111,7 @@ pub fn run(which: Which) -> Result<()> {
             points,
             runs,
         } => lookups(files, &grid, points, runs),
+        Which::Walk { files, grid } => super::bench_walk::run(files, &grid),
         Which::Gpu {
             scene,
             width,
