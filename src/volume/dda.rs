@@ -185,17 +185,13 @@ impl DdaState {
         let [nx, ny, _] = self.dims.map(|n| n as usize);
         self.index = cell[0] as usize + nx * (cell[1] as usize + ny * cell[2] as usize);
         self.fixed = cell;
-        for a in 0..3 {
+        for (a, &c) in cell.iter().enumerate() {
             let s = self.step[a];
             if s == 0 {
                 continue;
             }
-            self.left[a] = if s > 0 {
-                self.dims[a] - 1 - cell[a]
-            } else {
-                cell[a]
-            };
-            let plane_cell = cell[a] + (s > 0) as i32;
+            self.left[a] = if s > 0 { self.dims[a] - 1 - c } else { c };
+            let plane_cell = c + (s > 0) as i32;
             self.plane[a] = self.lo[a] + plane_cell as f32 * self.width[a];
             self.next_crossing[a] = (self.plane[a] - self.o[a]) * self.inv_d[a];
         }
