@@ -50,10 +50,6 @@ pub(crate) fn enter_box(
         return None;
     }
     let p = ray.at(t_enter);
-    // Off the chain of dependent operations (the entry point waits for 1 / d and the slab
-    // test), and exact for the walks' power-of-two cell width: `x * (1 / 8) == x / 8`. A
-    // one-cell box, the only other width, never uses it.
-    let inv_width = Vec3::ONE / width;
     let mut cell = [0; 3];
     for a in 0..3 {
         // On an axis the ray does not move along, `t_enter` may be infinite and `t * 0`
@@ -62,11 +58,13 @@ pub(crate) fn enter_box(
         // Rounding can put the entry point a hair outside the box: clamp into it. The
         // saturating cast truncates, which equals `floor` wherever the clamp keeps the
         // value (negatives all clamp to 0) and maps NaN to 0: no libm `floorf` call. A
-        // one-cell box (the global bound) needs no division.
+        // one-cell box (the global bound) needs no cell at all; every other box is a grid of
+        // 8-voxel cells, where `x * (1 / 8) == x / 8` exactly: no division.
+        debug_assert!(dims[a] == 1 || width[a] == CELL_WIDTH);
         cell[a] = if dims[a] == 1 {
             0
         } else {
-            (((x - lo[a]) * inv_width[a]) as i32).clamp(0, dims[a] - 1)
+            (((x - lo[a]) * (1.0 / CELL_WIDTH)) as i32).clamp(0, dims[a] - 1)
         };
     }
     Some(BoxEntry {
