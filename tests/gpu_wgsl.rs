@@ -147,8 +147,12 @@ fn reachable(module: &naga::Module, entry: &str) -> std::collections::BTreeSet<S
 fn variants_without_a_feature_hold_no_code_for_it() {
     use brume::backend::gpu::render::Stage;
     use brume::backend::gpu::Spec;
-    let features: [(&str, &[&str]); 5] = [
+    let features: [(&str, &[&str]); 6] = [
         ("FEATURE_TEXTURES", &["texture_sample", "wrap_index"]),
+        (
+            "FEATURE_MIXTURE",
+            &["sample_media_mix", "mix_next", "mix_coeffs", "mix_transmittance"],
+        ),
         (
             "FEATURE_HETEROGENEOUS",
             &["sample_free_flight", "tracking_transmittance"],

@@ -44,6 +44,8 @@ struct Dda {
     t: f32,                   // start of the next segment
     t_exit: f32,
     done: bool,
+    bounds_base: u32,         // first entry of the grid's bounds in grid_bounds
+    global_index: u32,        // its global bound, relative to bounds_base
 }
 
 // Aabb::intersect: the parameter interval of the ray inside [lo, hi], clipped to [t0, t1].
@@ -98,9 +100,19 @@ fn dda_crossing(it: ptr<function, Dda>, axis: i32) -> f32 {
 }
 
 // DdaMajorantIterator::new (MAJORANT_PER_CELL) and ::global (MAJORANT_GLOBAL), through
-// `walk`, and AdaptiveMajorantIterator::new (MAJORANT_ADAPTIVE: the per-cell entry).
+// `walk`, and AdaptiveMajorantIterator::new (MAJORANT_ADAPTIVE: the per-cell entry), for the
+// density grid of the `grid_info` uniform.
 fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) -> Dda {
+    return dda_new_in(grid_info, 0u, o, d, t0, t1, scale, mode);
+}
+
+// dda_new for grid `g` whose bounds start at `bounds_base` in grid_bounds (one of several
+// media sharing the buffers: mixture.wgsl).
+fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
+              scale: f32, mode: u32) -> Dda {
     var it: Dda;
+    it.bounds_base = bounds_base;
+    it.global_index = g.global_bounds_index;
     let global = mode == MAJORANT_GLOBAL;
     it.o = o;
     it.d = d;
@@ -108,8 +120,8 @@ fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) 
     it.scale = scale;
     it.global = global;
     it.adaptive = mode == MAJORANT_ADAPTIVE;
-    it.lo = vec3<f32>(grid_info.cell_origin) * CELL_WIDTH;
-    let grid_dims = vec3<i32>(grid_info.dims);
+    it.lo = vec3<f32>(g.cell_origin) * CELL_WIDTH;
+    let grid_dims = vec3<i32>(g.dims);
     let empty = any(grid_dims <= vec3<i32>(0));
     if (global) {
         it.width = vec3<f32>(grid_dims) * CELL_WIDTH;
@@ -155,36 +167,39 @@ fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) 
 // DdaMajorantIterator::cell_bounds.
 fn dda_cell_bounds(it: ptr<function, Dda>) -> CellBounds {
     if ((*it).global) {
-        return grid_bounds[grid_info.global_bounds_index];
+        return grid_bounds[(*it).bounds_base + (*it).global_index];
     }
     let c = vec3<u32>((*it).cell);
     let n = vec3<u32>((*it).dims);
-    return grid_bounds[c.x + n.x * (c.y + n.y * c.z)];
+    return grid_bounds[(*it).bounds_base + c.x + n.x * (c.y + n.y * c.z)];
 }
 
 // A slot of the adaptive hierarchy's table (AdaptiveMajorants::gpu_bounds): an exact integer
-// stored as an f32 value.
-fn adaptive_table(slot: u32) -> u32 {
-    let b = grid_bounds[grid_info.global_bounds_index + 1u + slot / 2u];
-    return u32(select(b.min, b.max, (slot & 1u) == 1u));
+// stored as an f32 value, an index relative to the grid's first bounds entry; returned
+// absolute.
+fn adaptive_table(it: ptr<function, Dda>, slot: u32) -> u32 {
+    let base = (*it).bounds_base;
+    let b = grid_bounds[base + (*it).global_index + 1u + slot / 2u];
+    return base + u32(select(b.min, b.max, (slot & 1u) == 1u));
 }
 
 // AdaptiveMajorants::level_of: the level of the merged node holding leaf cell c (4 levels
-// per f32 value, 2 values per CellBounds).
-fn adaptive_level(c: vec3<i32>) -> u32 {
-    let n = vec3<u32>(grid_info.dims);
+// per f32 value, 2 values per CellBounds). The walk's dims are the grid's (adaptive walks
+// are per cell).
+fn adaptive_level(it: ptr<function, Dda>, c: vec3<i32>) -> u32 {
+    let n = vec3<u32>((*it).dims);
     let i = u32(c.x) + n.x * (u32(c.y) + n.y * u32(c.z));
-    let b = grid_bounds[adaptive_table(14u) + i / 8u];
+    let b = grid_bounds[adaptive_table(it, 14u) + i / 8u];
     let w = u32(select(b.min, b.max, ((i / 4u) & 1u) == 1u));
     return (w >> (4u * (i % 4u))) & 15u;
 }
 
 // AdaptiveMajorants::node: bounds of node `node` of level `l` (level dims are the leaf dims
 // halved l times, rounded up).
-fn adaptive_node(l: u32, node: vec3<i32>) -> CellBounds {
-    let dims = (vec3<u32>(grid_info.dims) + vec3<u32>((1u << l) - 1u)) >> vec3<u32>(l);
+fn adaptive_node(it: ptr<function, Dda>, l: u32, node: vec3<i32>) -> CellBounds {
+    let dims = (vec3<u32>((*it).dims) + vec3<u32>((1u << l) - 1u)) >> vec3<u32>(l);
     let i = u32(node.x) + dims.x * (u32(node.y) + dims.y * u32(node.z));
-    return grid_bounds[adaptive_table(l) + i];
+    return grid_bounds[adaptive_table(it, l) + i];
 }
 
 // AdaptiveMajorantIterator::crossing.
@@ -202,7 +217,7 @@ fn adaptive_crossing(it: ptr<function, Dda>, axis: i32, node: i32, l: u32) -> f3
 // the exit plane (other axes: the exit point's cell, kept inside the node just left).
 fn adaptive_next(it: ptr<function, Dda>, seg: ptr<function, GpuMajorantSegment>) -> bool {
     while (!(*it).done) {
-        let l = adaptive_level((*it).cell);
+        let l = adaptive_level(it, (*it).cell);
         let node = (*it).cell >> vec3<u32>(l);
         let c = vec3<f32>(adaptive_crossing(it, 0, node.x, l), adaptive_crossing(it, 1, node.y, l),
                           adaptive_crossing(it, 2, node.z, l));
@@ -224,7 +239,7 @@ fn adaptive_next(it: ptr<function, Dda>, seg: ptr<function, GpuMajorantSegment>)
         } else if (c[axis] > t_min) {
             t_max = c[axis];
         }
-        let b = adaptive_node(l, node);
+        let b = adaptive_node(it, l, node);
         if (leaving) {
             (*it).done = true;
         } else {

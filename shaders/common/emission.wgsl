@@ -36,6 +36,12 @@ fn blackbody_emission(t_kelvin: f32, intensity: f32) -> vec3<f32> {
 
 // Emission::radiance at world point p; counts its grid reads in the tracker.
 fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
+    return emission_radiance_of(tr, emission, p);
+}
+
+// Emission::radiance of the medium whose emission is `emission` (the uniform of a scene with
+// one VDB medium, or a vdb_media entry's).
+fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams, p: vec3<f32>) -> vec3<f32> {
     var e = vec3<f32>(0.0);
     if (any(emission.strength_color != vec3<f32>(0.0))) {
         var scale = 1.0;
@@ -57,10 +63,19 @@ fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
 
 // Medium::on_collision of the wavefront's media: the emission at the tentative collision t,
 // weighted by the flight's starting throughput and the weight so far over sigma_maj
-// (grey: `beta * (w / sigma_maj) * Le`; spectral: `beta * w * Le / sigma_maj`).
+// (grey: `beta * (w / sigma_maj) * Le`; spectral: `beta * w * Le / sigma_maj`). A mixture
+// gathers every member's emission (GreyMix / RgbMix::on_collision: each view's term, with
+// the same weight, so their sum).
 fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
 // #if FEATURE_EMISSION
-    let le = emission_radiance(tr, (*tr).ow + t * (*tr).dw);
+    let p = (*tr).ow + t * (*tr).dw;
+    var le = vec3<f32>(0.0);
+// #if FEATURE_MIXTURE
+    le = mix_emission(tr, p);
+// #endif
+// #if !FEATURE_MIXTURE
+    le = emission_radiance(tr, p);
+// #endif
     if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
         (*tr).emitted += (*tr).beta * (*tr).w * le / sigma_maj;
     } else {

@@ -138,10 +138,16 @@ fn stack_cross(top: u32, outer: u32, interior: u32, entering: bool) -> vec2<u32>
     return vec2<u32>(new_top, b1 | (b2 << 16u));
 }
 
-// The phase function's g where the path is: its homogeneous medium's, else the VDB medium's.
-fn medium_phase_g(medium: u32) -> f32 {
-    if (FEATURE_HOMOGENEOUS && medium != NO_INDEX) {
-        return homogeneous[medium].g;
+// The phase function's g at the path's scattering event: its homogeneous medium's, else the
+// VDB medium's; in the mixture variant, that of the medium the event picked (recorded by the
+// medium stage in GpuPathState::phase_g, as sample_media returns it with the event).
+fn path_phase_g(ps: GpuPathState) -> f32 {
+    var g = wf.phase_g;
+    if (FEATURE_HOMOGENEOUS && ps.medium != NO_INDEX) {
+        g = homogeneous[ps.medium].g;
     }
-    return wf.phase_g;
+// #if FEATURE_MIXTURE
+    g = ps.phase_g;
+// #endif
+    return g;
 }

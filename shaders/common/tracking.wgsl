@@ -68,7 +68,13 @@ struct Tracker {
     emission_lookups: u32, // emission and temperature grid reads
     sum_control: bool, // ControlDepthWalk: sum the control's optical depth during the walk
     tau_c: f32,        // the control optical depth summed so far
+    // Which medium (the mixture variant, mixture.wgsl): 0 the `grid_info` uniform's, k + 1
+    // entry k of vdb_media, MIX_ALL the sum of the media of the flight in `mix`.
+    mix: u32,
 }
+
+// Tracker::mix of a tracker of the sum of several media.
+const MIX_ALL: u32 = 0xFFFFFFFFu;
 
 // tracking::CONTROL_DEPTH_CUTOFF: exp(-tau_c) is 0 in f32 beyond it.
 const CONTROL_DEPTH_CUTOFF: f32 = 104.0;
@@ -97,11 +103,22 @@ fn copysign(x: f32, y: f32) -> f32 {
 
 // The medium's extinction at ray parameter t, before channel and albedo splits.
 fn medium_sigma_t(tr: ptr<function, Tracker>, t: f32) -> f32 {
+// #if FEATURE_MIXTURE
+    if ((*tr).mix != 0u) {
+        let g = vdb_media[(*tr).mix - 1u].grid;
+        return g.density_scale * grid_sample_trilinear_in(g, (*tr).o + t * (*tr).d);
+    }
+// #endif
     return grid_info.density_scale * grid_sample_trilinear((*tr).o + t * (*tr).d);
 }
 
-// tracking::lookup: one counted density lookup.
+// tracking::lookup: one counted density lookup (the mixture: one per medium, summed).
 fn lookup(tr: ptr<function, Tracker>, t: f32) -> Coeffs {
+// #if FEATURE_MIXTURE
+    if ((*tr).mix == MIX_ALL) {
+        return mix_coeffs(tr, t);
+    }
+// #endif
     (*tr).stats.lookups += 1u;
     return coeffs_from_sigma_t(medium_sigma_t(tr, t), (*tr).params.albedo);
 }
@@ -116,6 +133,11 @@ struct CoeffsRgb {
 // albedo (the kernels set it to params.albedo in every channel; the wavefront integrator to
 // the medium's sigma_s / sigma_t, as RgbView does).
 fn lookup_rgb(tr: ptr<function, Tracker>, t: f32) -> CoeffsRgb {
+// #if FEATURE_MIXTURE
+    if ((*tr).mix == MIX_ALL) {
+        return mix_coeffs_rgb(tr, t);
+    }
+// #endif
     (*tr).stats.lookups += 1u;
     let s = (*tr).params.channel_scale * medium_sigma_t(tr, t);
     let albedo = (*tr).albedo_rgb;
@@ -141,6 +163,11 @@ fn control_sigma_c(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
 
 // Medium::control of FnMedium::with_control: Coeffs::from_sigma_t(sigma_c, control_albedo).
 fn control(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> Coeffs {
+// #if FEATURE_MIXTURE
+    if ((*tr).mix == MIX_ALL) {
+        return mix_control(control_sigma_c(tr, seg));
+    }
+// #endif
     return coeffs_from_sigma_t(control_sigma_c(tr, seg), (*tr).params.control_albedo);
 }
 
@@ -584,7 +611,18 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
         if ((*tr).sum_control && (*tr).tau_c > CONTROL_DEPTH_CUTOFF) {
             break;
         }
-        if (!dda_next(&dda, &seg)) {
+        var more = false;
+// #if FEATURE_MIXTURE
+        if ((*tr).mix == MIX_ALL) {
+            more = mix_next(&seg);
+        } else {
+            more = dda_next(&dda, &seg);
+        }
+// #endif
+// #if !FEATURE_MIXTURE
+        more = dda_next(&dda, &seg);
+// #endif
+        if (!more) {
             break;
         }
         if ((*tr).sum_control && seg.t_min < t_max) {

@@ -93,7 +93,7 @@ struct GpuPathState {
     hit_b1: f32,        // barycentric weight of corner 1
     hit_b2: f32,        // barycentric weight of corner 2
     outer: u32,         // the two media below `medium` on the stack, 16 bits each (STACK_NONE: none)
-    _pad1: u32,
+    phase_g: f32,       // g of the medium that scattered last (mixture variant)
 }
 
 // GpuShadowRay: a pending next-event-estimation shadow ray, one slot per path.
@@ -268,9 +268,30 @@ struct GpuWavefrontParams {
     rr_throughput: f32,          // roulette before rr_depth below this throughput
     absorption_weight: u32,      // 1: grey homogeneous media scatter with the albedo as weight
     camera_outer: u32,           // the media below camera_medium (GpuPathState::outer)
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    vdb_count: u32,              // entries of vdb_media (mixture variant)
+    mix_flags: u32,              // MIX_FLAG_* bits
+    mix_estimator: u32,          // grey free-flight estimator of a mixture
+}
+
+// GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).
+struct GpuVdbMedium {
+    grid: GpuGridInfo,           // density grid, density_scale = sigma_t_bound
+    tracking: GpuTrackingParams, // its own tracking parameters
+    emission: GpuEmissionParams,
+    lo: vec3<f32>,               // world bounds
+    phase_g: f32,
+    hi: vec3<f32>,
+    spectral: u32,               // tracked spectrally on its own
+    scatter_albedo: vec3<f32>,   // GreyView / RgbView scatter_albedo
+    shadow_estimator: u32,
+    albedo_rgb: vec3<f32>,       // per-channel sigma_s / sigma_t
+    grey_sigma_a: f32,           // GreyView::sigma_a per unit density
+    rgb_sigma_a: vec3<f32>,      // RgbView::sigma_a per unit density
+    grey_sigma_s: f32,           // GreyView::sigma_s per unit density
+    rgb_sigma_s: vec3<f32>,      // RgbView::sigma_s per unit density
+    bounds_base: u32,            // first entry of its bounds in grid_bounds
+    sigma_s: vec3<f32>,          // true sigma_s per unit density
+    control_albedo: f32,         // GreyView::control_albedo
 }
 
 // PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.

@@ -1,5 +1,6 @@
 // Mirrors sample_media (src/integrator/path.rs), sample_vdb and sample_homogeneous
-// (src/integrator/media.rs): Stage::SampleMedium. The free flight along the path's ray up to
+// (src/integrator/media.rs): Stage::SampleMedium. (The mixture variant: sample_media_mix,
+// mixture.wgsl.) The free flight along the path's ray up to
 // the surface it hits (or to infinity): through the homogeneous medium the path is in
 // (closed form, media.wgsl), else through the VDB medium it crosses with the configured
 // estimator (tracking_sample_distance, tracking.wgsl: the same loop and callbacks as the CPU)
@@ -31,6 +32,19 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
         sampler_queue_on_stream(ps.sample_id, bounce_dim(ps.depth, DIM_DISTANCE), &rng0);
         ps.flags |= PATH_FLAG_FLIGHT_STARTED;
     }
+// #if FEATURE_MIXTURE
+// #if FEATURE_HETEROGENEOUS
+    // Several VDB media (mixture.wgsl): the homogeneous medium, each VDB medium in turn, or
+    // their sum where they overlap. (graph.rs never builds the mixture without media; the
+    // other paths below are then cut.)
+    let f = sample_media_mix(&ps, rng0, t_hit);
+    event = f.event;
+    t_event = f.t;
+    weight = f.weight;
+    ps.phase_g = f.g;
+// #endif
+// #endif
+// #if !FEATURE_MIXTURE
 // #if FEATURE_HOMOGENEOUS
     in_homogeneous = ps.medium != NO_INDEX;
     if (in_homogeneous) {
@@ -75,6 +89,7 @@ fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
+// #endif
 // #endif
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {

@@ -51,7 +51,7 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
 // #endif
     if (!at_surface) {
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
-        let s = hg_sample(medium_phase_g(ps.medium), -ps.d, u_dir);
+        let s = hg_sample(path_phase_g(ps), -ps.d, u_dir);
         ps.beta *= s.weight;
         ps.d = s.wi;
         ps.prev_pdf = s.pdf;

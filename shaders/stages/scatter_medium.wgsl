@@ -34,7 +34,7 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     let u_light = sampler_2d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT), &rng);
     let ls = light_sample(p, u_select, u_light);
     if (ls.valid) {
-        let f = hg_p(medium_phase_g(ps.medium), wo, ls.wi);
+        let f = hg_p(path_phase_g(ps), wo, ls.wi);
         if (f > 0.0 && ls.pdf > 0.0) {
             var w = 1.0;
             if (!ls.is_delta) {

@@ -34,6 +34,16 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
             t *= transmittance_homogeneous(homogeneous[medium], t1 - t0);
         }
 // #endif
+// #if FEATURE_MIXTURE
+// #if FEATURE_HETEROGENEOUS
+        // Every VDB medium along the stretch, inside a homogeneous medium or not (MIX).
+        t *= mix_transmittance(sh.o, sh.wi, t0, t1, &ps);
+        if (all(t == vec3<f32>(0.0))) {
+            break;
+        }
+// #endif
+// #endif
+// #if !FEATURE_MIXTURE
 // #if FEATURE_HETEROGENEOUS
         var te = vec2<f32>(0.0);
         if (medium == NO_INDEX
@@ -53,6 +63,7 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
                 break;
             }
         }
+// #endif
 // #endif
         if (h.prim == NO_INDEX) {
             break;

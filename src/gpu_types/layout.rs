@@ -108,7 +108,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         "GpuPathState",
         [
             o, t0, d, prev_pdf, beta, sample_id, l, depth, rng_state, rng_inc, flags, collisions,
-            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, outer, _pad1
+            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, outer, phase_g
         ]
     ),
     layout!(
@@ -207,9 +207,32 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             rr_throughput,
             absorption_weight,
             camera_outer,
-            _pad0,
-            _pad1,
-            _pad2
+            vdb_count,
+            mix_flags,
+            mix_estimator
+        ]
+    ),
+    layout!(
+        GpuVdbMedium,
+        "GpuVdbMedium",
+        [
+            grid,
+            tracking,
+            emission,
+            lo,
+            phase_g,
+            hi,
+            spectral,
+            scatter_albedo,
+            shadow_estimator,
+            albedo_rgb,
+            grey_sigma_a,
+            rgb_sigma_a,
+            grey_sigma_s,
+            rgb_sigma_s,
+            bounds_base,
+            sigma_s,
+            control_albedo
         ]
     ),
     layout!(

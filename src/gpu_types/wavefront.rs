@@ -56,8 +56,10 @@ pub struct GpuPathState {
     /// each: the next one down in the low half, the one below it in the high half,
     /// [`STACK_NONE`] where there is none (the GPU stack holds three entries).
     pub outer: u32,
-    /// Padding to a 16-byte row.
-    pub _pad1: u32,
+    /// Henyey-Greenstein `g` of the medium that scattered last (the mixture variant records
+    /// it at every medium event: with overlapping media the phase function belongs to the
+    /// medium a scattering event picked, `integrator::mixture`).
+    pub phase_g: f32,
 }
 const _: () = assert!(size_of::<GpuPathState>() == 112);
 
@@ -312,14 +314,70 @@ pub struct GpuWavefrontParams {
     pub absorption_weight: u32,
     /// The media below `camera_medium` around the camera ([`GpuPathState::outer`]).
     pub camera_outer: u32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
-    /// Padding to a 16-byte row.
-    pub _pad1: u32,
-    /// Padding to a 16-byte row.
-    pub _pad2: u32,
+    /// VDB media in the `vdb_media` array (the mixture variant; 0 otherwise).
+    pub vdb_count: u32,
+    /// `MIX_FLAG_*` bits of the mixture variant.
+    pub mix_flags: u32,
+    /// The grey free-flight [`GpuEstimator`] of a mixture of grey media (a chromatic member
+    /// makes the flight spectral).
+    pub mix_estimator: u32,
 }
 const _: () = assert!(size_of::<GpuWavefrontParams>() == 304);
+
+/// [`GpuWavefrontParams::mix_flags`] bit: some medium absorbs (`FeatureFlags::absorption`,
+/// the CPU's `ABS`): grey views and homogeneous parts of a mixture keep their `sigma_a`.
+pub const MIX_FLAG_ABSORPTION: u32 = 1;
+/// [`GpuWavefrontParams::mix_flags`] bit: spectral tracking forced on grey media.
+pub const MIX_FLAG_FORCE_SPECTRAL: u32 = 2;
+/// VDB media the GPU binds at most (the mixture variant walks up to this many majorant
+/// streams per ray at once).
+pub const GPU_MAX_VDB_MEDIA: usize = 8;
+
+/// One VDB medium of the mixture variant (`integrator::media::VdbMedium` as every view of it
+/// needs it): an entry of the `vdb_media` storage array. Its grids live in the shared grid
+/// buffers ([`GpuGridInfo::cell_offset`]); its bounds from `bounds_base` in the bounds buffer,
+/// laid out as one medium's bounds are (`global_bounds_index` relative to `bounds_base`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuVdbMedium {
+    /// The density grid, `density_scale` = `sigma_t_bound`.
+    pub grid: GpuGridInfo,
+    /// The medium's own free-flight and shadow-ray tracking parameters (as
+    /// `GpuWavefrontParams::tracking` is for a scene with one medium).
+    pub tracking: GpuTrackingParams,
+    /// Its emission (`has_grid`, `has_blackbody` and `strength_color` zero without).
+    pub emission: GpuEmissionParams,
+    /// World bounds of the density's support, minimum corner.
+    pub lo: [f32; 3],
+    /// Henyey-Greenstein `g`.
+    pub phase_g: f32,
+    /// World bounds, maximum corner.
+    pub hi: [f32; 3],
+    /// 1 when tracked spectrally on its own (chromatic, or spectral tracking forced).
+    pub spectral: u32,
+    /// `GreyView::scatter_albedo` (grey tracking) or `RgbView::scatter_albedo` (spectral).
+    pub scatter_albedo: [f32; 3],
+    /// The [`GpuEstimator`] of its shadow rays.
+    pub shadow_estimator: u32,
+    /// Per-channel `sigma_s / sigma_t` (`GpuWavefrontParams::albedo_rgb`).
+    pub albedo_rgb: [f32; 3],
+    /// `GreyView::sigma_a` per unit density (0 unless some medium absorbs).
+    pub grey_sigma_a: f32,
+    /// `RgbView::sigma_a` per unit density.
+    pub rgb_sigma_a: [f32; 3],
+    /// `GreyView::sigma_s` per unit density.
+    pub grey_sigma_s: f32,
+    /// `RgbView::sigma_s` per unit density.
+    pub rgb_sigma_s: [f32; 3],
+    /// First entry of the medium's bounds in the bounds buffer.
+    pub bounds_base: u32,
+    /// The medium's true `sigma_s` per unit density (the spectral mixture's choice of the
+    /// medium that scattered).
+    pub sigma_s: [f32; 3],
+    /// `GreyView::control_albedo`.
+    pub control_albedo: f32,
+}
+const _: () = assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 240 + 7 * 16);
 
 /// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
 /// wavefront render. The grids' headers point into the density grid's buffers

@@ -4,6 +4,7 @@ pub mod boxes;
 pub mod farm;
 pub mod gpu;
 pub mod grids;
+pub mod overlap;
 pub mod reference;
 pub mod render;
 pub mod stats;

@@ -10,7 +10,7 @@ use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
     GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
-    GpuShadowRay, GpuWavefrontCounters, GpuWavefrontParams,
+    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
 };
 use crate::integrator::{blackbody, RenderScene};
 
@@ -77,6 +77,9 @@ pub(super) struct Buffers {
     pub(super) env_data: wgpu::Buffer,
     /// `GpuHomogeneousMedium`s, indexed like `RenderScene::homogeneous`.
     pub(super) homogeneous: wgpu::Buffer,
+    /// `GpuVdbMedium`s, indexed like `RenderScene::vdb` (the mixture variant; one zero entry
+    /// otherwise).
+    pub(super) vdb_media: wgpu::Buffer,
     /// Bound in place of the grid's buffers when the scene has no VDB medium (the kernels
     /// specialised without one never read them).
     pub(super) no_grid: (wgpu::Buffer, wgpu::Buffer),
@@ -98,6 +101,7 @@ impl Buffers {
         geometry: &Geometry,
         textures: &Textures,
         env_map: &(GpuEnvMap, Vec<f32>),
+        vdb_media: &[GpuVdbMedium],
     ) -> Buffers {
         let timestamps = ctx.timestamp_queries;
         // The counters, then two timestamps per stage.
@@ -157,6 +161,11 @@ impl Buffers {
                     h.push(GpuHomogeneousMedium::zeroed());
                 }
                 ctx.storage_buffer("homogeneous media", &h)
+            },
+            vdb_media: if vdb_media.is_empty() {
+                ctx.storage_buffer("vdb media", &[GpuVdbMedium::zeroed()])
+            } else {
+                ctx.storage_buffer("vdb media", vdb_media)
             },
             no_grid: (
                 ctx.uniform_buffer("no grid", &GpuGridInfo::default()),
@@ -241,6 +250,7 @@ impl Buffers {
             (1, 15) => &self.texels,
             (1, 16) => &self.env_map,
             (1, 17) => &self.env_data,
+            (1, 18) => &self.vdb_media,
             _ => return None,
         })
     }

@@ -447,6 +447,93 @@ impl GpuGrid {
         Ok((gg, infos))
     }
 
+    /// Several grids in one set of buffers (the mixture variant's media): each of `grids`
+    /// with `sigma_t = scale * value` and, when given, its bounds (one medium's layout:
+    /// per-cell bounds, the global bound, the adaptive hierarchy) placed after the bounds of
+    /// the grids before it. Returns each grid's header (its [`GpuGridInfo::cell_offset`],
+    /// brick and constant indices shifted past the grids before it, `global_bounds_index`
+    /// relative to its bounds) and the first entry of its bounds; the buffer set's own header
+    /// is the first grid's. The headers' `index_from_world` is each grid's own.
+    pub fn upload_many(
+        ctx: &GpuContext,
+        grids: &[(&SparseGrid, f32, Option<Vec<CellBounds>>)],
+    ) -> Result<(GpuGrid, Vec<(GpuGridInfo, u32)>), String> {
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        let mut cells: Vec<u32> = Vec::new();
+        let mut bricks: Vec<f32> = Vec::new();
+        let mut constants: Vec<f32> = Vec::new();
+        let mut bounds: Vec<CellBounds> = Vec::new();
+        let mut out = Vec::with_capacity(grids.len());
+        for (g, scale, b) in grids {
+            let mut info = GpuGridInfo::new(g, *scale);
+            info.cell_offset = u32::try_from(cells.len())
+                .map_err(|_| "the grids need more than 2^32 cells".to_string())?;
+            let brick0 = (bricks.len() / 512) as u32;
+            let const0 = constants.len() as u32;
+            if (brick0 as u64 + g.brick_count() as u64) >= CONSTANT_BIT as u64
+                || (const0 as u64 + g.constants.len() as u64) >= CONSTANT_BIT as u64
+            {
+                return Err("the grids need more than 2^31 bricks or constants".into());
+            }
+            cells.extend(g.cells.iter().map(|&e| {
+                if e & CONSTANT_BIT != 0 {
+                    CONSTANT_BIT | ((e & !CONSTANT_BIT) + const0)
+                } else {
+                    e + brick0
+                }
+            }));
+            bricks.extend_from_slice(&g.bricks);
+            constants.extend_from_slice(&g.constants);
+            let base = u32::try_from(bounds.len())
+                .map_err(|_| "the grids need more than 2^32 bounds".to_string())?;
+            if let Some(b) = b {
+                bounds.extend_from_slice(b);
+            }
+            out.push((info, base));
+        }
+        for (what, bytes) in [
+            ("cells", cells.len() * 4),
+            ("bricks", bricks.len() * 4),
+            ("constants", constants.len() * 4),
+            ("bounds", bounds.len() * 8),
+        ] {
+            if bytes as u64 > limit {
+                return Err(format!(
+                    "the grids need {} of {what} in one storage binding; the device binds at \
+                     most {} (`--backend auto` renders it on the CPU)",
+                    byte_size(bytes as u64),
+                    byte_size(limit)
+                ));
+            }
+        }
+        // Bindings cannot be empty.
+        if cells.is_empty() {
+            cells.push(0);
+        }
+        for v in [&mut bricks, &mut constants] {
+            if v.is_empty() {
+                v.push(0.0);
+            }
+        }
+        if bounds.is_empty() {
+            bounds.push(CellBounds::point(0.0));
+        }
+        let info = out
+            .first()
+            .map_or(<GpuGridInfo as bytemuck::Zeroable>::zeroed(), |o| o.0);
+        Ok((
+            GpuGrid {
+                info,
+                info_buffer: ctx.uniform_buffer("grid info", &info),
+                cells: ctx.storage_buffer("grid cells", &cells),
+                bricks: ctx.storage_buffer("grid bricks", &bricks),
+                constants: ctx.storage_buffer("grid constants", &constants),
+                bounds: ctx.storage_buffer("grid bounds", &bounds),
+            },
+            out,
+        ))
+    }
+
     /// The `(group, binding, buffer)` entries of group 0 for a kernel using the lookups
     /// (`with_lookups`) and/or the DDA bounds (`with_bounds`).
     pub fn bindings(

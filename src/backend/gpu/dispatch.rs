@@ -169,7 +169,8 @@ impl Wavefront<'_> {
             // Only the queries of the dispatched stages were written.
             let n = 2 * self.kernels.len() as u32;
             encoder.resolve_query_set(set, 0..n, resolve, 0);
-            encoder.copy_buffer_to_buffer(resolve, 0, &self.bufs.readback, 128, n as u64 * 8);
+            // After the counters (the timestamps once overwrote the last wide counter).
+            encoder.copy_buffer_to_buffer(resolve, 0, &self.bufs.readback, TS_OFFSET, n as u64 * 8);
         }
         ctx.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
@@ -186,7 +187,8 @@ impl Wavefront<'_> {
         let counters: GpuWavefrontCounters =
             bytemuck::pod_read_unaligned(&data[..std::mem::size_of::<GpuWavefrontCounters>()]);
         if gpu_timing {
-            let ts: &[u64] = bytemuck::cast_slice(&data[128..128 + 2 * 8 * Stage::ALL.len()]);
+            let at = TS_OFFSET as usize;
+            let ts: &[u64] = bytemuck::cast_slice(&data[at..at + 2 * 8 * Stage::ALL.len()]);
             for (i, (stage, _)) in self.kernels.iter().enumerate() {
                 let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
                 let dt = ts[2 * i + 1].saturating_sub(ts[2 * i]);
@@ -198,6 +200,10 @@ impl Wavefront<'_> {
         Ok(counters)
     }
 }
+
+/// Where the stage timestamps start in the read-back buffer: after the counters.
+const TS_OFFSET: u64 = std::mem::size_of::<GpuWavefrontCounters>() as u64;
+const _: () = assert!(TS_OFFSET % 8 == 0);
 
 fn wait(ctx: &GpuContext) -> Result<(), GpuRenderError> {
     ctx.device

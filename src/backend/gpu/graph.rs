@@ -107,8 +107,9 @@ impl Stage {
 }
 
 /// The WGSL variant name of `features`: the effects the kernels are specialised for, in
-/// `FeatureFlags` order (`surfaces`, `vdb`, `homogeneous`, `emission`, `spectral`), e.g.
-/// `wavefront[surfaces+vdb+emission]`.
+/// `FeatureFlags` order (`surfaces`, `vdb`, `homogeneous`, `emission`, `spectral`, `textures`,
+/// `envmap`, `mixture`), e.g. `wavefront[surfaces+vdb+emission]`. `mixture` is `overlapping`
+/// as [`gpu_features`] sets it: several VDB media, overlapping or not.
 pub fn variant_name(features: FeatureFlags) -> String {
     let f = effective(features);
     let on: Vec<&str> = [
@@ -119,6 +120,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
         (f.chromatic, "spectral"),
         (f.textures, "textures"),
         (f.env_map, "envmap"),
+        (f.overlapping, "mixture"),
     ]
     .into_iter()
     .filter(|(b, _)| *b)
@@ -131,11 +133,22 @@ pub fn variant_name(features: FeatureFlags) -> String {
     }
 }
 
+/// The flags the GPU variant of `rs` is built from: the scene's, with `overlapping` also set
+/// for several VDB media that do not overlap (one grid binding holds them all only in the
+/// mixture variant, `shaders/common/mixture.wgsl`).
+pub fn gpu_features(rs: &crate::integrator::RenderScene) -> FeatureFlags {
+    FeatureFlags {
+        overlapping: rs.features.overlapping || rs.vdb.len() > 1,
+        ..rs.features
+    }
+}
+
 /// The flags the kernels are specialised for: `features` less what cannot apply (emission
-/// and spectral tracking need a medium).
+/// and spectral tracking need a medium, the mixture a VDB medium).
 fn effective(features: FeatureFlags) -> FeatureFlags {
     let media = features.heterogeneous || features.homogeneous;
     FeatureFlags {
+        overlapping: features.overlapping && features.heterogeneous,
         emission: features.emission && features.heterogeneous,
         chromatic: features.chromatic && media,
         absorption: features.absorption && media,
@@ -155,5 +168,6 @@ pub(super) fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
         Spec::bool("FEATURE_EMISSION", f.emission),
         Spec::bool("FEATURE_TEXTURES", f.textures),
         Spec::bool("FEATURE_ENV_MAP", f.env_map),
+        Spec::bool("FEATURE_MIXTURE", f.overlapping),
     ]
 }

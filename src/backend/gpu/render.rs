@@ -48,12 +48,14 @@ use super::buffers::{kernel, Buffers};
 use super::device::{byte_size, GpuContext};
 use super::dispatch::Wavefront;
 use super::graph::specs;
-pub use super::graph::{variant_name, Stage};
+pub use super::graph::{gpu_features, variant_name, Stage};
 use super::shader;
 use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
-use crate::gpu_types::{GpuWavefrontCounters, GpuWideCounter, GPU_MAX_NESTED_MEDIA, STACK_NONE};
+use crate::gpu_types::{
+    GpuWavefrontCounters, GpuWideCounter, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
+};
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
 
@@ -123,13 +125,6 @@ pub enum GpuRenderError {
 
 /// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.
 pub fn supports(rs: &RenderScene) -> Result<(), String> {
-    if rs.features.overlapping {
-        return Err(
-            "overlapping media (VDB media that overlap, or a VDB medium inside a \
-             KHR_materials_volume mesh); the GPU integrator tracks one medium at a time"
-                .into(),
-        );
-    }
     if rs.nesting_depth > GPU_MAX_NESTED_MEDIA {
         return Err(format!(
             "KHR_materials_volume meshes nested {} deep; the GPU medium stack holds {GPU_MAX_NESTED_MEDIA}",
@@ -142,9 +137,9 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
             rs.homogeneous.len()
         ));
     }
-    if rs.vdb.len() > 1 {
+    if rs.vdb.len() > GPU_MAX_VDB_MEDIA {
         return Err(format!(
-            "{} VDB media; the GPU integrator binds one grid",
+            "{} VDB media; the GPU integrator binds at most {GPU_MAX_VDB_MEDIA}",
             rs.vdb.len()
         ));
     }
@@ -191,12 +186,12 @@ pub fn render_with_timings(
     let features = if settings.generic {
         FeatureFlags::ALL
     } else {
-        rs.features
+        super::graph::gpu_features(rs)
     };
     let cfg = TrackingConfig::from_settings(settings);
     let (w, h) = (settings.width, settings.height);
     let limit = ctx.limits.max_storage_buffer_binding_size;
-    let (grid, emission) = upload_grid(ctx, rs, features, &cfg)?;
+    let (grid, emission, vdb_media) = upload_grid(ctx, rs, features, &cfg)?;
     let plan = BatchPlan::new(settings, limit)?;
     let slots = (WAVEFRONT_SIZE as u64).min(plan.largest) as u32;
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
@@ -215,6 +210,7 @@ pub fn render_with_timings(
         &geometry,
         &textures,
         &env_map,
+        &vdb_media,
     );
     let sp = specs(features, settings.sampler);
     let g = grid.as_ref();
@@ -296,7 +292,11 @@ pub fn render_with_timings(
         lookups,
         spp,
         seconds: start.elapsed().as_secs_f64(),
-        features,
+        // The scene's flags (the variant's `overlapping` also counts disjoint VDB media).
+        features: FeatureFlags {
+            overlapping: rs.features.overlapping || (settings.generic && features.overlapping),
+            ..features
+        },
         interrupted,
     };
     let timings = GpuTimings {

@@ -70,6 +70,9 @@ pub mod files {
     pub const TEXTURES: ShaderFile = shader_file!("common/textures.wgsl");
     /// `sample_homogeneous`, `transmittance_homogeneous`, `stack_cross`.
     pub const MEDIA: ShaderFile = shader_file!("common/media.wgsl");
+    /// `integrator::mixture` and `volume::merge`: several VDB media, overlapping or inside a
+    /// homogeneous one (the mixture variant).
+    pub const MIXTURE: ShaderFile = shader_file!("common/mixture.wgsl");
     /// `EnvironmentMap`: Blender's equirectangular lookup and the map's importance sampling.
     pub const ENVMAP: ShaderFile = shader_file!("common/envmap.wgsl");
     /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
@@ -199,6 +202,9 @@ pub fn shared_constants() -> String {
         ("SURFACE_DIELECTRIC", SURFACE_DIELECTRIC),
         ("SURFACE_NULL", SURFACE_NULL),
         ("NO_INDEX", crate::scene::NO_INDEX),
+        ("MIX_FLAG_ABSORPTION", crate::gpu_types::MIX_FLAG_ABSORPTION),
+        ("MIX_FLAG_FORCE_SPECTRAL", crate::gpu_types::MIX_FLAG_FORCE_SPECTRAL),
+        ("MAX_MIX", crate::gpu_types::GPU_MAX_VDB_MEDIA as u32),
         ("TEXTURE_WRAP_REPEAT", crate::scene::texture::WRAP_REPEAT),
         ("TEXTURE_WRAP_CLAMP", crate::scene::texture::WRAP_CLAMP),
         ("TEXTURE_WRAP_MIRROR", crate::scene::texture::WRAP_MIRROR),
@@ -314,15 +320,18 @@ pub const TRANSMITTANCE_MODULE: Module = Module {
     label: "transmittance",
     files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, TRANSMITTANCE],
     entry_point: "transmittance_main",
-    default_specs: &[],
+    default_specs: KERNEL_SPECS,
 };
+
+/// The tracking kernels track one grid: the mixture hooks of `tracking.wgsl` are cut.
+const KERNEL_SPECS: &[Spec] = &[Spec::bool("FEATURE_MIXTURE", false)];
 
 /// Per-estimator distance sampling over a SparseGrid along index-space rays.
 pub const DISTANCE_MODULE: Module = Module {
     label: "distance",
     files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, DISTANCE],
     entry_point: "distance_main",
-    default_specs: &[],
+    default_specs: KERNEL_SPECS,
 };
 
 /// RNG streams (test).
@@ -386,6 +395,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_EMISSION", true),
     Spec::bool("FEATURE_TEXTURES", true),
     Spec::bool("FEATURE_ENV_MAP", true),
+    // Several VDB media (overlapping, or inside a homogeneous one): `mixture.wgsl`.
+    Spec::bool("FEATURE_MIXTURE", true),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];
@@ -396,7 +407,7 @@ macro_rules! wavefront_module {
             label: $label,
             files: &[
                 TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF,
-                TEXTURES, SURFACES, MEDIA, ENVMAP, LIGHTS, $file,
+                TEXTURES, SURFACES, MEDIA, MIXTURE, ENVMAP, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,

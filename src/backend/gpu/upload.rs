@@ -8,8 +8,9 @@ use glam::Vec3;
 use super::device::{byte_size, GpuContext, GpuGrid};
 use super::render::GpuRenderError;
 use crate::gpu_types::{
-    GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo, GpuMajorantMode,
-    GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuWavefrontParams, STACK_NONE,
+    CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
+    GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuVdbMedium,
+    GpuWavefrontParams, MIX_FLAG_ABSORPTION, MIX_FLAG_FORCE_SPECTRAL, STACK_NONE,
     SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
 };
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
@@ -24,18 +25,18 @@ pub(super) fn affine_rows(m: glam::Affine3A) -> [[f32; 4]; 3] {
     [row(0), row(1), row(2)]
 }
 
-/// The estimator ids and tracking parameters of `rs`'s medium under `cfg`, as the CPU's
-/// `sample_vdb` / `transmittance_vdb` choose them.
-pub(super) fn medium_params(
-    rs: &RenderScene,
+/// Medium `m`'s optics and tracking parameters under `cfg`, as the CPU's `sample_vdb`,
+/// `transmittance_vdb` and the mixture's views choose them (`grid`, `emission` and
+/// `bounds_base` left for the caller; `None` when the medium's extinction bound is not
+/// positive: nothing to track).
+pub(super) fn medium_record(
+    m: &VdbMedium,
     cfg: &TrackingConfig,
     features: FeatureFlags,
-    p: &mut GpuWavefrontParams,
-) {
-    let Some(m) = rs.vdb.first() else { return };
+) -> Option<GpuVdbMedium> {
     let bound = m.sigma_t_bound;
     if bound.is_nan() || bound <= 0.0 {
-        return;
+        return None;
     }
     let spectral = features.chromatic && (!m.grey || cfg.force_spectral);
     let weight = cfg.absorption == Absorption::Weight;
@@ -53,15 +54,11 @@ pub(super) fn medium_params(
         1.0
     };
     let (control_mode, control_value) = GpuControlMode::from_control(cfg.control());
+    let grey_estimator = grey_estimator(cfg);
     let estimator = if spectral {
         GpuEstimator::Spectral
     } else {
-        match cfg.estimator {
-            Estimator::Delta => GpuEstimator::Delta,
-            Estimator::WeightedDelta => GpuEstimator::WeightedDelta,
-            Estimator::Decomposition => GpuEstimator::Decomposition,
-            Estimator::WeightedDecomposition => GpuEstimator::WeightedDecomposition,
-        }
+        grey_estimator
     };
     let residual = cfg.residual_shadow();
     let shadow = if spectral {
@@ -75,41 +72,108 @@ pub(super) fn medium_params(
     let per_channel = |num: Vec3, den: Vec3| {
         Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO).to_array()
     };
-    p.has_medium = 1;
-    p.medium_lo = m.world_bounds.min.to_array();
-    p.medium_hi = m.world_bounds.max.to_array();
-    p.phase_g = m.phase.g;
-    p.spectral = spectral as u32;
     // The RGB factor of a scattering event: GreyView::scatter_albedo, or RgbView's
     // scatter_albedo for spectral tracking (the albedo with absorption as a weight, else 1);
     // albedo_rgb splits spectral lookups as RgbView's coefficients do.
-    (p.scatter_albedo, p.albedo_rgb) = match (spectral, weight) {
+    let (scatter_albedo, albedo_rgb) = match (spectral, weight) {
         (true, true) => (per_channel(m.sigma_s, sigma_t), [1.0; 3]),
         (true, false) => ([1.0; 3], per_channel(m.sigma_s, sigma_t)),
         (false, _) if sigma_s > 0.0 => ((m.sigma_s / sigma_s).to_array(), [0.0; 3]),
         (false, _) => ([0.0; 3], [0.0; 3]),
     };
-    p.shadow_estimator = shadow as u32;
-    p.tracking = GpuTrackingParams {
-        estimator: estimator as u32,
-        majorant_mode: match cfg.majorant {
-            MajorantMode::Leaf => GpuMajorantMode::PerCell,
-            MajorantMode::Global => GpuMajorantMode::Global,
-            MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
-        } as u32,
-        control_mode: control_mode as u32,
-        spectral_mode: 0,
-        b: cfg.b(),
-        control_value,
-        albedo,
-        control_albedo: sigma_s / bound,
-        channel_scale: (sigma_t / bound).to_array(),
-        seed: 0,
-        majorant_channel_scale: 1.0,
-        samples_per_ray: 0,
-        invocation_count: 0,
-        _pad0: 0,
+    // RgbView's tracker coefficients per unit density.
+    let (rgb_sigma_a, rgb_sigma_s) = if weight {
+        (Vec3::ZERO, sigma_t)
+    } else {
+        (m.sigma_a, m.sigma_s)
     };
+    Some(GpuVdbMedium {
+        lo: m.world_bounds.min.to_array(),
+        hi: m.world_bounds.max.to_array(),
+        phase_g: m.phase.g,
+        spectral: spectral as u32,
+        scatter_albedo,
+        albedo_rgb,
+        shadow_estimator: shadow as u32,
+        tracking: GpuTrackingParams {
+            estimator: estimator as u32,
+            majorant_mode: match cfg.majorant {
+                MajorantMode::Leaf => GpuMajorantMode::PerCell,
+                MajorantMode::Global => GpuMajorantMode::Global,
+                MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
+            } as u32,
+            control_mode: control_mode as u32,
+            spectral_mode: 0,
+            b: cfg.b(),
+            control_value,
+            albedo,
+            control_albedo: sigma_s / bound,
+            channel_scale: (sigma_t / bound).to_array(),
+            seed: 0,
+            majorant_channel_scale: 1.0,
+            samples_per_ray: 0,
+            invocation_count: 0,
+            _pad0: 0,
+        },
+        // GreyView with the CPU's ABS (absorption as an event in a scene that absorbs).
+        grey_sigma_a: if features.absorption && !weight {
+            (bound - sigma_s).max(0.0)
+        } else {
+            0.0
+        },
+        grey_sigma_s: sigma_s,
+        rgb_sigma_a: rgb_sigma_a.to_array(),
+        rgb_sigma_s: rgb_sigma_s.to_array(),
+        sigma_s: m.sigma_s.to_array(),
+        control_albedo: sigma_s / bound,
+        ..Default::default()
+    })
+}
+
+/// The grey free-flight estimator of `cfg`.
+fn grey_estimator(cfg: &TrackingConfig) -> GpuEstimator {
+    match cfg.estimator {
+        Estimator::Delta => GpuEstimator::Delta,
+        Estimator::WeightedDelta => GpuEstimator::WeightedDelta,
+        Estimator::Decomposition => GpuEstimator::Decomposition,
+        Estimator::WeightedDecomposition => GpuEstimator::WeightedDecomposition,
+    }
+}
+
+/// The estimator ids and tracking parameters of `rs`'s (first) medium under `cfg`, as the
+/// CPU's `sample_vdb` / `transmittance_vdb` choose them, and the mixture variant's shared
+/// parameters.
+pub(super) fn medium_params(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    features: FeatureFlags,
+    p: &mut GpuWavefrontParams,
+) {
+    if features.overlapping {
+        p.vdb_count = rs.vdb.len() as u32;
+        p.mix_flags = if features.absorption {
+            MIX_FLAG_ABSORPTION
+        } else {
+            0
+        } | if cfg.force_spectral {
+            MIX_FLAG_FORCE_SPECTRAL
+        } else {
+            0
+        };
+        p.mix_estimator = grey_estimator(cfg) as u32;
+    }
+    let Some(r) = rs.vdb.first().and_then(|m| medium_record(m, cfg, features)) else {
+        return;
+    };
+    p.has_medium = 1;
+    p.medium_lo = r.lo;
+    p.medium_hi = r.hi;
+    p.phase_g = r.phase_g;
+    p.spectral = r.spectral;
+    p.scatter_albedo = r.scatter_albedo;
+    p.albedo_rgb = r.albedo_rgb;
+    p.shadow_estimator = r.shadow_estimator;
+    p.tracking = r.tracking;
 }
 
 /// The scene's surfaces as the GPU reads them: obvhs' CWBVH nodes, the triangles in its
@@ -250,18 +314,25 @@ fn emission_params(
 
 /// The VDB medium's grid on the GPU, with the medium's own world -> index map and sigma_t per
 /// unit value, its emission grids following the density in the same buffers, and the
-/// emission uniform pointing into them (`None` and zero emission without a VDB medium).
+/// emission uniform pointing into them (`None` and zero emission without a VDB medium). The
+/// mixture variant (`features.overlapping`) uploads every medium ([`upload_media`]).
+#[allow(clippy::type_complexity)]
 pub(super) fn upload_grid(
     ctx: &GpuContext,
     rs: &RenderScene,
     features: FeatureFlags,
     cfg: &TrackingConfig,
-) -> Result<(Option<GpuGrid>, GpuEmissionParams), GpuRenderError> {
+) -> Result<(Option<GpuGrid>, GpuEmissionParams, Vec<GpuVdbMedium>), GpuRenderError> {
     let limit = ctx.limits.max_storage_buffer_binding_size;
     let m = match rs.vdb.first() {
         Some(m) if features.heterogeneous => m,
-        _ => return Ok((None, GpuEmissionParams::default())),
+        _ => return Ok((None, GpuEmissionParams::default(), Vec::new())),
     };
+    if features.overlapping {
+        let (g, media) = upload_media(ctx, rs, features, cfg)?;
+        let emission = media[0].emission;
+        return Ok((Some(g), emission, media));
+    }
     let g = &m.density.grid;
     let bounds_bytes = (g.bounds.cells.len() as u64 + 1) * 8;
     if bounds_bytes > limit {
@@ -289,7 +360,79 @@ pub(super) fn upload_grid(
         info.index_from_world = affine_rows(f.index_from_world);
     }
     let emission = emission_params(m, features, &infos);
-    Ok((Some(gg), emission))
+    Ok((Some(gg), emission, Vec::new()))
+}
+
+/// Every VDB medium of `rs` in one set of grid buffers (density grids and emission grids,
+/// each medium's bounds after the previous one's) and the `GpuVdbMedium` of each, for the
+/// mixture variant. The buffer set's header is the first density grid's.
+fn upload_media(
+    ctx: &GpuContext,
+    rs: &RenderScene,
+    features: FeatureFlags,
+    cfg: &TrackingConfig,
+) -> Result<(GpuGrid, Vec<GpuVdbMedium>), GpuRenderError> {
+    let mut parts: Vec<(&SparseGrid, f32, Option<Vec<CellBounds>>)> = Vec::new();
+    let mut fields_of = Vec::with_capacity(rs.vdb.len());
+    for m in &rs.vdb {
+        let g = &m.density.grid;
+        let bounds = match cfg.majorant {
+            MajorantMode::Adaptive => m
+                .adaptive
+                .gpu_bounds(&g.bounds)
+                .map_err(GpuRenderError::Limits)?,
+            _ => {
+                let mut b = g.bounds.cells.clone();
+                b.push(g.bounds.global);
+                b
+            }
+        };
+        parts.push((&g.grid, m.sigma_t_bound, Some(bounds)));
+        let fields = emission_fields(m, features);
+        fields_of.push(fields);
+    }
+    // The emission grids after every density grid (the first density's cells start at 0).
+    for fields in &fields_of {
+        for f in fields {
+            parts.push((&f.grid.grid, 1.0, None));
+        }
+    }
+    let (gg, placed) = GpuGrid::upload_many(ctx, &parts).map_err(GpuRenderError::Limits)?;
+    let mut next_emission = rs.vdb.len();
+    let mut media = Vec::with_capacity(rs.vdb.len());
+    for (k, m) in rs.vdb.iter().enumerate() {
+        let fields = &fields_of[k];
+        let mut infos: Vec<GpuGridInfo> = placed[next_emission..next_emission + fields.len()]
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        next_emission += fields.len();
+        for (info, f) in infos.iter_mut().zip(fields) {
+            info.index_from_world = affine_rows(f.index_from_world);
+        }
+        let (mut grid, bounds_base) = placed[k];
+        grid.index_from_world = affine_rows(m.density.index_from_world);
+        let mut r = medium_record(m, cfg, features).unwrap_or(GpuVdbMedium {
+            // Nothing to track (extinction bound not positive): zero majorants, so a flight
+            // through it escapes with weight 1, as on the CPU.
+            lo: m.world_bounds.min.to_array(),
+            hi: m.world_bounds.max.to_array(),
+            ..Default::default()
+        });
+        if r.grey_sigma_s == 0.0 && r.tracking.b == 0.0 {
+            grid.density_scale = 0.0;
+        }
+        r.grid = grid;
+        r.bounds_base = bounds_base;
+        r.emission = emission_params(m, features, &infos);
+        media.push(r);
+    }
+    // The uniform header is the first medium's, in world terms.
+    let mut gg = gg;
+    gg.info = media[0].grid;
+    ctx.queue
+        .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
+    Ok((gg, media))
 }
 
 /// `GpuPathState::outer` of a stack whose entries (outermost first) are `media`: the two

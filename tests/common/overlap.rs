@@ -1,0 +1,99 @@
+//! The overlapping-media scenes of `tests/media_overlap.rs` and `tests/gpu_media_overlap.rs`:
+//! two blobs of `common::stress::blob_voxels` overlapping over about half their width, and
+//! one grid holding their voxel-wise sum.
+use super::stress::blob_voxels;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde_json::{json, Value};
+
+pub const VOXEL: f64 = 0.0625;
+pub const N: i32 = 16;
+/// Voxel shift of the second blob: they overlap over about half their width.
+pub const SHIFT: [i32; 3] = [7, 4, 2];
+
+pub fn dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("media_overlap")
+        .join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn write_grid(path: &Path, voxels: Vec<([i32; 3], f32)>) {
+    let c = N as f64 * VOXEL * 0.5;
+    let mut g = brume_ffi::GridSpec::fog("density", VOXEL, [-c + 0.5 * VOXEL; 3]);
+    g.voxels = voxels;
+    brume_ffi::write_float_grids(path, &[g]).unwrap();
+}
+
+pub fn shifted() -> Vec<([i32; 3], f32)> {
+    blob_voxels(N)
+        .into_iter()
+        .map(|(p, d)| ([p[0] + SHIFT[0], p[1] + SHIFT[1], p[2] + SHIFT[2]], 0.7 * d))
+        .collect()
+}
+
+pub fn summed() -> Vec<([i32; 3], f32)> {
+    let mut sum: BTreeMap<[i32; 3], f32> = BTreeMap::new();
+    for (p, d) in blob_voxels(N).into_iter().chain(shifted()) {
+        *sum.entry(p).or_default() += d;
+    }
+    sum.into_iter().collect()
+}
+
+pub fn medium(uri: &str, chromatic: bool) -> Value {
+    let mut m = json!({"uri": uri, "densityScale": 4.0, "color": [0.8, 0.8, 0.8],
+                       "absorptionColor": [0.3, 0.3, 0.3], "anisotropy": 0.4});
+    if chromatic {
+        m["color"] = json!([0.3, 0.6, 0.9]);
+        m["absorptionColor"] = json!([0.8, 0.4, 0.1]);
+    }
+    m
+}
+
+/// A camera on +Z looking at the media, a point light and a dim sky.
+pub fn scene(media: Vec<Value>) -> Value {
+    let mut nodes = vec![
+        json!({"camera": 0, "translation": [0.2, 0.15, 1.7]}),
+        json!({"translation": [1.5, 2.0, 1.0], "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+    ];
+    for m in media {
+        nodes.push(json!({"extensions": {"BRUME_medium_vdb": m}}));
+    }
+    json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.01}}],
+        "extensions": {
+            "KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 1, 1], "intensity": 20.0}]},
+            "BRUME_environment": {"color": [0.4, 0.5, 0.7], "strength": 1.0}
+        },
+        "extensionsUsed": ["BRUME_medium_vdb", "KHR_lights_punctual", "BRUME_environment"],
+    })
+}
+
+pub fn write_scene(d: &Path, name: &str, doc: &Value) -> PathBuf {
+    let p = d.join(name);
+    std::fs::write(&p, doc.to_string()).unwrap();
+    p
+}
+
+/// The two-media scene and the one-grid scene holding their sum.
+pub fn pair(chromatic: bool) -> (brume::scene::Scene, brume::scene::Scene) {
+    let d = dir(if chromatic { "pair_rgb" } else { "pair" });
+    write_grid(&d.join("a.vdb"), blob_voxels(N));
+    write_grid(&d.join("b.vdb"), shifted());
+    write_grid(&d.join("sum.vdb"), summed());
+    let two = write_scene(
+        &d,
+        "two.gltf",
+        &scene(vec![medium("a.vdb", chromatic), medium("b.vdb", chromatic)]),
+    );
+    let one = write_scene(&d, "one.gltf", &scene(vec![medium("sum.vdb", chromatic)]));
+    let load = |p: &Path| brume::scene::load(p).unwrap_or_else(|e| panic!("{e}"));
+    (load(&two), load(&one))
+}
+
