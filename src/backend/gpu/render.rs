@@ -27,13 +27,14 @@
 //! with the CPU statistically, and with the same seed nearly bit for bit (rounding of WGSL's
 //! transcendentals may flip a rare decision).
 //!
-//! What runs: everything the CPU integrator does for one VDB medium (every estimator, both
-//! majorant modes, spectral tracking of chromatic media, volume emission), homogeneous media
-//! in closed meshes (grey and chromatic, nested up to three deep on a per-path medium stack),
-//! opaque, dielectric and null-interface surfaces over obvhs' CWBVH, punctual, environment and
-//! area lights with NEE and MIS, Russian roulette and the collision guard. [`supports`]
-//! refuses, with a one-line reason, more than one VDB medium, overlapping media (the CPU's
-//! `integrator::mixture` is not mirrored) and media meshes nested deeper than three.
+//! What runs: everything the CPU integrator does for VDB media (every estimator, every
+//! majorant mode, spectral tracking of chromatic media, volume emission; several media,
+//! overlapping or inside homogeneous ones, in the mixture variant, `mixture.wgsl`),
+//! homogeneous media in closed meshes (grey and chromatic, nested up to three deep on a
+//! per-path medium stack), opaque, dielectric and null-interface surfaces over obvhs' CWBVH,
+//! punctual, environment and area lights with NEE and MIS, Russian roulette and the collision
+//! guard. [`supports`] refuses, with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB
+//! media and media meshes nested deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!
