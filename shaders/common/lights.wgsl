@@ -1,6 +1,7 @@
 // Mirrors Lights::sample, Lights::pdf_environment, spot_falloff and power_heuristic
 // (src/integrator/lights.rs) for punctual lights, the constant environment and the area
-// lights (emissive triangles, chosen by area times luminance), and uniform_sphere
+// lights (emissive triangles, chosen by area times luminance), the guided selection at medium
+// events (Lights::phase_selection, sample_selected, env_weight), and uniform_sphere
 // (src/sampling/warp.rs). Needs wavefront.wgsl (wf), phase.wgsl (PI, INV_4PI), dda.wgsl
 // (f32_inf) and surfaces.wgsl (triangles, materials, emitted).
 
@@ -158,4 +159,185 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     ls.valid = true;
 // #endif
     return ls;
+}
+
+// Lights::guided (decided on the host: WF_FLAG_GUIDED_LIGHTS).
+fn lights_guided() -> bool {
+    return (wf.flags & WF_FLAG_GUIDED_LIGHTS) != 0u;
+}
+
+// Lights::uniform_env_pmf.
+fn uniform_env_pmf() -> f32 {
+    return select(0.0, light_pmf(), wf.has_env != 0u);
+}
+
+// Whether the environment is constant (EnvLight::map is None): without FEATURE_ENV_MAP, or a
+// one-pixel map (the generic variant's stand-in for a constant environment; the loader turns
+// any map of equal pixels into a constant environment).
+fn env_is_constant() -> bool {
+    var c = true;
+// #if FEATURE_ENV_MAP
+    c = env_map.width == 1u && env_map.height == 1u;
+// #endif
+    return c;
+}
+
+// Lights::env_weight.
+fn env_weight() -> f32 {
+    if (wf.has_env == 0u) {
+        return 0.0;
+    }
+    var w = luminance(wf.env);
+// #if FEATURE_ENV_MAP
+    if (!env_is_constant()) {
+        w = luminance(env_map.scale) * (0.5 * PI) * env_map.integral;
+    }
+// #endif
+    return w;
+}
+
+// Lights::punctual_incident (valid false at the light's own position).
+fn punctual_incident(k: u32, p: vec3<f32>) -> LightSample {
+    var ls: LightSample;
+    ls.valid = false;
+    ls.is_delta = true;
+    let l = lights[k];
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        ls.wi = -l.direction;
+        ls.dist = f32_inf();
+        ls.li = l.intensity;
+        ls.valid = true;
+        return ls;
+    }
+    let to = l.position - p;
+    let d2 = dot(to, to);
+    if (!(d2 > 0.0)) {
+        return ls;
+    }
+    let dist = sqrt(d2);
+    ls.wi = to / dist;
+    ls.dist = dist;
+    ls.li = l.intensity / d2;
+    if (l.kind == LIGHT_SPOT) {
+        ls.li *= spot_falloff(l, -ls.wi);
+    }
+    ls.valid = true;
+    return ls;
+}
+
+// Selection: probabilities of the punctual lights, then the environment.
+struct Selection {
+    pmf: array<f32, 5>,
+    env: f32,
+    env_by_phase: bool,
+}
+
+// Lights::phase_selection at a medium event at p with HG asymmetry g and outgoing wo (called
+// only when lights_guided()).
+fn phase_selection(p: vec3<f32>, g: f32, wo: vec3<f32>) -> Selection {
+    var sel: Selection;
+    let n = light_count();
+    let np = min(wf.light_count, GUIDED_MAX_PUNCTUAL);
+    var w: array<f32, 5>;
+    for (var k = 0u; k < np; k++) {
+        let ls = punctual_incident(k, p);
+        w[k] = 0.0;
+        if (ls.valid) {
+            w[k] = luminance(ls.li) * hg_p(g, wo, ls.wi);
+        }
+    }
+    w[np] = env_weight();
+    var sum = 0.0;
+    for (var k = 0u; k <= np; k++) {
+        sum += w[k];
+    }
+    let uniform = 1.0 / f32(n);
+    let valid = sum > 0.0 && sum <= F32_MAX;
+    let scale = (1.0 - GUIDED_UNIFORM_SHARE) / sum;
+    let floor = GUIDED_UNIFORM_SHARE * uniform;
+    for (var k = 0u; k < n; k++) {
+        sel.pmf[k] = select(uniform, w[k] * scale + floor, valid);
+    }
+    sel.env = 0.0;
+    sel.env_by_phase = false;
+    if (wf.has_env != 0u) {
+        sel.env = sel.pmf[np];
+        sel.env_by_phase = env_is_constant();
+    }
+    return sel;
+}
+
+// Lights::sample_selected: the light by the selection's CDF, a constant environment's
+// direction from the phase function.
+fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_select: f32,
+                         u: vec2<f32>) -> LightSample {
+    let n = light_count();
+    let np = wf.light_count;
+    var k = n - 1u;
+    var acc = 0.0;
+    for (var j = 0u; j < n; j++) {
+        acc += sel.pmf[j];
+        if (u_select < acc) {
+            k = j;
+            break;
+        }
+    }
+    let pmf = sel.pmf[k];
+    if (k < np) {
+        var ls = punctual_incident(k, p);
+        ls.pdf = pmf;
+        return ls;
+    }
+    var ls: LightSample;
+    ls.valid = false;
+    if (wf.has_env == 0u) {
+        return ls;
+    }
+    ls.dist = f32_inf();
+    ls.is_delta = false;
+    if (sel.env_by_phase) {
+        let s = hg_sample(g, wo, u);
+        ls.wi = s.wi;
+        ls.li = wf.env;
+        ls.pdf = pmf * s.pdf;
+        ls.valid = true;
+        return ls;
+    }
+// #if FEATURE_ENV_MAP
+    let es = env_sample(u);
+    ls.wi = es.wi;
+    ls.li = es.le;
+    ls.pdf = pmf * es.pdf;
+    ls.valid = es.valid;
+// #endif
+    return ls;
+}
+
+// The escape's MIS weight against light sampling of the environment (radiance's no-hit
+// branch), for a direction not drawn by a delta distribution. With guided selection the
+// path's prev_pdf is already divided by the event's environment probability (or is 1 / P_env
+// when the event drew the environment by its phase function: PATH_FLAG_ENV_BY_PHASE).
+fn escape_mis(ps: GpuPathState, env_density: f32) -> f32 {
+    if (lights_guided()) {
+        if ((ps.flags & PATH_FLAG_ENV_BY_PHASE) != 0u) {
+            return power_heuristic(ps.prev_pdf, 1.0);
+        }
+        return power_heuristic(ps.prev_pdf, env_density);
+    }
+    return power_heuristic(ps.prev_pdf, light_pmf() * env_density);
+}
+
+// The path's prev_pdf after an event whose continuation has density `pdf`: as is, or with
+// guided selection over the event's environment probability `env_pmf` (see escape_mis).
+fn store_prev_pdf(ps: ptr<function, GpuPathState>, pdf: f32, env_pmf: f32, env_by_phase: bool) {
+    (*ps).prev_pdf = pdf;
+    (*ps).flags &= ~PATH_FLAG_ENV_BY_PHASE;
+    if (lights_guided() && env_pmf > 0.0) {
+        if (env_by_phase) {
+            (*ps).prev_pdf = 1.0 / env_pmf;
+            (*ps).flags |= PATH_FLAG_ENV_BY_PHASE;
+        } else {
+            (*ps).prev_pdf = pdf / env_pmf;
+        }
+    }
 }

@@ -317,7 +317,7 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
     let d = (*ps).d;
     let weight_abs = wf.absorption_weight != 0u;
     // The CPU's ABS with absorption as an event (sample_mixture's dispatch).
-    let abs = (wf.mix_flags & MIX_FLAG_ABSORPTION) != 0u && !weight_abs;
+    let abs = (wf.flags & WF_FLAG_ABSORPTION) != 0u && !weight_abs;
     var spectral = false;
     var h: GpuHomogeneousMedium;
     let has_hom = hom != NO_INDEX;
@@ -326,7 +326,7 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
     }
     if (FEATURE_CHROMATIC) {
         let st = h.sigma_a + h.sigma_s;
-        spectral = (wf.mix_flags & MIX_FLAG_FORCE_SPECTRAL) != 0u
+        spectral = (wf.flags & WF_FLAG_FORCE_SPECTRAL) != 0u
             || (has_hom && !(st.x == st.y && st.y == st.z));
         for (var i = 0u; i < spans.n; i++) {
             spectral = spectral || vdb_media[spans.k[i]].spectral != 0u;

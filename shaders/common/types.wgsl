@@ -269,7 +269,7 @@ struct GpuWavefrontParams {
     absorption_weight: u32,      // 1: grey homogeneous media scatter with the albedo as weight
     camera_outer: u32,           // the media below camera_medium (GpuPathState::outer)
     vdb_count: u32,              // entries of vdb_media (mixture variant)
-    mix_flags: u32,              // MIX_FLAG_* bits
+    flags: u32,              // MIX_FLAG_* bits
     mix_estimator: u32,          // grey free-flight estimator of a mixture
 }
 

@@ -1,6 +1,7 @@
 // Mirrors the no-hit branch of radiance (src/integrator/path.rs): Stage::Escape. A ray that
 // leaves the scene gathers the environment, MIS-weighted against light sampling
-// (Lights::pdf_environment) unless its direction came from a delta distribution; the path ends.
+// (Lights::pdf_environment, or the guided selection's: escape_mis) unless its direction came
+// from a delta distribution; the path ends.
 // With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl).
 
 @compute @workgroup_size(64)
@@ -16,13 +17,18 @@ fn escape(@builtin(global_invocation_id) id: vec3<u32>) {
         // The map: radiance and light-sampling density depend on the direction.
         let le = env_le(ps.d);
         if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
-            w = power_heuristic(ps.prev_pdf, light_pmf() * env_pdf(ps.d));
+            w = escape_mis(ps, env_pdf(ps.d));
         }
 // #endif
 // #if !FEATURE_ENV_MAP
         let le = wf.env;
         if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
-            w = power_heuristic(ps.prev_pdf, wf.env_pdf);
+            // wf.env_pdf is the uniform selection's pmf over 4 pi.
+            if (lights_guided()) {
+                w = escape_mis(ps, INV_4PI);
+            } else {
+                w = power_heuristic(ps.prev_pdf, wf.env_pdf);
+            }
         }
 // #endif
         ps.l += ps.beta * le * w;

@@ -46,15 +46,26 @@ fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
         ps.beta *= s.weight;
         ps.o = offset_origin(p, n_side, n_side);
         ps.d = wi;
-        ps.prev_pdf = s.pdf;
+        // Surface events select lights uniformly.
+        store_prev_pdf(&ps, s.pdf, uniform_env_pmf(), false);
     }
 // #endif
     if (!at_surface) {
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
-        let s = hg_sample(path_phase_g(ps), -ps.d, u_dir);
+        let g = path_phase_g(ps);
+        let wo = -ps.d;
+        let s = hg_sample(g, wo, u_dir);
         ps.beta *= s.weight;
         ps.d = s.wi;
-        ps.prev_pdf = s.pdf;
+        // The scatter stage's selection, recomputed (a function of the event alone).
+        var env_pmf = 0.0;
+        var by_phase = false;
+        if (lights_guided() && wf.has_env != 0u) {
+            let sel = phase_selection(ps.o, g, wo);
+            env_pmf = sel.env;
+            by_phase = sel.env_by_phase;
+        }
+        store_prev_pdf(&ps, s.pdf, env_pmf, by_phase);
     }
     ps.t0 = 0.0;
     ps.flags = ps.flags & ~PATH_FLAG_SPECULAR;

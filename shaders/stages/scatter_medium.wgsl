@@ -1,7 +1,8 @@
 // Mirrors the medium-scattering arm of radiance (src/integrator/path.rs), its first half:
 // Stage::ScatterMedium. Count the event and apply the depth limit, then next-event estimation:
-// Lights::sample at the scattering point with the sampler's light-selection and light blocks
-// of this bounce (or the path's next three uniforms), the phase
+// Lights::sample (or, guided, Lights::sample_selected) at the scattering point with the
+// sampler's light-selection and light blocks of this bounce (or the path's next three
+// uniforms), the phase
 // function's value and the MIS weight (power heuristic unless the light is a delta). The
 // unoccluded contribution goes to the shadow stage, which multiplies it by the transmittance
 // with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
@@ -32,9 +33,15 @@ fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
     let bounce = ps.depth - 1u;
     let u_select = sampler_1d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT_SELECT), &rng);
     let u_light = sampler_2d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT), &rng);
-    let ls = light_sample(p, u_select, u_light);
+    let g = path_phase_g(ps);
+    var ls: LightSample;
+    if (lights_guided()) {
+        ls = light_sample_selected(phase_selection(p, g, wo), p, g, wo, u_select, u_light);
+    } else {
+        ls = light_sample(p, u_select, u_light);
+    }
     if (ls.valid) {
-        let f = hg_p(path_phase_g(ps), wo, ls.wi);
+        let f = hg_p(g, wo, ls.wi);
         if (f > 0.0 && ls.pdf > 0.0) {
             var w = 1.0;
             if (!ls.is_delta) {

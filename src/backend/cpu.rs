@@ -164,6 +164,7 @@ pub fn render_resumed(
             rr_depth: settings.rr_depth,
             rr_throughput: settings.rr_throughput,
             max_collisions: settings.max_collisions_per_path,
+            guided_lights: settings.light_selection == crate::integrator::LightSelection::Guided,
         },
         width: settings.width,
         height: settings.height,

@@ -23,7 +23,7 @@ use clap::Args;
 use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
 use brume::study::stats::{self, ImageMean};
 
-const RENDERERS: [&str; 10] = [
+const RENDERERS: [&str; 12] = [
     "brume",
     "brume-before",
     "brume-event",
@@ -32,6 +32,8 @@ const RENDERERS: [&str; 10] = [
     "brume-global",
     "brume-independent",
     "brume-spectral",
+    "brume-decomposition",
+    "brume-uniform-lights",
     "mitsuba",
     "cycles",
 ];
@@ -54,6 +56,10 @@ fn brume_variant(name: &str, s: &mut brume::integrator::RenderSettings) -> bool 
         "brume-global" => s.majorant = MajorantMode::Global,
         "brume-independent" => s.sampler = SamplerKind::Independent,
         "brume-spectral" => s.force_spectral = true,
+        "brume-decomposition" => s.estimator = brume::integrator::Estimator::Decomposition,
+        "brume-uniform-lights" => {
+            s.light_selection = brume::integrator::LightSelection::Uniform;
+        }
         _ => return false,
     }
     true
@@ -88,7 +94,7 @@ pub struct PeersArgs {
     /// Renderers to run, of brume, its ablation variants (brume-before: the previous
     /// defaults, absorption events, per-leaf majorants, independent sampler, no early
     /// roulette; brume-event, brume-no-rr-guard, brume-leaf, brume-global, brume-independent,
-    /// brume-spectral: one default changed each), mitsuba, cycles (default: brume, mitsuba,
+    /// brume-spectral, brume-decomposition, brume-uniform-lights: one default changed each), mitsuba, cycles (default: brume, mitsuba,
     /// cycles).
     #[arg(long, value_delimiter = ',', default_value = "brume,mitsuba,cycles")]
     pub renderers: Vec<String>,

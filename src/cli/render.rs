@@ -59,6 +59,10 @@ pub struct RenderArgs {
     /// paper's estimators: absorption ends the path).
     #[arg(long, default_value = "weight")]
     pub absorption: Absorption,
+    /// Light choice of next-event estimation at medium events: guided (by each light's
+    /// unoccluded contribution through the phase function; default) or uniform.
+    #[arg(long, default_value = "guided")]
+    pub light_selection: brume::integrator::LightSelection,
     /// Russian roulette also before the 8th bounce once the throughput's largest channel is
     /// below this (0 disables; default 0.5).
     #[arg(long)]
@@ -182,6 +186,7 @@ impl RenderArgs {
             .unwrap_or(s.sampler);
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.env_sampling = self.env_sampling;
+        s.light_selection = self.light_selection;
         s.tile_size = self.tile_size;
         if let Some((start, end)) = self.samples {
             if start == end {

@@ -57,6 +57,10 @@ impl PartContext {
             AttrValue::Text(settings.absorption.name().to_string()),
         );
         meta.set(
+            "brume:light_selection",
+            AttrValue::Text(settings.light_selection.name().to_string()),
+        );
+        meta.set(
             "brume:rr_throughput",
             AttrValue::Float(settings.rr_throughput),
         );

@@ -314,7 +314,7 @@ pub fn settings_key(s: &crate::integrator::RenderSettings, camera: Option<&str>)
     format!(
         "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
          sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
-         max_collisions={} env_sampling={} camera={}",
+         max_collisions={} env_sampling={} light_selection={} camera={}",
         s.estimator,
         s.b,
         s.m_or_default()
@@ -331,6 +331,7 @@ pub fn settings_key(s: &crate::integrator::RenderSettings, camera: Option<&str>)
         s.max_pass_spp,
         s.max_collisions_per_path,
         s.env_sampling,
+        s.light_selection.name(),
         camera.unwrap_or("-"),
     )
 }

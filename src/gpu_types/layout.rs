@@ -208,7 +208,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             absorption_weight,
             camera_outer,
             vdb_count,
-            mix_flags,
+            flags,
             mix_estimator
         ]
     ),

@@ -77,6 +77,12 @@ pub const PATH_FLAG_SURFACE: u32 = 2;
 /// [`GpuPathState::flags`] bit: the free flight of the current bounce has drawn its sampler
 /// point (`radiance`'s `flight_started`); cleared at every scattering event.
 pub const PATH_FLAG_FLIGHT_STARTED: u32 = 4;
+/// [`GpuPathState::flags`] bit: the last event sampled the (constant) environment by its
+/// phase function (`Selection::env_by_phase`); `prev_pdf` then holds `1 / P_env`. Otherwise,
+/// with guided light selection, `prev_pdf` holds the direction's density over the event's
+/// environment selection probability (the power heuristic is invariant to scaling both
+/// densities, so the escape weighs it against the bare environment density).
+pub const PATH_FLAG_ENV_BY_PHASE: u32 = 8;
 
 /// A shadow ray of next-event estimation, one slot per path (a path has at most one pending).
 #[repr(C)]
@@ -316,19 +322,22 @@ pub struct GpuWavefrontParams {
     pub camera_outer: u32,
     /// VDB media in the `vdb_media` array (the mixture variant; 0 otherwise).
     pub vdb_count: u32,
-    /// `MIX_FLAG_*` bits of the mixture variant.
-    pub mix_flags: u32,
+    /// `WF_FLAG_*` bits.
+    pub flags: u32,
     /// The grey free-flight [`GpuEstimator`] of a mixture of grey media (a chromatic member
     /// makes the flight spectral).
     pub mix_estimator: u32,
 }
 const _: () = assert!(size_of::<GpuWavefrontParams>() == 304);
 
-/// [`GpuWavefrontParams::mix_flags`] bit: some medium absorbs (`FeatureFlags::absorption`,
+/// [`GpuWavefrontParams::flags`] bit: medium events choose lights by contribution
+/// (`Lights::guided`, `Lights::phase_selection`).
+pub const WF_FLAG_GUIDED_LIGHTS: u32 = 4;
+/// [`GpuWavefrontParams::flags`] bit: some medium absorbs (`FeatureFlags::absorption`,
 /// the CPU's `ABS`): grey views and homogeneous parts of a mixture keep their `sigma_a`.
-pub const MIX_FLAG_ABSORPTION: u32 = 1;
-/// [`GpuWavefrontParams::mix_flags`] bit: spectral tracking forced on grey media.
-pub const MIX_FLAG_FORCE_SPECTRAL: u32 = 2;
+pub const WF_FLAG_ABSORPTION: u32 = 1;
+/// [`GpuWavefrontParams::flags`] bit: spectral tracking forced on grey media.
+pub const WF_FLAG_FORCE_SPECTRAL: u32 = 2;
 /// VDB media the GPU binds at most (the mixture variant walks up to this many majorant
 /// streams per ray at once).
 pub const GPU_MAX_VDB_MEDIA: usize = 8;

@@ -1,9 +1,32 @@
 //! Light sampling for next-event estimation: punctual lights (delta), the environment
-//! (constant or mapped, see [`super::envmap`]) and emissive triangles, one chosen uniformly per
-//! estimate.
+//! (constant or mapped, see [`super::envmap`]) and emissive triangles, one chosen per
+//! estimate: uniformly, or at a medium scattering event by each light's unoccluded
+//! contribution ([`Lights::phase_selection`]).
+//!
+//! Guided selection at medium events (scenes without area lights, at most
+//! [`GUIDED_MAX_PUNCTUAL`] punctual lights): light `k` is chosen with probability
+//!
+//! ```text
+//! P_k = w_k (1 - s) / sum_j w_j + s / n,     s = GUIDED_UNIFORM_SHARE, n = lights
+//! w_k = lum(L_k(x)) p(wo, wi_k)              punctual: irradiance or I / r^2 (spot falloff)
+//! w_env = lum(mean environment radiance)     (the phase function integrates to 1)
+//! ```
+//!
+//! the next-event estimate divides by `P_k` as before, so it stays unbiased for any positive
+//! weights (the uniform share keeps every light reachable whatever the weights say); the
+//! weights only ignore occlusion. Where the phase function toward a sun is large, the sun is
+//! chosen more often; looking away from it, the sky is. This is the light-tree idea of Cycles
+//! (importance from emitted power and orientation) reduced to the few lights of a volume
+//! scene, with the phase function in place of the BSDF bound. A constant environment chosen
+//! at a medium event is sampled by the phase function itself (its product with the phase is
+//! then sampled exactly; uniform sphere directions waste most samples on a g = 0.5 lobe), so
+//! its light pdf is `P_env p(wo, wi)`, and the continuation ray that escapes from that event
+//! is weighted against it by the power heuristic with the constant ratio `1 / (1 + P_env^2)`.
+//! Surface events keep uniform selection (the BSDF is not evaluated per light).
 use glam::{Vec2, Vec3};
 
 pub use super::envmap::{EnvLight, EnvSampling};
+use super::envmap::luminance;
 use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{PunctualLight, Scene};
 
@@ -53,6 +76,21 @@ pub struct Lights {
     /// The environment, when it emits.
     pub environment: Option<EnvLight>,
     pub area: Option<AreaLights>,
+}
+
+/// Guided selection weighs at most this many punctual lights (more: uniform selection).
+pub const GUIDED_MAX_PUNCTUAL: usize = 4;
+/// Share of a guided selection spread uniformly over the lights (defensive mixture).
+pub const GUIDED_UNIFORM_SHARE: f32 = 0.2;
+
+/// Selection probabilities at one event: the punctual lights in order, then the environment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Selection {
+    pub pmf: [f32; GUIDED_MAX_PUNCTUAL + 1],
+    /// The environment's probability (0 without one).
+    pub env: f32,
+    /// A constant environment is sampled by the phase function (guided selection).
+    pub env_by_phase: bool,
 }
 
 impl Lights {
@@ -106,6 +144,152 @@ impl Lights {
 
     fn pmf(&self) -> f32 {
         1.0 / self.count() as f32
+    }
+
+    /// Whether medium events select lights by contribution ([`Lights::phase_selection`]):
+    /// at least two choices, no area lights, at most [`GUIDED_MAX_PUNCTUAL`] punctual lights.
+    pub fn guided(&self) -> bool {
+        self.area.is_none() && self.count() >= 2 && self.punctual.len() <= GUIDED_MAX_PUNCTUAL
+    }
+
+    /// The uniform selection's probability of the environment (0 without one).
+    pub fn uniform_env_pmf(&self) -> f32 {
+        if self.environment.is_some() {
+            self.pmf()
+        } else {
+            0.0
+        }
+    }
+
+    /// The environment's selection weight: the luminance of its mean radiance (a map: its
+    /// scale's luminance times the mean of its sampling function over the sphere,
+    /// `(pi / 2) * integral` of the sin(theta)-weighted distribution).
+    pub fn env_weight(&self) -> f32 {
+        match &self.environment {
+            None => 0.0,
+            Some(EnvLight { map: None, radiance }) => luminance(*radiance),
+            Some(EnvLight { map: Some(m), .. }) => {
+                luminance(m.scale) * (0.5 * std::f32::consts::PI) * m.distribution.integral
+            }
+        }
+    }
+
+    /// Direction, distance and arriving radiance (or irradiance) of punctual light `k` at `p`
+    /// (`None` at the light's own position).
+    fn punctual_incident(&self, k: usize, p: Vec3) -> Option<(Vec3, f32, Vec3)> {
+        let l = &self.punctual[k];
+        let intensity = Vec3::from(l.intensity);
+        if l.kind == LIGHT_DIRECTIONAL {
+            return Some((-Vec3::from(l.direction), f32::INFINITY, intensity));
+        }
+        let to = Vec3::from(l.position) - p;
+        let d2 = to.length_squared();
+        if !(d2 > 0.0) {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = to / dist;
+        let mut li = intensity / d2;
+        if l.kind == LIGHT_SPOT {
+            li *= spot_falloff(l, -wi);
+        } else {
+            debug_assert_eq!(l.kind, LIGHT_POINT);
+        }
+        Some((wi, dist, li))
+    }
+
+    /// The selection at a medium event at `p` whose phase function takes the value
+    /// `phase(wi)` (see the module doc); uniform when the scene is not [`Lights::guided`].
+    pub fn phase_selection(&self, p: Vec3, phase: impl Fn(Vec3) -> f32) -> Selection {
+        let n = self.count();
+        let np = self.punctual.len();
+        let mut sel = Selection {
+            pmf: [0.0; GUIDED_MAX_PUNCTUAL + 1],
+            env: 0.0,
+            env_by_phase: false,
+        };
+        if !self.guided() {
+            sel.env = self.uniform_env_pmf();
+            return sel;
+        }
+        let mut w = [0.0f32; GUIDED_MAX_PUNCTUAL + 1];
+        for (k, wk) in w.iter_mut().enumerate().take(np) {
+            if let Some((wi, _, li)) = self.punctual_incident(k, p) {
+                *wk = luminance(li) * phase(wi);
+            }
+        }
+        w[np] = self.env_weight();
+        let sum: f32 = w[..=np].iter().sum();
+        let uniform = 1.0 / n as f32;
+        if sum > 0.0 && sum <= f32::MAX {
+            let scale = (1.0 - GUIDED_UNIFORM_SHARE) / sum;
+            let floor = GUIDED_UNIFORM_SHARE * uniform;
+            for k in 0..n {
+                sel.pmf[k] = w[k] * scale + floor;
+            }
+        } else {
+            sel.pmf[..n].fill(uniform);
+        }
+        if let Some(env) = &self.environment {
+            sel.env = sel.pmf[np];
+            sel.env_by_phase = env.map.is_none();
+        }
+        sel
+    }
+
+    /// Samples one light with the guided selection `sel` at medium point `p`: `u_select`
+    /// picks the light, `u` its direction; a constant environment takes the direction and
+    /// its density from `phase_sample(u)`.
+    pub fn sample_selected(
+        &self,
+        sel: &Selection,
+        p: Vec3,
+        u_select: f32,
+        u: Vec2,
+        phase_sample: impl Fn(Vec2) -> (Vec3, f32),
+    ) -> Option<LightSample> {
+        let n = self.count();
+        let np = self.punctual.len();
+        // The CDF walk; rounding at the top goes to the last light with mass.
+        let mut k = n - 1;
+        let mut acc = 0.0;
+        for (j, &pj) in sel.pmf[..n].iter().enumerate() {
+            acc += pj;
+            if u_select < acc {
+                k = j;
+                break;
+            }
+        }
+        let pmf = sel.pmf[k];
+        if k < np {
+            let (wi, dist, li) = self.punctual_incident(k, p)?;
+            return Some(LightSample {
+                wi,
+                dist,
+                li,
+                pdf: pmf,
+                is_delta: true,
+            });
+        }
+        let env = self.environment.as_ref()?;
+        if sel.env_by_phase {
+            let (wi, pdf) = phase_sample(u);
+            return Some(LightSample {
+                wi,
+                dist: f32::INFINITY,
+                li: env.radiance,
+                pdf: pmf * pdf,
+                is_delta: false,
+            });
+        }
+        let s = env.sample(u)?;
+        Some(LightSample {
+            wi: s.wi,
+            dist: f32::INFINITY,
+            li: s.le,
+            pdf: pmf * s.pdf,
+            is_delta: false,
+        })
     }
 
     /// Samples one light for the shading point `p` with uniforms `u_select` and `u`.

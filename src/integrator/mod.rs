@@ -14,5 +14,6 @@ pub mod tile;
 
 pub use prepare::{FeatureFlags, RenderScene};
 pub use settings::{
-    Absorption, Estimator, MajorantMode, RenderSettings, SamplerKind, ShadowEstimator,
+    Absorption, Estimator, LightSelection, MajorantMode, RenderSettings, SamplerKind,
+    ShadowEstimator,
 };

@@ -29,6 +29,8 @@ pub struct PathLimits {
     /// Roulette also before `rr_depth` once `max(beta)` falls below this (0: never).
     pub rr_throughput: f32,
     pub max_collisions: u64,
+    /// Guided light selection at medium events (`LightSelection::Guided`).
+    pub guided_lights: bool,
 }
 
 /// What one path cost and did.
@@ -246,10 +248,23 @@ fn transmittance<
     }
 }
 
+/// How the last event chose its light for next-event estimation: what the escape of the ray
+/// sampled from it needs for its MIS weight against the environment.
+#[derive(Clone, Copy, Debug)]
+struct EnvChoice {
+    /// The environment's selection probability at the event.
+    pmf: f32,
+    /// The (constant) environment was sampled by the phase function there.
+    by_phase: bool,
+}
+
 /// Next-event estimation from `p`: one light sample, its visibility and transmittance, weighted
 /// against the scattering strategy by the power heuristic. `scatter(wi)` gives the scattering
 /// factor (phase value, or BSDF times cosine) and its sampling pdf. `bounce` picks the
-/// sampler's light-selection and light-sample blocks.
+/// sampler's light-selection and light-sample blocks. At a medium event (`phase`: the phase
+/// function and `wo`) the light is chosen by the guided selection of
+/// [`Lights::phase_selection`] (uniformly elsewhere). Returns the estimate and how the
+/// environment was chosen.
 #[allow(clippy::too_many_arguments)]
 fn next_event<
     const SURF: bool,
@@ -265,17 +280,40 @@ fn next_event<
     sampler: &mut Sampler,
     bounce: u32,
     stats: &mut MediaStats,
+    phase: Option<(&HenyeyGreenstein, Vec3)>,
     scatter: impl Fn(Vec3) -> (Vec3, f32),
-) -> Vec3 {
+) -> (Vec3, EnvChoice) {
     // Selection before position: the independent sampler draws in this order.
     let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
     let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
-    let Some(ls) = rs.lights.sample(rs.scene, p, u_select, u_light) else {
-        return Vec3::ZERO;
+    let lights = &rs.lights;
+    let (ls, choice) = match phase {
+        Some((ph, wo)) if lights.guided() => {
+            let sel = lights.phase_selection(p, |wi| ph.p(wo, wi));
+            let ls = lights.sample_selected(&sel, p, u_select, u_light, |u| {
+                let s = ph.sample(wo, u);
+                (s.wi, s.pdf)
+            });
+            let choice = EnvChoice {
+                pmf: sel.env,
+                by_phase: sel.env_by_phase,
+            };
+            (ls, choice)
+        }
+        _ => (
+            lights.sample(rs.scene, p, u_select, u_light),
+            EnvChoice {
+                pmf: lights.uniform_env_pmf(),
+                by_phase: false,
+            },
+        ),
+    };
+    let Some(ls) = ls else {
+        return (Vec3::ZERO, choice);
     };
     let (f, pdf_scatter) = scatter(ls.wi);
     if f == Vec3::ZERO || !(ls.pdf > 0.0) {
-        return Vec3::ZERO;
+        return (Vec3::ZERO, choice);
     }
     // Stop short of an area light's own triangle.
     let dist = if ls.dist.is_finite() {
@@ -298,7 +336,7 @@ fn next_event<
     } else {
         power_heuristic(ls.pdf, pdf_scatter)
     };
-    tr * ls.li * f * (w / ls.pdf)
+    (tr * ls.li * f * (w / ls.pdf), choice)
 }
 
 /// Radiance along the camera ray through film point `film` (in [0,1]^2).
@@ -336,6 +374,11 @@ pub fn radiance<
     // Whether the last direction was chosen by a delta distribution (no MIS), and its pdf.
     let mut specular = true;
     let mut prev_pdf = 0.0f32;
+    // How the last event chose the environment (the escape's MIS weight).
+    let mut prev_env = EnvChoice {
+        pmf: rs.lights.uniform_env_pmf(),
+        by_phase: false,
+    };
     let collisions = |s: &MediaStats| {
         s.tracking.null_collisions + s.tracking.real_collisions + s.tracking.control_collisions
     };
@@ -389,20 +432,22 @@ pub fn radiance<
                     let p = ray.at(t);
                     let wo = -ray.d;
                     // Next-event estimation with the phase function.
-                    l += beta
-                        * next_event::<SURF, HET, HOM, CHROM, MIX>(
-                            rs,
-                            cfg,
-                            p,
-                            media,
-                            sampler,
-                            depth - 1,
-                            &mut stats.media,
-                            |wi| {
-                                let f = phase.p(wo, wi);
-                                (Vec3::splat(f), f)
-                            },
-                        );
+                    let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
+                        rs,
+                        cfg,
+                        p,
+                        media,
+                        sampler,
+                        depth - 1,
+                        &mut stats.media,
+                        limits.guided_lights.then_some((&phase, wo)),
+                        |wi| {
+                            let f = phase.p(wo, wi);
+                            (Vec3::splat(f), f)
+                        },
+                    );
+                    l += beta * ld;
+                    prev_env = choice;
                     let ps = phase.sample(wo, sampler.get2d(bounce_dim(depth - 1, DIM_SCATTER)));
                     beta *= ps.weight;
                     ray = Ray::new(p, ps.wi);
@@ -422,8 +467,12 @@ pub fn radiance<
             if let Some(env) = &rs.lights.environment {
                 let w = if specular {
                     1.0
+                } else if prev_env.by_phase {
+                    // Both strategies drew this direction from the phase function: the light
+                    // pdf is P_env times the continuation's.
+                    power_heuristic(1.0, prev_env.pmf)
                 } else {
-                    power_heuristic(prev_pdf, rs.lights.pdf_environment(ray.d))
+                    power_heuristic(prev_pdf, prev_env.pmf * env.pdf(ray.d))
                 };
                 l += beta * env.le(ray.d) * w;
             }
@@ -499,23 +548,25 @@ pub fn radiance<
                     Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
                 let wo_l = frame.to_local(wo);
                 let p_off = offset(p, n_side, n_side);
-                l += beta
-                    * next_event::<SURF, HET, HOM, CHROM, MIX>(
-                        rs,
-                        cfg,
-                        p_off,
-                        media,
-                        sampler,
-                        depth - 1,
-                        &mut stats.media,
-                        |wi| {
-                            if n_side.dot(wi) <= 0.0 {
-                                return (Vec3::ZERO, 0.0);
-                            }
-                            let wi_l = frame.to_local(wi);
-                            (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
-                        },
-                    );
+                let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
+                    rs,
+                    cfg,
+                    p_off,
+                    media,
+                    sampler,
+                    depth - 1,
+                    &mut stats.media,
+                    None,
+                    |wi| {
+                        if n_side.dot(wi) <= 0.0 {
+                            return (Vec3::ZERO, 0.0);
+                        }
+                        let wi_l = frame.to_local(wi);
+                        (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
+                    },
+                );
+                l += beta * ld;
+                prev_env = choice;
                 let u_lobe = sampler.get1d(bounce_dim(depth - 1, DIM_LOBE));
                 let u_dir = sampler.get2d(bounce_dim(depth - 1, DIM_SCATTER));
                 let Some(s) = bsdf.sample(wo_l, u_lobe, u_dir) else {

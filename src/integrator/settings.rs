@@ -96,6 +96,28 @@ impl Absorption {
     }
 }
 
+/// How next-event estimation chooses its light at a medium scattering event.
+///
+/// `Guided` (default) weighs each light by its unoccluded contribution through the phase
+/// function, with a uniform share (`Lights::phase_selection`), and samples a constant
+/// environment by the phase function; `Uniform` picks every light with the same probability
+/// (pbrt-v4's `UniformLightSampler`, the ablation). Scenes with area lights or more than
+/// `lights::GUIDED_MAX_PUNCTUAL` punctual lights always select uniformly.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSelection {
+    Guided,
+    Uniform,
+}
+
+impl LightSelection {
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSelection::Guided => "guided",
+            LightSelection::Uniform => "uniform",
+        }
+    }
+}
+
 /// Transmittance estimator for shadow rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadowEstimator {
@@ -126,6 +148,7 @@ parse_names!(Estimator, "estimator", [
     "weighted-decomposition" => Estimator::WeightedDecomposition,
 ]);
 parse_names!(Absorption, "absorption mode", ["event" => Absorption::Event, "weight" => Absorption::Weight]);
+parse_names!(LightSelection, "light selection", ["guided" => LightSelection::Guided, "uniform" => LightSelection::Uniform]);
 // "local" is the default's alias (it named the per-leaf bounds before the adaptive hierarchy).
 parse_names!(MajorantMode, "majorant mode", [
     "global" => MajorantMode::Global,
@@ -201,6 +224,8 @@ pub struct RenderSettings {
     pub max_collisions_per_path: u64,
     /// How next-event estimation draws environment-map directions (the ablation switch).
     pub env_sampling: super::envmap::EnvSampling,
+    /// How next-event estimation chooses its light at medium events.
+    pub light_selection: LightSelection,
 }
 
 impl Default for RenderSettings {
@@ -229,6 +254,7 @@ impl Default for RenderSettings {
             max_pass_spp: 16,
             max_collisions_per_path: 1 << 22,
             env_sampling: super::envmap::EnvSampling::Importance,
+            light_selection: LightSelection::Guided,
         }
     }
 }

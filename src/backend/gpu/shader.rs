@@ -202,8 +202,14 @@ pub fn shared_constants() -> String {
         ("SURFACE_DIELECTRIC", SURFACE_DIELECTRIC),
         ("SURFACE_NULL", SURFACE_NULL),
         ("NO_INDEX", crate::scene::NO_INDEX),
-        ("MIX_FLAG_ABSORPTION", crate::gpu_types::MIX_FLAG_ABSORPTION),
-        ("MIX_FLAG_FORCE_SPECTRAL", crate::gpu_types::MIX_FLAG_FORCE_SPECTRAL),
+        ("WF_FLAG_ABSORPTION", crate::gpu_types::WF_FLAG_ABSORPTION),
+        ("WF_FLAG_FORCE_SPECTRAL", crate::gpu_types::WF_FLAG_FORCE_SPECTRAL),
+        ("WF_FLAG_GUIDED_LIGHTS", crate::gpu_types::WF_FLAG_GUIDED_LIGHTS),
+        ("PATH_FLAG_ENV_BY_PHASE", crate::gpu_types::PATH_FLAG_ENV_BY_PHASE),
+        (
+            "GUIDED_MAX_PUNCTUAL",
+            crate::integrator::lights::GUIDED_MAX_PUNCTUAL as u32,
+        ),
         ("MAX_MIX", crate::gpu_types::GPU_MAX_VDB_MEDIA as u32),
         ("TEXTURE_WRAP_REPEAT", crate::scene::texture::WRAP_REPEAT),
         ("TEXTURE_WRAP_CLAMP", crate::scene::texture::WRAP_CLAMP),
@@ -223,6 +229,10 @@ pub fn shared_constants() -> String {
     )
     .unwrap();
     for (name, v) in [
+        (
+            "GUIDED_UNIFORM_SHARE",
+            crate::integrator::lights::GUIDED_UNIFORM_SHARE,
+        ),
         ("BLACKBODY_T_MIN", blackbody::T_MIN),
         ("BLACKBODY_T_MAX", blackbody::T_MAX),
         ("BLACKBODY_STEP", blackbody::TABLE_STEP),

@@ -10,7 +10,7 @@ use super::render::GpuRenderError;
 use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
     GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuVdbMedium,
-    GpuWavefrontParams, MIX_FLAG_ABSORPTION, MIX_FLAG_FORCE_SPECTRAL, STACK_NONE,
+    GpuWavefrontParams, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL, WF_FLAG_GUIDED_LIGHTS, STACK_NONE,
     SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
 };
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
@@ -151,12 +151,12 @@ pub(super) fn medium_params(
 ) {
     if features.overlapping {
         p.vdb_count = rs.vdb.len() as u32;
-        p.mix_flags = if features.absorption {
-            MIX_FLAG_ABSORPTION
+        p.flags |= if features.absorption {
+            WF_FLAG_ABSORPTION
         } else {
             0
         } | if cfg.force_spectral {
-            MIX_FLAG_FORCE_SPECTRAL
+            WF_FLAG_FORCE_SPECTRAL
         } else {
             0
         };
@@ -493,6 +493,9 @@ pub(super) fn wavefront_params(
             .map_or(0, |a| a.triangles.len() as u32),
         ..Default::default()
     };
+    if rs.lights.guided() && settings.light_selection == crate::integrator::LightSelection::Guided {
+        params.flags |= WF_FLAG_GUIDED_LIGHTS;
+    }
     if features.heterogeneous {
         medium_params(rs, cfg, features, &mut params);
     }
