@@ -12,7 +12,6 @@ use common::render::*;
 use common::overlap::*;
 use common::stress::{blob_voxels, optical_depth};
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use brume::integrator::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};

@@ -224,8 +224,8 @@ impl Lights {
         if sum > 0.0 && sum <= f32::MAX {
             let scale = (1.0 - GUIDED_UNIFORM_SHARE) / sum;
             let floor = GUIDED_UNIFORM_SHARE * uniform;
-            for k in 0..n {
-                sel.pmf[k] = w[k] * scale + floor;
+            for (q, &wk) in sel.pmf[..n].iter_mut().zip(&w[..n]) {
+                *q = wk * scale + floor;
             }
         } else {
             sel.pmf[..n].fill(uniform);
