@@ -21,23 +21,11 @@ use common::stress::{blob_voxels, optical_depth};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use brume::backend::gpu::{self, render::render_with_timings, GpuContext};
 use brume::backend::cpu::RenderOutput;
+use brume::backend::gpu::{self, render::render_with_timings, GpuContext};
 use brume::integrator::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
 use brume::math::Ray;
 use serde_json::json;
-
-fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
-    RenderSettings {
-        width: 16,
-        height: 16,
-        spp: 256,
-        estimator,
-        majorant,
-        seed,
-        ..RenderSettings::default()
-    }
-}
 
 /// Renders on the GPU and checks what every render must hold; returns the image and the
 /// variant's name.
@@ -56,24 +44,25 @@ fn gpu_render(
     assert_eq!(totals.guard_fired, 0, "{label}");
     assert_eq!(totals.majorant_violations, 0, "{label}");
     let (m, _) = moments(&out);
-    assert!(m.iter().all(|v| v.is_finite()), "{label}: non-finite pixels");
+    assert!(
+        m.iter().all(|v| v.is_finite()),
+        "{label}: non-finite pixels"
+    );
     (out, t.variant)
 }
 
 /// Z-tests two independent images pixel by pixel (in `block` x `block` blocks when
 /// `block > 1`) and by their means.
-fn agree(a: &RenderOutput, b: &RenderOutput, s: &RenderSettings, block: usize, alpha: f64, label: &str) {
-    let (ma, mb) = (moments(a), moments(b));
-    let r = if block > 1 {
-        let (w, h) = (s.width as usize, s.height as usize);
-        let (x, y) = (
-            block_moments(&ma, w, h, block),
-            block_moments(&mb, w, h, block),
-        );
-        compare((&x.0, &x.1), (&y.0, &y.1), alpha)
-    } else {
-        compare((&ma.0, &ma.1), (&mb.0, &mb.1), alpha)
-    };
+fn agree(
+    a: &RenderOutput,
+    b: &RenderOutput,
+    s: &RenderSettings,
+    block: usize,
+    alpha: f64,
+    label: &str,
+) {
+    let (w, h) = (s.width as usize, s.height as usize);
+    let r = compare_renders(a, b, w, h, block, alpha);
     println!(
         "{label}: {:.5} vs {:.5} (mean z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} failing",
         r.mean_a, r.mean_b, r.mean_z, r.worst_z, r.z_threshold, r.failing, r.pixels
@@ -110,44 +99,9 @@ fn two_overlapping_grids_render_as_their_sum_on_the_gpu_for_every_estimator() {
         return;
     };
     let (two, one) = pair(false);
-    let modes = [MajorantMode::Global, MajorantMode::Adaptive];
-    let n = Estimator::ALL.len() * modes.len() + 3;
-    let alpha = 1e-3 / n as f64;
-    let mut seed = 1;
-    for e in Estimator::ALL {
-        for m in modes {
-            let mut s = settings(e, m, seed);
-            seed += 1;
-            // Signed weights in empty space (weighted decomposition, global bound): pooled
-            // over blocks, as on the CPU.
-            let heavy = e == Estimator::WeightedDecomposition && m == MajorantMode::Global;
-            if heavy {
-                s.spp = 1024;
-            }
-            gpu_sum_agrees(
-                &ctx,
-                &two,
-                &one,
-                &s,
-                if heavy { 4 } else { 1 },
-                alpha,
-                &format!("GPU {e} {m:?}"),
-            );
-        }
-    }
-    let mut s = settings(Estimator::Decomposition, MajorantMode::Leaf, seed);
-    s.absorption = Absorption::Event;
-    gpu_sum_agrees(&ctx, &two, &one, &s, 1, alpha, "GPU decomposition leaf, absorption events");
-    let s = RenderSettings {
-        b: 0.6,
-        ..settings(Estimator::WeightedDelta, MajorantMode::Adaptive, seed + 1)
-    };
-    gpu_sum_agrees(&ctx, &two, &one, &s, 4, alpha, "GPU weighted delta b 0.6");
-    let s = RenderSettings {
-        force_spectral: true,
-        ..settings(Estimator::Delta, MajorantMode::Global, seed + 2)
-    };
-    gpu_sum_agrees(&ctx, &two, &one, &s, 1, alpha, "GPU spectral, global");
+    for_each_overlap_config(|s, block, alpha, label| {
+        gpu_sum_agrees(&ctx, &two, &one, s, block, alpha, &format!("GPU {label}"))
+    });
 }
 
 #[test]
@@ -168,14 +122,28 @@ fn chromatic_overlapping_grids_render_as_their_sum_on_the_gpu() {
     {
         let s = RenderSettings {
             absorption,
-            ..settings(Estimator::Delta, m, 60 + i as u32)
+            ..overlap_settings(Estimator::Delta, m, 60 + i as u32)
         };
-        gpu_sum_agrees(&ctx, &two, &one, &s, 1, alpha, &format!("GPU chromatic {m:?} {absorption:?}"));
+        gpu_sum_agrees(
+            &ctx,
+            &two,
+            &one,
+            &s,
+            1,
+            alpha,
+            &format!("GPU chromatic {m:?} {absorption:?}"),
+        );
     }
 }
 
 /// GPU against CPU (another seed) on `scene`.
-fn gpu_against_cpu(ctx: &GpuContext, scene: &brume::scene::Scene, s: &RenderSettings, alpha: f64, label: &str) {
+fn gpu_against_cpu(
+    ctx: &GpuContext,
+    scene: &brume::scene::Scene,
+    s: &RenderSettings,
+    alpha: f64,
+    label: &str,
+) {
     let (g, variant) = gpu_render(ctx, scene, s, label);
     assert!(variant.contains("mixture"), "{label}: {variant}");
     let c = render(
@@ -185,7 +153,10 @@ fn gpu_against_cpu(ctx: &GpuContext, scene: &brume::scene::Scene, s: &RenderSett
             ..s.clone()
         },
     );
-    let (gt, ct) = (brume::film::totals(&g.records), brume::film::totals(&c.records));
+    let (gt, ct) = (
+        brume::film::totals(&g.records),
+        brume::film::totals(&c.records),
+    );
     println!(
         "{label}: lookups/sample GPU {:.2} CPU {:.2}; emission lookups GPU {} CPU {}",
         gt.lookups_per_sample(),
@@ -193,7 +164,14 @@ fn gpu_against_cpu(ctx: &GpuContext, scene: &brume::scene::Scene, s: &RenderSett
         gt.emission_lookups,
         ct.emission_lookups
     );
-    agree(&g, &c, s, 1, alpha, &format!("{label} [{variant}] GPU vs CPU"));
+    agree(
+        &g,
+        &c,
+        s,
+        1,
+        alpha,
+        &format!("{label} [{variant}] GPU vs CPU"),
+    );
 }
 
 #[test]
@@ -203,8 +181,20 @@ fn several_media_agree_with_the_cpu() {
     };
     let alpha = 1e-3 / 7.0;
     let (two, _) = pair(false);
-    gpu_against_cpu(&ctx, &two, &settings(Estimator::Delta, MajorantMode::Adaptive, 300), alpha, "two media, delta adaptive");
-    gpu_against_cpu(&ctx, &two, &settings(Estimator::Decomposition, MajorantMode::Global, 301), alpha, "two media, decomposition global");
+    gpu_against_cpu(
+        &ctx,
+        &two,
+        &overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 300),
+        alpha,
+        "two media, delta adaptive",
+    );
+    gpu_against_cpu(
+        &ctx,
+        &two,
+        &overlap_settings(Estimator::Decomposition, MajorantMode::Global, 301),
+        alpha,
+        "two media, decomposition global",
+    );
     // Two emitting media: each one's emission gathered at every tentative collision.
     let d = dir("gpu_emission");
     write_grid(&d.join("a.vdb"), blob_voxels(N));
@@ -218,7 +208,13 @@ fn several_media_agree_with_the_cpu() {
     };
     let path = write_scene(&d, "two.gltf", &scene(vec![m("a.vdb"), m("b.vdb")]));
     let emitting = brume::scene::load(&path).unwrap();
-    gpu_against_cpu(&ctx, &emitting, &settings(Estimator::Delta, MajorantMode::Adaptive, 302), alpha, "two emitting media");
+    gpu_against_cpu(
+        &ctx,
+        &emitting,
+        &overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 302),
+        alpha,
+        "two emitting media",
+    );
     // Two media side by side (no overlap): each tracked alone, in order along the ray.
     let d = dir("gpu_apart");
     write_grid(&d.join("a.vdb"), blob_voxels(N));
@@ -227,11 +223,21 @@ fn several_media_agree_with_the_cpu() {
         .map(|(p, v)| ([p[0] + 2 * N, p[1], p[2]], 0.7 * v))
         .collect();
     write_grid(&d.join("b.vdb"), apart);
-    let path = write_scene(&d, "apart.gltf", &scene(vec![medium("a.vdb", false), medium("b.vdb", true)]));
+    let path = write_scene(
+        &d,
+        "apart.gltf",
+        &scene(vec![medium("a.vdb", false), medium("b.vdb", true)]),
+    );
     let apart = brume::scene::load(&path).unwrap();
     let rs = RenderScene::new(&apart, false).unwrap();
     assert!(!rs.features.overlapping && rs.vdb.len() == 2);
-    gpu_against_cpu(&ctx, &apart, &settings(Estimator::WeightedDelta, MajorantMode::Leaf, 303), alpha, "two media apart, one chromatic");
+    gpu_against_cpu(
+        &ctx,
+        &apart,
+        &overlap_settings(Estimator::WeightedDelta, MajorantMode::Leaf, 303),
+        alpha,
+        "two media apart, one chromatic",
+    );
     // The example scenes made of several media, with their surfaces and lights.
     for (i, file) in ["fire2.gltf", "smoke_tank.gltf"].into_iter().enumerate() {
         let scene = load_scene(file);

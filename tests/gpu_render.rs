@@ -93,6 +93,20 @@ fn print_parity(
     (gt, ct)
 }
 
+/// How many pixel values of a GPU image equal those of the same-seed CPU image to 1e-4
+/// (relative).
+fn same_seed_close(
+    g: &brume::backend::cpu::RenderOutput,
+    c: &brume::backend::cpu::RenderOutput,
+) -> usize {
+    let (gm, _) = moments(g);
+    let (cm, _) = moments(c);
+    gm.iter()
+        .zip(&cm)
+        .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
+        .count()
+}
+
 /// Renders `s` on the GPU and, with another seed (independent samples), on the CPU, and
 /// asserts that they [`agree`].
 fn gpu_against_cpu(
@@ -461,12 +475,7 @@ fn both_samplers_replay_the_cpu_on_the_gpu() {
             let label = format!("{file} {sampler}");
             let g = gpu_render(&ctx, &scene, &s, &label);
             let (gm, _) = moments(&g);
-            let (cm, _) = moments(&render(&scene, &s));
-            let close = gm
-                .iter()
-                .zip(&cm)
-                .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
-                .count();
+            let close = same_seed_close(&g, &render(&scene, &s));
             println!(
                 "{label}: same seed: {close} of {} values equal to 1e-4",
                 gm.len()
@@ -695,13 +704,15 @@ fn guided_light_selection_agrees_with_the_cpu() {
         gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
         let g = gpu_render(&ctx, &scene, &s, &label);
         let (gm, _) = moments(&g);
-        let (cm, _) = moments(&render(&scene, &s));
-        let close = gm
-            .iter()
-            .zip(&cm)
-            .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
-            .count();
-        println!("{label}: same seed: {close} of {} values equal to 1e-4", gm.len());
-        assert!(close * 100 >= gm.len() * 97, "{label}: {close} of {}", gm.len());
+        let close = same_seed_close(&g, &render(&scene, &s));
+        println!(
+            "{label}: same seed: {close} of {} values equal to 1e-4",
+            gm.len()
+        );
+        assert!(
+            close * 100 >= gm.len() * 97,
+            "{label}: {close} of {}",
+            gm.len()
+        );
     }
 }

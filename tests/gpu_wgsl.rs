@@ -151,7 +151,12 @@ fn variants_without_a_feature_hold_no_code_for_it() {
         ("FEATURE_TEXTURES", &["texture_sample", "wrap_index"]),
         (
             "FEATURE_MIXTURE",
-            &["sample_media_mix", "mix_next", "mix_coeffs", "mix_transmittance"],
+            &[
+                "sample_media_mix",
+                "mix_next",
+                "mix_coeffs",
+                "mix_transmittance",
+            ],
         ),
         (
             "FEATURE_HETEROGENEOUS",

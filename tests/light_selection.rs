@@ -35,7 +35,10 @@ fn the_selection_is_a_distribution_that_follows_the_phase_function() {
             assert!(q >= GUIDED_UNIFORM_SHARE / n as f32 - 1e-7, "{sel:?}");
         }
         assert_eq!(sel.env, sel.pmf[n - 1]);
-        assert!(sel.env_by_phase, "a constant sky is sampled by the phase function");
+        assert!(
+            sel.env_by_phase,
+            "a constant sky is sampled by the phase function"
+        );
     }
     println!(
         "P(sun) looking at it {:.3}, looking away {:.3}",
@@ -70,7 +73,10 @@ fn the_selection_is_a_distribution_that_follows_the_phase_function() {
             (c as f64 - e).powi(2) / e
         })
         .sum();
-    println!("choices {counts:?} for pmf {:?}: chi-square {chi2:.2} (1 dof)", &toward.pmf[..2]);
+    println!(
+        "choices {counts:?} for pmf {:?}: chi-square {chi2:.2} (1 dof)",
+        &toward.pmf[..2]
+    );
     // 1 degree of freedom at 99.9 %: 10.83.
     assert!(chi2 < 10.83);
 }

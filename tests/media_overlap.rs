@@ -8,8 +8,8 @@
 //!   `tau` integrated independently (z-test on the Bernoulli/weighted estimates);
 //! - media meshes nested deeper than the stack holds are refused with the file and the node.
 mod common;
-use common::render::*;
 use common::overlap::*;
+use common::render::*;
 use common::stress::{blob_voxels, optical_depth};
 
 use std::path::{Path, PathBuf};
@@ -17,18 +17,6 @@ use std::path::{Path, PathBuf};
 use brume::integrator::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
 use brume::math::Ray;
 use serde_json::{json, Value};
-
-fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
-    RenderSettings {
-        width: 16,
-        height: 16,
-        spp: 256,
-        estimator,
-        majorant,
-        seed,
-        ..RenderSettings::default()
-    }
-}
 
 /// Renders both scenes with `s` (independent seeds) and z-tests them pixel by pixel (in
 /// `block` x `block` blocks when `block > 1`).
@@ -49,17 +37,8 @@ fn agree(
         },
     );
     assert!(a.features.overlapping, "{label}: the mixture ran");
-    let (ma, mb) = (moments(&a), moments(&b));
-    let r = if block > 1 {
-        let (w, h) = (s.width as usize, s.height as usize);
-        let (x, y) = (
-            block_moments(&ma, w, h, block),
-            block_moments(&mb, w, h, block),
-        );
-        compare((&x.0, &x.1), (&y.0, &y.1), alpha)
-    } else {
-        compare((&ma.0, &ma.1), (&mb.0, &mb.1), alpha)
-    };
+    let (w, h) = (s.width as usize, s.height as usize);
+    let r = compare_renders(&a, &b, w, h, block, alpha);
     let ta = brume::film::totals(&a.records);
     println!(
         "{label}: two media {:.5} vs summed grid {:.5} (mean z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} failing",
@@ -79,7 +58,7 @@ fn two_overlapping_grids_render_as_their_sum_for_every_estimator() {
     let d = dir("pair");
     let alone = write_scene(&d, "alone.gltf", &scene(vec![medium("a.vdb", false)]));
     let alone = brume::scene::load(&alone).unwrap();
-    let s = settings(Estimator::Delta, MajorantMode::Adaptive, 99);
+    let s = overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 99);
     let (ma, mb) = (moments(&render(&alone, &s)), moments(&render(&one, &s)));
     let r = compare((&ma.0, &ma.1), (&mb.0, &mb.1), 1e-3);
     println!(
@@ -87,56 +66,7 @@ fn two_overlapping_grids_render_as_their_sum_for_every_estimator() {
         r.failing, r.pixels
     );
     assert!(r.failing > r.pixels / 20, "{r:?}");
-    let modes = [MajorantMode::Global, MajorantMode::Adaptive];
-    let n = Estimator::ALL.len() * modes.len() + 3;
-    let alpha = 1e-3 / n as f64;
-    let mut seed = 1;
-    for e in Estimator::ALL {
-        for m in modes {
-            let mut s = settings(e, m, seed);
-            seed += 1;
-            // Signed weights in empty space (weighted decomposition, global bound): pooled
-            // over blocks, as tests/render_agreement.rs does.
-            let heavy = e == Estimator::WeightedDecomposition && m == MajorantMode::Global;
-            if heavy {
-                s.spp = 1024;
-            }
-            agree(
-                &two,
-                &one,
-                &s,
-                if heavy { 4 } else { 1 },
-                alpha,
-                &format!("{e} {m:?}"),
-            );
-        }
-    }
-    // Absorption as an event (the grey trackers' absorb branch) and per-leaf majorants.
-    let mut s = settings(Estimator::Decomposition, MajorantMode::Leaf, seed);
-    s.absorption = Absorption::Event;
-    agree(
-        &two,
-        &one,
-        &s,
-        1,
-        alpha,
-        "decomposition leaf, absorption events",
-    );
-    let s = settings(Estimator::WeightedDelta, MajorantMode::Adaptive, seed + 1);
-    agree(
-        &two,
-        &one,
-        &RenderSettings { b: 0.6, ..s },
-        4,
-        alpha,
-        "weighted delta b 0.6",
-    );
-    // Spectral tracking (forced on grey media).
-    let s = RenderSettings {
-        force_spectral: true,
-        ..settings(Estimator::Delta, MajorantMode::Global, seed + 2)
-    };
-    agree(&two, &one, &s, 1, alpha, "spectral, global");
+    for_each_overlap_config(|s, block, alpha, label| agree(&two, &one, s, block, alpha, label));
 }
 
 #[test]
@@ -147,7 +77,7 @@ fn chromatic_overlapping_grids_render_as_their_sum_with_spectral_tracking() {
         .into_iter()
         .enumerate()
     {
-        let s = settings(Estimator::Delta, m, 50 + i as u32);
+        let s = overlap_settings(Estimator::Delta, m, 50 + i as u32);
         agree(&two, &one, &s, 1, alpha, &format!("spectral {m:?}"));
     }
 }
@@ -285,7 +215,7 @@ fn overlapping_media_with_different_albedos_add_their_coefficients() {
         for absorption in [Absorption::Weight, Absorption::Event] {
             let s = RenderSettings {
                 absorption,
-                ..settings(e, MajorantMode::Adaptive, seed)
+                ..overlap_settings(e, MajorantMode::Adaptive, seed)
             };
             seed += 1;
             agree(
@@ -328,7 +258,7 @@ fn overlapping_emitting_grids_add_their_emission() {
             agree(
                 &two,
                 &one,
-                &settings(e, m, seed),
+                &overlap_settings(e, m, seed),
                 1,
                 alpha,
                 &format!("emission {e} {m:?}"),

@@ -67,29 +67,8 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     let pmf = 1.0 / f32(n);
     let k = min(u32(u_select * f32(n)), n - 1u);
     if (k < wf.light_count) {
-        let l = lights[k];
-        ls.is_delta = true;
+        ls = punctual_incident(k, p);
         ls.pdf = pmf;
-        if (l.kind == LIGHT_DIRECTIONAL) {
-            ls.wi = -l.direction;
-            ls.dist = f32_inf();
-            ls.li = l.intensity;
-            ls.valid = true;
-            return ls;
-        }
-        let to = l.position - p;
-        let d2 = dot(to, to);
-        if (!(d2 > 0.0)) {
-            return ls;
-        }
-        let dist = sqrt(d2);
-        ls.wi = to / dist;
-        ls.dist = dist;
-        ls.li = l.intensity / d2;
-        if (l.kind == LIGHT_SPOT) {
-            ls.li *= spot_falloff(l, -ls.wi);
-        }
-        ls.valid = true;
         return ls;
     }
     if (wf.has_env != 0u && k == wf.light_count) {

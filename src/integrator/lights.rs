@@ -25,8 +25,8 @@
 //! Surface events keep uniform selection (the BSDF is not evaluated per light).
 use glam::{Vec2, Vec3};
 
-pub use super::envmap::{EnvLight, EnvSampling};
 use super::envmap::luminance;
+pub use super::envmap::{EnvLight, EnvSampling};
 use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{PunctualLight, Scene};
 
@@ -167,7 +167,10 @@ impl Lights {
     pub fn env_weight(&self) -> f32 {
         match &self.environment {
             None => 0.0,
-            Some(EnvLight { map: None, radiance }) => luminance(*radiance),
+            Some(EnvLight {
+                map: None,
+                radiance,
+            }) => luminance(*radiance),
             Some(EnvLight { map: Some(m), .. }) => {
                 luminance(m.scale) * (0.5 * std::f32::consts::PI) * m.distribution.integral
             }
@@ -196,6 +199,18 @@ impl Lights {
             debug_assert_eq!(l.kind, LIGHT_POINT);
         }
         Some((wi, dist, li))
+    }
+
+    /// Punctual light `k` seen from `p`, chosen with probability `pmf`.
+    fn punctual_sample(&self, k: usize, p: Vec3, pmf: f32) -> Option<LightSample> {
+        let (wi, dist, li) = self.punctual_incident(k, p)?;
+        Some(LightSample {
+            wi,
+            dist,
+            li,
+            pdf: pmf,
+            is_delta: true,
+        })
     }
 
     /// The selection at a medium event at `p` whose phase function takes the value
@@ -262,14 +277,7 @@ impl Lights {
         }
         let pmf = sel.pmf[k];
         if k < np {
-            let (wi, dist, li) = self.punctual_incident(k, p)?;
-            return Some(LightSample {
-                wi,
-                dist,
-                li,
-                pdf: pmf,
-                is_delta: true,
-            });
+            return self.punctual_sample(k, p, pmf);
         }
         let env = self.environment.as_ref()?;
         if sel.env_by_phase {
@@ -301,38 +309,7 @@ impl Lights {
         let pmf = self.pmf();
         let mut k = ((u_select * n as f32) as usize).min(n - 1);
         if k < self.punctual.len() {
-            let l = &self.punctual[k];
-            let intensity = Vec3::from(l.intensity);
-            if l.kind == LIGHT_DIRECTIONAL {
-                let wi = -Vec3::from(l.direction);
-                return Some(LightSample {
-                    wi,
-                    dist: f32::INFINITY,
-                    li: intensity,
-                    pdf: pmf,
-                    is_delta: true,
-                });
-            }
-            let to = Vec3::from(l.position) - p;
-            let d2 = to.length_squared();
-            if !(d2 > 0.0) {
-                return None;
-            }
-            let dist = d2.sqrt();
-            let wi = to / dist;
-            let mut li = intensity / d2;
-            if l.kind == LIGHT_SPOT {
-                li *= spot_falloff(l, -wi);
-            } else {
-                debug_assert_eq!(l.kind, LIGHT_POINT);
-            }
-            return Some(LightSample {
-                wi,
-                dist,
-                li,
-                pdf: pmf,
-                is_delta: true,
-            });
+            return self.punctual_sample(k, p, pmf);
         }
         k -= self.punctual.len();
         if let Some(env) = &self.environment {

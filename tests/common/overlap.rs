@@ -5,6 +5,7 @@ use super::stress::blob_voxels;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use brume::integrator::{Absorption, Estimator, MajorantMode, RenderSettings};
 use serde_json::{json, Value};
 
 pub const VOXEL: f64 = 0.0625;
@@ -97,3 +98,52 @@ pub fn pair(chromatic: bool) -> (brume::scene::Scene, brume::scene::Scene) {
     (load(&two), load(&one))
 }
 
+/// The settings of the two-media comparisons: 16 x 16 pixels, 256 spp.
+pub fn overlap_settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
+    RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 256,
+        estimator,
+        majorant,
+        seed,
+        ..RenderSettings::default()
+    }
+}
+
+/// The configurations the two media are compared with their sum in (on the CPU and the GPU):
+/// every estimator in the global and adaptive modes (weighted decomposition with the global
+/// bound at 1024 spp on 4 x 4 blocks: its signed weights in empty space are heavy-tailed),
+/// decomposition with per-leaf majorants and absorption events, weighted delta with
+/// `b = 0.6` (blocks), and forced spectral tracking. Calls `check(settings, block, alpha,
+/// label)` for each, `alpha` Sidak-split over them.
+pub fn for_each_overlap_config(mut check: impl FnMut(&RenderSettings, usize, f64, &str)) {
+    let modes = [MajorantMode::Global, MajorantMode::Adaptive];
+    let n = Estimator::ALL.len() * modes.len() + 3;
+    let alpha = 1e-3 / n as f64;
+    let mut seed = 1;
+    for e in Estimator::ALL {
+        for m in modes {
+            let mut s = overlap_settings(e, m, seed);
+            seed += 1;
+            let heavy = e == Estimator::WeightedDecomposition && m == MajorantMode::Global;
+            if heavy {
+                s.spp = 1024;
+            }
+            check(&s, if heavy { 4 } else { 1 }, alpha, &format!("{e} {m:?}"));
+        }
+    }
+    let mut s = overlap_settings(Estimator::Decomposition, MajorantMode::Leaf, seed);
+    s.absorption = Absorption::Event;
+    check(&s, 1, alpha, "decomposition leaf, absorption events");
+    let s = RenderSettings {
+        b: 0.6,
+        ..overlap_settings(Estimator::WeightedDelta, MajorantMode::Adaptive, seed + 1)
+    };
+    check(&s, 4, alpha, "weighted delta b 0.6");
+    let s = RenderSettings {
+        force_spectral: true,
+        ..overlap_settings(Estimator::Delta, MajorantMode::Global, seed + 2)
+    };
+    check(&s, 1, alpha, "spectral, global");
+}

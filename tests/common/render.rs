@@ -157,3 +157,25 @@ pub fn block_moments(
     }
     (mean, var)
 }
+
+/// [`compare`] of two renders of `w` x `h` pixels, pixel by pixel, or on `block` x `block`
+/// [`block_moments`] when `block > 1`.
+pub fn compare_renders(
+    a: &RenderOutput,
+    b: &RenderOutput,
+    w: usize,
+    h: usize,
+    block: usize,
+    alpha: f64,
+) -> Agreement {
+    let (ma, mb) = (moments(a), moments(b));
+    if block > 1 {
+        let (x, y) = (
+            block_moments(&ma, w, h, block),
+            block_moments(&mb, w, h, block),
+        );
+        compare((&x.0, &x.1), (&y.0, &y.1), alpha)
+    } else {
+        compare((&ma.0, &ma.1), (&mb.0, &mb.1), alpha)
+    }
+}

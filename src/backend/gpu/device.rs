@@ -405,26 +405,8 @@ impl GpuGrid {
         let mut constants = grid.constants.clone();
         let mut infos = Vec::new();
         for g in extra {
-            let mut info = GpuGridInfo::new(g, 1.0);
-            info.cell_offset = u32::try_from(cells.len())
-                .map_err(|_| "the grids need more than 2^32 cells".to_string())?;
+            let mut info = append_grid(g, 1.0, &mut cells, &mut bricks, &mut constants)?;
             info.global_bounds_index = 0;
-            let brick0 = (bricks.len() / 512) as u32;
-            let const0 = constants.len() as u32;
-            if (brick0 as u64 + g.brick_count() as u64) >= CONSTANT_BIT as u64
-                || (const0 as u64 + g.constants.len() as u64) >= CONSTANT_BIT as u64
-            {
-                return Err("the grids need more than 2^31 bricks or constants".into());
-            }
-            cells.extend(g.cells.iter().map(|&e| {
-                if e & CONSTANT_BIT != 0 {
-                    CONSTANT_BIT | ((e & !CONSTANT_BIT) + const0)
-                } else {
-                    e + brick0
-                }
-            }));
-            bricks.extend_from_slice(&g.bricks);
-            constants.extend_from_slice(&g.constants);
             infos.push(info);
         }
         let combined = SparseGrid {
@@ -465,25 +447,7 @@ impl GpuGrid {
         let mut bounds: Vec<CellBounds> = Vec::new();
         let mut out = Vec::with_capacity(grids.len());
         for (g, scale, b) in grids {
-            let mut info = GpuGridInfo::new(g, *scale);
-            info.cell_offset = u32::try_from(cells.len())
-                .map_err(|_| "the grids need more than 2^32 cells".to_string())?;
-            let brick0 = (bricks.len() / 512) as u32;
-            let const0 = constants.len() as u32;
-            if (brick0 as u64 + g.brick_count() as u64) >= CONSTANT_BIT as u64
-                || (const0 as u64 + g.constants.len() as u64) >= CONSTANT_BIT as u64
-            {
-                return Err("the grids need more than 2^31 bricks or constants".into());
-            }
-            cells.extend(g.cells.iter().map(|&e| {
-                if e & CONSTANT_BIT != 0 {
-                    CONSTANT_BIT | ((e & !CONSTANT_BIT) + const0)
-                } else {
-                    e + brick0
-                }
-            }));
-            bricks.extend_from_slice(&g.bricks);
-            constants.extend_from_slice(&g.constants);
+            let info = append_grid(g, *scale, &mut cells, &mut bricks, &mut constants)?;
             let base = u32::try_from(bounds.len())
                 .map_err(|_| "the grids need more than 2^32 bounds".to_string())?;
             if let Some(b) = b {
@@ -554,6 +518,37 @@ impl GpuGrid {
         }
         v
     }
+}
+
+/// Appends grid `g` to the shared `cells`, `bricks` and `constants` (its brick and constant
+/// indices shifted past the grids before it) and returns its header with `cell_offset` set.
+fn append_grid(
+    g: &SparseGrid,
+    density_scale: f32,
+    cells: &mut Vec<u32>,
+    bricks: &mut Vec<f32>,
+    constants: &mut Vec<f32>,
+) -> Result<GpuGridInfo, String> {
+    let mut info = GpuGridInfo::new(g, density_scale);
+    info.cell_offset = u32::try_from(cells.len())
+        .map_err(|_| "the grids need more than 2^32 cells".to_string())?;
+    let brick0 = (bricks.len() / 512) as u32;
+    let const0 = constants.len() as u32;
+    if (brick0 as u64 + g.brick_count() as u64) >= CONSTANT_BIT as u64
+        || (const0 as u64 + g.constants.len() as u64) >= CONSTANT_BIT as u64
+    {
+        return Err("the grids need more than 2^31 bricks or constants".into());
+    }
+    cells.extend(g.cells.iter().map(|&e| {
+        if e & CONSTANT_BIT != 0 {
+            CONSTANT_BIT | ((e & !CONSTANT_BIT) + const0)
+        } else {
+            e + brick0
+        }
+    }));
+    bricks.extend_from_slice(&g.bricks);
+    constants.extend_from_slice(&g.constants);
+    Ok(info)
 }
 
 /// `bytes` in the largest binary unit that keeps a digit before the point ("3.2 MiB").

@@ -203,9 +203,18 @@ pub fn shared_constants() -> String {
         ("SURFACE_NULL", SURFACE_NULL),
         ("NO_INDEX", crate::scene::NO_INDEX),
         ("WF_FLAG_ABSORPTION", crate::gpu_types::WF_FLAG_ABSORPTION),
-        ("WF_FLAG_FORCE_SPECTRAL", crate::gpu_types::WF_FLAG_FORCE_SPECTRAL),
-        ("WF_FLAG_GUIDED_LIGHTS", crate::gpu_types::WF_FLAG_GUIDED_LIGHTS),
-        ("PATH_FLAG_ENV_BY_PHASE", crate::gpu_types::PATH_FLAG_ENV_BY_PHASE),
+        (
+            "WF_FLAG_FORCE_SPECTRAL",
+            crate::gpu_types::WF_FLAG_FORCE_SPECTRAL,
+        ),
+        (
+            "WF_FLAG_GUIDED_LIGHTS",
+            crate::gpu_types::WF_FLAG_GUIDED_LIGHTS,
+        ),
+        (
+            "PATH_FLAG_ENV_BY_PHASE",
+            crate::gpu_types::PATH_FLAG_ENV_BY_PHASE,
+        ),
         (
             "GUIDED_MAX_PUNCTUAL",
             crate::integrator::lights::GUIDED_MAX_PUNCTUAL as u32,

@@ -10,8 +10,8 @@ use super::render::GpuRenderError;
 use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
     GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuVdbMedium,
-    GpuWavefrontParams, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL, WF_FLAG_GUIDED_LIGHTS, STACK_NONE,
-    SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
+    GpuWavefrontParams, STACK_NONE, SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
+    WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL, WF_FLAG_GUIDED_LIGHTS,
 };
 use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
