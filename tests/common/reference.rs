@@ -1,6 +1,7 @@
 //! An example scene (the cloud, the two-grid fire) rendered by Brume and by a reference renderer (`brume cycles`, `brume mitsuba`),
 //! compared by the command's own `--against` agreement: the image means within 1 % and at
-//! most 1 % of the 8x8 blocks failing the block z-test. Shared by the reference tests.
+//! most 1 % of the 8x8 blocks failing the block z-test (family-wise below 100 blocks, see
+//! [`assert_blocks`]). Shared by the reference tests.
 use std::path::Path;
 use std::process::Command;
 
@@ -70,12 +71,30 @@ pub fn scene_agrees_with(
     let failed = field("blocks_failed");
     let (bad, total) = failed.split_once('/').unwrap();
     let (bad, total): (usize, usize) = (bad.parse().unwrap(), total.parse().unwrap());
+    let max_z: f64 = field("max_block_z").parse().unwrap();
     assert!(rel.abs() < 0.01, "image means differ by {rel}");
-    assert!(
-        bad as f64 <= 0.01 * total as f64,
-        "{bad} of {total} blocks fail"
-    );
+    assert_blocks(bad, total, max_z, &stdout);
     stdout.trim().to_string()
+}
+
+/// "At most 1 % of the blocks fail the block z-test at 99.9 %". With fewer than 100 blocks
+/// 1 % is less than one block, and asking that none fails at 99.9 % each would raise a false
+/// alarm in 1 - 0.999^n of the runs (1.2 % for the 12 blocks of a 32x24 test image, per
+/// scene): there the 99.9 % level is family-wise instead, Sidak-corrected over every block
+/// and channel (`max_block_z` against it).
+fn assert_blocks(bad: usize, total: usize, max_z: f64, stdout: &str) {
+    if total >= 100 {
+        assert!(
+            bad as f64 <= 0.01 * total as f64,
+            "{bad} of {total} blocks fail:\n{stdout}"
+        );
+    } else {
+        let z = super::render::sidak_z(1e-3, 3 * total);
+        assert!(
+            max_z < z,
+            "a block differs: max block z {max_z} against {z:.2} (Sidak, {total} blocks x 3 channels):\n{stdout}"
+        );
+    }
 }
 
 /// Asserts the agreement line that `brume cycles|mitsuba --against` printed (`stdout`): image
@@ -92,10 +111,8 @@ pub fn assert_agreement(stdout: &str) -> String {
     let rel: f64 = field("mean_rel_diff").parse().unwrap();
     let (bad, total) = field("blocks_failed").split_once('/').unwrap();
     let (bad, total): (usize, usize) = (bad.parse().unwrap(), total.parse().unwrap());
+    let max_z: f64 = field("max_block_z").parse().unwrap();
     assert!(rel.abs() < 0.01, "image means differ by {rel}:\n{stdout}");
-    assert!(
-        bad as f64 <= 0.01 * total as f64,
-        "{bad} of {total} blocks fail:\n{stdout}"
-    );
+    assert_blocks(bad, total, max_z, stdout);
     stdout.trim().to_string()
 }
