@@ -26,8 +26,8 @@ fn the_selection_is_a_distribution_that_follows_the_phase_function() {
     let p = Vec3::ZERO;
     // Looking at the sun (wo opposite the light direction: forward scattering towards it) and
     // away from it.
-    let toward = lights.phase_selection(p, |wi| ph.p(-sun_dir, wi));
-    let away = lights.phase_selection(p, |wi| ph.p(sun_dir, wi));
+    let toward = lights.phase_selection(p, |wi| ph.p(-sun_dir, wi)).unwrap();
+    let away = lights.phase_selection(p, |wi| ph.p(sun_dir, wi)).unwrap();
     for sel in [toward, away] {
         let sum: f32 = sel.pmf[..n].iter().sum();
         assert!((sum - 1.0).abs() < 1e-6, "{sel:?}");

@@ -10,12 +10,11 @@
 mod common;
 use common::overlap::*;
 use common::render::*;
-use common::stress::{blob_voxels, optical_depth};
+use common::stress::blob_voxels;
 
 use std::path::{Path, PathBuf};
 
 use brume::integrator::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
-use brume::math::Ray;
 use serde_json::{json, Value};
 
 /// Renders both scenes with `s` (independent seeds) and z-tests them pixel by pixel (in
@@ -134,17 +133,8 @@ fn a_grid_inside_an_absorbing_box_attenuates_by_both() {
     let scene = brume::scene::load(&path).unwrap();
     let rs = RenderScene::new(&scene, false).unwrap();
     assert!(rs.features.nested && rs.features.overlapping);
-    // The grid's optical depth along the axis, integrated from the voxels (common::stress).
-    let grid = &rs.vdb[0];
-    let ray_w = Ray::new(
-        glam::Vec3::new(0.0, 0.0, 3.0),
-        glam::Vec3::new(0.0, 0.0, -1.0),
-    );
-    let ray_i = Ray::new(
-        grid.density.index_from_world.transform_point3(ray_w.o),
-        grid.density.index_from_world.transform_vector3(ray_w.d),
-    );
-    let tau_grid = optical_depth(&grid.density.grid.grid, &ray_i, 0.0, 6.0, 3.0);
+    // The grid's optical depth along the axis, integrated from the voxels.
+    let tau_grid = pencil_depth(&rs.vdb[0]);
     let tau = tau_grid + sigma as f64 * 1.6;
     pencil_agrees(&path, (-tau).exp(), "grid in box");
 }
@@ -289,15 +279,6 @@ fn twenty_overlapping_media_add_like_one() {
     let scene = brume::scene::load(&path).unwrap();
     let rs = RenderScene::new(&scene, false).unwrap();
     assert_eq!(rs.vdb.len(), 20);
-    let grid = &rs.vdb[0];
-    let ray_w = Ray::new(
-        glam::Vec3::new(0.0, 0.0, 3.0),
-        glam::Vec3::new(0.0, 0.0, -1.0),
-    );
-    let ray_i = Ray::new(
-        grid.density.index_from_world.transform_point3(ray_w.o),
-        grid.density.index_from_world.transform_vector3(ray_w.d),
-    );
-    let tau = optical_depth(&grid.density.grid.grid, &ray_i, 0.0, 6.0, 3.0);
+    let tau = pencil_depth(&rs.vdb[0]);
     pencil_agrees(&path, (-tau).exp(), "twenty media");
 }

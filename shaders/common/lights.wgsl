@@ -252,23 +252,41 @@ fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_
                          u: vec2<f32>) -> LightSample {
     let n = light_count();
     let np = wf.light_count;
-    var k = n - 1u;
+    // sampling::sample_discrete over the selection (u scaled by the sum, zero entries skipped,
+    // rounding at the top to the last entry with mass); the probability is the selection's.
+    var sum = 0.0;
+    for (var j = 0u; j < n; j++) {
+        sum += sel.pmf[j];
+    }
+    let up = u_select * sum;
+    var k = n;
+    var last = n;
     var acc = 0.0;
     for (var j = 0u; j < n; j++) {
-        acc += sel.pmf[j];
-        if (u_select < acc) {
+        if (sel.pmf[j] <= 0.0) {
+            continue;
+        }
+        last = j;
+        if (up < acc + sel.pmf[j]) {
             k = j;
             break;
         }
+        acc += sel.pmf[j];
     }
-    let pmf = sel.pmf[k];
-    if (k < np) {
-        var ls = punctual_incident(k, p);
-        ls.pdf = pmf;
-        return ls;
+    if (k == n) {
+        k = last;
     }
     var ls: LightSample;
     ls.valid = false;
+    if (k == n) {
+        return ls;
+    }
+    let pmf = sel.pmf[k];
+    if (k < np) {
+        ls = punctual_incident(k, p);
+        ls.pdf = pmf;
+        return ls;
+    }
     if (wf.has_env == 0u) {
         return ls;
     }

@@ -27,6 +27,7 @@ use glam::{Vec2, Vec3};
 
 use super::envmap::luminance;
 pub use super::envmap::{EnvLight, EnvSampling};
+use crate::sampling::sample_discrete;
 use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{PunctualLight, Scene};
 
@@ -214,8 +215,11 @@ impl Lights {
     }
 
     /// The selection at a medium event at `p` whose phase function takes the value
-    /// `phase(wi)` (see the module doc); uniform when the scene is not [`Lights::guided`].
-    pub fn phase_selection(&self, p: Vec3, phase: impl Fn(Vec3) -> f32) -> Selection {
+    /// `phase(wi)` (see the module doc); `None` when the scene is not [`Lights::guided`].
+    pub fn phase_selection(&self, p: Vec3, phase: impl Fn(Vec3) -> f32) -> Option<Selection> {
+        if !self.guided() {
+            return None;
+        }
         let n = self.count();
         let np = self.punctual.len();
         let mut sel = Selection {
@@ -223,10 +227,6 @@ impl Lights {
             env: 0.0,
             env_by_phase: false,
         };
-        if !self.guided() {
-            sel.env = self.uniform_env_pmf();
-            return sel;
-        }
         let mut w = [0.0f32; GUIDED_MAX_PUNCTUAL + 1];
         for (k, wk) in w.iter_mut().enumerate().take(np) {
             if let Some((wi, _, li)) = self.punctual_incident(k, p) {
@@ -249,7 +249,7 @@ impl Lights {
             sel.env = sel.pmf[np];
             sel.env_by_phase = env.map.is_none();
         }
-        sel
+        Some(sel)
     }
 
     /// Samples one light with the guided selection `sel` at medium point `p`: `u_select`
@@ -263,18 +263,10 @@ impl Lights {
         u: Vec2,
         phase_sample: impl Fn(Vec2) -> (Vec3, f32),
     ) -> Option<LightSample> {
-        let n = self.count();
         let np = self.punctual.len();
-        // The CDF walk; rounding at the top goes to the last light with mass.
-        let mut k = n - 1;
-        let mut acc = 0.0;
-        for (j, &pj) in sel.pmf[..n].iter().enumerate() {
-            acc += pj;
-            if u_select < acc {
-                k = j;
-                break;
-            }
-        }
+        // The light by the selection's CDF; its probability is the selection's own (the
+        // escape's MIS weight uses `sel.env`).
+        let k = sample_discrete(&sel.pmf[..self.count()], u_select)?.index;
         let pmf = sel.pmf[k];
         if k < np {
             return self.punctual_sample(k, p, pmf);

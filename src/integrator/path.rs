@@ -287,9 +287,10 @@ fn next_event<
     let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
     let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
     let lights = &rs.lights;
-    let (ls, choice) = match phase {
-        Some((ph, wo)) if lights.guided() => {
-            let sel = lights.phase_selection(p, |wi| ph.p(wo, wi));
+    let guided =
+        phase.and_then(|(ph, wo)| Some((ph, wo, lights.phase_selection(p, |wi| ph.p(wo, wi))?)));
+    let (ls, choice) = match guided {
+        Some((ph, wo, sel)) => {
             let ls = lights.sample_selected(&sel, p, u_select, u_light, |u| {
                 let s = ph.sample(wo, u);
                 (s.wi, s.pdf)

@@ -147,3 +147,18 @@ pub fn for_each_overlap_config(mut check: impl FnMut(&RenderSettings, usize, f64
     };
     check(&s, 1, alpha, "spectral, global");
 }
+
+/// The optical depth of VDB medium `m` along the pencil of `common::boxes::boxes_scene` (from
+/// `(0, 0, 3)` along -Z), integrated from its voxels (`common::stress::optical_depth`).
+pub fn pencil_depth(m: &brume::integrator::media::VdbMedium) -> f64 {
+    use brume::math::Ray;
+    let ray_w = Ray::new(
+        glam::Vec3::new(0.0, 0.0, 3.0),
+        glam::Vec3::new(0.0, 0.0, -1.0),
+    );
+    let ray_i = Ray::new(
+        m.density.index_from_world.transform_point3(ray_w.o),
+        m.density.index_from_world.transform_vector3(ray_w.d),
+    );
+    super::stress::optical_depth(&m.density.grid.grid, &ray_i, 0.0, 6.0, 3.0)
+}

@@ -357,14 +357,7 @@ impl GpuGrid {
             ));
         }
         let info = GpuGridInfo::new(grid, density_scale);
-        let b: Vec<CellBounds> = match adaptive {
-            Some(a) => a.gpu_bounds(bounds)?,
-            None => {
-                let mut b = bounds.cells.clone();
-                b.push(bounds.global);
-                b
-            }
-        };
+        let b = bounds_layout(bounds, adaptive)?;
         if (b.len() * 8) as u64 > limit {
             return Err(format!(
                 "the grid's bounds need {}; the device binds at most {}",
@@ -400,32 +393,17 @@ impl GpuGrid {
             return Self::upload_adaptive(ctx, grid, bounds, adaptive, density_scale)
                 .map(|g| (g, Vec::new()));
         }
-        let mut cells = grid.cells.clone();
-        let mut bricks = grid.bricks.clone();
-        let mut constants = grid.constants.clone();
-        let mut infos = Vec::new();
-        for g in extra {
-            let mut info = append_grid(g, 1.0, &mut cells, &mut bricks, &mut constants)?;
-            info.global_bounds_index = 0;
-            infos.push(info);
-        }
-        let combined = SparseGrid {
-            cells,
-            dims: grid.dims,
-            cell_origin: grid.cell_origin,
-            bricks,
-            constants,
-            background: grid.background,
-            world_from_index: grid.world_from_index,
-            index_from_world: grid.index_from_world,
-            voxel_size: grid.voxel_size,
-            name: grid.name.clone(),
-        };
-        let mut gg = Self::upload_adaptive(ctx, &combined, bounds, adaptive, density_scale)?;
-        // The density's header describes the density alone.
-        gg.info = GpuGridInfo::new(grid, density_scale);
-        ctx.queue
-            .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
+        let mut parts = vec![(grid, density_scale, Some(bounds_layout(bounds, adaptive)?))];
+        parts.extend(extra.iter().map(|&g| (g, 1.0, None)));
+        let (gg, placed) = Self::upload_many(ctx, &parts)?;
+        // The extra grids have no bounds.
+        let infos = placed[1..]
+            .iter()
+            .map(|&(info, _)| GpuGridInfo {
+                global_bounds_index: 0,
+                ..info
+            })
+            .collect();
         Ok((gg, infos))
     }
 
@@ -517,6 +495,23 @@ impl GpuGrid {
             v.push((0, 4, &self.bounds));
         }
         v
+    }
+}
+
+/// One medium's bounds as the DDA and the adaptive walk read them: the per-cell bounds, the
+/// global bound after them, then (for adaptive walks) the hierarchy
+/// ([`AdaptiveMajorants::gpu_bounds`]).
+pub fn bounds_layout(
+    bounds: &LeafBounds,
+    adaptive: Option<&AdaptiveMajorants>,
+) -> Result<Vec<CellBounds>, String> {
+    match adaptive {
+        Some(a) => a.gpu_bounds(bounds),
+        None => {
+            let mut b = bounds.cells.clone();
+            b.push(bounds.global);
+            Ok(b)
+        }
     }
 }
 

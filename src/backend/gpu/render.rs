@@ -183,11 +183,12 @@ pub fn render_with_timings(
             "--region renders on the CPU backend only (--samples works on both)".into(),
         ));
     }
-    // As on the CPU: the generic variant has every feature on.
-    let features = if settings.generic {
-        FeatureFlags::ALL
+    // As on the CPU: the generic variant has every feature on. The variant's flags also
+    // count disjoint VDB media as a mixture (`gpu_features`); the output keeps the scene's.
+    let (scene_features, features) = if settings.generic {
+        (FeatureFlags::ALL, FeatureFlags::ALL)
     } else {
-        super::graph::gpu_features(rs)
+        (rs.features, super::graph::gpu_features(rs))
     };
     let cfg = TrackingConfig::from_settings(settings);
     let (w, h) = (settings.width, settings.height);
@@ -293,11 +294,7 @@ pub fn render_with_timings(
         lookups,
         spp,
         seconds: start.elapsed().as_secs_f64(),
-        // The scene's flags (the variant's `overlapping` also counts disjoint VDB media).
-        features: FeatureFlags {
-            overlapping: rs.features.overlapping || (settings.generic && features.overlapping),
-            ..features
-        },
+        features: scene_features,
         interrupted,
     };
     let timings = GpuTimings {

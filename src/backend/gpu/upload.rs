@@ -5,7 +5,7 @@
 use bytemuck::Zeroable;
 use glam::Vec3;
 
-use super::device::{byte_size, GpuContext, GpuGrid};
+use super::device::{bounds_layout, byte_size, GpuContext, GpuGrid};
 use super::render::GpuRenderError;
 use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
@@ -376,17 +376,8 @@ fn upload_media(
     let mut fields_of = Vec::with_capacity(rs.vdb.len());
     for m in &rs.vdb {
         let g = &m.density.grid;
-        let bounds = match cfg.majorant {
-            MajorantMode::Adaptive => m
-                .adaptive
-                .gpu_bounds(&g.bounds)
-                .map_err(GpuRenderError::Limits)?,
-            _ => {
-                let mut b = g.bounds.cells.clone();
-                b.push(g.bounds.global);
-                b
-            }
-        };
+        let adaptive = (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive);
+        let bounds = bounds_layout(&g.bounds, adaptive).map_err(GpuRenderError::Limits)?;
         parts.push((&g.grid, m.sigma_t_bound, Some(bounds)));
         let fields = emission_fields(m, features);
         fields_of.push(fields);
@@ -412,16 +403,19 @@ fn upload_media(
         }
         let (mut grid, bounds_base) = placed[k];
         grid.index_from_world = affine_rows(m.density.index_from_world);
-        let mut r = medium_record(m, cfg, features).unwrap_or(GpuVdbMedium {
-            // Nothing to track (extinction bound not positive): zero majorants, so a flight
-            // through it escapes with weight 1, as on the CPU.
-            lo: m.world_bounds.min.to_array(),
-            hi: m.world_bounds.max.to_array(),
-            ..Default::default()
-        });
-        if r.grey_sigma_s == 0.0 && r.tracking.b == 0.0 {
-            grid.density_scale = 0.0;
-        }
+        let mut r = match medium_record(m, cfg, features) {
+            Some(r) => r,
+            None => {
+                // Nothing to track (extinction bound not positive): zero majorants, so a
+                // flight through it escapes with weight 1, as on the CPU.
+                grid.density_scale = 0.0;
+                GpuVdbMedium {
+                    lo: m.world_bounds.min.to_array(),
+                    hi: m.world_bounds.max.to_array(),
+                    ..Default::default()
+                }
+            }
+        };
         r.grid = grid;
         r.bounds_base = bounds_base;
         r.emission = emission_params(m, features, &infos);
