@@ -479,6 +479,9 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             rr_throughput: s.rr_throughput,
             max_collisions: s.max_collisions_per_path,
             guided_lights: true,
+            continuation_albedo: s
+                .light_selection
+                .continuation_albedo(rs.lights.continuation_albedo),
         };
         let (mut sum, mut sum2, mut max_beta, mut max_l) = (0f64, 0f64, 0f32, 0f32);
         for i in 0..n {

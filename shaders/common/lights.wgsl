@@ -204,9 +204,9 @@ fn punctual_incident(k: u32, p: vec3<f32>) -> LightSample {
     return ls;
 }
 
-// Selection: probabilities of the punctual lights, then the environment.
+// Selection: probabilities of the punctual lights, then the environment, then "no estimate".
 struct Selection {
-    pmf: array<f32, 5>,
+    pmf: array<f32, 6>,
     env: f32,
     env_by_phase: bool,
 }
@@ -234,14 +234,37 @@ fn phase_selection(p: vec3<f32>, g: f32, wo: vec3<f32>) -> Selection {
     let valid = sum > 0.0 && sum <= F32_MAX;
     let scale = (1.0 - GUIDED_UNIFORM_SHARE) / sum;
     let floor = GUIDED_UNIFORM_SHARE * uniform;
+    for (var k = 0u; k < 6u; k++) {
+        sel.pmf[k] = 0.0;
+    }
     for (var k = 0u; k < n; k++) {
         sel.pmf[k] = select(uniform, w[k] * scale + floor, valid);
+    }
+    let constant_env = wf.has_env != 0u && env_is_constant();
+    if (constant_env) {
+        // The continuation ray's share of the sky goes to the punctual lights, or to no
+        // estimate at all.
+        let q_env = sel.pmf[np];
+        let moved = wf.continuation_albedo * q_env;
+        sel.pmf[np] = q_env - moved;
+        var q_punctual = 0.0;
+        for (var k = 0u; k < np; k++) {
+            q_punctual += sel.pmf[k];
+        }
+        if (q_punctual > 0.0) {
+            let f = 1.0 + moved / q_punctual;
+            for (var k = 0u; k < np; k++) {
+                sel.pmf[k] *= f;
+            }
+        } else {
+            sel.pmf[n] = moved;
+        }
     }
     sel.env = 0.0;
     sel.env_by_phase = false;
     if (wf.has_env != 0u) {
         sel.env = sel.pmf[np];
-        sel.env_by_phase = env_is_constant();
+        sel.env_by_phase = constant_env;
     }
     return sel;
 }
@@ -252,17 +275,18 @@ fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_
                          u: vec2<f32>) -> LightSample {
     let n = light_count();
     let np = wf.light_count;
-    // sampling::sample_discrete over the selection (u scaled by the sum, zero entries skipped,
-    // rounding at the top to the last entry with mass); the probability is the selection's.
+    // sampling::sample_discrete over the selection and "no estimate" (entry n; u scaled by
+    // the sum, zero entries skipped, rounding at the top to the last entry with mass); the
+    // probability is the selection's.
     var sum = 0.0;
-    for (var j = 0u; j < n; j++) {
+    for (var j = 0u; j <= n; j++) {
         sum += sel.pmf[j];
     }
     let up = u_select * sum;
-    var k = n;
-    var last = n;
+    var k = n + 1u;
+    var last = n + 1u;
     var acc = 0.0;
-    for (var j = 0u; j < n; j++) {
+    for (var j = 0u; j <= n; j++) {
         if (sel.pmf[j] <= 0.0) {
             continue;
         }
@@ -273,12 +297,12 @@ fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_
         }
         acc += sel.pmf[j];
     }
-    if (k == n) {
+    if (k == n + 1u) {
         k = last;
     }
     var ls: LightSample;
     ls.valid = false;
-    if (k == n) {
+    if (k >= n) {
         return ls;
     }
     let pmf = sel.pmf[k];
@@ -312,12 +336,13 @@ fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_
 
 // The escape's MIS weight against light sampling of the environment (radiance's no-hit
 // branch), for a direction not drawn by a delta distribution. With guided selection the
-// path's prev_pdf is already divided by the event's environment probability (or is 1 / P_env
-// when the event drew the environment by its phase function: PATH_FLAG_ENV_BY_PHASE).
+// path's prev_pdf is already divided by the event's environment probability (or is P_env when
+// the event drew the environment by its phase function: PATH_FLAG_ENV_BY_PHASE; both
+// strategies then have the continuation's density, and P_env may be 0).
 fn escape_mis(ps: GpuPathState, env_density: f32) -> f32 {
     if (lights_guided()) {
         if ((ps.flags & PATH_FLAG_ENV_BY_PHASE) != 0u) {
-            return power_heuristic(ps.prev_pdf, 1.0);
+            return power_heuristic(1.0, ps.prev_pdf);
         }
         return power_heuristic(ps.prev_pdf, env_density);
     }
@@ -329,12 +354,10 @@ fn escape_mis(ps: GpuPathState, env_density: f32) -> f32 {
 fn store_prev_pdf(ps: ptr<function, GpuPathState>, pdf: f32, env_pmf: f32, env_by_phase: bool) {
     (*ps).prev_pdf = pdf;
     (*ps).flags &= ~PATH_FLAG_ENV_BY_PHASE;
-    if (lights_guided() && env_pmf > 0.0) {
-        if (env_by_phase) {
-            (*ps).prev_pdf = 1.0 / env_pmf;
-            (*ps).flags |= PATH_FLAG_ENV_BY_PHASE;
-        } else {
-            (*ps).prev_pdf = pdf / env_pmf;
-        }
+    if (lights_guided() && env_by_phase) {
+        (*ps).prev_pdf = env_pmf;
+        (*ps).flags |= PATH_FLAG_ENV_BY_PHASE;
+    } else if (lights_guided() && env_pmf > 0.0) {
+        (*ps).prev_pdf = pdf / env_pmf;
     }
 }

@@ -271,6 +271,10 @@ struct GpuWavefrontParams {
     vdb_count: u32,              // entries of vdb_media (mixture variant)
     flags: u32,              // MIX_FLAG_* bits
     mix_estimator: u32,          // grey free-flight estimator of a mixture
+    continuation_albedo: f32,    // Lights::continuation_albedo
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).

@@ -164,7 +164,10 @@ pub fn render_resumed(
             rr_depth: settings.rr_depth,
             rr_throughput: settings.rr_throughput,
             max_collisions: settings.max_collisions_per_path,
-            guided_lights: settings.light_selection == crate::integrator::LightSelection::Guided,
+            guided_lights: settings.light_selection.guided(),
+            continuation_albedo: settings
+                .light_selection
+                .continuation_albedo(rs.lights.continuation_albedo),
         },
         width: settings.width,
         height: settings.height,

@@ -23,7 +23,7 @@ use clap::Args;
 use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
 use brume::study::stats::{self, ImageMean};
 
-const RENDERERS: [&str; 12] = [
+const RENDERERS: [&str; 13] = [
     "brume",
     "brume-before",
     "brume-event",
@@ -34,6 +34,7 @@ const RENDERERS: [&str; 12] = [
     "brume-spectral",
     "brume-decomposition",
     "brume-uniform-lights",
+    "brume-sky-every-event",
     "mitsuba",
     "cycles",
 ];
@@ -59,6 +60,9 @@ fn brume_variant(name: &str, s: &mut brume::integrator::RenderSettings) -> bool 
         "brume-decomposition" => s.estimator = brume::integrator::Estimator::Decomposition,
         "brume-uniform-lights" => {
             s.light_selection = brume::integrator::LightSelection::Uniform;
+        }
+        "brume-sky-every-event" => {
+            s.light_selection = brume::integrator::LightSelection::GuidedFullSky;
         }
         _ => return false,
     }
@@ -94,7 +98,8 @@ pub struct PeersArgs {
     /// Renderers to run, of brume, its ablation variants (brume-before: the previous
     /// defaults, absorption events, per-leaf majorants, independent sampler, no early
     /// roulette; brume-event, brume-no-rr-guard, brume-leaf, brume-global, brume-independent,
-    /// brume-spectral, brume-decomposition, brume-uniform-lights: one default changed each), mitsuba, cycles (default: brume, mitsuba,
+    /// brume-spectral, brume-decomposition, brume-uniform-lights, brume-sky-every-event: one
+    /// default changed each), mitsuba, cycles (default: brume, mitsuba,
     /// cycles).
     #[arg(long, value_delimiter = ',', default_value = "brume,mitsuba,cycles")]
     pub renderers: Vec<String>,

@@ -60,7 +60,9 @@ pub struct RenderArgs {
     #[arg(long, default_value = "weight")]
     pub absorption: Absorption,
     /// Light choice of next-event estimation at medium events: guided (by each light's
-    /// unoccluded contribution through the phase function; default) or uniform.
+    /// unoccluded contribution through the phase function, a constant sky mostly left to the
+    /// continuation ray; default), guided-full-sky (the same, the sky estimated at every
+    /// event) or uniform.
     #[arg(long, default_value = "guided")]
     pub light_selection: brume::integrator::LightSelection,
     /// Russian roulette also before the 8th bounce once the throughput's largest channel is

@@ -209,7 +209,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             camera_outer,
             vdb_count,
             flags,
-            mix_estimator
+            mix_estimator,
+            continuation_albedo,
+            _pad0,
+            _pad1,
+            _pad2
         ]
     ),
     layout!(

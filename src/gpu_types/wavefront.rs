@@ -78,7 +78,7 @@ pub const PATH_FLAG_SURFACE: u32 = 2;
 /// point (`radiance`'s `flight_started`); cleared at every scattering event.
 pub const PATH_FLAG_FLIGHT_STARTED: u32 = 4;
 /// [`GpuPathState::flags`] bit: the last event sampled the (constant) environment by its
-/// phase function (`Selection::env_by_phase`); `prev_pdf` then holds `1 / P_env`. Otherwise,
+/// phase function (`Selection::env_by_phase`); `prev_pdf` then holds `P_env`. Otherwise,
 /// with guided light selection, `prev_pdf` holds the direction's density over the event's
 /// environment selection probability (the power heuristic is invariant to scaling both
 /// densities, so the escape weighs it against the bare environment density).
@@ -327,8 +327,14 @@ pub struct GpuWavefrontParams {
     /// The grey free-flight [`GpuEstimator`] of a mixture of grey media (a chromatic member
     /// makes the flight spectral).
     pub mix_estimator: u32,
+    /// `Lights::continuation_albedo`: the share of a constant environment's guided selection
+    /// left to the continuation ray.
+    pub continuation_albedo: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuWavefrontParams>() == 304);
+const _: () = assert!(size_of::<GpuWavefrontParams>() == 320);
 
 /// [`GpuWavefrontParams::flags`] bit: medium events choose lights by contribution
 /// (`Lights::guided`, `Lights::phase_selection`).

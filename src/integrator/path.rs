@@ -29,8 +29,11 @@ pub struct PathLimits {
     /// Roulette also before `rr_depth` once `max(beta)` falls below this (0: never).
     pub rr_throughput: f32,
     pub max_collisions: u64,
-    /// Guided light selection at medium events (`LightSelection::Guided`).
+    /// Guided light selection at medium events (`LightSelection::guided`).
     pub guided_lights: bool,
+    /// The share of a constant sky left to the continuation ray there
+    /// (`LightSelection::continuation_albedo`).
+    pub continuation_albedo: f32,
 }
 
 /// What one path cost and did.
@@ -280,15 +283,15 @@ fn next_event<
     sampler: &mut Sampler,
     bounce: u32,
     stats: &mut MediaStats,
-    phase: Option<(&HenyeyGreenstein, Vec3)>,
+    phase: Option<(&HenyeyGreenstein, Vec3, f32)>,
     scatter: impl Fn(Vec3) -> (Vec3, f32),
 ) -> (Vec3, EnvChoice) {
     // Selection before position: the independent sampler draws in this order.
     let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
     let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
     let lights = &rs.lights;
-    let guided =
-        phase.and_then(|(ph, wo)| Some((ph, wo, lights.phase_selection(p, |wi| ph.p(wo, wi))?)));
+    let guided = phase
+        .and_then(|(ph, wo, a)| Some((ph, wo, lights.phase_selection(p, a, |wi| ph.p(wo, wi))?)));
     let (ls, choice) = match guided {
         Some((ph, wo, sel)) => {
             let ls = lights.sample_selected(&sel, p, u_select, u_light, |u| {
@@ -441,7 +444,9 @@ pub fn radiance<
                         sampler,
                         depth - 1,
                         &mut stats.media,
-                        limits.guided_lights.then_some((&phase, wo)),
+                        limits
+                            .guided_lights
+                            .then_some((&phase, wo, limits.continuation_albedo)),
                         |wi| {
                             let f = phase.p(wo, wi);
                             (Vec3::splat(f), f)

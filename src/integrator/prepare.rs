@@ -266,7 +266,20 @@ impl<'s> RenderScene<'s> {
             textures: scene.uses_textures(),
             env_map: false,
         };
-        let lights = Lights::new(scene);
+        let mut lights = Lights::new(scene);
+        let albedo = |sigma_a: Vec3, sigma_s: Vec3| {
+            let sigma_t = sigma_a + sigma_s;
+            (sigma_t.max_element() > 0.0).then(|| super::media::per_channel_ratio(sigma_s, sigma_t))
+        };
+        lights.set_media_albedo(
+            vdb.iter()
+                .filter_map(|m| albedo(m.sigma_a, m.sigma_s))
+                .chain(
+                    homogeneous
+                        .iter()
+                        .filter_map(|h| albedo(h.sigma_a, h.sigma_s)),
+                ),
+        );
         let features = FeatureFlags {
             env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
             ..features

@@ -99,13 +99,16 @@ impl Absorption {
 /// How next-event estimation chooses its light at a medium scattering event.
 ///
 /// `Guided` (default) weighs each light by its unoccluded contribution through the phase
-/// function, with a uniform share (`Lights::phase_selection`), and samples a constant
-/// environment by the phase function; `Uniform` picks every light with the same probability
-/// (pbrt-v4's `UniformLightSampler`, the ablation). Scenes with area lights or more than
-/// `lights::GUIDED_MAX_PUNCTUAL` punctual lights always select uniformly.
+/// function, with a uniform share (`Lights::phase_selection`), samples a constant
+/// environment by the phase function and leaves the share `Lights::continuation_albedo` of
+/// it to the continuation ray; `GuidedFullSky` is the same selection with the whole sky
+/// estimated at the event (the ablation of that last step); `Uniform` picks every light with
+/// the same probability (pbrt-v4's `UniformLightSampler`, the ablation). Scenes with area
+/// lights or more than `lights::GUIDED_MAX_PUNCTUAL` punctual lights always select uniformly.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum LightSelection {
     Guided,
+    GuidedFullSky,
     Uniform,
 }
 
@@ -113,7 +116,23 @@ impl LightSelection {
     pub fn name(self) -> &'static str {
         match self {
             LightSelection::Guided => "guided",
+            LightSelection::GuidedFullSky => "guided-full-sky",
             LightSelection::Uniform => "uniform",
+        }
+    }
+
+    /// Medium events select lights by contribution.
+    pub fn guided(self) -> bool {
+        self != LightSelection::Uniform
+    }
+
+    /// The share of a constant sky left to the continuation ray at medium events, for a scene
+    /// whose [`Lights::continuation_albedo`](super::lights::Lights) is `scene_albedo`.
+    pub fn continuation_albedo(self, scene_albedo: f32) -> f32 {
+        if self == LightSelection::Guided {
+            scene_albedo
+        } else {
+            0.0
         }
     }
 }
@@ -148,7 +167,7 @@ parse_names!(Estimator, "estimator", [
     "weighted-decomposition" => Estimator::WeightedDecomposition,
 ]);
 parse_names!(Absorption, "absorption mode", ["event" => Absorption::Event, "weight" => Absorption::Weight]);
-parse_names!(LightSelection, "light selection", ["guided" => LightSelection::Guided, "uniform" => LightSelection::Uniform]);
+parse_names!(LightSelection, "light selection", ["guided" => LightSelection::Guided, "guided-full-sky" => LightSelection::GuidedFullSky, "uniform" => LightSelection::Uniform]);
 // "local" is the default's alias (it named the per-leaf bounds before the adaptive hierarchy).
 parse_names!(MajorantMode, "majorant mode", [
     "global" => MajorantMode::Global,

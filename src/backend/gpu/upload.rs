@@ -485,9 +485,12 @@ pub(super) fn wavefront_params(
             .area
             .as_ref()
             .map_or(0, |a| a.triangles.len() as u32),
+        continuation_albedo: settings
+            .light_selection
+            .continuation_albedo(rs.lights.continuation_albedo),
         ..Default::default()
     };
-    if rs.lights.guided() && settings.light_selection == crate::integrator::LightSelection::Guided {
+    if rs.lights.guided() && settings.light_selection.guided() {
         params.flags |= WF_FLAG_GUIDED_LIGHTS;
     }
     if features.heterogeneous {
