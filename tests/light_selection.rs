@@ -142,6 +142,11 @@ fn a_sky_alone_is_estimated_at_one_event_in_one_over_one_minus_albedo() {
     let dark = load_scene("ablation/dense_fog_dark.gltf");
     let rs = RenderScene::new(&dark, false).unwrap();
     assert!((rs.lights.continuation_albedo - 0.2).abs() < 1e-6);
+    // Only scattering media count: the smoke tank's water only absorbs (albedo 0, but no
+    // medium events), so its smoke (albedo 0.8) decides.
+    let tank = load_scene("smoke_tank.gltf");
+    let rs = RenderScene::new(&tank, false).unwrap();
+    assert!((rs.lights.continuation_albedo - 0.8).abs() < 1e-6);
 }
 
 #[test]

@@ -40,7 +40,8 @@ const RENDERERS: [&str; 13] = [
 ];
 
 /// Brume's variants for ablations: each changes one default (`brume-before` restores every
-/// default of the version before absorption weights, adaptive majorants and Sobol points).
+/// default of the version before absorption weights, adaptive majorants, Sobol points and
+/// guided light selection).
 fn brume_variant(name: &str, s: &mut brume::integrator::RenderSettings) -> bool {
     use brume::integrator::{Absorption, MajorantMode, SamplerKind};
     match name {
@@ -50,6 +51,7 @@ fn brume_variant(name: &str, s: &mut brume::integrator::RenderSettings) -> bool 
             s.rr_throughput = 0.0;
             s.majorant = MajorantMode::Leaf;
             s.sampler = SamplerKind::Independent;
+            s.light_selection = brume::integrator::LightSelection::Uniform;
         }
         "brume-event" => s.absorption = Absorption::Event,
         "brume-no-rr-guard" => s.rr_throughput = 0.0,
@@ -97,7 +99,7 @@ pub struct PeersArgs {
     pub out: PathBuf,
     /// Renderers to run, of brume, its ablation variants (brume-before: the previous
     /// defaults, absorption events, per-leaf majorants, independent sampler, no early
-    /// roulette; brume-event, brume-no-rr-guard, brume-leaf, brume-global, brume-independent,
+    /// roulette, uniform light selection; brume-event, brume-no-rr-guard, brume-leaf, brume-global, brume-independent,
     /// brume-spectral, brume-decomposition, brume-uniform-lights, brume-sky-every-event: one
     /// default changed each), mitsuba, cycles (default: brume, mitsuba,
     /// cycles).

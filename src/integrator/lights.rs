@@ -37,8 +37,8 @@
 //! barely varies whatever it does. So the shadow ray pays where `a` is small (a dark medium,
 //! where paths rarely escape), and elsewhere it is better spent on the punctual lights, whose
 //! estimates no longer get divided by a probability diluted by the sky. `a` is the
-//! single-scattering albedo (largest channel) of the DARKEST medium in the scene, so no
-//! medium gets less sky estimation than it needs. Measured (`brume bench peers`, 64 spp):
+//! single-scattering albedo (largest channel) of the DARKEST scattering medium in the scene,
+//! so no medium gets less sky estimation than it needs. Measured (`brume bench peers`, 64 spp):
 //! per-pixel variance -32 % on the dense chromatic fog (a = 0.95, sun and sky), -27 % on
 //! the cloud (a = 1), -73 % on the plume under a sky alone (a = 0.9, 0.1 of its events
 //! estimate the sky), unchanged on the dark fog (a = 0.2). When the environment is chosen it
@@ -169,8 +169,8 @@ impl Lights {
     }
 
     /// Sets [`Lights::continuation_albedo`] from the single-scattering albedos
-    /// `sigma_s / sigma_t` (RGB) of the scene's media: the largest channel of the darkest
-    /// medium, clamped to [0, 1] (no media: 0, nothing changes).
+    /// `sigma_s / sigma_t` (RGB) of the scene's scattering media: the largest channel of the
+    /// darkest medium, clamped to [0, 1] (no scattering media: 0, nothing changes).
     pub fn set_media_albedo(&mut self, albedos: impl IntoIterator<Item = Vec3>) {
         let a = albedos
             .into_iter()

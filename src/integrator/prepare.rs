@@ -267,9 +267,11 @@ impl<'s> RenderScene<'s> {
             env_map: false,
         };
         let mut lights = Lights::new(scene);
+        // Only media that scatter have medium events (a purely absorbing one, such as
+        // KHR_materials_volume's tinted glass, never asks for a light).
         let albedo = |sigma_a: Vec3, sigma_s: Vec3| {
-            let sigma_t = sigma_a + sigma_s;
-            (sigma_t.max_element() > 0.0).then(|| super::media::per_channel_ratio(sigma_s, sigma_t))
+            (sigma_s.max_element() > 0.0)
+                .then(|| super::media::per_channel_ratio(sigma_s, sigma_a + sigma_s))
         };
         lights.set_media_albedo(
             vdb.iter()
