@@ -164,7 +164,7 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
 
 // russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput after
 // rr_depth events, or earlier once max(beta) < rr_throughput: survive with probability
-// min(max(beta), 0.95), then divide by it.
+// min(sqrt(max(beta)), 0.95), then divide by it.
 fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, sample_id: u32,
                     rng: ptr<function, Rng>) -> bool {
     let a = abs(*beta);
@@ -172,7 +172,7 @@ fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, sample_id: u32,
     if (depth < wf.rr_depth && !(q_beta < wf.rr_throughput)) {
         return true;
     }
-    let q = min(q_beta, 0.95);
+    let q = min(sqrt(q_beta), 0.95);
     if (!(q > 0.0) || sampler_1d(sample_id, bounce_dim(depth - 1u, DIM_RR), rng) >= q) {
         return false;
     }
