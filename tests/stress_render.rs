@@ -442,8 +442,9 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     // g = 0.5, under an environment of radiance 1. With absorption as an EVENT the grey view
     // scatters with the channel-mean albedo (0.783) and weights channels by albedo / mean, so
     // red grows by 0.95 / 0.783 = 1.21 per bounce. With absorption as a WEIGHT every bounce
-    // multiplies the throughput by the albedo (<= 0.95) and Russian roulette divides by at
-    // most max(beta): the throughput never exceeds 1 (the bound tested here, per path).
+    // multiplies the throughput by the albedo (<= 0.95) and Russian roulette divides by
+    // min(sqrt(max(beta)), 0.95), which leaves at most max(sqrt(max(beta)), max(beta) / 0.95):
+    // the throughput never exceeds 1 (the bound tested here, per path).
     use brume::integrator::media::TrackingConfig;
     use brume::integrator::path::{radiance, PathLimits, PathStats};
     use brume::integrator::SamplerKind;
