@@ -99,10 +99,10 @@ pub struct PeersArgs {
     pub out: PathBuf,
     /// Renderers to run, of brume, its ablation variants (brume-before: the previous
     /// defaults, absorption events, per-leaf majorants, independent sampler, no early
-    /// roulette, uniform light selection; brume-event, brume-no-rr-guard, brume-leaf, brume-global, brume-independent,
-    /// brume-spectral, brume-decomposition, brume-uniform-lights, brume-sky-every-event: one
-    /// default changed each), mitsuba, cycles (default: brume, mitsuba,
-    /// cycles).
+    /// roulette, uniform light selection; brume-event, brume-no-rr-guard, brume-leaf,
+    /// brume-global, brume-independent, brume-spectral, brume-decomposition,
+    /// brume-uniform-lights, brume-sky-every-event: one default changed each), mitsuba, cycles
+    /// (default: brume, mitsuba, cycles).
     #[arg(long, value_delimiter = ',', default_value = "brume,mitsuba,cycles")]
     pub renderers: Vec<String>,
 }

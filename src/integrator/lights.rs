@@ -42,11 +42,13 @@
 //! against `--light-selection guided-full-sky`): per-pixel variance -30 % on the dense
 //! chromatic fog (a = 0.95, sun and sky), -27 % on the cloud (a = 1), -76 % on the plume
 //! under a sky alone (a = 0.9, 0.1 of its events estimate the sky), +2 % on the dark fog
-//! (a = 0.2). When the environment is chosen it
-//! is sampled by the phase function, its light pdf `P_env p(wo, wi)`, and the continuation
-//! ray that escapes from that event is weighted against it by the power heuristic with the
-//! constant ratio `1 / (1 + P_env^2)` (1 where `P_env` is 0). Surface events keep uniform
-//! selection (the BSDF is not evaluated per light).
+//! (a = 0.2).
+//!
+//! When the environment is chosen it is sampled by the phase function, its light pdf
+//! `P_env p(wo, wi)`, and the continuation ray that escapes from that event is weighted
+//! against it by the power heuristic with the constant ratio `1 / (1 + P_env^2)` (1 where
+//! `P_env` is 0). Surface events keep uniform selection (the BSDF is not evaluated per
+//! light).
 use glam::{Vec2, Vec3};
 
 use super::envmap::luminance;
