@@ -234,9 +234,8 @@ fn phase_selection(p: vec3<f32>, g: f32, wo: vec3<f32>) -> Selection {
     let valid = sum > 0.0 && sum <= F32_MAX;
     let scale = (1.0 - GUIDED_UNIFORM_SHARE) / sum;
     let floor = GUIDED_UNIFORM_SHARE * uniform;
-    for (var k = 0u; k < 6u; k++) {
-        sel.pmf[k] = 0.0;
-    }
+    // `sel` is zero-initialised (WGSL function variables are), so the entries past the
+    // lights, the "no estimate" slot among them, start at 0.
     for (var k = 0u; k < n; k++) {
         sel.pmf[k] = select(uniform, w[k] * scale + floor, valid);
     }
