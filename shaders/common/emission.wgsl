@@ -10,7 +10,10 @@
 
 @group(0) @binding(5) var<uniform> emission: GpuEmissionParams;
 // The unit-luminance Rec.709 colour table of blackbody::table(), 10 K apart (xyz; w unused).
-@group(0) @binding(6) var<uniform> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
+// Read-only storage rather than a uniform: Mesa 22.3's lavapipe (Debian 12) used freed memory
+// while compiling the generic sample_medium stage with the table as one more uniform block
+// (its uniform-inlining analysis; valgrind shows the invalid reads and writes).
+@group(0) @binding(6) var<storage, read> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
 
 // blackbody_rgb: linear interpolation in the table, temperatures clamped to its range.
 fn blackbody_rgb(t: f32) -> vec3<f32> {

@@ -176,10 +176,14 @@ impl Buffers {
                     .iter()
                     .map(|c| [c.x, c.y, c.z, 0.0])
                     .collect();
+                // A storage buffer, not a uniform: with the table as a fifth uniform block,
+                // Mesa 22.3's lavapipe (Debian 12) read and wrote freed memory while compiling
+                // the generic variant's sample_medium stage (valgrind; it crashed the process
+                // in about one run in five). See shaders/common/emission.wgsl.
                 let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("blackbody table"),
                     size: (rows.len() * 16) as u64,
-                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
                 ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
@@ -266,12 +270,11 @@ pub(super) fn kernel(
     let dev = |e: String| GpuRenderError::Device(format!("{}: {e}", module.label));
     let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
     let used = used_bindings(module, specs).map_err(dev)?;
-    // Every binding but the uniforms (grid header, emission, blackbody table, params, the
-    // environment map's header) is a
-    // storage buffer.
+    // Every binding but the uniforms (grid header, emission, params, the environment map's
+    // header) is a storage buffer.
     let storage = used
         .iter()
-        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (0, 6) | (1, 0) | (1, 16)))
+        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (1, 0) | (1, 16)))
         .count() as u32;
     if storage > ctx.limits.max_storage_buffers_per_shader_stage {
         return Err(GpuRenderError::Limits(format!(
