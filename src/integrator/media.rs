@@ -21,7 +21,9 @@ use crate::volume::tracking::{
     self, spectral::SpectralProbabilities, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium,
     MediumRgb, TrackingStats,
 };
-use crate::volume::{AdaptiveMajorantIterator, AdaptiveMajorants, DdaMajorantIterator, LoadedGrid};
+use crate::volume::{
+    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LoadedGrid,
+};
 
 /// A grid placed in the world: trilinear lookups at world points.
 #[derive(Clone)]
@@ -106,6 +108,20 @@ pub struct VdbMedium {
     pub grey: bool,
     pub phase: HenyeyGreenstein,
     pub emission: Option<Emission>,
+}
+
+impl VdbMedium {
+    /// The walk that yields `mode`'s segments for this medium most cheaply: an adaptive
+    /// hierarchy that is one node or all leaf cells is walked as the global bound or the
+    /// per-leaf DDA, which give its segments bit for bit ([`AdaptiveShape`]).
+    #[inline]
+    pub fn walk_mode(&self, mode: MajorantMode) -> MajorantMode {
+        match (mode, self.adaptive.shape) {
+            (MajorantMode::Adaptive, AdaptiveShape::OneNode) => MajorantMode::Global,
+            (MajorantMode::Adaptive, AdaptiveShape::AllLeaves) => MajorantMode::Leaf,
+            _ => mode,
+        }
+    }
 }
 
 /// Estimator choice and parameters, shared by every flight of a render.
@@ -197,7 +213,7 @@ pub struct MediaStats {
 macro_rules! with_walk {
     ($m:expr, $ray_i:expr, $t0:expr, $t1:expr, $mode:expr, |$segs:ident| $body:expr) => {{
         let m: &VdbMedium = $m;
-        match $mode {
+        match m.walk_mode($mode) {
             MajorantMode::Adaptive => {
                 let mut walk =
                     AdaptiveMajorantIterator::new(&m.adaptive, $ray_i, $t0, $t1, m.sigma_t_bound);
@@ -228,7 +244,7 @@ pub(super) fn segments<'a>(
     mode: MajorantMode,
 ) -> Segments<'a> {
     let bounds = &m.density.grid.bounds;
-    match mode {
+    match m.walk_mode(mode) {
         MajorantMode::Leaf => Segments::Dda(DdaMajorantIterator::new(
             bounds,
             ray_i,

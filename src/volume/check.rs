@@ -7,7 +7,7 @@
 //! Both are seeded and deterministic.
 use brume_ffi::FloatGridData;
 
-use super::adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, CostModel};
+use super::adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, CostModel};
 use super::bounds::LeafBounds;
 use super::dda::DdaMajorantIterator;
 use super::grid::SparseGrid;
@@ -432,6 +432,8 @@ pub fn check_ray_bounds(
                 "the adaptive walk at level 0 gave {adaptive:?}, the DDA {segments:?}"
             )));
         }
+        let global: Vec<MajorantSegment> =
+            DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();
         for m in &merged {
             adaptive.clear();
             adaptive.extend(AdaptiveMajorantIterator::new(m, &ray, t0, t1, 1.0));
@@ -439,10 +441,15 @@ pub fn check_ray_bounds(
             let mut sub = RayCheckStats::default();
             check_one_ray(grid, &adaptive, expected, &ray, &mut rng, &mut sub)
                 .map_err(|e| context(format!("adaptive: {e}")))?;
+            // The renderer walks a one-node hierarchy as the global bound
+            // (`VdbMedium::walk_mode`): the two must agree bit for bit.
+            if m.shape == AdaptiveShape::OneNode && adaptive != global {
+                return Err(context(format!(
+                    "the one-node adaptive walk gave {adaptive:?}, the global walk {global:?}"
+                )));
+            }
         }
 
-        let global: Vec<MajorantSegment> =
-            DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();
         let want: Vec<MajorantSegment> = expected
             .map(|(a, b)| MajorantSegment {
                 t_min: a,

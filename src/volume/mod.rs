@@ -16,7 +16,9 @@ pub mod reference;
 pub mod segment;
 pub mod tracking;
 
-pub use adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveStats, CostModel};
+pub use adaptive::{
+    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, AdaptiveStats, CostModel,
+};
 pub use bounds::{BoundsStats, CellBounds, LeafBounds};
 pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};
 pub use dda::DdaMajorantIterator;
