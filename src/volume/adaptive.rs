@@ -280,7 +280,8 @@ impl AdaptiveMajorants {
         if shape == AdaptiveShape::Mixed {
             let s = a.stats(scale, index_per_t, cost);
             let pure = s.cost_leaf.min(s.cost_global);
-            if !(s.cost_adaptive < (1.0 - cost.mixed_margin as f64) * pure) {
+            // `>=` on NaN is false: a NaN cost keeps the structure the recursion chose.
+            if s.cost_adaptive >= (1.0 - cost.mixed_margin as f64) * pure {
                 let level = if s.cost_global <= s.cost_leaf { top } else { 0 };
                 a.node_level.iter_mut().for_each(|l| *l = level);
                 a.shape = AdaptiveShape::of(&a.node_level, top);
