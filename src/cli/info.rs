@@ -4,7 +4,9 @@ use std::path::Path;
 use anyhow::{bail, Result};
 use brume_ffi::{GridClass, GridInfo, VdbFile};
 
-use brume::volume::{load_grid_from, AdaptiveMajorants, ConversionPolicy, CostModel};
+use brume::volume::{
+    load_grid_from, AdaptiveMajorants, AdaptiveShape, ConversionPolicy, CostModel,
+};
 
 pub fn run(path: &Path, layout: bool) -> Result<()> {
     let ext = path
@@ -102,9 +104,14 @@ fn print_adaptive(label: &str, a: &AdaptiveMajorants, scale: f32, index_per_t: f
         .map(|(l, n)| format!("{n} x {}^3", 8 << l))
         .collect();
     println!(
-        "{label} adaptive majorants: {} merged nodes ({}), built in {:.2} ms, {:.1} KiB; model cost per ray: adaptive {:.2}, per-leaf {:.2}, global {:.2}",
+        "{label} adaptive majorants: {} merged nodes ({}; {}), built in {:.2} ms, {:.1} KiB; model cost per ray: adaptive {:.2}, per-leaf {:.2}, global {:.2}",
         s.nodes_per_level.iter().sum::<u64>(),
         levels.join(", "),
+        match a.shape {
+            AdaptiveShape::OneNode => "walked as the global bound",
+            AdaptiveShape::AllLeaves => "walked as the per-leaf DDA",
+            AdaptiveShape::Mixed => "walked by the hierarchy",
+        },
         1e3 * s.build_seconds,
         s.memory_bytes as f64 / 1024.0,
         s.cost_adaptive,
