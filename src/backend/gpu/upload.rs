@@ -97,7 +97,10 @@ pub(super) fn medium_record(
         shadow_estimator: shadow as u32,
         tracking: GpuTrackingParams {
             estimator: estimator as u32,
-            majorant_mode: match cfg.majorant {
+            // The walk the CPU takes for this medium (`VdbMedium::walk_mode`): an adaptive
+            // hierarchy of one node or of leaf cells only is walked as the global bound or
+            // the per-leaf DDA, which give its segments bit for bit.
+            majorant_mode: match m.walk_mode(cfg.majorant) {
                 MajorantMode::Leaf => GpuMajorantMode::PerCell,
                 MajorantMode::Global => GpuMajorantMode::Global,
                 MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
@@ -348,7 +351,7 @@ pub(super) fn upload_grid(
         ctx,
         &g.grid,
         &g.bounds,
-        (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive),
+        (m.walk_mode(cfg.majorant) == MajorantMode::Adaptive).then_some(&*m.adaptive),
         m.sigma_t_bound,
         &extra,
     )
@@ -376,7 +379,8 @@ fn upload_media(
     let mut fields_of = Vec::with_capacity(rs.vdb.len());
     for m in &rs.vdb {
         let g = &m.density.grid;
-        let adaptive = (cfg.majorant == MajorantMode::Adaptive).then_some(&*m.adaptive);
+        let adaptive =
+            (m.walk_mode(cfg.majorant) == MajorantMode::Adaptive).then_some(&*m.adaptive);
         let bounds = bounds_layout(&g.bounds, adaptive).map_err(GpuRenderError::Limits)?;
         parts.push((&g.grid, m.sigma_t_bound, Some(bounds)));
         let fields = emission_fields(m, features);
