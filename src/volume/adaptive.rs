@@ -224,25 +224,29 @@ impl AdaptiveMajorants {
             .enumerate()
             .map(|(i, &b)| leaf_cost(0, [i % nx0, i / nx0 % ny0, i / (nx0 * ny0)], b))
             .collect();
+        // Alongside: the cost of walking every leaf cell (per-leaf bounds), for the margin.
+        let mut fine = costs.clone();
         let mut merged: Vec<Vec<bool>> = vec![Vec::new()];
         for l in 1..levels.len() {
             let (below, here) = (levels[l - 1], levels[l]);
             let [nx, ny, nz] = here.dims.map(|d| d as usize);
-            let choice: Vec<(f64, bool)> = (0..nx * ny * nz)
+            let choice: Vec<(f64, bool, f64)> = (0..nx * ny * nz)
                 .into_par_iter()
                 .map(|i| {
                     let n = [i % nx, i / nx % ny, i / (nx * ny)];
                     let split = split_cost(dims, below.dims, l, n, &costs);
+                    let all_fine = split_cost(dims, below.dims, l, n, &fine);
                     let as_leaf = leaf_cost(l, n, nodes[here.offset as usize + i]);
                     if as_leaf <= split {
-                        (as_leaf, true)
+                        (as_leaf, true, all_fine)
                     } else {
-                        (split, false)
+                        (split, false, all_fine)
                     }
                 })
                 .collect();
             costs = choice.iter().map(|c| c.0).collect();
             merged.push(choice.iter().map(|c| c.1).collect());
+            fine = choice.iter().map(|c| c.2).collect();
         }
         // Top-down: each leaf cell takes the highest merged ancestor's level.
         let [nx, ny, _] = leaf.dims.map(|d| d as usize);
@@ -278,11 +282,13 @@ impl AdaptiveMajorants {
             cost,
         };
         if shape == AdaptiveShape::Mixed {
-            let s = a.stats(scale, index_per_t, cost);
-            let pure = s.cost_leaf.min(s.cost_global);
+            // The recursion's costs at the top node: the chosen structure and every leaf cell;
+            // one segment over the whole grid is the top node taken as a leaf.
+            let cost_global = leaf_cost(top as usize, [0, 0, 0], a.node(top as usize, [0, 0, 0]));
+            let pure = fine[0].min(cost_global);
             // `>=` on NaN is false: a NaN cost keeps the structure the recursion chose.
-            if s.cost_adaptive >= (1.0 - cost.mixed_margin as f64) * pure {
-                let level = if s.cost_global <= s.cost_leaf { top } else { 0 };
+            if costs[0] >= (1.0 - cost.mixed_margin as f64) * pure {
+                let level = if cost_global <= fine[0] { top } else { 0 };
                 a.node_level.iter_mut().for_each(|l| *l = level);
                 a.shape = AdaptiveShape::of(&a.node_level, top);
             }
