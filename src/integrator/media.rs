@@ -205,11 +205,6 @@ pub struct MediaStats {
     pub emission_lookups: u64,
 }
 
-/// Evaluates `$body` with `$segs` bound to `&mut` the concrete walk of `$mode` over `$m`'s
-/// majorants (in `$ray_i`'s index space over `[$t0, $t1]`). The tracking loop is then
-/// instantiated once per walk type and the walk's step inlines into it: through the
-/// [`Segments`] enum it was a call per segment. The walk is used through a reference because
-/// its state is a few hundred bytes that moving down the estimator's calls would copy.
 /// A walk used through a mutable reference, with its `next` always inlined. The standard
 /// `impl Iterator for &mut I` is only `#[inline]`, and in `sample_grey`, which holds a free-flight
 /// loop per estimator and walk type, it stayed a call per segment (6.5 % of a cloud render).
@@ -224,6 +219,12 @@ impl<I: Iterator> Iterator for WalkRef<'_, I> {
     }
 }
 
+/// Evaluates `$body` with `$segs` bound to the concrete walk that gives `$mode`'s segments
+/// over `$m`'s majorants ([`VdbMedium::walk_mode`]; in `$ray_i`'s index space over
+/// `[$t0, $t1]`), through a [`WalkRef`]. The tracking loop is then instantiated once per walk
+/// type and the walk's step inlines into it: through the [`Segments`] enum it was a call per
+/// segment. The walk is used through a reference because its state is a few hundred bytes
+/// that moving down the estimator's calls would copy.
 macro_rules! with_walk {
     ($m:expr, $ray_i:expr, $t0:expr, $t1:expr, $mode:expr, |$segs:ident| $body:expr) => {{
         let m: &VdbMedium = $m;
