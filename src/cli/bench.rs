@@ -384,7 +384,7 @@ fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Resu
         rayon::current_num_threads()
     );
     println!(
-        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}  {}",
+        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}  walk",
         "scene",
         "estimator",
         "bounds",
@@ -396,7 +396,6 @@ fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Resu
         "emit look",
         "real coll",
         "lookups/real",
-        "walk"
     );
     for path in scenes {
         let scene = brume::scene::load(path)?;
