@@ -80,18 +80,19 @@ impl CostModel {
         }
     }
 
-    /// The model's cost of one segment over a node of level `l` with bounds `b` that covers
-    /// `cells` leaf cells per axis inside the grid: a step plus the expected tentative
-    /// collisions on a random chord through that box (mean length `4 V / S`).
+    /// The model's cost of one segment over node `n` of level `l`, with bounds `b`, in a grid
+    /// of `dims` leaf cells: a step plus the expected tentative collisions on a random chord
+    /// through the box the node covers inside the grid (mean length `4 V / S`).
     pub fn node_cost(
         &self,
+        dims: [u32; 3],
         l: usize,
-        cells: [u32; 3],
+        n: [usize; 3],
         b: CellBounds,
         scale: f32,
         index_per_t: f32,
     ) -> f64 {
-        let chord = mean_chord(cells) / index_per_t as f64;
+        let chord = mean_chord(node_cells(dims, l, n)) / index_per_t as f64;
         let step = if l == 0 { self.step } else { self.node_step };
         step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
     }
@@ -195,12 +196,10 @@ impl AdaptiveMajorants {
             let below = *levels.last().unwrap();
             let dims = below.dims.map(|d| d.div_ceil(2));
             let offset = nodes.len() as u32;
-            let [nx, ny, nz] = dims.map(|d| d as usize);
-            let next: Vec<CellBounds> = (0..nx * ny * nz)
+            let next: Vec<CellBounds> = (0..cell_count(dims))
                 .into_par_iter()
                 .map(|i| {
-                    let n = [i % nx, i / nx % ny, i / (nx * ny)];
-                    children(below.dims, n).fold(CellBounds::EMPTY, |b, c| {
+                    children(below.dims, coords(i, dims)).fold(CellBounds::EMPTY, |b, c| {
                         b.union(nodes[below.offset as usize + c])
                     })
                 })
@@ -211,29 +210,27 @@ impl AdaptiveMajorants {
         // Bottom-up costs and choices.
         let dims = leaf.dims;
         let leaf_cost = |l: usize, n: [usize; 3], b: CellBounds| {
-            let c = cost.node_cost(l, node_cells(dims, l, n), b, scale, index_per_t);
+            let c = cost.node_cost(dims, l, n, b, scale, index_per_t);
             if c.is_finite() {
                 c
             } else {
                 f64::MAX
             }
         };
-        let [nx0, ny0, _] = dims.map(|d| d as usize);
         let mut costs: Vec<f64> = nodes[..leaf.cells.len()]
             .par_iter()
             .enumerate()
-            .map(|(i, &b)| leaf_cost(0, [i % nx0, i / nx0 % ny0, i / (nx0 * ny0)], b))
+            .map(|(i, &b)| leaf_cost(0, coords(i, dims), b))
             .collect();
         // Alongside: the cost of walking every leaf cell (per-leaf bounds), for the margin.
         let mut fine = costs.clone();
         let mut merged: Vec<Vec<bool>> = vec![Vec::new()];
         for l in 1..levels.len() {
             let (below, here) = (levels[l - 1], levels[l]);
-            let [nx, ny, nz] = here.dims.map(|d| d as usize);
-            let choice: Vec<(f64, bool, f64)> = (0..nx * ny * nz)
+            let choice: Vec<(f64, bool, f64)> = (0..cell_count(here.dims))
                 .into_par_iter()
                 .map(|i| {
-                    let n = [i % nx, i / nx % ny, i / (nx * ny)];
+                    let n = coords(i, here.dims);
                     let split = split_cost(dims, below.dims, l, n, &costs);
                     let all_fine = split_cost(dims, below.dims, l, n, &fine);
                     let as_leaf = leaf_cost(l, n, nodes[here.offset as usize + i]);
@@ -249,11 +246,10 @@ impl AdaptiveMajorants {
             fine = choice.iter().map(|c| c.2).collect();
         }
         // Top-down: each leaf cell takes the highest merged ancestor's level.
-        let [nx, ny, _] = leaf.dims.map(|d| d as usize);
         let node_level: Vec<u8> = (0..leaf.cells.len())
             .into_par_iter()
             .map(|i| {
-                let c = [i % nx, i / nx % ny, i / (nx * ny)];
+                let c = coords(i, dims);
                 for l in (1..levels.len()).rev() {
                     let d = levels[l].dims.map(|d| d as usize);
                     let n = c.map(|x| x >> l);
@@ -332,32 +328,31 @@ impl AdaptiveMajorants {
         let nl = self.levels.len();
         let mut cells_per_level = vec![0u64; nl];
         let mut nodes_per_level = vec![0u64; nl];
-        let [nx, ny, _] = self.dims.map(|d| d as usize);
+        let dims = self.dims;
         for (i, &l) in self.node_level.iter().enumerate() {
             cells_per_level[l as usize] += 1;
-            let c = [i % nx, i / nx % ny, i / (nx * ny)];
+            let c = coords(i, dims);
             // Count each merged node once, at its first leaf cell.
             if c.iter().all(|&x| x % (1 << l) == 0) {
                 nodes_per_level[l as usize] += 1;
             }
         }
-        let dims = self.dims;
         let leaf_cost = |l: usize, n: [usize; 3], b: CellBounds| {
-            cost.node_cost(l, node_cells(dims, l, n), b, scale, index_per_t)
+            cost.node_cost(dims, l, n, b, scale, index_per_t)
         };
         let mut fine: Vec<f64> = self.nodes[..self.node_level.len()]
             .iter()
             .enumerate()
-            .map(|(i, &b)| leaf_cost(0, [i % nx, i / nx % ny, i / (nx * ny)], b))
+            .map(|(i, &b)| leaf_cost(0, coords(i, dims), b))
             .collect();
         let mut adaptive = fine.clone();
         for l in 1..nl {
             let (below, here) = (self.levels[l - 1], self.levels[l]);
-            let [hx, hy, hz] = here.dims.map(|d| d as usize);
-            let mut f = Vec::with_capacity(hx * hy * hz);
-            let mut a = Vec::with_capacity(hx * hy * hz);
-            for i in 0..hx * hy * hz {
-                let n = [i % hx, i / hx % hy, i / (hx * hy)];
+            let count = cell_count(here.dims);
+            let mut f = Vec::with_capacity(count);
+            let mut a = Vec::with_capacity(count);
+            for i in 0..count {
+                let n = coords(i, here.dims);
                 f.push(split_cost(dims, below.dims, l, n, &fine));
                 let first = n.map(|x| (x << l) as i32);
                 if self.level_of(first) as usize == l {
@@ -390,9 +385,8 @@ impl AdaptiveMajorants {
         }
         for l in 1..self.levels.len() {
             let (below, here) = (self.levels[l - 1], self.levels[l]);
-            let [nx, ny, nz] = here.dims.map(|d| d as usize);
-            for i in 0..nx * ny * nz {
-                let n = [i % nx, i / nx % ny, i / (nx * ny)];
+            for i in 0..cell_count(here.dims) {
+                let n = coords(i, here.dims);
                 let u = children(below.dims, n).fold(CellBounds::EMPTY, |b, c| {
                     b.union(self.nodes[below.offset as usize + c])
                 });
@@ -403,9 +397,8 @@ impl AdaptiveMajorants {
                 }
             }
         }
-        let [nx, ny, _] = self.dims.map(|d| d as usize);
         for (i, &l) in self.node_level.iter().enumerate() {
-            let c = [i % nx, i / nx % ny, i / (nx * ny)].map(|x| x as i32);
+            let c = coords(i, self.dims).map(|x| x as i32);
             let base = c.map(|x| (x >> l) << l);
             for dz in 0..1i32 << l {
                 for dy in 0..1i32 << l {
@@ -426,6 +419,17 @@ impl AdaptiveMajorants {
         }
         Ok(())
     }
+}
+
+/// Coordinates of flat index `i` (x fastest) in a grid of `dims`.
+fn coords(i: usize, dims: [u32; 3]) -> [usize; 3] {
+    let [nx, ny, _] = dims.map(|d| d as usize);
+    [i % nx, i / nx % ny, i / (nx * ny)]
+}
+
+/// Number of entries of a grid of `dims`.
+fn cell_count(dims: [u32; 3]) -> usize {
+    dims.iter().map(|&d| d as usize).product()
 }
 
 /// Mean chord length `4 V / S` (index units) of a box of `cells` leaf cells per axis.
@@ -638,7 +642,7 @@ impl AdaptiveMajorants {
         out.extend([CellBounds::point(0.0); GPU_TABLE_SLOTS / 2]);
         let mut table = [0f32; GPU_TABLE_SLOTS];
         for (l, lv) in self.levels.iter().enumerate().skip(1) {
-            let count = lv.dims.iter().map(|&d| d as usize).product::<usize>();
+            let count = cell_count(lv.dims);
             table[l] = out.len() as f32;
             out.extend_from_slice(&self.nodes[lv.offset as usize..lv.offset as usize + count]);
         }
