@@ -122,6 +122,11 @@ impl VdbMedium {
             _ => mode,
         }
     }
+
+    /// The hierarchy when `mode` walks it (a mixed adaptive hierarchy), else `None`.
+    pub fn walked_hierarchy(&self, mode: MajorantMode) -> Option<&AdaptiveMajorants> {
+        (self.walk_mode(mode) == MajorantMode::Adaptive).then_some(&*self.adaptive)
+    }
 }
 
 /// Estimator choice and parameters, shared by every flight of a render.

@@ -351,7 +351,7 @@ pub(super) fn upload_grid(
         ctx,
         &g.grid,
         &g.bounds,
-        (m.walk_mode(cfg.majorant) == MajorantMode::Adaptive).then_some(&*m.adaptive),
+        m.walked_hierarchy(cfg.majorant),
         m.sigma_t_bound,
         &extra,
     )
@@ -379,8 +379,7 @@ fn upload_media(
     let mut fields_of = Vec::with_capacity(rs.vdb.len());
     for m in &rs.vdb {
         let g = &m.density.grid;
-        let adaptive =
-            (m.walk_mode(cfg.majorant) == MajorantMode::Adaptive).then_some(&*m.adaptive);
+        let adaptive = m.walked_hierarchy(cfg.majorant);
         let bounds = bounds_layout(&g.bounds, adaptive).map_err(GpuRenderError::Limits)?;
         parts.push((&g.grid, m.sigma_t_bound, Some(bounds)));
         let fields = emission_fields(m, features);
