@@ -205,19 +205,18 @@ pub fn render_resumed(
             interrupted = true;
             break;
         }
-        let order = dearest_first(&tile_ns);
-        let mut outputs: Vec<Option<TileOutput>> = Vec::with_capacity(rects.len());
-        outputs.resize_with(rects.len(), || None);
-        let done: Vec<(usize, Option<TileOutput>)> = order
-            .par_iter()
+        let done: Vec<(usize, Option<TileOutput>)> = dearest_first(&tile_ns)
+            .into_par_iter()
             // One job per tile, so an idle thread can always take the next one.
             .with_max_len(1)
-            .map(|&i| {
+            .map(|i| {
                 let out =
                     (!stop.load(Ordering::Relaxed)).then(|| tile_fn(&ctx, &rects[i], pass, s0, n));
                 (i, out)
             })
             .collect();
+        // Back in tile order: the film merges and the records keep it.
+        let mut outputs: Vec<Option<TileOutput>> = (0..rects.len()).map(|_| None).collect();
         for (i, out) in done {
             outputs[i] = out;
         }
