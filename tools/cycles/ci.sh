@@ -28,6 +28,12 @@ if [ -z "$py" ]; then
 fi
 start=$(date +%s)
 "$py" -m venv "$venv"
-"$venv/bin/pip" install --quiet --disable-pip-version-check bpy==5.0.1
+# No pip cache (the wheel would be kept twice), and a failed install (a full disk, a network
+# error) leaves no half venv behind to take the space or pass for an installed one.
+if ! "$venv/bin/pip" install --quiet --disable-pip-version-check --no-cache-dir bpy==5.0.1; then
+    rm -rf "$venv"
+    echo "cycles: pip install bpy==5.0.1 failed; tests/cycles_compare.rs will skip" >&2
+    exit 1
+fi
 "$venv/bin/python" -c "import bpy; print('cycles: bpy', bpy.app.version_string)"
 echo "cycles: installed in $(( $(date +%s) - start )) s, $(du -sh "$venv" | cut -f1)"
