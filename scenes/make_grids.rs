@@ -224,7 +224,7 @@ fn plume() -> GridSpec {
 /// ramp held in leaves: the case where leaf-only readers see an almost empty grid.
 fn tiles() -> GridSpec {
     let voxel = 1.0 / 80.0;
-    let mut g = GridSpec::fog("density", voxel as f64, [-1.0, -0.8, -0.8]);
+    let mut g = GridSpec::fog("density", voxel, [-1.0, -0.8, -0.8]);
     for x in 0..160 {
         for y in 0..128 {
             for z in 0..128 {

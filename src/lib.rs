@@ -1,4 +1,7 @@
 //! Brume: an offline volumetric renderer for OpenVDB media in glTF scenes.
+// Comparisons such as `!(x > 0.0)` are written negated on purpose throughout: NaN fails the
+// comparison and so takes the safe branch, with no separate `is_nan` test.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod accel;
 pub mod backend;
 pub mod film;

@@ -227,6 +227,6 @@ fn time_to_target_interpolates_in_log_log_and_slopes_fit() {
     assert!((time_to_rmse(&refs, 0.5).unwrap() - 4.0).abs() < 1e-9);
     assert_eq!(time_to_rmse(&refs, 0.01), None);
     assert_eq!(time_to_rmse(&refs, 2.0), Some(1.0));
-    let slope = loglog_slope(&[refs.clone()], 0).unwrap();
+    let slope = loglog_slope(std::slice::from_ref(&refs), 0).unwrap();
     assert!((slope + 0.5).abs() < 1e-12);
 }

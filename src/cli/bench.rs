@@ -142,8 +142,8 @@ fn lookups(files: Vec<PathBuf>, grid_name: &str, n: usize, runs: usize) -> Resul
         files
     };
     println!(
-        "{:<28} {:>14} {:>14} {:>8}  {}",
-        "grid", "brume M/s", "openvdb M/s", "ratio", "points"
+        "{:<28} {:>14} {:>14} {:>8}  points",
+        "grid", "brume M/s", "openvdb M/s", "ratio"
     );
     for path in files {
         let loaded = load_grid(&path, grid_name, ConversionPolicy::default())?;
@@ -280,8 +280,8 @@ fn render_bench(
         rayon::current_num_threads()
     );
     println!(
-        "{:<22} {:<44} {:>12} {:>12} {:>8}  {}",
-        "scene", "features", "spec. S/s", "generic S/s", "speedup", "images"
+        "{:<22} {:<44} {:>12} {:>12} {:>8}  images",
+        "scene", "features", "spec. S/s", "generic S/s", "speedup"
     );
     for path in &scenes {
         let scene = brume::scene::load(path)?;

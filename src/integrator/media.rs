@@ -583,6 +583,7 @@ where
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn sample_grey<const EMIT: bool, const ABS: bool>(
     m: &VdbMedium,
     ray: &Ray,

@@ -48,9 +48,6 @@
 //! Shadow rays need none of this: the transmittance of a sum is the product of
 //! transmittances, so `path::transmittance` multiplies independent per-medium estimates
 //! (unbiased, and cheaper than tracking the sum: medium `k` is looked up at its own rate).
-// Comparisons such as `!(x > 0.0)` are written negated on purpose: NaN takes the safe branch.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
-
 use std::cell::Cell;
 
 use glam::Vec3;

@@ -98,12 +98,16 @@ fn colour(i: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
+/// A plot's drawing code for each backend; the flag says whether text can be drawn.
+type DrawSvg<'a> = dyn Fn(&DrawingArea<SVGBackend, Shift>, bool) -> Res<()> + 'a;
+type DrawPng<'a> = dyn Fn(&DrawingArea<BitMapBackend, Shift>, bool) -> Res<()> + 'a;
+
 /// Draws on an SVG and on a PNG next to each other: `stem.svg`, `stem.png`.
 fn both(
     stem: &Path,
     size: (u32, u32),
-    draw: &dyn Fn(&DrawingArea<SVGBackend, Shift>, bool) -> Res<()>,
-    draw_png: &dyn Fn(&DrawingArea<BitMapBackend, Shift>, bool) -> Res<()>,
+    draw: &DrawSvg<'_>,
+    draw_png: &DrawPng<'_>,
 ) -> Result<Vec<PathBuf>, String> {
     let text = text_available().is_some();
     let svg = stem.with_extension("svg");
