@@ -113,6 +113,96 @@ fn bvh_matches_brute_force_on_random_rays() {
     );
 }
 
+/// Meshes of at most `SMALL_MESH_TRIANGLES` triangles are hit by testing all of them four at
+/// a time: the hit record must be the scalar brute force's exactly (t, triangle, barycentrics;
+/// ties to the lowest index), on both sides of the threshold and for partial last batches,
+/// on random soups and on a closed box with rays from inside (the usual boundary mesh).
+#[test]
+fn small_meshes_match_brute_force_exactly() {
+    use brume::accel::SMALL_MESH_TRIANGLES;
+    let mut rng = Rng(11);
+    let corner = |i: usize| {
+        Vec3A::new(
+            if i & 1 == 0 { -1.0 } else { 1.0 },
+            if i & 2 == 0 { -1.0 } else { 1.0 },
+            if i & 4 == 0 { -1.0 } else { 1.0 },
+        )
+    };
+    let faces = [
+        [0, 1, 3],
+        [0, 3, 2],
+        [4, 6, 7],
+        [4, 7, 5],
+        [0, 4, 5],
+        [0, 5, 1],
+        [2, 3, 7],
+        [2, 7, 6],
+        [0, 2, 6],
+        [0, 6, 4],
+        [1, 5, 7],
+        [1, 7, 3],
+    ];
+    let cube: Vec<[Vec3A; 3]> = faces.iter().map(|f| f.map(corner)).collect();
+    let mut meshes = vec![cube];
+    for n in [
+        1,
+        2,
+        3,
+        4,
+        5,
+        7,
+        12,
+        SMALL_MESH_TRIANGLES - 1,
+        SMALL_MESH_TRIANGLES,
+    ] {
+        // Large triangles over the rays' box, so that most rays hit several.
+        meshes.push(
+            (0..n)
+                .map(|_| [0, 1, 2].map(|_| Vec3A::from(rng.vec(-2.0, 2.0))))
+                .collect(),
+        );
+    }
+    let mut hits = 0;
+    for tris in &meshes {
+        let bvh = TriangleBvh::build(tris.clone());
+        for k in 0..3000 {
+            let o = rng.vec(-0.9, 0.9) * if k % 2 == 0 { 1.0 } else { 6.0 };
+            let d = rng.vec(-1.0, 1.0);
+            if d.length() < 1e-3 {
+                continue;
+            }
+            let (t_min, t_max) = if k % 3 == 0 {
+                (0.1 * rng.next(), 0.5 + 3.0 * rng.next())
+            } else {
+                (0.0, f32::INFINITY)
+            };
+            let ray = Ray::new(o, d);
+            let mut expect: Option<(f32, u32, f32, f32)> = None;
+            for (i, tri) in tris.iter().enumerate() {
+                if let Some((t, b1, b2)) = intersect_triangle(&ray, tri, t_min, t_max) {
+                    if expect.is_none_or(|(best, ..)| t < best) {
+                        expect = Some((t, i as u32, b1, b2));
+                    }
+                }
+            }
+            let got = bvh
+                .closest_hit(&ray, t_min, t_max)
+                .map(|h| (h.t, h.triangle, h.b1, h.b2));
+            let bits = |h: Option<(f32, u32, f32, f32)>| {
+                h.map(|(t, i, b1, b2)| (t.to_bits(), i, b1.to_bits(), b2.to_bits()))
+            };
+            assert_eq!(
+                bits(got),
+                bits(expect),
+                "{} triangles, ray {k}: {got:?} against brute force {expect:?}",
+                tris.len()
+            );
+            hits += got.is_some() as u32;
+        }
+    }
+    assert!(hits > 6000, "test rays should hit often ({hits} hits)");
+}
+
 #[test]
 fn t_min_skips_nearer_hits() {
     let tri = |z: f32| {
