@@ -180,7 +180,7 @@ fn small_meshes_match_brute_force_exactly() {
             let mut expect: Option<(f32, u32, f32, f32)> = None;
             for (i, tri) in tris.iter().enumerate() {
                 if let Some((t, b1, b2)) = intersect_triangle(&ray, tri, t_min, t_max) {
-                    if expect.is_none_or(|(best, ..)| t < best) {
+                    if expect.map_or(true, |(best, ..)| t < best) {
                         expect = Some((t, i as u32, b1, b2));
                     }
                 }

@@ -107,7 +107,7 @@ impl TriangleBatches {
             while lanes != 0 {
                 let lane = lanes.trailing_zeros() as usize;
                 lanes &= lanes - 1;
-                if best.is_none_or(|h| t[lane] < h.t) {
+                if best.map_or(true, |h| t[lane] < h.t) {
                     best = Some(Hit {
                         t: t[lane],
                         triangle: (4 * k + lane) as u32,
