@@ -128,19 +128,11 @@ fn small_meshes_match_brute_force_exactly() {
             if i & 4 == 0 { -1.0 } else { 1.0 },
         )
     };
+    // Two triangles per face of the cube, corners numbered by their bits (x 1, y 2, z 4).
+    #[rustfmt::skip]
     let faces = [
-        [0, 1, 3],
-        [0, 3, 2],
-        [4, 6, 7],
-        [4, 7, 5],
-        [0, 4, 5],
-        [0, 5, 1],
-        [2, 3, 7],
-        [2, 7, 6],
-        [0, 2, 6],
-        [0, 6, 4],
-        [1, 5, 7],
-        [1, 7, 3],
+        [0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+        [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3],
     ];
     let cube: Vec<[Vec3A; 3]> = faces.iter().map(|f| f.map(corner)).collect();
     let mut meshes = vec![cube];
