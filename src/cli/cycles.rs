@@ -6,7 +6,7 @@
 //! them into one EXR laid out like Brume's (beauty, `variance.R/G/B` = variance of the pixel
 //! mean estimated across the runs, `samples.Y`). With `--against brume.exr` it prints the image
 //! mean relative difference and an 8x8 block z-test (docs/CYCLES.md).
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
@@ -60,9 +60,18 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     let script = script_path()?;
     let tmp = std::env::temp_dir().join(format!("brume-cycles-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
+    // The per-run images are read back into the merged output: the folder goes whether the
+    // render succeeded or not.
+    let result = render_in(args, &python, &script, &tmp);
+    let _ = std::fs::remove_dir_all(&tmp);
+    result
+}
+
+/// Runs Cycles with its per-run images in `tmp`, merges them into the output and reports.
+fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Result<()> {
     let stem = tmp.join("cycles.exr");
-    let mut cmd = Command::new(&python);
-    cmd.arg(&script)
+    let mut cmd = Command::new(python);
+    cmd.arg(script)
         .arg(&args.run.scene)
         .arg("-o")
         .arg(&stem)
@@ -127,7 +136,6 @@ pub fn run(args: &CyclesArgs) -> Result<()> {
     }
     let merged = merge_runs(&images, args.run.spp, meta)?;
     write_image(&args.run.output, &merged)?;
-    let _ = std::fs::remove_dir_all(&tmp);
     eprintln!(
         "cycles: {} run(s) x {} spp, {}x{}, render {:.2} s (per run {}), wall {:.2} s",
         args.run.runs,
