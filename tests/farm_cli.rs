@@ -23,10 +23,7 @@ fn scene(name: &str) -> String {
 
 /// A fresh folder per test (tests run in parallel; the checks look for leftover files).
 fn dir(test: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brume-farm-cli-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::scratch::dir(test)
 }
 
 fn brume(args: &[&str]) -> Output {

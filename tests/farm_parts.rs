@@ -32,9 +32,7 @@ fn settings(sampler: SamplerKind) -> RenderSettings {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brume-farm-parts-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+    common::scratch::file(name)
 }
 
 fn render_range(

@@ -27,6 +27,9 @@
 //!
 //! CI runs a fixed number of iterations (about 20 s in all). The long mode is
 //! `BRUME_FUZZ_SECONDS=600 cargo test --release --test fuzz_inputs -- --ignored --nocapture long`.
+#[path = "common/scratch.rs"]
+mod scratch;
+
 use std::io::Write;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -670,10 +673,7 @@ struct Campaign {
 /// worker processes, restarting after a crash or hang. Inputs that fail are saved in the
 /// state directory (printed) for adding to the corpus.
 fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
-    let state =
-        std::env::temp_dir().join(format!("brume-fuzz-{kind}-{}-{seed}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&state);
-    std::fs::create_dir_all(&state).unwrap();
+    let state = scratch::dir(&format!("{kind}-{seed}"));
     let exe = std::env::current_exe().unwrap();
     let corpus = corpus(kind);
     let start = Instant::now();

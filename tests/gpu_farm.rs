@@ -16,9 +16,7 @@ use brume::film::{write_exr_with_state, Metadata};
 use brume::integrator::{RenderScene, RenderSettings};
 
 fn part_file(name: &str, s: &RenderSettings, out: &RenderOutput) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("brume-gpu-farm-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
+    let path = common::scratch::file(name);
     let mut meta = Metadata::new();
     PartInfo {
         scene_hash: "cloud".into(),

@@ -1,6 +1,9 @@
 //! `brume render` and `brume info` as a user runs them: every example scene to a finite EXR
 //! with its metadata, tile logs whose counts add up to the printed totals, scene render
 //! settings, Ctrl-C, and clear errors on bad input.
+#[path = "common/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -26,9 +29,7 @@ fn scene(name: &str) -> PathBuf {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brume-render-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+    scratch::file(name)
 }
 
 fn brume(args: &[&str]) -> Output {

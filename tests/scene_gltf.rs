@@ -1,6 +1,9 @@
 //! Small glTF files written by the tests: each feature against the value the glTF spec (or
 //! Brume's extension spec) gives, and each bad input against a clear error naming the file and
 //! the JSON location. Nothing here may panic.
+#[path = "common/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 
 use brume::scene::{self, lights, CameraSource, LoadOptions, Scene, SceneError};
@@ -9,10 +12,7 @@ use serde_json::{json, Value};
 
 /// A fresh directory for one test.
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("brume-gltf-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    scratch::dir(name)
 }
 
 fn f32_bytes(xs: &[f32]) -> Vec<u8> {

@@ -1,6 +1,9 @@
 //! Base-colour and emissive textures (src/scene/texture.rs): decoding (sRGB to linear, PNG and
 //! JPEG, files, data URIs and buffer views), the lookup seen through a render, every bad input
 //! as a clear error naming the file and the JSON pointer, and a seeded fuzz of the decoder.
+#[path = "common/scratch.rs"]
+mod scratch;
+
 use std::io::Cursor;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -12,10 +15,7 @@ use glam::{Vec2, Vec3};
 use serde_json::{json, Value};
 
 fn fresh_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("brume-tex-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    scratch::dir(name)
 }
 
 /// PNG bytes of an RGB image given row by row from the top.

@@ -1,5 +1,8 @@
 //! `brume compare` and `study::compare`: exact norms on synthetic images, z-tests on synthetic
 //! noise of known variance, and clear errors on bad inputs.
+#[path = "common/scratch.rs"]
+mod scratch;
+
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -173,9 +176,7 @@ fn different_sizes_and_bad_options_are_errors() {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brume-study-compare-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+    scratch::file(name)
 }
 
 fn brume(args: &[&str]) -> (bool, String, String) {

@@ -1,4 +1,7 @@
 //! Brume's layout against OpenVDB itself, on every example grid and on bad files.
+#[path = "common/scratch.rs"]
+mod scratch;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -25,9 +28,7 @@ fn example(name: &str) -> PathBuf {
 }
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brume-vdb-files-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+    scratch::file(name)
 }
 
 fn load(path: &Path, grid: &str) -> LoadedGrid {

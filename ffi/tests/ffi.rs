@@ -1,11 +1,12 @@
 //! The shim and its safe wrapper, on files this test writes through OpenVDB itself.
+#[path = "../../tests/common/scratch.rs"]
+mod scratch;
+
 use brume_ffi::*;
 use std::path::PathBuf;
 
 fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("brume-ffi-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    scratch::dir(name)
 }
 
 /// A 40^3 block of constant density 0.5 (whose interior leaves prune into tiles) plus a ramp.

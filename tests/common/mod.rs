@@ -7,6 +7,7 @@ pub mod grids;
 pub mod overlap;
 pub mod reference;
 pub mod render;
+pub mod scratch;
 pub mod stats;
 pub mod stress;
 pub use grids::*;

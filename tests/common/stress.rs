@@ -345,10 +345,5 @@ pub fn blob_voxels(n: i32) -> Vec<([i32; 3], f32)> {
 
 /// A fresh temporary directory for one test case.
 pub fn temp_dir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir()
-        .join(format!("brume-stress-{}", std::process::id()))
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    super::scratch::dir(name)
 }
