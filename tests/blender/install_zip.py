@@ -15,13 +15,15 @@ import bpy
 
 blend, out = sys.argv[1], sys.argv[2]
 src = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools", "blender", "brume_gltf")
-zip_path = os.path.join(tempfile.mkdtemp(), "brume_gltf.zip")
-with zipfile.ZipFile(zip_path, "w") as z:
-    for name in sorted(os.listdir(src)):
-        if name.endswith(".py"):
-            z.write(os.path.join(src, name), f"brume_gltf/{name}")
 bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend))
-bpy.ops.preferences.addon_install(filepath=zip_path)
+# The zip is only read by the install (which copies the add-on into the configuration).
+with tempfile.TemporaryDirectory() as tmp:
+    zip_path = os.path.join(tmp, "brume_gltf.zip")
+    with zipfile.ZipFile(zip_path, "w") as z:
+        for name in sorted(os.listdir(src)):
+            if name.endswith(".py"):
+                z.write(os.path.join(src, name), f"brume_gltf/{name}")
+    bpy.ops.preferences.addon_install(filepath=zip_path)
 bpy.ops.preferences.addon_enable(module="brume_gltf")
 assert "brume_gltf" in bpy.context.preferences.addons
 print("installed", sys.modules["brume_gltf"].__file__)
