@@ -27,7 +27,10 @@ extern "C" {
 extern "C" fn remove_root() {
     let Some(root) = ROOT.get() else { return };
     if PANICKED.load(Ordering::SeqCst) {
-        eprintln!("a test panicked: its scratch files are kept in {}", root.display());
+        eprintln!(
+            "a test panicked: its scratch files are kept in {}",
+            root.display()
+        );
     } else {
         let _ = std::fs::remove_dir_all(root);
     }
