@@ -6,7 +6,7 @@
 mod common;
 use common::farm::assert_rounding_equal;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -19,11 +19,6 @@ fn scene(name: &str) -> String {
         .join(format!("{name}.gltf"))
         .display()
         .to_string()
-}
-
-/// A fresh folder per test (tests run in parallel; the checks look for leftover files).
-fn dir(test: &str) -> PathBuf {
-    common::scratch::dir(test)
 }
 
 fn brume(args: &[&str]) -> Output {
@@ -55,7 +50,7 @@ fn render(scene_name: &str, out: &Path, extra: &[&str]) -> Output {
 
 #[test]
 fn parts_and_regions_merged_by_the_cli_equal_one_render() {
-    let d = dir("split");
+    let d = common::scratch::dir("split");
     let single = d.join("single.exr");
     ok(render("cloud", &single, &["--spp", "12"]), "single");
     let mut parts = Vec::new();
@@ -133,7 +128,7 @@ fn refused(d: &Path, parts: &[&Path], culprit: &Path, why: &str) {
 
 #[test]
 fn merge_refuses_parts_of_other_images_overlaps_truncated_and_nan_parts() {
-    let d = dir("refuse");
+    let d = common::scratch::dir("refuse");
     let part = |name: &str, scene_name: &str, extra: &[&str]| {
         let p = d.join(name);
         ok(render(scene_name, &p, extra), name);
@@ -251,7 +246,7 @@ fn spawn_render(out: &Path, extra: &[&str]) -> std::process::Child {
 
 #[test]
 fn a_render_killed_after_its_first_checkpoint_resumes_to_the_uninterrupted_image() {
-    let d = dir("resume");
+    let d = common::scratch::dir("resume");
     let spp = "1024";
     let uninterrupted = d.join("uninterrupted.exr");
     ok(
@@ -311,7 +306,7 @@ fn a_render_killed_after_its_first_checkpoint_resumes_to_the_uninterrupted_image
 
 #[test]
 fn sigterm_writes_a_final_checkpoint_before_exiting() {
-    let d = dir("sigterm");
+    let d = common::scratch::dir("sigterm");
     let part = d.join("part.exr");
     // No periodic checkpoint within the test: what is on disk comes from the SIGTERM.
     let child = spawn_render(
@@ -341,7 +336,7 @@ fn sigterm_writes_a_final_checkpoint_before_exiting() {
 
 #[test]
 fn the_thread_pool_follows_slurm_cpus_per_task_or_the_flag() {
-    let d = dir("threads");
+    let d = common::scratch::dir("threads");
     let out = d.join("t.exr");
     let sc = scene("cloud");
     let base = [
@@ -379,7 +374,7 @@ fn the_thread_pool_follows_slurm_cpus_per_task_or_the_flag() {
 fn the_farm_scripts_run_without_slurm_and_a_rerun_task_resumes_its_part() {
     // `brume farm slurm` without --submit writes the scripts; here they run as Slurm would run
     // them (SLURM_ARRAY_TASK_ID, SLURM_CPUS_PER_TASK), one after the other.
-    let d = dir("scripts");
+    let d = common::scratch::dir("scripts");
     let final_exr = d.join("final.exr");
     let work = d.join("work");
     let o = ok(
@@ -460,7 +455,7 @@ fn the_farm_scripts_run_without_slurm_and_a_rerun_task_resumes_its_part() {
 
 #[test]
 fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_cli() {
-    let d = dir("gpu-refuse");
+    let d = common::scratch::dir("gpu-refuse");
     let out = d.join("x.exr");
     for extra in [
         ["--checkpoint", "5"],

@@ -31,10 +31,6 @@ fn settings(sampler: SamplerKind) -> RenderSettings {
     }
 }
 
-fn tmp(name: &str) -> PathBuf {
-    common::scratch::file(name)
-}
-
 fn render_range(
     rs: &RenderScene,
     base: &RenderSettings,
@@ -114,7 +110,7 @@ fn check_split(sampler: SamplerKind, n: u32, cuts: &[u32], region_cut: Option<u3
         for (j, region) in regions.iter().enumerate() {
             let out = render_range(&rs, &base, range, *region, None);
             assert_eq!(out.spp, range.1 - range.0);
-            let p = tmp(&format!("{case}-{k}-{j}.exr"));
+            let p = common::scratch::file(&format!("{case}-{k}-{j}.exr"));
             write_part(&p, &base, &out, range, *region);
             paths.push(p);
         }
@@ -167,7 +163,7 @@ fn a_resumed_checkpoint_is_the_uninterrupted_render_bit_for_bit() {
             let full = render_range(&rs, &base, (start, end), None, None);
             // A checkpoint is written at a pass boundary: the render of [start, reached).
             let ckpt = render_range(&rs, &base, (start, reached), None, None);
-            let p = tmp(&format!("ckpt-{start}-{reached}.exr"));
+            let p = common::scratch::file(&format!("ckpt-{start}-{reached}.exr"));
             write_part(&p, &base, &ckpt, (start, end), None);
             let back = part::read_part(&p).unwrap();
             assert_eq!(back.film, ckpt.film, "the state round-trips exactly");
@@ -201,14 +197,14 @@ fn merging_merges_is_associative() {
         .into_iter()
         .enumerate()
         .map(|(k, r)| {
-            let p = tmp(&format!("assoc-{k}.exr"));
+            let p = common::scratch::file(&format!("assoc-{k}.exr"));
             write_part(&p, &base, &render_range(&rs, &base, r, None, None), r, None);
             p
         })
         .collect();
     let all = part::merge_files(&parts).unwrap().0;
     let (ab, meta_ab) = part::merge_files(&parts[1..]).unwrap();
-    let bc = tmp("assoc-bc.exr");
+    let bc = common::scratch::file("assoc-bc.exr");
     write_exr_with_state(&bc, &ab, &meta_ab).unwrap();
     let nested = part::merge_files(&[bc.clone(), parts[0].clone()]).unwrap();
     assert_rounding_equal(&all, &single.film, "a+b+c");

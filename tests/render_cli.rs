@@ -28,10 +28,6 @@ fn scene(name: &str) -> PathBuf {
         .join(format!("{name}.gltf"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    scratch::file(name)
-}
-
 fn brume(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_brume"))
         .args(args)
@@ -62,9 +58,9 @@ fn printed_totals(stdout: &str) -> Vec<(String, u64)> {
 #[test]
 fn every_example_scene_renders_to_a_finite_exr_with_logs() {
     for name in SCENES {
-        let exr = tmp(&format!("{name}.exr"));
-        let log = tmp(&format!("{name}.jsonl"));
-        let cost = tmp(&format!("{name}-cost.exr"));
+        let exr = scratch::file(&format!("{name}.exr"));
+        let log = scratch::file(&format!("{name}.jsonl"));
+        let cost = scratch::file(&format!("{name}-cost.exr"));
         let o = brume(&[
             "render",
             scene(name).to_str().unwrap(),
@@ -155,7 +151,7 @@ fn oiiotool_reads_the_metadata() {
         eprintln!("SKIP: oiiotool not installed (Debian openimageio-tools)");
         return;
     }
-    let exr = tmp("oiio.exr");
+    let exr = scratch::file("oiio.exr");
     assert!(brume(&[
         "render",
         scene("cloud").to_str().unwrap(),
@@ -197,7 +193,7 @@ fn scene_render_settings_are_defaults_the_command_line_overrides() {
     let src = std::fs::read_to_string(scene("cloud")).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&src).unwrap();
     doc["extensions"]["BRUME_render"] = serde_json::json!({"estimator": "weighted-delta", "b": 0.8, "spp": 2, "width": 20, "height": 10, "majorant": "global"});
-    let dir = tmp("settings");
+    let dir = scratch::file("settings");
     std::fs::create_dir_all(&dir).unwrap();
     let gltf = dir.join("cloud.gltf");
     std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();
@@ -256,7 +252,7 @@ fn scene_render_settings_are_defaults_the_command_line_overrides() {
 fn ctrl_c_keeps_what_has_accumulated() {
     // A folder of its own: the other tests write (atomically, through .tmp files) into the
     // shared one at the same time, and the check below looks for leftover .tmp files.
-    let exr = tmp("ctrl-c").join("interrupted.exr");
+    let exr = scratch::file("ctrl-c").join("interrupted.exr");
     std::fs::create_dir_all(exr.parent().unwrap()).unwrap();
     let child = Command::new(env!("CARGO_BIN_EXE_brume"))
         .args([
@@ -300,14 +296,14 @@ fn ctrl_c_keeps_what_has_accumulated() {
 
 #[test]
 fn bad_render_inputs_fail_cleanly() {
-    let missing_dir = tmp("no/such/dir/out.exr");
+    let missing_dir = scratch::file("no/such/dir/out.exr");
     for (args, needle) in [
         (
             vec![
                 "render".to_string(),
-                tmp("missing.gltf").display().to_string(),
+                scratch::file("missing.gltf").display().to_string(),
                 "-o".into(),
-                tmp("x.exr").display().to_string(),
+                scratch::file("x.exr").display().to_string(),
             ],
             "missing.gltf",
         ),
@@ -325,7 +321,7 @@ fn bad_render_inputs_fail_cleanly() {
                 "render".into(),
                 scene("cloud").display().to_string(),
                 "-o".into(),
-                tmp("x.exr").display().to_string(),
+                scratch::file("x.exr").display().to_string(),
                 "--b".into(),
                 "0".into(),
             ],
@@ -336,7 +332,7 @@ fn bad_render_inputs_fail_cleanly() {
                 "render".into(),
                 scene("cloud").display().to_string(),
                 "-o".into(),
-                tmp("x.exr").display().to_string(),
+                scratch::file("x.exr").display().to_string(),
                 "--estimator".into(),
                 "nope".into(),
             ],

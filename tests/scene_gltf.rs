@@ -10,11 +10,6 @@ use brume::scene::{self, lights, CameraSource, LoadOptions, Scene, SceneError};
 use glam::{Mat4, Quat, Vec3};
 use serde_json::{json, Value};
 
-/// A fresh directory for one test.
-fn fresh_dir(name: &str) -> PathBuf {
-    scratch::dir(name)
-}
-
 fn f32_bytes(xs: &[f32]) -> Vec<u8> {
     xs.iter().flat_map(|x| x.to_le_bytes()).collect()
 }
@@ -47,7 +42,7 @@ fn base() -> Value {
 
 /// Writes `doc` as `<dir>/scene.gltf` next to `buf.bin` holding `bin`.
 fn write(name: &str, doc: &Value, bin: &[u8]) -> PathBuf {
-    let dir = fresh_dir(name);
+    let dir = scratch::dir(name);
     std::fs::write(dir.join("buf.bin"), bin).unwrap();
     let path = dir.join("scene.gltf");
     std::fs::write(&path, serde_json::to_vec_pretty(doc).unwrap()).unwrap();
@@ -591,7 +586,7 @@ fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
 fn glb_files_load() {
     let mut doc = base();
     doc["buffers"] = json!([{"byteLength": 44}]);
-    let dir = fresh_dir("glb");
+    let dir = scratch::dir("glb");
     let path = dir.join("scene.glb");
     std::fs::write(&path, glb(&doc, &triangle_bin())).unwrap();
     let s = load_ok(&path);
@@ -902,7 +897,7 @@ fn out_of_range_material_and_light_parameters() {
 
 #[test]
 fn unparsable_and_structurally_broken_files() {
-    let dir = fresh_dir("broken");
+    let dir = scratch::dir("broken");
     let path = dir.join("scene.gltf");
     // 1e400 does not fit a double; serde_json refuses it with a line and column.
     std::fs::write(

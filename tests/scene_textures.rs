@@ -14,10 +14,6 @@ use brume::volume::check::SplitMix64;
 use glam::{Vec2, Vec3};
 use serde_json::{json, Value};
 
-fn fresh_dir(name: &str) -> PathBuf {
-    scratch::dir(name)
-}
-
 /// PNG bytes of an RGB image given row by row from the top.
 fn png(width: u32, height: u32, px: impl Fn(u32, u32) -> [u8; 3]) -> Vec<u8> {
     let img = image::RgbImage::from_fn(width, height, |x, y| image::Rgb(px(x, y)));
@@ -154,7 +150,7 @@ fn png_and_jpeg_decode_to_linear() {
 #[test]
 fn textures_load_from_files_data_uris_and_buffer_views() {
     let bytes = png(2, 2, quad_px);
-    let dir = fresh_dir("sources");
+    let dir = scratch::dir("sources");
     std::fs::write(dir.join("t.png"), &bytes).unwrap();
     let data_uri = format!("data:image/png;base64,{}", base64_encode(&bytes));
     let cases = [
@@ -222,7 +218,7 @@ fn base64_encode(bytes: &[u8]) -> String {
 /// samples land. The pixels at the centres of the four quarters read the four texels.
 #[test]
 fn a_render_shows_the_texture_the_right_way_up() {
-    let dir = fresh_dir("render");
+    let dir = scratch::dir("render");
     std::fs::write(dir.join("t.png"), png(2, 2, quad_px)).unwrap();
     let (doc, bin) = quad_doc(json!({"uri": "t.png"}), nearest());
     let path = write(&dir, &doc, &bin);
@@ -261,7 +257,7 @@ fn a_render_shows_the_texture_the_right_way_up() {
 
 #[test]
 fn bad_textures_are_clear_errors() {
-    let dir = fresh_dir("bad");
+    let dir = scratch::dir("bad");
     let good = png(4, 4, |x, y| [x as u8 * 60, y as u8 * 60, 0]);
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         (

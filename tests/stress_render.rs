@@ -114,7 +114,7 @@ fn phase_and_albedo_extremes() {
         ),
     ];
     for (name, extra) in cases {
-        let dir = temp_dir(&format!("phase-{}", name.replace(['=', ' ', ','], "_")));
+        let dir = common::scratch::dir(&format!("phase-{}", name.replace(['=', ' ', ','], "_")));
         let path = StressScene::furnace(16, 0.1, furnace_medium(extra)).write(&dir);
         // 256 spp: at g = 0.999 the pixel values are heavy-tailed and 64 spp under-estimates
         // the image mean's variance (40 seeds of weighted delta, global: spread of the image
@@ -124,7 +124,7 @@ fn phase_and_albedo_extremes() {
     // Albedo 0 (pure absorber) and albedo 1 lit by a point light and the environment: finite,
     // no guard; albedo 0 never scatters, so the mean path length is 0.
     for (name, color) in [("albedo 0", 0.0), ("albedo 1", 1.0)] {
-        let dir = temp_dir(&format!("albedo-{color}"));
+        let dir = common::scratch::dir(&format!("albedo-{color}"));
         let mut sc = StressScene::furnace(
             16,
             0.1,
@@ -187,7 +187,7 @@ fn geometry_extremes_in_scenes() {
     cases.push(("camera on the box boundary, on cell faces".into(), on_face));
     let n = cases.len() * 4 * MODES.len();
     for (name, sc) in cases {
-        let dir = temp_dir(&format!(
+        let dir = common::scratch::dir(&format!(
             "geom-{}",
             name.replace(|c: char| !c.is_alphanumeric(), "_")
         ));
@@ -204,7 +204,7 @@ fn geometry_extremes_in_scenes() {
 fn light_inside_the_medium() {
     // A point light inside the blob (not a furnace): finite, non-negative, no guard, and every
     // estimator agrees with delta tracking (per-pixel two-sample z-test).
-    let dir = temp_dir("light-inside");
+    let dir = common::scratch::dir("light-inside");
     let mut sc = StressScene::furnace(
         16,
         0.1,
@@ -253,7 +253,7 @@ fn low_order_furnace_with_non_bounding_majorants() {
     // finite but too large to test by sampling (stress_tracking::variance_growth_is_reported).
     let mut scenes = Vec::new();
     for (name, density, bs) in [("thin", 0.05, [0.1f32, 0.25]), ("thick", 2.0, [0.5, 0.75])] {
-        let dir = temp_dir(&format!("low-order-{name}"));
+        let dir = common::scratch::dir(&format!("low-order-{name}"));
         let m = furnace_medium(json!({ "densityScale": density }));
         scenes.push((
             StressScene::furnace(16, 0.1, m).write(&dir),
@@ -328,7 +328,7 @@ fn long_paths_stay_bounded() {
     // does not fire, every pixel is finite.
     // The camera sits at the centre of the blob (optical radius ~150), so every path must
     // diffuse out through thousands of scattering events.
-    let dir = temp_dir("long-paths");
+    let dir = common::scratch::dir("long-paths");
     let m = furnace_medium(json!({"densityScale": 300.0}));
     let mut sc = StressScene::furnace(16, 0.1, m);
     sc.camera_at = [0.0, 0.0, 0.0];
@@ -382,7 +382,7 @@ fn long_paths_stay_bounded() {
 fn the_collision_guard_fires_and_is_counted() {
     // A deliberately tiny guard in a dense medium: paths are cut, counted in the tile log, and
     // the image stays finite.
-    let dir = temp_dir("guard");
+    let dir = common::scratch::dir("guard");
     let path =
         StressScene::furnace(16, 0.1, furnace_medium(json!({"densityScale": 40.0}))).write(&dir);
     let mut s = settings(Estimator::Delta, MajorantMode::Global, 4, 8);
@@ -451,7 +451,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     use brume::integrator::{Absorption, RenderScene};
     use brume::sampling::sobol::Sampler;
     use glam::Vec2;
-    let dir = temp_dir("dense-chromatic");
+    let dir = common::scratch::dir("dense-chromatic");
     let sc = StressScene::furnace(
         16,
         0.1,

@@ -3,7 +3,6 @@
 #[path = "common/scratch.rs"]
 mod scratch;
 
-use std::path::PathBuf;
 use std::process::Command;
 
 use brume::film::{write_image, Image, Metadata};
@@ -175,10 +174,6 @@ fn different_sizes_and_bad_options_are_errors() {
     assert!(compare(&a, &a, &bad).is_err());
 }
 
-fn tmp(name: &str) -> PathBuf {
-    scratch::file(name)
-}
-
 fn brume(args: &[&str]) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_brume"))
         .args(args)
@@ -193,10 +188,10 @@ fn brume(args: &[&str]) -> (bool, String, String) {
 
 #[test]
 fn cli_compares_files_and_names_bad_ones() {
-    let a = tmp("a.exr");
-    let b = tmp("b.exr");
-    let small = tmp("small.exr");
-    let garbage = tmp("garbage.exr");
+    let a = scratch::file("a.exr");
+    let b = scratch::file("b.exr");
+    let small = scratch::file("small.exr");
+    let garbage = scratch::file("garbage.exr");
     write_image(&a, &noisy(24, 16, 0.5, 0.01, 0.0, 9)).unwrap();
     write_image(&b, &noisy(24, 16, 0.5, 0.01, 0.0, 10)).unwrap();
     write_image(&small, &noisy(12, 16, 0.5, 0.01, 0.0, 11)).unwrap();
@@ -206,8 +201,8 @@ fn cli_compares_files_and_names_bad_ones() {
         b.to_str().unwrap(),
         small.to_str().unwrap(),
     );
-    let diff = tmp("diff.exr");
-    let png = tmp("diff.png");
+    let diff = scratch::file("diff.exr");
+    let png = scratch::file("diff.png");
     let (ok, out, err) = brume(&[
         "compare",
         a_s,
@@ -237,7 +232,7 @@ fn cli_compares_files_and_names_bad_ones() {
         !ok && err.contains("different sizes") && err.contains("24x16"),
         "{err}"
     );
-    let missing = tmp("missing.exr");
+    let missing = scratch::file("missing.exr");
     let (ok, _, err) = brume(&["compare", missing.to_str().unwrap(), b_s]);
     assert!(!ok && err.contains("missing.exr"), "{err}");
     let (ok, _, err) = brume(&["compare", b_s, garbage.to_str().unwrap()]);

@@ -27,10 +27,6 @@ fn example(name: &str) -> PathBuf {
         .join(format!("{name}.vdb"))
 }
 
-fn tmp(name: &str) -> PathBuf {
-    scratch::file(name)
-}
-
 fn load(path: &Path, grid: &str) -> LoadedGrid {
     load_grid(path, grid, ConversionPolicy::default()).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -177,7 +173,7 @@ fn bad_values_follow_the_load_policy() {
         (f32::INFINITY, "inf"),
         (f32::NEG_INFINITY, "-inf"),
     ] {
-        let path = tmp(&format!("bad-{what}.vdb"));
+        let path = scratch::file(&format!("bad-{what}.vdb"));
         write_float_grids(&path, &[one_leaf(&[0.5, bad, 0.25])]).unwrap();
         let err = load_grid(&path, "density", ConversionPolicy::default())
             .err()
@@ -192,7 +188,7 @@ fn bad_values_follow_the_load_policy() {
             "names the first offending voxel: {msg}"
         );
     }
-    let path = tmp("negative.vdb");
+    let path = scratch::file("negative.vdb");
     write_float_grids(&path, &[one_leaf(&[0.5, -2.0, 0.25])]).unwrap();
     let loaded = load(&path, "density");
     assert_eq!(
@@ -229,7 +225,7 @@ fn level_sets_are_converted_with_a_warning() {
 
 #[test]
 fn wrong_grids_give_clear_errors() {
-    let path = tmp("vec.vdb");
+    let path = scratch::file("vec.vdb");
     let mut g = one_leaf(&[1.0, 2.0]);
     g.name = "velocity".into();
     g.as_vec3 = true;
@@ -258,11 +254,11 @@ fn wrong_grids_give_clear_errors() {
 /// The CLI on bad input: an error line naming the file, exit status 1, never a panic or abort.
 #[test]
 fn brume_info_on_bad_files_fails_cleanly() {
-    let dir = tmp("dir.vdb");
+    let dir = scratch::file("dir.vdb");
     std::fs::create_dir_all(&dir).unwrap();
-    let empty = tmp("empty.vdb");
+    let empty = scratch::file("empty.vdb");
     std::fs::write(&empty, b"").unwrap();
-    let garbage = tmp("garbage.vdb");
+    let garbage = scratch::file("garbage.vdb");
     std::fs::write(
         &garbage,
         (0..10_000u32)
@@ -270,10 +266,10 @@ fn brume_info_on_bad_files_fails_cleanly() {
             .collect::<Vec<_>>(),
     )
     .unwrap();
-    let truncated = tmp("truncated.vdb");
+    let truncated = scratch::file("truncated.vdb");
     let bytes = std::fs::read(example("smoke")).unwrap();
     std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).unwrap();
-    let missing = tmp("missing.vdb");
+    let missing = scratch::file("missing.vdb");
     for (path, needle) in [
         (missing, "no such file"),
         (dir, "directory"),

@@ -5,10 +5,6 @@ mod scratch;
 use brume_ffi::*;
 use std::path::PathBuf;
 
-fn tmp_dir(name: &str) -> PathBuf {
-    scratch::dir(name)
-}
-
 /// A 40^3 block of constant density 0.5 (whose interior leaves prune into tiles) plus a ramp.
 fn block_and_ramp() -> GridSpec {
     let mut g = GridSpec::fog("density", 0.1, [1.0, 2.0, 3.0]);
@@ -27,7 +23,7 @@ fn block_and_ramp() -> GridSpec {
 
 #[test]
 fn writes_and_reads_leaves_tiles_and_transform() {
-    let dir = tmp_dir("roundtrip");
+    let dir = scratch::dir("roundtrip");
     let path = dir.join("g.vdb");
     write_float_grids(&path, &[block_and_ramp()]).unwrap();
     let file = VdbFile::open(&path).unwrap();
@@ -72,7 +68,7 @@ fn writes_and_reads_leaves_tiles_and_transform() {
 
 #[test]
 fn openvdb_samplers_run_through_the_shim() {
-    let dir = tmp_dir("sample");
+    let dir = scratch::dir("sample");
     let path = dir.join("g.vdb");
     write_float_grids(&path, &[block_and_ramp()]).unwrap();
     let file = VdbFile::open(&path).unwrap();
@@ -102,7 +98,7 @@ fn openvdb_samplers_run_through_the_shim() {
 
 #[test]
 fn level_sets_convert_to_fog_on_request() {
-    let dir = tmp_dir("ls");
+    let dir = scratch::dir("ls");
     let path = dir.join("ls.vdb");
     let mut g = GridSpec::fog("surface", 0.1, [0.0; 3]);
     g.class = GridClass::LevelSet;
@@ -138,7 +134,7 @@ fn level_sets_convert_to_fog_on_request() {
 
 #[test]
 fn bad_files_give_clear_errors() {
-    let dir = tmp_dir("bad");
+    let dir = scratch::dir("bad");
     let good = dir.join("good.vdb");
     write_float_grids(&good, &[block_and_ramp()]).unwrap();
     let bytes = std::fs::read(&good).unwrap();
@@ -211,7 +207,7 @@ fn bad_files_give_clear_errors() {
 
 #[test]
 fn half_float_grids_read() {
-    let dir = tmp_dir("half");
+    let dir = scratch::dir("half");
     let path = dir.join("h.vdb");
     let mut g = block_and_ramp();
     g.save_as_half = true;

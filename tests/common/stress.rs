@@ -342,8 +342,3 @@ pub fn blob_voxels(n: i32) -> Vec<([i32; 3], f32)> {
     }
     v
 }
-
-/// A fresh temporary directory for one test case.
-pub fn temp_dir(name: &str) -> std::path::PathBuf {
-    super::scratch::dir(name)
-}
