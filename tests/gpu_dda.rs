@@ -82,11 +82,14 @@ fn wgsl_dda_segments_equal_cpu() {
     let modes = [
         (GpuMajorantMode::PerCell, None),
         (GpuMajorantMode::Global, None),
+        // The culled walk's segments are the global walk's (its culling is per collision:
+        // tests/gpu_distance.rs, tests/gpu_transmittance.rs).
+        (GpuMajorantMode::Culled, None),
         (GpuMajorantMode::Adaptive, Some(CostModel::DEFAULT)),
         (GpuMajorantMode::Adaptive, Some(CostModel::uniform(20.0))),
     ];
     for (mode, cost) in modes {
-        let global = mode == GpuMajorantMode::Global;
+        let global = matches!(mode, GpuMajorantMode::Global | GpuMajorantMode::Culled);
         let specs = [
             Spec::u32("MAX_SEGMENTS", MAX_SEGMENTS),
             Spec::u32("DDA_MODE", mode as u32),

@@ -6,7 +6,9 @@
 //! * `E[w 1{escape}] = T(t_max)`, and
 //! * `E[w 1{event before s}] = 1 - T(s)` for `s` inside the medium,
 //!
-//! on the homogeneous slab and the heterogeneous blob of `tests/common/gpu.rs`.
+//! on the homogeneous slab and the heterogeneous blob of `tests/common/gpu.rs`, over per-cell
+//! bounds and over the culled global walk (the global segment, its collisions culled by the
+//! leaf cells: `volume::cull`).
 mod common;
 
 use brume::backend::gpu::shader::DISTANCE_MODULE;
@@ -20,7 +22,8 @@ use brume::volume::tracking::spectral::SpectralProbabilities;
 use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, Event, FnMedium, FnMediumRgb, TrackingStats,
 };
-use brume::volume::DdaMajorantIterator;
+use brume::volume::{DdaMajorantIterator, LeafCulling};
+use common::culled::CulledBy;
 use common::gpu::{blob, slab, Medium};
 use common::{assert_z, Moments};
 
@@ -29,26 +32,35 @@ const ALBEDO: f32 = 0.7;
 const RGB: [f32; 3] = [0.4, 1.0, 2.0];
 
 /// (estimator, b, control)
-fn cases() -> Vec<(GpuEstimator, f32, ControlExtinction)> {
+fn cases() -> Vec<(GpuEstimator, f32, ControlExtinction, GpuMajorantMode)> {
     use ControlExtinction as C;
     use GpuEstimator::*;
+    use GpuMajorantMode::{Culled, PerCell};
     vec![
-        (Delta, 1.0, C::None),
-        (WeightedDelta, 1.0, C::None),
-        (WeightedDelta, 0.5, C::None),
-        (Decomposition, 1.0, C::SegmentMinorant),
-        (WeightedDecomposition, 1.0, C::FractionOfBound(0.8)),
-        (WeightedDecomposition, 0.5, C::FractionOfBound(0.8)),
-        (Spectral, 1.0, C::None),
+        (Delta, 1.0, C::None, PerCell),
+        (WeightedDelta, 1.0, C::None, PerCell),
+        (WeightedDelta, 0.5, C::None, PerCell),
+        (Decomposition, 1.0, C::SegmentMinorant, PerCell),
+        (WeightedDecomposition, 1.0, C::FractionOfBound(0.8), PerCell),
+        (WeightedDecomposition, 0.5, C::FractionOfBound(0.8), PerCell),
+        (Spectral, 1.0, C::None, PerCell),
+        // The culled walk's renders take the segment minorant as control (0 on both grids).
+        (Delta, 1.0, C::None, Culled),
+        (WeightedDelta, 0.5, C::None, Culled),
+        (Decomposition, 1.0, C::SegmentMinorant, Culled),
+        (WeightedDecomposition, 0.5, C::SegmentMinorant, Culled),
+        (Spectral, 1.0, C::None, Culled),
     ]
 }
 
 /// (event kind as in the kernel, t, weight) of the CPU sampler for invocation `i`.
+#[allow(clippy::too_many_arguments)]
 fn cpu_sample(
     m: &Medium,
     est: GpuEstimator,
     b: f32,
     control: ControlExtinction,
+    majorant: GpuMajorantMode,
     seed: u32,
     i: u32,
     st: &mut TrackingStats,
@@ -56,10 +68,21 @@ fn cpu_sample(
     let ray = Ray::new(Vec3::from_array(m.ray.o), Vec3::from_array(m.ray.d));
     let rgb = est == GpuEstimator::Spectral;
     let maj_scale = if rgb { m.scale * RGB[2] } else { m.scale };
-    let segs = DdaMajorantIterator::new(&m.bounds, &ray, m.ray.t_min, m.ray.t_max, maj_scale);
+    let (t0, t1) = (m.ray.t_min, m.ray.t_max);
+    let (segs, culling) = if majorant == GpuMajorantMode::Culled {
+        let segs = DdaMajorantIterator::global(&m.bounds, &ray, t0, t1, maj_scale);
+        (segs, LeafCulling::new(&m.bounds))
+    } else {
+        (
+            DdaMajorantIterator::new(&m.bounds, &ray, t0, t1, maj_scale),
+            None,
+        )
+    };
     let lookup = |t: f32| m.scale * m.grid.sample_trilinear(ray.at(t).as_dvec3());
-    let medium =
-        FnMedium::with_control(|t| Coeffs::from_sigma_t(lookup(t), ALBEDO), control, ALBEDO);
+    let medium = CulledBy {
+        inner: FnMedium::with_control(|t| Coeffs::from_sigma_t(lookup(t), ALBEDO), control, ALBEDO),
+        ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+    };
     let mut rng = Rng::new(i, 0, seed);
     let t_max = m.ray.t_max;
     let grey = |e: Event<f32>| e.map3();
@@ -78,10 +101,13 @@ fn cpu_sample(
         )),
         GpuEstimator::Spectral => {
             let k = Vec3::from_array(RGB);
-            let rgb_medium = FnMediumRgb(|t: f32| {
-                let s = k * lookup(t);
-                CoeffsRgb::new((1.0 - ALBEDO) * s, ALBEDO * s)
-            });
+            let rgb_medium = CulledBy {
+                inner: FnMediumRgb(|t: f32| {
+                    let s = k * lookup(t);
+                    CoeffsRgb::new((1.0 - ALBEDO) * s, ALBEDO * s)
+                }),
+                ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+            };
             let e = tr::spectral::sample_distance(
                 segs,
                 t_max,
@@ -139,14 +165,14 @@ fn wgsl_sample_distance_matches_cpu_and_analytic() {
             (-m.tau).exp(),
             (-tau_half).exp()
         );
-        for (ci, &(est, b, control)) in cases().iter().enumerate() {
-            let label = format!("{est:?} b={b} {control:?}");
+        for (ci, &(est, b, control, majorant)) in cases().iter().enumerate() {
+            let label = format!("{est:?} b={b} {control:?} {majorant:?}");
             let seed = 2000 + ci as u32;
             let rgb = est == GpuEstimator::Spectral;
             let (control_mode, control_value) = GpuControlMode::from_control(control);
             let params = GpuTrackingParams {
                 estimator: est as u32,
-                majorant_mode: GpuMajorantMode::PerCell as u32,
+                majorant_mode: majorant as u32,
                 control_mode: control_mode as u32,
                 spectral_mode: 0,
                 b,
@@ -186,7 +212,8 @@ fn wgsl_sample_distance_matches_cpu_and_analytic() {
             let mut cpu_stats = TrackingStats::default();
             for (i, (g, ge)) in gpu.iter().zip(&gpu_events).enumerate() {
                 let mut st = TrackingStats::default();
-                let (kind, t, w) = cpu_sample(&m, est, b, control, seed, i as u32, &mut st);
+                let (kind, t, w) =
+                    cpu_sample(&m, est, b, control, majorant, seed, i as u32, &mut st);
                 cpu_stats.merge(&st);
                 if kind == ge[0] {
                     same_kind += 1;

@@ -163,6 +163,7 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
     for estimator in Estimator::ALL {
         configs.push(("cloud.gltf", estimator, MajorantMode::Leaf));
         configs.push(("cloud.gltf", estimator, MajorantMode::Global));
+        configs.push(("cloud.gltf", estimator, MajorantMode::Culled));
         configs.push(("cloud.gltf", estimator, MajorantMode::Adaptive));
         configs.push(("chromatic_smoke.gltf", estimator, MajorantMode::Leaf));
     }
@@ -233,6 +234,12 @@ fn volume_emission_agrees_with_the_cpu() {
         rs.features
     );
     gpu::supports(&rs).unwrap();
+    // The walk the default (adaptive) mode takes for the flame: the culled global walk, whose
+    // emission is gathered at the kept collisions with their thinned majorant.
+    println!(
+        "fire (no floor): adaptive walks {:?}",
+        rs.vdb[0].walk_mode(MajorantMode::Adaptive)
+    );
     let mut configs: Vec<(Estimator, bool)> = Estimator::ALL.iter().map(|&e| (e, false)).collect();
     configs.push((Estimator::Delta, true));
     let alpha = 1e-3 / configs.len() as f64;

@@ -2,6 +2,9 @@
 //! kernel) against the analytic / quadrature value by a z-test at 99.9 %, and against the CPU
 //! `tracking::*::transmittance` sample by sample with the same `Rng::new(i, 0, seed)` streams.
 //!
+//! Majorants: per-cell, global, and the culled global walk (the same global segment, its
+//! collisions culled by the leaf cells on both sides with the same uniforms).
+//!
 //! Media: a homogeneous slab (a dense block of ones; along x its optical depth is exactly
 //! `scale * 32 / d.x`, the trilinear ramps at both faces included) and the heterogeneous `blob`
 //! grid (optical depth by fine midpoint quadrature of the CPU lookup).
@@ -18,7 +21,8 @@ use brume::volume::tracking::spectral::SpectralProbabilities;
 use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, FnMedium, FnMediumRgb, TrackingStats,
 };
-use brume::volume::DdaMajorantIterator;
+use brume::volume::{DdaMajorantIterator, LeafCulling};
+use common::culled::CulledBy;
 use common::gpu::{blob, slab, Medium};
 use common::{assert_z, Moments};
 
@@ -61,6 +65,15 @@ fn cases() -> Vec<Case> {
         case(ResidualRatio, 1.0, C::SegmentMinorant, PerCell),
         case(ResidualRatio, 1.0, C::FractionOfBound(0.8), PerCell),
         case(Spectral, 1.0, C::None, PerCell),
+        // The culled global walk (volume::cull): its renders' control is the segment minorant,
+        // 0 over a grid whose global minimum is 0 (both test grids).
+        case(Delta, 1.0, C::None, Culled),
+        case(WeightedDelta, 0.5, C::None, Culled),
+        case(Decomposition, 1.0, C::SegmentMinorant, Culled),
+        case(WeightedDecomposition, 1.0, C::SegmentMinorant, Culled),
+        case(Ratio, 1.0, C::None, Culled),
+        case(ResidualRatio, 1.0, C::SegmentMinorant, Culled),
+        case(Spectral, 1.0, C::None, Culled),
     ]
 }
 
@@ -73,17 +86,23 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
         GpuMajorantMode::PerCell => {
             DdaMajorantIterator::new(&m.bounds, &ray, m.ray.t_min, m.ray.t_max, maj_scale)
         }
-        GpuMajorantMode::Global => {
+        GpuMajorantMode::Global | GpuMajorantMode::Culled => {
             DdaMajorantIterator::global(&m.bounds, &ray, m.ray.t_min, m.ray.t_max, maj_scale)
         }
         GpuMajorantMode::Adaptive => unreachable!("the adaptive walk is checked in gpu_dda"),
     };
     let lookup = |t: f32| m.scale * m.grid.sample_trilinear(ray.at(t).as_dvec3());
-    let medium = FnMedium::with_control(
-        |t| Coeffs::from_sigma_t(lookup(t), ALBEDO),
-        c.control,
-        ALBEDO,
-    );
+    let culling = (c.majorant == GpuMajorantMode::Culled)
+        .then(|| LeafCulling::new(&m.bounds))
+        .flatten();
+    let medium = CulledBy {
+        inner: FnMedium::with_control(
+            |t| Coeffs::from_sigma_t(lookup(t), ALBEDO),
+            c.control,
+            ALBEDO,
+        ),
+        ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+    };
     let mut rng = Rng::new(i, 0, seed);
     let t_max = m.ray.t_max;
     let grey = |v: f32| [v, 0.0, 0.0];
@@ -106,10 +125,13 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
         )),
         GpuEstimator::Spectral => {
             let k = Vec3::from_array(RGB);
-            let rgb_medium = FnMediumRgb(|t: f32| {
-                let s = k * lookup(t);
-                CoeffsRgb::new((1.0 - ALBEDO) * s, ALBEDO * s)
-            });
+            let rgb_medium = CulledBy {
+                inner: FnMediumRgb(|t: f32| {
+                    let s = k * lookup(t);
+                    CoeffsRgb::new((1.0 - ALBEDO) * s, ALBEDO * s)
+                }),
+                ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+            };
             tr::spectral::transmittance(
                 segs,
                 t_max,
@@ -177,6 +199,13 @@ fn wgsl_transmittance_matches_analytic_and_cpu() {
     let pipeline = ctx.pipeline(&TRANSMITTANCE_MODULE, &[]).unwrap();
     let mut failures = Vec::new();
     for m in [slab(), blob()] {
+        // Culling is sound on both grids (global minimum 0); on the blob it culls.
+        assert!(
+            LeafCulling::new(&m.bounds).is_some(),
+            "{}: no culling",
+            m.name
+        );
+        let mut ratio_lookups = std::collections::HashMap::new();
         let grid = GpuGrid::upload(&ctx, &m.grid, &m.bounds, m.scale).unwrap();
         println!("{}: tau = {:.6}, T = {:.6}", m.name, m.tau, (-m.tau).exp());
         for (ci, c) in cases().iter().enumerate() {
@@ -206,6 +235,9 @@ fn wgsl_transmittance_matches_analytic_and_cpu() {
                 same_lookups += (g[3] as u64 == st.lookups) as u32;
             }
             let gs = gpu_stats.to_cpu();
+            if c.estimator == GpuEstimator::Ratio {
+                ratio_lookups.insert(c.majorant as u32, cpu_stats.lookups);
+            }
             println!(
                 "  {:<58} gpu {:>6.0} ms; per sample: identical {:.3} %, same lookups {:.3} %, \
                  max |gpu - cpu| {max_diff:.2e}; lookups gpu {} cpu {}",
@@ -231,6 +263,14 @@ fn wgsl_transmittance_matches_analytic_and_cpu() {
                     m.name, c.label
                 ));
             }
+        }
+        if m.name == "blob" {
+            let (culled, global) = (
+                ratio_lookups[&(GpuMajorantMode::Culled as u32)],
+                ratio_lookups[&(GpuMajorantMode::Global as u32)],
+            );
+            println!("  blob ratio tracking lookups: culled {culled}, global {global}");
+            assert!(culled < global, "culling removed no lookup on the blob");
         }
     }
     assert!(failures.is_empty(), "failed: {failures:#?}");

@@ -1,6 +1,7 @@
 //! Cross-estimator agreement on a heterogeneous example scene (the cloud): every estimator in
-//! both majorant modes against analog delta tracking with local majorants, by a per-pixel
-//! z-test (Sidak-corrected at 99.9 %) and a z-test of the image means, with independent seeds.
+//! every majorant mode against analog delta tracking with local majorants, by a per-pixel
+//! z-test (Sidak-corrected at 99.9 %) and a z-test of the image means, with independent seeds;
+//! the culled walk also on the fire and the Cornell smoke, where it culls.
 //! Also: the specialised and the generic path give the same image bit for bit, and the image
 //! does not depend on the number of threads.
 mod common;
@@ -72,6 +73,52 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
         assert_eq!(a.failing, 0, "{estimator} {majorant:?}: {a:?}");
         assert!(a.mean_z < 3.3, "{estimator} {majorant:?}: {a:?}");
         assert_eq!(t.majorant_violations, 0);
+    }
+}
+
+/// The culled global walk (`volume::cull`) against analog delta tracking with per-leaf bounds
+/// where it culls: the fire (volume emission gathered at the kept collisions, with their
+/// thinned majorant) and the Cornell smoke (long shadow rays through thin smoke), every
+/// estimator, per-pixel z-tests as above.
+#[test]
+fn culled_walk_agrees_with_per_leaf_delta_tracking() {
+    for name in ["fire.gltf", "cornell_smoke.gltf"] {
+        let scene = load_scene(name);
+        let rs = brume::integrator::RenderScene::new(&scene, false).unwrap();
+        assert!(
+            rs.vdb
+                .iter()
+                .all(|m| m.culling(MajorantMode::Culled).is_some()),
+            "{name}: the culled walk would not cull"
+        );
+        let reference = render(&scene, &settings(Estimator::Delta, MajorantMode::Leaf, 61));
+        let (ref_mean, ref_var) = moments(&reference);
+        let alpha = 1e-3 / (2 * Estimator::ALL.len()) as f64;
+        for (i, estimator) in Estimator::ALL.into_iter().enumerate() {
+            let out = render(
+                &scene,
+                &settings(estimator, MajorantMode::Culled, 62 + i as u32),
+            );
+            let (mean, var) = moments(&out);
+            let a = compare((&mean, &var), (&ref_mean, &ref_var), alpha);
+            let t = brume::film::totals(&out.records);
+            let r = brume::film::totals(&reference.records);
+            println!(
+                "{name} {estimator} culled: mean {:.5} vs {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), lookups/sample {:.2} (per-leaf delta {:.2}), segments/sample {:.2} ({:.2})",
+                a.mean_a,
+                a.mean_b,
+                a.mean_z,
+                a.worst_z,
+                a.z_threshold,
+                t.density_lookups as f64 / t.samples as f64,
+                r.density_lookups as f64 / r.samples as f64,
+                t.majorant_segments as f64 / t.samples as f64,
+                r.majorant_segments as f64 / r.samples as f64,
+            );
+            assert_eq!(a.failing, 0, "{name} {estimator}: {a:?}");
+            assert!(a.mean_z < 3.3, "{name} {estimator}: {a:?}");
+            assert_eq!(t.majorant_violations, 0, "{name} {estimator}");
+        }
     }
 }
 

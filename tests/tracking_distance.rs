@@ -12,6 +12,7 @@ use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, Event, FnMedium, FnMediumRgb, TrackingStats,
 };
 use brume::volume::MajorantSegment;
+use common::culled::CulledBy;
 use common::{assert_z, samples, scenes, Moments, Scene, ALBEDO};
 use glam::Vec3;
 
@@ -459,6 +460,7 @@ fn infinite_segments_are_handled() {
         zero,
         f32::INFINITY,
         tr::scaled_majorant(1.0),
+        |_, _| 1.0,
         &mut rng,
         &mut st,
         |_, _, _| true,
@@ -514,6 +516,7 @@ fn free_flight_returns_t_maj_since_last_collision() {
             segs,
             2.0,
             tr::scaled_majorant(1.0),
+            |_, _| 1.0,
             &mut rng,
             &mut st,
             |_, _, c| {
@@ -655,5 +658,155 @@ fn furnace_slab() {
         }
         println!("    max |w| = {:.3e}", st.max_abs_weight);
         assert!(!st.is_biased(), "{name}: {st:?}");
+    }
+}
+
+/// The distance samplers over the culled global walk (`volume::cull`): one segment with the
+/// largest bound, its collisions thinned back to the hand-built segments' bounds, with the
+/// segment minorant (0 there) as control as in a culled render. The same three expectations as
+/// `distance_samplers_score_the_right_expectations`, and delta tracking's collision distances
+/// against the free-flight pdf (chi-square).
+#[test]
+fn culled_global_walk_samples_the_right_distances() {
+    const BINS: usize = 40;
+    let all = scenes();
+    let alpha = sidak(0.01, all.len());
+    for s in &all {
+        let (global, ratio) = s.culled();
+        let seg = || std::iter::once(global);
+        let culled = |control| CulledBy {
+            inner: s.medium(control),
+            ratio: &ratio,
+        };
+        let none = culled(ControlExtinction::None);
+        let minorant = culled(ControlExtinction::SegmentMinorant);
+        let rgb = CulledBy {
+            inner: FnMediumRgb(|t: f32| {
+                let c = Coeffs::from_sigma_t((s.sigma_t)(t), ALBEDO);
+                CoeffsRgb::new(Vec3::splat(c.sigma_a), Vec3::splat(c.sigma_s))
+            }),
+            ratio: &ratio,
+        };
+        let t_end = s.transmittance();
+        let t_mid = 0.5 * s.t_max;
+        let t_half = (-(s.tau)(t_mid as f64)).exp();
+        type Sample<'a> = Box<dyn Fn(&mut Rng, &mut TrackingStats) -> Event<f32> + 'a>;
+        let samplers: [(&str, Sample); 5] = [
+            (
+                "delta",
+                Box::new(|rng, st| tr::delta::sample_distance(seg(), s.t_max, &none, rng, st)),
+            ),
+            (
+                "weighted delta b=0.5",
+                Box::new(|rng, st| {
+                    tr::weighted_delta::sample_distance(seg(), s.t_max, 0.5, &none, rng, st)
+                }),
+            ),
+            (
+                "decomposition",
+                Box::new(|rng, st| {
+                    tr::decomposition::sample_distance(seg(), s.t_max, &minorant, rng, st)
+                }),
+            ),
+            (
+                "weighted decomposition b=0.5",
+                Box::new(|rng, st| {
+                    tr::weighted_decomposition::sample_distance(
+                        seg(),
+                        s.t_max,
+                        0.5,
+                        &minorant,
+                        rng,
+                        st,
+                    )
+                }),
+            ),
+            (
+                "spectral",
+                Box::new(|rng, st| {
+                    let e = tr::spectral::sample_distance(
+                        seg(),
+                        s.t_max,
+                        1.0,
+                        &rgb,
+                        Vec3::ONE,
+                        SpectralProbabilities::HistoryAwareMax,
+                        rng,
+                        st,
+                    );
+                    match e {
+                        Event::Absorb { t, weight } => Event::Absorb {
+                            t,
+                            weight: weight.x,
+                        },
+                        Event::Scatter { t, weight } => Event::Scatter {
+                            t,
+                            weight: weight.x,
+                        },
+                        Event::Escape { weight } => Event::Escape { weight: weight.x },
+                    }
+                }),
+            ),
+        ];
+        for (k, (name, sample)) in samplers.iter().enumerate() {
+            let mut st = TrackingStats::default();
+            let (mut esc, mut sca, mut abs) =
+                (Moments::default(), Moments::default(), Moments::default());
+            // b < 1: heavy-tailed weights, as in the unculled test.
+            let n = samples(if name.contains("b=0.5") { 16 * N } else { N });
+            let mut ts = Vec::new();
+            let mut escaped = 0.0;
+            for i in 0..n {
+                let mut rng = Rng::new(i, 3, 30 + k as u32);
+                let e = sample(&mut rng, &mut st);
+                let (mut xe, mut xs, mut xa) = (0.0, 0.0, 0.0);
+                match e {
+                    Event::Escape { weight } => {
+                        xe = weight as f64;
+                        escaped += 1.0;
+                    }
+                    Event::Scatter { t, weight } => {
+                        ts.push(t as f64);
+                        if t < t_mid {
+                            xs = weight as f64;
+                        }
+                    }
+                    Event::Absorb { t, weight } => {
+                        ts.push(t as f64);
+                        xa = weight as f64;
+                    }
+                }
+                esc.push(xe);
+                sca.push(xs);
+                abs.push(xa);
+            }
+            let label = format!("culled {name} {}", s.name);
+            assert_z(&format!("{label} escape"), &esc, t_end);
+            assert_z(
+                &format!("{label} scatter t<t_max/2"),
+                &sca,
+                ALBEDO as f64 * (1.0 - t_half),
+            );
+            assert_z(
+                &format!("{label} absorb"),
+                &abs,
+                (1.0 - ALBEDO as f64) * (1.0 - t_end),
+            );
+            assert!(!st.is_biased(), "{label}: {st:?}");
+            if k == 0 {
+                let (f, tau) = (s.sigma_t, s.tau);
+                let pdf = move |t: f64| f(t as f32) as f64 * (-tau(t)).exp();
+                let mut obs = histogram_1d(ts, 0.0, s.t_max as f64, BINS);
+                let mut exp = expected_1d(n as f64, &pdf, 0.0, s.t_max as f64, BINS, 1e-9);
+                obs.push(escaped);
+                exp.push(n as f64 * t_end);
+                let r = chi2_test(&obs, &exp, 5.0);
+                println!(
+                    "{label}: chi2 {:.1} dof {} p {:.4} (alpha {alpha:.2e})",
+                    r.statistic, r.dof, r.p_value
+                );
+                assert!(r.p_value >= alpha, "{label}: {r:?}");
+            }
+        }
     }
 }

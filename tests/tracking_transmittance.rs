@@ -8,6 +8,7 @@ use brume::volume::tracking::spectral::SpectralProbabilities;
 use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, FnMediumRgb, Medium, TrackingStats,
 };
+use common::culled::CulledBy;
 use common::{assert_z, scenes, Moments, Scene};
 use glam::Vec3;
 
@@ -273,4 +274,78 @@ fn control_is_lookup_free() {
         let _ = medium.control(g);
     }
     assert_eq!(counter.get(), 0);
+}
+
+/// Every transmittance estimator over the culled global walk (`volume::cull`): one segment
+/// with the largest bound, its collisions thinned back to the hand-built segments' bounds.
+/// Controls are the segment minorant (0 over the global segment), as in a culled render.
+#[test]
+fn culled_global_walk_transmittance() {
+    for s in scenes() {
+        let (global, ratio) = s.culled();
+        let seg = || std::iter::once(global);
+        let culled = |control| CulledBy {
+            inner: s.medium(control),
+            ratio: &ratio,
+        };
+        let none = culled(ControlExtinction::None);
+        let minorant = culled(ControlExtinction::SegmentMinorant);
+        let t = s.transmittance();
+        let mut runs: Vec<(String, TrackingStats)> = Vec::new();
+        let mut run =
+            |label: String, seed, est: &mut dyn FnMut(&mut Rng, &mut TrackingStats) -> f32| {
+                let st = check(&label, seed, N, t, |rng, st| est(rng, st) as f64);
+                unbiased_run(&label, &st);
+                runs.push((label, st));
+            };
+        run(format!("culled delta {}", s.name), 21, &mut |rng, st| {
+            tr::delta::transmittance(seg(), s.t_max, &none, rng, st)
+        });
+        run(
+            format!("culled weighted delta b=2 {}", s.name),
+            22,
+            &mut |rng, st| tr::weighted_delta::transmittance(seg(), s.t_max, 2.0, &none, rng, st),
+        );
+        run(
+            format!("culled decomposition {}", s.name),
+            23,
+            &mut |rng, st| tr::decomposition::transmittance(seg(), s.t_max, &minorant, rng, st),
+        );
+        run(
+            format!("culled weighted decomposition {}", s.name),
+            24,
+            &mut |rng, st| {
+                tr::weighted_decomposition::transmittance(seg(), s.t_max, 1.0, &minorant, rng, st)
+            },
+        );
+        run(format!("culled ratio {}", s.name), 25, &mut |rng, st| {
+            tr::ratio::transmittance(seg(), s.t_max, 1.0, &none, rng, st)
+        });
+        run(
+            format!("culled residual ratio {}", s.name),
+            26,
+            &mut |rng, st| {
+                tr::residual_ratio::transmittance(seg(), s.t_max, 1.0, &minorant, rng, st)
+            },
+        );
+        // Thinned back to the segments' bounds, ratio tracking looks up as often as it does on
+        // the segments themselves (within noise), never more than on the global segment.
+        let ratio_culled = runs[4].1.lookups;
+        let plain = check("ratio, global segment", 25, N, t, |rng, st| {
+            tr::ratio::transmittance(
+                seg(),
+                s.t_max,
+                1.0,
+                &s.medium(ControlExtinction::None),
+                rng,
+                st,
+            ) as f64
+        });
+        assert!(
+            ratio_culled <= plain.lookups,
+            "{}: culling added lookups ({ratio_culled} against {})",
+            s.name,
+            plain.lookups
+        );
+    }
 }

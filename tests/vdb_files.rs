@@ -115,9 +115,12 @@ fn bounds_hold_along_a_hundred_thousand_rays_per_example_grid() {
         let stats = check_ray_bounds(&loaded.grid, &loaded.bounds, 100_000, 1000 + i as u64)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(stats.rays, 100_000);
+        // The culled walk's cell bounds were checked wherever culling is sound for the grid.
+        let culls = brume::volume::LeafCulling::new(&loaded.bounds).is_some();
+        assert_eq!(stats.culled_samples > 0, culls, "{name}: {stats:?}");
         println!(
-            "{name:<12} {} rays, {} hit, {} segments, {} samples",
-            stats.rays, stats.rays_hit, stats.segments, stats.samples
+            "{name:<12} {} rays, {} hit, {} segments, {} samples, {} culled-walk samples",
+            stats.rays, stats.rays_hit, stats.segments, stats.samples, stats.culled_samples
         );
     }
 }

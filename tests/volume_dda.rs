@@ -19,6 +19,13 @@ fn ray_check(name: &str, data: &brume_ffi::FloatGridData, seed: u64) {
         assert!(stats.rays_hit > RAYS as u64 / 5, "{name}: {stats:?}");
         assert!(stats.samples > stats.rays_hit, "{name}: {stats:?}");
     }
+    // The culled walk's cell bounds were checked wherever culling is sound for the grid.
+    let culls = brume::volume::LeafCulling::new(&bounds).is_some();
+    assert_eq!(
+        stats.culled_samples > 0,
+        culls && stats.rays_hit > 0,
+        "{name}: {stats:?}"
+    );
     let tightness = stats.mean_value_over_majorant();
     assert!((0.0..=1.0).contains(&tightness), "{name}: {stats:?}");
 }

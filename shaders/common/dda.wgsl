@@ -1,5 +1,5 @@
 // Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `next`,
-// `reciprocal_and_step`),
+// `reciprocal_and_step`), LeafCulling (src/volume/cull.rs: `new`, `ratio`),
 // AdaptiveMajorantIterator (src/volume/adaptive.rs: `new`, `crossing`, `next`) and
 // Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.
 //
@@ -37,6 +37,8 @@ struct Dda {
     inv_d: vec3<f32>,         // 1 / d (dda_reciprocal)
     scale: f32,               // sigma = scale * bound
     global: bool,             // read the global bound instead of the cell's
+    cull: bool,               // the culled global walk: cull collisions by the leaf cells
+    cell_dims: vec3<i32>,     // the grid's cells per axis (for culling)
     adaptive: bool,           // walk the adaptive hierarchy (cell is then a leaf cell)
     cell: vec3<i32>,
     step: vec3<i32>,          // -1, 0 or +1 per axis
@@ -99,9 +101,9 @@ fn dda_crossing(it: ptr<function, Dda>, axis: i32) -> f32 {
     return (plane - (*it).o[axis]) * (*it).inv_d[axis];
 }
 
-// DdaMajorantIterator::new (MAJORANT_PER_CELL) and ::global (MAJORANT_GLOBAL), through
-// `walk`, and AdaptiveMajorantIterator::new (MAJORANT_ADAPTIVE: the per-cell entry), for the
-// density grid of the `grid_info` uniform.
+// DdaMajorantIterator::new (MAJORANT_PER_CELL) and ::global (MAJORANT_GLOBAL, and
+// MAJORANT_CULLED with its LeafCulling), through `walk`, and AdaptiveMajorantIterator::new
+// (MAJORANT_ADAPTIVE: the per-cell entry), for the density grid of the `grid_info` uniform.
 fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) -> Dda {
     return dda_new_in(grid_info, 0u, o, d, t0, t1, scale, mode);
 }
@@ -113,7 +115,7 @@ fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: 
     var it: Dda;
     it.bounds_base = bounds_base;
     it.global_index = g.global_bounds_index;
-    let global = mode == MAJORANT_GLOBAL;
+    let global = mode == MAJORANT_GLOBAL || mode == MAJORANT_CULLED;
     it.o = o;
     it.d = d;
     it.inv_d = vec3<f32>(1.0) / d;
@@ -123,6 +125,14 @@ fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: 
     it.lo = vec3<f32>(g.cell_origin) * CELL_WIDTH;
     let grid_dims = vec3<i32>(g.dims);
     let empty = any(grid_dims <= vec3<i32>(0));
+    it.cell_dims = grid_dims;
+    // LeafCulling::new: only where the global minimum is exactly 0 (the segment's control
+    // then vanishes) and the global maximum positive and finite.
+    it.cull = false;
+    if (mode == MAJORANT_CULLED && !empty) {
+        let gb = grid_bounds[bounds_base + g.global_bounds_index];
+        it.cull = gb.min == 0.0 && gb.max > 0.0 && gb.max <= 3.40282347e38;
+    }
     if (global) {
         it.width = vec3<f32>(grid_dims) * CELL_WIDTH;
         it.dims = select(vec3<i32>(1), vec3<i32>(0), empty);
@@ -162,6 +172,26 @@ fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: 
     it.t_exit = te.y;
     it.done = false;
     return it;
+}
+
+// LeafCulling::ratio: max(leaf cell containing the point at t) / global max, in [0, 1]; 1
+// exactly where the cell holds the global maximum. The cell as dda::enter_box finds it:
+// truncation equals floor after the clamp, NaN -> 0.
+fn dda_cull_ratio(it: ptr<function, Dda>, t: f32) -> f32 {
+    let p = (*it).o + t * (*it).d;
+    var c = vec3<u32>(0u);
+    for (var a = 0; a < 3; a++) {
+        let g = floor((p[a] - (*it).lo[a]) * (1.0 / CELL_WIDTH));
+        c[a] = u32(select(clamp(i32(g), 0, (*it).cell_dims[a] - 1), 0, g != g));
+    }
+    let n = vec3<u32>((*it).cell_dims);
+    let base = (*it).bounds_base;
+    let m = grid_bounds[base + c.x + n.x * (c.y + n.y * c.z)].max;
+    let gm = grid_bounds[base + (*it).global_index].max;
+    if (m >= gm) {
+        return 1.0;
+    }
+    return m / gm;
 }
 
 // DdaMajorantIterator::cell_bounds.

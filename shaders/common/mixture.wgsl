@@ -340,7 +340,12 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
     mix_state.alpha_max = 0.0;
     mix_state.hom_sigma_a = vec3<f32>(0.0);
     mix_state.hom_sigma_s = vec3<f32>(0.0);
-    let mode = wf.tracking.majorant_mode;
+    // media.rs `segments`: the merged stream has no single grid to cull by, so the culled
+    // global walk is walked as the per-leaf DDA, whose collisions it samples.
+    var mode = wf.tracking.majorant_mode;
+    if (mode == MAJORANT_CULLED) {
+        mode = MAJORANT_PER_CELL;
+    }
     for (var i = 0u; i < spans.n; i++) {
         let k = spans.k[i];
         let g = vdb_media[k].grid;

@@ -508,7 +508,11 @@ fn distance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                 (*tr).stats.control_collisions += 1u;
                 return end_flight(tr, select(EVENT_SCATTER, EVENT_ABSORB, x < ctl.sigma_a), t);
             }
-            let r_bar = residual_majorant((*tr).params.b, seg, sigma_c);
+            // Without a control, the collision's majorant itself (culling may have thinned it).
+            var r_bar = sigma_maj;
+            if (sigma_c != 0.0) {
+                r_bar = residual_majorant((*tr).params.b, seg, sigma_c);
+            }
             if (!(r_bar > 0.0)) {
                 return true;
             }
@@ -597,8 +601,10 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
 // tracking::sample_free_flight (pbrt-v4's SampleT_maj): walks the majorant segments of `dda`
 // clipped to t <= t_max; tentative collisions come where the majorant optical depth walked
 // since the last one reaches an exponential depth -ln(1 - u), carried across segments (one
-// uniform per collision, none per segment), and go to tracking_collide. Returns T_maj as the
-// CPU does.
+// uniform per collision, none per segment), and go to tracking_collide. The culled global
+// walk (dda.cull) first keeps each with probability r = dda_cull_ratio (one more uniform when
+// r < 1) and hands the kept ones on with majorant r * sigma_maj. Returns T_maj as the CPU
+// does.
 fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
     var dda = dda_start;
     var seg: GpuMajorantSegment;
@@ -673,7 +679,19 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
                 (*tr).stats.collision_cap_hits += 1u;
                 return 0.0;
             }
-            if (!tracking_collide(tr, t, sigma_maj, seg)) {
+            var sigma_kept = sigma_maj;
+            if (dda.cull) {
+                let r = dda_cull_ratio(&dda, t);
+                if (r < 1.0) {
+                    // `!(u < r)`: a NaN ratio culls too.
+                    if (!(tracker_uniform(tr) < r)) {
+                        (*tr).stats.null_collisions += 1u;
+                        continue;
+                    }
+                    sigma_kept = r * sigma_maj;
+                }
+            }
+            if (!tracking_collide(tr, t, sigma_kept, seg)) {
                 return 1.0;
             }
         }

@@ -41,7 +41,7 @@ struct CellBounds {
 // GpuTrackingParams: one tracking dispatch.
 struct GpuTrackingParams {
     estimator: u32,              // ESTIMATOR_* constant
-    majorant_mode: u32,          // MAJORANT_PER_CELL, MAJORANT_GLOBAL or MAJORANT_ADAPTIVE
+    majorant_mode: u32,          // MAJORANT_PER_CELL, MAJORANT_GLOBAL, MAJORANT_ADAPTIVE or MAJORANT_CULLED
     control_mode: u32,           // CONTROL_* constant
     spectral_mode: u32,          // 0 history-aware max, 1 history-aware average
     b: f32,                      // majorant scale

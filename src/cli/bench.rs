@@ -30,7 +30,7 @@ pub enum Which {
         /// Only the environment-map section (HDR sky vs constant sky, sampling ablation).
         #[arg(long)]
         env_only: bool,
-        /// Only the majorant-mode table (global, leaf, adaptive side by side) and the
+        /// Only the majorant-mode table (global, leaf, culled, adaptive side by side) and the
         /// hierarchy's build figures.
         #[arg(long)]
         majorants_only: bool,
@@ -330,7 +330,7 @@ fn render_bench(
         "{:<24} {:<8} {:>12} {:>14} {:>14}",
         "estimator", "bounds", "samples/s", "lookups/path", "null/real"
     );
-    let mut delta_lookups = [0f64; 3];
+    let mut delta_lookups = [0f64; MajorantMode::ALL.len()];
     for estimator in Estimator::ALL {
         for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
             let s = RenderSettings {
@@ -359,18 +359,19 @@ fn render_bench(
         }
     }
     println!(
-        "per-leaf majorants cut delta tracking's density lookups per path by {:.2}x on the cloud (adaptive: {:.2}x)",
+        "per-leaf majorants cut delta tracking's density lookups per path by {:.2}x on the cloud (culled: {:.2}x, adaptive: {:.2}x)",
         delta_lookups[0] / delta_lookups[1].max(1e-12),
-        delta_lookups[0] / delta_lookups[2].max(1e-12)
+        delta_lookups[0] / delta_lookups[2].max(1e-12),
+        delta_lookups[0] / delta_lookups[3].max(1e-12)
     );
     majorant_modes(&scenes, width, height, spp)?;
     adaptive_build()?;
     Ok(())
 }
 
-/// The three majorant modes side by side on every scene with a VDB medium, for delta and
+/// The four majorant modes side by side on every scene with a VDB medium, for delta and
 /// decomposition tracking: time per sample (best of three renders per mode, the modes taken in
-/// turn so that a slow spell of the machine falls on all three alike), the walk (segments per
+/// turn so that a slow spell of the machine falls on all alike), the walk (segments per
 /// sample, primary and shadow rays), density and emission lookups and real collisions per
 /// sample (an emissive medium reads its emission at every tentative collision). The adaptive
 /// rows name the walk each medium's hierarchy takes (`VdbMedium::walk_mode`): where it is the
@@ -422,8 +423,8 @@ fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Resu
                 majorant,
                 ..RenderSettings::default()
             });
-            let mut best = [f64::INFINITY; 3];
-            let mut last = [None, None, None];
+            let mut best = [f64::INFINITY; MajorantMode::ALL.len()];
+            let mut last = MajorantMode::ALL.map(|_| None);
             for _ in 0..RUNS {
                 for (k, s) in settings.iter().enumerate() {
                     let o = render_once(&scene, s)?;

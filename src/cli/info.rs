@@ -104,19 +104,25 @@ fn print_adaptive(label: &str, a: &AdaptiveMajorants, scale: f32, index_per_t: f
         .map(|(l, n)| format!("{n} x {}^3", 8 << l))
         .collect();
     println!(
-        "{label} adaptive majorants: {} merged nodes ({}; {}), built in {:.2} ms, {:.1} KiB; model cost per ray: adaptive {:.2}, per-leaf {:.2}, global {:.2}",
+        "{label} adaptive majorants: {} merged nodes ({}; {}), built in {:.2} ms, {:.1} KiB; model cost per ray: adaptive {:.2}, per-leaf {:.2}, global {:.2}, culled {}",
         s.nodes_per_level.iter().sum::<u64>(),
         levels.join(", "),
         match a.shape {
             AdaptiveShape::OneNode => "walked as the global bound",
             AdaptiveShape::AllLeaves => "walked as the per-leaf DDA",
             AdaptiveShape::Mixed => "walked by the hierarchy",
+            AdaptiveShape::Culled => "walked as the global bound, culled by the leaf cells",
         },
         1e3 * s.build_seconds,
         s.memory_bytes as f64 / 1024.0,
         s.cost_adaptive,
         s.cost_leaf,
-        s.cost_global
+        s.cost_global,
+        if s.cost_culled.is_finite() {
+            format!("{:.2}", s.cost_culled)
+        } else {
+            "- (the global minimum is not 0)".to_string()
+        }
     );
 }
 

@@ -44,8 +44,10 @@ pub struct RenderArgs {
     /// Minorant fraction m of the decomposition estimators (control = m * bound).
     #[arg(long)]
     pub m: Option<f32>,
-    /// Majorants: global (one bound), leaf (per-leaf cells, 3D-DDA) or adaptive (the merged
-    /// hierarchy of `volume::adaptive`; `local` is an alias); default adaptive.
+    /// Majorants: global (one bound), leaf (per-leaf cells, 3D-DDA), culled (one global
+    /// segment, its tentative collisions culled by the per-leaf bound at their point) or
+    /// adaptive (whichever of those or a merged hierarchy `volume::adaptive` models cheapest;
+    /// `local` is an alias); default adaptive.
     #[arg(long)]
     pub majorant: Option<MajorantMode>,
     /// Shadow-ray transmittance: auto, ratio, residual-ratio.

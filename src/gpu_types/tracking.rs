@@ -57,6 +57,9 @@ pub enum GpuMajorantMode {
     Global = 1,
     /// `AdaptiveMajorantIterator`: one segment per merged node of the adaptive hierarchy.
     Adaptive = 2,
+    /// `DdaMajorantIterator::global` with its tentative collisions culled by the leaf cells
+    /// (`volume::cull::LeafCulling`, `tracking::sample_free_flight`).
+    Culled = 3,
 }
 
 /// Mirror of [`ControlExtinction`](crate::volume::tracking::ControlExtinction)'s variants;

@@ -22,7 +22,8 @@ use crate::volume::tracking::{
     MediumRgb, TrackingStats,
 };
 use crate::volume::{
-    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LoadedGrid,
+    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LeafCulling,
+    LoadedGrid,
 };
 
 /// A grid placed in the world: trilinear lookups at world points.
@@ -113,13 +114,26 @@ pub struct VdbMedium {
 impl VdbMedium {
     /// The walk that yields `mode`'s segments for this medium most cheaply: an adaptive
     /// hierarchy that is one node or all leaf cells is walked as the global bound or the
-    /// per-leaf DDA, which give its segments bit for bit ([`AdaptiveShape`]).
+    /// per-leaf DDA, which give its segments bit for bit ([`AdaptiveShape`]); one built as the
+    /// culled global walk is that walk.
     #[inline]
     pub fn walk_mode(&self, mode: MajorantMode) -> MajorantMode {
         match (mode, self.adaptive.shape) {
             (MajorantMode::Adaptive, AdaptiveShape::OneNode) => MajorantMode::Global,
             (MajorantMode::Adaptive, AdaptiveShape::AllLeaves) => MajorantMode::Leaf,
+            (MajorantMode::Adaptive, AdaptiveShape::Culled) => MajorantMode::Culled,
             _ => mode,
+        }
+    }
+
+    /// The per-leaf culling of this medium's walk under `mode`: only the culled global walk
+    /// culls, and only where [`LeafCulling::new`] finds it sound.
+    #[inline]
+    pub fn culling(&self, mode: MajorantMode) -> Option<LeafCulling<'_>> {
+        if self.walk_mode(mode) == MajorantMode::Culled {
+            LeafCulling::new(&self.density.grid.bounds)
+        } else {
+            None
         }
     }
 
@@ -242,7 +256,8 @@ macro_rules! with_walk {
             }
             mode => {
                 let bounds = &m.density.grid.bounds;
-                let mut walk = if mode == MajorantMode::Global {
+                // The culled walk is the global one; the view culls its collisions.
+                let mut walk = if mode == MajorantMode::Global || mode == MajorantMode::Culled {
                     DdaMajorantIterator::global(bounds, $ray_i, $t0, $t1, m.sigma_t_bound)
                 } else {
                     DdaMajorantIterator::new(bounds, $ray_i, $t0, $t1, m.sigma_t_bound)
@@ -254,7 +269,10 @@ macro_rules! with_walk {
     }};
 }
 
-/// The majorant segments of `ray` (world) over `[t0, t1]` in `m`'s index space.
+/// The majorant segments of `ray` (world) over `[t0, t1]` in `m`'s index space, for the
+/// mixture of overlapping media (`integrator::mixture`). Its merged stream of several media's
+/// segments has no single grid to cull by, so the culled walk is walked there as the
+/// per-leaf DDA, whose collisions it samples (the GPU's `mixture.wgsl` does the same).
 #[inline]
 pub(super) fn segments<'a>(
     m: &'a VdbMedium,
@@ -265,7 +283,7 @@ pub(super) fn segments<'a>(
 ) -> Segments<'a> {
     let bounds = &m.density.grid.bounds;
     match m.walk_mode(mode) {
-        MajorantMode::Leaf => Segments::Dda(DdaMajorantIterator::new(
+        MajorantMode::Leaf | MajorantMode::Culled => Segments::Dda(DdaMajorantIterator::new(
             bounds,
             ray_i,
             t0,
@@ -331,6 +349,8 @@ pub(super) struct GreyView<'a, const EMIT: bool, const ABS: bool> {
     pub(super) beta: Vec3,
     pub(super) emitted: Cell<Vec3>,
     pub(super) emission_lookups: Cell<u64>,
+    /// The per-leaf culling of the culled global walk ([`VdbMedium::culling`]).
+    pub(super) culling: Option<LeafCulling<'a>>,
 }
 
 impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
@@ -366,6 +386,7 @@ impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
             beta,
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
+            culling: m.culling(cfg.majorant),
         }
     }
 
@@ -392,6 +413,14 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
     #[inline]
     fn control(&self, seg: &crate::volume::MajorantSegment) -> Coeffs {
         Coeffs::from_sigma_t(self.control.sigma_c(seg), self.control_albedo)
+    }
+
+    #[inline]
+    fn cull_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment) -> f32 {
+        match &self.culling {
+            Some(c) => c.ratio(self.ray_i.at(t)),
+            None => 1.0,
+        }
     }
 
     #[inline]
@@ -422,10 +451,18 @@ pub(super) struct RgbView<'a, const EMIT: bool> {
     pub(super) beta: Vec3,
     pub(super) emitted: Cell<Vec3>,
     pub(super) emission_lookups: Cell<u64>,
+    /// As [`GreyView::culling`].
+    pub(super) culling: Option<LeafCulling<'a>>,
 }
 
 impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
-    pub(super) fn new(m: &'a VdbMedium, ray_w: &Ray, absorption: Absorption, beta: Vec3) -> Self {
+    pub(super) fn new(
+        m: &'a VdbMedium,
+        ray_w: &Ray,
+        absorption: Absorption,
+        majorant: MajorantMode,
+        beta: Vec3,
+    ) -> Self {
         let (sigma_a, sigma_s, scatter_albedo) = match absorption {
             Absorption::Event => (m.sigma_a, m.sigma_s, Vec3::ONE),
             Absorption::Weight => {
@@ -446,6 +483,7 @@ impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
             beta,
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
+            culling: m.culling(majorant),
         }
     }
 }
@@ -463,6 +501,14 @@ impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
         CoeffsRgb {
             sigma_a: self.sigma_a * d,
             sigma_s: self.sigma_s * d,
+        }
+    }
+
+    #[inline]
+    fn cull_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment) -> f32 {
+        match &self.culling {
+            Some(c) => c.ratio(self.ray_i.at(t)),
+            None => 1.0,
         }
     }
 
@@ -518,7 +564,7 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     l: &mut Vec3,
 ) -> MediumEvent {
     if CHROM && (!m.grey || cfg.force_spectral) {
-        let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, beta);
+        let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, cfg.majorant, beta);
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             tracking::spectral::sample_distance(
                 segs,
@@ -622,7 +668,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
     let segments_before = stats.tracking.segments;
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
-        let view = RgbView::<false>::new(m, ray, Absorption::Event, Vec3::ONE);
+        let view = RgbView::<false>::new(m, ray, Absorption::Event, cfg.majorant, Vec3::ONE);
         with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             tracking::spectral::transmittance(
                 segs,

@@ -354,7 +354,7 @@ fn sample_rgb<const EMIT: bool>(
 ) -> (MediumEvent, HenyeyGreenstein) {
     let views: Vec<RgbView<EMIT>> = vdb
         .iter()
-        .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, beta))
+        .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, beta))
         .collect();
     let hom = hom.map(|h| {
         let (sigma_a, sigma_s) = match cfg.absorption {

@@ -42,15 +42,20 @@ pub enum MajorantMode {
     Global,
     /// Per-leaf (8^3 voxel) bounds walked with the 3D-DDA.
     Leaf,
+    /// One segment over the grid with the global bound, its tentative collisions culled by
+    /// the per-leaf bound at their point (`tracking::sample_free_flight`): the global walk's
+    /// steps with per-leaf bounds' lookups.
+    Culled,
     /// The adaptive hierarchy (`volume::adaptive`): per-leaf bounds merged into larger blocks
     /// wherever one coarse segment is cheaper than the fine cells it replaces.
     Adaptive,
 }
 
 impl MajorantMode {
-    pub const ALL: [MajorantMode; 3] = [
+    pub const ALL: [MajorantMode; 4] = [
         MajorantMode::Global,
         MajorantMode::Leaf,
+        MajorantMode::Culled,
         MajorantMode::Adaptive,
     ];
 
@@ -58,6 +63,7 @@ impl MajorantMode {
         match self {
             MajorantMode::Global => "global",
             MajorantMode::Leaf => "leaf",
+            MajorantMode::Culled => "culled",
             MajorantMode::Adaptive => "adaptive",
         }
     }
@@ -172,6 +178,7 @@ parse_names!(LightSelection, "light selection", ["guided" => LightSelection::Gui
 parse_names!(MajorantMode, "majorant mode", [
     "global" => MajorantMode::Global,
     "leaf" => MajorantMode::Leaf,
+    "culled" => MajorantMode::Culled,
     "adaptive" => MajorantMode::Adaptive,
     "local" => MajorantMode::Adaptive,
 ]);

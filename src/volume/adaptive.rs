@@ -39,6 +39,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::bounds::{CellBounds, LeafBounds};
+use super::cost::{cell_count, children, coords, split_cost, CostModel};
+use super::cull::LeafCulling;
 use super::dda::{first_axis, DdaState};
 use super::segment::MajorantSegment;
 use crate::math::{Ray, Vec3};
@@ -48,67 +50,6 @@ const CELL_WIDTH: f32 = 8.0;
 
 /// Deepest level: a node of level `l` spans `2^l` leaf cells per axis (`8 * 2^l` voxels).
 pub const MAX_LEVEL: u32 = 12;
-
-/// Relative costs of the walk, in units of one tentative collision (an exponential step, a
-/// density lookup and the event choice).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CostModel {
-    /// One level-0 segment: an incremental DDA step and the tracking loop's per-segment work.
-    pub step: f32,
-    /// One segment over a merged node: three plane crossings, the exit point's cell and a
-    /// fresh DDA state, and the tracking loop's per-segment work.
-    pub node_step: f32,
-    /// One tentative collision.
-    pub collision: f32,
-    /// How much cheaper (relative) a mixed hierarchy must model than the better pure walk
-    /// (every cell at level 0, or one node) to be kept; otherwise the build takes that pure
-    /// walk. The model's costs are accurate to a few per cent in time, and a mixed walk pays
-    /// for its per-step level read and its merged nodes' plane crossings in ways the model
-    /// does not see: on the cloud, the furnace, the fire and the textured backdrop a mixed
-    /// hierarchy modelled 2-4 % cheaper than per-leaf bounds measured 1-6 % slower.
-    pub mixed_margin: f32,
-}
-
-impl CostModel {
-    /// The same cost for every segment.
-    pub const fn uniform(step: f32) -> Self {
-        CostModel {
-            step,
-            node_step: step,
-            collision: 1.0,
-            mixed_margin: 0.0,
-        }
-    }
-
-    /// The model's cost of one segment over node `n` of level `l`, with bounds `b`, in a grid
-    /// of `dims` leaf cells: a step plus the expected tentative collisions on a random chord
-    /// through the box the node covers inside the grid (mean length `4 V / S`).
-    pub fn node_cost(
-        &self,
-        dims: [u32; 3],
-        l: usize,
-        n: [usize; 3],
-        b: CellBounds,
-        scale: f32,
-        index_per_t: f32,
-    ) -> f64 {
-        let chord = mean_chord(node_cells(dims, l, n)) / index_per_t as f64;
-        let step = if l == 0 { self.step } else { self.node_step };
-        step as f64 + self.collision as f64 * (scale * b.max).max(0.0) as f64 * chord
-    }
-
-    /// Measured on the example grids (2-core x86-64, random rays and renders): a tentative
-    /// collision in a brick (exponential step, blended lookup, event) about 35 ns, a merged
-    /// node about 40 ns, a level-0 segment 11-16 ns alone and about 18 ns with the tracking
-    /// loop's per-segment work in a render (fitted to `brume bench render --majorants-only`:
-    /// per-leaf against global bounds on the furnace and the cloud).
-    pub const DEFAULT: CostModel = CostModel {
-        step: 0.5,
-        node_step: 1.2,
-        collision: 1.0,
-        mixed_margin: 0.1,
-    };
-}
 
 /// One level of the pyramid: its node grid and where its nodes start in
 /// [`AdaptiveMajorants::nodes`].
@@ -146,11 +87,14 @@ pub struct AdaptiveMajorants {
 /// The renderer walks those with the simpler walk, which skips the per-step level read and
 /// the merged node's plane crossings (on the Cornell smoke, one merged node walked by
 /// [`AdaptiveMajorantIterator`] cost 10 % more time per sample than the global walk).
+/// `Culled` is one node too (every level byte is the top level), walked as the global bound
+/// with its tentative collisions culled by the leaf cells (`volume::cull`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AdaptiveShape {
     OneNode,
     AllLeaves,
     Mixed,
+    Culled,
 }
 
 impl AdaptiveShape {
@@ -172,9 +116,11 @@ pub struct AdaptiveStats {
     pub nodes_per_level: Vec<u64>,
     /// Leaf cells per level of their merged node.
     pub cells_per_level: Vec<u64>,
-    /// Model cost per ray through the whole grid for per-leaf, global and adaptive bounds.
+    /// Model cost per ray through the whole grid for per-leaf, global, culled global (infinite
+    /// where culling is not sound or the model has no cost for it) and adaptive bounds.
     pub cost_leaf: f64,
     pub cost_global: f64,
+    pub cost_culled: f64,
     pub cost_adaptive: f64,
     pub memory_bytes: usize,
     pub build_seconds: f64,
@@ -277,20 +223,56 @@ impl AdaptiveMajorants {
             build_seconds: 0.0,
             cost,
         };
-        if shape == AdaptiveShape::Mixed {
+        // An empty grid has no node to price: it stays the one (empty) node.
+        if !a.node_level.is_empty() {
             // The recursion's costs at the top node: the chosen structure and every leaf cell;
             // one segment over the whole grid is the top node taken as a leaf.
             let cost_global = leaf_cost(top as usize, [0, 0, 0], a.node(top as usize, [0, 0, 0]));
-            let pure = fine[0].min(cost_global);
-            // `>=` on NaN is false: a NaN cost keeps the structure the recursion chose.
-            if costs[0] >= (1.0 - cost.mixed_margin as f64) * pure {
-                let level = if cost_global <= fine[0] { top } else { 0 };
-                a.node_level.iter_mut().for_each(|l| *l = level);
-                a.shape = AdaptiveShape::of(&a.node_level, top);
+            let cost_culled = a.culled_cost(scale, index_per_t, cost);
+            if shape == AdaptiveShape::Mixed {
+                let pure = fine[0].min(cost_global).min(cost_culled);
+                // `>=` on NaN is false: a NaN cost keeps the structure the recursion chose.
+                if costs[0] >= (1.0 - cost.mixed_margin as f64) * pure {
+                    let level = if cost_global <= fine[0] { top } else { 0 };
+                    a.node_level.iter_mut().for_each(|l| *l = level);
+                    a.shape = AdaptiveShape::of(&a.node_level, top);
+                }
+            }
+            // A pure walk gives way to the culled global walk only when that models cheaper
+            // (strictly: the simpler walk wins ties).
+            let chosen = match a.shape {
+                AdaptiveShape::OneNode => cost_global,
+                AdaptiveShape::AllLeaves => fine[0],
+                _ => f64::NEG_INFINITY,
+            };
+            if cost_culled < chosen {
+                a.node_level.iter_mut().for_each(|l| *l = top);
+                a.shape = AdaptiveShape::Culled;
             }
         }
         a.build_seconds = start.elapsed().as_secs_f64();
         a
+    }
+
+    /// The model's cost of the culled global walk over this pyramid ([`CostModel::culled_cost`]),
+    /// infinite where [`LeafCulling::new`] finds culling unsound for these bounds.
+    fn culled_cost(&self, scale: f32, index_per_t: f32, cost: CostModel) -> f64 {
+        if self.node_level.is_empty() {
+            return f64::INFINITY;
+        }
+        let top = self.node(self.levels.len() - 1, [0, 0, 0]);
+        if !LeafCulling::is_sound(top) {
+            return f64::INFINITY;
+        }
+        let level_dims: Vec<[u32; 3]> = self.levels.iter().map(|l| l.dims).collect();
+        cost.culled_cost(
+            self.dims,
+            &level_dims,
+            &self.nodes[..self.node_level.len()],
+            top,
+            scale,
+            index_per_t,
+        )
     }
 
     /// Every leaf cell at level 0: the per-leaf DDA's segments (for tests and `--majorant
@@ -322,8 +304,9 @@ impl AdaptiveMajorants {
     }
 
     /// Structure statistics and the model's expected cost of a random ray through the top
-    /// node for per-leaf bounds, one global bound and this hierarchy (the recursion the build
-    /// minimises, so `cost_adaptive <= min(cost_leaf, cost_global)`).
+    /// node for per-leaf bounds, one global bound, the culled global walk and this hierarchy
+    /// (what the build minimises, so `cost_adaptive <= min(cost_leaf, cost_global,
+    /// cost_culled)` unless the margin rule gave up a mixed hierarchy).
     pub fn stats(&self, scale: f32, index_per_t: f32, cost: CostModel) -> AdaptiveStats {
         let nl = self.levels.len();
         let mut cells_per_level = vec![0u64; nl];
@@ -365,12 +348,19 @@ impl AdaptiveMajorants {
             adaptive = a;
         }
         let top = self.node(nl - 1, [0, 0, 0]);
+        let cost_culled = self.culled_cost(scale, index_per_t, cost);
         AdaptiveStats {
             nodes_per_level,
             cells_per_level,
             cost_leaf: fine[0],
             cost_global: leaf_cost(nl - 1, [0, 0, 0], top),
-            cost_adaptive: adaptive[0],
+            cost_culled,
+            // The culled walk is one node: the recursion would price it as the global bound.
+            cost_adaptive: if self.shape == AdaptiveShape::Culled {
+                cost_culled
+            } else {
+                adaptive[0]
+            },
             memory_bytes: self.memory_bytes(),
             build_seconds: self.build_seconds,
         }
@@ -419,70 +409,6 @@ impl AdaptiveMajorants {
         }
         Ok(())
     }
-}
-
-/// Coordinates of flat index `i` (x fastest) in a grid of `dims`.
-fn coords(i: usize, dims: [u32; 3]) -> [usize; 3] {
-    let [nx, ny, _] = dims.map(|d| d as usize);
-    [i % nx, i / nx % ny, i / (nx * ny)]
-}
-
-/// Number of entries of a grid of `dims`.
-fn cell_count(dims: [u32; 3]) -> usize {
-    dims.iter().map(|&d| d as usize).product()
-}
-
-/// Mean chord length `4 V / S` (index units) of a box of `cells` leaf cells per axis.
-fn mean_chord(cells: [u32; 3]) -> f64 {
-    let [x, y, z] = cells.map(|c| c as f64 * CELL_WIDTH as f64);
-    4.0 * x * y * z / surface([x, y, z])
-}
-
-fn surface([x, y, z]: [f64; 3]) -> f64 {
-    2.0 * (x * y + y * z + z * x)
-}
-
-/// Leaf cells per axis that node `n` of level `l` covers inside a grid of `dims` cells.
-fn node_cells(dims: [u32; 3], l: usize, n: [usize; 3]) -> [u32; 3] {
-    [0, 1, 2].map(|a| {
-        let first = (n[a] << l) as u32;
-        (((n[a] + 1) << l) as u32)
-            .min(dims[a])
-            .saturating_sub(first)
-    })
-}
-
-/// Probability that a random line meeting node `n` of level `l` (as clipped to the grid)
-/// also meets its child `c` (of level `l - 1`): the ratio of their surfaces.
-fn child_weight(dims: [u32; 3], l: usize, n: [usize; 3], c: [usize; 3]) -> f64 {
-    let s = |cells: [u32; 3]| surface(cells.map(|c| c as f64));
-    s(node_cells(dims, l - 1, c)) / s(node_cells(dims, l, n))
-}
-
-/// Flat indices (within the level below) of the up to 8 children of node `n`.
-fn children(below: [u32; 3], n: [usize; 3]) -> impl Iterator<Item = usize> {
-    children_at(below, n).map(|(i, _)| i)
-}
-
-/// The up to 8 children of node `n`: flat index within the level below and coordinates.
-fn children_at(below: [u32; 3], n: [usize; 3]) -> impl Iterator<Item = (usize, [usize; 3])> {
-    let [bx, by, bz] = below.map(|d| d as usize);
-    (0..8).filter_map(move |k| {
-        let c = [
-            2 * n[0] + (k & 1),
-            2 * n[1] + (k >> 1 & 1),
-            2 * n[2] + (k >> 2),
-        ];
-        (c[0] < bx && c[1] < by && c[2] < bz).then(|| (c[0] + bx * (c[1] + by * c[2]), c))
-    })
-}
-
-/// The model's cost of walking the children of node `n` of level `l` instead of one segment
-/// over it: each child's cost weighted by the chance a line through `n` meets it.
-fn split_cost(dims: [u32; 3], below: [u32; 3], l: usize, n: [usize; 3], cost: &[f64]) -> f64 {
-    children_at(below, n)
-        .map(|(i, c)| child_weight(dims, l, n, c) * cost[i])
-        .sum()
 }
 
 /// Lazily yields the segments of a ray (in index space) through an [`AdaptiveMajorants`]:
@@ -676,6 +602,7 @@ impl AdaptiveMajorants {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::cost::{child_weight, node_cells};
     use crate::volume::SparseGrid;
 
     /// A 40^3-voxel grid: an empty half, a uniform block (tiles) and a noisy block.
@@ -806,5 +733,64 @@ mod tests {
             let w = (if (i / 4) % 2 == 0 { b.min } else { b.max }) as u32;
             assert_eq!((w >> (4 * (i % 4))) & 15, l as u32, "cell {i}");
         }
+    }
+
+    /// 16^3 leaf cells, empty but for one dense cell: `min` everywhere is `floor`.
+    fn speck(floor: f32) -> LeafBounds {
+        let n = 16u32;
+        let mut cells = vec![CellBounds::point(floor); (n * n * n) as usize];
+        cells[7 + 16 * (7 + 16 * 7)] = CellBounds {
+            min: floor,
+            max: 1.0,
+        };
+        let global = cells
+            .iter()
+            .copied()
+            .fold(CellBounds::EMPTY, CellBounds::union);
+        LeafBounds {
+            cells,
+            dims: [n; 3],
+            cell_origin: [0; 3],
+            global,
+        }
+    }
+
+    #[test]
+    fn a_speck_in_empty_space_takes_the_culled_global_walk() {
+        // Few global collisions, fewer kept ones, and 16 cells a ray for per-leaf bounds: the
+        // culled walk models cheapest, and the build takes it, walked as one node.
+        let leaf = speck(0.0);
+        let a = AdaptiveMajorants::build(&leaf, 0.005, 1.0, CostModel::DEFAULT);
+        a.validate(&leaf).unwrap();
+        let s = a.stats(0.005, 1.0, CostModel::DEFAULT);
+        assert_eq!(a.shape, AdaptiveShape::Culled, "{s:?}");
+        assert!(a
+            .node_level
+            .iter()
+            .all(|&l| l as usize == a.levels.len() - 1));
+        assert!(s.cost_culled < s.cost_leaf.min(s.cost_global), "{s:?}");
+        assert_eq!(s.cost_adaptive, s.cost_culled);
+        // Without a cost for it (the uniform models) it is never taken.
+        let u = AdaptiveMajorants::build(&leaf, 0.05, 1.0, CostModel::uniform(0.5));
+        assert_ne!(u.shape, AdaptiveShape::Culled);
+        assert!(u
+            .stats(0.05, 1.0, CostModel::uniform(0.5))
+            .cost_culled
+            .is_infinite());
+    }
+
+    #[test]
+    fn no_culled_walk_where_the_global_minimum_is_not_zero() {
+        // The same speck in a faint fog: the segment's control (its minorant) would not
+        // vanish, so culling is unsound and the build never prices or takes it.
+        let leaf = speck(0.01);
+        let a = AdaptiveMajorants::build(&leaf, 0.05, 1.0, CostModel::DEFAULT);
+        assert_ne!(a.shape, AdaptiveShape::Culled);
+        assert!(a
+            .stats(0.05, 1.0, CostModel::DEFAULT)
+            .cost_culled
+            .is_infinite());
+        assert!(crate::volume::LeafCulling::new(&leaf).is_none());
+        assert!(crate::volume::LeafCulling::new(&speck(0.0)).is_some());
     }
 }

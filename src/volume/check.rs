@@ -7,8 +7,10 @@
 //! Both are seeded and deterministic.
 use brume_ffi::FloatGridData;
 
-use super::adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, CostModel};
+use super::adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape};
 use super::bounds::LeafBounds;
+use super::cost::CostModel;
+use super::cull::LeafCulling;
 use super::dda::DdaMajorantIterator;
 use super::grid::SparseGrid;
 use super::reference::VdbReference;
@@ -184,6 +186,9 @@ pub struct RayCheckStats {
     pub sum_value_over_majorant: f64,
     /// Segments of the merged adaptive structures (all three, summed).
     pub adaptive_segments: u64,
+    /// Points of the global segment checked against the per-leaf bound that culls there
+    /// (`volume::cull`; none where culling is not sound for the grid).
+    pub culled_samples: u64,
 }
 
 impl RayCheckStats {
@@ -381,6 +386,52 @@ fn check_one_ray(
     Ok(())
 }
 
+/// The culled global walk's bound at the ends of `[t_min, t_max]` and at random parameters in
+/// it: the per-leaf bound of the point's cell must bound the trilinear and nearest values
+/// there (the point exactly as the renderer computes it) and lie within the global bound.
+#[allow(clippy::too_many_arguments)]
+fn check_culling(
+    grid: &SparseGrid,
+    cull: &LeafCulling,
+    global_max: f32,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    rng: &mut SplitMix64,
+    stats: &mut RayCheckStats,
+) -> Result<(), String> {
+    let mut ts = vec![t_min, t_max];
+    if t_min.is_finite() && t_max.is_finite() {
+        for _ in 0..SAMPLES_PER_RAY {
+            let t = (t_min as f64 + rng.uniform() * (t_max as f64 - t_min as f64)) as f32;
+            ts.push(t.clamp(t_min, t_max));
+        }
+    }
+    for t in ts.into_iter().filter(|t| t.is_finite()) {
+        let p = ray.at(t);
+        let bound = cull.bound_at(p);
+        let ratio = cull.ratio(p);
+        if !(bound <= global_max && (0.0..=1.0).contains(&ratio)) {
+            return Err(format!(
+                "cell bound {bound} (ratio {ratio}) at t = {t} above the global {global_max}"
+            ));
+        }
+        let pd = p.as_dvec3();
+        for (what, v) in [
+            ("trilinear", grid.sample_trilinear(pd)),
+            ("nearest", grid.sample_nearest(pd)),
+        ] {
+            if !(v <= bound) {
+                return Err(format!(
+                    "{what} value {v} at t = {t} (index point {p:?}) above the cell bound {bound}"
+                ));
+            }
+        }
+        stats.culled_samples += 1;
+    }
+    Ok(())
+}
+
 /// Shoots `n_rays` seeded random rays (in index space) at `grid` and checks, for each, that the
 /// DDA over `bounds` tiles the ray's overlap with the cell box exactly (first `t_min` is the
 /// entry, each `t_max` equals the next `t_min` bit for bit, the last `t_max` is the exit, no
@@ -411,6 +462,7 @@ pub fn check_ray_bounds(
     for m in &merged {
         m.validate(bounds)?;
     }
+    let culling = LeafCulling::new(bounds);
     let mut adaptive = Vec::new();
     for n in 0..n_rays {
         let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
@@ -441,9 +493,10 @@ pub fn check_ray_bounds(
             let mut sub = RayCheckStats::default();
             check_one_ray(grid, &adaptive, expected, &ray, &mut rng, &mut sub)
                 .map_err(|e| context(format!("adaptive: {e}")))?;
-            // The renderer walks a one-node hierarchy as the global bound
-            // (`VdbMedium::walk_mode`): the two must agree bit for bit.
-            if m.shape == AdaptiveShape::OneNode && adaptive != global {
+            // The renderer walks a one-node hierarchy (and the culled one) as the global
+            // bound (`VdbMedium::walk_mode`): the two must agree bit for bit.
+            let one_node = matches!(m.shape, AdaptiveShape::OneNode | AdaptiveShape::Culled);
+            if one_node && adaptive != global {
                 return Err(context(format!(
                     "the one-node adaptive walk gave {adaptive:?}, the global walk {global:?}"
                 )));
@@ -463,6 +516,21 @@ pub fn check_ray_bounds(
             return Err(context(format!(
                 "global variant gave {global:?}, expected {want:?}"
             )));
+        }
+        if let (Some(cull), Some(&(a, b))) =
+            (culling, want.first().map(|s| (s.t_min, s.t_max)).as_ref())
+        {
+            check_culling(
+                grid,
+                &cull,
+                bounds.global.max,
+                &ray,
+                a,
+                b,
+                &mut rng,
+                &mut stats,
+            )
+            .map_err(|e| context(format!("culling: {e}")))?;
         }
     }
     Ok(stats)

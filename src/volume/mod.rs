@@ -7,6 +7,8 @@ pub mod adaptive;
 pub mod bounds;
 pub mod check;
 pub mod convert;
+pub mod cost;
+pub mod cull;
 pub mod dda;
 pub mod error;
 pub mod grid;
@@ -16,11 +18,11 @@ pub mod reference;
 pub mod segment;
 pub mod tracking;
 
-pub use adaptive::{
-    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, AdaptiveStats, CostModel,
-};
+pub use adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, AdaptiveStats};
 pub use bounds::{BoundsStats, CellBounds, LeafBounds};
 pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};
+pub use cost::CostModel;
+pub use cull::LeafCulling;
 pub use dda::DdaMajorantIterator;
 pub use error::VolumeError;
 pub use grid::{GridStats, SparseGrid, CONSTANT_BIT, DEFAULT_MAX_CELLS};

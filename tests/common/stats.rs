@@ -97,6 +97,27 @@ impl Scene {
         (-(self.tau)(self.t_max as f64)).exp()
     }
 
+    /// The culled global walk over the scene: ONE segment from the first segment's start to
+    /// the last one's end with the largest majorant and minorant 0, and the ratio at `t` of
+    /// the hand-built segment's majorant there (0 in a gap) to that global majorant, which
+    /// the culling of `tracking::sample_free_flight` thins the global walk's collisions by.
+    pub fn culled(&self) -> (MajorantSegment, impl Fn(f32) -> f32 + '_) {
+        let global = self.segments.iter().fold(0.0f32, |m, s| m.max(s.sigma_maj));
+        let seg = MajorantSegment {
+            t_min: self.segments[0].t_min,
+            t_max: self.segments[self.segments.len() - 1].t_max,
+            sigma_maj: global,
+            sigma_min: 0.0,
+        };
+        let ratio = move |t: f32| {
+            self.segments
+                .iter()
+                .find(|s| s.t_min <= t && t < s.t_max)
+                .map_or(0.0, |s| s.sigma_maj / global)
+        };
+        (seg, ratio)
+    }
+
     /// The scene as a `Medium` with the given control policy (albedo `ALBEDO` everywhere, so
     /// the control's split is known without a lookup).
     pub fn medium(&self, control: ControlExtinction) -> FnMedium<impl Fn(f32) -> Coeffs> {

@@ -166,6 +166,7 @@ pub fn shared_constants() -> String {
         ("MAJORANT_PER_CELL", GpuMajorantMode::PerCell as u32),
         ("MAJORANT_GLOBAL", GpuMajorantMode::Global as u32),
         ("MAJORANT_ADAPTIVE", GpuMajorantMode::Adaptive as u32),
+        ("MAJORANT_CULLED", GpuMajorantMode::Culled as u32),
         ("CONTROL_NONE", GpuControlMode::None as u32),
         ("CONTROL_CONSTANT", GpuControlMode::Constant as u32),
         (

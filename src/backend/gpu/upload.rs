@@ -103,6 +103,7 @@ pub(super) fn medium_record(
             majorant_mode: match m.walk_mode(cfg.majorant) {
                 MajorantMode::Leaf => GpuMajorantMode::PerCell,
                 MajorantMode::Global => GpuMajorantMode::Global,
+                MajorantMode::Culled => GpuMajorantMode::Culled,
                 MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
             } as u32,
             control_mode: control_mode as u32,

@@ -62,6 +62,7 @@ where
         segments,
         t_max,
         |seg| seg.sigma_maj,
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {
@@ -135,6 +136,7 @@ where
         &mut walk,
         t_max,
         residual_majorant,
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {

@@ -43,6 +43,7 @@ where
         segments,
         t_max,
         scaled_majorant(1.0),
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {
@@ -91,6 +92,7 @@ where
         segments,
         t_max,
         scaled_majorant(1.0),
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {

@@ -125,6 +125,14 @@ pub trait Medium {
     /// Default: nothing, which compiles to no code for media without emission.
     #[inline]
     fn on_collision(&self, _t: f32, _sigma_maj: f32, _w: f32) {}
+
+    /// The culling of the walk in progress (see [`sample_free_flight`]): the ratio in `[0, 1]`
+    /// of a finer bound at `t` to the majorant of `seg`, the segment the tentative collision
+    /// was sampled on. Default: 1, no culling (no uniform is drawn).
+    #[inline]
+    fn cull_ratio(&self, _t: f32, _seg: &MajorantSegment) -> f32 {
+        1.0
+    }
 }
 
 /// An RGB medium along one ray (spectral tracking).
@@ -135,6 +143,12 @@ pub trait MediumRgb {
     /// As [`Medium::on_collision`], with the RGB weight.
     #[inline]
     fn on_collision(&self, _t: f32, _sigma_maj: f32, _w: Vec3) {}
+
+    /// As [`Medium::cull_ratio`].
+    #[inline]
+    fn cull_ratio(&self, _t: f32, _seg: &MajorantSegment) -> f32 {
+        1.0
+    }
 }
 
 /// Where the control extinction `sigma_c` of (residual) decomposition tracking comes from.
@@ -382,14 +396,30 @@ pub fn sample_exponential(u: f32, sigma: f32) -> f32 {
 /// invalid majorants (negative, NaN, infinite) are skipped and counted. `t_max` and segment
 /// ends may be `f32::INFINITY`.
 ///
+/// Culling (thinning, Lewis & Shedler 1979, "Simulation of nonhomogeneous Poisson processes
+/// by thinning"): `cull(t, seg)` gives `r = sigma_fine(t) / sigma_maj` in `[0, 1]`, where
+/// `sigma_fine` is a finer bound at the collision's point (the per-leaf cell's, under a
+/// segment over the whole grid). With `r < 1` one more uniform `u` decides:
+///
+/// ```text
+/// u >= r  -> culled: a null collision, no lookup, no callback
+/// u <  r  -> callback with sigma_maj' = r * sigma_maj
+/// ```
+///
+/// The kept collisions are a Poisson process of rate `sigma_fine(t)`, the one per-leaf
+/// bounds would sample, so every estimator sees exactly the collisions and probabilities of a
+/// walk over the finer bounds: the coarse walk's few segments, the fine bounds' few lookups.
+/// `r = 1` draws nothing, so a walk without culling keeps its random numbers.
+///
 /// Returns `T_maj`: the majorant transmittance from the last collision (or the start) to
 /// `t_max` if the walk escaped, 1 if the callback stopped it. With exponential steps the escape
 /// probability equals `T_maj`, so analog and weighted estimators never divide by it; it is
 /// returned for estimators that sample differently (as in pbrt).
-pub fn sample_free_flight<I, M, C>(
+pub fn sample_free_flight<I, M, K, C>(
     segments: I,
     t_max: f32,
     mut majorant: M,
+    cull: K,
     rng: &mut Rng,
     stats: &mut TrackingStats,
     mut callback: C,
@@ -397,6 +427,7 @@ pub fn sample_free_flight<I, M, C>(
 where
     I: IntoIterator<Item = MajorantSegment>,
     M: FnMut(&MajorantSegment) -> f32,
+    K: Fn(f32, &MajorantSegment) -> f32,
     C: FnMut(&mut Rng, &mut TrackingStats, &Collision) -> bool,
 {
     // Optical depth left before the next tentative collision (negative: none drawn yet), and
@@ -451,7 +482,22 @@ where
                 stats.collision_cap_hits += 1;
                 return 0.0;
             }
-            if !callback(rng, stats, &Collision { t, sigma_maj, seg }) {
+            let r = cull(t, &seg);
+            let mut sigma_kept = sigma_maj;
+            if r < 1.0 {
+                // `!(u < r)`: a NaN ratio culls too (no lookup against an unknown bound).
+                if !(rng.uniform_f32() < r) {
+                    stats.null_collisions += 1;
+                    continue;
+                }
+                sigma_kept = r * sigma_maj;
+            }
+            let c = Collision {
+                t,
+                sigma_maj: sigma_kept,
+                seg,
+            };
+            if !callback(rng, stats, &c) {
                 return 1.0;
             }
         }

@@ -41,6 +41,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {

@@ -39,14 +39,22 @@ where
     let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
     let mut tr = 1.0f32;
     let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
-    sample_free_flight(&mut walk, t_max, majorant, rng, stats, |rng, stats, c| {
-        let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
-        stats.null_collisions += 1;
-        tr *= 1.0 - sigma_r / c.sigma_maj;
-        stats.note_weight(tr);
-        tr = roulette(tr, ROULETTE_THRESHOLD, rng, stats);
-        tr != 0.0
-    });
+    sample_free_flight(
+        &mut walk,
+        t_max,
+        majorant,
+        |t, seg| medium.cull_ratio(t, seg),
+        rng,
+        stats,
+        |rng, stats, c| {
+            let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
+            stats.null_collisions += 1;
+            tr *= 1.0 - sigma_r / c.sigma_maj;
+            stats.note_weight(tr);
+            tr = roulette(tr, ROULETTE_THRESHOLD, rng, stats);
+            tr != 0.0
+        },
+    );
     let t_control = walk.control_transmittance();
     if t_control == 0.0 {
         return 0.0;

@@ -49,39 +49,54 @@ where
         let sigma_c = medium.control(seg).sigma_t();
         sigma_c + residual_majorant(b, seg, sigma_c)
     };
-    sample_free_flight(segments, t_max, majorant, rng, stats, |rng, stats, c| {
-        medium.on_collision(c.t, c.sigma_maj, w);
-        let ctl = medium.control(&c.seg);
-        let sigma_c = ctl.sigma_t();
-        let x = rng.uniform_f32() * c.sigma_maj;
-        if x < sigma_c {
-            stats.control_collisions += 1;
-            event = Some(if x < ctl.sigma_a {
-                Event::Absorb { t: c.t, weight: w }
+    sample_free_flight(
+        segments,
+        t_max,
+        majorant,
+        |t, seg| medium.cull_ratio(t, seg),
+        rng,
+        stats,
+        |rng, stats, c| {
+            medium.on_collision(c.t, c.sigma_maj, w);
+            let ctl = medium.control(&c.seg);
+            let sigma_c = ctl.sigma_t();
+            let x = rng.uniform_f32() * c.sigma_maj;
+            if x < sigma_c {
+                stats.control_collisions += 1;
+                event = Some(if x < ctl.sigma_a {
+                    Event::Absorb { t: c.t, weight: w }
+                } else {
+                    Event::Scatter { t: c.t, weight: w }
+                });
+                return false;
+            }
+            // The residual majorant the collision was sampled with: without a control it is the
+            // collision's majorant itself, which culling may have thinned below the segment's
+            // (`sample_free_flight`); `0 + r` is `r`, so unculled walks keep their bits.
+            let r_bar = if sigma_c == 0.0 {
+                c.sigma_maj
             } else {
-                Event::Scatter { t: c.t, weight: w }
-            });
-            return false;
-        }
-        let r_bar = residual_majorant(b, &c.seg, sigma_c);
-        if !(r_bar > 0.0) {
-            // Only reachable through rounding of `x` at the top of the control interval.
-            return true;
-        }
-        let u = ((x - sigma_c) / r_bar).clamp(0.0, ONE_MINUS_EPSILON);
-        let k = lookup(medium, c.t, stats);
-        let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
-        let r_n = r_bar - r_a - r_s;
-        let p = [r_a.abs(), r_s.abs(), r_n.abs()];
-        let total = p[0] + p[1] + p[2];
-        let Some(choice) = sample_discrete(&p, u) else {
-            return true;
-        };
-        let sigma_x = [r_a, r_s, r_n][choice.index];
-        w *= (total / r_bar).copysign(sigma_x);
-        stats.note_weight(w);
-        record_choice(choice.index, c.t, w, stats, &mut event)
-    });
+                residual_majorant(b, &c.seg, sigma_c)
+            };
+            if !(r_bar > 0.0) {
+                // Only reachable through rounding of `x` at the top of the control interval.
+                return true;
+            }
+            let u = ((x - sigma_c) / r_bar).clamp(0.0, ONE_MINUS_EPSILON);
+            let k = lookup(medium, c.t, stats);
+            let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
+            let r_n = r_bar - r_a - r_s;
+            let p = [r_a.abs(), r_s.abs(), r_n.abs()];
+            let total = p[0] + p[1] + p[2];
+            let Some(choice) = sample_discrete(&p, u) else {
+                return true;
+            };
+            let sigma_x = [r_a, r_s, r_n][choice.index];
+            w *= (total / r_bar).copysign(sigma_x);
+            stats.note_weight(w);
+            record_choice(choice.index, c.t, w, stats, &mut event)
+        },
+    );
     event.unwrap_or(Event::Escape { weight: w })
 }
 
@@ -102,21 +117,29 @@ where
     let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
     let mut w = 1.0f32;
     let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
-    sample_free_flight(&mut walk, t_max, majorant, rng, stats, |rng, stats, c| {
-        let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
-        let r_n = c.sigma_maj - sigma_r;
-        let total = sigma_r.abs() + r_n.abs();
-        if rng.uniform_f32() * total < sigma_r.abs() {
-            stats.real_collisions += 1;
-            w = 0.0;
-            false
-        } else {
-            stats.null_collisions += 1;
-            w *= (total / c.sigma_maj).copysign(r_n);
-            stats.note_weight(w);
-            true
-        }
-    });
+    sample_free_flight(
+        &mut walk,
+        t_max,
+        majorant,
+        |t, seg| medium.cull_ratio(t, seg),
+        rng,
+        stats,
+        |rng, stats, c| {
+            let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
+            let r_n = c.sigma_maj - sigma_r;
+            let total = sigma_r.abs() + r_n.abs();
+            if rng.uniform_f32() * total < sigma_r.abs() {
+                stats.real_collisions += 1;
+                w = 0.0;
+                false
+            } else {
+                stats.null_collisions += 1;
+                w *= (total / c.sigma_maj).copysign(r_n);
+                stats.note_weight(w);
+                true
+            }
+        },
+    );
     let t_control = walk.control_transmittance();
     if t_control == 0.0 {
         // As in residual ratio tracking: a zero closed-form factor makes the estimate 0, and

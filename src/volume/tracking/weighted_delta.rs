@@ -46,6 +46,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {
@@ -86,6 +87,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
+        |t, seg| medium.cull_ratio(t, seg),
         rng,
         stats,
         |rng, stats, c| {

@@ -1,0 +1,88 @@
+//! Culling of a coarse walk's tentative collisions by the per-leaf bounds: what lets
+//! `--majorant culled` (and an adaptive hierarchy built as
+//! [`AdaptiveShape::Culled`](super::AdaptiveShape)) walk the grid as ONE segment with the
+//! global bound and still look up the density only about as often as per-leaf bounds do.
+//!
+//! The free-flight loop (`tracking::sample_free_flight`) samples tentative collisions at the
+//! global rate `G` and keeps each one with probability `r = max(cell at p) / G`, where `cell
+//! at p` is the leaf cell containing the collision's index-space point `p`
+//! ([`LeafCulling::ratio`]). The kept collisions form a Poisson process of rate `max(cell at
+//! p)`, the rate per-leaf bounds would sample; a culled one is a null collision decided
+//! without a lookup. The cell is found from the very point the lookup would read (not from a
+//! walk), so the bound holds there by construction: [`LeafBounds`] bound every reconstructed
+//! value within a voxel of the cell, and a point rounded a hair outside the cell box is
+//! clamped into its nearest cell.
+//!
+//! Sound only where the estimators' majorant is the bound itself, scaled: the segment's
+//! control (its minorant, under local modes) must be 0, so a residual majorant
+//! `b max(bound - c, c - min)` is `b bound` over the segment and over the cell alike.
+//! [`LeafCulling::new`] therefore requires the global minimum to be exactly 0 (every cell's
+//! minimum then lies in `[0, max]`).
+use super::bounds::{CellBounds, LeafBounds};
+use crate::math::Vec3;
+
+/// Edge of one bounds cell in index units.
+const CELL_WIDTH: f32 = 8.0;
+
+/// The per-leaf bounds of one grid, as the culling of a walk over its global bound reads them.
+#[derive(Clone, Copy, Debug)]
+pub struct LeafCulling<'a> {
+    bounds: &'a LeafBounds,
+    /// Index-space minimum corner of the cell box.
+    lo: [f32; 3],
+    /// The global bound the walk samples with (unscaled): `bounds.global.max`.
+    global_max: f32,
+}
+
+impl<'a> LeafCulling<'a> {
+    /// The culling of `bounds`' global walk, or `None` where it would not be sound or could
+    /// not help: a global minimum other than 0 (the segment's control would not vanish), a
+    /// global maximum that is not positive, or no cells.
+    pub fn new(bounds: &'a LeafBounds) -> Option<Self> {
+        let g = bounds.global;
+        if bounds.cells.is_empty() || !Self::is_sound(g) {
+            return None;
+        }
+        Some(LeafCulling {
+            bounds,
+            lo: bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH),
+            global_max: g.max,
+        })
+    }
+
+    /// Whether culling a walk over the global bounds `g` is sound and can cull: `g.min` is
+    /// exactly 0 and `g.max` positive and finite.
+    pub fn is_sound(g: CellBounds) -> bool {
+        g.min == 0.0 && g.max > 0.0 && g.max.is_finite()
+    }
+
+    /// `max(cell containing p) / global max`, in `[0, 1]`, for index-space point `p`: 1
+    /// exactly where the cell holds the global maximum (no uniform is then drawn).
+    #[inline(always)]
+    pub fn ratio(&self, p: Vec3) -> f32 {
+        let m = self.bound_at(p);
+        if m >= self.global_max {
+            1.0
+        } else {
+            m / self.global_max
+        }
+    }
+
+    /// The per-leaf bound (unscaled maximum) of the cell containing index-space point `p`,
+    /// clamped into the cell box.
+    #[inline(always)]
+    pub fn bound_at(&self, p: Vec3) -> f32 {
+        let dims = self.bounds.dims;
+        let mut index = 0usize;
+        let mut stride = 1usize;
+        for a in 0..3 {
+            // The saturating cast truncates, which equals `floor` wherever the clamp keeps
+            // the value (negatives clamp to 0), and maps NaN to 0: as `dda::enter_box`.
+            let c =
+                (((p[a] - self.lo[a]) * (1.0 / CELL_WIDTH)) as i32).clamp(0, dims[a] as i32 - 1);
+            index += c as usize * stride;
+            stride *= dims[a] as usize;
+        }
+        self.bounds.cells[index].max
+    }
+}
