@@ -69,7 +69,9 @@ impl MajorantMode {
     }
 
     /// Whether the bounds come from local (per-leaf or merged) cells, whose minorants are true
-    /// minorants (the control of analog decomposition tracking).
+    /// minorants (the control of analog decomposition tracking). The culled global walk counts
+    /// as local: its control is the global segment's minorant, 0 wherever it culls
+    /// (`volume::cull`), so every estimator's majorant is the bound it thins.
     pub fn is_local(self) -> bool {
         self != MajorantMode::Global
     }
