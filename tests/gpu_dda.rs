@@ -169,7 +169,11 @@ fn wgsl_dda_segments_equal_cpu() {
                 100.0 * exact as f64 / total.max(1) as f64
             );
             assert_eq!(count_bad, 0, "{name}: segment counts differ");
-            assert!(max_ulps <= 1, "{name}: segments differ by {max_ulps} ulp");
+            // Vulkan lets a device divide to 2.5 ulps (`1 / d`, then one rounded multiply per
+            // crossing): 3 ulps at most. Devices that divide with IEEE rounding give the CPU's
+            // bits (llvmpipe: 100 %); an NVIDIA H100 gave 81 % bit-exact, 2 ulps at most
+            // (session 12).
+            assert!(max_ulps <= 3, "{name}: segments differ by {max_ulps} ulp");
         }
     }
 }

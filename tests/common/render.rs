@@ -90,6 +90,10 @@ pub fn compare(a: (&[f64], &[f64]), b: (&[f64], &[f64]), alpha: f64) -> Agreemen
     for i in 0..n {
         let d = a.0[i] - b.0[i];
         let v = a.1[i] + b.1[i];
+        // As `brume compare`: the standard error gets a floor of a few f32 ulps of the value,
+        // which two devices' rounding of a deterministic value can put between them.
+        let floor = brume::study::compare::ROUNDING_ULPS * f32::EPSILON as f64 * b.0[i].abs();
+        let v = v + floor * floor;
         let z = if v > 0.0 {
             d.abs() / v.sqrt()
         } else if d.abs() < 1e-6 {
