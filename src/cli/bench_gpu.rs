@@ -40,6 +40,19 @@ pub fn run(scene: &Path, width: u32, height: u32, spp: u32) -> Result<()> {
             for (s, ns) in Stage::ALL.iter().zip(t.stage_totals()) {
                 println!("gpu:   {:<15} {:>9.1} ms", s.name(), ns as f64 * 1e-6);
             }
+            // Where the rest goes: the iteration loop (kernels plus a host round trip per
+            // iteration), the samples' readback and their merge into the film.
+            let sum = |f: fn(&brume::backend::gpu::render::BatchTimings) -> u64| {
+                t.batches.iter().map(f).sum::<u64>() as f64 * 1e-6
+            };
+            println!(
+                "gpu: host: {} batches, {} iterations; iteration loop {:.1} ms, sample readback {:.1} ms, merge {:.1} ms",
+                t.batches.len(),
+                t.batches.iter().map(|b| b.iterations as u64).sum::<u64>(),
+                sum(|b| b.loop_ns),
+                sum(|b| b.readback_ns),
+                sum(|b| b.merge_ns)
+            );
         }
     }
     let out = cpu::render(&rs, &settings, &stop, &|_, _, _| {});

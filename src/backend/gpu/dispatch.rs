@@ -21,11 +21,14 @@ pub(super) struct Wavefront<'a> {
     pub(super) period_ns: f64,
 }
 
+/// The counters after the batch, its iterations, the stages' times, its samples, and the host
+/// wall time of the iteration loop and of the samples' readback (ns).
 pub(super) type BatchResult = (
     GpuWavefrontCounters,
     u32,
     [u64; Stage::COUNT],
     Vec<[f32; 4]>,
+    (u64, u64),
 );
 
 impl Wavefront<'_> {
@@ -57,6 +60,7 @@ impl Wavefront<'_> {
         );
         let mut stage_ns = [0u64; Stage::COUNT];
         let mut iteration = 0u32;
+        let loop_start = Instant::now();
         loop {
             if stop.load(Ordering::Relaxed) {
                 return Ok(None);
@@ -86,9 +90,18 @@ impl Wavefront<'_> {
                 )));
             }
         }
+        let loop_ns = loop_start.elapsed().as_nanos() as u64;
+        let readback_start = Instant::now();
         let mut samples: Vec<[f32; 4]> = ctx.read_buffer(&self.bufs.samples);
         samples.truncate(params.total_samples as usize);
-        Ok(Some((counters, iteration, stage_ns, samples)))
+        let readback_ns = readback_start.elapsed().as_nanos() as u64;
+        Ok(Some((
+            counters,
+            iteration,
+            stage_ns,
+            samples,
+            (loop_ns, readback_ns),
+        )))
     }
 
     /// One compute pass: `kernel` over `workgroups` (direct) or the indirect arguments of

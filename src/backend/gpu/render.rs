@@ -84,6 +84,12 @@ pub struct BatchTimings {
     pub iterations: u32,
     /// Nanoseconds per stage, in [`Stage::ALL`] order (0 for stages not dispatched).
     pub stage_ns: [u64; Stage::COUNT],
+    /// Host wall time of the wavefront iterations (kernels and the host's round trip after
+    /// each iteration), of reading the batch's samples back, and of merging them into the
+    /// film (ns): where a render's time goes beyond its kernels.
+    pub loop_ns: u64,
+    pub readback_ns: u64,
+    pub merge_ns: u64,
 }
 
 /// Timings of a GPU render, per batch and stage.
@@ -257,7 +263,8 @@ pub fn render_with_timings(
             params.s0 = s0;
             params.spp_batch = n;
             params.total_samples = (y1 - y0) * w * n;
-            let Some((counters, iterations, stage_ns, samples)) = wave.run_batch(&params, stop)?
+            let Some((counters, iterations, stage_ns, samples, host_ns)) =
+                wave.run_batch(&params, stop)?
             else {
                 interrupted = true;
                 break 'passes;
@@ -272,16 +279,20 @@ pub fn render_with_timings(
             let mut r = batch_record(pass, &rect, &counters);
             r.samples = params.total_samples as u64;
             r.wall_ns = batch_start.elapsed().as_nanos() as u64;
-            pending.push((r, iterations, stage_ns, samples));
+            pending.push((r, iterations, stage_ns, samples, host_ns));
             y0 = y1;
         }
         // The pass is complete: merge it (an interrupted pass is dropped, as on the CPU).
-        for (r, iterations, stage_ns, samples) in pending {
+        for (r, iterations, stage_ns, samples, (loop_ns, readback_ns)) in pending {
+            let merge_start = Instant::now();
             merge_batch(&mut film, &mut lookups, w, &r, n, &samples);
             batches.push(BatchTimings {
                 record: records.len(),
                 iterations,
                 stage_ns,
+                loop_ns,
+                readback_ns,
+                merge_ns: merge_start.elapsed().as_nanos() as u64,
             });
             records.push(r);
         }
