@@ -460,7 +460,7 @@ fn infinite_segments_are_handled() {
         zero,
         f32::INFINITY,
         tr::scaled_majorant(1.0),
-        |_, _| 1.0,
+        |_| 1.0,
         &mut rng,
         &mut st,
         |_, _, _| true,
@@ -516,7 +516,7 @@ fn free_flight_returns_t_maj_since_last_collision() {
             segs,
             2.0,
             tr::scaled_majorant(1.0),
-            |_, _| 1.0,
+            |_| 1.0,
             &mut rng,
             &mut st,
             |_, _, c| {

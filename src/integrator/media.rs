@@ -416,11 +416,8 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
     }
 
     #[inline]
-    fn cull_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment) -> f32 {
-        match &self.culling {
-            Some(c) => c.ratio(self.ray_i.at(t)),
-            None => 1.0,
-        }
+    fn cull_ratio(&self, t: f32) -> f32 {
+        cull_ratio(self.culling.as_ref(), &self.ray_i, t)
     }
 
     #[inline]
@@ -433,6 +430,13 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
             }
         }
     }
+}
+
+/// `Medium::cull_ratio` of a view: the culling's ratio at the index-space point `ray_i(t)` (the
+/// point its lookup reads), 1 without culling.
+#[inline]
+fn cull_ratio(culling: Option<&LeafCulling>, ray_i: &Ray, t: f32) -> f32 {
+    culling.map_or(1.0, |c| c.ratio(ray_i.at(t)))
 }
 
 /// The RGB view of a VDB medium along one ray, for spectral tracking.
@@ -505,11 +509,8 @@ impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
     }
 
     #[inline]
-    fn cull_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment) -> f32 {
-        match &self.culling {
-            Some(c) => c.ratio(self.ray_i.at(t)),
-            None => 1.0,
-        }
+    fn cull_ratio(&self, t: f32) -> f32 {
+        cull_ratio(self.culling.as_ref(), &self.ray_i, t)
     }
 
     #[inline]

@@ -386,20 +386,20 @@ fn check_one_ray(
     Ok(())
 }
 
-/// The culled global walk's bound at the ends of `[t_min, t_max]` and at random parameters in
-/// it: the per-leaf bound of the point's cell must bound the trilinear and nearest values
-/// there (the point exactly as the renderer computes it) and lie within the global bound.
-#[allow(clippy::too_many_arguments)]
+/// The culled global walk's bound at the ends of the global segment `seg` and at random
+/// parameters in it: the per-leaf bound of the point's cell must bound the trilinear and
+/// nearest values there (the point exactly as the renderer computes it) and lie within the
+/// global bound.
 fn check_culling(
     grid: &SparseGrid,
     cull: &LeafCulling,
     global_max: f32,
     ray: &Ray,
-    t_min: f32,
-    t_max: f32,
+    seg: &MajorantSegment,
     rng: &mut SplitMix64,
     stats: &mut RayCheckStats,
 ) -> Result<(), String> {
+    let (t_min, t_max) = (seg.t_min, seg.t_max);
     let mut ts = vec![t_min, t_max];
     if t_min.is_finite() && t_max.is_finite() {
         for _ in 0..SAMPLES_PER_RAY {
@@ -517,16 +517,13 @@ pub fn check_ray_bounds(
                 "global variant gave {global:?}, expected {want:?}"
             )));
         }
-        if let (Some(cull), Some(&(a, b))) =
-            (culling, want.first().map(|s| (s.t_min, s.t_max)).as_ref())
-        {
+        if let (Some(cull), Some(seg)) = (&culling, want.first()) {
             check_culling(
                 grid,
-                &cull,
+                cull,
                 bounds.global.max,
                 &ray,
-                a,
-                b,
+                seg,
                 &mut rng,
                 &mut stats,
             )

@@ -18,7 +18,7 @@ impl<M: tr::Medium, F: Fn(f32) -> f32> tr::Medium for CulledBy<M, F> {
         self.inner.control(seg)
     }
 
-    fn cull_ratio(&self, t: f32, _seg: &MajorantSegment) -> f32 {
+    fn cull_ratio(&self, t: f32) -> f32 {
         (self.ratio)(t)
     }
 }
@@ -28,7 +28,7 @@ impl<M: tr::MediumRgb, F: Fn(f32) -> f32> tr::MediumRgb for CulledBy<M, F> {
         self.inner.coeffs(t)
     }
 
-    fn cull_ratio(&self, t: f32, _seg: &MajorantSegment) -> f32 {
+    fn cull_ratio(&self, t: f32) -> f32 {
         (self.ratio)(t)
     }
 }

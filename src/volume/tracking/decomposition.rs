@@ -62,7 +62,7 @@ where
         segments,
         t_max,
         |seg| seg.sigma_maj,
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {
@@ -136,7 +136,7 @@ where
         &mut walk,
         t_max,
         residual_majorant,
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {

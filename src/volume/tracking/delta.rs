@@ -43,7 +43,7 @@ where
         segments,
         t_max,
         scaled_majorant(1.0),
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {
@@ -92,7 +92,7 @@ where
         segments,
         t_max,
         scaled_majorant(1.0),
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {

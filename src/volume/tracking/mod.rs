@@ -127,10 +127,10 @@ pub trait Medium {
     fn on_collision(&self, _t: f32, _sigma_maj: f32, _w: f32) {}
 
     /// The culling of the walk in progress (see [`sample_free_flight`]): the ratio in `[0, 1]`
-    /// of a finer bound at `t` to the majorant of `seg`, the segment the tentative collision
-    /// was sampled on. Default: 1, no culling (no uniform is drawn).
+    /// of a finer bound at `t` to the bound of the segment the tentative collision was sampled
+    /// on. Default: 1, no culling (no uniform is drawn).
     #[inline]
-    fn cull_ratio(&self, _t: f32, _seg: &MajorantSegment) -> f32 {
+    fn cull_ratio(&self, _t: f32) -> f32 {
         1.0
     }
 }
@@ -146,7 +146,7 @@ pub trait MediumRgb {
 
     /// As [`Medium::cull_ratio`].
     #[inline]
-    fn cull_ratio(&self, _t: f32, _seg: &MajorantSegment) -> f32 {
+    fn cull_ratio(&self, _t: f32) -> f32 {
         1.0
     }
 }
@@ -397,7 +397,7 @@ pub fn sample_exponential(u: f32, sigma: f32) -> f32 {
 /// ends may be `f32::INFINITY`.
 ///
 /// Culling (thinning, Lewis & Shedler 1979, "Simulation of nonhomogeneous Poisson processes
-/// by thinning"): `cull(t, seg)` gives `r = sigma_fine(t) / sigma_maj` in `[0, 1]`, where
+/// by thinning"): `cull(t)` gives `r = sigma_fine(t) / sigma_maj` in `[0, 1]`, where
 /// `sigma_fine` is a finer bound at the collision's point (the per-leaf cell's, under a
 /// segment over the whole grid). With `r < 1` one more uniform `u` decides:
 ///
@@ -427,7 +427,7 @@ pub fn sample_free_flight<I, M, K, C>(
 where
     I: IntoIterator<Item = MajorantSegment>,
     M: FnMut(&MajorantSegment) -> f32,
-    K: Fn(f32, &MajorantSegment) -> f32,
+    K: Fn(f32) -> f32,
     C: FnMut(&mut Rng, &mut TrackingStats, &Collision) -> bool,
 {
     // Optical depth left before the next tentative collision (negative: none drawn yet), and
@@ -482,7 +482,7 @@ where
                 stats.collision_cap_hits += 1;
                 return 0.0;
             }
-            let r = cull(t, &seg);
+            let r = cull(t);
             let mut sigma_kept = sigma_maj;
             if r < 1.0 {
                 // `!(u < r)`: a NaN ratio culls too (no lookup against an unknown bound).

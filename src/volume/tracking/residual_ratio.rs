@@ -43,7 +43,7 @@ where
         &mut walk,
         t_max,
         majorant,
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {

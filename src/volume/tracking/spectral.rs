@@ -88,7 +88,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {
@@ -161,7 +161,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {

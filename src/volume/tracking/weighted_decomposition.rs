@@ -53,7 +53,7 @@ where
         segments,
         t_max,
         majorant,
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {
@@ -121,7 +121,7 @@ where
         &mut walk,
         t_max,
         majorant,
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {

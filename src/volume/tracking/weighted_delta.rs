@@ -46,7 +46,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {
@@ -87,7 +87,7 @@ where
         segments,
         t_max,
         scaled_majorant(b),
-        |t, seg| medium.cull_ratio(t, seg),
+        |t| medium.cull_ratio(t),
         rng,
         stats,
         |rng, stats, c| {
