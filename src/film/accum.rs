@@ -181,6 +181,22 @@ impl Film {
         self.height
     }
 
+    /// The pixels of rows `y0..y1`, row-major: for code that fills whole rows in parallel
+    /// (the GPU backend's batches).
+    ///
+    /// # Panics
+    /// If the rows are not inside the film.
+    pub fn rows_mut(&mut self, y0: u32, y1: u32) -> &mut [PixelStats] {
+        assert!(
+            y0 <= y1 && y1 <= self.height,
+            "rows {y0}..{y1} are outside the {}x{} film",
+            self.width,
+            self.height
+        );
+        let w = self.width as usize;
+        &mut self.pixels[y0 as usize * w..y1 as usize * w]
+    }
+
     /// Adds one sample straight to the film; for single-threaded code and tests. Renderers
     /// use a [`TileBuffer`] per thread instead.
     pub fn add_sample(&mut self, x: u32, y: u32, rgb: [f32; 3]) {

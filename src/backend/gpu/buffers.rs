@@ -4,6 +4,7 @@
 use bytemuck::Zeroable;
 
 use super::device::{GpuContext, GpuGrid};
+use super::dispatch::ITERATIONS_PER_SYNC;
 use super::graph::Stage;
 use super::render::GpuRenderError;
 use super::shader::{Module, Spec};
@@ -53,6 +54,8 @@ pub(super) struct Buffers {
     pub(super) shadows: wgpu::Buffer,
     pub(super) lights: wgpu::Buffer,
     pub(super) samples: wgpu::Buffer,
+    /// Where each batch's samples are copied for the host, kept for the whole render.
+    pub(super) samples_readback: wgpu::Buffer,
     pub(super) args: wgpu::Buffer,
     /// `GpuEmissionParams` (zero when the medium does not emit).
     pub(super) emission: wgpu::Buffer,
@@ -104,9 +107,9 @@ impl Buffers {
         vdb_media: &[GpuVdbMedium],
     ) -> Buffers {
         let timestamps = ctx.timestamp_queries;
-        // The counters, then two timestamps per stage.
-        let readback_size =
-            (std::mem::size_of::<GpuWavefrontCounters>() + 16 * Stage::COUNT) as u64;
+        // The counters, then two timestamps per stage and iteration of one submission.
+        let queries = 2 * Stage::COUNT as u32 * ITERATIONS_PER_SYNC;
+        let readback_size = std::mem::size_of::<GpuWavefrontCounters>() as u64 + 8 * queries as u64;
         Buffers {
             params: [
                 ctx.uniform_buffer("wavefront params 0", params),
@@ -132,6 +135,7 @@ impl Buffers {
                 ctx.storage_buffer("lights", &rs.lights.punctual)
             },
             samples: ctx.storage_buffer_zeroed("samples", samples * 16),
+            samples_readback: ctx.read_back_buffer("samples read-back", samples * 16),
             emission: ctx.uniform_buffer("emission", emission),
             bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
             bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),
@@ -202,7 +206,7 @@ impl Buffers {
                 mapped_at_creation: false,
             }),
             timestamps: timestamps.then(|| {
-                let n = 2 * Stage::ALL.len() as u32;
+                let n = queries;
                 (
                     ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
                         label: Some("stage timestamps"),

@@ -281,20 +281,40 @@ impl GpuContext {
 
     /// Copies `buffer` back to the host as `T`s (the whole buffer, truncated to whole `T`s).
     pub fn read_buffer<T: Pod>(&self, buffer: &wgpu::Buffer) -> Vec<T> {
-        let size = buffer.size();
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("read-back"),
+        let staging = self.read_back_buffer("read-back", buffer.size());
+        self.read_buffer_prefix(buffer, &staging, buffer.size())
+    }
+
+    /// A host-readable buffer of `size` bytes to copy results into ([`Self::read_buffer_prefix`]).
+    pub fn read_back_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
             size,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
-        });
+        })
+    }
+
+    /// Copies the first `size` bytes of `buffer` back to the host as `T`s through `staging`
+    /// (a [`Self::read_back_buffer`] at least that large, kept across calls: a fresh staging
+    /// buffer a batch cost its pages' first touch every time).
+    pub fn read_buffer_prefix<T: Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        staging: &wgpu::Buffer,
+        size: u64,
+    ) -> Vec<T> {
+        let size = size.min(buffer.size()).min(staging.size()) & !3;
+        if size == 0 {
+            return Vec::new();
+        }
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        encoder.copy_buffer_to_buffer(buffer, 0, staging, 0, size);
         self.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
-        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+        staging.map_async(wgpu::MapMode::Read, ..size, move |r| {
             let _ = tx.send(r);
         });
         self.device
@@ -303,7 +323,7 @@ impl GpuContext {
         rx.recv()
             .expect("map callback dropped")
             .expect("buffer mapping failed");
-        let data = staging.get_mapped_range(..).expect("mapped");
+        let data = staging.get_mapped_range(..size).expect("mapped");
         let n = data.len() / std::mem::size_of::<T>();
         let out = bytemuck::pod_collect_to_vec(&data[..n * std::mem::size_of::<T>()]);
         drop(data);

@@ -65,20 +65,19 @@ impl Wavefront<'_> {
             if stop.load(Ordering::Relaxed) {
                 return Ok(None);
             }
-            let parity = iteration & 1;
             let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let c = self.iteration(parity, &mut stage_ns)?;
+            let c = self.iterations(iteration, ITERATIONS_PER_SYNC, &mut stage_ns)?;
             if let Some(e) = pollster::block_on(scope.pop()) {
                 return Err(dev(e.to_string()));
             }
-            iteration += 1;
+            iteration += ITERATIONS_PER_SYNC;
             if c.live == 0 && c.next_sample >= params.total_samples {
                 counters = c;
                 break;
             }
             // Every live path waits in the medium queue the next iteration reads; none there
             // means a path was lost between stages: stop instead of spinning.
-            let next_medium = if parity == 0 {
+            let next_medium = if iteration & 1 == 1 {
                 GpuQueue::Medium1
             } else {
                 GpuQueue::Medium0
@@ -92,8 +91,12 @@ impl Wavefront<'_> {
         }
         let loop_ns = loop_start.elapsed().as_nanos() as u64;
         let readback_start = Instant::now();
-        let mut samples: Vec<[f32; 4]> = ctx.read_buffer(&self.bufs.samples);
-        samples.truncate(params.total_samples as usize);
+        // Only the batch's own entries: the buffer is sized for the largest batch.
+        let samples: Vec<[f32; 4]> = ctx.read_buffer_prefix(
+            &self.bufs.samples,
+            &self.bufs.samples_readback,
+            params.total_samples as u64 * 16,
+        );
         let readback_ns = readback_start.elapsed().as_nanos() as u64;
         Ok(Some((
             counters,
@@ -136,10 +139,14 @@ impl Wavefront<'_> {
         }
     }
 
-    /// Runs one iteration and returns the counters after it.
-    fn iteration(
+    /// Runs iterations `first .. first + k` in one submission and returns the counters after
+    /// the last: the host waits once per `k` iterations, not once per iteration. Iterations
+    /// past a batch's end cost only their empty dispatches (every stage's workgroup count
+    /// comes from its queue, then empty).
+    fn iterations(
         &self,
-        parity: u32,
+        first: u32,
+        k: u32,
         stage_ns: &mut [u64; Stage::COUNT],
     ) -> Result<GpuWavefrontCounters, GpuRenderError> {
         let ctx = self.ctx;
@@ -149,26 +156,31 @@ impl Wavefront<'_> {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
         };
         let mut encoder = new_encoder();
-        self.encode(&mut encoder, &self.reset, parity, None, None);
-        for (i, (stage, kernel)) in self.kernels.iter().enumerate() {
-            let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
-            if stage.needs_args() {
-                self.encode(&mut encoder, &self.args, parity, None, None);
-            }
-            let q = stage.input_queue(parity);
-            if gpu_timing {
-                self.encode(&mut encoder, kernel, parity, Some(q), Some(i as u32));
-            } else {
-                // Host timing: submit what came before, then this stage alone.
-                ctx.queue
-                    .submit([std::mem::replace(&mut encoder, new_encoder()).finish()]);
-                wait(ctx)?;
-                let t = Instant::now();
-                self.encode(&mut encoder, kernel, parity, Some(q), None);
-                ctx.queue
-                    .submit([std::mem::replace(&mut encoder, new_encoder()).finish()]);
-                wait(ctx)?;
-                stage_ns[k] += t.elapsed().as_nanos() as u64;
+        let stages = self.kernels.len() as u32;
+        for j in 0..k {
+            let parity = (first + j) & 1;
+            self.encode(&mut encoder, &self.reset, parity, None, None);
+            for (i, (stage, kernel)) in self.kernels.iter().enumerate() {
+                let s = Stage::ALL.iter().position(|s| s == stage).unwrap();
+                if stage.needs_args() {
+                    self.encode(&mut encoder, &self.args, parity, None, None);
+                }
+                let q = stage.input_queue(parity);
+                if gpu_timing {
+                    let query = j * stages + i as u32;
+                    self.encode(&mut encoder, kernel, parity, Some(q), Some(query));
+                } else {
+                    // Host timing: submit what came before, then this stage alone.
+                    ctx.queue
+                        .submit([std::mem::replace(&mut encoder, new_encoder()).finish()]);
+                    wait(ctx)?;
+                    let t = Instant::now();
+                    self.encode(&mut encoder, kernel, parity, Some(q), None);
+                    ctx.queue
+                        .submit([std::mem::replace(&mut encoder, new_encoder()).finish()]);
+                    wait(ctx)?;
+                    stage_ns[s] += t.elapsed().as_nanos() as u64;
+                }
             }
         }
         encoder.copy_buffer_to_buffer(
@@ -178,9 +190,9 @@ impl Wavefront<'_> {
             0,
             std::mem::size_of::<GpuWavefrontCounters>() as u64,
         );
+        // Only the queries of the dispatched stages were written.
+        let n = 2 * stages * k;
         if let Some((set, resolve)) = &self.bufs.timestamps {
-            // Only the queries of the dispatched stages were written.
-            let n = 2 * self.kernels.len() as u32;
             encoder.resolve_query_set(set, 0..n, resolve, 0);
             // After the counters (the timestamps once overwrote the last wide counter).
             encoder.copy_buffer_to_buffer(resolve, 0, &self.bufs.readback, TS_OFFSET, n as u64 * 8);
@@ -201,11 +213,14 @@ impl Wavefront<'_> {
             bytemuck::pod_read_unaligned(&data[..std::mem::size_of::<GpuWavefrontCounters>()]);
         if gpu_timing {
             let at = TS_OFFSET as usize;
-            let ts: &[u64] = bytemuck::cast_slice(&data[at..at + 2 * 8 * Stage::ALL.len()]);
-            for (i, (stage, _)) in self.kernels.iter().enumerate() {
-                let k = Stage::ALL.iter().position(|s| s == stage).unwrap();
-                let dt = ts[2 * i + 1].saturating_sub(ts[2 * i]);
-                stage_ns[k] += (dt as f64 * self.period_ns) as u64;
+            let ts: &[u64] = bytemuck::cast_slice(&data[at..at + n as usize * 8]);
+            for j in 0..k as usize {
+                for (i, (stage, _)) in self.kernels.iter().enumerate() {
+                    let s = Stage::ALL.iter().position(|s| s == stage).unwrap();
+                    let q = j * stages as usize + i;
+                    let dt = ts[2 * q + 1].saturating_sub(ts[2 * q]);
+                    stage_ns[s] += (dt as f64 * self.period_ns) as u64;
+                }
             }
         }
         drop(data);
@@ -213,6 +228,12 @@ impl Wavefront<'_> {
         Ok(counters)
     }
 }
+
+/// Wavefront iterations submitted together between two reads of the counters. Each read is
+/// a host round trip (submit, map, wait: 0.3-0.5 ms on the H100, more than an iteration's
+/// kernels at 2^16 slots); a batch overshoots its end by fewer than this many empty
+/// iterations.
+pub(super) const ITERATIONS_PER_SYNC: u32 = 8;
 
 /// Where the stage timestamps start in the read-back buffer: after the counters.
 const TS_OFFSET: u64 = std::mem::size_of::<GpuWavefrontCounters>() as u64;

@@ -60,8 +60,10 @@ use crate::gpu_types::{
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
 
-/// Path slots in flight.
-pub const WAVEFRONT_SIZE: u32 = 1 << 16;
+/// Path slots in flight at most. 2^16 slots filled a quarter of an H100's resident threads
+/// (one iteration's kernels then took less time than the host's round trip); 2^18 paths take
+/// 28 MiB of path state.
+pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 
 /// Camera samples per batch at most (one sample buffer entry of 16 bytes each).
 pub const MAX_BATCH_SAMPLES: u64 = 1 << 22;
@@ -201,7 +203,13 @@ pub fn render_with_timings(
     let limit = ctx.limits.max_storage_buffer_binding_size;
     let (grid, emission, vdb_media) = upload_grid(ctx, rs, features, &cfg)?;
     let plan = BatchPlan::new(settings, limit)?;
-    let slots = (WAVEFRONT_SIZE as u64).min(plan.largest) as u32;
+    // The path state is the largest per-slot binding; a device that binds less gets fewer
+    // slots (a power of two, so whole workgroups), never a binding error.
+    let path_bytes = std::mem::size_of::<crate::gpu_types::GpuPathState>() as u64;
+    let fit = (limit / path_bytes).max(64);
+    let slots = (WAVEFRONT_SIZE as u64)
+        .min(1 << fit.ilog2())
+        .min(plan.largest) as u32;
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
     let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
@@ -390,7 +398,9 @@ fn batch_record(pass: u32, rect: &TileRect, counters: &GpuWavefrontCounters) -> 
 }
 
 /// Adds a batch's samples (RGB and the lookup count's bits, `n` per pixel in row order over
-/// the record's rows) to the film and the per-pixel lookup counts.
+/// the record's rows) to the film and the per-pixel lookup counts. Pixels are independent and
+/// each takes its samples in order, so the rows run in parallel and the film is the same bit
+/// for bit as a sequential merge.
 fn merge_batch(
     film: &mut Film,
     lookups: &mut [u64],
@@ -399,14 +409,68 @@ fn merge_batch(
     n: u32,
     samples: &[[f32; 4]],
 ) {
-    let mut k = 0;
-    for y in r.y0..r.y1 {
-        for x in 0..w {
-            for _ in 0..n {
-                let s = samples[k];
-                film.add_sample(x, y, [s[0], s[1], s[2]]);
-                lookups[(y * w + x) as usize] += s[3].to_bits() as u64;
-                k += 1;
+    use rayon::prelude::*;
+    let (w, n) = (w as usize, n as usize);
+    let rows = r.y0 as usize * w..r.y1 as usize * w;
+    debug_assert_eq!(
+        samples.len(),
+        rows.len() * n,
+        "a batch holds n samples a pixel"
+    );
+    film.rows_mut(r.y0, r.y1)
+        .par_iter_mut()
+        .zip(lookups[rows].par_iter_mut())
+        .zip(samples.par_chunks(n))
+        .for_each(|((pixel, count), s)| {
+            for s in s {
+                pixel.add([s[0], s[1], s[2]]);
+                *count += s[3].to_bits() as u64;
+            }
+        });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::rng::Rng;
+
+    /// The parallel merge gives the film a sequential merge gives, bit for bit, and adds the
+    /// lookup counts of exactly the batch's rows.
+    #[test]
+    fn a_batch_merges_as_its_samples_added_in_order() {
+        let (w, h, n) = (7u32, 5u32, 3u32);
+        let record = TileRecord {
+            y0: 1,
+            y1: 4,
+            ..TileRecord::default()
+        };
+        let mut rng = Rng::new(3, 0, 11);
+        let samples: Vec<[f32; 4]> = (0..(record.y1 - record.y0) * w * n)
+            .map(|k| {
+                let v = rng.uniform_f32() * 10.0;
+                [v, v * v, -v, f32::from_bits(k)]
+            })
+            .collect();
+        let mut film = Film::new(w, h);
+        let mut lookups = vec![0u64; (w * h) as usize];
+        merge_batch(&mut film, &mut lookups, w, &record, n, &samples);
+        let mut expected = Film::new(w, h);
+        let mut expected_lookups = vec![0u64; (w * h) as usize];
+        let mut k = 0;
+        for y in record.y0..record.y1 {
+            for x in 0..w {
+                for _ in 0..n {
+                    let s = samples[k];
+                    expected.add_sample(x, y, [s[0], s[1], s[2]]);
+                    expected_lookups[(y * w + x) as usize] += k as u64;
+                    k += 1;
+                }
+            }
+        }
+        assert_eq!(lookups, expected_lookups);
+        for y in 0..h {
+            for x in 0..w {
+                assert_eq!(film.pixel(x, y), expected.pixel(x, y), "pixel ({x}, {y})");
             }
         }
     }
