@@ -22,7 +22,7 @@ use brume::volume::tracking::spectral::SpectralProbabilities;
 use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, Event, FnMedium, FnMediumRgb, TrackingStats,
 };
-use brume::volume::{DdaMajorantIterator, LeafCulling};
+use brume::volume::{DdaMajorantIterator, LeafCulling, VoxelCulling};
 use common::culled::CulledBy;
 use common::gpu::{blob, slab, Medium};
 use common::{assert_z, Moments};
@@ -79,9 +79,15 @@ fn cpu_sample(
         )
     };
     let lookup = |t: f32| m.scale * m.grid.sample_trilinear(ray.at(t).as_dvec3());
+    // The kernels thin the per-leaf and culled walks' kept collisions by the voxel bounds.
+    let voxel_culling = matches!(majorant, GpuMajorantMode::PerCell | GpuMajorantMode::Culled)
+        .then(|| VoxelCulling::new(&m.bounds, &m.grid.cells, maj_scale))
+        .flatten();
+    let voxel = |t: f32, bound: f32| voxel_culling.map_or(1.0, |v| v.ratio(ray.at(t), bound));
     let medium = CulledBy {
         inner: FnMedium::with_control(|t| Coeffs::from_sigma_t(lookup(t), ALBEDO), control, ALBEDO),
         ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+        voxel: &voxel,
     };
     let mut rng = Rng::new(i, 0, seed);
     let t_max = m.ray.t_max;
@@ -107,6 +113,7 @@ fn cpu_sample(
                     CoeffsRgb::new((1.0 - ALBEDO) * s, ALBEDO * s)
                 }),
                 ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+                voxel: &voxel,
             };
             let e = tr::spectral::sample_distance(
                 segs,

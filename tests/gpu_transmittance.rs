@@ -21,7 +21,7 @@ use brume::volume::tracking::spectral::SpectralProbabilities;
 use brume::volume::tracking::{
     self as tr, Coeffs, CoeffsRgb, ControlExtinction, FnMedium, FnMediumRgb, TrackingStats,
 };
-use brume::volume::{DdaMajorantIterator, LeafCulling};
+use brume::volume::{DdaMajorantIterator, LeafCulling, VoxelCulling};
 use common::culled::CulledBy;
 use common::gpu::{blob, slab, Medium};
 use common::{assert_z, Moments};
@@ -92,6 +92,14 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
         GpuMajorantMode::Adaptive => unreachable!("the adaptive walk is checked in gpu_dda"),
     };
     let lookup = |t: f32| m.scale * m.grid.sample_trilinear(ray.at(t).as_dvec3());
+    // The kernels thin the per-leaf and culled walks' kept collisions by the voxel bounds.
+    let voxel_culling = matches!(
+        c.majorant,
+        GpuMajorantMode::PerCell | GpuMajorantMode::Culled
+    )
+    .then(|| VoxelCulling::new(&m.bounds, &m.grid.cells, maj_scale))
+    .flatten();
+    let voxel = |t: f32, bound: f32| voxel_culling.map_or(1.0, |v| v.ratio(ray.at(t), bound));
     let culling = (c.majorant == GpuMajorantMode::Culled)
         .then(|| LeafCulling::new(&m.bounds))
         .flatten();
@@ -102,6 +110,7 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
             ALBEDO,
         ),
         ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+        voxel: &voxel,
     };
     let mut rng = Rng::new(i, 0, seed);
     let t_max = m.ray.t_max;
@@ -131,6 +140,7 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
                     CoeffsRgb::new((1.0 - ALBEDO) * s, ALBEDO * s)
                 }),
                 ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
+                voxel: &voxel,
             };
             tr::spectral::transmittance(
                 segs,

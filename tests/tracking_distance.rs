@@ -461,6 +461,7 @@ fn infinite_segments_are_handled() {
         f32::INFINITY,
         tr::scaled_majorant(1.0),
         |_| 1.0,
+        |_, _, _| 1.0,
         &mut rng,
         &mut st,
         |_, _, _| true,
@@ -517,6 +518,7 @@ fn free_flight_returns_t_maj_since_last_collision() {
             2.0,
             tr::scaled_majorant(1.0),
             |_| 1.0,
+            |_, _, _| 1.0,
             &mut rng,
             &mut st,
             |_, _, c| {
@@ -674,9 +676,20 @@ fn culled_global_walk_samples_the_right_distances() {
     for s in &all {
         let (global, ratio) = s.culled();
         let seg = || std::iter::once(global);
+        // The second stage thins the kept collisions again by a pointwise bound of the
+        // density (as the per-voxel bounds do): sigma_fine = 1.25 sigma_t.
+        let voxel = |t: f32, bound: f32| {
+            let fine = 1.25 * (s.sigma_t)(t);
+            if fine < bound {
+                fine / bound
+            } else {
+                1.0
+            }
+        };
         let culled = |control| CulledBy {
             inner: s.medium(control),
             ratio: &ratio,
+            voxel: &voxel,
         };
         let none = culled(ControlExtinction::None);
         let minorant = culled(ControlExtinction::SegmentMinorant);
@@ -686,6 +699,7 @@ fn culled_global_walk_samples_the_right_distances() {
                 CoeffsRgb::new(Vec3::splat(c.sigma_a), Vec3::splat(c.sigma_s))
             }),
             ratio: &ratio,
+            voxel: &voxel,
         };
         let t_end = s.transmittance();
         let t_mid = 0.5 * s.t_max;

@@ -284,9 +284,20 @@ fn culled_global_walk_transmittance() {
     for s in scenes() {
         let (global, ratio) = s.culled();
         let seg = || std::iter::once(global);
+        // The second stage thins the kept collisions again by a pointwise bound of the
+        // density (as the per-voxel bounds do): sigma_fine = 1.25 sigma_t.
+        let voxel = |t: f32, bound: f32| {
+            let fine = 1.25 * (s.sigma_t)(t);
+            if fine < bound {
+                fine / bound
+            } else {
+                1.0
+            }
+        };
         let culled = |control| CulledBy {
             inner: s.medium(control),
             ratio: &ratio,
+            voxel: &voxel,
         };
         let none = culled(ControlExtinction::None);
         let minorant = culled(ControlExtinction::SegmentMinorant);

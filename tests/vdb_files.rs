@@ -118,9 +118,18 @@ fn bounds_hold_along_a_hundred_thousand_rays_per_example_grid() {
         // The culled walk's cell bounds were checked wherever culling is sound for the grid.
         let culls = brume::volume::LeafCulling::new(&loaded.bounds).is_some();
         assert_eq!(stats.culled_samples > 0, culls, "{name}: {stats:?}");
+        // So were the per-voxel bounds, wherever they are sound and built (a grid of bricks).
+        let voxels =
+            brume::volume::VoxelCulling::new(&loaded.bounds, &loaded.grid.cells, 1.0).is_some();
+        assert_eq!(stats.voxel_samples > 0, voxels, "{name}: {stats:?}");
         println!(
-            "{name:<12} {} rays, {} hit, {} segments, {} samples, {} culled-walk samples",
-            stats.rays, stats.rays_hit, stats.segments, stats.samples, stats.culled_samples
+            "{name:<12} {} rays, {} hit, {} segments, {} samples, {} culled-walk samples, {} voxel-culling samples",
+            stats.rays,
+            stats.rays_hit,
+            stats.segments,
+            stats.samples,
+            stats.culled_samples,
+            stats.voxel_samples
         );
     }
 }

@@ -26,6 +26,13 @@ fn ray_check(name: &str, data: &brume_ffi::FloatGridData, seed: u64) {
         culls && stats.rays_hit > 0,
         "{name}: {stats:?}"
     );
+    // So were the per-voxel bounds, wherever they are sound and built.
+    let voxels = brume::volume::VoxelCulling::new(&bounds, &grid.cells, 1.0).is_some();
+    assert_eq!(
+        stats.voxel_samples > 0,
+        voxels && stats.rays_hit > 0,
+        "{name}: {stats:?}"
+    );
     let tightness = stats.mean_value_over_majorant();
     assert!((0.0..=1.0).contains(&tightness), "{name}: {stats:?}");
 }

@@ -1,5 +1,5 @@
 // Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `next`,
-// `reciprocal_and_step`), LeafCulling (src/volume/cull.rs: `new`, `ratio`),
+// `reciprocal_and_step`), LeafCulling and VoxelCulling (src/volume/cull.rs: `new`, `ratio`),
 // AdaptiveMajorantIterator (src/volume/adaptive.rs: `new`, `crossing`, `next`) and
 // Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.
 //
@@ -17,6 +17,10 @@
 // grid_info.global_bounds_index; for adaptive walks then the hierarchy's table, nodes and
 // packed levels (AdaptiveMajorants::gpu_bounds).
 @group(0) @binding(4) var<storage, read> grid_bounds: array<CellBounds>;
+
+// LeafBounds::voxel_q of the density grid, four bytes to a word (GpuGrid::voxels,
+// pack_voxel_q); one zero word where there is none.
+@group(0) @binding(7) var<storage, read> grid_voxels: array<u32>;
 
 // Edge of one bounds cell in index units.
 const CELL_WIDTH: f32 = 8.0;
@@ -39,6 +43,7 @@ struct Dda {
     global: bool,             // read the global bound instead of the cell's
     cull: bool,               // the culled global walk: cull collisions by the leaf cells
     cell_dims: vec3<i32>,     // the grid's cells per axis (for culling)
+    voxel: bool,              // thin kept collisions by the per-voxel bounds (VoxelCulling)
     adaptive: bool,           // walk the adaptive hierarchy (cell is then a leaf cell)
     cell: vec3<i32>,
     step: vec3<i32>,          // -1, 0 or +1 per axis
@@ -133,6 +138,18 @@ fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: 
         let gb = grid_bounds[bounds_base + g.global_bounds_index];
         it.cull = gb.min == 0.0 && gb.max > 0.0 && gb.max <= 3.40282347e38;
     }
+    // VdbMedium::voxel_culling: the per-leaf DDA and the culled global walk, where the
+    // global minimum is 0 and the maximum positive and finite (VoxelCulling::new), for the
+    // one grid whose table is bound (the density grid at the start of the buffers; the
+    // mixture binds none).
+    it.voxel = false;
+    if ((mode == MAJORANT_PER_CELL || mode == MAJORANT_CULLED) && !empty
+        && g.cell_offset == 0u && bounds_base == 0u && g.brick_count > 0u
+        && arrayLength(&grid_voxels) * 4u >= g.brick_count * 512u && scale > 0.0
+        && scale <= 3.40282347e38) {
+        let gb = grid_bounds[bounds_base + g.global_bounds_index];
+        it.voxel = gb.min == 0.0 && gb.max > 0.0 && gb.max <= 3.40282347e38;
+    }
     if (global) {
         it.width = vec3<f32>(grid_dims) * CELL_WIDTH;
         it.dims = select(vec3<i32>(1), vec3<i32>(0), empty);
@@ -192,6 +209,45 @@ fn dda_cull_ratio(it: ptr<function, Dda>, t: f32) -> f32 {
         return 1.0;
     }
     return m / gm;
+}
+
+// VoxelCulling::ratio and bound_at: the per-voxel bound at the point at t over `bound`, the
+// raw majorant the collision was kept with, in [0, 1]; 1 outside the cell box and in
+// constant cells.
+fn dda_voxel_ratio(it: ptr<function, Dda>, t: f32, bound: f32) -> f32 {
+    let p = (*it).o + t * (*it).d;
+    let n = (*it).cell_dims;
+    var index = 0u;
+    var local = 0u;
+    var stride = 1u;
+    for (var a = 0; a < 3; a++) {
+        // Inside the cell box (NaN fails): floor(p) then lies in it, as `floor(p) as i32`
+        // and the range test decide on the CPU.
+        let lo = (*it).lo[a];
+        if (!(p[a] >= lo && p[a] < lo + f32(n[a]) * CELL_WIDTH)) {
+            return 1.0;
+        }
+        let v = i32(floor(p[a]));
+        let c = (v >> 3u) - i32(lo / CELL_WIDTH);
+        if (c < 0 || c >= n[a]) {
+            return 1.0;
+        }
+        index += u32(c) * stride;
+        local += u32(v & 7) << (3u * u32(a));
+        stride *= u32(n[a]);
+    }
+    let entry = grid_cells[index];
+    if ((entry & CONSTANT_BIT) != 0u) {
+        return 1.0;
+    }
+    let k = entry * 512u + local;
+    let q = (grid_voxels[k >> 2u] >> (8u * (k & 3u))) & 0xffu;
+    let cm = grid_bounds[(*it).bounds_base + index].max;
+    let fine = ((f32(q) * (1.0 / 255.0)) * cm) * (*it).scale;
+    if (fine < bound) {
+        return fine / bound;
+    }
+    return 1.0;
 }
 
 // DdaMajorantIterator::cell_bounds.

@@ -603,8 +603,9 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
 // since the last one reaches an exponential depth -ln(1 - u), carried across segments (one
 // uniform per collision, none per segment), and go to tracking_collide. The culled global
 // walk (dda.cull) first keeps each with probability r = dda_cull_ratio (one more uniform when
-// r < 1) and hands the kept ones on with majorant r * sigma_maj. Returns T_maj as the CPU
-// does.
+// r < 1) and hands the kept ones on with majorant r * sigma_maj; the per-leaf and culled walks
+// (dda.voxel) then keep each with probability r2 = dda_voxel_ratio (majorant r2 * r *
+// sigma_maj). Returns T_maj as the CPU does.
 fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
     var dda = dda_start;
     var seg: GpuMajorantSegment;
@@ -680,8 +681,9 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
                 return 0.0;
             }
             var sigma_kept = sigma_maj;
+            var r = 1.0;
             if (dda.cull) {
-                let r = dda_cull_ratio(&dda, t);
+                r = dda_cull_ratio(&dda, t);
                 if (r < 1.0) {
                     // `!(u < r)`: a NaN ratio culls too.
                     if (!(tracker_uniform(tr) < r)) {
@@ -689,6 +691,25 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
                         continue;
                     }
                     sigma_kept = r * sigma_maj;
+                }
+            }
+            // The second stage as tracking::voxel_stage: estimators with a control only where
+            // it is 0 there, those with a majorant scale b only under b >= 1.
+            let est = (*tr).params.estimator;
+            let with_control = est == ESTIMATOR_DECOMPOSITION
+                || est == ESTIMATOR_WEIGHTED_DECOMPOSITION || est == ESTIMATOR_RESIDUAL_RATIO;
+            let with_b = est == ESTIMATOR_WEIGHTED_DELTA || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
+                || est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO
+                || est == ESTIMATOR_SPECTRAL;
+            if (dda.voxel && (!with_b || (*tr).params.b >= 1.0)
+                && (!with_control || coeffs_sigma_t(control(tr, seg)) == 0.0)) {
+                let r2 = dda_voxel_ratio(&dda, t, r * seg.sigma_maj);
+                if (r2 < 1.0) {
+                    if (!(tracker_uniform(tr) < r2)) {
+                        (*tr).stats.null_collisions += 1u;
+                        continue;
+                    }
+                    sigma_kept = r2 * sigma_kept;
                 }
             }
             if (!tracking_collide(tr, t, sigma_kept, seg)) {

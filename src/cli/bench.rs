@@ -487,6 +487,7 @@ fn adaptive_build() -> Result<()> {
         .copied()
         .fold(CellBounds::EMPTY, CellBounds::union);
     let leaf = LeafBounds {
+        voxel_q: Vec::new(),
         cells,
         dims: [n; 3],
         cell_origin: [0; 3],

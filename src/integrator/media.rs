@@ -23,7 +23,7 @@ use crate::volume::tracking::{
 };
 use crate::volume::{
     AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LeafCulling,
-    LoadedGrid,
+    LoadedGrid, VoxelCulling,
 };
 
 /// A grid placed in the world: trilinear lookups at world points.
@@ -134,6 +134,20 @@ impl VdbMedium {
             LeafCulling::new(&self.density.grid.bounds)
         } else {
             None
+        }
+    }
+
+    /// The per-voxel culling of this medium's walk under `mode`: the per-leaf DDA and the
+    /// culled global walk thin by the voxel bounds (the mixed hierarchy's walk and the
+    /// global bound do not), where [`VoxelCulling::new`] finds it sound.
+    #[inline]
+    pub fn voxel_culling(&self, mode: MajorantMode) -> Option<VoxelCulling<'_>> {
+        match self.walk_mode(mode) {
+            MajorantMode::Leaf | MajorantMode::Culled => {
+                let g = &self.density.grid;
+                VoxelCulling::new(&g.bounds, &g.grid.cells, self.sigma_t_bound)
+            }
+            _ => None,
         }
     }
 
@@ -351,6 +365,8 @@ pub(super) struct GreyView<'a, const EMIT: bool, const ABS: bool> {
     pub(super) emission_lookups: Cell<u64>,
     /// The per-leaf culling of the culled global walk ([`VdbMedium::culling`]).
     pub(super) culling: Option<LeafCulling<'a>>,
+    /// The per-voxel culling of the walk's kept collisions ([`VdbMedium::voxel_culling`]).
+    pub(super) voxel: Option<VoxelCulling<'a>>,
 }
 
 impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
@@ -387,6 +403,7 @@ impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
             culling: m.culling(cfg.majorant),
+            voxel: m.voxel_culling(cfg.majorant),
         }
     }
 
@@ -421,6 +438,11 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
     }
 
     #[inline]
+    fn voxel_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment, bound: f32) -> f32 {
+        voxel_ratio(self.voxel.as_ref(), &self.ray_i, t, bound)
+    }
+
+    #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
         if EMIT {
             if let Some(e) = &self.m.emission {
@@ -437,6 +459,13 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
 #[inline]
 fn cull_ratio(culling: Option<&LeafCulling>, ray_i: &Ray, t: f32) -> f32 {
     culling.map_or(1.0, |c| c.ratio(ray_i.at(t)))
+}
+
+/// `Medium::voxel_ratio` of a view: the voxel culling's ratio at `ray_i(t)` against `bound`,
+/// 1 without it.
+#[inline]
+fn voxel_ratio(voxel: Option<&VoxelCulling>, ray_i: &Ray, t: f32, bound: f32) -> f32 {
+    voxel.map_or(1.0, |v| v.ratio(ray_i.at(t), bound))
 }
 
 /// The RGB view of a VDB medium along one ray, for spectral tracking.
@@ -457,6 +486,8 @@ pub(super) struct RgbView<'a, const EMIT: bool> {
     pub(super) emission_lookups: Cell<u64>,
     /// As [`GreyView::culling`].
     pub(super) culling: Option<LeafCulling<'a>>,
+    /// As [`GreyView::voxel`].
+    pub(super) voxel: Option<VoxelCulling<'a>>,
 }
 
 impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
@@ -488,6 +519,7 @@ impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
             culling: m.culling(majorant),
+            voxel: m.voxel_culling(majorant),
         }
     }
 }
@@ -511,6 +543,11 @@ impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
     #[inline]
     fn cull_ratio(&self, t: f32) -> f32 {
         cull_ratio(self.culling.as_ref(), &self.ray_i, t)
+    }
+
+    #[inline]
+    fn voxel_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment, bound: f32) -> f32 {
+        voxel_ratio(self.voxel.as_ref(), &self.ray_i, t, bound)
     }
 
     #[inline]

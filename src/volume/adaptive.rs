@@ -748,6 +748,7 @@ mod tests {
             .copied()
             .fold(CellBounds::EMPTY, CellBounds::union);
         LeafBounds {
+            voxel_q: Vec::new(),
             cells,
             dims: [n; 3],
             cell_origin: [0; 3],

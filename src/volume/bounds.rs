@@ -57,6 +57,10 @@ pub struct LeafBounds {
     pub cell_origin: [i32; 3],
     /// Bounds over the whole cell box (the background for a grid with no cells).
     pub global: CellBounds,
+    /// Per-voxel bounds of every brick voxel relative to its cell's maximum, one byte each
+    /// (`volume::voxel_bounds`): what culling thins by inside a cell. Empty where not built
+    /// (bounds made by hand).
+    pub voxel_q: Vec<u8>,
 }
 
 /// How tight the per-cell bounds are compared with one global bound.
@@ -118,7 +122,9 @@ impl LeafBounds {
                 .copied()
                 .reduce(|| CellBounds::EMPTY, CellBounds::union)
         };
+        let voxel_q = super::voxel_bounds::build_voxel_q(grid, &cells);
         LeafBounds {
+            voxel_q,
             cells,
             dims: grid.dims,
             cell_origin: grid.cell_origin,

@@ -10,7 +10,7 @@ use brume_ffi::FloatGridData;
 use super::adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape};
 use super::bounds::LeafBounds;
 use super::cost::CostModel;
-use super::cull::LeafCulling;
+use super::cull::{LeafCulling, VoxelCulling};
 use super::dda::DdaMajorantIterator;
 use super::grid::SparseGrid;
 use super::reference::VdbReference;
@@ -189,6 +189,9 @@ pub struct RayCheckStats {
     /// Points of the global segment checked against the per-leaf bound that culls there
     /// (`volume::cull`; none where culling is not sound for the grid).
     pub culled_samples: u64,
+    /// Points checked against the per-voxel bound (`volume::cull::VoxelCulling`) that thins
+    /// the per-leaf and culled walks' collisions (none where it is not sound).
+    pub voxel_samples: u64,
 }
 
 impl RayCheckStats {
@@ -432,6 +435,59 @@ fn check_culling(
     Ok(())
 }
 
+/// The per-voxel culling at random parameters of each segment of `segments` (and their
+/// ends), against the raw majorant `bound(p, seg)` a collision there was kept with: the
+/// voxel's bound must bound the trilinear and nearest values at the point exactly as the
+/// renderer computes it, and the ratio lie in `[0, 1]` (1 where there is no voxel bound).
+fn check_voxel_culling(
+    grid: &SparseGrid,
+    voxel: &VoxelCulling,
+    ray: &Ray,
+    segments: &[MajorantSegment],
+    bound: impl Fn(Vec3, &MajorantSegment) -> f32,
+    rng: &mut SplitMix64,
+    stats: &mut RayCheckStats,
+) -> Result<(), String> {
+    for seg in segments.iter().filter(|s| s.sigma_maj > 0.0) {
+        let (t_min, t_max) = (seg.t_min, seg.t_max);
+        let mut ts = vec![t_min, t_max];
+        if t_min.is_finite() && t_max.is_finite() {
+            for _ in 0..SAMPLES_PER_RAY {
+                let t = (t_min as f64 + rng.uniform() * (t_max as f64 - t_min as f64)) as f32;
+                ts.push(t.clamp(t_min, t_max));
+            }
+        }
+        for t in ts.into_iter().filter(|t| t.is_finite()) {
+            let p = ray.at(t);
+            let b = bound(p, seg);
+            let r = voxel.ratio(p, b);
+            let fine = voxel.bound_at(p);
+            if !(0.0..=1.0).contains(&r) || (fine.is_none() && r != 1.0) {
+                return Err(format!(
+                    "voxel ratio {r} of {b} (voxel bound {fine:?}) at t = {t} (index point {p:?})"
+                ));
+            }
+            let Some(fine) = fine else {
+                continue;
+            };
+            let pd = p.as_dvec3();
+            for (what, v) in [
+                ("trilinear", grid.sample_trilinear(pd)),
+                ("nearest", grid.sample_nearest(pd)),
+            ] {
+                if !(v <= fine) {
+                    return Err(format!(
+                        "{what} value {v} at t = {t} (index point {p:?}) above the voxel bound \
+                         {fine}"
+                    ));
+                }
+            }
+            stats.voxel_samples += 1;
+        }
+    }
+    Ok(())
+}
+
 /// Shoots `n_rays` seeded random rays (in index space) at `grid` and checks, for each, that the
 /// DDA over `bounds` tiles the ray's overlap with the cell box exactly (first `t_min` is the
 /// entry, each `t_max` equals the next `t_min` bit for bit, the last `t_max` is the exit, no
@@ -463,6 +519,7 @@ pub fn check_ray_bounds(
         m.validate(bounds)?;
     }
     let culling = LeafCulling::new(bounds);
+    let voxel = VoxelCulling::new(bounds, &grid.cells, 1.0);
     let mut adaptive = Vec::new();
     for n in 0..n_rays {
         let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
@@ -528,6 +585,33 @@ pub fn check_ray_bounds(
                 &mut stats,
             )
             .map_err(|e| context(format!("culling: {e}")))?;
+        }
+        if let Some(v) = &voxel {
+            // The per-leaf walk keeps every collision of its segment before the voxel stage;
+            // the culled global walk keeps those its cell test kept, at r * G.
+            check_voxel_culling(
+                grid,
+                v,
+                &ray,
+                &segments,
+                |_, s| s.sigma_maj,
+                &mut rng,
+                &mut stats,
+            )
+            .map_err(|e| context(format!("voxel culling, per-leaf walk: {e}")))?;
+            if let Some(cull) = &culling {
+                let g = bounds.global.max;
+                check_voxel_culling(
+                    grid,
+                    v,
+                    &ray,
+                    &want,
+                    |p, _| cull.ratio(p) * g,
+                    &mut rng,
+                    &mut stats,
+                )
+                .map_err(|e| context(format!("voxel culling, culled walk: {e}")))?;
+            }
         }
     }
     Ok(stats)

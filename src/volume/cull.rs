@@ -86,3 +86,87 @@ impl<'a> LeafCulling<'a> {
         self.bounds.cells[index].max
     }
 }
+
+/// The second stage of culling: the per-voxel bounds of `LeafBounds::voxel_q`, applied to
+/// the collisions a walk keeps after its first stage (the per-leaf DDA's segments, or the
+/// culled global walk's cell test). At a tentative collision at index-space point `p` with
+/// raw majorant `bound` (the segment's `sigma_maj` times the first stage's ratio, before the
+/// estimator's scale `b`), the voxel `v = floor(p)` gives
+///
+/// ```text
+/// fine = ((q(v) * (1/255)) * cell_max(v)) * scale     // >= sigma_t at p (voxel_bounds)
+/// r    = fine >= bound ? 1 : fine / bound
+/// ```
+///
+/// and the walk keeps the collision with probability `r` (thinning, as the first stage):
+/// the kept ones form a Poisson process of rate `fine(p)`, so lookups fall towards the real
+/// collisions at no extra step. Sound for any `bound` at least the density there (the ratio
+/// is taken against the bound the collision was sampled with, never assumed), wherever the
+/// estimator's control is 0 (the caller checks) and no value is negative (the global minimum
+/// is 0, as for [`LeafCulling`]). A point whose voxel lies outside the grid's cells, or in a
+/// constant cell, is not thinned (`r = 1`, no uniform).
+#[derive(Clone, Copy, Debug)]
+pub struct VoxelCulling<'a> {
+    bounds: &'a LeafBounds,
+    /// The grid's dense cell index (brick index, or `CONSTANT_BIT` and a constant's).
+    entries: &'a [u32],
+    /// `sigma_t` per unit of grid value.
+    scale: f32,
+}
+
+impl<'a> VoxelCulling<'a> {
+    /// The voxel culling of a grid whose cells are `entries` and bounds `bounds`, at
+    /// extinction `scale` per unit value; `None` where it would not be sound or has nothing
+    /// to read (no voxel table, or [`LeafCulling::is_sound`] fails).
+    pub fn new(bounds: &'a LeafBounds, entries: &'a [u32], scale: f32) -> Option<Self> {
+        let built = !bounds.voxel_q.is_empty() && entries.len() == bounds.cells.len();
+        (built && LeafCulling::is_sound(bounds.global) && scale > 0.0 && scale.is_finite())
+            .then_some(VoxelCulling {
+                bounds,
+                entries,
+                scale,
+            })
+    }
+
+    /// `r` in `[0, 1]` for the collision at index-space point `p` sampled with raw majorant
+    /// `bound` (see the type's docs).
+    #[inline(always)]
+    pub fn ratio(&self, p: Vec3, bound: f32) -> f32 {
+        match self.bound_at(p) {
+            Some(fine) if fine < bound => fine / bound,
+            _ => 1.0,
+        }
+    }
+
+    /// The per-voxel bound of `sigma_t` at index-space point `p` (`fine` in the type's docs),
+    /// or `None` where there is none to thin by: outside the cell box (NaN included) or in a
+    /// constant cell.
+    #[inline(always)]
+    pub fn bound_at(&self, p: Vec3) -> Option<f32> {
+        let dims = self.bounds.dims;
+        let mut index = 0usize;
+        let mut local = 0usize;
+        let mut stride = 1usize;
+        for a in 0..3 {
+            // Inside the cell box (written so that NaN fails), `floor(p)` lies in it too.
+            let lo = self.bounds.cell_origin[a] as f32 * CELL_WIDTH;
+            if !(p[a] >= lo && p[a] < lo + dims[a] as f32 * CELL_WIDTH) {
+                return None;
+            }
+            let v = p[a].floor() as i32;
+            let c = (v >> 3) - self.bounds.cell_origin[a];
+            if !(0..dims[a] as i32).contains(&c) {
+                return None;
+            }
+            index += c as usize * stride;
+            local += ((v & 7) as usize) << (3 * a);
+            stride *= dims[a] as usize;
+        }
+        let entry = self.entries[index];
+        if entry & super::grid::CONSTANT_BIT != 0 {
+            return None;
+        }
+        let q = self.bounds.voxel_q[entry as usize * super::grid::BRICK_VOXELS + local];
+        Some(((q as f32 * (1.0 / 255.0)) * self.bounds.cells[index].max) * self.scale)
+    }
+}

@@ -17,12 +17,13 @@ pub mod phase;
 pub mod reference;
 pub mod segment;
 pub mod tracking;
+pub mod voxel_bounds;
 
 pub use adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, AdaptiveStats};
 pub use bounds::{BoundsStats, CellBounds, LeafBounds};
 pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};
 pub use cost::CostModel;
-pub use cull::LeafCulling;
+pub use cull::{LeafCulling, VoxelCulling};
 pub use dda::DdaMajorantIterator;
 pub use error::VolumeError;
 pub use grid::{GridStats, SparseGrid, CONSTANT_BIT, DEFAULT_MAX_CELLS};

@@ -3,13 +3,20 @@
 use brume::volume::tracking::{self as tr, Coeffs, CoeffsRgb};
 use brume::volume::MajorantSegment;
 
-/// `inner` with `cull_ratio(t) = ratio(t)` (in `[0, 1]`; 1 culls nothing).
-pub struct CulledBy<M, F> {
+/// `inner` with `cull_ratio(t) = ratio(t)` (in `[0, 1]`; 1 culls nothing) and
+/// `voxel_ratio(t, _, bound) = voxel(t, bound)`, the second stage (`volume::cull::VoxelCulling`).
+pub struct CulledBy<M, F, V = fn(f32, f32) -> f32> {
     pub inner: M,
     pub ratio: F,
+    pub voxel: V,
 }
 
-impl<M: tr::Medium, F: Fn(f32) -> f32> tr::Medium for CulledBy<M, F> {
+/// No second stage.
+pub fn no_voxel(_t: f32, _bound: f32) -> f32 {
+    1.0
+}
+
+impl<M: tr::Medium, F: Fn(f32) -> f32, V: Fn(f32, f32) -> f32> tr::Medium for CulledBy<M, F, V> {
     fn coeffs(&self, t: f32) -> Coeffs {
         self.inner.coeffs(t)
     }
@@ -21,14 +28,24 @@ impl<M: tr::Medium, F: Fn(f32) -> f32> tr::Medium for CulledBy<M, F> {
     fn cull_ratio(&self, t: f32) -> f32 {
         (self.ratio)(t)
     }
+
+    fn voxel_ratio(&self, t: f32, _seg: &MajorantSegment, bound: f32) -> f32 {
+        (self.voxel)(t, bound)
+    }
 }
 
-impl<M: tr::MediumRgb, F: Fn(f32) -> f32> tr::MediumRgb for CulledBy<M, F> {
+impl<M: tr::MediumRgb, F: Fn(f32) -> f32, V: Fn(f32, f32) -> f32> tr::MediumRgb
+    for CulledBy<M, F, V>
+{
     fn coeffs(&self, t: f32) -> CoeffsRgb {
         self.inner.coeffs(t)
     }
 
     fn cull_ratio(&self, t: f32) -> f32 {
         (self.ratio)(t)
+    }
+
+    fn voxel_ratio(&self, t: f32, _seg: &MajorantSegment, bound: f32) -> f32 {
+        (self.voxel)(t, bound)
     }
 }

@@ -240,6 +240,7 @@ impl Buffers {
             (0, 4) => grid.map_or(no_data, |g| &g.bounds),
             (0, 5) => &self.emission,
             (0, 6) => &self.blackbody,
+            (0, 7) => grid.map_or(no_data, |g| &g.voxels),
             (1, 0) => &self.params[parity],
             (1, 1) => &self.paths,
             (1, 2) => &self.queues,

@@ -333,7 +333,7 @@ impl GpuContext {
 }
 
 /// A [`SparseGrid`] and its [`LeafBounds`] on the device, bound as group 0 of every kernel
-/// that includes `grid.wgsl` (bindings 0-3) and `dda.wgsl` (binding 4).
+/// that includes `grid.wgsl` (bindings 0-3) and `dda.wgsl` (bindings 4 and 7).
 pub struct GpuGrid {
     pub info: GpuGridInfo,
     pub info_buffer: wgpu::Buffer,
@@ -342,6 +342,25 @@ pub struct GpuGrid {
     pub constants: wgpu::Buffer,
     /// Per-cell bounds followed by the global bound (`info.global_bounds_index`).
     pub bounds: wgpu::Buffer,
+    /// The first grid's per-voxel culling bytes (`LeafBounds::voxel_q`), four to a `u32`,
+    /// byte `k` in bits `8 (k % 4)` of word `k / 4`; one zero word where there is none (the
+    /// mixture of several media, which does not cull).
+    pub voxels: wgpu::Buffer,
+}
+
+/// `LeafBounds::voxel_q` as the WGSL reads it (`grid_voxels`): four bytes to a word, little
+/// end first; one zero word for an empty table (a binding cannot be empty).
+pub fn pack_voxel_q(q: &[u8]) -> Vec<u32> {
+    if q.is_empty() {
+        return vec![0];
+    }
+    q.chunks(4)
+        .map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u32, |w, (i, &b)| w | (b as u32) << (8 * i))
+        })
+        .collect()
 }
 
 impl GpuGrid {
@@ -378,12 +397,18 @@ impl GpuGrid {
         }
         let info = GpuGridInfo::new(grid, density_scale);
         let b = bounds_layout(bounds, adaptive)?;
-        if (b.len() * 8) as u64 > limit {
-            return Err(format!(
-                "the grid's bounds need {}; the device binds at most {}",
-                byte_size((b.len() * 8) as u64),
-                byte_size(limit)
-            ));
+        let voxels = pack_voxel_q(&bounds.voxel_q);
+        for (what, bytes) in [
+            ("bounds", b.len() * 8),
+            ("per-voxel bounds", voxels.len() * 4),
+        ] {
+            if bytes as u64 > limit {
+                return Err(format!(
+                    "the grid's {what} need {}; the device binds at most {}",
+                    byte_size(bytes as u64),
+                    byte_size(limit)
+                ));
+            }
         }
         Ok(GpuGrid {
             info,
@@ -392,6 +417,7 @@ impl GpuGrid {
             bricks: ctx.storage_buffer("grid bricks", &grid.bricks),
             constants: ctx.storage_buffer("grid constants", &grid.constants),
             bounds: ctx.storage_buffer("grid bounds", &b),
+            voxels: ctx.storage_buffer("grid voxel bounds", &voxels),
         })
     }
 
@@ -415,7 +441,17 @@ impl GpuGrid {
         }
         let mut parts = vec![(grid, density_scale, Some(bounds_layout(bounds, adaptive)?))];
         parts.extend(extra.iter().map(|&g| (g, 1.0, None)));
-        let (gg, placed) = Self::upload_many(ctx, &parts)?;
+        let (mut gg, placed) = Self::upload_many(ctx, &parts)?;
+        // The density grid comes first (no brick offset): its voxel bounds apply as built.
+        let voxels = pack_voxel_q(&bounds.voxel_q);
+        if (voxels.len() * 4) as u64 > ctx.limits.max_storage_buffer_binding_size {
+            return Err(format!(
+                "the grid's per-voxel bounds need {}; the device binds at most {}",
+                byte_size((voxels.len() * 4) as u64),
+                byte_size(ctx.limits.max_storage_buffer_binding_size)
+            ));
+        }
+        gg.voxels = ctx.storage_buffer("grid voxel bounds", &voxels);
         // The extra grids have no bounds.
         let infos = placed[1..]
             .iter()
@@ -491,13 +527,14 @@ impl GpuGrid {
                 bricks: ctx.storage_buffer("grid bricks", &bricks),
                 constants: ctx.storage_buffer("grid constants", &constants),
                 bounds: ctx.storage_buffer("grid bounds", &bounds),
+                voxels: ctx.storage_buffer("grid voxel bounds", &pack_voxel_q(&[])),
             },
             out,
         ))
     }
 
     /// The `(group, binding, buffer)` entries of group 0 for a kernel using the lookups
-    /// (`with_lookups`) and/or the DDA bounds (`with_bounds`).
+    /// (`with_lookups`) and/or the DDA bounds and per-voxel bounds (`with_bounds`).
     pub fn bindings(
         &self,
         with_lookups: bool,
@@ -512,7 +549,8 @@ impl GpuGrid {
             ]);
         }
         if with_bounds {
-            v.push((0, 4, &self.bounds));
+            // The walk's set-up reads the voxel table's length (dda.wgsl `dda_new_in`).
+            v.extend([(0, 4, &self.bounds), (0, 7, &self.voxels)]);
         }
         v
     }

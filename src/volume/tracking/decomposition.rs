@@ -30,8 +30,8 @@
 //! lookup that breaks one counts a `majorant_violation`. For controls above the minorant use
 //! weighted decomposition tracking.
 use super::{
-    check_bound, lookup, sample_free_flight, ControlDepthWalk, Event, Medium, TrackingStats,
-    MAJORANT_TOLERANCE,
+    check_bound, lookup, sample_free_flight, voxel_stage, ControlDepthWalk, Event, Medium,
+    TrackingStats, MAJORANT_TOLERANCE,
 };
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
@@ -63,6 +63,7 @@ where
         t_max,
         |seg| seg.sigma_maj,
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, 1.0, true, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {
@@ -137,6 +138,7 @@ where
         t_max,
         residual_majorant,
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, 1.0, true, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {

@@ -21,7 +21,8 @@
 //! `TrackingStats::majorant_violations` so the caller can report biased results. Use weighted
 //! delta tracking when the majorant does not bound.
 use super::{
-    check_bound, lookup, sample_free_flight, scaled_majorant, Event, Medium, TrackingStats,
+    check_bound, lookup, sample_free_flight, scaled_majorant, voxel_stage, Event, Medium,
+    TrackingStats,
 };
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
@@ -44,6 +45,7 @@ where
         t_max,
         scaled_majorant(1.0),
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, 1.0, false, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {
@@ -93,6 +95,7 @@ where
         t_max,
         scaled_majorant(1.0),
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, 1.0, false, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {

@@ -89,6 +89,14 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
+        // As `voxel_stage`: no control, and only under b >= 1.
+        |t, seg, bound| {
+            if b >= 1.0 {
+                medium.voxel_ratio(t, seg, bound)
+            } else {
+                1.0
+            }
+        },
         rng,
         stats,
         |rng, stats, c| {
@@ -162,6 +170,14 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
+        // As `voxel_stage`: no control, and only under b >= 1.
+        |t, seg, bound| {
+            if b >= 1.0 {
+                medium.voxel_ratio(t, seg, bound)
+            } else {
+                1.0
+            }
+        },
         rng,
         stats,
         |rng, stats, c| {

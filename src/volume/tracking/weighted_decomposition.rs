@@ -22,8 +22,8 @@
 //! in proportion. Transmittance: `exp(-int sigma_c)` in closed form times the weighted
 //! residual estimate (events {real: |sigma_r|, null: |r_n|}; `w` on escape, 0 on real).
 use super::{
-    lookup, record_choice, residual_majorant, sample_free_flight, ControlDepthWalk, Event, Medium,
-    TrackingStats,
+    lookup, record_choice, residual_majorant, sample_free_flight, voxel_stage, ControlDepthWalk,
+    Event, Medium, TrackingStats,
 };
 use crate::sampling::discrete::ONE_MINUS_EPSILON;
 use crate::sampling::{sample_discrete, Rng};
@@ -54,6 +54,7 @@ where
         t_max,
         majorant,
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, b, true, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {
@@ -122,6 +123,7 @@ where
         t_max,
         majorant,
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, b, true, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {

@@ -22,7 +22,8 @@
 //! Transmittance: events {real: |sigma_t|, null: |sigma_n|}; `<T> = w` on escape, 0 on a real
 //! event, with `w *= sigma_n / (sigma_maj P_n)` at nulls.
 use super::{
-    lookup, record_choice, sample_free_flight, scaled_majorant, Event, Medium, TrackingStats,
+    lookup, record_choice, sample_free_flight, scaled_majorant, voxel_stage, Event, Medium,
+    TrackingStats,
 };
 use crate::sampling::{sample_discrete, Rng};
 use crate::volume::MajorantSegment;
@@ -47,6 +48,7 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, b, false, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {
@@ -88,6 +90,7 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
+        |t, seg, bound| voxel_stage(medium, b, false, t, seg, bound),
         rng,
         stats,
         |rng, stats, c| {
