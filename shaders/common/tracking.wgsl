@@ -694,14 +694,14 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
                 }
             }
             // The second stage as tracking::voxel_stage: estimators with a control only where
-            // it is 0 there, those with a majorant scale b only under b >= 1.
+            // it is 0 there, those with a majorant scale b only under b >= 1, spectral tracking
+            // never.
             let est = (*tr).params.estimator;
             let with_control = est == ESTIMATOR_DECOMPOSITION
                 || est == ESTIMATOR_WEIGHTED_DECOMPOSITION || est == ESTIMATOR_RESIDUAL_RATIO;
             let with_b = est == ESTIMATOR_WEIGHTED_DELTA || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
-                || est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO
-                || est == ESTIMATOR_SPECTRAL;
-            if (dda.voxel && (!with_b || (*tr).params.b >= 1.0)
+                || est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO;
+            if (dda.voxel && est != ESTIMATOR_SPECTRAL && (!with_b || (*tr).params.b >= 1.0)
                 && (!with_control || coeffs_sigma_t(control(tr, seg)) == 0.0)) {
                 let r2 = dda_voxel_ratio(&dda, t, r * seg.sigma_maj);
                 if (r2 < 1.0) {

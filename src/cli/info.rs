@@ -5,7 +5,7 @@ use anyhow::{bail, Result};
 use brume_ffi::{GridClass, GridInfo, VdbFile};
 
 use brume::volume::{
-    load_grid_from, AdaptiveMajorants, AdaptiveShape, ConversionPolicy, CostModel,
+    load_grid_from, AdaptiveMajorants, AdaptiveShape, ConversionPolicy, CostModel, LeafBounds,
 };
 
 pub fn run(path: &Path, layout: bool) -> Result<()> {
@@ -36,6 +36,8 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                     m.sigma_t_bound,
                     brume::integrator::prepare::index_per_t(&m.density),
                 );
+                let g = &m.density.grid;
+                print_voxel_bounds(&format!("medium {i}"), &g.grid, &g.bounds);
             }
             Ok(())
         }
@@ -91,6 +93,25 @@ fn print_facts(g: &GridInfo) {
     for (k, t, v) in &g.metadata {
         println!("  meta {k:<16} {v} ({t})");
     }
+}
+
+/// The per-voxel culling bounds' memory, build time (rebuilt here to time it) and tightness.
+fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &LeafBounds) {
+    let start = std::time::Instant::now();
+    let q = brume::volume::voxel_bounds::build_voxel_q(grid, &bounds.cells);
+    let seconds = start.elapsed().as_secs_f64();
+    let mean = q.iter().map(|&v| v as f64).sum::<f64>() / q.len().max(1) as f64 / 255.0;
+    println!(
+        "{label} per-voxel bounds: {:.1} KiB (a byte a brick voxel), built in {:.2} ms; mean voxel bound / cell bound {:.3}{}",
+        bounds.voxel_q.len() as f64 / 1024.0,
+        1e3 * seconds,
+        mean,
+        if brume::volume::VoxelCulling::new(bounds, &grid.cells, 1.0).is_some() {
+            ""
+        } else {
+            " (not used: no bricks, or the global minimum is not 0)"
+        }
+    );
 }
 
 /// The adaptive hierarchy's shape, model costs, build time and memory.
@@ -179,6 +200,7 @@ fn vdb(path: &Path, layout: bool) -> Result<()> {
                 let a =
                     AdaptiveMajorants::build(&loaded.bounds, 1.0, index_per_t, CostModel::DEFAULT);
                 print_adaptive("  adaptive (density 1)", &a, 1.0, index_per_t);
+                print_voxel_bounds(" ", &loaded.grid, &loaded.bounds);
                 let wb = loaded.grid.world_bounds();
                 println!(
                     "  world bounds      {:?} .. {:?}",

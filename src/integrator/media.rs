@@ -486,8 +486,6 @@ pub(super) struct RgbView<'a, const EMIT: bool> {
     pub(super) emission_lookups: Cell<u64>,
     /// As [`GreyView::culling`].
     pub(super) culling: Option<LeafCulling<'a>>,
-    /// As [`GreyView::voxel`].
-    pub(super) voxel: Option<VoxelCulling<'a>>,
 }
 
 impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
@@ -519,7 +517,6 @@ impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
             culling: m.culling(majorant),
-            voxel: m.voxel_culling(majorant),
         }
     }
 }
@@ -543,11 +540,6 @@ impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
     #[inline]
     fn cull_ratio(&self, t: f32) -> f32 {
         cull_ratio(self.culling.as_ref(), &self.ray_i, t)
-    }
-
-    #[inline]
-    fn voxel_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment, bound: f32) -> f32 {
-        voxel_ratio(self.voxel.as_ref(), &self.ray_i, t, bound)
     }
 
     #[inline]

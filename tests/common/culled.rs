@@ -34,18 +34,12 @@ impl<M: tr::Medium, F: Fn(f32) -> f32, V: Fn(f32, f32) -> f32> tr::Medium for Cu
     }
 }
 
-impl<M: tr::MediumRgb, F: Fn(f32) -> f32, V: Fn(f32, f32) -> f32> tr::MediumRgb
-    for CulledBy<M, F, V>
-{
+impl<M: tr::MediumRgb, F: Fn(f32) -> f32, V> tr::MediumRgb for CulledBy<M, F, V> {
     fn coeffs(&self, t: f32) -> CoeffsRgb {
         self.inner.coeffs(t)
     }
 
     fn cull_ratio(&self, t: f32) -> f32 {
         (self.ratio)(t)
-    }
-
-    fn voxel_ratio(&self, t: f32, _seg: &MajorantSegment, bound: f32) -> f32 {
-        (self.voxel)(t, bound)
     }
 }

@@ -442,16 +442,7 @@ impl GpuGrid {
         let mut parts = vec![(grid, density_scale, Some(bounds_layout(bounds, adaptive)?))];
         parts.extend(extra.iter().map(|&g| (g, 1.0, None)));
         let (mut gg, placed) = Self::upload_many(ctx, &parts)?;
-        // The density grid comes first (no brick offset): its voxel bounds apply as built.
-        let voxels = pack_voxel_q(&bounds.voxel_q);
-        if (voxels.len() * 4) as u64 > ctx.limits.max_storage_buffer_binding_size {
-            return Err(format!(
-                "the grid's per-voxel bounds need {}; the device binds at most {}",
-                byte_size((voxels.len() * 4) as u64),
-                byte_size(ctx.limits.max_storage_buffer_binding_size)
-            ));
-        }
-        gg.voxels = ctx.storage_buffer("grid voxel bounds", &voxels);
+        gg.set_voxels(ctx, &bounds.voxel_q)?;
         // The extra grids have no bounds.
         let infos = placed[1..]
             .iter()
@@ -461,6 +452,23 @@ impl GpuGrid {
             })
             .collect();
         Ok((gg, infos))
+    }
+
+    /// Binds `q`, the per-voxel bounds (`LeafBounds::voxel_q`) of the grid at the start of the
+    /// buffers (no cell, brick or bounds offset: the only grid whose walks `dda.wgsl` thins by
+    /// voxels). Fails when the table exceeds the device's storage-binding limit.
+    pub fn set_voxels(&mut self, ctx: &GpuContext, q: &[u8]) -> Result<(), String> {
+        let voxels = pack_voxel_q(q);
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        if (voxels.len() * 4) as u64 > limit {
+            return Err(format!(
+                "the grid's per-voxel bounds need {}; the device binds at most {}",
+                byte_size((voxels.len() * 4) as u64),
+                byte_size(limit)
+            ));
+        }
+        self.voxels = ctx.storage_buffer("grid voxel bounds", &voxels);
+        Ok(())
     }
 
     /// Several grids in one set of buffers (the mixture variant's media): each of `grids`

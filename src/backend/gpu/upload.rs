@@ -392,7 +392,13 @@ fn upload_media(
             parts.push((&f.grid.grid, 1.0, None));
         }
     }
-    let (gg, placed) = GpuGrid::upload_many(ctx, &parts).map_err(GpuRenderError::Limits)?;
+    let (mut gg, placed) = GpuGrid::upload_many(ctx, &parts).map_err(GpuRenderError::Limits)?;
+    // The first medium's grid starts the buffers: its walks thin by its voxel bounds, as the
+    // CPU's do (the others' walks do not on the GPU: there is one table binding).
+    if let Some(m) = rs.vdb.first() {
+        gg.set_voxels(ctx, &m.density.grid.bounds.voxel_q)
+            .map_err(GpuRenderError::Limits)?;
+    }
     let mut next_emission = rs.vdb.len();
     let mut media = Vec::with_capacity(rs.vdb.len());
     for (k, m) in rs.vdb.iter().enumerate() {

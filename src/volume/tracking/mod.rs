@@ -153,7 +153,11 @@ pub trait Medium {
 /// - under `b < 1` the weighted estimators' majorant is already below the density in places;
 ///   thinning it further towards `b sigma_t` only fattens their weights' tails (measured on
 ///   the blob, weighted delta at `b = 0.5`: largest |w| 133-166 against 62-70 without), so
-///   only `b >= 1` thins.
+///   only `b >= 1` thins;
+/// - spectral tracking does not thin by voxels at all: its null collisions' weights divide by
+///   the null probability, which a bound tight on the densest channel shrinks, so the other
+///   channels' weights grow (a chromatic render failed a pixel at z = 6.03 with it,
+///   `gpu_media_overlap`); it keeps the cells' (and the culled walk's) bounds.
 #[inline]
 pub fn voxel_stage<M: Medium + ?Sized>(
     medium: &M,
@@ -181,12 +185,6 @@ pub trait MediumRgb {
     /// As [`Medium::cull_ratio`].
     #[inline]
     fn cull_ratio(&self, _t: f32) -> f32 {
-        1.0
-    }
-
-    /// As [`Medium::voxel_ratio`].
-    #[inline]
-    fn voxel_ratio(&self, _t: f32, _seg: &MajorantSegment, _bound: f32) -> f32 {
         1.0
     }
 }
@@ -547,7 +545,7 @@ where
                     stats.null_collisions += 1;
                     continue;
                 }
-                sigma_kept = r2 * sigma_kept;
+                sigma_kept *= r2;
             }
             let c = Collision {
                 t,

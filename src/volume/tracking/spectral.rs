@@ -89,14 +89,8 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
-        // As `voxel_stage`: no control, and only under b >= 1.
-        |t, seg, bound| {
-            if b >= 1.0 {
-                medium.voxel_ratio(t, seg, bound)
-            } else {
-                1.0
-            }
-        },
+        // No per-voxel stage (see `tracking::voxel_stage`).
+        |_, _, _| 1.0,
         rng,
         stats,
         |rng, stats, c| {
@@ -170,14 +164,8 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
-        // As `voxel_stage`: no control, and only under b >= 1.
-        |t, seg, bound| {
-            if b >= 1.0 {
-                medium.voxel_ratio(t, seg, bound)
-            } else {
-                1.0
-            }
-        },
+        // No per-voxel stage (see `tracking::voxel_stage`).
+        |_, _, _| 1.0,
         rng,
         stats,
         |rng, stats, c| {
