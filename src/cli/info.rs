@@ -38,6 +38,10 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                 );
                 let g = &m.density.grid;
                 print_voxel_bounds(&format!("medium {i}"), &g.grid, &g.bounds);
+                println!(
+                    "medium {i} voxel culling: {} (thins where the collisions it culls save more lookups than its reads cost)",
+                    if m.voxel_culling_pays { "on" } else { "off" }
+                );
             }
             Ok(())
         }
@@ -102,10 +106,11 @@ fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &Le
     let seconds = start.elapsed().as_secs_f64();
     let mean = q.iter().map(|&v| v as f64).sum::<f64>() / q.len().max(1) as f64 / 255.0;
     println!(
-        "{label} per-voxel bounds: {:.1} KiB (a byte a brick voxel), built in {:.2} ms; mean voxel bound / cell bound {:.3}{}",
+        "{label} per-voxel bounds: {:.1} KiB (a byte a brick voxel), built in {:.2} ms; mean voxel bound / cell bound {:.3}, collisions kept {:.3}{}",
         bounds.voxel_q.len() as f64 / 1024.0,
         1e3 * seconds,
         mean,
+        brume::volume::voxel_bounds::kept_fraction(grid, &bounds.cells, &q),
         if brume::volume::VoxelCulling::new(bounds, &grid.cells, 1.0).is_some() {
             ""
         } else {

@@ -109,6 +109,10 @@ pub struct VdbMedium {
     pub grey: bool,
     pub phase: HenyeyGreenstein,
     pub emission: Option<Emission>,
+    /// Whether its per-leaf and culled walks thin by the per-voxel bounds: where the model
+    /// says that pays (`volume::voxel_bounds::voxel_culling_pays`, decided when the render is
+    /// prepared).
+    pub voxel_culling_pays: bool,
 }
 
 impl VdbMedium {
@@ -139,9 +143,13 @@ impl VdbMedium {
 
     /// The per-voxel culling of this medium's walk under `mode`: the per-leaf DDA and the
     /// culled global walk thin by the voxel bounds (the mixed hierarchy's walk and the
-    /// global bound do not), where [`VoxelCulling::new`] finds it sound.
+    /// global bound do not), where it pays ([`Self::voxel_culling_pays`]) and
+    /// [`VoxelCulling::new`] finds it sound.
     #[inline]
     pub fn voxel_culling(&self, mode: MajorantMode) -> Option<VoxelCulling<'_>> {
+        if !self.voxel_culling_pays {
+            return None;
+        }
         match self.walk_mode(mode) {
             MajorantMode::Leaf | MajorantMode::Culled => {
                 let g = &self.density.grid;

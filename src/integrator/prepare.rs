@@ -206,7 +206,18 @@ impl<'s> RenderScene<'s> {
                 index_per_t(&density),
                 cost,
             ));
+            // The per-voxel stage where the collisions it culls save more lookups than its
+            // reads cost (`voxel_bounds::voxel_culling_pays`).
+            let g = &density.grid;
+            let kept = crate::volume::voxel_bounds::kept_fraction(
+                &g.grid,
+                &g.bounds.cells,
+                &g.bounds.voxel_q,
+            );
+            let voxel_culling_pays =
+                crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
             vdb.push(VdbMedium {
+                voxel_culling_pays,
                 density,
                 world_bounds: desc.world_bounds,
                 sigma_a,

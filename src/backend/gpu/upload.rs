@@ -357,6 +357,8 @@ pub(super) fn upload_grid(
         &extra,
     )
     .map_err(GpuRenderError::Limits)?;
+    gg.set_voxels(ctx, voxel_table(m))
+        .map_err(GpuRenderError::Limits)?;
     gg.info.index_from_world = affine_rows(m.density.index_from_world);
     ctx.queue
         .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
@@ -396,7 +398,7 @@ fn upload_media(
     // The first medium's grid starts the buffers: its walks thin by its voxel bounds, as the
     // CPU's do (the others' walks do not on the GPU: there is one table binding).
     if let Some(m) = rs.vdb.first() {
-        gg.set_voxels(ctx, &m.density.grid.bounds.voxel_q)
+        gg.set_voxels(ctx, voxel_table(m))
             .map_err(GpuRenderError::Limits)?;
     }
     let mut next_emission = rs.vdb.len();
@@ -613,4 +615,15 @@ pub(super) fn env_map_upload(
         ));
     }
     Ok((info, data))
+}
+
+/// The per-voxel bounds a medium's walks thin by on the GPU: its table where that pays
+/// (`VdbMedium::voxel_culling_pays`, as on the CPU), none (so `dda.wgsl` does not thin)
+/// elsewhere.
+fn voxel_table(m: &crate::integrator::media::VdbMedium) -> &[u8] {
+    if m.voxel_culling_pays {
+        &m.density.grid.bounds.voxel_q
+    } else {
+        &[]
+    }
 }
