@@ -284,16 +284,8 @@ fn culled_global_walk_transmittance() {
     for s in scenes() {
         let (global, ratio) = s.culled();
         let seg = || std::iter::once(global);
-        // The second stage thins the kept collisions again by a pointwise bound of the
-        // density (as the per-voxel bounds do): sigma_fine = 1.25 sigma_t.
-        let voxel = |t: f32, bound: f32| {
-            let fine = 1.25 * (s.sigma_t)(t);
-            if fine < bound {
-                fine / bound
-            } else {
-                1.0
-            }
-        };
+        // A second stage thins the kept collisions again (`Scene::voxel_ratio`).
+        let voxel = |t: f32, bound: f32| s.voxel_ratio(t, bound);
         let culled = |control| CulledBy {
             inner: s.medium(control),
             ratio: &ratio,

@@ -389,6 +389,21 @@ fn check_one_ray(
     Ok(())
 }
 
+/// The finite ends of `seg` and, when both are finite, [`SAMPLES_PER_RAY`] random parameters
+/// inside it: where the culling checks read the bounds.
+fn segment_parameters(seg: &MajorantSegment, rng: &mut SplitMix64) -> Vec<f32> {
+    let (t_min, t_max) = (seg.t_min, seg.t_max);
+    let mut ts = vec![t_min, t_max];
+    if t_min.is_finite() && t_max.is_finite() {
+        for _ in 0..SAMPLES_PER_RAY {
+            let t = (t_min as f64 + rng.uniform() * (t_max as f64 - t_min as f64)) as f32;
+            ts.push(t.clamp(t_min, t_max));
+        }
+    }
+    ts.retain(|t| t.is_finite());
+    ts
+}
+
 /// The culled global walk's bound at the ends of the global segment `seg` and at random
 /// parameters in it: the per-leaf bound of the point's cell must bound the trilinear and
 /// nearest values there (the point exactly as the renderer computes it) and lie within the
@@ -402,15 +417,7 @@ fn check_culling(
     rng: &mut SplitMix64,
     stats: &mut RayCheckStats,
 ) -> Result<(), String> {
-    let (t_min, t_max) = (seg.t_min, seg.t_max);
-    let mut ts = vec![t_min, t_max];
-    if t_min.is_finite() && t_max.is_finite() {
-        for _ in 0..SAMPLES_PER_RAY {
-            let t = (t_min as f64 + rng.uniform() * (t_max as f64 - t_min as f64)) as f32;
-            ts.push(t.clamp(t_min, t_max));
-        }
-    }
-    for t in ts.into_iter().filter(|t| t.is_finite()) {
+    for t in segment_parameters(seg, rng) {
         let p = ray.at(t);
         let bound = cull.bound_at(p);
         let ratio = cull.ratio(p);
@@ -449,15 +456,7 @@ fn check_voxel_culling(
     stats: &mut RayCheckStats,
 ) -> Result<(), String> {
     for seg in segments.iter().filter(|s| s.sigma_maj > 0.0) {
-        let (t_min, t_max) = (seg.t_min, seg.t_max);
-        let mut ts = vec![t_min, t_max];
-        if t_min.is_finite() && t_max.is_finite() {
-            for _ in 0..SAMPLES_PER_RAY {
-                let t = (t_min as f64 + rng.uniform() * (t_max as f64 - t_min as f64)) as f32;
-                ts.push(t.clamp(t_min, t_max));
-            }
-        }
-        for t in ts.into_iter().filter(|t| t.is_finite()) {
+        for t in segment_parameters(seg, rng) {
             let p = ray.at(t);
             let b = bound(p, seg);
             let r = voxel.ratio(p, b);

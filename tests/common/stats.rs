@@ -118,6 +118,18 @@ impl Scene {
         (seg, ratio)
     }
 
+    /// A second culling stage for the culled walk (`Medium::voxel_ratio`): thins a collision
+    /// kept with raw majorant `bound` down to the pointwise bound `1.25 sigma_t(t)`, as the
+    /// per-voxel bounds thin the renderer's.
+    pub fn voxel_ratio(&self, t: f32, bound: f32) -> f32 {
+        let fine = 1.25 * (self.sigma_t)(t);
+        if fine < bound {
+            fine / bound
+        } else {
+            1.0
+        }
+    }
+
     /// The scene as a `Medium` with the given control policy (albedo `ALBEDO` everywhere, so
     /// the control's split is known without a lookup).
     pub fn medium(&self, control: ControlExtinction) -> FnMedium<impl Fn(f32) -> Coeffs> {
