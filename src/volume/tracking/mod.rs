@@ -155,9 +155,10 @@ pub trait Medium {
 ///   the blob, weighted delta at `b = 0.5`: largest |w| 133-166 against 62-70 without), so
 ///   only `b >= 1` thins;
 /// - spectral tracking does not thin by voxels at all: its null collisions' weights divide by
-///   the null probability, which a bound tight on the densest channel shrinks, so the other
-///   channels' weights grow (a chromatic render failed a pixel at z = 6.03 with it,
-///   `gpu_media_overlap`); it keeps the cells' (and the culled walk's) bounds.
+///   the null probability, which a bound tight on the densest channel shrinks. Measured with
+///   it (the chromatic two-grid scene against its summed grid, six seeds): no bias (mean
+///   differences of both signs) but worst pixel z 3.90-5.60 against 2.71-3.39 without, so it
+///   keeps the cells' (and the culled walk's) bounds.
 #[inline]
 pub fn voxel_stage<M: Medium + ?Sized>(
     medium: &M,
