@@ -348,6 +348,21 @@ pub struct GpuGrid {
     pub voxels: wgpu::Buffer,
 }
 
+/// The storage buffer of per-voxel bounds `q` ([`pack_voxel_q`]), or why the device cannot
+/// bind it.
+fn voxel_buffer(ctx: &GpuContext, q: &[u8]) -> Result<wgpu::Buffer, String> {
+    let words = pack_voxel_q(q);
+    let limit = ctx.limits.max_storage_buffer_binding_size;
+    if (words.len() * 4) as u64 > limit {
+        return Err(format!(
+            "the grid's per-voxel bounds need {}; the device binds at most {}",
+            byte_size((words.len() * 4) as u64),
+            byte_size(limit)
+        ));
+    }
+    Ok(ctx.storage_buffer("grid voxel bounds", &words))
+}
+
 /// `LeafBounds::voxel_q` as the WGSL reads it (`grid_voxels`): four bytes to a word, little
 /// end first; one zero word for an empty table (a binding cannot be empty).
 pub fn pack_voxel_q(q: &[u8]) -> Vec<u32> {
@@ -384,6 +399,19 @@ impl GpuGrid {
         adaptive: Option<&AdaptiveMajorants>,
         density_scale: f32,
     ) -> Result<GpuGrid, String> {
+        Self::upload_one(ctx, grid, bounds, adaptive, density_scale, &bounds.voxel_q)
+    }
+
+    /// [`GpuGrid::upload_adaptive`] binding `voxels` as the per-voxel bounds (the grid's own,
+    /// or none where its walks do not thin by them).
+    fn upload_one(
+        ctx: &GpuContext,
+        grid: &SparseGrid,
+        bounds: &LeafBounds,
+        adaptive: Option<&AdaptiveMajorants>,
+        density_scale: f32,
+        voxels: &[u8],
+    ) -> Result<GpuGrid, String> {
         let limit = ctx.limits.max_storage_buffer_binding_size;
         let bytes = (grid.bricks.len() * 4) as u64;
         if bytes > limit || (grid.cells.len() * 4) as u64 > limit {
@@ -397,18 +425,12 @@ impl GpuGrid {
         }
         let info = GpuGridInfo::new(grid, density_scale);
         let b = bounds_layout(bounds, adaptive)?;
-        let voxels = pack_voxel_q(&bounds.voxel_q);
-        for (what, bytes) in [
-            ("bounds", b.len() * 8),
-            ("per-voxel bounds", voxels.len() * 4),
-        ] {
-            if bytes as u64 > limit {
-                return Err(format!(
-                    "the grid's {what} need {}; the device binds at most {}",
-                    byte_size(bytes as u64),
-                    byte_size(limit)
-                ));
-            }
+        if (b.len() * 8) as u64 > limit {
+            return Err(format!(
+                "the grid's bounds need {}; the device binds at most {}",
+                byte_size((b.len() * 8) as u64),
+                byte_size(limit)
+            ));
         }
         Ok(GpuGrid {
             info,
@@ -417,7 +439,7 @@ impl GpuGrid {
             bricks: ctx.storage_buffer("grid bricks", &grid.bricks),
             constants: ctx.storage_buffer("grid constants", &grid.constants),
             bounds: ctx.storage_buffer("grid bounds", &b),
-            voxels: ctx.storage_buffer("grid voxel bounds", &voxels),
+            voxels: voxel_buffer(ctx, voxels)?,
         })
     }
 
@@ -426,23 +448,25 @@ impl GpuGrid {
     /// returned: each has its [`GpuGridInfo::cell_offset`] and its brick and constant indices
     /// shifted past the grids before it, so the shaders read every grid through one set of
     /// bindings. The extra grids' `index_from_world` is their own; callers placing a grid in
-    /// the world overwrite it.
+    /// the world overwrite it. `voxels` are the per-voxel bounds bound for the density grid
+    /// (its `voxel_q`, or none where its walks do not thin by them).
     pub fn upload_with(
         ctx: &GpuContext,
         grid: &SparseGrid,
         bounds: &LeafBounds,
         adaptive: Option<&AdaptiveMajorants>,
         density_scale: f32,
+        voxels: &[u8],
         extra: &[&SparseGrid],
     ) -> Result<(GpuGrid, Vec<GpuGridInfo>), String> {
         if extra.is_empty() {
-            return Self::upload_adaptive(ctx, grid, bounds, adaptive, density_scale)
+            return Self::upload_one(ctx, grid, bounds, adaptive, density_scale, voxels)
                 .map(|g| (g, Vec::new()));
         }
         let mut parts = vec![(grid, density_scale, Some(bounds_layout(bounds, adaptive)?))];
         parts.extend(extra.iter().map(|&g| (g, 1.0, None)));
         let (mut gg, placed) = Self::upload_many(ctx, &parts)?;
-        gg.set_voxels(ctx, &bounds.voxel_q)?;
+        gg.set_voxels(ctx, voxels)?;
         // The extra grids have no bounds.
         let infos = placed[1..]
             .iter()
@@ -458,16 +482,7 @@ impl GpuGrid {
     /// buffers (no cell, brick or bounds offset: the only grid whose walks `dda.wgsl` thins by
     /// voxels). Fails when the table exceeds the device's storage-binding limit.
     pub fn set_voxels(&mut self, ctx: &GpuContext, q: &[u8]) -> Result<(), String> {
-        let voxels = pack_voxel_q(q);
-        let limit = ctx.limits.max_storage_buffer_binding_size;
-        if (voxels.len() * 4) as u64 > limit {
-            return Err(format!(
-                "the grid's per-voxel bounds need {}; the device binds at most {}",
-                byte_size((voxels.len() * 4) as u64),
-                byte_size(limit)
-            ));
-        }
-        self.voxels = ctx.storage_buffer("grid voxel bounds", &voxels);
+        self.voxels = voxel_buffer(ctx, q)?;
         Ok(())
     }
 
@@ -535,7 +550,7 @@ impl GpuGrid {
                 bricks: ctx.storage_buffer("grid bricks", &bricks),
                 constants: ctx.storage_buffer("grid constants", &constants),
                 bounds: ctx.storage_buffer("grid bounds", &bounds),
-                voxels: ctx.storage_buffer("grid voxel bounds", &pack_voxel_q(&[])),
+                voxels: voxel_buffer(ctx, &[])?,
             },
             out,
         ))

@@ -354,11 +354,10 @@ pub(super) fn upload_grid(
         &g.bounds,
         m.walked_hierarchy(cfg.majorant),
         m.sigma_t_bound,
+        voxel_table(m),
         &extra,
     )
     .map_err(GpuRenderError::Limits)?;
-    gg.set_voxels(ctx, voxel_table(m))
-        .map_err(GpuRenderError::Limits)?;
     gg.info.index_from_world = affine_rows(m.density.index_from_world);
     ctx.queue
         .write_buffer(&gg.info_buffer, 0, bytemuck::bytes_of(&gg.info));
