@@ -221,17 +221,14 @@ fn dda_voxel_ratio(it: ptr<function, Dda>, t: f32, bound: f32) -> f32 {
     var local = 0u;
     var stride = 1u;
     for (var a = 0; a < 3; a++) {
-        // Inside the cell box (NaN fails): floor(p) then lies in it, as `floor(p) as i32`
-        // and the range test decide on the CPU.
+        // Inside the cell box (NaN fails), whose faces are integers: floor(p) and its cell
+        // then lie in it too.
         let lo = (*it).lo[a];
         if (!(p[a] >= lo && p[a] < lo + f32(n[a]) * CELL_WIDTH)) {
             return 1.0;
         }
         let v = i32(floor(p[a]));
         let c = (v >> 3u) - i32(lo / CELL_WIDTH);
-        if (c < 0 || c >= n[a]) {
-            return 1.0;
-        }
         index += u32(c) * stride;
         local += u32(v & 7) << (3u * u32(a));
         stride *= u32(n[a]);

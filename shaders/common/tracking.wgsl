@@ -613,6 +613,15 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
     var tau_left = -1.0;
     var tau_since = 0.0;
     var n_collisions = 0u;
+    // tracking::voxel_stage, decided once per flight: the per-voxel stage only for walks that
+    // have it, never for spectral tracking, for estimators with a majorant scale b only under
+    // b >= 1, and for those with a control only where it is 0 (tested per segment: seg_voxel).
+    let est = (*tr).params.estimator;
+    let with_control = est == ESTIMATOR_DECOMPOSITION
+        || est == ESTIMATOR_WEIGHTED_DECOMPOSITION || est == ESTIMATOR_RESIDUAL_RATIO;
+    let with_b = est == ESTIMATOR_WEIGHTED_DELTA || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
+        || est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO;
+    let voxel = dda.voxel && est != ESTIMATOR_SPECTRAL && (!with_b || (*tr).params.b >= 1.0);
     loop {
         // ControlDepthWalk::next: the walk ends once the control factor has underflowed.
         if ((*tr).sum_control && (*tr).tau_c > CONTROL_DEPTH_CUTOFF) {
@@ -655,6 +664,7 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
         if (sigma_maj == 0.0) {
             continue;
         }
+        let seg_voxel = voxel && (!with_control || coeffs_sigma_t(control(tr, seg)) == 0.0);
         var t = seg.t_min;
         loop {
             if (tau_left < 0.0) {
@@ -693,16 +703,8 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
                     sigma_kept = r * sigma_maj;
                 }
             }
-            // The second stage as tracking::voxel_stage: estimators with a control only where
-            // it is 0 there, those with a majorant scale b only under b >= 1, spectral tracking
-            // never.
-            let est = (*tr).params.estimator;
-            let with_control = est == ESTIMATOR_DECOMPOSITION
-                || est == ESTIMATOR_WEIGHTED_DECOMPOSITION || est == ESTIMATOR_RESIDUAL_RATIO;
-            let with_b = est == ESTIMATOR_WEIGHTED_DELTA || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
-                || est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO;
-            if (dda.voxel && est != ESTIMATOR_SPECTRAL && (!with_b || (*tr).params.b >= 1.0)
-                && (!with_control || coeffs_sigma_t(control(tr, seg)) == 0.0)) {
+            // The second stage (voxel_stage).
+            if (seg_voxel) {
                 let r2 = dda_voxel_ratio(&dda, t, r * seg.sigma_maj);
                 if (r2 < 1.0) {
                     if (!(tracker_uniform(tr) < r2)) {

@@ -389,6 +389,23 @@ fn check_one_ray(
     Ok(())
 }
 
+/// The trilinear and nearest values at index point `p` (as the renderer's lookups read it)
+/// are at most `bound`.
+fn check_below(grid: &SparseGrid, p: Vec3, bound: f32) -> Result<(), String> {
+    let pd = p.as_dvec3();
+    for (what, v) in [
+        ("trilinear", grid.sample_trilinear(pd)),
+        ("nearest", grid.sample_nearest(pd)),
+    ] {
+        if !(v <= bound) {
+            return Err(format!(
+                "{what} value {v} at index point {p:?} above {bound}"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The finite ends of `seg` and, when both are finite, [`SAMPLES_PER_RAY`] random parameters
 /// inside it: where the culling checks read the bounds.
 fn segment_parameters(seg: &MajorantSegment, rng: &mut SplitMix64) -> Vec<f32> {
@@ -426,17 +443,7 @@ fn check_culling(
                 "cell bound {bound} (ratio {ratio}) at t = {t} above the global {global_max}"
             ));
         }
-        let pd = p.as_dvec3();
-        for (what, v) in [
-            ("trilinear", grid.sample_trilinear(pd)),
-            ("nearest", grid.sample_nearest(pd)),
-        ] {
-            if !(v <= bound) {
-                return Err(format!(
-                    "{what} value {v} at t = {t} (index point {p:?}) above the cell bound {bound}"
-                ));
-            }
-        }
+        check_below(grid, p, bound).map_err(|e| format!("{e} at t = {t}: the cell bound"))?;
         stats.culled_samples += 1;
     }
     Ok(())
@@ -469,18 +476,7 @@ fn check_voxel_culling(
             let Some(fine) = fine else {
                 continue;
             };
-            let pd = p.as_dvec3();
-            for (what, v) in [
-                ("trilinear", grid.sample_trilinear(pd)),
-                ("nearest", grid.sample_nearest(pd)),
-            ] {
-                if !(v <= fine) {
-                    return Err(format!(
-                        "{what} value {v} at t = {t} (index point {p:?}) above the voxel bound \
-                         {fine}"
-                    ));
-                }
-            }
+            check_below(grid, p, fine).map_err(|e| format!("{e} at t = {t}: the voxel bound"))?;
             stats.voxel_samples += 1;
         }
     }

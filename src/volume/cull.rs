@@ -148,16 +148,14 @@ impl<'a> VoxelCulling<'a> {
         let mut local = 0usize;
         let mut stride = 1usize;
         for a in 0..3 {
-            // Inside the cell box (written so that NaN fails), `floor(p)` lies in it too.
+            // Inside the cell box (written so that NaN fails), whose faces are integers, so
+            // `floor(p)` and its cell lie in it too.
             let lo = self.bounds.cell_origin[a] as f32 * CELL_WIDTH;
             if !(p[a] >= lo && p[a] < lo + dims[a] as f32 * CELL_WIDTH) {
                 return None;
             }
             let v = p[a].floor() as i32;
             let c = (v >> 3) - self.bounds.cell_origin[a];
-            if !(0..dims[a] as i32).contains(&c) {
-                return None;
-            }
             index += c as usize * stride;
             local += ((v & 7) as usize) << (3 * a);
             stride *= dims[a] as usize;
