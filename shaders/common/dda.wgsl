@@ -18,8 +18,9 @@
 // packed levels (AdaptiveMajorants::gpu_bounds).
 @group(0) @binding(4) var<storage, read> grid_bounds: array<CellBounds>;
 
-// LeafBounds::voxel_q of the density grid, four bytes to a word (GpuGrid::voxels,
-// pack_voxel_q); one zero word where there is none.
+// LeafBounds::voxel_q of the density grids whose walks thin by them, four bytes to a word
+// (GpuGrid::voxels, pack_voxel_q), indexed by the shared bricks buffer's brick index (a grid's
+// table at its bricks' place); one zero word where there is none.
 @group(0) @binding(7) var<storage, read> grid_voxels: array<u32>;
 
 // Edge of one bounds cell in index units.
@@ -52,6 +53,7 @@ struct Dda {
     t_exit: f32,
     done: bool,
     bounds_base: u32,         // first entry of the grid's bounds in grid_bounds
+    cell_offset: u32,         // first entry of the grid's cells in grid_cells
     global_index: u32,        // its global bound, relative to bounds_base
 }
 
@@ -109,16 +111,21 @@ fn dda_crossing(it: ptr<function, Dda>, axis: i32) -> f32 {
 // DdaMajorantIterator::new (MAJORANT_PER_CELL) and ::global (MAJORANT_GLOBAL, and
 // MAJORANT_CULLED with its LeafCulling), through `walk`, and AdaptiveMajorantIterator::new
 // (MAJORANT_ADAPTIVE: the per-cell entry), for the density grid of the `grid_info` uniform.
+// The grid's per-voxel bounds are bound where the table covers its bricks (the host binds
+// one only where its walks thin by it).
 fn dda_new(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, scale: f32, mode: u32) -> Dda {
-    return dda_new_in(grid_info, 0u, o, d, t0, t1, scale, mode);
+    let table = arrayLength(&grid_voxels) * 4u >= grid_info.brick_count * 512u;
+    return dda_new_in(grid_info, 0u, table, o, d, t0, t1, scale, mode);
 }
 
 // dda_new for grid `g` whose bounds start at `bounds_base` in grid_bounds (one of several
-// media sharing the buffers: mixture.wgsl).
-fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
-              scale: f32, mode: u32) -> Dda {
+// media sharing the buffers: mixture.wgsl), `voxel_table` where grid_voxels holds its
+// per-voxel bounds at its bricks' place.
+fn dda_new_in(g: GpuGridInfo, bounds_base: u32, voxel_table: bool, o: vec3<f32>, d: vec3<f32>,
+              t0: f32, t1: f32, scale: f32, mode: u32) -> Dda {
     var it: Dda;
     it.bounds_base = bounds_base;
+    it.cell_offset = g.cell_offset;
     it.global_index = g.global_bounds_index;
     let global = mode == MAJORANT_GLOBAL || mode == MAJORANT_CULLED;
     it.o = o;
@@ -139,14 +146,11 @@ fn dda_new_in(g: GpuGridInfo, bounds_base: u32, o: vec3<f32>, d: vec3<f32>, t0: 
         it.cull = gb.min == 0.0 && gb.max > 0.0 && gb.max <= 3.40282347e38;
     }
     // VdbMedium::voxel_culling: the per-leaf DDA and the culled global walk, where the
-    // global minimum is 0 and the maximum positive and finite (VoxelCulling::new), for the
-    // one grid whose table is bound (the density grid at the start of the buffers; the
-    // mixture binds none).
+    // global minimum is 0 and the maximum positive and finite (VoxelCulling::new), for a
+    // grid whose table is bound.
     it.voxel = false;
-    if ((mode == MAJORANT_PER_CELL || mode == MAJORANT_CULLED) && !empty
-        && g.cell_offset == 0u && bounds_base == 0u && g.brick_count > 0u
-        && arrayLength(&grid_voxels) * 4u >= g.brick_count * 512u && scale > 0.0
-        && scale <= 3.40282347e38) {
+    if ((mode == MAJORANT_PER_CELL || mode == MAJORANT_CULLED) && !empty && voxel_table
+        && g.brick_count > 0u && scale > 0.0 && scale <= 3.40282347e38) {
         let gb = grid_bounds[bounds_base + g.global_bounds_index];
         it.voxel = gb.min == 0.0 && gb.max > 0.0 && gb.max <= 3.40282347e38;
     }
@@ -233,7 +237,7 @@ fn dda_voxel_ratio(it: ptr<function, Dda>, t: f32, bound: f32) -> f32 {
         local += u32(v & 7) << (3u * u32(a));
         stride *= u32(n[a]);
     }
-    let entry = grid_cells[index];
+    let entry = grid_cells[(*it).cell_offset + index];
     if ((entry & CONSTANT_BIT) != 0u) {
         return 1.0;
     }

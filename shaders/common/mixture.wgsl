@@ -118,8 +118,9 @@ fn vdb_tracker(k: u32, o: vec3<f32>, d: vec3<f32>, rng: Rng, estimator: u32) -> 
 // medium_dda for medium k: its majorant walk over [t0, t1] (media.rs `segments`).
 fn vdb_dda(k: u32, tr: Tracker, t0: f32, t1: f32) -> Dda {
     let g = vdb_media[k].grid;
-    return dda_new_in(g, vdb_media[k].bounds_base, tr.o, tr.d, t0, t1,
-                      g.density_scale * tr.params.majorant_channel_scale, tr.params.majorant_mode);
+    return dda_new_in(g, vdb_media[k].bounds_base, vdb_media[k].voxel_table != 0u, tr.o, tr.d,
+                      t0, t1, g.density_scale * tr.params.majorant_channel_scale,
+                      tr.params.majorant_mode);
 }
 
 // What a free flight ended with (MediumEvent and the phase function of the medium that
@@ -352,7 +353,8 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
         mix_streams[i].medium = k;
         mix_streams[i].o = grid_index_point(g, o);
         mix_streams[i].d = grid_index_vector(g, d);
-        mix_streams[i].dda = dda_new_in(g, vdb_media[k].bounds_base, mix_streams[i].o,
+        // The summed walk does not thin by any medium's voxels (media.rs `segments`).
+        mix_streams[i].dda = dda_new_in(g, vdb_media[k].bounds_base, false, mix_streams[i].o,
                                         mix_streams[i].d, spans.a[i], spans.b[i],
                                         g.density_scale, mode);
         mix_advance(i);

@@ -296,6 +296,10 @@ struct GpuVdbMedium {
     bounds_base: u32,            // first entry of its bounds in grid_bounds
     sigma_s: vec3<f32>,          // true sigma_s per unit density
     control_albedo: f32,         // GreyView::control_albedo
+    voxel_table: u32,            // 1: its walks thin by its per-voxel bounds (grid_voxels)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.

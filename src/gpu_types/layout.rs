@@ -236,7 +236,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             rgb_sigma_s,
             bounds_base,
             sigma_s,
-            control_albedo
+            control_albedo,
+            voxel_table,
+            _pad0,
+            _pad1,
+            _pad2
         ]
     ),
     layout!(

@@ -391,8 +391,16 @@ pub struct GpuVdbMedium {
     pub sigma_s: [f32; 3],
     /// `GreyView::control_albedo`.
     pub control_albedo: f32,
+    /// 1 where its per-leaf and culled walks thin by its per-voxel bounds
+    /// (`VdbMedium::voxel_culling`): its table is then in the per-voxel binding at its
+    /// bricks' place (the bricks of every density grid lie at the start of the shared
+    /// bricks buffer, in medium order).
+    pub voxel_table: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 240 + 7 * 16);
+const _: () = assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 240 + 8 * 16);
 
 /// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
 /// wavefront render. The grids' headers point into the density grid's buffers

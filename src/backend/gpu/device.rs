@@ -342,9 +342,10 @@ pub struct GpuGrid {
     pub constants: wgpu::Buffer,
     /// Per-cell bounds followed by the global bound (`info.global_bounds_index`).
     pub bounds: wgpu::Buffer,
-    /// The first grid's per-voxel culling bytes (`LeafBounds::voxel_q`), four to a `u32`,
-    /// byte `k` in bits `8 (k % 4)` of word `k / 4`; one zero word where there is none (the
-    /// mixture of several media, which does not cull).
+    /// Per-voxel culling bytes (`LeafBounds::voxel_q`) of the density grids whose walks thin
+    /// by them, indexed by the shared bricks buffer's brick index (each grid's table at its
+    /// bricks' place), four to a `u32`, byte `k` in bits `8 (k % 4)` of word `k / 4`; one
+    /// zero word where there is none.
     pub voxels: wgpu::Buffer,
 }
 
@@ -478,9 +479,10 @@ impl GpuGrid {
         Ok((gg, infos))
     }
 
-    /// Binds `q`, the per-voxel bounds (`LeafBounds::voxel_q`) of the grid at the start of the
-    /// buffers (no cell, brick or bounds offset: the only grid whose walks `dda.wgsl` thins by
-    /// voxels). Fails when the table exceeds the device's storage-binding limit.
+    /// Binds `q`, per-voxel bounds (`LeafBounds::voxel_q`) laid out by the shared bricks
+    /// buffer's brick index: the density grid's own table, or (the mixture) each thinning
+    /// medium's table at its bricks' place. Fails when the table exceeds the device's
+    /// storage-binding limit.
     pub fn set_voxels(&mut self, ctx: &GpuContext, q: &[u8]) -> Result<(), String> {
         self.voxels = voxel_buffer(ctx, q)?;
         Ok(())
@@ -572,7 +574,7 @@ impl GpuGrid {
             ]);
         }
         if with_bounds {
-            // The walk's set-up reads the voxel table's length (dda.wgsl `dda_new_in`).
+            // The walk's set-up reads the voxel table's length (dda.wgsl `dda_new`).
             v.extend([(0, 4, &self.bounds), (0, 7, &self.voxels)]);
         }
         v

@@ -17,6 +17,7 @@ use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
 use crate::integrator::prepare::SurfaceKind;
 use crate::integrator::settings::Absorption;
 use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::volume::grid::BRICK_VOXELS;
 use crate::volume::SparseGrid;
 
 pub(super) fn affine_rows(m: glam::Affine3A) -> [[f32; 4]; 3] {
@@ -394,12 +395,11 @@ fn upload_media(
         }
     }
     let (mut gg, placed) = GpuGrid::upload_many(ctx, &parts).map_err(GpuRenderError::Limits)?;
-    // The first medium's grid starts the buffers: its walks thin by its voxel bounds, as the
-    // CPU's do (the others' walks do not on the GPU: there is one table binding).
-    if let Some(m) = rs.vdb.first() {
-        gg.set_voxels(ctx, voxel_table(m))
-            .map_err(GpuRenderError::Limits)?;
-    }
+    // Each medium's walks thin by its voxel bounds where the CPU's do; one binding holds
+    // every such table at its grid's bricks.
+    let (voxels, has_table) = mixture_voxel_table(rs);
+    gg.set_voxels(ctx, &voxels)
+        .map_err(GpuRenderError::Limits)?;
     let mut next_emission = rs.vdb.len();
     let mut media = Vec::with_capacity(rs.vdb.len());
     for (k, m) in rs.vdb.iter().enumerate() {
@@ -429,6 +429,7 @@ fn upload_media(
         };
         r.grid = grid;
         r.bounds_base = bounds_base;
+        r.voxel_table = has_table[k] as u32;
         r.emission = emission_params(m, features, &infos);
         media.push(r);
     }
@@ -614,6 +615,29 @@ pub(super) fn env_map_upload(
         ));
     }
     Ok((info, data))
+}
+
+/// The per-voxel bounds of the mixture's media as one table indexed by the shared bricks
+/// buffer's brick index ([`GpuGrid::upload_many`] places the density grids' bricks first, in
+/// medium order), and which media have theirs in it ([`voxel_table`]). The bricks of a medium
+/// without one are filled with 255 (never read: its walks do not thin); the table ends after
+/// the last medium that has one, and is empty where none does.
+fn mixture_voxel_table(rs: &RenderScene) -> (Vec<u8>, Vec<bool>) {
+    let mut table: Vec<u8> = Vec::new();
+    let mut has = Vec::with_capacity(rs.vdb.len());
+    let mut brick0 = 0usize;
+    for m in &rs.vdb {
+        let q = voxel_table(m);
+        let bricks = m.density.grid.grid.brick_count();
+        let fits = !q.is_empty() && q.len() == bricks * BRICK_VOXELS;
+        if fits {
+            table.resize(brick0 * BRICK_VOXELS, 255);
+            table.extend_from_slice(q);
+        }
+        has.push(fits);
+        brick0 += bricks;
+    }
+    (table, has)
 }
 
 /// The per-voxel bounds a medium's walks thin by on the GPU: its table where that pays
