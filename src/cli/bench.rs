@@ -37,6 +37,10 @@ pub enum Which {
         /// Samples per pixel of the environment-map section's timed renders.
         #[arg(long, default_value_t = 32)]
         env_spp: u32,
+        /// Rounds of the majorant-mode table (each renders every mode once, in turn): more
+        /// rounds give steadier times on a busy machine.
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
     },
     /// Trilinear lookups per second: Brume's brick layout against OpenVDB's accessor +
     /// BoxSampler (through the shim, one batch call), on the same points.
@@ -90,18 +94,20 @@ pub fn run(which: Which) -> Result<()> {
             env_only,
             majorants_only,
             env_spp,
+            runs,
         } => {
+            let runs = runs.max(1);
             if majorants_only {
                 let scenes = if scenes.is_empty() {
                     example_scenes()?
                 } else {
                     scenes
                 };
-                majorant_modes(&scenes, width, height, spp)?;
+                majorant_modes(&scenes, width, height, spp, runs)?;
                 return adaptive_build();
             }
             if !env_only {
-                render_bench(scenes, spp, width, height, cloud_size, cloud_spp)?;
+                render_bench(scenes, spp, width, height, cloud_size, cloud_spp, runs)?;
             }
             super::bench_env::env_map_bench(width, height, env_spp, &render_once)
         }
@@ -268,6 +274,7 @@ fn render_bench(
     height: u32,
     cloud_size: u32,
     cloud_spp: u32,
+    runs: usize,
 ) -> Result<()> {
     use brume::integrator::{Estimator, MajorantMode, RenderSettings};
     let scenes = if scenes.is_empty() {
@@ -364,33 +371,42 @@ fn render_bench(
         delta_lookups[0] / delta_lookups[2].max(1e-12),
         delta_lookups[0] / delta_lookups[3].max(1e-12)
     );
-    majorant_modes(&scenes, width, height, spp)?;
+    majorant_modes(&scenes, width, height, spp, runs)?;
     adaptive_build()?;
     Ok(())
 }
 
 /// The four majorant modes side by side on every scene with a VDB medium, for delta and
-/// decomposition tracking: time per sample (best of three renders per mode, the modes taken in
-/// turn so that a slow spell of the machine falls on all alike), the walk (segments per
+/// decomposition tracking: time per sample (best of `runs` renders per mode, the modes taken
+/// in turn so that a slow spell of the machine falls on all alike), the speed-up over the
+/// global bound from those bests and its range over the rounds (each round's global time over
+/// the same round's time: paired, so a slow spell cancels), the walk (segments per
 /// sample, primary and shadow rays), density and emission lookups and real collisions per
 /// sample (an emissive medium reads its emission at every tentative collision). The adaptive
 /// rows name the walk each medium's hierarchy takes (`VdbMedium::walk_mode`): where it is the
 /// global or per-leaf walk, the two rows time the same code and differ by noise only.
-fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Result<()> {
+fn majorant_modes(
+    scenes: &[PathBuf],
+    width: u32,
+    height: u32,
+    spp: u32,
+    runs: usize,
+) -> Result<()> {
     use brume::integrator::{Estimator, MajorantMode, RenderSettings};
-    const RUNS: usize = 3;
     println!();
     println!(
-        "majorant modes ({width}x{height}, {spp} spp, {} threads; time per sample = best of {RUNS} renders, modes in turn)",
+        "majorant modes ({width}x{height}, {spp} spp, {} threads; time per sample = best of {runs} renders, modes in turn; \
+         'rounds': global over mode within each round, lowest-highest)",
         rayon::current_num_threads()
     );
     println!(
-        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}  walk",
+        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}  walk",
         "scene",
         "estimator",
         "bounds",
         "ns/sample",
         "vs global",
+        "rounds",
         "segs prim",
         "segs shad",
         "lookups",
@@ -424,14 +440,20 @@ fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Resu
                 ..RenderSettings::default()
             });
             let mut best = [f64::INFINITY; MajorantMode::ALL.len()];
+            let mut seconds = MajorantMode::ALL.map(|_| Vec::with_capacity(runs));
             let mut last = MajorantMode::ALL.map(|_| None);
-            for _ in 0..RUNS {
+            for _ in 0..runs {
                 for (k, s) in settings.iter().enumerate() {
                     let o = render_once(&scene, s)?;
                     best[k] = best[k].min(o.seconds);
+                    seconds[k].push(o.seconds);
                     last[k] = Some(o);
                 }
             }
+            let global_k = MajorantMode::ALL
+                .iter()
+                .position(|&m| m == MajorantMode::Global)
+                .unwrap_or(0);
             let mut global_ns = 0.0;
             for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
                 let out = last[k].take().unwrap();
@@ -441,13 +463,19 @@ fn majorant_modes(scenes: &[PathBuf], width: u32, height: u32, spp: u32) -> Resu
                 if majorant == MajorantMode::Global {
                     global_ns = ns;
                 }
+                let paired = seconds[global_k]
+                    .iter()
+                    .zip(&seconds[k])
+                    .map(|(g, m)| g / m)
+                    .fold((f64::INFINITY, 0f64), |(lo, hi), r| (lo.min(r), hi.max(r)));
                 println!(
-                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2}  {}",
+                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>11} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2}  {}",
                     path.file_name().unwrap_or_default().to_string_lossy(),
                     estimator.name(),
                     majorant.name(),
                     ns,
                     global_ns / ns,
+                    format!("{:.2}-{:.2}", paired.0, paired.1),
                     (t.majorant_segments - t.shadow_segments) as f64 / n,
                     t.shadow_segments as f64 / n,
                     t.density_lookups as f64 / n,
