@@ -38,6 +38,26 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                 );
                 let g = &m.density.grid;
                 print_voxel_bounds(&format!("medium {i}"), &g.grid, &g.bounds);
+                if let Some(w) = &m.walk_bounds {
+                    let raised = w
+                        .cells
+                        .iter()
+                        .zip(&g.bounds.cells)
+                        .filter(|(w, d)| w.max > d.max)
+                        .count();
+                    let floor = w
+                        .cells
+                        .iter()
+                        .zip(&g.bounds.cells)
+                        .filter(|(w, d)| w.max > d.max)
+                        .fold(0f32, |a, (w, _)| a.max(w.max))
+                        * m.sigma_t_bound;
+                    // (Every raised cell is raised to the same floor.)
+                    println!(
+                        "medium {i} emission: its walks sample wherever it may emit: {raised} of {} leaf cells raised to the emission floor {floor:.4} per metre (and their voxels)",
+                        w.cells.len(),
+                    );
+                }
                 println!(
                     "medium {i} voxel culling: {} (thins where the collisions it culls save more lookups than its reads cost)",
                     if m.voxel_culling_pays { "on" } else { "off" }

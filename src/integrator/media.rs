@@ -22,8 +22,8 @@ use crate::volume::tracking::{
     MediumRgb, TrackingStats,
 };
 use crate::volume::{
-    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LeafCulling,
-    LoadedGrid, VoxelCulling,
+    AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LeafBounds,
+    LeafCulling, LoadedGrid, VoxelCulling,
 };
 
 /// A grid placed in the world: trilinear lookups at world points.
@@ -109,6 +109,10 @@ pub struct VdbMedium {
     pub grey: bool,
     pub phase: HenyeyGreenstein,
     pub emission: Option<Emission>,
+    /// The bounds its walks take where they differ from the density's own: an emitting
+    /// medium's, raised wherever it may emit ([`super::emission_bounds`]). `None`: the
+    /// density's bounds ([`Self::bounds`]).
+    pub walk_bounds: Option<Arc<LeafBounds>>,
     /// Whether its per-leaf and culled walks thin by the per-voxel bounds: where the model
     /// says that pays (`volume::voxel_bounds::voxel_culling_pays`, decided when the render is
     /// prepared).
@@ -130,12 +134,21 @@ impl VdbMedium {
         }
     }
 
+    /// The per-leaf bounds (and per-voxel bounds) every walk of this medium takes: the
+    /// density's, or [`Self::walk_bounds`] where they differ.
+    #[inline]
+    pub fn bounds(&self) -> &LeafBounds {
+        self.walk_bounds
+            .as_deref()
+            .unwrap_or(&self.density.grid.bounds)
+    }
+
     /// The per-leaf culling of this medium's walk under `mode`: only the culled global walk
     /// culls, and only where [`LeafCulling::new`] finds it sound.
     #[inline]
     pub fn culling(&self, mode: MajorantMode) -> Option<LeafCulling<'_>> {
         if self.walk_mode(mode) == MajorantMode::Culled {
-            LeafCulling::new(&self.density.grid.bounds)
+            LeafCulling::new(self.bounds())
         } else {
             None
         }
@@ -151,10 +164,11 @@ impl VdbMedium {
             return None;
         }
         match self.walk_mode(mode) {
-            MajorantMode::Leaf | MajorantMode::Culled => {
-                let g = &self.density.grid;
-                VoxelCulling::new(&g.bounds, &g.grid.cells, self.sigma_t_bound)
-            }
+            MajorantMode::Leaf | MajorantMode::Culled => VoxelCulling::new(
+                self.bounds(),
+                &self.density.grid.grid.cells,
+                self.sigma_t_bound,
+            ),
             _ => None,
         }
     }
@@ -277,7 +291,7 @@ macro_rules! with_walk {
                 $body
             }
             mode => {
-                let bounds = &m.density.grid.bounds;
+                let bounds = m.bounds();
                 // The culled walk is the global one; the view culls its collisions.
                 let mut walk = if mode == MajorantMode::Global || mode == MajorantMode::Culled {
                     DdaMajorantIterator::global(bounds, $ray_i, $t0, $t1, m.sigma_t_bound)
@@ -303,7 +317,7 @@ pub(super) fn segments<'a>(
     t1: f32,
     mode: MajorantMode,
 ) -> Segments<'a> {
-    let bounds = &m.density.grid.bounds;
+    let bounds = m.bounds();
     match m.walk_mode(mode) {
         MajorantMode::Leaf | MajorantMode::Culled => Segments::Dda(DdaMajorantIterator::new(
             bounds,

@@ -161,7 +161,7 @@ impl<'s> RenderScene<'s> {
         let file = scene.source.display();
         let mut vdb = Vec::new();
         for desc in &scene.vdb_media {
-            if desc.density_scale <= 0.0 {
+            if !desc.rendered() {
                 continue;
             }
             let density = &desc.grids[0];
@@ -189,8 +189,14 @@ impl<'s> RenderScene<'s> {
             let sigma_a = Vec3::from(desc.sigma_a_per_density());
             let sigma_s = Vec3::from(desc.sigma_s_per_density());
             let sigma_t = sigma_a + sigma_s;
-            let density = field(density, world_from_node);
-            let sigma_t_bound = sigma_t.max_element();
+            let mut density = field(density, world_from_node);
+            let mut sigma_t_bound = sigma_t.max_element();
+            if !(sigma_t_bound > 0.0) {
+                // An emitting medium with no extinction: a density of zeros at extinction 1
+                // per unit, walked only where it emits (`emission_bounds`).
+                density = super::emission_bounds::without_density(&density);
+                sigma_t_bound = 1.0;
+            }
             // Every tentative collision in an emitting medium also reads its emission grids
             // (`Medium::on_collision`), so collisions cost that much more against steps.
             let emission_reads = emission.as_ref().map_or(0, |e| {
@@ -200,19 +206,29 @@ impl<'s> RenderScene<'s> {
                 collision: 1.0 + emission_reads as f32,
                 ..CostModel::DEFAULT
             };
+            // An emitting medium's walks sample wherever it may emit, density or not.
+            let walk_bounds = emission.as_ref().and_then(|e| {
+                super::emission_bounds::walk_bounds(
+                    &density,
+                    e,
+                    sigma_t_bound,
+                    index_per_t(&density),
+                )
+                .map(Arc::new)
+            });
+            let bounds = walk_bounds.as_deref().unwrap_or(&density.grid.bounds);
             let adaptive = Arc::new(AdaptiveMajorants::build(
-                &density.grid.bounds,
+                bounds,
                 sigma_t_bound,
                 index_per_t(&density),
                 cost,
             ));
             // The per-voxel stage where the collisions it culls save more lookups than its
             // reads cost (`voxel_bounds::voxel_culling_pays`).
-            let g = &density.grid;
             let kept = crate::volume::voxel_bounds::kept_fraction(
-                &g.grid,
-                &g.bounds.cells,
-                &g.bounds.voxel_q,
+                &density.grid.grid,
+                &bounds.cells,
+                &bounds.voxel_q,
             );
             let voxel_culling_pays =
                 crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
@@ -227,6 +243,7 @@ impl<'s> RenderScene<'s> {
                 grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
                 phase: HenyeyGreenstein::new(desc.anisotropy),
                 emission,
+                walk_bounds,
             });
         }
         let homogeneous: Vec<HomogeneousMedium> = scene

@@ -159,13 +159,19 @@ impl VdbMediumDesc {
         [0, 1, 2].map(|i| s[i] + a[i])
     }
 
-    /// Whether the medium emits: a non-zero emission or a temperature grid with blackbody on.
     /// The loaded grid named `name` (`None` for no name, or a grid not loaded).
     pub fn grid_named(&self, name: Option<&str>) -> Option<&LoadedGrid> {
         let name = name?;
         self.grids.iter().find(|g| g.name == name)
     }
 
+    /// Whether the renderer tracks the medium: it has density, or it emits (Principled
+    /// Volume's emission does not scale with density, so a medium with none still glows).
+    pub fn rendered(&self) -> bool {
+        self.density_scale > 0.0 || self.emits()
+    }
+
+    /// Whether the medium emits: a non-zero emission or a temperature grid with blackbody on.
     pub fn emits(&self) -> bool {
         let emission = self.emission_strength > 0.0 && self.emission_color.iter().any(|&c| c > 0.0);
         let blackbody = self.temperature_grid.is_some()

@@ -277,7 +277,7 @@ impl Scene {
         if self
             .vdb_media
             .iter()
-            .any(|m| m.density_scale > 0.0 && in_box(&m.world_bounds))
+            .any(|m| m.rendered() && in_box(&m.world_bounds))
         {
             return true;
         }

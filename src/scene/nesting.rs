@@ -46,7 +46,7 @@ impl Nesting {
         let vdb: Vec<Aabb> = scene
             .vdb_media
             .iter()
-            .filter(|m| m.density_scale > 0.0)
+            .filter(|m| m.rendered())
             .map(|m| m.world_bounds)
             .collect();
         let overlapping = vdb

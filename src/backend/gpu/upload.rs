@@ -339,7 +339,7 @@ pub(super) fn upload_grid(
         return Ok((Some(g), emission, media));
     }
     let g = &m.density.grid;
-    let bounds_bytes = (g.bounds.cells.len() as u64 + 1) * 8;
+    let bounds_bytes = (m.bounds().cells.len() as u64 + 1) * 8;
     if bounds_bytes > limit {
         return Err(GpuRenderError::Limits(format!(
             "the grid's bounds need {}; the device binds at most {}",
@@ -352,7 +352,7 @@ pub(super) fn upload_grid(
     let (mut gg, mut infos) = GpuGrid::upload_with(
         ctx,
         &g.grid,
-        &g.bounds,
+        m.bounds(),
         m.walked_hierarchy(cfg.majorant),
         m.sigma_t_bound,
         voxel_table(m),
@@ -383,7 +383,7 @@ fn upload_media(
     for m in &rs.vdb {
         let g = &m.density.grid;
         let adaptive = m.walked_hierarchy(cfg.majorant);
-        let bounds = bounds_layout(&g.bounds, adaptive).map_err(GpuRenderError::Limits)?;
+        let bounds = bounds_layout(m.bounds(), adaptive).map_err(GpuRenderError::Limits)?;
         parts.push((&g.grid, m.sigma_t_bound, Some(bounds)));
         let fields = emission_fields(m, features);
         fields_of.push(fields);
@@ -645,7 +645,7 @@ fn mixture_voxel_table(rs: &RenderScene) -> (Vec<u8>, Vec<bool>) {
 /// elsewhere.
 fn voxel_table(m: &crate::integrator::media::VdbMedium) -> &[u8] {
     if m.voxel_culling_pays {
-        &m.density.grid.bounds.voxel_q
+        &m.bounds().voxel_q
     } else {
         &[]
     }
