@@ -45,16 +45,15 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                         .zip(&g.bounds.cells)
                         .filter(|(w, d)| w.max > d.max)
                         .count();
-                    let floor = w
-                        .cells
-                        .iter()
-                        .zip(&g.bounds.cells)
-                        .filter(|(w, d)| w.max > d.max)
-                        .fold(0f32, |a, (w, _)| a.max(w.max))
+                    let floor = brume::integrator::emission_bounds::emission_floor(
+                        w.dims,
+                        m.sigma_t_bound,
+                        brume::integrator::prepare::index_per_t(&m.density),
+                    )
+                    .unwrap_or(0.0)
                         * m.sigma_t_bound;
-                    // (Every raised cell is raised to the same floor.)
                     println!(
-                        "medium {i} emission: its walks sample wherever it may emit: {raised} of {} leaf cells raised to the emission floor {floor:.4} per metre (and their voxels)",
+                        "medium {i} emission: its walks sample wherever it may emit: {raised} of {} leaf cells raised (to at most the emission floor {floor:.4} per metre, in proportion to their emission bound; their voxels with them)",
                         w.cells.len(),
                     );
                 }
