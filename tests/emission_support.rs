@@ -11,7 +11,7 @@
 //!   through the grid's box, in every mode, on the CPU and on the GPU.
 mod common;
 use common::gpu::gpu_or_skip;
-use common::overlap::{dir, write_scene, N, VOXEL};
+use common::overlap::{dir, overlap_settings, write_scene, N, VOXEL};
 use common::render::*;
 use common::stress::blob_voxels;
 
@@ -88,18 +88,6 @@ fn glow_scene(name: &str, emission_grid: Option<&str>) -> brume::scene::Scene {
     load(&d, name, &scene(medium, 1e-4))
 }
 
-fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
-    RenderSettings {
-        width: 16,
-        height: 16,
-        spp: 256,
-        estimator,
-        majorant,
-        seed,
-        ..RenderSettings::default()
-    }
-}
-
 /// Z-tests two independent images pixel by pixel and by their means.
 fn agree(a: &RenderOutput, b: &RenderOutput, s: &RenderSettings, alpha: f64, label: &str) {
     let r = compare_renders(a, b, s.width as usize, s.height as usize, 1, alpha);
@@ -172,10 +160,10 @@ fn a_flame_past_its_smoke_renders_alike_in_every_majorant_mode() {
     let alpha = 1e-3 / (estimators.len() * modes.len()) as f64;
     let mut seed = 40;
     for e in estimators {
-        let global = render(&scene, &settings(e, MajorantMode::Global, seed));
+        let global = render(&scene, &overlap_settings(e, MajorantMode::Global, seed));
         for mode in modes {
             seed += 1;
-            let s = settings(e, mode, seed);
+            let s = overlap_settings(e, mode, seed);
             let out = render(&scene, &s);
             agree(
                 &global,
@@ -281,11 +269,11 @@ fn emission_without_density_renders_on_the_gpu() {
     }
     // The flame past its smoke: the GPU's adaptive render against the CPU's global one.
     let scene = flame_scene();
-    let s = settings(Estimator::Delta, MajorantMode::Adaptive, 95);
+    let s = overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 95);
     let g = gpu_render(&ctx, &scene, &s);
     let c = render(
         &scene,
-        &settings(Estimator::Delta, MajorantMode::Global, 96),
+        &overlap_settings(Estimator::Delta, MajorantMode::Global, 96),
     );
     agree(&g, &c, &s, 1e-3, "flame GPU adaptive vs CPU global");
 }

@@ -154,23 +154,13 @@ fn gpu_against_cpu(
             ..s.clone()
         },
     );
-    let same = render(scene, s);
-    let (gm, _) = moments(&g);
-    let (sm, _) = moments(&same);
-    let close = gm
-        .iter()
-        .zip(&sm)
-        .filter(|(a, b)| (*a - *b).abs() <= 1e-4 * (1.0 + b.abs()))
-        .count();
-    println!(
-        "{label}: same seed: {close} of {} pixel values equal to 1e-4 (relative)",
-        gm.len()
-    );
+    let (close, n) = same_seed_close(&g, &render(scene, s));
+    println!("{label}: same seed: {close} of {n} pixel values equal to 1e-4 (relative)");
     // With the same seed the GPU replays the CPU's random streams: every medium's walks thin
     // by its own per-voxel bounds on both. Asserted where the device rounds like the CPU (a
     // CPU adapter, as in tests/gpu_render.rs); printed elsewhere.
     if ctx.adapter_info.device_type == wgpu::DeviceType::Cpu {
-        assert_eq!(close, gm.len(), "{label}: the GPU does not replay the CPU");
+        assert_eq!(close, n, "{label}: the GPU does not replay the CPU");
     }
     let (gt, ct) = (
         brume::film::totals(&g.records),

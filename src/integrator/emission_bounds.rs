@@ -39,6 +39,7 @@ use rayon::prelude::*;
 use super::blackbody::{blackbody_rgb, STEFAN_BOLTZMANN_SCALE, T_MAX, T_MIN};
 use super::media::{Emission, GridField};
 use crate::math::{Aabb, Vec3};
+use crate::scene::media::transform_aabb;
 use crate::volume::bounds::{CellBounds, LeafBounds};
 use crate::volume::grid::{BRICK_VOXELS, CONSTANT_BIT};
 use crate::volume::{LoadedGrid, SparseGrid};
@@ -199,7 +200,7 @@ pub fn emission_bound(density: &GridField, emission: &Emission) -> Vec<f32> {
                     let lo = Vec3::from_array(std::array::from_fn(|a| {
                         (bounds.cell_origin[a] + cell[a] as i32) as f32 * CELL_WIDTH
                     }));
-                    let world = transform_box(&world_from_index, Aabb::new(lo, lo + CELL_WIDTH));
+                    let world = transform_box(world_from_index, Aabb::new(lo, lo + CELL_WIDTH));
                     grid_range(f, world)
                 }
             };
@@ -229,6 +230,11 @@ pub fn emission_bound(density: &GridField, emission: &Emission) -> Vec<f32> {
         .collect()
 }
 
+/// `b` mapped by `m` (the box holding its eight mapped corners).
+fn transform_box(m: glam::Affine3A, b: Aabb) -> Aabb {
+    transform_aabb(&glam::Mat4::from(m), &b)
+}
+
 /// Bounds of the values grid `f` reconstructs anywhere in world box `world`: its leaf cells'
 /// bounds over the index box the world box maps to, and its background where that box leaves
 /// the cell box.
@@ -239,7 +245,7 @@ fn grid_range(f: &GridField, world: Aabb) -> CellBounds {
     if b.cells.is_empty() {
         return background;
     }
-    let index = transform_box(&f.index_from_world, world);
+    let index = transform_box(f.index_from_world, world);
     let mut out: Option<CellBounds> = None;
     let mut add = |v: CellBounds| {
         out = Some(out.map_or(v, |o| CellBounds {
@@ -281,20 +287,6 @@ fn grid_range(f: &GridField, world: Aabb) -> CellBounds {
         }
     }
     out.unwrap_or(background)
-}
-
-/// The axis-aligned box holding the eight corners of `b` mapped by `m`.
-fn transform_box(m: &glam::Affine3A, b: Aabb) -> Aabb {
-    let mut out = Aabb::EMPTY;
-    for k in 0..8 {
-        let corner = Vec3::new(
-            if k & 1 == 0 { b.min.x } else { b.max.x },
-            if k & 2 == 0 { b.min.y } else { b.max.y },
-            if k & 4 == 0 { b.min.z } else { b.max.z },
-        );
-        out = out.union_point(m.transform_point3(corner));
-    }
-    out
 }
 
 #[cfg(test)]

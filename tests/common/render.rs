@@ -59,6 +59,19 @@ pub fn moments(out: &RenderOutput) -> (Vec<f64>, Vec<f64>) {
     (mean, var)
 }
 
+/// How many pixel values of `a` equal those of `b` to 1e-4 (relative), and how many there
+/// are: a GPU image's replay of the same-seed CPU image.
+pub fn same_seed_close(a: &RenderOutput, b: &RenderOutput) -> (usize, usize) {
+    let (am, _) = moments(a);
+    let (bm, _) = moments(b);
+    let close = am
+        .iter()
+        .zip(&bm)
+        .filter(|(x, y)| (*x - *y).abs() <= 1e-4 * (1.0 + y.abs()))
+        .count();
+    (close, am.len())
+}
+
 /// Two-sided z threshold for a family of `n` tests at overall level `alpha` (Sidak).
 pub fn sidak_z(alpha: f64, n: usize) -> f64 {
     let a = 1.0 - (1.0 - alpha).powf(1.0 / n as f64);
