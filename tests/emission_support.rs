@@ -6,6 +6,8 @@
 //!   render what the global bound does, for delta and decomposition tracking (per-pixel
 //!   z-tests, Sidak-corrected at 99.9 %; before the walk bounds took the emission into
 //!   account, the per-leaf walk left out the emission outside the smoke).
+//! - A flame grid reaching outside the density grid's box is named in a load warning (the
+//!   walks, and the emission gathered, end at that box).
 //! - A medium with no density, seen along one pencil: its emission grid's integral along the
 //!   pencil (`common::stress::optical_depth`, exact), and a constant emission times the chord
 //!   through the grid's box, in every mode, on the CPU and on the GPU.
@@ -29,13 +31,18 @@ const FLAME_SHIFT: i32 = 6;
 
 /// `smoke.vdb`: the blob as `density`, and as `flame` shifted along +x.
 fn write_grids(path: &Path) {
+    write_grids_shifted(path, FLAME_SHIFT);
+}
+
+/// The blob as `density`, and as `flame` shifted `shift` voxels along +x.
+fn write_grids_shifted(path: &Path, shift: i32) {
     let c = N as f64 * VOXEL * 0.5;
     let mut density = brume_ffi::GridSpec::fog("density", VOXEL, [-c + 0.5 * VOXEL; 3]);
     density.voxels = blob_voxels(N);
     let mut flame = brume_ffi::GridSpec::fog("flame", VOXEL, [-c + 0.5 * VOXEL; 3]);
     flame.voxels = blob_voxels(N)
         .into_iter()
-        .map(|(p, v)| ([p[0] + FLAME_SHIFT, p[1], p[2]], v))
+        .map(|(p, v)| ([p[0] + shift, p[1], p[2]], v))
         .collect();
     brume_ffi::write_float_grids(path, &[density, flame]).unwrap();
 }
@@ -65,9 +72,10 @@ fn load(d: &Path, name: &str, doc: &Value) -> brume::scene::Scene {
     brume::scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// The smoke with its flame: density 4, the flame grid emitting at strength 2.
-fn flame_scene() -> brume::scene::Scene {
-    let d = dir("emission_flame");
+/// The smoke with its flame: density 4, the flame grid emitting at strength 2 (its files in
+/// `dir_name`: each test its own, as tests run in parallel).
+fn flame_scene(dir_name: &str) -> brume::scene::Scene {
+    let d = dir(dir_name);
     write_grids(&d.join("smoke.vdb"));
     let medium = json!({"uri": "smoke.vdb", "densityScale": 4.0, "color": [0.8, 0.8, 0.8],
         "absorptionColor": [0.3, 0.3, 0.3], "anisotropy": 0.3, "emissionGrid": "flame",
@@ -76,9 +84,9 @@ fn flame_scene() -> brume::scene::Scene {
 }
 
 /// A medium with no density (`densityScale` 0) emitting through `emission` (the density grid
-/// itself, or none: constant), seen along one pencil.
-fn glow_scene(name: &str, emission_grid: Option<&str>) -> brume::scene::Scene {
-    let d = dir("emission_glow");
+/// itself, or none: constant), seen along one pencil (files in `dir_name`).
+fn glow_scene(dir_name: &str, name: &str, emission_grid: Option<&str>) -> brume::scene::Scene {
+    let d = dir(dir_name);
     write_grids(&d.join("smoke.vdb"));
     let mut medium = json!({"uri": "smoke.vdb", "densityScale": 0.0,
         "emissionStrength": 2.0, "emissionColor": EMISSION});
@@ -101,7 +109,7 @@ fn agree(a: &RenderOutput, b: &RenderOutput, s: &RenderSettings, alpha: f64, lab
 
 #[test]
 fn a_flame_past_its_smoke_renders_alike_in_every_majorant_mode() {
-    let scene = flame_scene();
+    let scene = flame_scene("emission_flame");
     let rs = RenderScene::new(&scene, false).unwrap();
     let m = &rs.vdb[0];
     let walk = m
@@ -177,6 +185,31 @@ fn a_flame_past_its_smoke_renders_alike_in_every_majorant_mode() {
     }
 }
 
+#[test]
+fn a_flame_outside_the_smokes_box_is_named_in_a_warning() {
+    // Inside the density grid's box: no warning.
+    let inside = flame_scene("emission_inside");
+    assert!(
+        inside.warnings.iter().all(|w| !w.contains("emissionGrid")),
+        "{:?}",
+        inside.warnings
+    );
+    // Shifted 40 voxels: most of the flame lies past the box the walks cover.
+    let d = dir("emission_outside");
+    write_grids_shifted(&d.join("smoke.vdb"), 40);
+    let medium = json!({"uri": "smoke.vdb", "densityScale": 4.0, "emissionGrid": "flame",
+        "emissionStrength": 2.0, "emissionColor": EMISSION});
+    let scene = load(&d, "outside.gltf", &scene(medium, 0.9));
+    let w: Vec<_> = scene
+        .warnings
+        .iter()
+        .filter(|w| w.contains("emissionGrid"))
+        .collect();
+    println!("{w:?}");
+    assert_eq!(w.len(), 1, "{:?}", scene.warnings);
+    assert!(w[0].contains("\"flame\"") && w[0].contains("outside the density grid's box"));
+}
+
 /// The pencil's exact radiance in a glow scene: the sky plus the emission's integral along
 /// the pencil (from `(0, 0, 3)` along -Z), per channel.
 fn glow_expected(rs: &RenderScene, constant: bool) -> [f64; 3] {
@@ -230,7 +263,7 @@ fn glow_settings(majorant: MajorantMode, seed: u32) -> RenderSettings {
 #[test]
 fn a_medium_with_no_density_glows_by_its_emission_in_every_majorant_mode() {
     for (name, grid) in [("grid.gltf", Some("density")), ("constant.gltf", None)] {
-        let scene = glow_scene(name, grid);
+        let scene = glow_scene("emission_glow", name, grid);
         let rs = RenderScene::new(&scene, false).unwrap();
         assert_eq!(rs.vdb.len(), 1, "{name}: the medium is rendered");
         let expected = glow_expected(&rs, grid.is_none());
@@ -256,7 +289,7 @@ fn emission_without_density_renders_on_the_gpu() {
         return;
     };
     for (name, grid) in [("grid.gltf", Some("density")), ("constant.gltf", None)] {
-        let scene = glow_scene(name, grid);
+        let scene = glow_scene("emission_glow_gpu", name, grid);
         let rs = RenderScene::new(&scene, false).unwrap();
         let expected = glow_expected(&rs, grid.is_none());
         for (k, mode) in [MajorantMode::Global, MajorantMode::Adaptive]
@@ -268,7 +301,7 @@ fn emission_without_density_renders_on_the_gpu() {
         }
     }
     // The flame past its smoke: the GPU's adaptive render against the CPU's global one.
-    let scene = flame_scene();
+    let scene = flame_scene("emission_flame_gpu");
     let s = overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 95);
     let g = gpu_render(&ctx, &scene, &s);
     let c = render(

@@ -294,6 +294,7 @@ pub fn read_vdb_media(
         }
         check_temperature_range(ctx, &obj, &desc)?;
         check_emission_range(ctx, &obj, &desc)?;
+        warn_emission_outside_density(ctx, &obj, &desc);
 
         desc.world_from_medium = placed.world_from_node * desc.grids[0].vdb_world_from_index;
         (desc.world_bounds, desc.bounds_source) = if let Some(b) = desc.grids[0].index_bounds {
@@ -381,6 +382,66 @@ fn check_emission_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<()
         ));
     }
     Ok(())
+}
+
+/// Warns where an emission or temperature grid holds values outside the density grid's cell
+/// box: the walks, and so the emission Brume gathers, end at that box
+/// (`integrator::emission_bounds`), while Cycles emits in a volume mesh around every grid's
+/// active voxels. Counts the grid's leaf cells with a non-zero bound whose box, mapped into
+/// the density's index space, leaves the density's box (by more than a thousandth of a voxel).
+fn warn_emission_outside_density(ctx: &mut Ctx, obj: &Obj, desc: &VdbMediumDesc) {
+    let Some(density_box) = desc.grids[0].index_bounds else {
+        return;
+    };
+    let index_from_world = desc.grids[0].vdb_world_from_index.inverse();
+    let terms = [
+        (
+            "emissionGrid",
+            &desc.emission_grid,
+            desc.emission_strength > 0.0,
+        ),
+        (
+            "temperatureGrid",
+            &desc.temperature_grid,
+            desc.blackbody_intensity > 0.0,
+        ),
+    ];
+    for (field, name, active) in terms {
+        let Some(g) = desc.grid_named(name.as_deref()).filter(|_| active) else {
+            continue;
+        };
+        if g.name == desc.grids[0].name {
+            continue;
+        }
+        let b = &g.volume.bounds;
+        let to_density = index_from_world * g.vdb_world_from_index;
+        let [nx, ny, _] = b.dims.map(|d| d as usize);
+        let outside = b
+            .cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.min != 0.0 || c.max != 0.0)
+            .filter(|&(i, _)| {
+                let cell = [i % nx, i / nx % ny, i / (nx * ny)];
+                let lo = Vec3::from_array(std::array::from_fn(|a| {
+                    (b.cell_origin[a] + cell[a] as i32) as f32 * 8.0
+                }));
+                let mapped = transform_aabb(&to_density, &Aabb::new(lo, lo + 8.0));
+                (mapped.min - density_box.min).min_element() < -1e-3
+                    || (density_box.max - mapped.max).min_element() < -1e-3
+            })
+            .count();
+        if outside > 0 {
+            ctx.warn(
+                obj.at(field),
+                format!(
+                    "grid {:?} has values in {outside} leaf cells outside the density grid's box; \
+                     Brume renders the emission inside that box only",
+                    g.name
+                ),
+            );
+        }
+    }
 }
 
 /// Hottest temperature a scene may reach, kelvin. Beyond ~1e13 K the blackbody radiance
