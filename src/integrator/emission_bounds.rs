@@ -180,10 +180,14 @@ pub fn emission_bound(density: &GridField, emission: &Emission) -> Vec<f32> {
     let world_from_index = density.index_from_world.inverse();
     let strength = emission.strength_color.abs().max_element();
     // The blackbody colour's largest channel over every temperature (the coolest, clamped to
-    // the table's first entry, is the reddest).
-    let colour_max = (0..=((T_MAX - T_MIN) / 10.0) as u32)
-        .map(|k| blackbody_rgb(T_MIN + 10.0 * k as f32).max_element())
-        .fold(0f32, f32::max);
+    // the table's first entry, is the reddest); swept only for a medium with blackbody.
+    let colour_max = if emission.blackbody.is_some() {
+        (0..=((T_MAX - T_MIN) / 10.0) as u32)
+            .map(|k| blackbody_rgb(T_MIN + 10.0 * k as f32).max_element())
+            .fold(0f32, f32::max)
+    } else {
+        0.0
+    };
     (0..bounds.cells.len())
         .into_par_iter()
         .map(|c| {

@@ -206,23 +206,13 @@ impl<'s> RenderScene<'s> {
                 collision: 1.0 + emission_reads as f32,
                 ..CostModel::DEFAULT
             };
+            let per_t = index_per_t(&density);
             // An emitting medium's walks sample wherever it may emit, density or not.
             let walk_bounds = emission.as_ref().and_then(|e| {
-                super::emission_bounds::walk_bounds(
-                    &density,
-                    e,
-                    sigma_t_bound,
-                    index_per_t(&density),
-                )
-                .map(Arc::new)
+                super::emission_bounds::walk_bounds(&density, e, sigma_t_bound, per_t).map(Arc::new)
             });
             let bounds = walk_bounds.as_deref().unwrap_or(&density.grid.bounds);
-            let adaptive = Arc::new(AdaptiveMajorants::build(
-                bounds,
-                sigma_t_bound,
-                index_per_t(&density),
-                cost,
-            ));
+            let adaptive = Arc::new(AdaptiveMajorants::build(bounds, sigma_t_bound, per_t, cost));
             // The per-voxel stage where the collisions it culls save more lookups than its
             // reads cost (`voxel_bounds::voxel_culling_pays`).
             let kept = crate::volume::voxel_bounds::kept_fraction(

@@ -400,48 +400,16 @@ impl GpuGrid {
         adaptive: Option<&AdaptiveMajorants>,
         density_scale: f32,
     ) -> Result<GpuGrid, String> {
-        Self::upload_one(ctx, grid, bounds, adaptive, density_scale, &bounds.voxel_q)
-    }
-
-    /// [`GpuGrid::upload_adaptive`] binding `voxels` as the per-voxel bounds (the grid's own,
-    /// or none where its walks do not thin by them).
-    fn upload_one(
-        ctx: &GpuContext,
-        grid: &SparseGrid,
-        bounds: &LeafBounds,
-        adaptive: Option<&AdaptiveMajorants>,
-        density_scale: f32,
-        voxels: &[u8],
-    ) -> Result<GpuGrid, String> {
-        let limit = ctx.limits.max_storage_buffer_binding_size;
-        let bytes = (grid.bricks.len() * 4) as u64;
-        if bytes > limit || (grid.cells.len() * 4) as u64 > limit {
-            return Err(format!(
-                "the grid needs {} of bricks and {} of cells in one storage binding; the device \
-                 binds at most {} (`--backend auto` renders it on the CPU)",
-                byte_size(bytes),
-                byte_size((grid.cells.len() * 4) as u64),
-                byte_size(limit)
-            ));
-        }
-        let info = GpuGridInfo::new(grid, density_scale);
-        let b = bounds_layout(bounds, adaptive)?;
-        if (b.len() * 8) as u64 > limit {
-            return Err(format!(
-                "the grid's bounds need {}; the device binds at most {}",
-                byte_size((b.len() * 8) as u64),
-                byte_size(limit)
-            ));
-        }
-        Ok(GpuGrid {
-            info,
-            info_buffer: ctx.uniform_buffer("grid info", &info),
-            cells: ctx.storage_buffer("grid cells", &grid.cells),
-            bricks: ctx.storage_buffer("grid bricks", &grid.bricks),
-            constants: ctx.storage_buffer("grid constants", &grid.constants),
-            bounds: ctx.storage_buffer("grid bounds", &b),
-            voxels: voxel_buffer(ctx, voxels)?,
-        })
+        Self::upload_with(
+            ctx,
+            grid,
+            bounds,
+            adaptive,
+            density_scale,
+            &bounds.voxel_q,
+            &[],
+        )
+        .map(|(g, _)| g)
     }
 
     /// Uploads `grid` as [`GpuGrid::upload`] does, followed in the same cells, bricks and
@@ -460,10 +428,6 @@ impl GpuGrid {
         voxels: &[u8],
         extra: &[&SparseGrid],
     ) -> Result<(GpuGrid, Vec<GpuGridInfo>), String> {
-        if extra.is_empty() {
-            return Self::upload_one(ctx, grid, bounds, adaptive, density_scale, voxels)
-                .map(|g| (g, Vec::new()));
-        }
         let mut parts = vec![(grid, density_scale, Some(bounds_layout(bounds, adaptive)?))];
         parts.extend(extra.iter().map(|&g| (g, 1.0, None)));
         let (mut gg, placed) = Self::upload_many(ctx, &parts)?;

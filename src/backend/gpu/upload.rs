@@ -328,7 +328,6 @@ pub(super) fn upload_grid(
     features: FeatureFlags,
     cfg: &TrackingConfig,
 ) -> Result<(Option<GpuGrid>, GpuEmissionParams, Vec<GpuVdbMedium>), GpuRenderError> {
-    let limit = ctx.limits.max_storage_buffer_binding_size;
     let m = match rs.vdb.first() {
         Some(m) if features.heterogeneous => m,
         _ => return Ok((None, GpuEmissionParams::default(), Vec::new())),
@@ -338,15 +337,8 @@ pub(super) fn upload_grid(
         let emission = media[0].emission;
         return Ok((Some(g), emission, media));
     }
+    // `GpuGrid::upload_with` checks every buffer against the binding limit.
     let g = &m.density.grid;
-    let bounds_bytes = (m.bounds().cells.len() as u64 + 1) * 8;
-    if bounds_bytes > limit {
-        return Err(GpuRenderError::Limits(format!(
-            "the grid's bounds need {}; the device binds at most {}",
-            byte_size(bounds_bytes),
-            byte_size(limit)
-        )));
-    }
     let fields = emission_fields(m, features);
     let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
     let (mut gg, mut infos) = GpuGrid::upload_with(
