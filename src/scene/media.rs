@@ -294,7 +294,7 @@ pub fn read_vdb_media(
         }
         check_temperature_range(ctx, &obj, &desc)?;
         check_emission_range(ctx, &obj, &desc)?;
-        warn_emission_outside_density(ctx, &obj, &desc);
+        widen_density_to_emission(ctx, &obj, &mut desc);
 
         desc.world_from_medium = placed.world_from_node * desc.grids[0].vdb_world_from_index;
         (desc.world_bounds, desc.bounds_source) = if let Some(b) = desc.grids[0].index_bounds {
@@ -384,16 +384,21 @@ fn check_emission_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<()
     Ok(())
 }
 
-/// Warns where an emission or temperature grid holds values outside the density grid's cell
-/// box: the walks, and so the emission Brume gathers, end at that box
-/// (`integrator::emission_bounds`), while Cycles emits in a volume mesh around every grid's
-/// active voxels. Counts the grid's leaf cells with a non-zero bound whose box, mapped into
-/// the density's index space, leaves the density's box (by more than a thousandth of a voxel).
-fn warn_emission_outside_density(ctx: &mut Ctx, obj: &Obj, desc: &VdbMediumDesc) {
-    let Some(density_box) = desc.grids[0].index_bounds else {
-        return;
-    };
-    let index_from_world = desc.grids[0].vdb_world_from_index.inverse();
+/// Largest dense cell index the density grid may be widened to (4 bytes a cell: 64 MiB, and
+/// 8 more a cell for its bounds; a 2048^3-voxel box) so
+/// that its walks reach an emission or temperature grid past its own box.
+pub const MAX_WIDENED_CELLS: u64 = 1 << 24;
+
+/// Widens the density grid's cell box to cover every emitting grid (emission, or temperature
+/// with blackbody) mapped into its index space, where those reach past it. The walks, and so
+/// the emission Brume gathers, end at the density grid's box (`integrator::emission_bounds`
+/// raises the walk bounds inside it); Cycles emits in a volume mesh around every grid's
+/// active voxels, so a flame reaching past its smoke must be walked there too. The new cells
+/// hold no density (the background). Beyond [`MAX_WIDENED_CELLS`] the grid is left as it is
+/// and a warning names the grid whose emission is cut at the density's box.
+fn widen_density_to_emission(ctx: &mut Ctx, obj: &Obj, desc: &mut VdbMediumDesc) {
+    let density = &desc.grids[0];
+    let index_from_world = density.vdb_world_from_index.inverse();
     let terms = [
         (
             "emissionGrid",
@@ -406,42 +411,84 @@ fn warn_emission_outside_density(ctx: &mut Ctx, obj: &Obj, desc: &VdbMediumDesc)
             desc.blackbody_intensity > 0.0,
         ),
     ];
+    let mut want = density.index_bounds.unwrap_or(Aabb::EMPTY);
+    let mut reaching = Vec::new();
     for (field, name, active) in terms {
         let Some(g) = desc.grid_named(name.as_deref()).filter(|_| active) else {
             continue;
         };
-        if g.name == desc.grids[0].name {
+        if g.name == density.name {
             continue;
         }
+        // The union of its leaf cells that may emit (a non-zero bound: the bounds carry the
+        // one-voxel apron the trilinear lookup reads), mapped into the density's index space.
         let b = &g.volume.bounds;
         let to_density = index_from_world * g.vdb_world_from_index;
         let [nx, ny, _] = b.dims.map(|d| d as usize);
-        let outside = b
+        let mapped = b
             .cells
             .iter()
             .enumerate()
             .filter(|(_, c)| c.min != 0.0 || c.max != 0.0)
-            .filter(|&(i, _)| {
+            .map(|(i, _)| {
                 let cell = [i % nx, i / nx % ny, i / (nx * ny)];
                 let lo = Vec3::from_array(std::array::from_fn(|a| {
                     (b.cell_origin[a] + cell[a] as i32) as f32 * 8.0
                 }));
-                let mapped = transform_aabb(&to_density, &Aabb::new(lo, lo + 8.0));
-                (mapped.min - density_box.min).min_element() < -1e-3
-                    || (density_box.max - mapped.max).min_element() < -1e-3
+                transform_aabb(&to_density, &Aabb::new(lo, lo + 8.0))
             })
-            .count();
-        if outside > 0 {
+            .fold(Aabb::EMPTY, |u, c| u.union(&c));
+        if mapped.is_empty() {
+            continue;
+        }
+        let inside = density.index_bounds.is_some_and(|d| {
+            (mapped.min - d.min).min_element() >= -1e-3
+                && (d.max - mapped.max).min_element() >= -1e-3
+        });
+        if !inside {
+            want = want.union(&mapped);
+            reaching.push((field, g.name.clone()));
+        }
+    }
+    if reaching.is_empty() {
+        return;
+    }
+    // Whole cells around the wanted box, forgiving a thousandth of a voxel of the mapping's
+    // rounding (as the test above).
+    let lo = want
+        .min
+        .to_array()
+        .map(|x| ((x + 1e-3) / 8.0).floor() as i64);
+    let hi = want
+        .max
+        .to_array()
+        .map(|x| ((x - 1e-3) / 8.0).ceil() as i64);
+    let dims: [i64; 3] = std::array::from_fn(|a| hi[a] - lo[a]);
+    let cells = dims.iter().map(|&d| d.max(0) as u64).product::<u64>();
+    let fits = lo.iter().chain(&hi).all(|&c| c.abs() < (1 << 27)) && cells <= MAX_WIDENED_CELLS;
+    // The density grid was loaded for this medium alone (every `load_grid` makes its own),
+    // so it is widened in place, without copying its bricks.
+    let volume = fits
+        .then(|| Arc::get_mut(&mut desc.grids[0].volume))
+        .flatten();
+    let Some(volume) = volume else {
+        for (field, name) in reaching {
             ctx.warn(
                 obj.at(field),
                 format!(
-                    "grid {:?} has values in {outside} leaf cells outside the density grid's box; \
-                     Brume renders the emission inside that box only",
-                    g.name
+                    "grid {name:?} reaches so far past the density grid's box that covering \
+                     it would take {cells} leaf cells of 8^3 voxels (the limit is \
+                     {MAX_WIDENED_CELLS}); Brume renders its emission inside that box only"
                 ),
             );
         }
-    }
+        return;
+    };
+    volume
+        .grid
+        .widen_to(lo.map(|c| c as i32), dims.map(|d| d as u32));
+    volume.bounds = volume::LeafBounds::build(&volume.grid);
+    desc.grids[0].index_bounds = Some(volume.grid.index_bounds());
 }
 
 /// Hottest temperature a scene may reach, kelvin. Beyond ~1e13 K the blackbody radiance

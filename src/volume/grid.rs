@@ -156,6 +156,37 @@ impl SparseGrid {
         b
     }
 
+    /// Widens the cell box to `dims` cells from `cell_origin`, which must contain the current
+    /// box: the new cells hold the background (constant entry 0), so every value, and every
+    /// lookup, is unchanged. Used where a walk must reach past the grid's own data (an
+    /// emitting medium whose flame reaches past its smoke, `scene::media`).
+    pub fn widen_to(&mut self, cell_origin: [i32; 3], dims: [u32; 3]) {
+        let old_dims = self.dims;
+        let offset: [i64; 3] =
+            std::array::from_fn(|a| self.cell_origin[a] as i64 - cell_origin[a] as i64);
+        assert!(
+            (0..3).all(|a| offset[a] >= 0 && offset[a] + old_dims[a] as i64 <= dims[a] as i64),
+            "widen_to: the new cell box must contain the old one"
+        );
+        let [nx, ny, nz] = dims.map(|d| d as usize);
+        let mut cells = vec![CONSTANT_BIT; nx * ny * nz];
+        for z in 0..old_dims[2] as usize {
+            for y in 0..old_dims[1] as usize {
+                let src = old_dims[0] as usize * (y + old_dims[1] as usize * z);
+                let dst = offset[0] as usize
+                    + nx * (y + offset[1] as usize + ny * (z + offset[2] as usize));
+                cells[dst..dst + old_dims[0] as usize]
+                    .copy_from_slice(&self.cells[src..src + old_dims[0] as usize]);
+            }
+        }
+        if self.constants.is_empty() {
+            self.constants.push(self.background);
+        }
+        self.cells = cells;
+        self.dims = dims;
+        self.cell_origin = cell_origin;
+    }
+
     /// Voxel-coordinate box `[lo, hi)` of the cell grid.
     fn index_box_i64(&self) -> ([i64; 3], [i64; 3]) {
         let lo = self.cell_origin.map(|c| c as i64 * BRICK_DIM);
@@ -342,6 +373,37 @@ mod tests {
             -1e15 - 0.5,
         ] {
             assert_eq!(floor_i64(x), x.floor() as i64, "floor({x})");
+        }
+    }
+
+    #[test]
+    fn widening_the_cell_box_changes_no_value() {
+        let dims = [11usize, 9, 13];
+        let values: Vec<f32> = (0..dims.iter().product::<usize>())
+            .map(|i| ((i * 7919) % 23) as f32 * 0.25)
+            .collect();
+        let (grid, _) = SparseGrid::from_dense(dims, [-5, 3, 17], &values, 0.0).unwrap();
+        let mut wide = grid.clone();
+        let origin = [0, 1, 2].map(|a| grid.cell_origin[a] - 1 - a as i32);
+        let grown = [0, 1, 2].map(|a| grid.dims[a] + 3 + a as u32);
+        wide.widen_to(origin, grown);
+        assert_eq!((wide.cell_origin, wide.dims), (origin, grown));
+        let (w, g) = (wide.index_bounds(), grid.index_bounds());
+        assert!(w.min.cmple(g.min).all() && w.max.cmpge(g.max).all());
+        // Every voxel of the widened box, the old one's included, and trilinear points
+        // across its faces.
+        for k in origin[2] * 8..(origin[2] + grown[2] as i32) * 8 {
+            for j in origin[1] * 8..(origin[1] + grown[1] as i32) * 8 {
+                for i in origin[0] * 8..(origin[0] + grown[0] as i32) * 8 {
+                    assert_eq!(
+                        wide.voxel(i, j, k),
+                        grid.voxel(i, j, k),
+                        "voxel {i} {j} {k}"
+                    );
+                    let p = DVec3::new(i as f64 + 0.37, j as f64 + 0.61, k as f64 + 0.19);
+                    assert_eq!(wide.sample_trilinear(p), grid.sample_trilinear(p));
+                }
+            }
         }
     }
 
