@@ -11,7 +11,8 @@
 //!   mode, on the CPU and on the GPU (before, that flame was cut off with a load warning).
 //! - A medium with no density, seen along one pencil: its emission grid's integral along the
 //!   pencil (`common::stress::optical_depth`, exact), and a constant emission times the chord
-//!   through the grid's box, in every mode, on the CPU and on the GPU.
+//!   through its emission region (the box of the grid's active voxels, `[min - 1, max + 2]`
+//!   as Cycles' volume mesh), in every mode, on the CPU and on the GPU.
 mod common;
 use common::gpu::gpu_or_skip;
 use common::overlap::{dir, overlap_settings, write_scene, N, VOXEL};
@@ -260,8 +261,26 @@ fn a_flame_past_the_smokes_box_widens_it_and_glows_exactly() {
 fn glow_expected(rs: &RenderScene, constant: bool, x: f32) -> [f64; 3] {
     let m = &rs.vdb[0];
     let integral = if constant {
-        // The walk covers the grid's cell box: the chord along Z.
-        (m.world_bounds.max.z - m.world_bounds.min.z) as f64
+        // A constant emission fills the emission region (Cycles' volume mesh, the grid's
+        // active voxels' box): the pencil's chord through it, in world units (the map to
+        // index space is affine, so ray parameters are world distances).
+        let r = m.emission.as_ref().and_then(|e| e.region).unwrap();
+        let (o, d) = (
+            glam::Vec3::new(x, 0.0, 3.0),
+            glam::Vec3::new(0.0, 0.0, -1.0),
+        );
+        let (t0, t1) = r
+            .bounds
+            .intersect(
+                &brume::math::Ray::new(
+                    r.index_from_world.transform_point3(o),
+                    r.index_from_world.transform_vector3(d),
+                ),
+                0.0,
+                f32::INFINITY,
+            )
+            .unwrap();
+        (t1 - t0) as f64
     } else {
         // The emission grid is the density grid (the medium tracks a grid of zeros instead,
         // `emission_bounds::without_density`): its exact integral along the pencil.

@@ -46,6 +46,15 @@ fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
 // one VDB medium, or a vdb_media entry's).
 fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams, p: vec3<f32>) -> vec3<f32> {
     var e = vec3<f32>(0.0);
+    // EmissionRegion::contains: nothing is emitted outside the region's box.
+    if (emission.has_region != 0u) {
+        let w = vec4<f32>(p, 1.0);
+        let q = vec3<f32>(dot(emission.region_from_world[0], w), dot(emission.region_from_world[1], w),
+            dot(emission.region_from_world[2], w));
+        if (any(q < emission.region_min) || any(q >= emission.region_max)) {
+            return e;
+        }
+    }
     if (any(emission.strength_color != vec3<f32>(0.0))) {
         var scale = 1.0;
         if (emission.has_grid != 0u) {

@@ -229,6 +229,11 @@ struct GpuEmissionParams {
     temperature_offset: f32,
     intensity: f32,             // blackbodyIntensity
     _pad0: u32,
+    region_from_world: array<vec4<f32>, 3>, // density index_from_world rows (EmissionRegion)
+    region_min: vec3<f32>,      // the region's box, half-open; no emission outside
+    has_region: u32,
+    region_max: vec3<f32>,
+    _pad1: u32,
 }
 
 // GpuWavefrontParams: camera, batch, lights, limits, medium (one uniform per parity).

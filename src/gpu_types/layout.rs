@@ -256,7 +256,12 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             temperature_scale,
             temperature_offset,
             intensity,
-            _pad0
+            _pad0,
+            region_from_world,
+            region_min,
+            has_region,
+            region_max,
+            _pad1
         ]
     ),
     layout!(

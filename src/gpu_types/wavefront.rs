@@ -400,7 +400,7 @@ pub struct GpuVdbMedium {
     pub _pad1: u32,
     pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 240 + 8 * 16);
+const _: () = assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 320 + 8 * 16);
 
 /// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
 /// wavefront render. The grids' headers point into the density grid's buffers
@@ -430,5 +430,14 @@ pub struct GpuEmissionParams {
     pub intensity: f32,
     /// Padding to a 16-byte row.
     pub _pad0: u32,
+    /// Rows of the density grid's world -> index map, the space of the emission region
+    /// (`integrator::media::EmissionRegion`).
+    pub region_from_world: [[f32; 4]; 3],
+    /// The region's box in that space (half-open); nothing is emitted outside it.
+    pub region_min: [f32; 3],
+    /// 1 when the region applies (else the emission is not confined).
+    pub has_region: u32,
+    pub region_max: [f32; 3],
+    pub _pad1: u32,
 }
-const _: () = assert!(size_of::<GpuEmissionParams>() == 240);
+const _: () = assert!(size_of::<GpuEmissionParams>() == 320);

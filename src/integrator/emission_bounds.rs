@@ -33,7 +33,9 @@
 //! 4 collisions per diagonal raised 131 of the fire's 1728 cells and turned its per-voxel
 //! stage off (1.17-1.26x the global bound's speed instead of 1.28x, same variance); the
 //! proportional one raises none of them. Emission is gathered within the density grid's cell
-//! box (the walk's extent); an emission grid reaching beyond it is clipped there.
+//! box (the walk's extent; the loader widens it over emission grids reaching past it), and
+//! only inside the medium's emission region (`media::EmissionRegion`, Cycles' volume mesh):
+//! cells outside it are not raised.
 use rayon::prelude::*;
 
 use super::blackbody::{blackbody_rgb, STEFAN_BOLTZMANN_SCALE, T_MAX, T_MIN};
@@ -192,6 +194,20 @@ pub fn emission_bound(density: &GridField, emission: &Emission) -> Vec<f32> {
         .into_par_iter()
         .map(|c| {
             let cell = [c % nx, c / nx % ny, c / (nx * ny)];
+            // Nothing is emitted outside the emission region (its box is in the density's
+            // index space, as the cells; a thousandth of a voxel of slack for a walk's point
+            // rounded a hair outside its cell).
+            if let Some(r) = &emission.region {
+                let lo: [f32; 3] = std::array::from_fn(|a| {
+                    (bounds.cell_origin[a] + cell[a] as i32) as f32 * CELL_WIDTH
+                });
+                let apart = (0..3).any(|a| {
+                    !(lo[a] - 1e-3 < r.bounds.max[a] && lo[a] + CELL_WIDTH + 1e-3 > r.bounds.min[a])
+                });
+                if apart {
+                    return 0.0;
+                }
+            }
             // Same grid, same placement: its own bound holds.
             let own = |f: &GridField| {
                 std::sync::Arc::ptr_eq(&f.grid, &density.grid)

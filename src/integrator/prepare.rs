@@ -4,8 +4,10 @@
 use glam::{Affine3A, Mat4, Vec3};
 
 use super::lights::Lights;
-use super::media::{Blackbody, Emission, GridField, HomogeneousMedium, VdbMedium};
+use super::media::{Blackbody, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
+use crate::math::Aabb;
+use crate::scene::media::VdbMediumDesc;
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Scene};
 use crate::volume::phase::HenyeyGreenstein;
@@ -147,6 +149,35 @@ fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
     }
 }
 
+/// Where `desc` emits ([`EmissionRegion`]): the union of its grids' active-voxel boxes, each
+/// `[min - 1, max + 2]` in its own index coordinates (Cycles' volume mesh), mapped into the
+/// density's index space. Empty where no grid has an active voxel (Cycles then builds no mesh
+/// and renders nothing).
+pub fn emission_region(desc: &VdbMediumDesc, world_from_node: Mat4) -> EmissionRegion {
+    let density = &desc.grids[0];
+    let density_from_world = (world_from_node * density.vdb_world_from_index).inverse();
+    let density_from_vdb = density.vdb_world_from_index.inverse();
+    let bounds = desc
+        .grids
+        .iter()
+        .filter_map(|g| {
+            let (lo, hi) = g.volume.info.active_bbox?;
+            let own = Aabb::new(
+                Vec3::from_array(lo.map(|c| c as f32 - 1.0)),
+                Vec3::from_array(hi.map(|c| c as f32 + 2.0)),
+            );
+            Some(crate::scene::media::transform_aabb(
+                &(density_from_vdb * g.vdb_world_from_index),
+                &own,
+            ))
+        })
+        .fold(Aabb::EMPTY, |u, b| u.union(&b));
+    EmissionRegion {
+        index_from_world: Affine3A::from_mat4(density_from_world),
+        bounds,
+    }
+}
+
 /// Mean index-space distance per unit of the ray parameter (per metre along a unit world
 /// direction): the mean column norm of `index_from_world` (1 / voxel size when uniform).
 pub fn index_per_t(f: &GridField) -> f32 {
@@ -185,6 +216,7 @@ impl<'s> RenderScene<'s> {
                     strength_color,
                     grid: by_name(&desc.emission_grid),
                     blackbody,
+                    region: Some(emission_region(desc, world_from_node)),
                 });
             let sigma_a = Vec3::from(desc.sigma_a_per_density());
             let sigma_s = Vec3::from(desc.sigma_s_per_density());

@@ -302,6 +302,22 @@ fn emission_params(
     };
     let mut next = infos.iter();
     p.strength_color = e.strength_color.to_array();
+    if let Some(r) = &e.region {
+        p.region_from_world = affine_rows(r.index_from_world);
+        // An empty region (no active voxel anywhere) as a finite empty box.
+        let empty = r.bounds.is_empty();
+        p.region_min = if empty {
+            [1.0; 3]
+        } else {
+            r.bounds.min.to_array()
+        };
+        p.region_max = if empty {
+            [0.0; 3]
+        } else {
+            r.bounds.max.to_array()
+        };
+        p.has_region = 1;
+    }
     if e.grid.is_some() {
         p.grid = *next.next().expect("emission grid uploaded");
         p.has_grid = 1;
