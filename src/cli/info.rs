@@ -38,6 +38,13 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                 );
                 let g = &m.density.grid;
                 print_voxel_bounds(&format!("medium {i}"), &g.grid, &g.bounds);
+                if let Some(r) = m.emission.as_ref().and_then(|e| e.region) {
+                    let b = r.bounds;
+                    println!(
+                        "medium {i} emission region (Cycles' volume box: the grids' active voxels, [min - 1, max + 2]; density index space): [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}]",
+                        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+                    );
+                }
                 if let Some(w) = &m.walk_bounds {
                     let raised = w
                         .cells
