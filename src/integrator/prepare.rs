@@ -6,7 +6,6 @@ use glam::{Affine3A, Mat4, Vec3};
 use super::lights::Lights;
 use super::media::{Blackbody, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
-use crate::math::Aabb;
 use crate::scene::media::VdbMediumDesc;
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Scene};
@@ -149,32 +148,13 @@ fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
     }
 }
 
-/// Where `desc` emits ([`EmissionRegion`]): the union of its grids' active-voxel boxes, each
-/// `[min - 1, max + 2]` in its own index coordinates (Cycles' volume mesh), mapped into the
-/// density's index space. Empty where no grid has an active voxel (Cycles then builds no mesh
-/// and renders nothing).
+/// Where `desc` emits ([`EmissionRegion`]): its emission box
+/// ([`VdbMediumDesc::emission_box`], Cycles' volume mesh) in the density's index space.
 pub fn emission_region(desc: &VdbMediumDesc, world_from_node: Mat4) -> EmissionRegion {
-    let density = &desc.grids[0];
-    let density_from_world = (world_from_node * density.vdb_world_from_index).inverse();
-    let density_from_vdb = density.vdb_world_from_index.inverse();
-    let bounds = desc
-        .grids
-        .iter()
-        .filter_map(|g| {
-            let (lo, hi) = g.volume.info.active_bbox?;
-            let own = Aabb::new(
-                Vec3::from_array(lo.map(|c| c as f32 - 1.0)),
-                Vec3::from_array(hi.map(|c| c as f32 + 2.0)),
-            );
-            Some(crate::scene::media::transform_aabb(
-                &(density_from_vdb * g.vdb_world_from_index),
-                &own,
-            ))
-        })
-        .fold(Aabb::EMPTY, |u, b| u.union(&b));
+    let density_from_world = (world_from_node * desc.grids[0].vdb_world_from_index).inverse();
     EmissionRegion {
         index_from_world: Affine3A::from_mat4(density_from_world),
-        bounds,
+        bounds: desc.emission_box(),
     }
 }
 

@@ -171,6 +171,33 @@ impl VdbMediumDesc {
         self.density_scale > 0.0 || self.emits()
     }
 
+    /// The box the medium emits in, in the density grid's index space (VDB index coordinates):
+    /// Cycles 5's volume mesh under null scattering, the union of its grids' active voxels,
+    /// each grid's `[min - 1, max + 2]` in its own index coordinates (one voxel of padding for
+    /// linear interpolation, and the mesh runs to one past the highest voxel). Empty where no
+    /// grid has an active voxel (Cycles then builds no mesh). See
+    /// `integrator::media::EmissionRegion`.
+    pub fn emission_box(&self) -> Aabb {
+        let Some(density) = self.grids.first() else {
+            return Aabb::EMPTY;
+        };
+        let density_from_vdb = density.vdb_world_from_index.inverse();
+        self.grids
+            .iter()
+            .filter_map(|g| {
+                let (lo, hi) = g.volume.info.active_bbox?;
+                let own = Aabb::new(
+                    Vec3::from_array(lo.map(|c| c as f32 - 1.0)),
+                    Vec3::from_array(hi.map(|c| c as f32 + 2.0)),
+                );
+                Some(transform_aabb(
+                    &(density_from_vdb * g.vdb_world_from_index),
+                    &own,
+                ))
+            })
+            .fold(Aabb::EMPTY, |u, b| u.union(&b))
+    }
+
     /// Whether the medium emits: a non-zero emission or a temperature grid with blackbody on.
     pub fn emits(&self) -> bool {
         let emission = self.emission_strength > 0.0 && self.emission_color.iter().any(|&c| c > 0.0);
@@ -389,70 +416,36 @@ fn check_emission_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<()
 /// that its walks reach an emission or temperature grid past its own box.
 pub const MAX_WIDENED_CELLS: u64 = 1 << 24;
 
-/// Widens the density grid's cell box to cover every emitting grid (emission, or temperature
-/// with blackbody) mapped into its index space, where those reach past it. The walks, and so
-/// the emission Brume gathers, end at the density grid's box (`integrator::emission_bounds`
-/// raises the walk bounds inside it); Cycles emits in a volume mesh around every grid's
-/// active voxels, so a flame reaching past its smoke must be walked there too. The new cells
-/// hold no density (the background). Beyond [`MAX_WIDENED_CELLS`] the grid is left as it is
-/// and a warning names the grid whose emission is cut at the density's box.
+/// Widens the density grid's cell box over the medium's emission box
+/// ([`VdbMediumDesc::emission_box`]) where that reaches past it. The walks, and so the
+/// emission Brume gathers, end at the density grid's box; Cycles emits in the emission box,
+/// so a flame (or the glow of a temperature grid) reaching past the smoke must be walked there
+/// too. The new cells hold no density (the background). Beyond [`MAX_WIDENED_CELLS`] the grid
+/// is left as it is and a warning names the grids whose emission is cut at the density's box.
 fn widen_density_to_emission(ctx: &mut Ctx, obj: &Obj, desc: &mut VdbMediumDesc) {
-    let density = &desc.grids[0];
-    let index_from_world = density.vdb_world_from_index.inverse();
-    let terms = [
-        (
-            "emissionGrid",
-            &desc.emission_grid,
-            desc.emission_strength > 0.0,
-        ),
-        (
-            "temperatureGrid",
-            &desc.temperature_grid,
-            desc.blackbody_intensity > 0.0,
-        ),
-    ];
-    let mut want = density.index_bounds.unwrap_or(Aabb::EMPTY);
-    let mut reaching = Vec::new();
-    for (field, name, active) in terms {
-        let Some(g) = desc.grid_named(name.as_deref()).filter(|_| active) else {
-            continue;
-        };
-        if g.name == density.name {
-            continue;
-        }
-        // The union of its leaf cells that may emit (a non-zero bound: the bounds carry the
-        // one-voxel apron the trilinear lookup reads), mapped into the density's index space.
-        let b = &g.volume.bounds;
-        let to_density = index_from_world * g.vdb_world_from_index;
-        let [nx, ny, _] = b.dims.map(|d| d as usize);
-        let mapped = b
-            .cells
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.min != 0.0 || c.max != 0.0)
-            .map(|(i, _)| {
-                let cell = [i % nx, i / nx % ny, i / (nx * ny)];
-                let lo = Vec3::from_array(std::array::from_fn(|a| {
-                    (b.cell_origin[a] + cell[a] as i32) as f32 * 8.0
-                }));
-                transform_aabb(&to_density, &Aabb::new(lo, lo + 8.0))
-            })
-            .fold(Aabb::EMPTY, |u, c| u.union(&c));
-        if mapped.is_empty() {
-            continue;
-        }
-        let inside = density.index_bounds.is_some_and(|d| {
-            (mapped.min - d.min).min_element() >= -1e-3
-                && (d.max - mapped.max).min_element() >= -1e-3
-        });
-        if !inside {
-            want = want.union(&mapped);
-            reaching.push((field, g.name.clone()));
-        }
-    }
-    if reaching.is_empty() {
+    if !desc.emits() {
         return;
     }
+    let density = &desc.grids[0];
+    let emission = desc.emission_box();
+    let inside = |d: Aabb| {
+        (emission.min - d.min).min_element() >= -1e-3
+            && (d.max - emission.max).min_element() >= -1e-3
+    };
+    if emission.is_empty() || density.index_bounds.is_some_and(inside) {
+        return;
+    }
+    let want = density.index_bounds.unwrap_or(Aabb::EMPTY).union(&emission);
+    let reaching: Vec<(&str, String)> = [
+        ("emissionGrid", &desc.emission_grid),
+        ("temperatureGrid", &desc.temperature_grid),
+    ]
+    .into_iter()
+    .filter_map(|(field, name)| {
+        let g = desc.grid_named(name.as_deref())?;
+        (g.name != density.name).then(|| (field, g.name.clone()))
+    })
+    .collect();
     // Whole cells around the wanted box, forgiving a thousandth of a voxel of the mapping's
     // rounding (as the test above).
     let lo = want

@@ -161,9 +161,19 @@ impl SparseGrid {
     /// lookup, is unchanged. Used where a walk must reach past the grid's own data (an
     /// emitting medium whose flame reaches past its smoke, `scene::media`).
     pub fn widen_to(&mut self, cell_origin: [i32; 3], dims: [u32; 3]) {
-        let old_dims = self.dims;
-        let offset: [i64; 3] =
-            std::array::from_fn(|a| self.cell_origin[a] as i64 - cell_origin[a] as i64);
+        // A grid with no cells has no box to keep.
+        let old_dims = if self.cells.is_empty() {
+            [0; 3]
+        } else {
+            self.dims
+        };
+        let offset: [i64; 3] = std::array::from_fn(|a| {
+            if self.cells.is_empty() {
+                0
+            } else {
+                self.cell_origin[a] as i64 - cell_origin[a] as i64
+            }
+        });
         assert!(
             (0..3).all(|a| offset[a] >= 0 && offset[a] + old_dims[a] as i64 <= dims[a] as i64),
             "widen_to: the new cell box must contain the old one"
