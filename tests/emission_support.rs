@@ -254,7 +254,7 @@ fn a_flame_past_the_smokes_box_widens_it_and_glows_exactly() {
     let density = brume_ffi::GridSpec::fog("density", VOXEL, [-c + 0.5 * VOXEL; 3]);
     let mut flame = brume_ffi::GridSpec::fog("flame", VOXEL, [-c + 0.5 * VOXEL; 3]);
     flame.voxels = blob_voxels(N);
-    brume_ffi::write_float_grids(&d.join("smoke.vdb"), &[density, flame]).unwrap();
+    brume_ffi::write_float_grids(d.join("smoke.vdb"), &[density, flame]).unwrap();
     let medium = json!({"uri": "smoke.vdb", "densityScale": 4.0, "emissionGrid": "flame",
         "emissionStrength": 2.0, "emissionColor": EMISSION});
     let bare = load(&d, "bare.gltf", &scene_at(medium, 1e-4, 0.0));
