@@ -201,6 +201,11 @@ fn a_flame_past_its_smoke_renders_alike_in_every_majorant_mode() {
 /// Voxel shift of the far flame: wholly past the smoke grid's cell box along +x.
 const FAR_SHIFT: i32 = 40;
 
+/// World x of the far flame's centre (and of its pencil).
+fn far_x() -> f32 {
+    (FAR_SHIFT as f64 * VOXEL) as f32
+}
+
 /// The smoke with its flame [`FAR_SHIFT`] voxels away, seen along one pencil through the
 /// flame's centre, where there is no smoke (files in `dir_name`).
 fn far_flame_scene(dir_name: &str) -> brume::scene::Scene {
@@ -208,8 +213,7 @@ fn far_flame_scene(dir_name: &str) -> brume::scene::Scene {
     write_grids_shifted(&d.join("smoke.vdb"), FAR_SHIFT);
     let medium = json!({"uri": "smoke.vdb", "densityScale": 4.0, "emissionGrid": "flame",
         "emissionStrength": 2.0, "emissionColor": EMISSION});
-    let x = (FAR_SHIFT as f64 * VOXEL) as f32;
-    load(&d, "far.gltf", &scene_at(medium, 1e-4, x))
+    load(&d, "far.gltf", &scene_at(medium, 1e-4, far_x()))
 }
 
 #[test]
@@ -269,7 +273,7 @@ fn a_flame_past_the_smokes_box_widens_it_and_glows_exactly() {
     );
     // Along the pencil there is no smoke: the sky plus the flame's exact integral.
     let rs = RenderScene::new(&scene, false).unwrap();
-    let expected = glow_expected(&rs, false, (FAR_SHIFT as f64 * VOXEL) as f32);
+    let expected = glow_expected(&rs, false, far_x());
     for (k, mode) in MajorantMode::ALL.into_iter().enumerate() {
         let out = render(&scene, &glow_settings(mode, 110 + k as u32));
         check_glow(&out, expected, &format!("far flame {mode:?}"));
@@ -367,6 +371,24 @@ fn gpu_render(ctx: &GpuContext, scene: &brume::scene::Scene, s: &RenderSettings)
     out
 }
 
+/// GPU renders of a glow scene with the global bound and adaptive bounds (seeds `seed`,
+/// `seed + 1`), each checked against `expected`.
+fn gpu_glows(
+    ctx: &GpuContext,
+    scene: &brume::scene::Scene,
+    expected: [f64; 3],
+    seed: u32,
+    label: &str,
+) {
+    for (k, mode) in [MajorantMode::Global, MajorantMode::Adaptive]
+        .into_iter()
+        .enumerate()
+    {
+        let out = gpu_render(ctx, scene, &glow_settings(mode, seed + k as u32));
+        check_glow(&out, expected, &format!("{label} {mode:?}"));
+    }
+}
+
 #[test]
 fn emission_without_density_renders_on_the_gpu() {
     let Some(ctx) = gpu_or_skip("emission_without_density_renders_on_the_gpu") else {
@@ -376,25 +398,13 @@ fn emission_without_density_renders_on_the_gpu() {
         let scene = glow_scene("emission_glow_gpu", name, grid);
         let rs = RenderScene::new(&scene, false).unwrap();
         let expected = glow_expected(&rs, grid.is_none(), 0.0);
-        for (k, mode) in [MajorantMode::Global, MajorantMode::Adaptive]
-            .into_iter()
-            .enumerate()
-        {
-            let out = gpu_render(&ctx, &scene, &glow_settings(mode, 90 + k as u32));
-            check_glow(&out, expected, &format!("GPU {name} {mode:?}"));
-        }
+        gpu_glows(&ctx, &scene, expected, 90, &format!("GPU {name}"));
     }
     // The flame past the smoke's box, along its pencil.
     let scene = far_flame_scene("emission_outside_gpu");
     let rs = RenderScene::new(&scene, false).unwrap();
-    let expected = glow_expected(&rs, false, (FAR_SHIFT as f64 * VOXEL) as f32);
-    for (k, mode) in [MajorantMode::Global, MajorantMode::Adaptive]
-        .into_iter()
-        .enumerate()
-    {
-        let out = gpu_render(&ctx, &scene, &glow_settings(mode, 120 + k as u32));
-        check_glow(&out, expected, &format!("GPU far flame {mode:?}"));
-    }
+    let expected = glow_expected(&rs, false, far_x());
+    gpu_glows(&ctx, &scene, expected, 120, "GPU far flame");
     // The flame past its smoke: the GPU's adaptive render against the CPU's global one.
     let scene = flame_scene("emission_flame_gpu");
     let s = overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 95);

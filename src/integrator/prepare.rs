@@ -6,7 +6,6 @@ use glam::{Affine3A, Mat4, Vec3};
 use super::lights::Lights;
 use super::media::{Blackbody, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
-use crate::scene::media::VdbMediumDesc;
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Scene};
 use crate::volume::phase::HenyeyGreenstein;
@@ -148,16 +147,6 @@ fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
     }
 }
 
-/// Where `desc` emits ([`EmissionRegion`]): its emission box
-/// ([`VdbMediumDesc::emission_box`], Cycles' volume mesh) in the density's index space.
-pub fn emission_region(desc: &VdbMediumDesc, world_from_node: Mat4) -> EmissionRegion {
-    let density_from_world = (world_from_node * desc.grids[0].vdb_world_from_index).inverse();
-    EmissionRegion {
-        index_from_world: Affine3A::from_mat4(density_from_world),
-        bounds: desc.emission_box(),
-    }
-}
-
 /// Mean index-space distance per unit of the ray parameter (per metre along a unit world
 /// direction): the mean column norm of `index_from_world` (1 / voxel size when uniform).
 pub fn index_per_t(f: &GridField) -> f32 {
@@ -177,6 +166,7 @@ impl<'s> RenderScene<'s> {
             }
             let density = &desc.grids[0];
             let world_from_node = desc.world_from_medium * density.vdb_world_from_index.inverse();
+            let mut density = field(density, world_from_node);
             let by_name = |name: &Option<String>| {
                 desc.grid_named(name.as_deref())
                     .map(|g| field(g, world_from_node))
@@ -196,12 +186,16 @@ impl<'s> RenderScene<'s> {
                     strength_color,
                     grid: by_name(&desc.emission_grid),
                     blackbody,
-                    region: Some(emission_region(desc, world_from_node)),
+                    // Cycles' volume box, in the density's index space
+                    // (`VdbMediumDesc::emission_box`).
+                    region: Some(EmissionRegion {
+                        index_from_world: density.index_from_world,
+                        bounds: desc.emission_box(),
+                    }),
                 });
             let sigma_a = Vec3::from(desc.sigma_a_per_density());
             let sigma_s = Vec3::from(desc.sigma_s_per_density());
             let sigma_t = sigma_a + sigma_s;
-            let mut density = field(density, world_from_node);
             let mut sigma_t_bound = sigma_t.max_element();
             if !(sigma_t_bound > 0.0) {
                 // An emitting medium with no extinction: a density of zeros at extinction 1
