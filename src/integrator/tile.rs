@@ -60,8 +60,9 @@ pub fn render_tile<
         for x in rect.x0..rect.x1 {
             let pixel = y * ctx.width + x;
             let before = total.media.tracking.lookups + total.media.emission_lookups;
+            let mut sampler = Sampler::for_pixel(ctx.sampler, pixel, ctx.seed);
             for s in s0..s0 + n {
-                let mut sampler = Sampler::new(ctx.sampler, pixel, s, ctx.seed);
+                sampler.start(s);
                 let jitter = sampler.get2d(DIM_JITTER);
                 let film = Vec2::new(
                     (x as f32 + jitter.x) / ctx.width as f32,

@@ -188,11 +188,69 @@ fn point_from_pixel_seed(pixel_seed: u32, sample: u32, block: u32) -> (u32, u32)
 }
 
 /// The first coordinate of [`point_from_pixel_seed`] alone (a 1D decision needs no `y`).
-#[inline]
+#[cfg(test)]
 fn x_from_pixel_seed(pixel_seed: u32, sample: u32, block: u32) -> u32 {
+    x_from_seeds(
+        block_scramble_seeds(pixel_seed, block),
+        sample.reverse_bits(),
+    )
+}
+
+/// The three scramble seeds of a block of a pixel: the index shuffle's, dimension 0's and
+/// dimension 1's. They depend on the pixel and the block only, so a [`Sampler`] computes them
+/// once per pixel (four hashes of the ~11 a point took).
+#[inline]
+fn block_scramble_seeds(pixel_seed: u32, block: u32) -> [u32; 3] {
     let s = pcg_hash(pixel_seed ^ block);
-    let i = owen_scramble(sample, pcg_hash(s));
-    owen_scramble(i.reverse_bits(), pcg_hash(s ^ 1))
+    [pcg_hash(s), pcg_hash(s ^ 1), pcg_hash(s ^ 2)]
+}
+
+/// [`DIM1_BYTES`] in the reversed-bit domain: `reverse_bits(sobol_dim1(reverse_bits(j)))` is
+/// the XOR of entry `[k][byte k of j]` (reversal is a permutation of bits, so the map stays
+/// linear over GF(2)).
+const DIM1_REV_BYTES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let i = ((b as u32) << (8 * k)).reverse_bits();
+            t[k][b] = sobol_dim1_bitwise(i).reverse_bits();
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// `reverse_bits(sobol_dim1(reverse_bits(j)))` by table.
+#[inline]
+fn sobol_dim1_reversed(j: u32) -> u32 {
+    DIM1_REV_BYTES[0][(j & 0xff) as usize]
+        ^ DIM1_REV_BYTES[1][(j >> 8 & 0xff) as usize]
+        ^ DIM1_REV_BYTES[2][(j >> 16 & 0xff) as usize]
+        ^ DIM1_REV_BYTES[3][(j >> 24) as usize]
+}
+
+/// [`point_from_pixel_seed`] from the block's [`block_scramble_seeds`] and the reversed sample
+/// index, with the bit reversals that cancel left out: `owen(v, s) = rev(lk(rev(v), s))`, so
+/// the shuffled index `i'` is kept reversed (`j = lk(rev(sample), s0) = rev(i')`), and
+/// `x = owen(rev(i'), s1) = rev(lk(i', s1))`, `y = rev(lk(rev(sobol_1(i')), s2))`, where
+/// `rev(sobol_1(i'))` is [`sobol_dim1_reversed`] of `j`. Equal bit for bit (tested).
+#[inline]
+fn point_from_seeds(seeds: [u32; 3], sample_rev: u32) -> (u32, u32) {
+    let j = laine_karras(sample_rev, seeds[0]);
+    (
+        laine_karras(j.reverse_bits(), seeds[1]).reverse_bits(),
+        laine_karras(sobol_dim1_reversed(j), seeds[2]).reverse_bits(),
+    )
+}
+
+/// The first coordinate of [`point_from_seeds`] alone.
+#[inline]
+fn x_from_seeds(seeds: [u32; 3], sample_rev: u32) -> u32 {
+    let j = laine_karras(sample_rev, seeds[0]);
+    laine_karras(j.reverse_bits(), seeds[1]).reverse_bits()
 }
 
 /// [`sobol_point_u32`] in `[0, 1)^2`: the top 24 bits, exact in f32, never 1.
@@ -253,30 +311,77 @@ impl fmt::Display for SamplerKind {
     }
 }
 
+/// Blocks whose scramble seeds a [`Sampler`] keeps: the camera's and 10 bounces' (later ones
+/// are hashed at each use).
+const CACHED_BLOCKS: usize = 64;
+
 /// The random numbers of one path: the PCG stream for the free-flight loops (`rng`) and the
 /// fixed-layout decisions (`get1d` / `get2d`, by dimension block).
-#[derive(Clone, Copy, Debug)]
+///
+/// One sampler serves every sample of a pixel in turn ([`Sampler::start`]): the blocks'
+/// scramble seeds depend on the pixel alone, so it keeps them (filled on first use) and a
+/// point costs three scrambles instead of three scrambles and four hashes.
+#[derive(Clone, Debug)]
 pub struct Sampler {
     /// The (pixel, sample, seed) stream: free flights and transmittance always draw from it.
     pub rng: Rng,
     kind: SamplerKind,
+    pixel: u32,
+    seed: u32,
     /// [`pixel_seed`] of the pixel and render seed (shared by every block of the path).
     pixel_seed: u32,
-    sample: u32,
+    /// The sample index with its bits reversed (what the index shuffle scrambles).
+    sample_rev: u32,
+    /// [`block_scramble_seeds`] of blocks `0..CACHED_BLOCKS`, valid where `cached` has the bit.
+    block_seeds: [[u32; 3]; CACHED_BLOCKS],
+    cached: u64,
 }
 
 impl Sampler {
     pub fn new(kind: SamplerKind, pixel: u32, sample: u32, seed: u32) -> Self {
+        let mut sampler = Sampler::for_pixel(kind, pixel, seed);
+        sampler.start(sample);
+        sampler
+    }
+
+    /// A sampler for the samples of `pixel`, at sample 0 until [`Sampler::start`].
+    pub fn for_pixel(kind: SamplerKind, pixel: u32, seed: u32) -> Self {
         Sampler {
-            rng: Rng::new(pixel, sample, seed),
+            rng: Rng::new(pixel, 0, seed),
             kind,
+            pixel,
+            seed,
             pixel_seed: pixel_seed(pixel, seed),
-            sample,
+            sample_rev: 0,
+            block_seeds: [[0; 3]; CACHED_BLOCKS],
+            cached: 0,
         }
+    }
+
+    /// Starts sample `sample` of the pixel: its own stream and points, exactly as
+    /// `Sampler::new(kind, pixel, sample, seed)` (the kept block seeds are the pixel's).
+    #[inline]
+    pub fn start(&mut self, sample: u32) {
+        self.rng = Rng::new(self.pixel, sample, self.seed);
+        self.sample_rev = sample.reverse_bits();
     }
 
     pub fn kind(&self) -> SamplerKind {
         self.kind
+    }
+
+    /// The scramble seeds of block `block` (kept for the first [`CACHED_BLOCKS`]).
+    #[inline]
+    fn seeds(&mut self, block: u32) -> [u32; 3] {
+        let b = block as usize;
+        if b >= CACHED_BLOCKS {
+            return block_scramble_seeds(self.pixel_seed, block);
+        }
+        if self.cached & (1 << b) == 0 {
+            self.block_seeds[b] = block_scramble_seeds(self.pixel_seed, block);
+            self.cached |= 1 << b;
+        }
+        self.block_seeds[b]
     }
 
     /// The 2D point of dimension block `block`.
@@ -284,7 +389,7 @@ impl Sampler {
     pub fn get2d(&mut self, block: u32) -> Vec2 {
         match self.kind {
             SamplerKind::Sobol => {
-                let (x, y) = point_from_pixel_seed(self.pixel_seed, self.sample, block);
+                let (x, y) = point_from_seeds(self.seeds(block), self.sample_rev);
                 Vec2::new(to_unit(x), to_unit(y))
             }
             SamplerKind::Independent => self.rng.uniform_vec2(),
@@ -297,7 +402,7 @@ impl Sampler {
     #[inline]
     pub fn queue_on_stream(&mut self, block: u32) {
         if self.kind == SamplerKind::Sobol {
-            let (x, y) = point_from_pixel_seed(self.pixel_seed, self.sample, block);
+            let (x, y) = point_from_seeds(self.seeds(block), self.sample_rev);
             self.rng.queue_uniforms(x, y);
         }
     }
@@ -306,7 +411,7 @@ impl Sampler {
     #[inline]
     pub fn get1d(&mut self, block: u32) -> f32 {
         match self.kind {
-            SamplerKind::Sobol => to_unit(x_from_pixel_seed(self.pixel_seed, self.sample, block)),
+            SamplerKind::Sobol => to_unit(x_from_seeds(self.seeds(block), self.sample_rev)),
             SamplerKind::Independent => self.rng.uniform_f32(),
         }
     }
@@ -526,6 +631,33 @@ mod fast_path_tests {
                 x_from_pixel_seed(pixel_seed(pixel, seed), sample, block),
                 p.0
             );
+            let seeds = block_scramble_seeds(pixel_seed(pixel, seed), block);
+            assert_eq!(point_from_seeds(seeds, sample.reverse_bits()), p);
+        }
+    }
+
+    /// A sampler reused across a pixel's samples (its block seeds kept, past the cached
+    /// blocks too) draws exactly what a fresh sampler per sample draws, on both kinds.
+    #[test]
+    fn a_pixel_sampler_equals_fresh_samplers() {
+        for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
+            let (pixel, seed) = (4321, 17);
+            let mut reused = Sampler::for_pixel(kind, pixel, seed);
+            for sample in [0u32, 1, 2, 7, 1000, 3] {
+                reused.start(sample);
+                let mut fresh = Sampler::new(kind, pixel, sample, seed);
+                for block in [0u32, 5, 63, 64, 200, 5, 0] {
+                    assert_eq!(reused.get2d(block), fresh.get2d(block));
+                    assert_eq!(reused.get1d(block + 1), fresh.get1d(block + 1));
+                    reused.queue_on_stream(block);
+                    fresh.queue_on_stream(block);
+                    assert_eq!(reused.rng.next_u32(), fresh.rng.next_u32());
+                }
+                let p = sobol_point_u32(pixel, sample, 9, seed);
+                if kind == SamplerKind::Sobol {
+                    assert_eq!(reused.get2d(9), Vec2::new(to_unit(p.0), to_unit(p.1)));
+                }
+            }
         }
     }
 }
