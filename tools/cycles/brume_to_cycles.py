@@ -30,6 +30,8 @@ The Blender scene is built as follows (docs/CYCLES.md has the table and the reas
 - each `BRUME_medium_vdb` node as a Volume object reading the .vdb, placed at
   (Y-up to Z-up) * (node world matrix); the grid's own transform is applied by Blender as by
   Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one;
+  the volume datablock named so that Cycles' name-hashed mesh offset vanishes
+  (`unshifted_volume_name`);
 - `BRUME_environment` as the world background: color * strength, times an Environment
   Texture (equirectangular, through a Mapping node with the same Euler rotation) when `uri`
   is given;
@@ -321,10 +323,52 @@ def spot_falloff_shader(obj, cos_inner, cos_outer):
     nt.links.new(em.outputs[0], out.inputs["Surface"])
 
 
+def cycles_face_overlap_avoidance(name):
+    """The fraction Cycles offsets a volume's mesh by, from the volume datablock's name.
+
+    Cycles' `GeometryManager::create_volume_mesh` (intern/cycles/scene/volume.cpp) moves every
+    vertex of the volume's bounding mesh by `f * (1 / dim.x, 1 / dim.y, 1 / dim.z)` in the
+    grid's world space, `dim` the padded active voxel box, with
+    `f = 0.1 * hash_uint_to_float(hash_string(name))` (util/hash.h: a `* 37 + c` string hash,
+    then one Jenkins lookup3 `final`), so that overlapping volumes do not share faces. The box
+    where a constant emission glows moves with it: up to 0.1 / dim of the grid, a per cent of
+    a voxel or more on small grids.
+    """
+    m = 0xFFFFFFFF
+
+    def rot(x, k):
+        return ((x << k) | (x >> (32 - k))) & m
+
+    h = 0
+    for c in name.encode():
+        h = (h * 37 + c) & m
+    a = b = c = (0xDEADBEEF + (1 << 2) + 13) & m
+    a = (a + h) & m
+    c ^= b; c = (c - rot(b, 14)) & m  # noqa: E702
+    a ^= c; a = (a - rot(c, 11)) & m  # noqa: E702
+    b ^= a; b = (b - rot(a, 25)) & m  # noqa: E702
+    c ^= b; c = (c - rot(b, 16)) & m  # noqa: E702
+    a ^= c; a = (a - rot(c, 4)) & m  # noqa: E702
+    b ^= a; b = (b - rot(a, 14)) & m  # noqa: E702
+    c ^= b; c = (c - rot(b, 24)) & m  # noqa: E702
+    return 0.1 * c / m
+
+
+def unshifted_volume_name(name):
+    """`name`, or `name` with the first suffix `~k`, whose Cycles mesh offset is below 1e-5 of
+    the grid (so Cycles' volume box is the unshifted one Brume uses)."""
+    candidate, k = name, 0
+    while cycles_face_overlap_avoidance(candidate) >= 1e-5:
+        k += 1
+        candidate = f"{name}~{k}"
+    return candidate
+
+
 def build_medium(name, ext, base_dir, world_from_node):
     """A BRUME_medium_vdb node as a Volume object with a Principled Volume."""
     path = os.path.join(base_dir, ext["uri"])
-    vol = bpy.data.volumes.new(name)
+    # The datablock's name decides Cycles' mesh offset (`cycles_face_overlap_avoidance`).
+    vol = bpy.data.volumes.new(unshifted_volume_name(name))
     vol.filepath = os.path.abspath(path)
     vol.grids.load()
     vol.render.space = "WORLD"  # OBJECT would divide density by the object's scale
