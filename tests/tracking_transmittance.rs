@@ -352,3 +352,71 @@ fn culled_global_walk_transmittance() {
         );
     }
 }
+
+/// Ratio and residual ratio tracking never take the per-voxel stage (`tracking::voxel_stage`):
+/// their variance `T^2 (exp(int sigma^2 / mu dt) - 1)` grows as the majorant `mu` tightens.
+/// With a second stage that would thin every kept collision by half, both draw exactly what
+/// they draw without it (same seeds: the same estimates and lookups), while delta tracking,
+/// whose variance does not depend on the majorant, is thinned (fewer lookups).
+#[test]
+fn ratio_tracking_ignores_the_voxel_stage() {
+    for s in scenes() {
+        let (global, ratio) = s.culled();
+        let seg = || std::iter::once(global);
+        let half = |_t: f32, _bound: f32| 0.5f32;
+        let medium = |control, voxel: &dyn Fn(f32, f32) -> f32| {
+            let inner = s.medium(control);
+            let mut rng = Rng::new(3, 5, 7);
+            let mut st = TrackingStats::default();
+            let culled = CulledBy {
+                inner,
+                ratio: &ratio,
+                voxel,
+            };
+            let mut out = Vec::new();
+            for _ in 0..2000 {
+                out.push(match control {
+                    ControlExtinction::None => {
+                        tr::ratio::transmittance(seg(), s.t_max, 1.0, &culled, &mut rng, &mut st)
+                    }
+                    _ => tr::residual_ratio::transmittance(
+                        seg(),
+                        s.t_max,
+                        1.0,
+                        &culled,
+                        &mut rng,
+                        &mut st,
+                    ),
+                });
+            }
+            (out, st.lookups)
+        };
+        for control in [ControlExtinction::None, ControlExtinction::SegmentMinorant] {
+            let (plain, plain_lookups) = medium(control, &common::culled::no_voxel);
+            let (halved, halved_lookups) = medium(control, &half);
+            assert_eq!(plain, halved, "{} {control:?}: estimates differ", s.name);
+            assert_eq!(plain_lookups, halved_lookups, "{} {control:?}", s.name);
+        }
+        let delta_lookups = |voxel: &dyn Fn(f32, f32) -> f32| {
+            let culled = CulledBy {
+                inner: s.medium(ControlExtinction::None),
+                ratio: &ratio,
+                voxel,
+            };
+            let (mut rng, mut st) = (Rng::new(3, 5, 7), TrackingStats::default());
+            for _ in 0..2000 {
+                tr::delta::transmittance(seg(), s.t_max, &culled, &mut rng, &mut st);
+            }
+            st.lookups
+        };
+        let (plain, halved) = (
+            delta_lookups(&common::culled::no_voxel),
+            delta_lookups(&half),
+        );
+        assert!(
+            halved < plain,
+            "{}: delta tracking {halved} >= {plain}",
+            s.name
+        );
+    }
+}

@@ -614,14 +614,14 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
     var tau_since = 0.0;
     var n_collisions = 0u;
     // tracking::voxel_stage, decided once per flight: the per-voxel stage only for walks that
-    // have it, never for spectral tracking, for estimators with a majorant scale b only under
-    // b >= 1, and for those with a control only where it is 0 (tested per segment: seg_voxel).
+    // have it, never for spectral tracking nor for ratio and residual ratio tracking (whose
+    // variance it would raise), for estimators with a majorant scale b only under b >= 1, and
+    // for those with a control only where it is 0 (tested per segment: seg_voxel).
     let est = (*tr).params.estimator;
-    let with_control = est == ESTIMATOR_DECOMPOSITION
-        || est == ESTIMATOR_WEIGHTED_DECOMPOSITION || est == ESTIMATOR_RESIDUAL_RATIO;
-    let with_b = est == ESTIMATOR_WEIGHTED_DELTA || est == ESTIMATOR_WEIGHTED_DECOMPOSITION
-        || est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO;
-    let voxel = dda.voxel && est != ESTIMATOR_SPECTRAL && (!with_b || (*tr).params.b >= 1.0);
+    let with_control = est == ESTIMATOR_DECOMPOSITION || est == ESTIMATOR_WEIGHTED_DECOMPOSITION;
+    let with_b = est == ESTIMATOR_WEIGHTED_DELTA || est == ESTIMATOR_WEIGHTED_DECOMPOSITION;
+    let voxel = dda.voxel && est != ESTIMATOR_SPECTRAL && est != ESTIMATOR_RATIO
+        && est != ESTIMATOR_RESIDUAL_RATIO && (!with_b || (*tr).params.b >= 1.0);
     loop {
         // ControlDepthWalk::next: the walk ends once the control factor has underflowed.
         if ((*tr).sum_control && (*tr).tau_c > CONTROL_DEPTH_CUTOFF) {

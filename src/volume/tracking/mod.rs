@@ -147,7 +147,20 @@ pub trait Medium {
 
 /// [`Medium::voxel_ratio`] as an estimator calls it, `b` its majorant scale (1 for the
 /// estimators without one) and `with_control` whether its majorant is the residual `b max(bound
-/// - c, c - min)` (decomposition, weighted decomposition, residual ratio tracking):
+/// - c, c - min)` (decomposition, weighted decomposition):
+/// - ratio and residual ratio tracking do not call it. Their variance grows as their majorant
+///   tightens. For a Poisson process of tentative collisions at rate `mu(t)` and
+///   `T^ = prod_i (1 - sigma(t_i) / mu(t_i))`, `E[prod f(t_i)] = exp(-int mu (1 - f) dt)`
+///   gives
+///   ```text
+///   E[T^ ^2] = exp(-int (2 sigma - sigma^2 / mu) dt),  Var[T^] = T^2 (exp(int sigma^2 / mu dt) - 1)
+///   ```
+///   (with `sigma - sigma_c` for residual ratio tracking), so thinning `mu` from the cell
+///   bound to the voxel bound raises it. Measured on the sunlit plume (256x256, 64 spp, two
+///   seeds): per-pixel variance 2.92e-5 with the shadow rays thinned by voxels, 2.43e-5
+///   without, in the same time (0.49-0.51 s): 20 % more efficient without. Delta tracking's
+///   and decomposition tracking's estimates (a real collision or none) have a variance that
+///   does not depend on the majorant, so they keep the stage;
 /// - with a control, the majorant is the bound itself only where the segment's control `c` is
 ///   0, so those estimators thin only there;
 /// - under `b < 1` the weighted estimators' majorant is already below the density in places;

@@ -17,7 +17,7 @@
 //! (survive with probability `|T| / threshold`, then carry `sign(T) threshold`) ends walks whose
 //! contribution has become small without biasing.
 use super::{
-    lookup, roulette, sample_free_flight, scaled_majorant, voxel_stage, Medium, TrackingStats,
+    lookup, roulette, sample_free_flight, scaled_majorant, Medium, TrackingStats,
     ROULETTE_THRESHOLD,
 };
 use crate::sampling::Rng;
@@ -42,7 +42,8 @@ where
         t_max,
         scaled_majorant(b),
         |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, b, false, t, seg, bound),
+        // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
+        |_, _, _| 1.0,
         rng,
         stats,
         |rng, stats, c| {

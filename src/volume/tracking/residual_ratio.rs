@@ -15,7 +15,7 @@
 //! unbiased (the factors may be negative). Russian roulette as in ratio tracking, applied to the
 //! residual product (the closed-form factor is not random).
 use super::{
-    lookup, residual_majorant, roulette, sample_free_flight, voxel_stage, ControlDepthWalk, Medium,
+    lookup, residual_majorant, roulette, sample_free_flight, ControlDepthWalk, Medium,
     TrackingStats, ROULETTE_THRESHOLD,
 };
 use crate::sampling::Rng;
@@ -44,7 +44,8 @@ where
         t_max,
         majorant,
         |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, b, true, t, seg, bound),
+        // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
+        |_, _, _| 1.0,
         rng,
         stats,
         |rng, stats, c| {
