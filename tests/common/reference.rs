@@ -23,6 +23,18 @@ pub fn scene_agrees_with(
     python_env: (&str, &Path),
     dir: &Path,
 ) -> String {
+    scene_agrees_with_args(name, peer, peer_spp, python_env, dir, &[])
+}
+
+/// As [`scene_agrees_with`], with `extra` arguments given to both renders (e.g. a depth).
+pub fn scene_agrees_with_args(
+    name: &str,
+    peer: &str,
+    peer_spp: &str,
+    python_env: (&str, &Path),
+    dir: &Path,
+    extra: &[&str],
+) -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = root.join("scenes").join(name);
     let (brume_exr, peer_exr) = (dir.join("brume.exr"), dir.join(format!("{peer}.exr")));
@@ -36,6 +48,7 @@ pub fn scene_agrees_with(
         .arg(&brume_exr)
         .args(["--spp", "256", "--seed", "7"])
         .args(size)
+        .args(extra)
         .output()
         .unwrap();
     assert!(
@@ -51,6 +64,7 @@ pub fn scene_agrees_with(
         .arg(&peer_exr)
         .args(["--spp", peer_spp, "--runs", "4", "--seed", "1"])
         .args(size)
+        .args(extra)
         .arg("--against")
         .arg(&brume_exr)
         .env(python_env.0, python_env.1)

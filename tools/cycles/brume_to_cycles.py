@@ -453,13 +453,17 @@ def configure_render(scene, args):
     c.use_adaptive_sampling = False
     c.time_limit = 0
     c.use_denoising = False
-    depth = args.max_depth
-    c.max_bounces = depth
-    c.diffuse_bounces = depth
-    c.glossy_bounces = depth
-    c.transmission_bounces = depth
-    c.volume_bounces = depth  # default 0: single scattering only
-    c.transparent_max_bounces = depth  # default 8
+    # Brume's depth counts scattering events, the first one included (1: single scattering);
+    # Cycles counts bounces after the first (0: direct light at the first event only).
+    bounces = max(args.max_depth - 1, 0)
+    c.max_bounces = bounces
+    c.diffuse_bounces = bounces
+    c.glossy_bounces = bounces
+    c.transmission_bounces = bounces
+    c.volume_bounces = bounces  # default 0: single scattering only
+    # Crossing a volume's bounding mesh or an index-matched boundary is a transparent bounce
+    # in Cycles (shadow rays included) and no event at all in Brume: never the limit.
+    c.transparent_max_bounces = 1024  # default 8
     c.sample_clamp_direct = 0.0
     c.sample_clamp_indirect = 0.0  # default 10
     c.light_sampling_threshold = 0.0  # default 0.01
