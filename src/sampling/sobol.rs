@@ -198,7 +198,7 @@ fn x_from_pixel_seed(pixel_seed: u32, sample: u32, block: u32) -> u32 {
 
 /// The three scramble seeds of a block of a pixel: the index shuffle's, dimension 0's and
 /// dimension 1's. They depend on the pixel and the block only, so a [`Sampler`] computes them
-/// once per pixel (four hashes of the ~11 a point took).
+/// once per pixel instead of hashing four times for every point.
 #[inline]
 fn block_scramble_seeds(pixel_seed: u32, block: u32) -> [u32; 3] {
     let s = pcg_hash(pixel_seed ^ block);

@@ -330,9 +330,10 @@ def cycles_face_overlap_avoidance(name):
     vertex of the volume's bounding mesh by `f * (1 / dim.x, 1 / dim.y, 1 / dim.z)` in the
     grid's world space, `dim` the padded active voxel box, with
     `f = 0.1 * hash_uint_to_float(hash_string(name))` (util/hash.h: a `* 37 + c` string hash,
-    then one Jenkins lookup3 `final`), so that overlapping volumes do not share faces. The box
-    where a constant emission glows moves with it: up to 0.1 / dim of the grid, a per cent of
-    a voxel or more on small grids.
+    then one Jenkins lookup3 `final`), so that overlapping volumes do not share faces. The
+    offset is in the grid's world units whatever its voxel size (the plume, 0.025-unit voxels
+    and 38 across: 0.07 of a voxel in x), and the box where a constant emission glows moves
+    with it.
     """
     m = 0xFFFFFFFF
 
@@ -355,8 +356,8 @@ def cycles_face_overlap_avoidance(name):
 
 
 def unshifted_volume_name(name):
-    """`name`, or `name` with the first suffix `~k`, whose Cycles mesh offset is below 1e-5 of
-    the grid (so Cycles' volume box is the unshifted one Brume uses)."""
+    """`name`, or `name` with the first suffix `~k`, whose `f` is below 1e-5 (an offset below
+    1e-5 / dim world units: Cycles' volume box is then the unshifted one Brume uses)."""
     candidate, k = name, 0
     while cycles_face_overlap_avoidance(candidate) >= 1e-5:
         k += 1
