@@ -127,27 +127,43 @@ pub const fn sobol_dim1_bitwise(mut i: u32) -> u32 {
 /// linear over GF(2) in the bits of `i`, so `sobol_dim1(i)` is the XOR of 4 table entries
 /// (the scrambled indices have ~16 set bits of 32, and a 32-step loop with an unpredictable
 /// branch per bit cost more than the rest of a point).
-const DIM1_BYTES: [[u32; 256]; 4] = {
+const DIM1_BYTES: [[u32; 256]; 4] = dim1_byte_tables(false);
+
+/// The per-byte tables of [`sobol_dim1_bitwise`], or with `reversed` of
+/// `reverse_bits(sobol_dim1_bitwise(reverse_bits(j)))` (reversal permutes bits, so that map is
+/// linear over GF(2) too).
+const fn dim1_byte_tables(reversed: bool) -> [[u32; 256]; 4] {
     let mut t = [[0u32; 256]; 4];
     let mut k = 0;
     while k < 4 {
         let mut b = 0;
         while b < 256 {
-            t[k][b] = sobol_dim1_bitwise((b as u32) << (8 * k));
+            let i = (b as u32) << (8 * k);
+            t[k][b] = if reversed {
+                sobol_dim1_bitwise(i.reverse_bits()).reverse_bits()
+            } else {
+                sobol_dim1_bitwise(i)
+            };
             b += 1;
         }
         k += 1;
     }
     t
-};
+}
+
+/// The XOR of `tables`' entries for the 4 bytes of `i`.
+#[inline]
+fn xor_bytes(tables: &[[u32; 256]; 4], i: u32) -> u32 {
+    tables[0][(i & 0xff) as usize]
+        ^ tables[1][(i >> 8 & 0xff) as usize]
+        ^ tables[2][(i >> 16 & 0xff) as usize]
+        ^ tables[3][(i >> 24) as usize]
+}
 
 /// Sobol dimension 1 as 32-bit fixed point (equal to [`sobol_dim1_bitwise`], by table).
 #[inline]
 pub fn sobol_dim1(i: u32) -> u32 {
-    DIM1_BYTES[0][(i & 0xff) as usize]
-        ^ DIM1_BYTES[1][(i >> 8 & 0xff) as usize]
-        ^ DIM1_BYTES[2][(i >> 16 & 0xff) as usize]
-        ^ DIM1_BYTES[3][(i >> 24) as usize]
+    xor_bytes(&DIM1_BYTES, i)
 }
 
 /// The unscrambled 2D Sobol point `i` (dimensions 0 and 1) as 32-bit fixed point.
@@ -206,30 +222,13 @@ fn block_scramble_seeds(pixel_seed: u32, block: u32) -> [u32; 3] {
 }
 
 /// [`DIM1_BYTES`] in the reversed-bit domain: `reverse_bits(sobol_dim1(reverse_bits(j)))` is
-/// the XOR of entry `[k][byte k of j]` (reversal is a permutation of bits, so the map stays
-/// linear over GF(2)).
-const DIM1_REV_BYTES: [[u32; 256]; 4] = {
-    let mut t = [[0u32; 256]; 4];
-    let mut k = 0;
-    while k < 4 {
-        let mut b = 0;
-        while b < 256 {
-            let i = ((b as u32) << (8 * k)).reverse_bits();
-            t[k][b] = sobol_dim1_bitwise(i).reverse_bits();
-            b += 1;
-        }
-        k += 1;
-    }
-    t
-};
+/// the XOR of entry `[k][byte k of j]`.
+const DIM1_REV_BYTES: [[u32; 256]; 4] = dim1_byte_tables(true);
 
 /// `reverse_bits(sobol_dim1(reverse_bits(j)))` by table.
 #[inline]
 fn sobol_dim1_reversed(j: u32) -> u32 {
-    DIM1_REV_BYTES[0][(j & 0xff) as usize]
-        ^ DIM1_REV_BYTES[1][(j >> 8 & 0xff) as usize]
-        ^ DIM1_REV_BYTES[2][(j >> 16 & 0xff) as usize]
-        ^ DIM1_REV_BYTES[3][(j >> 24) as usize]
+    xor_bytes(&DIM1_REV_BYTES, j)
 }
 
 /// [`point_from_pixel_seed`] from the block's [`block_scramble_seeds`] and the reversed sample
