@@ -79,8 +79,11 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
         .args(["--width", &args.run.width.to_string()])
         .args(["--height", &args.run.height.to_string()])
         .args(["--seed", &args.run.seed.to_string()])
-        .args(["--runs", &args.run.runs.to_string()])
-        .args(["--max-depth", &args.run.max_depth.to_string()]);
+        .args(["--runs", &args.run.runs.to_string()]);
+    // Without one, the script takes the scene's own depth as `brume render` does.
+    if let Some(d) = args.run.max_depth {
+        cmd.args(["--max-depth", &d.to_string()]);
+    }
     if let Some(t) = args.run.threads {
         cmd.args(["--threads", &t.to_string()]);
     }

@@ -20,6 +20,7 @@ use serde_json::{json, Value};
 
 use brume::film::{read_exr, write_image, AttrValue, Metadata};
 use brume::integrator::bsdf::Principled;
+use brume::integrator::settings::RenderSettings;
 use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use brume::scene::{BoundsSource, Scene, NO_INDEX};
 use brume::volume::mitsuba_vol::vol_from_grid;
@@ -357,7 +358,12 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         "runs": args.run.runs,
         "threads": args.run.threads,
         // Brume counts scattering events; Mitsuba counts path segments.
-        "max_depth": args.run.max_depth.saturating_add(1),
+        "max_depth": args
+            .run
+            .max_depth
+            .or(scene.render.max_depth)
+            .unwrap_or(RenderSettings::default().max_depth)
+            .saturating_add(1),
         "camera": camera,
         "lights": lights,
         "environment": env.iter().any(|&c| c > 0.0).then_some(env),

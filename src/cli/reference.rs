@@ -43,9 +43,11 @@ pub struct ReferenceRun {
     /// The reference renderer's threads (default: all cores).
     #[arg(long)]
     pub threads: Option<u32>,
-    /// Brume's maximum number of scattering events (mapped to the renderer's own depth).
-    #[arg(long, default_value_t = 256)]
-    pub max_depth: u32,
+    /// Brume's maximum number of scattering events (mapped to the renderer's own depth;
+    /// default: the scene's `BRUME_render` maxDepth, else Brume's default 256, as `brume
+    /// render`).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
     /// Compare with this Brume EXR (needs its variance layer) and print the agreement.
     #[arg(long)]
     pub against: Option<PathBuf>,

@@ -3,7 +3,7 @@
 Usage (Python 3.11 with `pip install bpy==5.0.1`, see tools/cycles/ci.sh):
 
     python brume_to_cycles.py scene.gltf -o out.exr --spp 256 --width 96 --height 72 \
-        [--seed 0] [--runs 1] [--threads 2] [--max-depth 256]
+        [--seed 0] [--runs 1] [--threads 2] [--max-depth D]
 
 With `--runs K > 1` it renders K independent images (seeds seed .. seed+K-1) and writes
 `out.run<k>.exr` for each; `brume cycles` merges them into one EXR with a variance layer.
@@ -46,6 +46,9 @@ import time
 
 import bpy
 from mathutils import Matrix, Quaternion, Vector
+
+# Brume's default maximum number of scattering events (`RenderSettings::max_depth`).
+DEFAULT_MAX_DEPTH = 256
 
 # glTF (Y up) to Blender (Z up): (x, y, z) -> (x, -z, y), as the importer converts.
 BLENDER_FROM_GLTF = Matrix(((1, 0, 0, 0), (0, 0, -1, 0), (0, 1, 0, 0), (0, 0, 0, 1)))
@@ -507,6 +510,8 @@ def open_blend(args):
     scene = bpy.context.scene
     if scene.camera is None:
         sys.exit(f"error: {args.scene}: the scene has no active camera")
+    if args.max_depth is None:
+        args.max_depth = DEFAULT_MAX_DEPTH
     configure_render(scene, args)
     return scene
 
@@ -518,6 +523,10 @@ def build_scene(args):
     gltf_path = os.path.abspath(args.scene)
     with open(gltf_path) as f:
         gltf = json.load(f)
+    if args.max_depth is None:
+        # As `brume render`: the scene's own depth unless the command line gives one.
+        render = gltf.get("extensions", {}).get("BRUME_render", {})
+        args.max_depth = int(render.get("maxDepth", DEFAULT_MAX_DEPTH))
     base_dir = os.path.dirname(gltf_path)
     bpy.ops.import_scene.gltf(
         filepath=gltf_path,
@@ -615,7 +624,12 @@ def main(argv):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--runs", type=int, default=1)
     p.add_argument("--threads", type=int, default=0)
-    p.add_argument("--max-depth", type=int, default=256)
+    p.add_argument(
+        "--max-depth",
+        type=int,
+        default=None,
+        help="Brume's depth (default: the glTF's BRUME_render maxDepth, else 256, as Brume)",
+    )
     p.add_argument("--save-blend", help="also save the built scene as a .blend")
     p.add_argument("--no-render", action="store_true", help="build (and save) the scene only")
     args = p.parse_args(argv)
