@@ -86,10 +86,9 @@ fn hdr_sky_cloud_agrees_with_cycles() {
 }
 
 /// Single scattering (`--max-depth 1`): Brume's depth counts scattering events, Cycles'
-/// bounces come after the first, and crossing the volume's bounding mesh is a Cycles
-/// transparent bounce. With the depth passed through as it was (bounces and transparent
-/// bounces = 1) Cycles' sunlit plume rendered 24 % darker (Brume +31.6 %, mean z +222, 9/48
-/// blocks at 64x48); mapped to 0 bounces and unlimited transparent ones, +0.23 %.
+/// bounces come after the first. With the depth passed through as it was (1 bounce) Cycles
+/// added a second order of scattering: the sunlit plume 31.6 % brighter than Brume's (mean z
+/// +222, 9/48 blocks at 64x48); mapped to 0 bounces, +0.23 %.
 #[test]
 fn single_scattering_agrees_with_cycles() {
     agrees_with_cycles_args(

@@ -465,8 +465,8 @@ def configure_render(scene, args):
     c.glossy_bounces = bounces
     c.transmission_bounces = bounces
     c.volume_bounces = bounces  # default 0: single scattering only
-    # Crossing a volume's bounding mesh or an index-matched boundary is a transparent bounce
-    # in Cycles (shadow rays included) and no event at all in Brume: never the limit.
+    # An index-matched boundary is a transparent bounce in Cycles and no event at all in
+    # Brume: never the limit.
     c.transparent_max_bounces = 1024  # default 8
     c.sample_clamp_direct = 0.0
     c.sample_clamp_indirect = 0.0  # default 10
