@@ -458,8 +458,14 @@ def configure_render(scene, args):
     c.time_limit = 0
     c.use_denoising = False
     # Brume's depth counts scattering events, the first one included (1: single scattering);
-    # Cycles counts bounces after the first (0: direct light at the first event only).
-    bounces = max(args.max_depth - 1, 0)
+    # Cycles counts bounces after the first (0: direct light at the first event only), so it
+    # has nothing for Brume's 0 (emitters seen directly, no light scattered at all).
+    if args.max_depth < 1:
+        sys.exit(
+            f"error: {args.scene}: depth {args.max_depth}: Cycles lights the first event at any "
+            "bounce count, so it cannot render Brume's depth 0 (use a depth of at least 1)"
+        )
+    bounces = args.max_depth - 1
     c.max_bounces = bounces
     c.diffuse_bounces = bounces
     c.glossy_bounces = bounces
