@@ -382,9 +382,14 @@ fn render_bench(
 /// global bound from those bests and its range over the rounds (each round's global time over
 /// the same round's time: paired, so a slow spell cancels), the walk (segments per
 /// sample, primary and shadow rays), density and emission lookups and real collisions per
-/// sample (an emissive medium reads its emission at every tentative collision). The adaptive
-/// rows name the walk each medium's hierarchy takes (`VdbMedium::walk_mode`): where it is the
-/// global or per-leaf walk, the two rows time the same code and differ by noise only.
+/// sample (an emissive medium reads its emission at every tentative collision), and the
+/// per-pixel variance of one render with the efficiency over the global bound,
+/// `(t_global var_global) / (t var)`: a tighter bound can buy its lookups with variance (ratio
+/// tracking's grows as its majorant tightens), so time alone does not rank the modes. Round
+/// `r` renders with seed `r`; the variance is `study::stats::seed_variance` over the rounds
+/// (each pixel's sample variance across the seeds, pooled over pixels and RGB). The adaptive rows name the walk each medium's hierarchy takes
+/// (`VdbMedium::walk_mode`): where it is the global or per-leaf walk, the two rows time the
+/// same code and differ by noise only.
 fn majorant_modes(
     scenes: &[PathBuf],
     width: u32,
@@ -400,7 +405,7 @@ fn majorant_modes(
         rayon::current_num_threads()
     );
     println!(
-        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11}  walk",
+        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10} {:>10}  walk",
         "scene",
         "estimator",
         "bounds",
@@ -413,6 +418,8 @@ fn majorant_modes(
         "emit look",
         "real coll",
         "lookups/real",
+        "var/px",
+        "eff vs gl",
     );
     for path in scenes {
         let scene = brume::scene::load(path)?;
@@ -442,19 +449,31 @@ fn majorant_modes(
             let mut best = [f64::INFINITY; MajorantMode::ALL.len()];
             let mut seconds = MajorantMode::ALL.map(|_| Vec::with_capacity(runs));
             let mut last = MajorantMode::ALL.map(|_| None);
-            for _ in 0..runs {
+            // Every round's image (seeds 0, 1, ...), for the per-pixel variance.
+            let mut images: [Vec<Vec<[f32; 3]>>; MajorantMode::ALL.len()] = Default::default();
+            for round in 0..runs {
                 for (k, s) in settings.iter().enumerate() {
-                    let o = render_once(&scene, s)?;
+                    let s = RenderSettings {
+                        seed: round as u32,
+                        ..s.clone()
+                    };
+                    let o = render_once(&scene, &s)?;
                     best[k] = best[k].min(o.seconds);
                     seconds[k].push(o.seconds);
+                    images[k].push(film_means(&o.film));
                     last[k] = Some(o);
                 }
             }
+            let variance = images.map(|im| {
+                let views: Vec<&[[f32; 3]]> = im.iter().map(|v| v.as_slice()).collect();
+                brume::study::stats::seed_variance(&views).ok()
+            });
             let global_k = MajorantMode::ALL
                 .iter()
                 .position(|&m| m == MajorantMode::Global)
                 .unwrap_or(0);
             let mut global_ns = 0.0;
+            let global_cost = variance[global_k].map(|v| best[global_k] * v);
             for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
                 let out = last[k].take().unwrap();
                 let t = brume::film::totals(&out.records);
@@ -468,8 +487,14 @@ fn majorant_modes(
                     .zip(&seconds[k])
                     .map(|(g, m)| g / m)
                     .fold((f64::INFINITY, 0f64), |(lo, hi), r| (lo.min(r), hi.max(r)));
+                let (var, eff) = match (variance[k], global_cost) {
+                    (Some(v), Some(g)) => {
+                        (format!("{v:.3e}"), format!("{:.2}x", g / (best[k] * v)))
+                    }
+                    _ => ("-".to_string(), "-".to_string()),
+                };
                 println!(
-                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>11} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2}  {}",
+                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>11} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>10}  {}",
                     path.file_name().unwrap_or_default().to_string_lossy(),
                     estimator.name(),
                     majorant.name(),
@@ -482,6 +507,8 @@ fn majorant_modes(
                     t.emission_lookups as f64 / n,
                     t.real_collisions as f64 / n,
                     t.density_lookups as f64 / (t.real_collisions as f64).max(1.0),
+                    var,
+                    eff,
                     if majorant == MajorantMode::Adaptive {
                         adaptive_walk.as_str()
                     } else {
@@ -492,6 +519,13 @@ fn majorant_modes(
         }
     }
     Ok(())
+}
+
+/// The film's pixel means, row-major.
+fn film_means(film: &brume::film::Film) -> Vec<[f32; 3]> {
+    (0..film.height())
+        .flat_map(|y| (0..film.width()).map(move |x| film.mean(x, y)))
+        .collect()
 }
 
 /// Build time and memory of the adaptive hierarchy for a 1024^3-voxel grid (128^3 leaf
