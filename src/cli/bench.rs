@@ -384,12 +384,13 @@ fn render_bench(
 /// sample, primary and shadow rays), density and emission lookups and real collisions per
 /// sample (an emissive medium reads its emission at every tentative collision), and the
 /// per-pixel variance of one render with the efficiency over the global bound,
-/// `(t_global var_global) / (t var)`: a tighter bound can buy its lookups with variance (ratio
-/// tracking's grows as its majorant tightens), so time alone does not rank the modes. Round
-/// `r` renders with seed `r`; the variance is `study::stats::seed_variance` over the rounds
-/// (each pixel's sample variance across the seeds, pooled over pixels and RGB). The adaptive rows name the walk each medium's hierarchy takes
-/// (`VdbMedium::walk_mode`): where it is the global or per-leaf walk, the two rows time the
-/// same code and differ by noise only.
+/// `(t_global var_global) / (t var)`: a walk can buy its time with variance (ratio tracking's
+/// grows as its majorant tightens; the culled walk spends the Sobol points of a flight's first
+/// draws on culled collisions), so time alone does not rank the modes. Round `r` renders with
+/// seed `r`; the variance is `study::stats::seed_variance` over the rounds (each pixel's
+/// sample variance across the seeds, pooled over pixels and RGB). The adaptive rows name the
+/// walk each medium's hierarchy takes (`VdbMedium::walk_mode`): where it is the global or
+/// per-leaf walk, the two rows time the same code and differ by noise only.
 fn majorant_modes(
     scenes: &[PathBuf],
     width: u32,
