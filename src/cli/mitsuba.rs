@@ -20,7 +20,7 @@ use serde_json::{json, Value};
 
 use brume::film::{read_exr, write_image, AttrValue, Metadata};
 use brume::integrator::bsdf::Principled;
-use brume::integrator::settings::RenderSettings;
+use brume::integrator::settings::DEFAULT_MAX_DEPTH;
 use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use brume::scene::{BoundsSource, Scene, NO_INDEX};
 use brume::volume::mitsuba_vol::vol_from_grid;
@@ -362,7 +362,7 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
             .run
             .max_depth
             .or(scene.render.max_depth)
-            .unwrap_or(RenderSettings::default().max_depth)
+            .unwrap_or(DEFAULT_MAX_DEPTH)
             .saturating_add(1),
         "camera": camera,
         "lights": lights,

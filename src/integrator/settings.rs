@@ -202,6 +202,11 @@ impl fmt::Display for Estimator {
 /// grow geometrically across empty space: unbiased, but very noisy.
 pub const DEFAULT_WEIGHTED_M: f32 = 0.02;
 
+/// Default longest path in scattering events (`RenderSettings::max_depth`), also what the
+/// reference renderers get when neither the command line nor the scene gives a depth
+/// (`tools/cycles/brume_to_cycles.py` keeps the same number, `DEFAULT_MAX_DEPTH`).
+pub const DEFAULT_MAX_DEPTH: u32 = 256;
+
 /// Every knob of a render. `Default` is what `brume render` uses without options.
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -275,7 +280,7 @@ impl Default for RenderSettings {
             generic: false,
             seed: 0,
             sampler: SamplerKind::Sobol,
-            max_depth: 256,
+            max_depth: DEFAULT_MAX_DEPTH,
             rr_depth: 8,
             rr_throughput: 0.5,
             tile_size: 16,

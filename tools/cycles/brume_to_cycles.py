@@ -47,7 +47,8 @@ import time
 import bpy
 from mathutils import Matrix, Quaternion, Vector
 
-# Brume's default maximum number of scattering events (`RenderSettings::max_depth`).
+# Brume's default maximum number of scattering events
+# (`integrator::settings::DEFAULT_MAX_DEPTH`).
 DEFAULT_MAX_DEPTH = 256
 
 # glTF (Y up) to Blender (Z up): (x, y, z) -> (x, -z, y), as the importer converts.
