@@ -59,8 +59,10 @@ fn gpu_render(
 
 /// Prints how closely the GPU image `g` replays the CPU's random streams (the CPU image with
 /// the same seed, rendered here) and both renders' work per sample (`c`: the CPU image with
-/// another seed); returns both renders' totals.
+/// another seed); returns both renders' totals. With `parity_on`, asserts the replay where
+/// [`parity_asserted`].
 fn print_parity(
+    parity_on: Option<&brume::backend::gpu::GpuContext>,
     label: &str,
     scene: &brume::scene::Scene,
     s: &RenderSettings,
@@ -69,6 +71,14 @@ fn print_parity(
 ) -> (brume::film::TileTotals, brume::film::TileTotals) {
     let (close, n) = same_seed_close(g, &render(scene, s));
     println!("{label}: same seed: {close} of {n} pixel values equal to 1e-4 (relative)");
+    if let Some(ctx) = parity_on {
+        // Each walk the CPU takes (free flights' and shadow rays' alike:
+        // `VdbMedium::shadow_walk_mode`) must be the GPU's too, or the streams part at once.
+        assert!(
+            !parity_asserted(ctx) || close * 100 >= n * 97,
+            "{label}: same seed: {close} of {n}"
+        );
+    }
     let (gt, ct) = (
         brume::film::totals(&g.records),
         brume::film::totals(&c.records),
@@ -173,7 +183,7 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
         };
         let c = render(&scene, &independent);
         agree(&label, &g, &c, alpha);
-        let (gt, ct) = print_parity(&label, &scene, &s, &g, &c);
+        let (gt, ct) = print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
         assert_eq!(gt.samples, ct.samples, "{label}");
         assert!(gt.density_lookups > 0, "{label}");
     }
@@ -357,7 +367,7 @@ fn surface_scenes_agree_with_the_cpu() {
         let label = format!("{file} {estimator}");
         let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
         // With the same seed the GPU replays the CPU's streams: a parity figure, printed.
-        print_parity(&label, &scene, &s, &g, &c);
+        print_parity(None, &label, &scene, &s, &g, &c);
     }
 }
 
@@ -381,7 +391,7 @@ fn textured_scene_agrees_with_the_cpu() {
         };
         let label = format!("textured_backdrop.gltf {estimator}");
         let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
-        print_parity(&label, &scene, &s, &g, &c);
+        print_parity(None, &label, &scene, &s, &g, &c);
     }
 }
 
@@ -412,7 +422,7 @@ fn environment_map_scene_agrees_with_the_cpu() {
         };
         let label = format!("cloud_sky.gltf {estimator} env {env_sampling}");
         let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
-        print_parity(&label, &scene, &s, &g, &c);
+        print_parity(None, &label, &scene, &s, &g, &c);
     }
 }
 
@@ -624,7 +634,7 @@ fn absorption_events_agree_with_the_cpu() {
         };
         let label = format!("{file} absorption events");
         let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
-        print_parity(&label, &scene, &s, &g, &c);
+        print_parity(None, &label, &scene, &s, &g, &c);
     }
 }
 
@@ -657,7 +667,7 @@ fn nested_media_meshes_agree_with_the_cpu() {
     gpu::supports(&rs).expect("three nested media fit the GPU stack");
     let s = settings(24, 18, 64, 1234);
     let (g, c) = gpu_against_cpu(&ctx, &scene, &s, "nested boxes", 1e-3);
-    print_parity("nested boxes", &scene, &s, &g, &c);
+    print_parity(None, "nested boxes", &scene, &s, &g, &c);
     let (close, n) = same_seed_close(&g, &render(&scene, &s));
     println!("nested boxes: same seed: {close} of {n} values equal to 1e-4");
     assert!(

@@ -123,6 +123,44 @@ fn culled_walk_agrees_with_per_leaf_delta_tracking() {
 }
 
 #[test]
+fn shadow_rays_walk_as_the_model_chooses() {
+    // The cloud is walked per leaf cell, its shadow rays by the culled global walk (the every-
+    // mode test above checks that image); the plume keeps the cells for both, the fire culls
+    // both (`AdaptiveMajorants::shadow_culled`).
+    let walks = |name: &str| {
+        let scene = load_scene(name);
+        let rs = brume::integrator::RenderScene::new(&scene, false).unwrap();
+        let m = &rs.vdb[0];
+        (
+            m.walk_mode(MajorantMode::Adaptive),
+            m.shadow_walk_mode(MajorantMode::Adaptive),
+        )
+    };
+    use MajorantMode::{Culled, Leaf};
+    assert_eq!(walks("cloud.gltf"), (Leaf, Culled));
+    assert_eq!(walks("plume_sun.gltf"), (Leaf, Leaf));
+    assert_eq!(walks("fire.gltf"), (Culled, Culled));
+    // Only the adaptive mode chooses: an explicit mode walks both kinds of flight alike.
+    let scene = load_scene("cloud.gltf");
+    let rs = brume::integrator::RenderScene::new(&scene, false).unwrap();
+    for mode in MajorantMode::ALL {
+        if mode != MajorantMode::Adaptive {
+            assert_eq!(rs.vdb[0].shadow_walk_mode(mode), mode);
+        }
+    }
+    // A render's shadow rays then take one segment per crossing of the cloud, far fewer than
+    // the per-leaf mode's one per cell.
+    let segs = |mode| {
+        let out = render(&scene, &settings(Estimator::Delta, mode, 3));
+        let t = brume::film::totals(&out.records);
+        t.shadow_segments as f64 / t.samples as f64
+    };
+    let (adaptive, leaf) = (segs(MajorantMode::Adaptive), segs(MajorantMode::Leaf));
+    println!("shadow segments a sample: adaptive {adaptive:.3}, per-leaf {leaf:.3}");
+    assert!(adaptive > 0.0 && adaptive * 3.0 < leaf);
+}
+
+#[test]
 fn specialised_and_generic_paths_give_the_same_image() {
     for name in EXAMPLE_SCENES {
         let scene = load_scene(name);

@@ -389,7 +389,8 @@ fn render_bench(
 /// draws on culled collisions), so time alone does not rank the modes. Round `r` renders with
 /// seed `r`; the variance is `study::stats::seed_variance` over the rounds (each pixel's
 /// sample variance across the seeds, pooled over pixels and RGB). The adaptive rows name the
-/// walk each medium's hierarchy takes (`VdbMedium::walk_mode`): where it is the global or
+/// walk each medium's hierarchy takes (`VdbMedium::walk_mode`, and in brackets its shadow rays'
+/// where they differ: `VdbMedium::shadow_walk_mode`): where it is the global or
 /// per-leaf walk, the two rows time the same code and differ by noise only.
 fn majorant_modes(
     scenes: &[PathBuf],
@@ -432,9 +433,17 @@ fn majorant_modes(
         let adaptive_walk = rs
             .vdb
             .iter()
-            .map(|m| match m.walk_mode(MajorantMode::Adaptive) {
-                MajorantMode::Adaptive => "mixed",
-                walk => walk.name(),
+            .map(|m| {
+                let walk = match m.walk_mode(MajorantMode::Adaptive) {
+                    MajorantMode::Adaptive => "mixed",
+                    walk => walk.name(),
+                };
+                match m.shadow_walk_mode(MajorantMode::Adaptive) {
+                    shadow if shadow != m.walk_mode(MajorantMode::Adaptive) => {
+                        format!("{walk} ({} shadows)", shadow.name())
+                    }
+                    _ => walk.to_string(),
+                }
             })
             .collect::<Vec<_>>()
             .join("+");

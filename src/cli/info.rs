@@ -161,6 +161,9 @@ fn print_adaptive(label: &str, a: &AdaptiveMajorants, scale: f32, index_per_t: f
         levels.join(", "),
         match a.shape {
             AdaptiveShape::OneNode => "walked as the global bound",
+            AdaptiveShape::AllLeaves if a.shadow_culled => {
+                "walked as the per-leaf DDA, shadow rays as the global bound culled by the leaf cells"
+            }
             AdaptiveShape::AllLeaves => "walked as the per-leaf DDA",
             AdaptiveShape::Mixed => "walked by the hierarchy",
             AdaptiveShape::Culled => "walked as the global bound, culled by the leaf cells",

@@ -211,7 +211,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             flags,
             mix_estimator,
             continuation_albedo,
-            _pad0,
+            shadow_majorant_mode,
             _pad1,
             _pad2
         ]
@@ -238,7 +238,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             sigma_s,
             control_albedo,
             voxel_table,
-            _pad0,
+            shadow_majorant_mode,
             _pad1,
             _pad2
         ]

@@ -330,7 +330,9 @@ pub struct GpuWavefrontParams {
     /// `Lights::continuation_albedo`: the share of a constant environment's guided selection
     /// left to the continuation ray.
     pub continuation_albedo: f32,
-    pub _pad0: u32,
+    /// The [`GpuMajorantMode`] of the VDB medium's shadow rays (`VdbMedium::shadow_walk_mode`;
+    /// `tracking.majorant_mode` is its free flights').
+    pub shadow_majorant_mode: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -396,7 +398,8 @@ pub struct GpuVdbMedium {
     /// bricks' place (the bricks of every density grid lie at the start of the shared
     /// bricks buffer, in medium order).
     pub voxel_table: u32,
-    pub _pad0: u32,
+    /// As [`GpuWavefrontParams::shadow_majorant_mode`], for this medium.
+    pub shadow_majorant_mode: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

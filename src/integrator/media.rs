@@ -165,6 +165,18 @@ impl VdbMedium {
         }
     }
 
+    /// The walk this medium's transmittance (shadow) flights take under `mode`: the culled
+    /// global walk where its adaptive hierarchy is every leaf cell and prices it close enough
+    /// (`AdaptiveMajorants::shadow_culled`), else [`Self::walk_mode`]'s.
+    #[inline]
+    pub fn shadow_walk_mode(&self, mode: MajorantMode) -> MajorantMode {
+        if mode == MajorantMode::Adaptive && self.adaptive.shadow_culled {
+            MajorantMode::Culled
+        } else {
+            self.walk_mode(mode)
+        }
+    }
+
     /// The per-leaf bounds (and per-voxel bounds) every walk of this medium takes: the
     /// density's, or [`Self::walk_bounds`] where they differ.
     #[inline]
@@ -749,6 +761,10 @@ pub fn transmittance_vdb<const CHROM: bool>(
 ) -> Vec3 {
     let before = stats.tracking.lookups;
     let segments_before = stats.tracking.segments;
+    let cfg = &TrackingConfig {
+        majorant: m.shadow_walk_mode(cfg.majorant),
+        ..*cfg
+    };
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
         let view = RgbView::<false>::new(m, ray, Absorption::Event, cfg.majorant, Vec3::ONE);

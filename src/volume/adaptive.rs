@@ -51,6 +51,23 @@ const CELL_WIDTH: f32 = 8.0;
 /// Deepest level: a node of level `l` spans `2^l` leaf cells per axis (`8 * 2^l` voxels).
 pub const MAX_LEVEL: u32 = 12;
 
+/// How much dearer than per-leaf bounds the model may price the culled global walk (on random
+/// chords through the grid, [`CostModel::culled_cost`]) for a per-leaf medium's transmittance
+/// flights to take it. Shadow rays start at real collisions, inside the medium, and ratio
+/// tracking's roulette ends most of them there: they seldom cross the grid's empty margins,
+/// where the culled walk pays for most of its culled collisions on a chord from outside, so
+/// the chord model overprices it for them. Their estimates are the same either way (the kept
+/// collisions of the culled walk ARE the per-leaf walk's process, with the same weights), and
+/// they draw no stratified sample (a free flight's first draws are a sampler's point, which
+/// the per-leaf walk spends better: README "Majorants"), so only time decides. Measured
+/// (`brume bench render --majorants-only`, shadow rays culled against per-leaf, free flights
+/// per-leaf in both): faster where the model's culled / per-leaf ratio is 1.57-1.79 (the
+/// cloud, the sky-lit cloud, the textured backdrop: 1.33-1.36x -> 1.40-1.41x, 1.25x ->
+/// 1.31x, 1.15x -> 1.19x over the global bound; the dense fog 1.38x -> 1.40x), as fast at
+/// 1.15-1.64 (the smoke tank, the two-grid fire), slower at 2.9-3.3 (the plumes 2.68x ->
+/// 2.61x, the chromatic smoke 3.05x -> 2.73x, the cloud at 4x its density 2.20x -> 1.82x).
+pub const SHADOW_CULLED_FACTOR: f64 = 2.0;
+
 /// One level of the pyramid: its node grid and where its nodes start in
 /// [`AdaptiveMajorants::nodes`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,6 +92,9 @@ pub struct AdaptiveMajorants {
     level_index: [[u32; 3]; MAX_LEVEL as usize + 1],
     /// Whether the merged nodes are one node, every leaf cell, or a mix.
     pub shape: AdaptiveShape,
+    /// Whether transmittance (shadow) flights take the culled global walk while free flights
+    /// take the per-leaf DDA ([`SHADOW_CULLED_FACTOR`]).
+    pub shadow_culled: bool,
     /// Wall time of [`AdaptiveMajorants::build`].
     pub build_seconds: f64,
     /// The cost model it was built with.
@@ -219,6 +239,7 @@ impl AdaptiveMajorants {
             nodes,
             node_level,
             shape,
+            shadow_culled: false,
             level_index,
             build_seconds: 0.0,
             cost,
@@ -249,6 +270,8 @@ impl AdaptiveMajorants {
                 a.node_level.iter_mut().for_each(|l| *l = top);
                 a.shape = AdaptiveShape::Culled;
             }
+            a.shadow_culled =
+                a.shape == AdaptiveShape::AllLeaves && cost_culled < SHADOW_CULLED_FACTOR * fine[0];
         }
         a.build_seconds = start.elapsed().as_secs_f64();
         a
@@ -275,10 +298,39 @@ impl AdaptiveMajorants {
         )
     }
 
+    /// The share of the culled global walk's tentative collisions that the per-leaf bounds
+    /// keep, on a random chord through the grid (`cost::culled_collisions`); 0 where culling
+    /// is not sound. Near 1 in a dense, smooth medium (the cells' bounds near the global one),
+    /// near 0 in a sparse one.
+    pub fn culled_kept_fraction(&self, scale: f32, index_per_t: f32) -> f64 {
+        if self.node_level.is_empty() {
+            return 0.0;
+        }
+        let top = self.node(self.levels.len() - 1, [0, 0, 0]);
+        if !LeafCulling::is_sound(top) {
+            return 0.0;
+        }
+        let level_dims: Vec<[u32; 3]> = self.levels.iter().map(|l| l.dims).collect();
+        let (tentative, kept) = super::cost::culled_collisions(
+            self.dims,
+            &level_dims,
+            &self.nodes[..self.node_level.len()],
+            top,
+            scale,
+            index_per_t,
+        );
+        if tentative > 0.0 {
+            kept / tentative
+        } else {
+            0.0
+        }
+    }
+
     /// Every leaf cell at level 0: the per-leaf DDA's segments (for tests and `--majorant
     /// leaf` on the same code path).
     pub fn all_leaves(leaf: &LeafBounds) -> Self {
         let mut a = Self::build(leaf, 1.0, 1.0, CostModel::uniform(0.0));
+        a.shadow_culled = false;
         a.node_level.iter_mut().for_each(|l| *l = 0);
         a.shape = AdaptiveShape::of(&a.node_level, a.levels.len() as u8 - 1);
         a
@@ -778,6 +830,59 @@ mod tests {
             .stats(0.05, 1.0, CostModel::uniform(0.5))
             .cost_culled
             .is_infinite());
+    }
+
+    /// 16^3 leaf cells of a dense, smooth medium: every cell's maximum between 0.5 and 1.
+    fn dense(min: f32) -> LeafBounds {
+        let n = 16u32;
+        let cells: Vec<CellBounds> = (0..n * n * n)
+            .map(|i| CellBounds {
+                min,
+                max: 0.5 + 0.5 * ((i * 7919) % 101) as f32 / 100.0,
+            })
+            .collect();
+        let global = cells
+            .iter()
+            .copied()
+            .fold(CellBounds::EMPTY, CellBounds::union);
+        LeafBounds {
+            voxel_q: Vec::new(),
+            cells,
+            dims: [n; 3],
+            cell_origin: [0; 3],
+            global,
+        }
+    }
+
+    #[test]
+    fn shadow_rays_take_the_culled_walk_where_it_models_within_the_factor() {
+        // Dense and smooth: per-leaf bounds model cheapest, and the culled walk within
+        // SHADOW_CULLED_FACTOR of them, so shadow rays take it.
+        let leaf = dense(0.0);
+        let a = AdaptiveMajorants::build(&leaf, 0.5, 1.0, CostModel::DEFAULT);
+        let s = a.stats(0.5, 1.0, CostModel::DEFAULT);
+        assert_eq!(a.shape, AdaptiveShape::AllLeaves, "{s:?}");
+        assert!(s.cost_culled > s.cost_leaf, "{s:?}");
+        assert!(s.cost_culled < SHADOW_CULLED_FACTOR * s.cost_leaf, "{s:?}");
+        assert!(a.shadow_culled, "{s:?}");
+        // A speck in empty space, dense enough for per-leaf bounds (no mixed hierarchy: its
+        // margin is the whole cost): the culled walk's collisions in the empty space model
+        // far dearer, and shadow rays keep the cells.
+        let leaf = speck(0.0);
+        let pure = CostModel {
+            mixed_margin: 1.0,
+            ..CostModel::DEFAULT
+        };
+        let a = AdaptiveMajorants::build(&leaf, 1.0, 1.0, pure);
+        let s = a.stats(1.0, 1.0, pure);
+        assert_eq!(a.shape, AdaptiveShape::AllLeaves, "{s:?}");
+        assert!(s.cost_culled >= SHADOW_CULLED_FACTOR * s.cost_leaf, "{s:?}");
+        assert!(!a.shadow_culled, "{s:?}");
+        // Unsound culling (the global minimum is not 0) is never taken, nor is it by a test
+        // hierarchy of leaf cells only.
+        let leaf = dense(0.01);
+        assert!(!AdaptiveMajorants::build(&leaf, 0.5, 1.0, CostModel::DEFAULT).shadow_culled);
+        assert!(!AdaptiveMajorants::all_leaves(&dense(0.0)).shadow_culled);
     }
 
     #[test]

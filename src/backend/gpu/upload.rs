@@ -98,15 +98,8 @@ pub(super) fn medium_record(
         shadow_estimator: shadow as u32,
         tracking: GpuTrackingParams {
             estimator: estimator as u32,
-            // The walk the CPU takes for this medium (`VdbMedium::walk_mode`): an adaptive
-            // hierarchy of one node or of leaf cells only is walked as the global bound or
-            // the per-leaf DDA, which give its segments bit for bit.
-            majorant_mode: match m.walk_mode(cfg.majorant) {
-                MajorantMode::Leaf => GpuMajorantMode::PerCell,
-                MajorantMode::Global => GpuMajorantMode::Global,
-                MajorantMode::Culled => GpuMajorantMode::Culled,
-                MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
-            } as u32,
+            // The walk the CPU's free flights take for this medium (`VdbMedium::walk_mode`).
+            majorant_mode: gpu_majorant_mode(m.walk_mode(cfg.majorant)) as u32,
             control_mode: control_mode as u32,
             spectral_mode: 0,
             b: cfg.b(),
@@ -131,8 +124,21 @@ pub(super) fn medium_record(
         rgb_sigma_s: rgb_sigma_s.to_array(),
         sigma_s: m.sigma_s.to_array(),
         control_albedo: sigma_s / bound,
+        shadow_majorant_mode: gpu_majorant_mode(m.shadow_walk_mode(cfg.majorant)) as u32,
         ..Default::default()
     })
+}
+
+/// The GPU walk of a CPU walk (`VdbMedium::walk_mode`, `VdbMedium::shadow_walk_mode`): an
+/// adaptive hierarchy of one node or of leaf cells only is walked as the global bound or the
+/// per-leaf DDA, which give its segments bit for bit.
+fn gpu_majorant_mode(walk: MajorantMode) -> GpuMajorantMode {
+    match walk {
+        MajorantMode::Leaf => GpuMajorantMode::PerCell,
+        MajorantMode::Global => GpuMajorantMode::Global,
+        MajorantMode::Culled => GpuMajorantMode::Culled,
+        MajorantMode::Adaptive => GpuMajorantMode::Adaptive,
+    }
 }
 
 /// The grey free-flight estimator of `cfg`.
@@ -178,6 +184,7 @@ pub(super) fn medium_params(
     p.scatter_albedo = r.scatter_albedo;
     p.albedo_rgb = r.albedo_rgb;
     p.shadow_estimator = r.shadow_estimator;
+    p.shadow_majorant_mode = r.shadow_majorant_mode;
     p.tracking = r.tracking;
 }
 
