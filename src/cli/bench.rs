@@ -391,7 +391,8 @@ fn render_bench(
 /// sample variance across the seeds, pooled over pixels and RGB). The adaptive rows name the
 /// walk each medium's hierarchy takes (`VdbMedium::walk_mode`, and in brackets its shadow rays'
 /// where they differ: `VdbMedium::shadow_walk_mode`): where it is the global or
-/// per-leaf walk, the two rows time the same code and differ by noise only.
+/// per-leaf walk for both kinds of flight, the two rows time the same code and differ by
+/// noise only.
 fn majorant_modes(
     scenes: &[PathBuf],
     width: u32,

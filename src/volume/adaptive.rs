@@ -55,17 +55,16 @@ pub const MAX_LEVEL: u32 = 12;
 /// chords through the grid, [`CostModel::culled_cost`]) for a per-leaf medium's transmittance
 /// flights to take it. Shadow rays start at real collisions, inside the medium, and ratio
 /// tracking's roulette ends most of them there: they seldom cross the grid's empty margins,
-/// where the culled walk pays for most of its culled collisions on a chord from outside, so
-/// the chord model overprices it for them. Their estimates are the same either way (the kept
-/// collisions of the culled walk ARE the per-leaf walk's process, with the same weights), and
-/// they draw no stratified sample (a free flight's first draws are a sampler's point, which
-/// the per-leaf walk spends better: README "Majorants"), so only time decides. Measured
-/// (`brume bench render --majorants-only`, shadow rays culled against per-leaf, free flights
-/// per-leaf in both): faster where the model's culled / per-leaf ratio is 1.57-1.79 (the
-/// cloud, the sky-lit cloud, the textured backdrop: 1.33-1.36x -> 1.40-1.41x, 1.25x ->
-/// 1.31x, 1.15x -> 1.19x over the global bound; the dense fog 1.38x -> 1.40x), as fast at
-/// 1.15-1.64 (the smoke tank, the two-grid fire), slower at 2.9-3.3 (the plumes 2.68x ->
-/// 2.61x, the chromatic smoke 3.05x -> 2.73x, the cloud at 4x its density 2.20x -> 1.82x).
+/// where a chord from outside pays most of the culled walk's culled collisions, so the chord
+/// model overprices it for them. Their estimates are the same either way (the culled walk's
+/// kept collisions ARE the per-leaf walk's process, with the same weights), and they draw no
+/// stratified sample (a free flight's first draws are a sampler's point, which the per-leaf
+/// walk spends better: README "Majorant modes", session 16), so only time decides. Fitted to
+/// `brume bench render --majorants-only` (README "The culled global walk"): shadow rays culled
+/// were faster at model ratios 1.57-1.79 (the cloud 1.33-1.36x -> 1.40-1.41x over the global
+/// bound, the textured backdrop 1.15-1.17x -> 1.17-1.20x), as fast at 1.15-1.64 (the smoke
+/// tank, the two-grid fire), slower at 2.9-3.3 (the plumes, the chromatic smoke, the cloud at
+/// four times its density: 2.20x -> 1.82x).
 pub const SHADOW_CULLED_FACTOR: f64 = 2.0;
 
 /// One level of the pyramid: its node grid and where its nodes start in
