@@ -297,34 +297,6 @@ impl AdaptiveMajorants {
         )
     }
 
-    /// The share of the culled global walk's tentative collisions that the per-leaf bounds
-    /// keep, on a random chord through the grid (`cost::culled_collisions`); 0 where culling
-    /// is not sound. Near 1 in a dense, smooth medium (the cells' bounds near the global one),
-    /// near 0 in a sparse one.
-    pub fn culled_kept_fraction(&self, scale: f32, index_per_t: f32) -> f64 {
-        if self.node_level.is_empty() {
-            return 0.0;
-        }
-        let top = self.node(self.levels.len() - 1, [0, 0, 0]);
-        if !LeafCulling::is_sound(top) {
-            return 0.0;
-        }
-        let level_dims: Vec<[u32; 3]> = self.levels.iter().map(|l| l.dims).collect();
-        let (tentative, kept) = super::cost::culled_collisions(
-            self.dims,
-            &level_dims,
-            &self.nodes[..self.node_level.len()],
-            top,
-            scale,
-            index_per_t,
-        );
-        if tentative > 0.0 {
-            kept / tentative
-        } else {
-            0.0
-        }
-    }
-
     /// Every leaf cell at level 0: the per-leaf DDA's segments (for tests and `--majorant
     /// leaf` on the same code path).
     pub fn all_leaves(leaf: &LeafBounds) -> Self {

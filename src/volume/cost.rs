@@ -83,9 +83,25 @@ impl CostModel {
         if !self.cull.is_finite() {
             return f64::INFINITY;
         }
-        let (tentative, kept) =
-            culled_collisions(dims, level_dims, cells, global, scale, index_per_t);
-        self.node_step as f64 + self.cull as f64 * tentative + self.collision as f64 * kept
+        let collisions = |l: usize, n: [usize; 3], b: CellBounds| {
+            let chord = mean_chord(node_cells(dims, l, n)) / index_per_t as f64;
+            (scale * b.max).max(0.0) as f64 * chord
+        };
+        let mut kept: Vec<f64> = cells
+            .iter()
+            .enumerate()
+            .map(|(i, &b)| collisions(0, coords(i, dims), b))
+            .collect();
+        for l in 1..level_dims.len() {
+            let (below, here) = (level_dims[l - 1], level_dims[l]);
+            kept = (0..cell_count(here))
+                .map(|i| split_cost(dims, below, l, coords(i, here), &kept))
+                .collect();
+        }
+        let top = level_dims.len() - 1;
+        self.node_step as f64
+            + self.cull as f64 * collisions(top, [0, 0, 0], global)
+            + self.collision as f64 * kept[0]
     }
 
     /// Measured on the example grids (2-core x86-64, random rays and renders): a tentative
@@ -104,37 +120,6 @@ impl CostModel {
         cull: 0.6,
         mixed_margin: 0.1,
     };
-}
-
-/// The expected collisions of the culled global walk on a random chord through the grid
-/// (`level_dims`: the pyramid's node grids, level 0 = `dims`): its tentative ones, at the
-/// global bound `global`, and the ones the per-leaf bounds `cells` keep (the per-leaf walk's
-/// own collisions, summed with the same surface weights as the hierarchy's split cost).
-pub fn culled_collisions(
-    dims: [u32; 3],
-    level_dims: &[[u32; 3]],
-    cells: &[CellBounds],
-    global: CellBounds,
-    scale: f32,
-    index_per_t: f32,
-) -> (f64, f64) {
-    let collisions = |l: usize, n: [usize; 3], b: CellBounds| {
-        let chord = mean_chord(node_cells(dims, l, n)) / index_per_t as f64;
-        (scale * b.max).max(0.0) as f64 * chord
-    };
-    let mut kept: Vec<f64> = cells
-        .iter()
-        .enumerate()
-        .map(|(i, &b)| collisions(0, coords(i, dims), b))
-        .collect();
-    for l in 1..level_dims.len() {
-        let (below, here) = (level_dims[l - 1], level_dims[l]);
-        kept = (0..cell_count(here))
-            .map(|i| split_cost(dims, below, l, coords(i, here), &kept))
-            .collect();
-    }
-    let top = level_dims.len() - 1;
-    (collisions(top, [0, 0, 0], global), kept[0])
 }
 
 /// Mean chord length `4 V / S` (index units) of a box of `cells` leaf cells per axis.
