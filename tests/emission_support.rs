@@ -141,6 +141,23 @@ fn a_flame_past_its_smoke_renders_alike_in_every_majorant_mode() {
     for (w, d) in walk.cells.iter().zip(&m.density.grid.bounds.cells) {
         assert!(w.max >= d.max && w.min == d.min);
     }
+    // The voxels are raised by per-cell floors over the density's own table, which the walk
+    // bounds share rather than copy (a byte a brick voxel).
+    let density = &m.density.grid.bounds;
+    assert!(std::sync::Arc::ptr_eq(&walk.voxel_q, &density.voxel_q));
+    let floored = walk.voxel_floor.iter().filter(|&&f| f > 0).count();
+    println!("flame: {floored} leaf cells with a voxel floor");
+    assert!(floored > 0);
+    // The GPU's one table is the same bounds: every voxel max(q, its cell's floor).
+    let table = brume::volume::voxel_bounds::floored_voxel_q(walk, &m.density.grid.grid.cells);
+    for (c, &entry) in m.density.grid.grid.cells.iter().enumerate() {
+        if entry & brume::volume::grid::CONSTANT_BIT == 0 {
+            let b = entry as usize * 512;
+            for v in b..b + 512 {
+                assert_eq!(table[v], density.voxel_q[v].max(walk.voxel_floor[c]));
+            }
+        }
+    }
     // Wherever it emits, the walk bounds are positive: the leaf cell's and the voxel's.
     let e = m.emission.as_ref().unwrap();
     let cells = brume::volume::LeafCulling::new(walk).unwrap();

@@ -560,7 +560,8 @@ fn adaptive_build() -> Result<()> {
         .copied()
         .fold(CellBounds::EMPTY, CellBounds::union);
     let leaf = LeafBounds {
-        voxel_q: Vec::new(),
+        voxel_q: Default::default(),
+        voxel_floor: Vec::new(),
         cells,
         dims: [n; 3],
         cell_origin: [0; 3],

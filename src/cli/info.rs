@@ -60,8 +60,9 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                     .unwrap_or(0.0)
                         * m.sigma_t_bound;
                     println!(
-                        "medium {i} emission: its walks sample wherever it may emit: {raised} of {} leaf cells raised (to at most the emission floor {floor:.4} per metre, in proportion to their emission bound; their voxels with them)",
+                        "medium {i} emission: its walks sample wherever it may emit: {raised} of {} leaf cells raised (to at most the emission floor {floor:.4} per metre, in proportion to their emission bound; their voxels with them: {} cells' voxels floored over the density's per-voxel table, shared, not copied)",
                         w.cells.len(),
+                        w.voxel_floor.iter().filter(|&&f| f > 0).count(),
                     );
                 }
                 println!(
@@ -136,7 +137,7 @@ fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &Le
         bounds.voxel_q.len() as f64 / 1024.0,
         1e3 * seconds,
         mean,
-        brume::volume::voxel_bounds::kept_fraction(grid, &bounds.cells, &q),
+        brume::volume::voxel_bounds::kept_fraction(grid, &bounds.cells, &q, &bounds.voxel_floor),
         if brume::volume::VoxelCulling::new(bounds, &grid.cells, 1.0).is_some() {
             ""
         } else {

@@ -88,16 +88,21 @@ pub fn walk_bounds(
             cell.max = floor;
             changed = true;
         }
-        // Its voxels' bounds (relative to the cell's) at least the floor too.
+        // Its voxels' bounds (relative to the cell's) at least the floor too: a per-cell
+        // floor over the density's shared table (`LeafBounds::voxel_floor`), not a copy.
         let q_min = voxel_floor(floor, cell.max);
         let entry = grid.cells[c];
         if entry & CONSTANT_BIT == 0 && !out.voxel_q.is_empty() {
             let brick = entry as usize * BRICK_VOXELS;
-            for q in &mut out.voxel_q[brick..brick + BRICK_VOXELS] {
-                if *q < q_min {
-                    *q = q_min;
-                    changed = true;
+            if out.voxel_q[brick..brick + BRICK_VOXELS]
+                .iter()
+                .any(|&q| q < q_min)
+            {
+                if out.voxel_floor.is_empty() {
+                    out.voxel_floor = vec![0; out.cells.len()];
                 }
+                out.voxel_floor[c] = q_min;
+                changed = true;
             }
         }
     }
@@ -131,7 +136,8 @@ pub fn without_density(density: &GridField) -> GridField {
         dims: density.grid.bounds.dims,
         cell_origin: density.grid.bounds.cell_origin,
         global: CellBounds::point(0.0),
-        voxel_q: Vec::new(),
+        voxel_q: Default::default(),
+        voxel_floor: Vec::new(),
     };
     GridField {
         grid: std::sync::Arc::new(LoadedGrid {

@@ -225,6 +225,7 @@ impl<'s> RenderScene<'s> {
                 &density.grid.grid,
                 &bounds.cells,
                 &bounds.voxel_q,
+                &bounds.voxel_floor,
             );
             let voxel_culling_pays =
                 crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);

@@ -772,7 +772,8 @@ mod tests {
             .copied()
             .fold(CellBounds::EMPTY, CellBounds::union);
         LeafBounds {
-            voxel_q: Vec::new(),
+            voxel_q: Default::default(),
+            voxel_floor: Vec::new(),
             cells,
             dims: [n; 3],
             cell_origin: [0; 3],
@@ -818,7 +819,8 @@ mod tests {
             .copied()
             .fold(CellBounds::EMPTY, CellBounds::union);
         LeafBounds {
-            voxel_q: Vec::new(),
+            voxel_q: Default::default(),
+            voxel_floor: Vec::new(),
             cells,
             dims: [n; 3],
             cell_origin: [0; 3],

@@ -59,8 +59,13 @@ pub struct LeafBounds {
     pub global: CellBounds,
     /// Per-voxel bounds of every brick voxel relative to its cell's maximum, one byte each
     /// (`volume::voxel_bounds`): what culling thins by inside a cell. Empty where not built
-    /// (bounds made by hand).
-    pub voxel_q: Vec<u8>,
+    /// (bounds made by hand). Shared: bounds derived from a grid's (an emitting medium's walk
+    /// bounds) keep its table and raise it through [`Self::voxel_floor`] instead of copying
+    /// a quarter of the grid's brick memory.
+    pub voxel_q: std::sync::Arc<[u8]>,
+    /// Per cell, the least `q` any of its voxels reads (`max(q, floor)`): where derived bounds
+    /// raise a cell's voxels (`integrator::emission_bounds::walk_bounds`). Empty: none.
+    pub voxel_floor: Vec<u8>,
 }
 
 /// How tight the per-cell bounds are compared with one global bound.
@@ -122,9 +127,10 @@ impl LeafBounds {
                 .copied()
                 .reduce(|| CellBounds::EMPTY, CellBounds::union)
         };
-        let voxel_q = super::voxel_bounds::build_voxel_q(grid, &cells);
+        let voxel_q = super::voxel_bounds::build_voxel_q(grid, &cells).into();
         LeafBounds {
             voxel_q,
+            voxel_floor: Vec::new(),
             cells,
             dims: grid.dims,
             cell_origin: grid.cell_origin,

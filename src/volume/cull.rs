@@ -95,6 +95,7 @@ impl<'a> LeafCulling<'a> {
 ///
 /// ```text
 /// fine = ((q(v) * (1/255)) * cell_max(v)) * scale     // >= sigma_t at p (voxel_bounds)
+/// q(v) = max(voxel_q(v), voxel_floor(cell of v))        // the floor where bounds raise it
 /// r    = fine >= bound ? 1 : fine / bound
 /// ```
 ///
@@ -108,6 +109,8 @@ impl<'a> LeafCulling<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct VoxelCulling<'a> {
     bounds: &'a LeafBounds,
+    /// `bounds.voxel_floor`: per cell, the least `q` its voxels read (empty: none).
+    floor: &'a [u8],
     /// The grid's dense cell index (brick index, or `CONSTANT_BIT` and a constant's).
     entries: &'a [u32],
     /// `sigma_t` per unit of grid value.
@@ -123,6 +126,7 @@ impl<'a> VoxelCulling<'a> {
         (built && LeafCulling::is_sound(bounds.global) && scale > 0.0 && scale.is_finite())
             .then_some(VoxelCulling {
                 bounds,
+                floor: &bounds.voxel_floor,
                 entries,
                 scale,
             })
@@ -164,7 +168,10 @@ impl<'a> VoxelCulling<'a> {
         if entry & super::grid::CONSTANT_BIT != 0 {
             return None;
         }
-        let q = self.bounds.voxel_q[entry as usize * super::grid::BRICK_VOXELS + local];
+        let mut q = self.bounds.voxel_q[entry as usize * super::grid::BRICK_VOXELS + local];
+        if let Some(&f) = self.floor.get(index) {
+            q = q.max(f);
+        }
         Some(((q as f32 * (1.0 / 255.0)) * self.bounds.cells[index].max) * self.scale)
     }
 }

@@ -13,7 +13,9 @@
 //! cell bound alone.
 use rayon::prelude::*;
 
-use super::bounds::CellBounds;
+use std::borrow::Cow;
+
+use super::bounds::{CellBounds, LeafBounds};
 use super::grid::{SparseGrid, BRICK_VOXELS, CONSTANT_BIT};
 
 /// The `q` of a voxel whose support maximum is `max` in a cell bounded by `cm`: the smallest
@@ -114,6 +116,25 @@ pub fn build_voxel_q(grid: &SparseGrid, cells: &[CellBounds]) -> Vec<u8> {
 /// the sunlit plume, which keeps 35 %, in the same time).
 pub const VOXEL_READ_COST: f64 = 0.6;
 
+/// `bounds.voxel_q` with `bounds.voxel_floor` applied (every voxel of cell `c`'s brick at least
+/// `floor[c]`; `entries` the grid's dense cell index), as one table for the GPU: borrowed where
+/// there is no floor, a copy only for the upload otherwise.
+pub fn floored_voxel_q<'a>(bounds: &'a LeafBounds, entries: &[u32]) -> Cow<'a, [u8]> {
+    if bounds.voxel_floor.is_empty() || bounds.voxel_q.is_empty() {
+        return Cow::Borrowed(&bounds.voxel_q);
+    }
+    let mut q = bounds.voxel_q.to_vec();
+    for (&entry, &f) in entries.iter().zip(&bounds.voxel_floor) {
+        if f > 0 && entry & CONSTANT_BIT == 0 {
+            let brick = entry as usize * BRICK_VOXELS;
+            if let Some(b) = q.get_mut(brick..brick + BRICK_VOXELS) {
+                b.iter_mut().for_each(|v| *v = (*v).max(f));
+            }
+        }
+    }
+    Cow::Owned(q)
+}
+
 /// Whether thinning by the per-voxel bounds saves more than it costs on a medium whose walk
 /// keeps `kept` of its collisions ([`kept_fraction`]) and reads `lookups` grids at each kept
 /// one (the density and its emission grids): `(1 - kept) * lookups > VOXEL_READ_COST`.
@@ -123,9 +144,10 @@ pub fn voxel_culling_pays(kept: f64, lookups: f64) -> bool {
 
 /// The fraction of the per-leaf walk's tentative collisions the per-voxel bounds keep, in
 /// expectation: collisions land in cell `c` at its bound's rate `max_c` (uniformly within it),
-/// and one landing on voxel `v` is kept with probability `q(v) / 255`. Constant cells keep
-/// all (they have no table). 1 for a grid with no positive bound.
-pub fn kept_fraction(grid: &SparseGrid, cells: &[CellBounds], q: &[u8]) -> f64 {
+/// and one landing on voxel `v` is kept with probability `q(v) / 255` (`q` at least the cell's
+/// `floor`, `LeafBounds::voxel_floor`, where there is one). Constant cells keep all (they have
+/// no table). 1 for a grid with no positive bound.
+pub fn kept_fraction(grid: &SparseGrid, cells: &[CellBounds], q: &[u8], floor: &[u8]) -> f64 {
     let (mut kept, mut all) = (0f64, 0f64);
     for (c, &entry) in grid.cells.iter().enumerate() {
         let w = cells[c].max.max(0.0) as f64;
@@ -136,7 +158,8 @@ pub fn kept_fraction(grid: &SparseGrid, cells: &[CellBounds], q: &[u8]) -> f64 {
             1.0
         } else {
             let b = &q[entry as usize * BRICK_VOXELS..][..BRICK_VOXELS];
-            b.iter().map(|&v| v as f64).sum::<f64>() / (255.0 * BRICK_VOXELS as f64)
+            let f = floor.get(c).copied().unwrap_or(0);
+            b.iter().map(|&v| v.max(f) as f64).sum::<f64>() / (255.0 * BRICK_VOXELS as f64)
         };
         kept += w * t;
         all += w;

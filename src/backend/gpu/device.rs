@@ -406,7 +406,7 @@ impl GpuGrid {
             bounds,
             adaptive,
             density_scale,
-            &bounds.voxel_q,
+            &crate::volume::voxel_bounds::floored_voxel_q(bounds, &grid.cells),
             &[],
         )
         .map(|(g, _)| g)

@@ -370,7 +370,7 @@ pub(super) fn upload_grid(
         m.bounds(),
         m.walked_hierarchy(cfg.majorant),
         m.sigma_t_bound,
-        voxel_table(m),
+        &voxel_table(m),
         &extra,
     )
     .map_err(GpuRenderError::Limits)?;
@@ -647,7 +647,7 @@ fn mixture_voxel_table(rs: &RenderScene) -> (Vec<u8>, Vec<bool>) {
         let fits = !q.is_empty() && q.len() == bricks * BRICK_VOXELS;
         if fits {
             table.resize(brick0 * BRICK_VOXELS, 255);
-            table.extend_from_slice(q);
+            table.extend_from_slice(&q);
         }
         has.push(fits);
         brick0 += bricks;
@@ -658,10 +658,10 @@ fn mixture_voxel_table(rs: &RenderScene) -> (Vec<u8>, Vec<bool>) {
 /// The per-voxel bounds a medium's walks thin by on the GPU: its table where that pays
 /// (`VdbMedium::voxel_culling_pays`, as on the CPU), none (so `dda.wgsl` does not thin)
 /// elsewhere.
-fn voxel_table(m: &crate::integrator::media::VdbMedium) -> &[u8] {
+fn voxel_table(m: &crate::integrator::media::VdbMedium) -> std::borrow::Cow<'_, [u8]> {
     if m.voxel_culling_pays {
-        &m.bounds().voxel_q
+        crate::volume::voxel_bounds::floored_voxel_q(m.bounds(), &m.density.grid.grid.cells)
     } else {
-        &[]
+        std::borrow::Cow::Borrowed(&[])
     }
 }
