@@ -555,18 +555,7 @@ fn adaptive_build() -> Result<()> {
             }
         })
         .collect();
-    let global = cells
-        .iter()
-        .copied()
-        .fold(CellBounds::EMPTY, CellBounds::union);
-    let leaf = LeafBounds {
-        voxel_q: Default::default(),
-        voxel_floor: Vec::new(),
-        cells,
-        dims: [n; 3],
-        cell_origin: [0; 3],
-        global,
-    };
+    let leaf = LeafBounds::from_cells(cells, [n; 3], [0; 3]);
     let a = AdaptiveMajorants::build(&leaf, 50.0, 100.0, CostModel::DEFAULT);
     println!();
     println!(

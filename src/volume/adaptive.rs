@@ -767,18 +767,7 @@ mod tests {
             min: floor,
             max: 1.0,
         };
-        let global = cells
-            .iter()
-            .copied()
-            .fold(CellBounds::EMPTY, CellBounds::union);
-        LeafBounds {
-            voxel_q: Default::default(),
-            voxel_floor: Vec::new(),
-            cells,
-            dims: [n; 3],
-            cell_origin: [0; 3],
-            global,
-        }
+        LeafBounds::from_cells(cells, [n; 3], [0; 3])
     }
 
     #[test]
@@ -814,18 +803,7 @@ mod tests {
                 max: 0.5 + 0.5 * ((i * 7919) % 101) as f32 / 100.0,
             })
             .collect();
-        let global = cells
-            .iter()
-            .copied()
-            .fold(CellBounds::EMPTY, CellBounds::union);
-        LeafBounds {
-            voxel_q: Default::default(),
-            voxel_floor: Vec::new(),
-            cells,
-            dims: [n; 3],
-            cell_origin: [0; 3],
-            global,
-        }
+        LeafBounds::from_cells(cells, [n; 3], [0; 3])
     }
 
     #[test]

@@ -91,6 +91,23 @@ fn apron_range(d: i64) -> std::ops::RangeInclusive<usize> {
 }
 
 impl LeafBounds {
+    /// Bounds made by hand from their `cells` (x fastest over `dims`, from `cell_origin`):
+    /// the global bounds are their union, and there is no per-voxel table.
+    pub fn from_cells(cells: Vec<CellBounds>, dims: [u32; 3], cell_origin: [i32; 3]) -> Self {
+        let global = cells
+            .iter()
+            .copied()
+            .fold(CellBounds::EMPTY, CellBounds::union);
+        LeafBounds {
+            voxel_q: Default::default(),
+            voxel_floor: Vec::new(),
+            cells,
+            dims,
+            cell_origin,
+            global,
+        }
+    }
+
     /// Computes the bounds of every cell, in parallel over cells.
     pub fn build(grid: &SparseGrid) -> LeafBounds {
         // Each cell's own range first; the apron pass then only scans a neighbour's voxels
