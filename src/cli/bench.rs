@@ -435,15 +435,18 @@ fn majorant_modes(
             .vdb
             .iter()
             .map(|m| {
-                let walk = match m.walk_mode(MajorantMode::Adaptive) {
+                let (walk, shadow) = (
+                    m.walk_mode(MajorantMode::Adaptive),
+                    m.shadow_walk_mode(MajorantMode::Adaptive),
+                );
+                let name = match walk {
                     MajorantMode::Adaptive => "mixed",
                     walk => walk.name(),
                 };
-                match m.shadow_walk_mode(MajorantMode::Adaptive) {
-                    shadow if shadow != m.walk_mode(MajorantMode::Adaptive) => {
-                        format!("{walk} ({} shadows)", shadow.name())
-                    }
-                    _ => walk.to_string(),
+                if shadow == walk {
+                    name.to_string()
+                } else {
+                    format!("{name} ({} shadows)", shadow.name())
                 }
             })
             .collect::<Vec<_>>()

@@ -137,7 +137,7 @@ fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &Le
         bounds.voxel_q.len() as f64 / 1024.0,
         1e3 * seconds,
         mean,
-        brume::volume::voxel_bounds::kept_fraction(grid, &bounds.cells, &q, &bounds.voxel_floor),
+        brume::volume::voxel_bounds::kept_fraction(grid, bounds),
         if brume::volume::VoxelCulling::new(bounds, &grid.cells, 1.0).is_some() {
             ""
         } else {

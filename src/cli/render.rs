@@ -313,26 +313,19 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .map_or("per-leaf minorant".to_string(), |m| m.to_string()),
     );
     // The walk each VDB medium's flights take under the mode (`VdbMedium::walk_mode`,
-    // `VdbMedium::shadow_walk_mode`): what "majorant adaptive" chose for this scene.
+    // `VdbMedium::shadow_walk_mode`): what "majorant adaptive" chose for this scene (named as
+    // `--majorant` names them). Overlapping media merge their free flights' segments
+    // (`VdbMedium::merged_walk_mode`); shadow rays stay per medium.
     for (k, m) in rs.vdb.iter().enumerate() {
-        let name = |walk: brume::integrator::MajorantMode| match walk {
-            brume::integrator::MajorantMode::Global => "the global bound",
-            brume::integrator::MajorantMode::Leaf => "the per-leaf DDA",
-            brume::integrator::MajorantMode::Culled => "the global bound culled by the leaf cells",
-            brume::integrator::MajorantMode::Adaptive => "the adaptive hierarchy",
-        };
-        // Overlapping media merge their free flights' segments, where the culled walk is
-        // walked as the per-leaf DDA (`media::segments`); shadow rays stay per medium.
-        let free = match m.walk_mode(settings.majorant) {
-            brume::integrator::MajorantMode::Culled if rs.features.overlapping => {
-                brume::integrator::MajorantMode::Leaf
-            }
-            walk => walk,
+        let free = if rs.features.overlapping {
+            m.merged_walk_mode(settings.majorant)
+        } else {
+            m.walk_mode(settings.majorant)
         };
         eprintln!(
             "medium {k} walks: free flights {}, shadow rays {}",
-            name(free),
-            name(m.shadow_walk_mode(settings.majorant))
+            free.name(),
+            m.shadow_walk_mode(settings.majorant).name()
         );
     }
 

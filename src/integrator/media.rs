@@ -177,6 +177,17 @@ impl VdbMedium {
         }
     }
 
+    /// The walk this medium's free flights take under `mode` among overlapping media
+    /// ([`segments`]): [`Self::walk_mode`]'s, with the culled walk walked as the per-leaf DDA
+    /// (the merged stream has no single grid to cull by).
+    #[inline]
+    pub fn merged_walk_mode(&self, mode: MajorantMode) -> MajorantMode {
+        match self.walk_mode(mode) {
+            MajorantMode::Culled => MajorantMode::Leaf,
+            walk => walk,
+        }
+    }
+
     /// The per-leaf bounds (and per-voxel bounds) every walk of this medium takes: the
     /// density's, or [`Self::walk_bounds`] where they differ.
     #[inline]
@@ -361,7 +372,7 @@ pub(super) fn segments<'a>(
     mode: MajorantMode,
 ) -> Segments<'a> {
     let bounds = m.bounds();
-    match m.walk_mode(mode) {
+    match m.merged_walk_mode(mode) {
         MajorantMode::Leaf | MajorantMode::Culled => Segments::Dda(DdaMajorantIterator::new(
             bounds,
             ray_i,

@@ -221,12 +221,7 @@ impl<'s> RenderScene<'s> {
             let adaptive = Arc::new(AdaptiveMajorants::build(bounds, sigma_t_bound, per_t, cost));
             // The per-voxel stage where the collisions it culls save more lookups than its
             // reads cost (`voxel_bounds::voxel_culling_pays`).
-            let kept = crate::volume::voxel_bounds::kept_fraction(
-                &density.grid.grid,
-                &bounds.cells,
-                &bounds.voxel_q,
-                &bounds.voxel_floor,
-            );
+            let kept = crate::volume::voxel_bounds::kept_fraction(&density.grid.grid, bounds);
             let voxel_culling_pays =
                 crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
             vdb.push(VdbMedium {

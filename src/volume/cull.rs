@@ -109,8 +109,6 @@ impl<'a> LeafCulling<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct VoxelCulling<'a> {
     bounds: &'a LeafBounds,
-    /// `bounds.voxel_floor`: per cell, the least `q` its voxels read (empty: none).
-    floor: &'a [u8],
     /// The grid's dense cell index (brick index, or `CONSTANT_BIT` and a constant's).
     entries: &'a [u32],
     /// `sigma_t` per unit of grid value.
@@ -126,7 +124,6 @@ impl<'a> VoxelCulling<'a> {
         (built && LeafCulling::is_sound(bounds.global) && scale > 0.0 && scale.is_finite())
             .then_some(VoxelCulling {
                 bounds,
-                floor: &bounds.voxel_floor,
                 entries,
                 scale,
             })
@@ -169,7 +166,7 @@ impl<'a> VoxelCulling<'a> {
             return None;
         }
         let mut q = self.bounds.voxel_q[entry as usize * super::grid::BRICK_VOXELS + local];
-        if let Some(&f) = self.floor.get(index) {
+        if let Some(&f) = self.bounds.voxel_floor.get(index) {
             q = q.max(f);
         }
         Some(((q as f32 * (1.0 / 255.0)) * self.bounds.cells[index].max) * self.scale)

@@ -147,7 +147,8 @@ pub fn voxel_culling_pays(kept: f64, lookups: f64) -> bool {
 /// and one landing on voxel `v` is kept with probability `q(v) / 255` (`q` at least the cell's
 /// `floor`, `LeafBounds::voxel_floor`, where there is one). Constant cells keep all (they have
 /// no table). 1 for a grid with no positive bound.
-pub fn kept_fraction(grid: &SparseGrid, cells: &[CellBounds], q: &[u8], floor: &[u8]) -> f64 {
+pub fn kept_fraction(grid: &SparseGrid, bounds: &LeafBounds) -> f64 {
+    let (cells, q, floor) = (&bounds.cells, &bounds.voxel_q, &bounds.voxel_floor);
     let (mut kept, mut all) = (0f64, 0f64);
     for (c, &entry) in grid.cells.iter().enumerate() {
         let w = cells[c].max.max(0.0) as f64;
