@@ -667,13 +667,8 @@ fn nested_media_meshes_agree_with_the_cpu() {
     gpu::supports(&rs).expect("three nested media fit the GPU stack");
     let s = settings(24, 18, 64, 1234);
     let (g, c) = gpu_against_cpu(&ctx, &scene, &s, "nested boxes", 1e-3);
-    print_parity(None, "nested boxes", &scene, &s, &g, &c);
-    let (close, n) = same_seed_close(&g, &render(&scene, &s));
-    println!("nested boxes: same seed: {close} of {n} values equal to 1e-4");
-    assert!(
-        !parity_asserted(&ctx) || close * 100 >= n * 97,
-        "{close} of {n}"
-    );
+    // The same-seed replay, asserted (at least 97 % where the device rounds like the CPU).
+    print_parity(Some(&ctx), "nested boxes", &scene, &s, &g, &c);
 }
 
 /// Guided light selection (`Lights::phase_selection`, mirrored in `lights.wgsl`) on the GPU:
@@ -696,14 +691,8 @@ fn guided_light_selection_agrees_with_the_cpu() {
         assert!(rs.lights.guided(), "{file}");
         let s = settings(24, 18, 32, 90 + i as u32);
         let label = format!("{file} guided");
-        gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
-        let g = gpu_render(&ctx, &scene, &s, &label);
-        let (close, n) = same_seed_close(&g, &render(&scene, &s));
-        println!("{label}: same seed: {close} of {} values equal to 1e-4", n);
-        assert!(
-            !parity_asserted(&ctx) || close * 100 >= n * 97,
-            "{label}: {close} of {}",
-            n
-        );
+        // The GPU image is rendered once: the z-test's and the replay's (asserted).
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
+        print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
     }
 }
