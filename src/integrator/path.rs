@@ -363,8 +363,7 @@ pub fn radiance<
     stats: &mut PathStats,
 ) -> Vec3 {
     let scene = rs.scene;
-    let mut ray = scene.camera.generate_ray(film.x, film.y, aspect);
-    let mut t0 = scene.camera.t_min(film.x, film.y, aspect);
+    let (mut ray, mut t0) = scene.camera.primary_ray(film.x, film.y, aspect);
     let mut media = if HOM {
         rs.camera_media
     } else {

@@ -75,8 +75,16 @@ impl Camera {
 
     /// Ray parameter where the near plane cuts a unit-length ray through `(x, y)`.
     pub fn t_min(&self, x: f32, y: f32, aspect: f32) -> f32 {
-        let d = self.generate_ray(x, y, aspect).d;
-        self.znear / d.dot(self.forward()).max(1e-6)
+        self.primary_ray(x, y, aspect).1
+    }
+
+    /// [`generate_ray`](Self::generate_ray) and [`t_min`](Self::t_min) at once, bit for bit:
+    /// the path tracer needs both for every sample, and computed apart they took the field of
+    /// view's tangent, the pinhole and the ray twice.
+    pub fn primary_ray(&self, x: f32, y: f32, aspect: f32) -> (Ray, f32) {
+        let ray = self.generate_ray(x, y, aspect);
+        let t_min = self.znear / ray.d.dot(self.forward()).max(1e-6);
+        (ray, t_min)
     }
 }
 
