@@ -1,6 +1,6 @@
 // Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `next`,
 // `reciprocal_and_step`), LeafCulling and VoxelCulling (src/volume/cull.rs: `new`, `ratio`),
-// AdaptiveMajorantIterator (src/volume/adaptive.rs: `new`, `crossing`, `next`) and
+// AdaptiveMajorantIterator (src/volume/adaptive/walk.rs: `new`, `crossing`, `next`) and
 // Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.
 //
 // The same robust walk as the CPU (Amanatides & Woo 1987, as pbrt-v4's DDAMajorantIterator, with

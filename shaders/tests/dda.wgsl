@@ -1,5 +1,5 @@
 // Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda.rs) and
-// AdaptiveMajorantIterator (src/volume/adaptive.rs): all segments of each
+// AdaptiveMajorantIterator (src/volume/adaptive/walk.rs): all segments of each
 // ray (up to MAX_SEGMENTS stored, all counted); tests/gpu_dda.rs compares with the CPU.
 
 @group(1) @binding(0) var<storage, read> rays: array<GpuRay>;
