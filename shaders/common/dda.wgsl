@@ -14,8 +14,9 @@
 // `o + t d` may move it by an ulp (tests/gpu_dda.rs measures it).
 
 // Per-cell bounds (LeafBounds::cells, x fastest) followed by the global bound at
-// grid_info.global_bounds_index; for adaptive walks then the hierarchy's table, nodes and
-// packed levels (AdaptiveMajorants::gpu_bounds).
+// grid_info.global_bounds_index and the walk box (LeafBounds::gpu_walk_box: per axis the
+// index-space min and max); for adaptive walks then the hierarchy's table, nodes and packed
+// levels (AdaptiveMajorants::gpu_bounds).
 @group(0) @binding(4) var<storage, read> grid_bounds: array<CellBounds>;
 
 // LeafBounds::voxel_q of the density grids whose walks thin by them, four bytes to a word
@@ -171,8 +172,14 @@ fn dda_new_in(g: GpuGridInfo, bounds_base: u32, voxel_table: bool, o: vec3<f32>,
         return it;
     }
     let hi = it.lo + it.width * vec3<f32>(it.dims);
+    // dda::enter_box: the cell box clipped to the walk box, outside which every value is 0.
+    let wx = grid_bounds[bounds_base + g.global_bounds_index + 1u];
+    let wy = grid_bounds[bounds_base + g.global_bounds_index + 2u];
+    let wz = grid_bounds[bounds_base + g.global_bounds_index + 3u];
+    let clip_lo = max(it.lo, vec3<f32>(wx.min, wy.min, wz.min));
+    let clip_hi = min(hi, vec3<f32>(wx.max, wy.max, wz.max));
     var te = vec2<f32>(0.0);
-    if (!aabb_intersect(it.lo, hi, o, d, t0, t1, &te)) {
+    if (!aabb_intersect(clip_lo, clip_hi, o, d, t0, t1, &te)) {
         return it;
     }
     // Written positively so NaN parameters are rejected too.
@@ -266,7 +273,7 @@ fn dda_cell_bounds(it: ptr<function, Dda>) -> CellBounds {
 // absolute.
 fn adaptive_table(it: ptr<function, Dda>, slot: u32) -> u32 {
     let base = (*it).bounds_base;
-    let b = grid_bounds[base + (*it).global_index + 1u + slot / 2u];
+    let b = grid_bounds[base + (*it).global_index + 4u + slot / 2u];
     return base + u32(select(b.min, b.max, (slot & 1u) == 1u));
 }
 

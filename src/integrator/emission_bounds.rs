@@ -110,6 +110,8 @@ pub fn walk_bounds(
         return None;
     }
     out.global.max = out.cells.iter().fold(out.global.max, |m, c| m.max(c.max));
+    // Raised cells join the walk box.
+    out.update_active();
     Some(out)
 }
 
@@ -138,6 +140,7 @@ pub fn without_density(density: &GridField) -> GridField {
         global: CellBounds::point(0.0),
         voxel_q: Default::default(),
         voxel_floor: Vec::new(),
+        active: [[0; 3]; 2],
     };
     GridField {
         grid: std::sync::Arc::new(LoadedGrid {

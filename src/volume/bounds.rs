@@ -66,6 +66,39 @@ pub struct LeafBounds {
     /// Per cell, the least `q` any of its voxels reads (`max(q, floor)`): where derived bounds
     /// raise a cell's voxels (`integrator::emission_bounds::walk_bounds`). Empty: none.
     pub voxel_floor: Vec<u8>,
+    /// The walk box: the smallest box of cells, `[lo, hi)` relative to `cell_origin`, holding
+    /// every cell whose bounds are not exactly `[0, 0]` (empty, `lo == hi`, when there is
+    /// none). Outside it every reconstructed value is 0, so the walks clip rays to it
+    /// ([`Self::walk_box`]): a grid's box carries a ring of zero cells (the conversion pads
+    /// one cell on every side for the trilinear apron, and files keep zero-valued leaves),
+    /// which every walk crossed for nothing (the example grids' walk boxes are 43-70 % of
+    /// their cell boxes). Kept by [`Self::build`] and [`Self::from_cells`]; code that changes
+    /// `cells` afterwards calls [`Self::update_active`], and [`Self::validate`] checks it.
+    pub active: [[u32; 3]; 2],
+}
+
+/// Entries of [`LeafBounds::gpu_walk_box`] in the GPU's bounds buffer.
+pub const GPU_WALK_BOX_ENTRIES: usize = 3;
+
+/// The walk box of `cells` over `dims` ([`LeafBounds::active`]).
+pub fn active_cells(cells: &[CellBounds], dims: [u32; 3]) -> [[u32; 3]; 2] {
+    let (mut lo, mut hi) = (dims, [0u32; 3]);
+    let [nx, ny, _] = dims.map(|d| d as usize);
+    for (index, c) in cells.iter().enumerate() {
+        // NaN bounds count as non-zero: only exact zeros are clipped.
+        if c.min == 0.0 && c.max == 0.0 {
+            continue;
+        }
+        let at = [index % nx, index / nx % ny, index / (nx * ny)].map(|x| x as u32);
+        for a in 0..3 {
+            lo[a] = lo[a].min(at[a]);
+            hi[a] = hi[a].max(at[a] + 1);
+        }
+    }
+    if (0..3).any(|a| lo[a] >= hi[a]) {
+        return [[0; 3]; 2];
+    }
+    [lo, hi]
 }
 
 /// How tight the per-cell bounds are compared with one global bound.
@@ -101,11 +134,41 @@ impl LeafBounds {
         LeafBounds {
             voxel_q: Default::default(),
             voxel_floor: Vec::new(),
+            active: active_cells(&cells, dims),
             cells,
             dims,
             cell_origin,
             global,
         }
+    }
+
+    /// The walk box as the GPU's bounds buffer holds it, right after the global bound
+    /// ([`GPU_WALK_BOX_ENTRIES`] entries, `shaders/common/dda.wgsl`'s `dda_new_in`): per axis
+    /// the index-space minimum and maximum, exact `f32` integers.
+    pub fn gpu_walk_box(&self) -> [CellBounds; GPU_WALK_BOX_ENTRIES] {
+        let (lo, hi) = self.walk_box();
+        [0, 1, 2].map(|a| CellBounds {
+            min: lo[a],
+            max: hi[a],
+        })
+    }
+
+    /// Recomputes [`Self::active`] after `cells` changed.
+    pub fn update_active(&mut self) {
+        self.active = active_cells(&self.cells, self.dims);
+    }
+
+    /// [`Self::active`] in index space: the box every walk clips its rays to (minimum and
+    /// maximum corner; exact, multiples of 8 well below 2^24).
+    #[inline]
+    pub fn walk_box(&self) -> (crate::math::Vec3, crate::math::Vec3) {
+        let [lo, hi] = self.active;
+        let at = |c: [u32; 3]| {
+            crate::math::Vec3::from_array(
+                [0, 1, 2].map(|a| (self.cell_origin[a] as i64 + c[a] as i64) as f32 * 8.0),
+            )
+        };
+        (at(lo), at(hi))
     }
 
     /// Computes the bounds of every cell, in parallel over cells.
@@ -148,6 +211,7 @@ impl LeafBounds {
         LeafBounds {
             voxel_q,
             voxel_floor: Vec::new(),
+            active: active_cells(&cells, grid.dims),
             cells,
             dims: grid.dims,
             cell_origin: grid.cell_origin,
@@ -208,6 +272,13 @@ impl LeafBounds {
             return Err(format!(
                 "global bound {:?} differs from the union of cells {:?}",
                 self.global, expected_global
+            ));
+        }
+        if self.active != active_cells(&self.cells, self.dims) {
+            return Err(format!(
+                "walk box {:?} is not the box of the non-zero cells {:?}",
+                self.active,
+                active_cells(&self.cells, self.dims)
             ));
         }
         let stride = self.cells.len().div_ceil(max_cells.max(1)).max(1);

@@ -175,7 +175,7 @@ pub fn check_lookups(
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RayCheckStats {
     pub rays: u64,
-    /// Rays with a non-empty overlap with the cell box.
+    /// Rays with a non-empty overlap with the walk box ([`LeafBounds::walk_box`]).
     pub rays_hit: u64,
     pub segments: u64,
     /// Segments whose majorant is 0 (empty space the tracker skips).
@@ -192,6 +192,9 @@ pub struct RayCheckStats {
     /// Points checked against the per-voxel bound (`volume::cull::VoxelCulling`) that thins
     /// the per-leaf and culled walks' collisions (none where it is not sound).
     pub voxel_samples: u64,
+    /// Points of the ray inside the cell box but outside the walk box
+    /// ([`LeafBounds::walk_box`]), where every walk clips and the values must be 0.
+    pub clipped_samples: u64,
 }
 
 impl RayCheckStats {
@@ -299,6 +302,43 @@ fn random_ray(rng: &mut SplitMix64, lo: Vec3, hi: Vec3) -> (Ray, f32, f32) {
 }
 
 /// Checks the segments of one ray and the values along it.
+/// Points of `ray` in the cell box `box_` but outside `walk` (its overlap with the walk box,
+/// `None` for none), which no walk visits: every value there must be exactly 0.
+#[allow(clippy::too_many_arguments)]
+fn check_clipped(
+    grid: &SparseGrid,
+    box_: &crate::math::Aabb,
+    walk: Option<(f32, f32)>,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    rng: &mut SplitMix64,
+    stats: &mut RayCheckStats,
+) -> Result<(), String> {
+    let Some((a, b)) = box_.intersect(ray, t0, t1).filter(|(a, b)| a < b) else {
+        return Ok(());
+    };
+    if !(a.is_finite() && b.is_finite()) {
+        return Ok(());
+    }
+    for _ in 0..SAMPLES_PER_RAY {
+        let t = a + (b - a) * rng.uniform() as f32;
+        if walk.is_some_and(|(wa, wb)| t >= wa && t <= wb) {
+            continue;
+        }
+        let p = ray.at(t).as_dvec3();
+        let (trilinear, nearest) = (grid.sample_trilinear(p), grid.sample_nearest(p));
+        if trilinear != 0.0 || nearest != 0.0 {
+            return Err(format!(
+                "t = {t} lies outside the walk box {walk:?} but reads {trilinear} (trilinear), \
+                 {nearest} (nearest)"
+            ));
+        }
+        stats.clipped_samples += 1;
+    }
+    Ok(())
+}
+
 fn check_one_ray(
     grid: &SparseGrid,
     segments: &[MajorantSegment],
@@ -498,8 +538,13 @@ pub fn check_ray_bounds(
     let mut rng = SplitMix64(seed);
     let mut stats = RayCheckStats::default();
     let box_ = grid.index_bounds();
+    // Rays are aimed at the walk box (the non-zero cells, [`LeafBounds::walk_box`]), where the
+    // walks run; their starts and ends spread a margin around it, into the clipped cells.
+    let (walk_lo, walk_hi) = bounds.walk_box();
     let (lo, hi) = if box_.is_empty() {
         (Vec3::splat(-16.0), Vec3::splat(16.0))
+    } else if walk_lo.cmplt(walk_hi).all() {
+        (walk_lo, walk_hi)
     } else {
         (box_.min, box_.max)
     };
@@ -516,13 +561,19 @@ pub fn check_ray_bounds(
     let culling = LeafCulling::new(bounds);
     let voxel = VoxelCulling::new(bounds, &grid.cells, 1.0);
     let mut adaptive = Vec::new();
+    // Every walk clips to the walk box: the segments tile the ray's overlap with it.
+    let walk_box = crate::math::Aabb::new(box_.min.max(walk_lo), box_.max.min(walk_hi));
     for n in 0..n_rays {
         let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
         let expected = if box_.is_empty() {
             None
         } else {
-            box_.intersect(&ray, t0, t1).filter(|(a, b)| a < b)
+            walk_box.intersect(&ray, t0, t1).filter(|(a, b)| a < b)
         };
+        if !box_.is_empty() {
+            check_clipped(grid, &box_, expected, &ray, t0, t1, &mut rng, &mut stats)
+                .map_err(|e| format!("ray {n} {ray:?} over [{t0}, {t1}]: {e}"))?;
+        }
         segments.clear();
         segments.extend(DdaMajorantIterator::new(bounds, &ray, t0, t1, 1.0));
         stats.rays += 1;

@@ -28,12 +28,16 @@ pub(crate) struct BoxEntry {
     pub t_exit: f32,
 }
 
-/// [`BoxEntry`] of `ray` (with `inv_d = 1 / d` per axis), or `None` when the overlap is
-/// empty (or the box is).
+/// [`BoxEntry`] of `ray` (with `inv_d = 1 / d` per axis) into the part of the box inside
+/// `clip` (the bounds' walk box, [`LeafBounds::walk_box`]: outside it every value is 0, so
+/// the walk never starts before it nor runs past it), or `None` when the overlap is empty (or
+/// the box is).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn enter_box(
     lo: Vec3,
     width: Vec3,
     dims: [i32; 3],
+    clip: (Vec3, Vec3),
     ray: &Ray,
     inv_d: [f32; 3],
     t0: f32,
@@ -43,8 +47,10 @@ pub(crate) fn enter_box(
         return None;
     }
     let hi = lo + width * Vec3::from_array(dims.map(|n| n as f32));
-    // The same slab test a renderer would use for the box, so the tiling is exact.
-    let (t_enter, t_exit) = Aabb::new(lo, hi).intersect_inv(ray.o, inv_d, t0, t1)?;
+    // The same slab test a renderer would use for the box, so the tiling is exact; the walk
+    // box lies inside the cell box, and the max/min keep it there whatever `clip` says.
+    let (t_enter, t_exit) =
+        Aabb::new(lo.max(clip.0), hi.min(clip.1)).intersect_inv(ray.o, inv_d, t0, t1)?;
     // Written positively so NaN parameters are rejected too; an empty overlap yields nothing.
     if !(t_enter < t_exit) {
         return None;
@@ -132,9 +138,17 @@ pub(crate) struct DdaState {
 }
 
 impl DdaState {
-    /// The walk of `ray` over `[t0, t1]` through `dims` cells of edge `width` from `lo`
-    /// (`done` when the ray misses the box).
-    pub fn enter(lo: Vec3, width: Vec3, dims: [i32; 3], ray: &Ray, t0: f32, t1: f32) -> Self {
+    /// The walk of `ray` over `[t0, t1]` through `dims` cells of edge `width` from `lo`,
+    /// clipped to the walk box `clip` (`done` when the ray misses it).
+    pub fn enter(
+        lo: Vec3,
+        width: Vec3,
+        dims: [i32; 3],
+        clip: (Vec3, Vec3),
+        ray: &Ray,
+        t0: f32,
+        t1: f32,
+    ) -> Self {
         let mut it = Self {
             dims,
             lo: lo.to_array(),
@@ -166,7 +180,7 @@ impl DdaState {
             it.stride[a] = step as isize * flat[a];
             it.plane_step[a] = step as f32 * width[a];
         }
-        let Some(e) = enter_box(lo, width, dims, ray, it.inv_d, t0, t1) else {
+        let Some(e) = enter_box(lo, width, dims, clip, ray, it.inv_d, t0, t1) else {
             return it;
         };
         it.set_cell(e.cell);
@@ -266,6 +280,7 @@ impl<'a> DdaMajorantIterator<'a> {
             dims,
             lo,
             Vec3::splat(CELL_WIDTH),
+            bounds.walk_box(),
             ray,
             t0,
             t1,
@@ -273,7 +288,7 @@ impl<'a> DdaMajorantIterator<'a> {
         )
     }
 
-    /// A single segment over the ray's overlap with the cell box, carrying the global bounds:
+    /// A single segment over the ray's overlap with the walk box, carrying the global bounds:
     /// the baseline that per-cell majorants are measured against.
     pub fn global(bounds: &'a LeafBounds, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
         let lo = Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH));
@@ -288,6 +303,7 @@ impl<'a> DdaMajorantIterator<'a> {
             dims,
             lo,
             extent,
+            bounds.walk_box(),
             ray,
             t0,
             t1,
@@ -301,6 +317,7 @@ impl<'a> DdaMajorantIterator<'a> {
         dims: [i32; 3],
         lo: Vec3,
         width: Vec3,
+        clip: (Vec3, Vec3),
         ray: &Ray,
         t0: f32,
         t1: f32,
@@ -313,7 +330,7 @@ impl<'a> DdaMajorantIterator<'a> {
         DdaMajorantIterator {
             bounds,
             scale,
-            state: DdaState::enter(lo, width, dims, ray, t0, t1),
+            state: DdaState::enter(lo, width, dims, clip, ray, t0, t1),
         }
     }
 }

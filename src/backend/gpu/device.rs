@@ -340,7 +340,8 @@ pub struct GpuGrid {
     pub cells: wgpu::Buffer,
     pub bricks: wgpu::Buffer,
     pub constants: wgpu::Buffer,
-    /// Per-cell bounds followed by the global bound (`info.global_bounds_index`).
+    /// Per-cell bounds followed by the global bound (`info.global_bounds_index`) and the walk
+    /// box ([`bounds_layout`]).
     pub bounds: wgpu::Buffer,
     /// Per-voxel culling bytes (`LeafBounds::voxel_q`) of the density grids whose walks thin
     /// by them, indexed by the shared bricks buffer's brick index (each grid's table at its
@@ -546,7 +547,8 @@ impl GpuGrid {
 }
 
 /// One medium's bounds as the DDA and the adaptive walk read them: the per-cell bounds, the
-/// global bound after them, then (for adaptive walks) the hierarchy
+/// global bound and the walk box ([`LeafBounds::gpu_walk_box`]) after them, then (for
+/// adaptive walks) the hierarchy
 /// ([`AdaptiveMajorants::gpu_bounds`]).
 pub fn bounds_layout(
     bounds: &LeafBounds,
@@ -557,6 +559,7 @@ pub fn bounds_layout(
         None => {
             let mut b = bounds.cells.clone();
             b.push(bounds.global);
+            b.extend(bounds.gpu_walk_box());
             Ok(b)
         }
     }

@@ -3,8 +3,8 @@ use super::AdaptiveMajorants;
 use crate::volume::bounds::{CellBounds, LeafBounds};
 use crate::volume::cost::cell_count;
 
-/// The GPU's bounds buffer: the per-leaf bounds and the global bound (as always), then a
-/// 16-slot table (8 [`CellBounds`], read as 16 `f32` values), the nodes of levels 1 and up,
+/// The GPU's bounds buffer: the per-leaf bounds, the global bound and the walk box (as
+/// always: [`LeafBounds::gpu_walk_box`]), then a 16-slot table (8 [`CellBounds`], read as 16 `f32` values), the nodes of levels 1 and up,
 /// and the leaf cells' levels packed 4 to an `f32` value (`sum_k level[4w + k] * 16^k`, exact
 /// below 2^16) and 2 values to a `CellBounds`. Table slot `l` < 13 holds where level `l`
 /// starts (0 for level 0), [`GPU_TABLE_LEVELS`] the level count and [`GPU_TABLE_PACKED`]
@@ -19,6 +19,7 @@ impl AdaptiveMajorants {
     pub fn gpu_bounds(&self, leaf: &LeafBounds) -> Result<Vec<CellBounds>, String> {
         let mut out = leaf.cells.clone();
         out.push(leaf.global);
+        out.extend(leaf.gpu_walk_box());
         let table_at = out.len();
         out.extend([CellBounds::point(0.0); GPU_TABLE_SLOTS / 2]);
         let mut table = [0f32; GPU_TABLE_SLOTS];

@@ -41,6 +41,7 @@ use rayon::prelude::*;
 use super::bounds::{CellBounds, LeafBounds};
 use super::cost::{cell_count, children, coords, split_cost, CostModel};
 use super::cull::LeafCulling;
+use crate::math::Vec3;
 
 /// Edge of one level-0 cell in index units.
 const CELL_WIDTH: f32 = 8.0;
@@ -87,6 +88,8 @@ pub struct AdaptiveMajorants {
     /// Per level: first node and the node grid's x and x*y extents (derived from `levels`,
     /// kept flat for the walk, which reads it at every segment).
     level_index: [[u32; 3]; MAX_LEVEL as usize + 1],
+    /// The leaf bounds' walk box ([`LeafBounds::walk_box`]): the walk clips rays to it.
+    pub walk_box: (Vec3, Vec3),
     /// Whether the merged nodes are one node, every leaf cell, or a mix.
     pub shape: AdaptiveShape,
     /// Whether transmittance (shadow) flights take the culled global walk while free flights
@@ -232,6 +235,7 @@ impl AdaptiveMajorants {
         let mut a = AdaptiveMajorants {
             dims: leaf.dims,
             cell_origin: leaf.cell_origin,
+            walk_box: leaf.walk_box(),
             levels,
             nodes,
             node_level,

@@ -115,8 +115,9 @@ fn the_gpu_layout_holds_the_table_the_nodes_and_the_levels() {
     let n0 = leaf.cells.len();
     assert_eq!(&g[..n0], &leaf.cells[..]);
     assert_eq!(g[n0], leaf.global);
+    assert_eq!(g[n0 + 1..n0 + 4], leaf.gpu_walk_box());
     let slot = |s: usize| {
-        let b = g[n0 + 1 + s / 2];
+        let b = g[n0 + 1 + crate::volume::bounds::GPU_WALK_BOX_ENTRIES + s / 2];
         (if s % 2 == 0 { b.min } else { b.max }) as usize
     };
     assert_eq!(slot(GPU_TABLE_LEVELS), a.levels.len());

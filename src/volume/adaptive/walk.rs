@@ -33,7 +33,15 @@ impl<'a> AdaptiveMajorantIterator<'a> {
             nodes: &tree.nodes,
             level_index: &tree.level_index,
             scale,
-            dda: DdaState::enter(lo, Vec3::splat(CELL_WIDTH), dims, ray, t0, t1),
+            dda: DdaState::enter(
+                lo,
+                Vec3::splat(CELL_WIDTH),
+                dims,
+                tree.walk_box,
+                ray,
+                t0,
+                t1,
+            ),
         }
     }
 
