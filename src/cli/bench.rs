@@ -404,11 +404,11 @@ fn majorant_modes(
     println!();
     println!(
         "majorant modes ({width}x{height}, {spp} spp, {} threads; time per sample = best of {runs} renders, modes in turn; \
-         'rounds': global over mode within each round, lowest-highest)",
+         'rounds': global over mode within each round, lowest-median-highest)",
         rayon::current_num_threads()
     );
     println!(
-        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>11} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10} {:>10}  walk",
+        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>16} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10} {:>10}  walk",
         "scene",
         "estimator",
         "bounds",
@@ -496,11 +496,17 @@ fn majorant_modes(
                 if majorant == MajorantMode::Global {
                     global_ns = ns;
                 }
-                let paired = seconds[global_k]
+                let mut rounds: Vec<f64> = seconds[global_k]
                     .iter()
                     .zip(&seconds[k])
                     .map(|(g, m)| g / m)
-                    .fold((f64::INFINITY, 0f64), |(lo, hi), r| (lo.min(r), hi.max(r)));
+                    .collect();
+                rounds.sort_by(f64::total_cmp);
+                let paired = (
+                    rounds.first().copied().unwrap_or(f64::NAN),
+                    median(&rounds),
+                    rounds.last().copied().unwrap_or(f64::NAN),
+                );
                 let (var, eff) = match (variance[k], global_cost) {
                     (Some(v), Some(g)) => {
                         (format!("{v:.3e}"), format!("{:.2}x", g / (best[k] * v)))
@@ -508,13 +514,13 @@ fn majorant_modes(
                     _ => ("-".to_string(), "-".to_string()),
                 };
                 println!(
-                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>11} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>10}  {}",
+                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>10}  {}",
                     path.file_name().unwrap_or_default().to_string_lossy(),
                     estimator.name(),
                     majorant.name(),
                     ns,
                     global_ns / ns,
-                    format!("{:.2}-{:.2}", paired.0, paired.1),
+                    format!("{:.2}-{:.2}-{:.2}", paired.0, paired.1, paired.2),
                     (t.majorant_segments - t.shadow_segments) as f64 / n,
                     t.shadow_segments as f64 / n,
                     t.density_lookups as f64 / n,
@@ -533,6 +539,16 @@ fn majorant_modes(
         }
     }
     Ok(())
+}
+
+/// The median of sorted `v` (NaN when empty): the `rounds` column's middle figure, which a
+/// slow spell of a shared machine moves less than the ratio of the bests.
+fn median(v: &[f64]) -> f64 {
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
 }
 
 /// The film's pixel means, row-major.
