@@ -4,6 +4,7 @@ pub mod blackbody;
 pub mod bsdf;
 pub mod emission_bounds;
 pub mod envmap;
+pub mod homogeneous;
 pub mod lights;
 pub mod media;
 pub mod mixture;
