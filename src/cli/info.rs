@@ -36,6 +36,19 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                     m.sigma_t_bound,
                     brume::integrator::prepare::index_per_t(&m.density),
                 );
+                // What the adaptive mode walks (an emitting medium keeps the cells for its
+                // free flights where the model chose culling: `VdbMedium::walk_mode`).
+                let adaptive = brume::integrator::MajorantMode::Adaptive;
+                println!(
+                    "medium {i} adaptive walks: free flights {}, shadow rays {}{}",
+                    m.walk_mode(adaptive).name(),
+                    m.shadow_walk_mode(adaptive).name(),
+                    if m.emission.is_some() && m.adaptive.shape == AdaptiveShape::Culled {
+                        " (emitting: free flights per leaf cell, not culled)"
+                    } else {
+                        ""
+                    }
+                );
                 let g = &m.density.grid;
                 print_voxel_bounds(&format!("medium {i}"), &g.grid, &g.bounds);
                 if let Some(r) = m.emission.as_ref().and_then(|e| e.region) {
