@@ -1,5 +1,6 @@
 // Mirrors src/integrator/mixture.rs (sample_mixture: GreyMix, RgbMix, HomGrey, HomRgb, pick),
-// src/volume/merge.rs (MergedSegments) and the parts of src/integrator/path.rs that choose
+// src/volume/merge.rs (MergedSegments), src/integrator/nested.rs (sample_nested: VDB media side
+// by side inside a homogeneous one) and the parts of src/integrator/path.rs that choose
 // between them (vdb_intervals, intervals_overlap, sample_media and transmittance with MIX on):
 // the mixture variant (FEATURE_MIXTURE), for scenes with several VDB media, overlapping or
 // not, or a VDB medium inside a homogeneous one. Needs types.wgsl, grid.wgsl, dda.wgsl,
@@ -478,9 +479,78 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
     return f;
 }
 
-// path.rs sample_media with MIX: the sum where media overlap along the flight (or VDB media
-// lie inside the homogeneous medium the path is in), else the homogeneous medium in closed
-// form, else each VDB medium in turn.
+// nested.rs nested_applies: absorption as a weight, and grey extinction or no emitting member
+// (an emitting medium's record has its emission region: prepare.rs builds one with every
+// Emission, upload.rs marks it).
+fn nested_applies(spans: Spans, hom: u32) -> bool {
+    if (wf.absorption_weight == 0u) {
+        return false;
+    }
+    let st = homogeneous[hom].sigma_a + homogeneous[hom].sigma_s;
+    if (st.x == st.y && st.y == st.z) {
+        return true;
+    }
+    for (var i = 0u; i < spans.n; i++) {
+        if (vdb_media[spans.k[i]].emission.has_region != 0u) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// nested.rs transmittance_over_survival: T_h(t) / S_h(t) of sample_homogeneous' draw (1 for
+// grey extinction).
+fn nested_tr_over_survival(h: GpuHomogeneousMedium, t: f32) -> vec3<f32> {
+    let sigma_t = h.sigma_a + h.sigma_s;
+    if (!FEATURE_CHROMATIC || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z)) {
+        return vec3<f32>(1.0);
+    }
+    let tr = exp_neg(sigma_t, t);
+    let survival = (tr.x + tr.y + tr.z) / 3.0;
+    if (survival > 0.0) {
+        return tr / survival;
+    }
+    return vec3<f32>(0.0);
+}
+
+// nested.rs sample_nested: the homogeneous medium's closed-form flight over [t0, t1], then each
+// VDB medium's own flight (vdb_flight) over its span cut at the homogeneous collision.
+fn nested_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>,
+                 rng: ptr<function, Rng>, t0: f32, t1: f32) -> Flight {
+    let h = homogeneous[hom];
+    // Absorption is a weight here (nested_applies): no absorption event.
+    let ev = sample_homogeneous(h, t1 - t0, true, rng);
+    var t_h = t1;
+    if (ev.event == EVENT_SCATTER) {
+        t_h = t0 + ev.t;
+    }
+    var weight = vec3<f32>(1.0);
+    for (var i = 0u; i < spans.n; i++) {
+        if (!(spans.a[i] < t_h)) {
+            break;
+        }
+        let fi = vdb_flight(spans.k[i], ps, rng, spans.a[i], min(spans.b[i], t_h),
+                            (*ps).beta * weight);
+        if (fi.event == EVENT_ESCAPE) {
+            weight *= fi.weight;
+            continue;
+        }
+        var f = fi;
+        f.weight = weight * fi.weight;
+        if (fi.event == EVENT_SCATTER) {
+            f.weight *= nested_tr_over_survival(h, fi.t - t0);
+        }
+        return f;
+    }
+    if (ev.event == EVENT_SCATTER) {
+        return Flight(EVENT_SCATTER, t_h, weight * ev.weight, h.g);
+    }
+    return Flight(EVENT_ESCAPE, 0.0, weight * ev.weight, h.g);
+}
+
+// path.rs sample_media with MIX: the sum where media overlap along the flight, VDB media side
+// by side inside the homogeneous medium the path is in by nested_flight where it applies (else
+// by the sum too), else the homogeneous medium in closed form, else each VDB medium in turn.
 fn sample_media_mix(ps: ptr<function, GpuPathState>, rng0: Rng, t_hit: f32) -> Flight {
     var rng = rng0;
     let t0 = (*ps).t0;
@@ -490,7 +560,10 @@ fn sample_media_mix(ps: ptr<function, GpuPathState>, rng0: Rng, t_hit: f32) -> F
     hom = (*ps).medium;
 // #endif
     var f = Flight(EVENT_ESCAPE, 0.0, vec3<f32>(1.0), 0.0);
-    if ((hom != NO_INDEX && spans.n > 0u) || spans_overlap(spans)) {
+    let overlap = spans_overlap(spans);
+    if (hom != NO_INDEX && spans.n > 0u && !overlap && nested_applies(spans, hom)) {
+        f = nested_flight(spans, hom, ps, &rng, t0, t_hit);
+    } else if ((hom != NO_INDEX && spans.n > 0u) || overlap) {
         f = mix_flight(spans, hom, ps, &rng, t0, t_hit);
     } else if (hom != NO_INDEX) {
 // #if FEATURE_HOMOGENEOUS

@@ -45,6 +45,11 @@
 //! `sum_k ((1 - alpha_k) c_k, alpha_k c_k)` component by component, as analog decomposition
 //! requires (exact when the albedos agree, e.g. absorption as a weight: every albedo 1).
 //!
+//! VDB media side by side inside a homogeneous medium need none of it either where
+//! `integrator::nested` applies: the homogeneous collision, drawn in closed form, cuts each VDB
+//! medium's own flight short. The sum here serves overlapping VDB media and the cases nested
+//! flights leave (chromatic extinction around emitting media, absorption events).
+//!
 //! Shadow rays need none of this: the transmittance of a sum is the product of
 //! transmittances, so `path::transmittance` multiplies independent per-medium estimates
 //! (unbiased, and cheaper than tracking the sum: medium `k` is looked up at its own rate).

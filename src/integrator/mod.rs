@@ -8,6 +8,7 @@ pub mod homogeneous;
 pub mod lights;
 pub mod media;
 pub mod mixture;
+pub mod nested;
 pub mod path;
 pub mod prepare;
 pub mod settings;

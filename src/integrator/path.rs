@@ -11,6 +11,7 @@ use super::media::{
     MediumEvent, TrackingConfig,
 };
 use super::mixture::sample_mixture;
+use super::nested::{nested_applies, sample_nested};
 use super::prepare::{RenderScene, SurfaceKind};
 use super::stack::MediumStack;
 use crate::math::Ray;
@@ -149,8 +150,16 @@ fn sample_media<
         let iv = vdb_intervals(rs, ray, t0, t1);
         let n = iv.len();
         let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
-        if (hom.is_some() && n > 0) || intervals_overlap(&iv) {
+        let overlap = intervals_overlap(&iv);
+        if (hom.is_some() && n > 0) || overlap {
             let spans: Vec<_> = iv.iter().map(|&(k, a, b)| (&rs.vdb[k], a, b)).collect();
+            // VDB media side by side inside the homogeneous one: its closed-form flight cuts
+            // theirs short (`nested`); overlapping VDB media need the merged sum.
+            if let Some(h) = hom.filter(|h| !overlap && nested_applies(&spans, h, cfg.absorption)) {
+                return sample_nested::<EMIT, ABS, CHROM>(
+                    &spans, h, ray, t0, t1, beta, cfg, rng, stats, l,
+                );
+            }
             return sample_mixture::<EMIT, ABS, CHROM>(
                 &spans, hom, ray, t0, t1, beta, cfg, rng, stats, l,
             );

@@ -1,0 +1,131 @@
+//! Free flight through VDB media that lie inside a homogeneous medium and do not overlap one
+//! another (a smoke in a water tank, a cache in a fog-filled room): the homogeneous flight in
+//! closed form, then each VDB medium's own flight cut short where the homogeneous one
+//! collided. No merged segment stream, so each VDB medium keeps its own walk (the culled walk
+//! and the per-voxel stage included), and the homogeneous medium costs no lookups at all.
+//!
+//! Why it is the sum's free flight. Extinction adds, so the sum's transmittance is the product
+//! `T(t) = T_h(t) T_v(t)`, and the first real collision of the sum is the earlier of the first
+//! real collisions of the parts, drawn independently (superposed Poisson processes, Lewis &
+//! Shedler 1979; the "minimum of independent flights" of Galtier et al. 2013 and Kutz et al.
+//! 2017's decomposition, one part sampled analytically). With `t_h` the homogeneous medium's
+//! collision (or `t1`) and the VDB flights run over `[a, min(b, t_h)]`:
+//!
+//! ```text
+//! VDB event at t_v < t_h:  weight = w_v * T_h(t_v) / S_h(t_v)
+//! VDB escape up to t_h:    the homogeneous event at t_h, weight = w_v * w_h
+//! ```
+//!
+//! `S_h(t) = P(t_h > t)` is the survival of the homogeneous draw: `T_h(t)` for grey extinction
+//! (the ratio is 1), `mean_c exp(-sigma_t,c t)` for chromatic extinction, whose distance is
+//! drawn from one channel with the one-sample MIS pdf (`sample_homogeneous`); `w_h` is that
+//! draw's own weight. Every VDB estimator only has to be unbiased over its own (random) range
+//! `[a, min(b, t_h)]`, which each is: delta, the weighted ones, decomposition and spectral
+//! tracking alike. Emission met on the VDB flights is counted with probability `S_h(t)` where
+//! it needs `T_h(t)`: exact for grey extinction; chromatic extinction with emitting media goes
+//! to the merged flight (`mixture`) instead, as do absorption events in the homogeneous
+//! medium (its absorption carries no distance back) and VDB media that overlap one another.
+use glam::Vec3;
+
+use super::homogeneous::exp_neg;
+use super::media::{
+    sample_homogeneous, sample_vdb, HomogeneousMedium, MediaStats, MediumEvent, TrackingConfig,
+    VdbMedium,
+};
+use super::mixture::VdbSpan;
+use super::settings::Absorption;
+use crate::math::Ray;
+use crate::sampling::Rng;
+use crate::volume::phase::HenyeyGreenstein;
+
+/// Whether [`sample_nested`] takes the flight through `vdb` (sorted, non-overlapping spans)
+/// inside `hom` under `absorption` (see the module doc for what it leaves to the mixture).
+#[inline]
+pub fn nested_applies(vdb: &[VdbSpan], hom: &HomogeneousMedium, absorption: Absorption) -> bool {
+    let sigma_t = hom.sigma_t();
+    let grey = sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z;
+    absorption == Absorption::Weight && (grey || vdb.iter().all(|(m, _, _)| m.emission.is_none()))
+}
+
+/// `T_h(t) / S_h(t)` per channel for the homogeneous draw of `sample_homogeneous` (1 for grey
+/// extinction, where the draw's survival is the transmittance itself).
+#[inline]
+fn transmittance_over_survival<const CHROM: bool>(h: &HomogeneousMedium, t: f32) -> Vec3 {
+    let sigma_t = h.sigma_t();
+    if !CHROM || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z) {
+        return Vec3::ONE;
+    }
+    let tr = exp_neg(sigma_t, t);
+    let survival = tr.element_sum() / 3.0;
+    if survival > 0.0 {
+        tr / survival
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// The free flight along world `ray` over `[t0, t1]` through the VDB media `vdb` (sorted,
+/// non-overlapping, each over its span) inside the homogeneous medium `hom` (see the module
+/// doc). Emission met on the way is added to `l` (weighted by `beta`). Call only where
+/// [`nested_applies`].
+#[allow(clippy::too_many_arguments)]
+pub fn sample_nested<const EMIT: bool, const ABS: bool, const CHROM: bool>(
+    vdb: &[VdbSpan],
+    hom: &HomogeneousMedium,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> (MediumEvent, HenyeyGreenstein) {
+    // The homogeneous part first: its collision (or t1) ends every VDB flight.
+    let (t_h, hom_event) = match sample_homogeneous::<CHROM>(hom, t1 - t0, cfg.absorption, rng) {
+        MediumEvent::Scatter { t, weight } => (t0 + t, MediumEvent::Scatter { t: t0 + t, weight }),
+        escape @ MediumEvent::Escape { .. } => (t1, escape),
+        // Not with absorption as a weight (`nested_applies`); no distance to cut at.
+        MediumEvent::Absorb => return (MediumEvent::Absorb, hom.phase),
+    };
+    let mut weight = Vec3::ONE;
+    for &(m, a, b) in vdb {
+        if !(a < t_h) {
+            break;
+        }
+        let m: &VdbMedium = m;
+        match sample_vdb::<EMIT, ABS, CHROM>(
+            m,
+            ray,
+            a,
+            b.min(t_h),
+            beta * weight,
+            cfg,
+            rng,
+            stats,
+            l,
+        ) {
+            MediumEvent::Escape { weight: w } => weight *= w,
+            MediumEvent::Scatter { t, weight: w } => {
+                let f = transmittance_over_survival::<CHROM>(hom, t - t0);
+                return (
+                    MediumEvent::Scatter {
+                        t,
+                        weight: weight * w * f,
+                    },
+                    m.phase,
+                );
+            }
+            MediumEvent::Absorb => return (MediumEvent::Absorb, m.phase),
+        }
+    }
+    let event = match hom_event {
+        MediumEvent::Scatter { t, weight: w } => MediumEvent::Scatter {
+            t,
+            weight: weight * w,
+        },
+        MediumEvent::Escape { weight: w } => MediumEvent::Escape { weight: weight * w },
+        MediumEvent::Absorb => MediumEvent::Absorb,
+    };
+    (event, hom.phase)
+}
