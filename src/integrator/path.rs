@@ -124,7 +124,9 @@ fn intervals_overlap(iv: &[(usize, f32, f32)]) -> bool {
 
 /// The free flight along `ray` over `[t0, t1]` through whatever media lie there: the
 /// homogeneous medium the path is in, the VDB media the ray crosses, or, with `MIX` (a scene
-/// with overlapping or nested media), their sum where they overlap (`mixture`).
+/// with overlapping or nested media), VDB media side by side inside the homogeneous medium by
+/// its closed-form flight cutting theirs short (`nested`), else their sum where they overlap
+/// (`mixture`).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn sample_media<
