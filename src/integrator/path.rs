@@ -10,7 +10,7 @@ use super::media::{
     sample_homogeneous, sample_vdb, transmittance_homogeneous, transmittance_vdb, MediaStats,
     MediumEvent, TrackingConfig,
 };
-use super::mixture::sample_mixture;
+use super::mixture::{sample_mixture, VdbSpan};
 use super::nested::{nested_applies, sample_nested};
 use super::prepare::{RenderScene, SurfaceKind};
 use super::stack::MediumStack;
@@ -154,16 +154,27 @@ fn sample_media<
         let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
         let overlap = intervals_overlap(&iv);
         if (hom.is_some() && n > 0) || overlap {
-            let spans: Vec<_> = iv.iter().map(|&(k, a, b)| (&rs.vdb[k], a, b)).collect();
+            // The spans with their media, inline like `iv` (n > 0 here: overlap needs two).
+            let mut inline = [(&rs.vdb[iv[0].0], 0.0f32, 0.0f32); INLINE_SPANS];
+            let heap: Vec<VdbSpan>;
+            let spans: &[VdbSpan] = if n <= INLINE_SPANS {
+                for (slot, &(k, a, b)) in inline.iter_mut().zip(iv.iter()) {
+                    *slot = (&rs.vdb[k], a, b);
+                }
+                &inline[..n]
+            } else {
+                heap = iv.iter().map(|&(k, a, b)| (&rs.vdb[k], a, b)).collect();
+                &heap
+            };
             // VDB media side by side inside the homogeneous one: its closed-form flight cuts
             // theirs short (`nested`); overlapping VDB media need the merged sum.
-            if let Some(h) = hom.filter(|h| !overlap && nested_applies(&spans, h, cfg.absorption)) {
+            if let Some(h) = hom.filter(|h| !overlap && nested_applies(spans, h, cfg.absorption)) {
                 return sample_nested::<EMIT, ABS, CHROM>(
-                    &spans, h, ray, t0, t1, beta, cfg, rng, stats, l,
+                    spans, h, ray, t0, t1, beta, cfg, rng, stats, l,
                 );
             }
             return sample_mixture::<EMIT, ABS, CHROM>(
-                &spans, hom, ray, t0, t1, beta, cfg, rng, stats, l,
+                spans, hom, ray, t0, t1, beta, cfg, rng, stats, l,
             );
         }
     }
