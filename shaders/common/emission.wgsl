@@ -1,7 +1,8 @@
-// Mirrors the emission of the VDB medium: Emission::radiance, GreyView::on_collision and
-// RgbView::on_collision (src/integrator/media.rs), and blackbody_rgb / blackbody_emission
-// (src/integrator/blackbody.rs). Blender's Principled Volume: radiance per metre, NOT
-// multiplied by density, gathered at every tentative collision of a free flight with weight
+// Mirrors the emission of the VDB medium: Emission::radiance (src/integrator/emission.rs),
+// GreyView::on_collision and RgbView::on_collision (src/integrator/media.rs), and
+// blackbody_rgb / blackbody_emission (src/integrator/blackbody.rs). Blender's Principled
+// Volume: radiance per metre, NOT multiplied by density, gathered at every tentative
+// collision of a free flight with weight
 // w / sigma_maj (the collision density of the majorant cancels the 1 / sigma_maj; pbrt-v4's
 // VolPathIntegrator adds beta * sigma_a * Le / sigma_maj the same way, Brume's emission
 // coefficient already includes the absorption). No random numbers are drawn, so the stream

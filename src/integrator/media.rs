@@ -1,7 +1,7 @@
 //! Participating media as the integrators see them: heterogeneous VDB media (tracked with the
 //! estimators of `volume::tracking` over majorant segments) and homogeneous media inside closed
 //! meshes (sampled in closed form: no tracking, no lookups; `integrator::homogeneous`,
-//! re-exported here).
+//! re-exported here, as is the VDB media's emission, `integrator::emission`).
 //!
 //! One function per job, shared by every integrator: [`sample_vdb`] (free flight in a VDB
 //! medium), [`transmittance_vdb`] (shadow rays), [`sample_homogeneous`] and
@@ -11,9 +11,8 @@
 use std::cell::Cell;
 use std::sync::Arc;
 
-use glam::{Affine3A, DVec3, Vec3};
+use glam::Vec3;
 
-use super::blackbody::blackbody_emission;
 use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
 use crate::math::{Aabb, Ray};
 use crate::sampling::Rng;
@@ -24,106 +23,11 @@ use crate::volume::tracking::{
 };
 use crate::volume::{
     AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LeafBounds,
-    LeafCulling, LoadedGrid, VoxelCulling,
+    LeafCulling, VoxelCulling,
 };
 
+pub use super::emission::{Blackbody, Emission, EmissionRegion, GridField};
 pub use super::homogeneous::{sample_homogeneous, transmittance_homogeneous, HomogeneousMedium};
-
-/// A grid placed in the world: trilinear lookups at world points.
-#[derive(Clone)]
-pub struct GridField {
-    pub grid: Arc<LoadedGrid>,
-    pub index_from_world: Affine3A,
-}
-
-impl GridField {
-    #[inline]
-    pub fn at_index(&self, p: Vec3) -> f32 {
-        self.grid
-            .grid
-            .sample_trilinear(DVec3::new(p.x as f64, p.y as f64, p.z as f64))
-    }
-
-    #[inline]
-    pub fn at_world(&self, p: Vec3) -> f32 {
-        self.at_index(self.index_from_world.transform_point3(p))
-    }
-}
-
-/// Blender Principled Volume emission (radiance per metre, not multiplied by density).
-#[derive(Clone)]
-pub struct Emission {
-    /// `emissionStrength * emissionColor`.
-    pub strength_color: Vec3,
-    /// Multiplies `strength_color` when present (e.g. a `flame` grid).
-    pub grid: Option<GridField>,
-    pub blackbody: Option<Blackbody>,
-    /// Where it emits at all ([`EmissionRegion`]); `None`: everywhere the walks go.
-    pub region: Option<EmissionRegion>,
-}
-
-/// Where a medium emits: Cycles 5 (null scattering) emits inside the volume mesh it builds
-/// around the medium, which is the box of its grids' active voxels dilated by one voxel
-/// (`pad_size` 1 for linear interpolation) and taken from the lowest voxel's corner to one
-/// past the highest (`VolumeMeshBuilder`: `evalActiveVoxelBoundingBox`, `max + 1`), so
-/// `[min - 1, max + 2]` in index coordinates. Density and the emission grids are 0 beyond
-/// that box anyway; a constant emission (`emissionStrength` without a grid, a temperature
-/// offset, a blackbody intensity below 1) is not, and without the box it glowed in the whole
-/// cell box (the leaves' box and a one-cell pad): three times Cycles' light on the sunlit
-/// plume with a constant emission (`docs/CYCLES.md`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EmissionRegion {
-    /// The density grid's `index_from_world`: the box is in its index space.
-    pub index_from_world: Affine3A,
-    /// The union of every grid's box, mapped into the density's index space.
-    pub bounds: Aabb,
-}
-
-impl EmissionRegion {
-    /// Whether world point `p` lies inside (half-open: `min <= q < max` on every axis).
-    #[inline]
-    pub fn contains(&self, p: Vec3) -> bool {
-        let q = self.index_from_world.transform_point3(p);
-        q.cmpge(self.bounds.min).all() && q.cmplt(self.bounds.max).all()
-    }
-}
-
-#[derive(Clone)]
-pub struct Blackbody {
-    pub temperature: GridField,
-    /// Kelvin = scale * grid value + offset.
-    pub scale: f32,
-    pub offset: f32,
-    pub intensity: f32,
-    pub tint: Vec3,
-}
-
-impl Emission {
-    /// Emitted radiance per metre at world point `p`; `lookups` counts grid reads.
-    #[inline]
-    pub fn radiance(&self, p: Vec3, lookups: &Cell<u64>) -> Vec3 {
-        let mut e = Vec3::ZERO;
-        if self.region.is_some_and(|r| !r.contains(p)) {
-            return e;
-        }
-        if self.strength_color != Vec3::ZERO {
-            let scale = match &self.grid {
-                Some(g) => {
-                    lookups.set(lookups.get() + 1);
-                    g.at_world(p)
-                }
-                None => 1.0,
-            };
-            e += self.strength_color * scale;
-        }
-        if let Some(bb) = &self.blackbody {
-            lookups.set(lookups.get() + 1);
-            let t = bb.scale * bb.temperature.at_world(p) + bb.offset;
-            e += bb.tint * blackbody_emission(t, bb.intensity);
-        }
-        e
-    }
-}
 
 /// A heterogeneous medium from `BRUME_medium_vdb`, ready to track.
 #[derive(Clone)]

@@ -2,6 +2,7 @@
 //! (prepared media and lights, BSDFs, the specialisation on scene features).
 pub mod blackbody;
 pub mod bsdf;
+pub mod emission;
 pub mod emission_bounds;
 pub mod envmap;
 pub mod homogeneous;
