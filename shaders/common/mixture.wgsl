@@ -561,8 +561,15 @@ fn sample_media_mix(ps: ptr<function, GpuPathState>, rng0: Rng, t_hit: f32) -> F
 // #endif
     var f = Flight(EVENT_ESCAPE, 0.0, vec3<f32>(1.0), 0.0);
     let overlap = spans_overlap(spans);
+    var nested = false;
+// #if FEATURE_HOMOGENEOUS
     if (hom != NO_INDEX && spans.n > 0u && !overlap && nested_applies(spans, hom)) {
         f = nested_flight(spans, hom, ps, &rng, t0, t_hit);
+        nested = true;
+    }
+// #endif
+    if (nested) {
+        // nested_flight answered.
     } else if ((hom != NO_INDEX && spans.n > 0u) || overlap) {
         f = mix_flight(spans, hom, ps, &rng, t0, t_hit);
     } else if (hom != NO_INDEX) {
