@@ -680,6 +680,46 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
     from_grey(e, view.scatter_albedo())
 }
 
+/// Free flights through VDB media one after another along world `ray`: `spans` sorted and
+/// not overlapping, each medium over its span cut at `t_end`. The first scattering or
+/// absorption ends it, with the phase function of its medium and the weights of the media
+/// passed before it; else every flight escaped, and the escape weight is their product.
+/// Emission met on the way is added to `l` (weighted by `beta` and the weights so far).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn sample_vdb_in_turn<'a, const EMIT: bool, const ABS: bool, const CHROM: bool>(
+    spans: impl IntoIterator<Item = (&'a VdbMedium, f32, f32)>,
+    t_end: f32,
+    ray: &Ray,
+    beta: Vec3,
+    cfg: &TrackingConfig,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+    l: &mut Vec3,
+) -> (MediumEvent, HenyeyGreenstein) {
+    let mut weight = Vec3::ONE;
+    for (m, a, b) in spans {
+        if !(a < t_end) {
+            break;
+        }
+        let b = b.min(t_end);
+        match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, cfg, rng, stats, l) {
+            MediumEvent::Escape { weight: w } => weight *= w,
+            MediumEvent::Scatter { t, weight: w } => {
+                return (
+                    MediumEvent::Scatter {
+                        t,
+                        weight: weight * w,
+                    },
+                    m.phase,
+                )
+            }
+            MediumEvent::Absorb => return (MediumEvent::Absorb, m.phase),
+        }
+    }
+    (MediumEvent::Escape { weight }, HenyeyGreenstein::new(0.0))
+}
+
 /// Transmittance of VDB medium `m` along world `ray` over `[t0, t1]`: ratio or residual ratio
 /// tracking (Novak et al. 2014) for grey media, spectral tracking's estimator for chromatic ones.
 #[inline]

@@ -29,8 +29,8 @@ use glam::Vec3;
 
 use super::homogeneous::exp_neg;
 use super::media::{
-    sample_homogeneous, sample_vdb, HomogeneousMedium, MediaStats, MediumEvent, TrackingConfig,
-    VdbMedium,
+    sample_homogeneous, sample_vdb_in_turn, HomogeneousMedium, MediaStats, MediumEvent,
+    TrackingConfig,
 };
 use super::mixture::VdbSpan;
 use super::settings::Absorption;
@@ -88,37 +88,30 @@ pub fn sample_nested<const EMIT: bool, const ABS: bool, const CHROM: bool>(
         // Not with absorption as a weight (`nested_applies`); no distance to cut at.
         MediumEvent::Absorb => return (MediumEvent::Absorb, hom.phase),
     };
-    let mut weight = Vec3::ONE;
-    for &(m, a, b) in vdb {
-        if !(a < t_h) {
-            break;
+    // Then the VDB media in turn, each cut at t_h.
+    let weight = match sample_vdb_in_turn::<EMIT, ABS, CHROM>(
+        vdb.iter().copied(),
+        t_h,
+        ray,
+        beta,
+        cfg,
+        rng,
+        stats,
+        l,
+    ) {
+        (MediumEvent::Escape { weight }, _) => weight,
+        (MediumEvent::Scatter { t, weight }, phase) => {
+            let f = transmittance_over_survival::<CHROM>(hom, t - t0);
+            return (
+                MediumEvent::Scatter {
+                    t,
+                    weight: weight * f,
+                },
+                phase,
+            );
         }
-        let m: &VdbMedium = m;
-        match sample_vdb::<EMIT, ABS, CHROM>(
-            m,
-            ray,
-            a,
-            b.min(t_h),
-            beta * weight,
-            cfg,
-            rng,
-            stats,
-            l,
-        ) {
-            MediumEvent::Escape { weight: w } => weight *= w,
-            MediumEvent::Scatter { t, weight: w } => {
-                let f = transmittance_over_survival::<CHROM>(hom, t - t0);
-                return (
-                    MediumEvent::Scatter {
-                        t,
-                        weight: weight * w * f,
-                    },
-                    m.phase,
-                );
-            }
-            MediumEvent::Absorb => return (MediumEvent::Absorb, m.phase),
-        }
-    }
+        absorb => return absorb,
+    };
     let event = match hom_event {
         MediumEvent::Scatter { t, weight: w } => MediumEvent::Scatter {
             t,

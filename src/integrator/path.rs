@@ -7,8 +7,8 @@ use glam::{Vec2, Vec3};
 use super::bsdf::{fresnel_dielectric, refract, Principled};
 use super::lights::{emitted, power_heuristic};
 use super::media::{
-    sample_homogeneous, sample_vdb, transmittance_homogeneous, transmittance_vdb, MediaStats,
-    MediumEvent, TrackingConfig,
+    sample_homogeneous, sample_vdb_in_turn, transmittance_homogeneous, transmittance_vdb,
+    MediaStats, MediumEvent, TrackingConfig,
 };
 use super::mixture::{sample_mixture, VdbSpan};
 use super::nested::{nested_applies, sample_nested};
@@ -70,13 +70,13 @@ const INLINE_SPANS: usize = 4;
 /// [`INLINE_SPANS`] inline (no allocation on the hot path), any number on the heap. (The size
 /// difference is the point: the inline variant lives on the stack of one flight.)
 #[allow(clippy::large_enum_variant)]
-enum Spans {
-    Inline([(usize, f32, f32); INLINE_SPANS], usize),
-    Heap(Vec<(usize, f32, f32)>),
+enum Spans<'a> {
+    Inline([VdbSpan<'a>; INLINE_SPANS], usize),
+    Heap(Vec<VdbSpan<'a>>),
 }
 
-impl std::ops::Deref for Spans {
-    type Target = [(usize, f32, f32)];
+impl<'a> std::ops::Deref for Spans<'a> {
+    type Target = [VdbSpan<'a>];
     fn deref(&self) -> &Self::Target {
         match self {
             Spans::Inline(a, n) => &a[..*n],
@@ -85,11 +85,15 @@ impl std::ops::Deref for Spans {
     }
 }
 
-/// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, sorted by
-/// start (disjoint unless media overlap).
-fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
-    let mut out = Spans::Inline([(0usize, 0f32, 0f32); INLINE_SPANS], 0);
-    for (k, m) in rs.vdb.iter().enumerate() {
+/// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, with the
+/// medium, sorted by start (disjoint unless media overlap).
+fn vdb_intervals<'a>(rs: &'a RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans<'a> {
+    // The inline slots need some medium until they are filled; none: nothing to cross.
+    let Some(first) = rs.vdb.first() else {
+        return Spans::Heap(Vec::new());
+    };
+    let mut out = Spans::Inline([(first, 0f32, 0f32); INLINE_SPANS], 0);
+    for m in &rs.vdb {
         let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) else {
             continue;
         };
@@ -99,15 +103,15 @@ fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
         }
         match &mut out {
             Spans::Inline(arr, n) if *n < arr.len() => {
-                arr[*n] = (k, a, b);
+                arr[*n] = (m, a, b);
                 *n += 1;
             }
             Spans::Inline(arr, n) => {
                 let mut v = arr[..*n].to_vec();
-                v.push((k, a, b));
+                v.push((m, a, b));
                 out = Spans::Heap(v);
             }
-            Spans::Heap(v) => v.push((k, a, b)),
+            Spans::Heap(v) => v.push((m, a, b)),
         }
     }
     match &mut out {
@@ -118,7 +122,7 @@ fn vdb_intervals(rs: &RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans {
 }
 
 /// Whether sorted intervals overlap one another.
-fn intervals_overlap(iv: &[(usize, f32, f32)]) -> bool {
+fn intervals_overlap(iv: &[VdbSpan]) -> bool {
     iv.windows(2).any(|w| w[1].1 < w[0].2)
 }
 
@@ -154,27 +158,15 @@ fn sample_media<
         let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
         let overlap = intervals_overlap(&iv);
         if (hom.is_some() && n > 0) || overlap {
-            // The spans with their media, inline like `iv` (n > 0 here: overlap needs two).
-            let mut inline = [(&rs.vdb[iv[0].0], 0.0f32, 0.0f32); INLINE_SPANS];
-            let heap: Vec<VdbSpan>;
-            let spans: &[VdbSpan] = if n <= INLINE_SPANS {
-                for (slot, &(k, a, b)) in inline.iter_mut().zip(iv.iter()) {
-                    *slot = (&rs.vdb[k], a, b);
-                }
-                &inline[..n]
-            } else {
-                heap = iv.iter().map(|&(k, a, b)| (&rs.vdb[k], a, b)).collect();
-                &heap
-            };
             // VDB media side by side inside the homogeneous one: its closed-form flight cuts
             // theirs short (`nested`); overlapping VDB media need the merged sum.
-            if let Some(h) = hom.filter(|h| !overlap && nested_applies(spans, h, cfg.absorption)) {
+            if let Some(h) = hom.filter(|h| !overlap && nested_applies(&iv, h, cfg.absorption)) {
                 return sample_nested::<EMIT, ABS, CHROM>(
-                    spans, h, ray, t0, t1, beta, cfg, rng, stats, l,
+                    &iv, h, ray, t0, t1, beta, cfg, rng, stats, l,
                 );
             }
             return sample_mixture::<EMIT, ABS, CHROM>(
-                spans, hom, ray, t0, t1, beta, cfg, rng, stats, l,
+                &iv, hom, ray, t0, t1, beta, cfg, rng, stats, l,
             );
         }
     }
@@ -188,26 +180,22 @@ fn sample_media<
             return (ev, h.phase);
         }
     }
-    let mut weight = Vec3::ONE;
     if HET {
-        for &(k, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
-            let m = &rs.vdb[k];
-            match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, cfg, rng, stats, l) {
-                MediumEvent::Escape { weight: w } => weight *= w,
-                MediumEvent::Scatter { t, weight: w } => {
-                    return (
-                        MediumEvent::Scatter {
-                            t,
-                            weight: weight * w,
-                        },
-                        m.phase,
-                    )
-                }
-                MediumEvent::Absorb => return (MediumEvent::Absorb, m.phase),
-            }
-        }
+        return sample_vdb_in_turn::<EMIT, ABS, CHROM>(
+            vdb_intervals(rs, ray, t0, t1).iter().copied(),
+            t1,
+            ray,
+            beta,
+            cfg,
+            rng,
+            stats,
+            l,
+        );
     }
-    (MediumEvent::Escape { weight }, HenyeyGreenstein::new(0.0))
+    (
+        MediumEvent::Escape { weight: Vec3::ONE },
+        HenyeyGreenstein::new(0.0),
+    )
 }
 
 /// Transmittance from `p` along unit `wi` over distance `dist`, through media and null
@@ -248,8 +236,8 @@ fn transmittance<
             }
         }
         if HET && (MIX || medium.is_none()) {
-            for &(k, a, b) in vdb_intervals(rs, &ray, t0, t1).iter() {
-                tr *= transmittance_vdb::<CHROM>(&rs.vdb[k], &ray, a, b, cfg, rng, stats);
+            for &(m, a, b) in vdb_intervals(rs, &ray, t0, t1).iter() {
+                tr *= transmittance_vdb::<CHROM>(m, &ray, a, b, cfg, rng, stats);
                 if tr == Vec3::ZERO {
                     return tr;
                 }
