@@ -165,6 +165,29 @@ fn vdb_flight(k: u32, ps: ptr<function, GpuPathState>, rng: ptr<function, Rng>, 
     return f;
 }
 
+// media.rs sample_vdb_in_turn: vdb_flight through the media of `spans` one after another,
+// each over its span cut at t_end; the first scattering or absorption ends it (its weight
+// times the escape weights before it), else an escape with the product of the weights.
+fn vdb_flights_in_turn(spans: Spans, t_end: f32, ps: ptr<function, GpuPathState>,
+                       rng: ptr<function, Rng>) -> Flight {
+    var weight = vec3<f32>(1.0);
+    for (var i = 0u; i < spans.n; i++) {
+        if (!(spans.a[i] < t_end)) {
+            break;
+        }
+        let fi = vdb_flight(spans.k[i], ps, rng, spans.a[i], min(spans.b[i], t_end),
+                            (*ps).beta * weight);
+        if (fi.event == EVENT_ESCAPE) {
+            weight *= fi.weight;
+            continue;
+        }
+        var f = fi;
+        f.weight = weight * fi.weight;
+        return f;
+    }
+    return Flight(EVENT_ESCAPE, 0.0, weight, 0.0);
+}
+
 // The raw density of stream i's medium at ray parameter t (GridField::at_index).
 fn mix_density(i: u32, t: f32) -> f32 {
     let g = vdb_media[mix_streams[i].medium].grid;
@@ -524,24 +547,15 @@ fn nested_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>,
     if (ev.event == EVENT_SCATTER) {
         t_h = t0 + ev.t;
     }
-    var weight = vec3<f32>(1.0);
-    for (var i = 0u; i < spans.n; i++) {
-        if (!(spans.a[i] < t_h)) {
-            break;
-        }
-        let fi = vdb_flight(spans.k[i], ps, rng, spans.a[i], min(spans.b[i], t_h),
-                            (*ps).beta * weight);
-        if (fi.event == EVENT_ESCAPE) {
-            weight *= fi.weight;
-            continue;
-        }
-        var f = fi;
-        f.weight = weight * fi.weight;
-        if (fi.event == EVENT_SCATTER) {
-            f.weight *= nested_tr_over_survival(h, fi.t - t0);
-        }
+    // Then the VDB media in turn, each cut at t_h.
+    var f = vdb_flights_in_turn(spans, t_h, ps, rng);
+    if (f.event == EVENT_SCATTER) {
+        f.weight *= nested_tr_over_survival(h, f.t - t0);
+    }
+    if (f.event != EVENT_ESCAPE) {
         return f;
     }
+    let weight = f.weight;
     if (ev.event == EVENT_SCATTER) {
         return Flight(EVENT_SCATTER, t_h, weight * ev.weight, h.g);
     }
@@ -579,20 +593,7 @@ fn sample_media_mix(ps: ptr<function, GpuPathState>, rng0: Rng, t_hit: f32) -> F
         f = Flight(ev.event, t0 + ev.t, ev.weight, h.g);
 // #endif
     } else {
-        var weight = vec3<f32>(1.0);
-        for (var i = 0u; i < spans.n; i++) {
-            let fi = vdb_flight(spans.k[i], ps, &rng, spans.a[i], spans.b[i], (*ps).beta * weight);
-            if (fi.event == EVENT_ESCAPE) {
-                weight *= fi.weight;
-                continue;
-            }
-            f = fi;
-            f.weight = weight * fi.weight;
-            break;
-        }
-        if (f.event == EVENT_ESCAPE) {
-            f.weight = weight;
-        }
+        f = vdb_flights_in_turn(spans, t_hit, ps, &rng);
     }
     (*ps).rng_state = rng.state;
     (*ps).rng_inc = rng.inc;
