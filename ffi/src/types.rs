@@ -46,7 +46,7 @@ pub struct GridInfo {
 }
 
 /// One 8^3 leaf node exactly as OpenVDB stores it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Leaf {
     /// Index-space coordinate of voxel (0, 0, 0) of the leaf; a multiple of 8 on each axis.
     pub origin: [i32; 3],

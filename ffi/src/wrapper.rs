@@ -193,6 +193,9 @@ impl Drop for VdbFile {
     }
 }
 
+/// The environment variable that makes [`VdbFile::open`] read in this process (profiling).
+pub const IN_PROCESS_ENV: &str = "BRUME_VDB_IN_PROCESS";
+
 impl VdbFile {
     /// Opens and reads the whole file. Errors (missing file, a directory, an empty or
     /// truncated file, random bytes) name the file and the problem.
@@ -201,8 +204,17 @@ impl VdbFile {
     /// 10's reader trusts some lengths in the file and overflows the heap on a corrupt one, so
     /// a crash there must not take the renderer down. The child's time limit is
     /// [`read_timeout`] for the file's size.
+    ///
+    /// With the environment variable [`IN_PROCESS_ENV`] set (to anything), it reads as
+    /// [`VdbFile::open_trusted`] instead: a profiler that runs the renderer on a simulated CPU
+    /// (valgrind's callgrind, as `tools/bench/callgrind-majorants.sh` does) cannot follow the
+    /// re-executed reader, so the file must be read in the process it watches. Only for files
+    /// you trust.
     pub fn open(path: impl AsRef<Path>) -> Result<Self, VdbError> {
         let path = path.as_ref();
+        if std::env::var_os(IN_PROCESS_ENV).is_some() {
+            return Self::open_trusted(path);
+        }
         let c = c_path(path)?;
         let timeout = std::fs::metadata(path)
             .map(|m| read_timeout(m.len()))
