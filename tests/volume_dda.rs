@@ -210,6 +210,14 @@ proptest! {
         let cell_box = grid.index_bounds();
         let walk_box = brume::math::Aabb::new(cell_box.min.max(lo), cell_box.max.min(hi));
         let want = walk_box.intersect(&ray, t0, t0 + len).filter(|(a, b)| a < b);
+        // The global bound's walk (a one-cell box, which skips the DDA's set-up) is one
+        // segment over the same overlap, bit for bit.
+        let global: Vec<_> =
+            DdaMajorantIterator::global(&bounds, &ray, t0, t0 + len, 1.0).collect();
+        let global_ends: Vec<_> =
+            global.iter().map(|s| (s.t_min.to_bits(), s.t_max.to_bits())).collect();
+        prop_assert_eq!(global_ends, want.map(|(a, b)| (a.to_bits(), b.to_bits())).into_iter().collect::<Vec<_>>());
+        prop_assert!(global.iter().all(|s| s.sigma_maj == bounds.global.max && s.sigma_min == bounds.global.min));
         match want {
             None => prop_assert!(segs.is_empty()),
             Some((a, b)) => {

@@ -33,6 +33,7 @@ pub(crate) struct BoxEntry {
 /// the walk never starts before it nor runs past it), or `None` when the overlap is empty (or
 /// the box is).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub(crate) fn enter_box(
     lo: Vec3,
     width: Vec3,
@@ -168,6 +169,18 @@ impl DdaState {
             t_exit: 0.0,
             done: true,
         };
+        if dims == [1; 3] {
+            // One cell (the global bound, the culled walk): the walk is one segment from the
+            // entry to the exit, which `step` emits at once because no axis has a cell left
+            // (`left` 0). It needs neither steps nor planes, and the crossings stay infinite,
+            // so the per-axis set-up below (a fifth of a global-bound shadow ray's cost in
+            // callgrind) is skipped; `1 / d` is still needed, by the box's slab test.
+            it.inv_d = ray.d.to_array().map(|d| reciprocal_and_step(d).0);
+            if let Some(e) = enter_box(lo, width, dims, clip, ray, it.inv_d, t0, t1) {
+                (it.index, it.t, it.t_exit, it.done) = (0, e.t_enter, e.t_exit, false);
+            }
+            return it;
+        }
         let flat = [
             1isize,
             dims[0] as isize,
