@@ -2,13 +2,16 @@
 # The majorant modes' cost per sample counted by valgrind's callgrind instead of timed: the
 # instructions the render tiles execute and callgrind's cycle estimate (instructions + 10 per
 # L1 miss + 100 per last-level miss, kcachegrind's "CEst"), per camera sample, for each mode,
-# with adaptive's and per-leaf's ratios to the global bound.
+# with each mode's ratio to the global bound.
 #
 # Why: on a shared 2-core machine, timing the same code twice can differ by a third (README,
-# "Majorant modes"), so a render-time ratio of 1.15 cannot be told from 1.2. Counts are
-# deterministic for a fixed seed: run it twice, get the same figures. They are a model of
-# time, not time: the estimate prices every instruction alike and misses no latency chain, so
-# the dependent lookups of the global bound weigh less here than on a real CPU.
+# "Majorant modes"), so a render-time ratio of 1.15 cannot be told from 1.2, nor a change of
+# a few percent in one walk. The instruction counts repeat for the seed: run it twice, get
+# the same figures within 0.03 % (the cycle estimate moves by a few percent: the tiles' order follows
+# their measured times, and the addresses differ from run to run). Use them to count what a
+# change of code adds or removes. They are not time: every instruction counts alike and no
+# latency does, so the global bound's long chains of dependent lookups weigh much less here
+# than on a real CPU (the dense fog: 1.15x in instructions, 1.38-1.44x timed).
 #
 # Usage: tools/bench/callgrind-majorants.sh [--spp N] [--estimator E] [scene.gltf ...]
 #   (default: 4 spp at 160x120, delta tracking, the fire, the smoke tank, the Cornell smoke)
@@ -25,7 +28,7 @@ while [ $# -gt 0 ]; do
     case "$1" in
     --spp) spp=$2; shift 2 ;;
     --estimator) estimator=$2; shift 2 ;;
-    -h | --help) sed -n '2,18p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,21p' "$0"; exit 0 ;;
     *) scenes+=("$1"); shift ;;
     esac
 done
