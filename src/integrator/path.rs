@@ -88,34 +88,37 @@ impl<'a> std::ops::Deref for Spans<'a> {
 /// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, with the
 /// medium, sorted by start (disjoint unless media overlap).
 fn vdb_intervals<'a>(rs: &'a RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans<'a> {
-    // The inline slots need some medium until they are filled; none: nothing to cross.
-    let Some(first) = rs.vdb.first() else {
+    // `1 / d` once for every medium (`intersect_inv` is `intersect` bit for bit).
+    let inv_d = [0, 1, 2].map(|a| 1.0 / ray.d[a]);
+    let mut hits = rs.vdb.iter().filter_map(|m| {
+        let (a, b) = m.world_bounds.intersect_inv(ray.o, inv_d, t0, t1)?;
+        // NaN ends are skipped too.
+        (b > a).then_some((m, a, b))
+    });
+    // Most rays of a scene miss its media (nine in ten of the smoke tank's): an empty `Vec`
+    // costs nothing to build or return, where filling the inline slots cost a fifth of the
+    // call (callgrind).
+    let Some(first) = hits.next() else {
         return Spans::Heap(Vec::new());
     };
-    let mut out = Spans::Inline([(first, 0f32, 0f32); INLINE_SPANS], 0);
-    for m in &rs.vdb {
-        let Some((a, b)) = m.world_bounds.intersect(ray, t0, t1) else {
-            continue;
-        };
-        // NaN ends are skipped too.
-        if b.partial_cmp(&a) != Some(std::cmp::Ordering::Greater) {
-            continue;
-        }
+    let mut out = Spans::Inline([first; INLINE_SPANS], 1);
+    for span in hits {
         match &mut out {
             Spans::Inline(arr, n) if *n < arr.len() => {
-                arr[*n] = (m, a, b);
+                arr[*n] = span;
                 *n += 1;
             }
             Spans::Inline(arr, n) => {
                 let mut v = arr[..*n].to_vec();
-                v.push((m, a, b));
+                v.push(span);
                 out = Spans::Heap(v);
             }
-            Spans::Heap(v) => v.push((m, a, b)),
+            Spans::Heap(v) => v.push(span),
         }
     }
     match &mut out {
-        Spans::Inline(arr, n) => arr[..*n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
+        Spans::Inline(arr, n) if *n > 1 => arr[..*n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
+        Spans::Inline(..) => {}
         Spans::Heap(v) => v.sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
     }
     out
