@@ -155,21 +155,23 @@ fn sample_media<
     stats: &mut MediaStats,
     l: &mut Vec3,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    // The VDB spans, found once: the mixture test's are the flights' in turn below.
+    let mut spans = None;
     if MIX && HET {
-        let iv = vdb_intervals(rs, ray, t0, t1);
+        let iv = spans.insert(vdb_intervals(rs, ray, t0, t1));
         let n = iv.len();
         let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
-        let overlap = intervals_overlap(&iv);
+        let overlap = intervals_overlap(iv);
         if (hom.is_some() && n > 0) || overlap {
             // VDB media side by side inside the homogeneous one: its closed-form flight cuts
             // theirs short (`nested`); overlapping VDB media need the merged sum.
-            if let Some(h) = hom.filter(|h| !overlap && nested_applies(&iv, h, cfg.absorption)) {
+            if let Some(h) = hom.filter(|h| !overlap && nested_applies(iv, h, cfg.absorption)) {
                 return sample_nested::<EMIT, ABS, CHROM>(
-                    &iv, h, ray, t0, t1, beta, cfg, rng, stats, l,
+                    iv, h, ray, t0, t1, beta, cfg, rng, stats, l,
                 );
             }
             return sample_mixture::<EMIT, ABS, CHROM>(
-                &iv, hom, ray, t0, t1, beta, cfg, rng, stats, l,
+                iv, hom, ray, t0, t1, beta, cfg, rng, stats, l,
             );
         }
     }
@@ -184,8 +186,9 @@ fn sample_media<
         }
     }
     if HET {
+        let spans = spans.unwrap_or_else(|| vdb_intervals(rs, ray, t0, t1));
         return sample_vdb_in_turn::<EMIT, ABS, CHROM>(
-            vdb_intervals(rs, ray, t0, t1).iter().copied(),
+            spans.iter().copied(),
             t1,
             ray,
             beta,
