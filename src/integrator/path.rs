@@ -379,7 +379,7 @@ pub fn radiance<
     stats: &mut PathStats,
 ) -> Vec3 {
     let scene = rs.scene;
-    let (mut ray, mut t0) = scene.camera.primary_ray(film.x, film.y, aspect);
+    let (mut ray, mut t0) = rs.pinhole.primary_ray(film.x, film.y, aspect);
     let mut media = if HOM {
         rs.camera_media
     } else {

@@ -7,7 +7,7 @@ use super::lights::Lights;
 use super::media::{Blackbody, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::scene::nesting::Nesting;
-use crate::scene::{Material, Scene};
+use crate::scene::{Material, Pinhole, Scene};
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::{AdaptiveMajorants, CostModel};
 use std::sync::Arc;
@@ -137,6 +137,8 @@ pub struct RenderScene<'s> {
     /// The deepest nesting of media meshes (1: media meshes, none inside another; 0: none).
     pub nesting_depth: usize,
     pub features: FeatureFlags,
+    /// The scene camera's primary-ray frame, derived once (`Camera::pinhole`).
+    pub pinhole: Pinhole,
 }
 
 fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
@@ -316,6 +318,7 @@ impl<'s> RenderScene<'s> {
             camera_media,
             nesting_depth: nesting.deepest().map_or(0, |m| m.depth),
             features,
+            pinhole: scene.camera.pinhole(),
         })
     }
 }

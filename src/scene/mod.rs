@@ -39,7 +39,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec3, Vec3A};
 
-pub use camera::{Camera, CameraEntry, CameraSource};
+pub use camera::{Camera, CameraEntry, CameraSource, Pinhole};
 pub use effects::Effects;
 pub use error::SceneError;
 pub use lights::{Environment, PunctualLight, RADIOMETRIC_PER_PHOTOMETRIC};
