@@ -113,12 +113,24 @@ fn bvh_matches_brute_force_on_random_rays() {
     );
 }
 
-/// Meshes of at most `SMALL_MESH_TRIANGLES` triangles are hit by testing all of them four at
-/// a time: the hit record must be the scalar brute force's exactly (t, triangle, barycentrics;
-/// ties to the lowest index), on both sides of the threshold and for partial last batches,
-/// on random soups and on a closed box with rays from inside (the usual boundary mesh).
+/// Meshes of at most `SMALL_MESH_TRIANGLES` triangles are hit by testing all of them four or
+/// eight at a time: the hit record must be the scalar brute force's exactly (t, triangle,
+/// barycentrics; ties to the lowest index), at both widths, on both sides of the threshold and
+/// for partial last batches, on random soups and on a closed box with rays from inside (the
+/// usual boundary mesh).
 #[test]
 fn small_meshes_match_brute_force_exactly() {
+    use brume::accel::SmallMeshLanes;
+    small_meshes_match_brute_force(SmallMeshLanes::Four);
+    if SmallMeshLanes::Eight.available() {
+        small_meshes_match_brute_force(SmallMeshLanes::Eight);
+    } else {
+        // The renderer never takes the eight-lane test here, so there is nothing to check.
+        eprintln!("eight-lane small-mesh test not run: this CPU has no AVX");
+    }
+}
+
+fn small_meshes_match_brute_force(lanes: brume::accel::SmallMeshLanes) {
     use brume::accel::SMALL_MESH_TRIANGLES;
     let mut rng = Rng(11);
     let corner = |i: usize| {
@@ -156,7 +168,8 @@ fn small_meshes_match_brute_force_exactly() {
     }
     let mut hits = 0;
     for tris in &meshes {
-        let bvh = TriangleBvh::build(tris.clone());
+        let bvh = TriangleBvh::build_with(tris.clone(), lanes);
+        assert_eq!(bvh.small_lanes(), Some(lanes), "{} triangles", tris.len());
         for k in 0..3000 {
             let o = rng.vec(-0.9, 0.9) * if k % 2 == 0 { 1.0 } else { 6.0 };
             let d = rng.vec(-1.0, 1.0);
@@ -186,7 +199,7 @@ fn small_meshes_match_brute_force_exactly() {
             assert_eq!(
                 bits(got),
                 bits(expect),
-                "{} triangles, ray {k}: {got:?} against brute force {expect:?}",
+                "{} triangles, {lanes:?} lanes, ray {k}: {got:?} against brute force {expect:?}",
                 tris.len()
             );
             hits += got.is_some() as u32;

@@ -2,7 +2,7 @@
 //! (Ylitie et al. 2017, "Efficient incoherent ray traversal on GPUs through compressed wide
 //! BVHs"), built once and traversed on the CPU; its 80-byte nodes are ready for GPU upload.
 //! Meshes of at most [`SMALL_MESH_TRIANGLES`] triangles answer closest hits on the CPU by
-//! testing every triangle, four at a time (`small`), which is faster there; the GPU traverses
+//! testing every triangle, four or eight at a time (`small`), which is faster there; the GPU traverses
 //! the CWBVH whatever the size.
 use std::time::Duration;
 
@@ -13,8 +13,10 @@ use obvhs::BvhBuildParams;
 use crate::math::Ray;
 
 mod small;
+#[cfg(target_arch = "x86_64")]
+mod small_avx;
 use small::TriangleBatches;
-pub use small::SMALL_MESH_TRIANGLES;
+pub use small::{SmallMeshLanes, SMALL_MESH_TRIANGLES};
 
 /// A closest-hit record.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,8 +88,16 @@ impl std::fmt::Debug for TriangleBvh {
 
 impl TriangleBvh {
     /// Builds over `triangles` (corner positions). Degenerate triangles are allowed; they
-    /// are never hit.
+    /// are never hit. A small mesh is tested as wide as this CPU allows
+    /// ([`SmallMeshLanes::best`]).
     pub fn build(triangles: Vec<[Vec3A; 3]>) -> Self {
+        let lanes = SmallMeshLanes::best(triangles.len());
+        Self::build_with(triangles, lanes)
+    }
+
+    /// [`Self::build`] with a small mesh tested `lanes` wide where this CPU runs that, else four
+    /// wide (for tests of both widths; [`Self::small_lanes`] says which).
+    pub fn build_with(triangles: Vec<[Vec3A; 3]>, lanes: SmallMeshLanes) -> Self {
         if triangles.is_empty() {
             return Self {
                 bvh: None,
@@ -110,13 +120,19 @@ impl TriangleBvh {
             ..BvhBuildParams::medium_build()
         };
         let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
-        let small =
-            (triangles.len() <= SMALL_MESH_TRIANGLES).then(|| TriangleBatches::new(&triangles));
+        let small = (triangles.len() <= SMALL_MESH_TRIANGLES)
+            .then(|| TriangleBatches::new(&triangles, lanes));
         Self {
             bvh: Some(bvh),
             triangles,
             small,
         }
+    }
+
+    /// How this small mesh's closest hits test its triangles, `None` above
+    /// [`SMALL_MESH_TRIANGLES`] (the BVH answers) or with no triangles.
+    pub fn small_lanes(&self) -> Option<SmallMeshLanes> {
+        self.small.as_ref().map(TriangleBatches::lanes)
     }
 
     /// Number of triangles.

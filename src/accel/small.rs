@@ -1,4 +1,5 @@
-//! Closest hits on small meshes: every triangle tested, four at a time.
+//! Closest hits on small meshes: every triangle tested, four at a time (eight with AVX:
+//! [`super::small_avx`]).
 //!
 //! Most volume scenes have a handful of triangles: a box around the medium (a null interface
 //! or glass), a ground plane, a backdrop. There the CWBVH costs more than the triangles: one
@@ -24,17 +25,52 @@ pub const SMALL_MESH_TRIANGLES: usize = 32;
 
 /// Three coordinates of four triangles' corners and edges, one lane a triangle.
 #[derive(Clone, Copy, Debug)]
-struct Batch {
+pub(super) struct Batch {
     v0: [Vec4; 3],
     e1: [Vec4; 3],
     e2: [Vec4; 3],
 }
 
-/// A small mesh laid out for four-wide tests. Padding lanes are degenerate (zero edges, so a
-/// zero determinant), which the test rejects.
+/// How many triangles a small mesh's closest-hit test takes at a time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SmallMeshLanes {
+    /// SSE (every x86-64 CPU) or glam's portable `Vec4` elsewhere.
+    Four,
+    /// AVX, where the CPU has it (detected at run time).
+    Eight,
+}
+
+impl SmallMeshLanes {
+    /// Whether this CPU runs `self`.
+    pub fn available(self) -> bool {
+        match self {
+            SmallMeshLanes::Four => true,
+            #[cfg(target_arch = "x86_64")]
+            SmallMeshLanes::Eight => super::small_avx::available(),
+            #[cfg(not(target_arch = "x86_64"))]
+            SmallMeshLanes::Eight => false,
+        }
+    }
+
+    /// The widest this CPU runs for a mesh of `n` triangles: eight lanes pay only where they
+    /// halve the batches (more than four triangles).
+    pub fn best(n: usize) -> Self {
+        if n > 4 && SmallMeshLanes::Eight.available() {
+            SmallMeshLanes::Eight
+        } else {
+            SmallMeshLanes::Four
+        }
+    }
+}
+
+/// A small mesh laid out for four- or eight-wide tests. Padding lanes are degenerate (zero
+/// edges, so a zero determinant), which the test rejects.
 #[derive(Clone, Debug)]
-pub(super) struct TriangleBatches {
-    batches: Vec<Batch>,
+pub(super) enum TriangleBatches {
+    Four(Vec<Batch>),
+    /// Built only where [`SmallMeshLanes::Eight`] is available.
+    #[cfg(target_arch = "x86_64")]
+    Eight(Vec<super::small_avx::Batch8>),
 }
 
 #[inline(always)]
@@ -54,7 +90,13 @@ fn dot(a: [Vec4; 3], b: [Vec4; 3]) -> Vec4 {
 }
 
 impl TriangleBatches {
-    pub(super) fn new(triangles: &[[Vec3A; 3]]) -> Self {
+    /// `lanes` wide where this CPU runs it, else four wide.
+    pub(super) fn new(triangles: &[[Vec3A; 3]], lanes: SmallMeshLanes) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if lanes == SmallMeshLanes::Eight && lanes.available() {
+            return TriangleBatches::Eight(super::small_avx::batches(triangles));
+        }
+        let _ = lanes;
         let batches = triangles
             .chunks(4)
             .map(|four| {
@@ -76,47 +118,70 @@ impl TriangleBatches {
                 b
             })
             .collect();
-        Self { batches }
+        TriangleBatches::Four(batches)
+    }
+
+    /// The lanes these batches are tested with.
+    pub(super) fn lanes(&self) -> SmallMeshLanes {
+        match self {
+            TriangleBatches::Four(_) => SmallMeshLanes::Four,
+            #[cfg(target_arch = "x86_64")]
+            TriangleBatches::Eight(_) => SmallMeshLanes::Eight,
+        }
     }
 
     /// The nearest hit with `t` in `[t_min, t_max]`, ties to the lowest triangle index.
+    #[inline]
     pub(super) fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let o = [0, 1, 2].map(|a| Vec4::splat(ray.o[a]));
-        let d = [0, 1, 2].map(|a| Vec4::splat(ray.d[a]));
-        let (t_lo, t_hi) = (Vec4::splat(t_min), Vec4::splat(t_max));
-        let mut best: Option<Hit> = None;
-        for (k, b) in self.batches.iter().enumerate() {
-            // Moller-Trumbore as in intersect_triangle, with every comparison computed.
-            let p = cross(d, b.e2);
-            let det = dot(b.e1, p);
-            let inv = Vec4::ONE / det;
-            let s = [0, 1, 2].map(|a| o[a] - b.v0[a]);
-            let b1 = dot(s, p) * inv;
-            let q = cross(s, b.e1);
-            let b2 = dot(d, q) * inv;
-            let t = dot(b.e2, q) * inv;
-            let hit = det.cmpne(Vec4::ZERO)
-                & det.is_finite_mask()
-                & b1.cmpge(Vec4::ZERO)
-                & b1.cmple(Vec4::ONE)
-                & b2.cmpge(Vec4::ZERO)
-                & (b1 + b2).cmple(Vec4::ONE)
-                & t.cmpge(t_lo)
-                & t.cmple(t_hi);
-            let mut lanes = hit.bitmask();
-            while lanes != 0 {
-                let lane = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                if best.map_or(true, |h| t[lane] < h.t) {
-                    best = Some(Hit {
-                        t: t[lane],
-                        triangle: (4 * k + lane) as u32,
-                        b1: b1[lane],
-                        b2: b2[lane],
-                    });
-                }
+        match self {
+            TriangleBatches::Four(batches) => closest_hit4(batches, ray, t_min, t_max),
+            // SAFETY: `Eight` is built only where the CPU has AVX (`new`).
+            #[cfg(target_arch = "x86_64")]
+            TriangleBatches::Eight(batches) => unsafe {
+                super::small_avx::closest_hit(batches, ray, t_min, t_max)
+            },
+        }
+    }
+}
+
+/// The four-wide test: the nearest hit with `t` in `[t_min, t_max]`, ties to the lowest
+/// triangle index.
+fn closest_hit4(batches: &[Batch], ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+    let o = [0, 1, 2].map(|a| Vec4::splat(ray.o[a]));
+    let d = [0, 1, 2].map(|a| Vec4::splat(ray.d[a]));
+    let (t_lo, t_hi) = (Vec4::splat(t_min), Vec4::splat(t_max));
+    let mut best: Option<Hit> = None;
+    for (k, b) in batches.iter().enumerate() {
+        // Moller-Trumbore as in intersect_triangle, with every comparison computed.
+        let p = cross(d, b.e2);
+        let det = dot(b.e1, p);
+        let inv = Vec4::ONE / det;
+        let s = [0, 1, 2].map(|a| o[a] - b.v0[a]);
+        let b1 = dot(s, p) * inv;
+        let q = cross(s, b.e1);
+        let b2 = dot(d, q) * inv;
+        let t = dot(b.e2, q) * inv;
+        let hit = det.cmpne(Vec4::ZERO)
+            & det.is_finite_mask()
+            & b1.cmpge(Vec4::ZERO)
+            & b1.cmple(Vec4::ONE)
+            & b2.cmpge(Vec4::ZERO)
+            & (b1 + b2).cmple(Vec4::ONE)
+            & t.cmpge(t_lo)
+            & t.cmple(t_hi);
+        let mut lanes = hit.bitmask();
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            if best.map_or(true, |h| t[lane] < h.t) {
+                best = Some(Hit {
+                    t: t[lane],
+                    triangle: (4 * k + lane) as u32,
+                    b1: b1[lane],
+                    b2: b2[lane],
+                });
             }
         }
-        best
     }
+    best
 }
