@@ -146,9 +146,12 @@ impl TriangleBatches {
 
 /// The four-wide test: the nearest hit with `t` in `[t_min, t_max]`, ties to the lowest
 /// triangle index.
+#[inline]
 fn closest_hit4(batches: &[Batch], ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-    let o = [0, 1, 2].map(|a| Vec4::splat(ray.o[a]));
-    let d = [0, 1, 2].map(|a| Vec4::splat(ray.d[a]));
+    // Written out: `[0, 1, 2].map(..)` here was left as a call to `try_map` (46 instructions a
+    // sample on the fire, callgrind).
+    let splat = |v: crate::math::Vec3| [Vec4::splat(v.x), Vec4::splat(v.y), Vec4::splat(v.z)];
+    let (o, d) = (splat(ray.o), splat(ray.d));
     let (t_lo, t_hi) = (Vec4::splat(t_min), Vec4::splat(t_max));
     let mut best: Option<Hit> = None;
     for (k, b) in batches.iter().enumerate() {
@@ -156,7 +159,7 @@ fn closest_hit4(batches: &[Batch], ray: &Ray, t_min: f32, t_max: f32) -> Option<
         let p = cross(d, b.e2);
         let det = dot(b.e1, p);
         let inv = Vec4::ONE / det;
-        let s = [0, 1, 2].map(|a| o[a] - b.v0[a]);
+        let s = [o[0] - b.v0[0], o[1] - b.v0[1], o[2] - b.v0[2]];
         let b1 = dot(s, p) * inv;
         let q = cross(s, b.e1);
         let b2 = dot(d, q) * inv;
