@@ -55,6 +55,26 @@ pub struct VdbMedium {
     /// says that pays (`volume::voxel_bounds::voxel_culling_pays`, decided when the render is
     /// prepared).
     pub voxel_culling_pays: bool,
+    /// Whether [`LeafCulling::new`] and [`VoxelCulling::new`] accept this medium's bounds
+    /// ([`Self::bounds`], its grid's cells and `sigma_t_bound`): answered once, where the
+    /// render is prepared, rather than at every flight's set-up.
+    pub culling_sound: CullingSound,
+}
+
+/// What [`LeafCulling::new`] and [`VoxelCulling::new`] answer for one medium.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CullingSound {
+    pub leaf: bool,
+    pub voxel: bool,
+}
+
+impl CullingSound {
+    pub fn of(bounds: &LeafBounds, entries: &[u32], sigma_t_bound: f32) -> Self {
+        CullingSound {
+            leaf: LeafCulling::new(bounds).is_some(),
+            voxel: VoxelCulling::new(bounds, entries, sigma_t_bound).is_some(),
+        }
+    }
 }
 
 impl VdbMedium {
@@ -123,11 +143,8 @@ impl VdbMedium {
     /// culls, and only where [`LeafCulling::new`] finds it sound.
     #[inline]
     pub fn culling(&self, mode: MajorantMode) -> Option<LeafCulling<'_>> {
-        if self.walk_mode(mode) == MajorantMode::Culled {
-            LeafCulling::new(self.bounds())
-        } else {
-            None
-        }
+        (self.culling_sound.leaf && self.walk_mode(mode) == MajorantMode::Culled)
+            .then(|| LeafCulling::accepted(self.bounds()))
     }
 
     /// The per-voxel culling of this medium's walk under `mode`: the per-leaf DDA and the
@@ -136,15 +153,15 @@ impl VdbMedium {
     /// [`VoxelCulling::new`] finds it sound.
     #[inline]
     pub fn voxel_culling(&self, mode: MajorantMode) -> Option<VoxelCulling<'_>> {
-        if !self.voxel_culling_pays {
+        if !(self.voxel_culling_pays && self.culling_sound.voxel) {
             return None;
         }
         match self.walk_mode(mode) {
-            MajorantMode::Leaf | MajorantMode::Culled => VoxelCulling::new(
+            MajorantMode::Leaf | MajorantMode::Culled => Some(VoxelCulling::accepted(
                 self.bounds(),
                 &self.density.grid.grid.cells,
                 self.sigma_t_bound,
-            ),
+            )),
             _ => None,
         }
     }

@@ -4,7 +4,9 @@
 use glam::{Affine3A, Mat4, Vec3};
 
 use super::lights::Lights;
-use super::media::{Blackbody, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium};
+use super::media::{
+    Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
+};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Pinhole, Scene};
@@ -226,7 +228,9 @@ impl<'s> RenderScene<'s> {
             let kept = crate::volume::voxel_bounds::kept_fraction(&density.grid.grid, bounds);
             let voxel_culling_pays =
                 crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
+            let culling_sound = CullingSound::of(bounds, &density.grid.grid.cells, sigma_t_bound);
             vdb.push(VdbMedium {
+                culling_sound,
                 voxel_culling_pays,
                 density,
                 world_bounds: desc.world_bounds,

@@ -50,6 +50,18 @@ impl<'a> LeafCulling<'a> {
         })
     }
 
+    /// [`Self::new`] for bounds it has already accepted: the walk's set-up, which runs for
+    /// every flight, skips the checks whose answer the caller keeps (`VdbMedium`).
+    #[inline(always)]
+    pub fn accepted(bounds: &'a LeafBounds) -> Self {
+        debug_assert!(Self::new(bounds).is_some());
+        LeafCulling {
+            bounds,
+            lo: bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH),
+            global_max: bounds.global.max,
+        }
+    }
+
     /// Whether culling a walk over the global bounds `g` is sound and can cull: `g.min` is
     /// exactly 0 and `g.max` positive and finite.
     pub fn is_sound(g: CellBounds) -> bool {
@@ -127,6 +139,17 @@ impl<'a> VoxelCulling<'a> {
                 entries,
                 scale,
             })
+    }
+
+    /// [`Self::new`] for arguments it has already accepted (as [`LeafCulling::accepted`]).
+    #[inline(always)]
+    pub fn accepted(bounds: &'a LeafBounds, entries: &'a [u32], scale: f32) -> Self {
+        debug_assert!(Self::new(bounds, entries, scale).is_some());
+        VoxelCulling {
+            bounds,
+            entries,
+            scale,
+        }
     }
 
     /// `r` in `[0, 1]` for the collision at index-space point `p` sampled with raw majorant
