@@ -97,25 +97,12 @@ impl TriangleBatches {
             return TriangleBatches::Eight(super::small_avx::batches(triangles));
         }
         let _ = lanes;
-        let batches = triangles
-            .chunks(4)
-            .map(|four| {
-                let mut b = Batch {
-                    v0: [Vec4::ZERO; 3],
-                    e1: [Vec4::ZERO; 3],
-                    e2: [Vec4::ZERO; 3],
-                };
-                for (lane, v) in four.iter().enumerate() {
-                    // The same subtractions as intersect_triangle's.
-                    let e1 = v[1] - v[0];
-                    let e2 = v[2] - v[0];
-                    for a in 0..3 {
-                        b.v0[a][lane] = v[0][a];
-                        b.e1[a][lane] = e1[a];
-                        b.e2[a][lane] = e2[a];
-                    }
-                }
-                b
+        let batches = lane_rows::<4>(triangles)
+            .into_iter()
+            .map(|[v0, e1, e2]| Batch {
+                v0: v0.map(Vec4::from_array),
+                e1: e1.map(Vec4::from_array),
+                e2: e2.map(Vec4::from_array),
             })
             .collect();
         TriangleBatches::Four(batches)
@@ -172,19 +159,57 @@ fn closest_hit4(batches: &[Batch], ray: &Ray, t_min: f32, t_max: f32) -> Option<
             & (b1 + b2).cmple(Vec4::ONE)
             & t.cmpge(t_lo)
             & t.cmple(t_hi);
-        let mut lanes = hit.bitmask();
-        while lanes != 0 {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            if best.map_or(true, |h| t[lane] < h.t) {
-                best = Some(Hit {
-                    t: t[lane],
-                    triangle: (4 * k + lane) as u32,
-                    b1: b1[lane],
-                    b2: b2[lane],
-                });
-            }
+        let lanes = hit.bitmask();
+        if lanes != 0 {
+            let lane_hits = [t.to_array(), b1.to_array(), b2.to_array()];
+            take_hits(&mut best, lanes, 4 * k, &lane_hits);
         }
     }
     best
+}
+
+/// Each triangle's first corner and two edges by coordinate and lane, `N` triangles to a
+/// batch (`[v0, e1, e2][axis][lane]`): the same subtractions as `intersect_triangle`'s, and
+/// all-zero padding lanes (a zero determinant: never hit).
+pub(super) fn lane_rows<const N: usize>(triangles: &[[Vec3A; 3]]) -> Vec<[[[f32; N]; 3]; 3]> {
+    triangles
+        .chunks(N)
+        .map(|chunk| {
+            let mut rows = [[[0.0; N]; 3]; 3];
+            for (lane, v) in chunk.iter().enumerate() {
+                let e1 = v[1] - v[0];
+                let e2 = v[2] - v[0];
+                for a in 0..3 {
+                    rows[0][a][lane] = v[0][a];
+                    rows[1][a][lane] = e1[a];
+                    rows[2][a][lane] = e2[a];
+                }
+            }
+            rows
+        })
+        .collect()
+}
+
+/// Folds the hit lanes of one batch (bits of `lanes`; `[t, b1, b2]` by lane) into `best`, the
+/// batch's first triangle being `first`: lowest lane first and only a strictly nearer hit
+/// replaces the best, so ties go to the lowest triangle index.
+#[inline(always)]
+pub(super) fn take_hits<const N: usize>(
+    best: &mut Option<Hit>,
+    mut lanes: u32,
+    first: usize,
+    [t, b1, b2]: &[[f32; N]; 3],
+) {
+    while lanes != 0 {
+        let lane = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        if best.map_or(true, |h| t[lane] < h.t) {
+            *best = Some(Hit {
+                t: t[lane],
+                triangle: (first + lane) as u32,
+                b1: b1[lane],
+                b2: b2[lane],
+            });
+        }
+    }
 }

@@ -33,26 +33,9 @@ pub(super) fn available() -> bool {
 
 /// The triangles eight to a batch.
 pub(super) fn batches(triangles: &[[Vec3A; 3]]) -> Vec<Batch8> {
-    triangles
-        .chunks(8)
-        .map(|eight| {
-            let mut b = Batch8 {
-                v0: [[0.0; 8]; 3],
-                e1: [[0.0; 8]; 3],
-                e2: [[0.0; 8]; 3],
-            };
-            for (lane, v) in eight.iter().enumerate() {
-                // The same subtractions as intersect_triangle's.
-                let e1 = v[1] - v[0];
-                let e2 = v[2] - v[0];
-                for a in 0..3 {
-                    b.v0[a][lane] = v[0][a];
-                    b.e1[a][lane] = e1[a];
-                    b.e2[a][lane] = e2[a];
-                }
-            }
-            b
-        })
+    super::small::lane_rows::<8>(triangles)
+        .into_iter()
+        .map(|[v0, e1, e2]| Batch8 { v0, e1, e2 })
         .collect()
 }
 
@@ -158,26 +141,15 @@ pub(super) unsafe fn closest_hit(
         hit = and(hit, _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_add_ps(b1, b2), one));
         hit = and(hit, _mm256_cmp_ps::<_CMP_GE_OQ>(t, t_lo));
         hit = and(hit, _mm256_cmp_ps::<_CMP_LE_OQ>(t, t_hi));
-        let mut lanes = _mm256_movemask_ps(hit) as u32;
+        let lanes = _mm256_movemask_ps(hit) as u32;
         if lanes == 0 {
             continue;
         }
-        let (mut ts, mut b1s, mut b2s) = ([0.0f32; 8], [0.0f32; 8], [0.0f32; 8]);
-        _mm256_storeu_ps(ts.as_mut_ptr(), t);
-        _mm256_storeu_ps(b1s.as_mut_ptr(), b1);
-        _mm256_storeu_ps(b2s.as_mut_ptr(), b2);
-        while lanes != 0 {
-            let lane = lanes.trailing_zeros() as usize;
-            lanes &= lanes - 1;
-            if best.map_or(true, |h| ts[lane] < h.t) {
-                best = Some(Hit {
-                    t: ts[lane],
-                    triangle: (8 * k + lane) as u32,
-                    b1: b1s[lane],
-                    b2: b2s[lane],
-                });
-            }
-        }
+        let mut lane_hits = [[0.0f32; 8]; 3];
+        _mm256_storeu_ps(lane_hits[0].as_mut_ptr(), t);
+        _mm256_storeu_ps(lane_hits[1].as_mut_ptr(), b1);
+        _mm256_storeu_ps(lane_hits[2].as_mut_ptr(), b2);
+        super::small::take_hits(&mut best, lanes, 8 * k, &lane_hits);
     }
     best
 }
