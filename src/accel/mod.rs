@@ -2,8 +2,8 @@
 //! (Ylitie et al. 2017, "Efficient incoherent ray traversal on GPUs through compressed wide
 //! BVHs"), built once and traversed on the CPU; its 80-byte nodes are ready for GPU upload.
 //! Meshes of at most [`SMALL_MESH_TRIANGLES`] triangles answer closest hits on the CPU by
-//! testing every triangle, four or eight at a time (`small`), which is faster there; the GPU traverses
-//! the CWBVH whatever the size.
+//! testing every triangle, four or eight at a time (`small`), which is faster there; the GPU
+//! traverses the CWBVH whatever the size.
 use std::time::Duration;
 
 use glam::Vec3A;

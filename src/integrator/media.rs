@@ -55,13 +55,13 @@ pub struct VdbMedium {
     /// says that pays (`volume::voxel_bounds::voxel_culling_pays`, decided when the render is
     /// prepared).
     pub voxel_culling_pays: bool,
-    /// Whether [`LeafCulling::new`] and [`VoxelCulling::new`] accept this medium's bounds
+    /// What [`LeafCulling::accepts`] and [`VoxelCulling::accepts`] say of this medium's bounds
     /// ([`Self::bounds`], its grid's cells and `sigma_t_bound`): answered once, where the
     /// render is prepared, rather than at every flight's set-up.
     pub culling_sound: CullingSound,
 }
 
-/// What [`LeafCulling::new`] and [`VoxelCulling::new`] answer for one medium.
+/// What [`LeafCulling::accepts`] and [`VoxelCulling::accepts`] answer for one medium.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CullingSound {
     pub leaf: bool,
@@ -71,8 +71,8 @@ pub struct CullingSound {
 impl CullingSound {
     pub fn of(bounds: &LeafBounds, entries: &[u32], sigma_t_bound: f32) -> Self {
         CullingSound {
-            leaf: LeafCulling::new(bounds).is_some(),
-            voxel: VoxelCulling::new(bounds, entries, sigma_t_bound).is_some(),
+            leaf: LeafCulling::accepts(bounds),
+            voxel: VoxelCulling::accepts(bounds, entries, sigma_t_bound),
         }
     }
 }

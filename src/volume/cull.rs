@@ -39,22 +39,19 @@ impl<'a> LeafCulling<'a> {
     /// not help: a global minimum other than 0 (the segment's control would not vanish), a
     /// global maximum that is not positive, or no cells.
     pub fn new(bounds: &'a LeafBounds) -> Option<Self> {
-        let g = bounds.global;
-        if bounds.cells.is_empty() || !Self::is_sound(g) {
-            return None;
-        }
-        Some(LeafCulling {
-            bounds,
-            lo: bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH),
-            global_max: g.max,
-        })
+        Self::accepts(bounds).then(|| Self::accepted(bounds))
     }
 
-    /// [`Self::new`] for bounds it has already accepted: the walk's set-up, which runs for
+    /// Whether [`Self::new`] gives a culling for `bounds` (the checks on its docs).
+    pub fn accepts(bounds: &LeafBounds) -> bool {
+        !bounds.cells.is_empty() && Self::is_sound(bounds.global)
+    }
+
+    /// [`Self::new`] for bounds it accepts, unchecked: the walk's set-up, which runs for
     /// every flight, skips the checks whose answer the caller keeps (`VdbMedium`).
     #[inline(always)]
     pub fn accepted(bounds: &'a LeafBounds) -> Self {
-        debug_assert!(Self::new(bounds).is_some());
+        debug_assert!(Self::accepts(bounds));
         LeafCulling {
             bounds,
             lo: bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH),
@@ -132,19 +129,19 @@ impl<'a> VoxelCulling<'a> {
     /// extinction `scale` per unit value; `None` where it would not be sound or has nothing
     /// to read (no voxel table, or [`LeafCulling::is_sound`] fails).
     pub fn new(bounds: &'a LeafBounds, entries: &'a [u32], scale: f32) -> Option<Self> {
-        let built = !bounds.voxel_q.is_empty() && entries.len() == bounds.cells.len();
-        (built && LeafCulling::is_sound(bounds.global) && scale > 0.0 && scale.is_finite())
-            .then_some(VoxelCulling {
-                bounds,
-                entries,
-                scale,
-            })
+        Self::accepts(bounds, entries, scale).then(|| Self::accepted(bounds, entries, scale))
     }
 
-    /// [`Self::new`] for arguments it has already accepted (as [`LeafCulling::accepted`]).
+    /// Whether [`Self::new`] gives a culling for these arguments (the checks on its docs).
+    pub fn accepts(bounds: &LeafBounds, entries: &[u32], scale: f32) -> bool {
+        let built = !bounds.voxel_q.is_empty() && entries.len() == bounds.cells.len();
+        built && LeafCulling::is_sound(bounds.global) && scale > 0.0 && scale.is_finite()
+    }
+
+    /// [`Self::new`] for arguments it accepts, unchecked (as [`LeafCulling::accepted`]).
     #[inline(always)]
     pub fn accepted(bounds: &'a LeafBounds, entries: &'a [u32], scale: f32) -> Self {
-        debug_assert!(Self::new(bounds, entries, scale).is_some());
+        debug_assert!(Self::accepts(bounds, entries, scale));
         VoxelCulling {
             bounds,
             entries,
