@@ -90,14 +90,16 @@ impl Camera {
 /// tangent, derived from [`Camera`] once per render rather than for every sample (they were
 /// a `tanf`, a normalisation and two transforms a sample, about 2 % of a sample's
 /// instructions on the fire; callgrind). [`Camera`]'s ray methods go through it, so both give
-/// the same rays bit for bit.
+/// the same rays bit for bit, and the GPU's camera parameters are read from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pinhole {
-    world_from_camera: Mat4,
-    position: Vec3,
-    forward: Vec3,
-    tan_half: f32,
-    znear: f32,
+    pub world_from_camera: Mat4,
+    pub position: Vec3,
+    /// Unit view axis ([`Camera::forward`]).
+    pub forward: Vec3,
+    /// `tan(yfov / 2)`.
+    pub tan_half: f32,
+    pub znear: f32,
 }
 
 impl Pinhole {

@@ -482,12 +482,12 @@ pub(super) fn wavefront_params(
 ) -> GpuWavefrontParams {
     let (w, h) = (settings.width, settings.height);
     let mut params = GpuWavefrontParams {
-        camera: affine_rows(glam::Affine3A::from_mat4(rs.scene.camera.world_from_camera)),
-        tan_half: (0.5 * rs.scene.camera.yfov).tan(),
+        camera: affine_rows(glam::Affine3A::from_mat4(rs.pinhole.world_from_camera)),
+        tan_half: rs.pinhole.tan_half,
         aspect: w as f32 / h as f32,
-        znear: rs.scene.camera.znear,
+        znear: rs.pinhole.znear,
         seed: settings.seed,
-        forward: rs.scene.camera.forward().to_array(),
+        forward: rs.pinhole.forward.to_array(),
         width: w,
         height: h,
         path_count: slots,
