@@ -478,6 +478,26 @@ fn infinite_segments_are_handled() {
     }];
     tr::delta::transmittance(nan, 1.0, &empty, &mut rng, &mut st);
     assert_eq!(st.invalid_majorants, 1);
+    // Negative and infinite ones too; -0 is empty space like +0, and a subnormal majorant is
+    // walked (crossed without a collision on so short a segment).
+    for (sigma_maj, invalid) in [
+        (-1.0, true),
+        (f32::NEG_INFINITY, true),
+        (f32::INFINITY, true),
+        (-0.0, false),
+        (f32::from_bits(1), false),
+    ] {
+        let seg = [MajorantSegment {
+            t_min: 0.0,
+            t_max: 1.0,
+            sigma_maj,
+            sigma_min: 0.0,
+        }];
+        let mut st = TrackingStats::default();
+        assert_eq!(tr::delta::transmittance(seg, 1.0, &empty, &mut rng, &mut st), 1.0);
+        assert_eq!(st.invalid_majorants, invalid as u64, "sigma_maj {sigma_maj:e}");
+        assert_eq!(st.segments, 1, "sigma_maj {sigma_maj:e}");
+    }
     let positive = [MajorantSegment {
         t_min: 0.0,
         t_max: f32::INFINITY,
@@ -812,6 +832,47 @@ fn culled_global_walk_samples_the_right_distances() {
                     r.statistic, r.dof, r.p_value
                 );
                 assert!(r.p_value >= alpha, "{label}: {r:?}");
+            }
+        }
+    }
+}
+
+/// `positive_finite` (the free-flight loop's one-compare test) is `x > 0 && x` finite, on
+/// every special value and on bit patterns spread over all of `u32`.
+#[test]
+fn positive_finite_is_the_float_definition() {
+    let by_floats = |x: f32| x > 0.0 && x.is_finite();
+    let special = [
+        0.0,
+        -0.0,
+        f32::MIN_POSITIVE,
+        f32::from_bits(1),
+        -f32::from_bits(1),
+        f32::MAX,
+        -f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        -f32::NAN,
+        1.0,
+        -1.0,
+    ];
+    for x in special {
+        assert_eq!(tr::positive_finite(x), by_floats(x), "{x:e} ({:#x})", x.to_bits());
+    }
+    // A stride coprime to 2^32 visits 2^24 patterns spread over the whole range, plus every
+    // pattern next to the boundaries.
+    let mut bits = 0u32;
+    for _ in 0..1 << 24 {
+        let x = f32::from_bits(bits);
+        assert_eq!(tr::positive_finite(x), by_floats(x), "{:#x}", bits);
+        bits = bits.wrapping_add(0x9E37_79B9);
+    }
+    for edge in [0u32, 0x7f7f_ffff, 0x7f80_0000, 0x8000_0000, 0xffff_ffff] {
+        for d in 0..64u32 {
+            for b in [edge.wrapping_add(d), edge.wrapping_sub(d)] {
+                let x = f32::from_bits(b);
+                assert_eq!(tr::positive_finite(x), by_floats(x), "{:#x}", b);
             }
         }
     }
