@@ -494,8 +494,14 @@ fn infinite_segments_are_handled() {
             sigma_min: 0.0,
         }];
         let mut st = TrackingStats::default();
-        assert_eq!(tr::delta::transmittance(seg, 1.0, &empty, &mut rng, &mut st), 1.0);
-        assert_eq!(st.invalid_majorants, invalid as u64, "sigma_maj {sigma_maj:e}");
+        assert_eq!(
+            tr::delta::transmittance(seg, 1.0, &empty, &mut rng, &mut st),
+            1.0
+        );
+        assert_eq!(
+            st.invalid_majorants, invalid as u64,
+            "sigma_maj {sigma_maj:e}"
+        );
         assert_eq!(st.segments, 1, "sigma_maj {sigma_maj:e}");
     }
     let positive = [MajorantSegment {
@@ -858,7 +864,12 @@ fn positive_finite_is_the_float_definition() {
         -1.0,
     ];
     for x in special {
-        assert_eq!(tr::positive_finite(x), by_floats(x), "{x:e} ({:#x})", x.to_bits());
+        assert_eq!(
+            tr::positive_finite(x),
+            by_floats(x),
+            "{x:e} ({:#x})",
+            x.to_bits()
+        );
     }
     // A stride coprime to 2^32 visits 2^24 patterns spread over the whole range, plus every
     // pattern next to the boundaries.

@@ -19,7 +19,7 @@
 //! [`LeafCulling::new`] therefore requires the global minimum to be exactly 0 (every cell's
 //! minimum then lies in `[0, max]`).
 use super::bounds::{CellBounds, LeafBounds};
-use crate::math::Vec3;
+use crate::math::{floor_i32, Vec3};
 
 /// Edge of one bounds cell in index units.
 const CELL_WIDTH: f32 = 8.0;
@@ -169,14 +169,18 @@ impl<'a> VoxelCulling<'a> {
         let mut local = 0usize;
         let mut stride = 1usize;
         for a in 0..3 {
-            // Inside the cell box (written so that NaN fails), whose faces are integers, so
-            // `floor(p)` and its cell lie in it too.
-            let lo = self.bounds.cell_origin[a] as f32 * CELL_WIDTH;
-            if !(p[a] >= lo && p[a] < lo + dims[a] as f32 * CELL_WIDTH) {
+            if p[a].is_nan() {
                 return None;
             }
-            let v = p[a].floor() as i32;
+            // The cell box's faces are integers, so `p` lies in it exactly when `floor(p)`
+            // does, and the voxel's cell is its index shifted: one integer range test. `v`
+            // saturates far outside the box, and `v >> 3` minus an origin within `i32 >> 3`
+            // cannot overflow.
+            let v = floor_i32(p[a]);
             let c = (v >> 3) - self.bounds.cell_origin[a];
+            if c as u32 >= dims[a] {
+                return None;
+            }
             index += c as usize * stride;
             local += ((v & 7) as usize) << (3 * a);
             stride *= dims[a] as usize;
