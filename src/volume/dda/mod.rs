@@ -12,6 +12,8 @@
 //!
 //! Where rounding puts a sample point slightly outside the cell the walk assigns it to, the
 //! one-voxel apron of [`LeafBounds`] still bounds it.
+mod lanes;
+
 use super::bounds::{CellBounds, LeafBounds};
 use super::segment::MajorantSegment;
 use crate::math::{Aabb, Ray, Vec3};
@@ -140,8 +142,29 @@ pub(crate) struct DdaState {
 
 impl DdaState {
     /// The walk of `ray` over `[t0, t1]` through `dims` cells of edge `width` from `lo`,
-    /// clipped to the walk box `clip` (`done` when the ray misses it).
+    /// clipped to the walk box `clip` (`done` when the ray misses it). A box of several cells
+    /// (of edge [`CELL_WIDTH`]) is set up four lanes at a time ([`lanes::enter_cells`]), bit
+    /// for bit as [`Self::enter_scalar`].
+    #[inline]
     pub fn enter(
+        lo: Vec3,
+        width: Vec3,
+        dims: [i32; 3],
+        clip: (Vec3, Vec3),
+        ray: &Ray,
+        t0: f32,
+        t1: f32,
+    ) -> Self {
+        if dims == [1; 3] || dims.iter().any(|&n| n <= 0) {
+            return Self::enter_scalar(lo, width, dims, clip, ray, t0, t1);
+        }
+        debug_assert_eq!(width, Vec3::splat(CELL_WIDTH));
+        lanes::enter_cells(lo, dims, clip, ray, t0, t1)
+    }
+
+    /// [`Self::enter`] one axis at a time: the one-cell walk's and an empty box's set-up, and
+    /// the reference the four-lane set-up is tested against.
+    pub fn enter_scalar(
         lo: Vec3,
         width: Vec3,
         dims: [i32; 3],
