@@ -102,6 +102,31 @@ pub fn floor_i32(x: f32) -> i32 {
     t.saturating_sub(((t as f32) > x) as i32)
 }
 
+/// `v` truncated lane by lane, as floats and (x, y, z) as integers, for lanes in `0..2^24`
+/// or NaN (which gives 0): clamped cell coordinates and counts. On x86-64 a `cvttps2dq` and a `cvtdq2ps`: `as i32`
+/// lane by lane adds six instructions of saturation handling to each.
+#[inline(always)]
+pub fn trunc_xyz(v: glam::Vec4) -> (glam::Vec4, [i32; 3]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, _mm_cvtepi32_ps, _mm_cvttps_epi32};
+        // SAFETY: SSE2 is part of the x86-64 baseline, so every x86-64 CPU has it.
+        let (f, i) = unsafe {
+            let i = _mm_cvttps_epi32(__m128::from(v));
+            (_mm_cvtepi32_ps(i), i)
+        };
+        let t: [i32; 4] = bytemuck::cast(i);
+        (glam::Vec4::from(f), [t[0], t[1], t[2]])
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        // NaN to 0, as the saturating cast (and SSE's `max(NaN, 0)` before it) gives.
+        let t = v.trunc();
+        let t = glam::Vec4::select(t.cmpeq(t), t, glam::Vec4::ZERO);
+        (t, [t.x as i32, t.y as i32, t.z as i32])
+    }
+}
+
 /// Rec. 709 luminance of linear RGB (the weights of sRGB primaries).
 #[inline]
 pub fn luminance(c: glam::Vec3) -> f32 {

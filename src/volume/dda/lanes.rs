@@ -25,7 +25,7 @@
 use glam::{BVec4A, Vec4};
 
 use super::{DdaState, CELL_WIDTH};
-use crate::math::{Ray, Vec3};
+use crate::math::{trunc_xyz, Ray, Vec3};
 
 /// `v` with `w` in the padding lane.
 #[inline(always)]
@@ -37,29 +37,6 @@ fn lanes(v: Vec3, w: f32) -> Vec4 {
 #[inline(always)]
 fn pick(mask: BVec4A, if_true: Vec4, if_false: Vec4) -> Vec4 {
     Vec4::select(mask, if_true, if_false)
-}
-
-/// `v` truncated lane by lane, as floats and (x, y, z) as integers, for lanes in
-/// `0..2^24` (clamped cell coordinates and counts). On x86-64 a `cvttps2dq` and a
-/// `cvtdq2ps`: `as i32` lane by lane added six instructions of saturation handling each.
-#[inline(always)]
-fn truncate(v: Vec4) -> (Vec4, [i32; 3]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{__m128, _mm_cvtepi32_ps, _mm_cvttps_epi32};
-        // SAFETY: SSE2 is part of the x86-64 baseline, so every x86-64 CPU has it.
-        let (f, i) = unsafe {
-            let i = _mm_cvttps_epi32(__m128::from(v));
-            (_mm_cvtepi32_ps(i), i)
-        };
-        let t: [i32; 4] = bytemuck::cast(i);
-        (Vec4::from(f), [t[0], t[1], t[2]])
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let t = v.trunc();
-        (t, [t.x as i32, t.y as i32, t.z as i32])
-    }
 }
 
 /// [`DdaState::enter`] for a box of cells of edge [`CELL_WIDTH`] with every `dims` at least 1
@@ -153,11 +130,11 @@ pub(super) fn enter_cells(
     let x = pick(d.cmpeq(Vec4::ZERO), o, p);
     let last = dims_f - Vec4::ONE;
     // `max(NaN, 0)` is 0 (SSE returns its second operand), as the saturating cast maps NaN.
-    let (cell_f, cell) = truncate(((x - lo4) * (1.0 / CELL_WIDTH)).max(Vec4::ZERO).min(last));
+    let (cell_f, cell) = trunc_xyz(((x - lo4) * (1.0 / CELL_WIDTH)).max(Vec4::ZERO).min(last));
     let plane = lo4 + (cell_f + pick(forward, Vec4::ONE, Vec4::ZERO)) * CELL_WIDTH;
     let crossing = pick(steps, (plane - o) * inv, Vec4::INFINITY).to_array();
     let plane = pick(steps, plane, Vec4::ZERO).to_array();
-    let left = truncate(pick(
+    let left = trunc_xyz(pick(
         forward,
         last - cell_f,
         pick(backward, cell_f, Vec4::ZERO),
@@ -179,7 +156,7 @@ pub(super) fn enter_cells(
 #[cfg(test)]
 mod tests {
     use super::super::DdaState;
-    use crate::math::{Ray, Vec3};
+    use crate::math::{trunc_xyz, Ray, Vec3};
     use crate::sampling::Rng;
 
     /// Every field of a state as bits, floats by their bit patterns (so `-0.0 != 0.0` and NaNs
