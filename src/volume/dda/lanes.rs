@@ -156,7 +156,7 @@ pub(super) fn enter_cells(
 #[cfg(test)]
 mod tests {
     use super::super::DdaState;
-    use crate::math::{trunc_xyz, Ray, Vec3};
+    use crate::math::{Ray, Vec3};
     use crate::sampling::Rng;
 
     /// Every field of a state as bits, floats by their bit patterns (so `-0.0 != 0.0` and NaNs
