@@ -89,6 +89,15 @@ impl Aabb {
     }
 }
 
+/// `floor(x)` as an integer for `x` already known to be finite and well inside `i64`.
+/// Baseline x86-64 has no rounding instruction, so `f64::floor` is a libm call; truncation
+/// with a correction for negative non-integers is a few instructions.
+#[inline(always)]
+pub fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t - ((t as f64) > x) as i64
+}
+
 /// `floor(x)` as an `i32` for `x` not NaN, saturating as `as i32` does outside its range.
 /// Baseline x86-64 has no rounding instruction, so `f32::floor` is a libm call (some fifteen
 /// instructions and a call); truncation corrected for negative non-integers is four. Exact:
@@ -135,30 +144,39 @@ pub fn luminance(c: glam::Vec3) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::floor_i32;
+    use super::{floor_i32, floor_i64};
+
+    /// Values where a truncating floor goes wrong if it goes wrong anywhere (each also
+    /// negated): zeros, halves, integers, values a hair off an integer, the smallest
+    /// subnormal, and values around 2^24 and 2^31.
+    const FLOOR_EDGES: [f32; 12] = [
+        0.0,
+        0.5,
+        1.0,
+        7.999_999,
+        8.0,
+        8.000_001,
+        1e-30,
+        1.4e-45,
+        16_777_215.5,
+        16_777_217.0,
+        2_147_483_520.0,
+        2_147_483_648.0,
+    ];
+
+    #[test]
+    fn floor_i64_matches_f64_floor() {
+        let xs = FLOOR_EDGES.map(f64::from).into_iter().chain([1e15 + 0.5]);
+        for x in xs.flat_map(|x| [x, -x]) {
+            assert_eq!(floor_i64(x), x.floor() as i64, "floor({x})");
+        }
+    }
 
     #[test]
     fn floor_i32_matches_f32_floor() {
-        let mut xs = vec![
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            7.999_999,
-            -8.0,
-            -8.000_001,
-            -1e-30,
-            f32::from_bits(1),
-            -f32::from_bits(1),
-            16_777_215.5,
-            -16_777_215.5,
-            16_777_217.0,
-            -16_777_217.0,
-            2_147_483_520.0,
-            -2_147_483_648.0,
-        ];
+        // The last edge is 2^31 itself: only its negation is inside `i32`.
+        let mut xs: Vec<f32> = FLOOR_EDGES[..11].iter().flat_map(|&x| [x, -x]).collect();
+        xs.push(-2_147_483_648.0);
         // Bit patterns spread over every finite magnitude below 2^31, both signs.
         let mut bits = 0u32;
         for _ in 0..1 << 20 {

@@ -14,7 +14,7 @@
 //! Lookups follow OpenVDB's conventions exactly (voxel `(i, j, k)` is centred at index point
 //! `(i, j, k)`; `PointSampler` rounds, `BoxSampler` interpolates z, then y, then x), so values
 //! agree with OpenVDB's samplers bit for bit.
-use crate::math::{Aabb, DAffine3, DVec3, Vec3};
+use crate::math::{floor_i64, Aabb, DAffine3, DVec3, Vec3};
 
 /// Set in a cell entry whose remaining bits index `constants` rather than `bricks`.
 pub const CONSTANT_BIT: u32 = 1 << 31;
@@ -71,15 +71,6 @@ impl GridStats {
     pub fn total_bytes(&self) -> u64 {
         self.cell_bytes + self.brick_bytes + self.constant_bytes
     }
-}
-
-/// `floor(x)` as an integer for `x` already known to be finite and well inside `i64`.
-/// Baseline x86-64 has no rounding instruction, so `f64::floor` is a libm call; truncation
-/// with a correction for negative non-integers is a few instructions.
-#[inline(always)]
-fn floor_i64(x: f64) -> i64 {
-    let t = x as i64;
-    t - ((t as f64) > x) as i64
 }
 
 /// One of OpenVDB's linear blends: the difference is scaled in double precision and rounded
@@ -366,25 +357,6 @@ impl SparseGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn floor_i64_matches_f64_floor() {
-        for x in [
-            0.0,
-            -0.0,
-            0.5,
-            -0.5,
-            1.0,
-            -1.0,
-            7.999_999,
-            -8.0,
-            -8.000_001,
-            1e15 + 0.5,
-            -1e15 - 0.5,
-        ] {
-            assert_eq!(floor_i64(x), x.floor() as i64, "floor({x})");
-        }
-    }
 
     #[test]
     fn widening_the_cell_box_changes_no_value() {
