@@ -1,4 +1,4 @@
-// Mirrors DdaMajorantIterator (src/volume/dda.rs: `new`, `global`, `walk`, `next`,
+// Mirrors DdaMajorantIterator (src/volume/dda/mod.rs: `new`, `global`, `walk`, `next`,
 // `reciprocal_and_step`), LeafCulling and VoxelCulling (src/volume/cull.rs: `new`, `ratio`),
 // AdaptiveMajorantIterator (src/volume/adaptive/walk.rs: `new`, `crossing`, `next`) and
 // Aabb::intersect (src/math/mod.rs). Needs grid.wgsl (grid_info) and types.wgsl.

@@ -1,4 +1,4 @@
-// Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda.rs) and
+// Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda/mod.rs) and
 // AdaptiveMajorantIterator (src/volume/adaptive/walk.rs): all segments of each
 // ray (up to MAX_SEGMENTS stored, all counted); tests/gpu_dda.rs compares with the CPU.
 
