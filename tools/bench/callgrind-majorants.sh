@@ -13,7 +13,16 @@
 # latency does, so the global bound's long chains of dependent lookups weigh much less here
 # than on a real CPU (the dense fog: 1.15x in instructions, 1.38-1.44x timed).
 #
-# Usage: tools/bench/callgrind-majorants.sh [--spp N] [--estimator E] [scene.gltf ...]
+# With --floor, each scene is also counted with its media made transparent (every
+# BRUME_medium_vdb's densityScale times 1e-6, in a copy of the scene written beside it and
+# removed after) under the global walk: the same rays, span searches, views and walk entries,
+# and almost no tentative collision. No walk can make fewer collisions than none, so the
+# global bound's count over this floor is the most any majorant structure could gain on the
+# scene (`floor` row, `instr gl/x`). The floor is generous: the transparent medium scatters
+# nowhere, so its paths spawn none of the rays that real collisions do. Scenes whose media
+# emit get no floor row: their walks must still sample the emission.
+#
+# Usage: tools/bench/callgrind-majorants.sh [--spp N] [--estimator E] [--floor] [scene.gltf ...]
 #   (default: 4 spp at 160x120, delta tracking, the fire, the smoke tank, the Cornell smoke)
 # Needs valgrind (apt install valgrind) and the release build (cargo build --release), or the
 # binary named by BRUME_BIN (to count two builds against each other: copy one aside first).
@@ -23,12 +32,14 @@ cd "$(dirname "$0")/../.."
 
 spp=4
 estimator=delta
+floor=0
 scenes=()
 while [ $# -gt 0 ]; do
     case "$1" in
     --spp) spp=$2; shift 2 ;;
     --estimator) estimator=$2; shift 2 ;;
-    -h | --help) sed -n '2,21p' "$0"; exit 0 ;;
+    --floor) floor=1; shift ;;
+    -h | --help) sed -n '2,30p' "$0"; exit 0 ;;
     *) scenes+=("$1"); shift ;;
     esac
 done
@@ -39,7 +50,27 @@ bin=${BRUME_BIN:-target/release/brume}
 [ -x "$bin" ] || { echo "$bin not found: cargo build --release" >&2; exit 1; }
 
 work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+floor_scenes=()
+trap 'rm -rf "$work" "${floor_scenes[@]}"' EXIT
+
+# Writes the transparent copy of scene $1 beside it (so its relative URIs resolve) and prints
+# its path; prints nothing when a medium emits or none is a VDB medium.
+transparent_copy() {
+    python3 - "$1" <<'PY'
+import json, os, sys
+src = sys.argv[1]
+scene = json.load(open(src))
+media = [n["extensions"]["BRUME_medium_vdb"] for n in scene.get("nodes", [])
+         if "BRUME_medium_vdb" in n.get("extensions", {})]
+if not media or any("emissionGrid" in m or "temperatureGrid" in m for m in media):
+    sys.exit(0)
+for m in media:
+    m["densityScale"] = m.get("densityScale", 1.0) * 1e-6
+out = os.path.join(os.path.dirname(src) or ".", ".floor-" + os.path.basename(src))
+json.dump(scene, open(out, "w"))
+print(out)
+PY
+}
 
 # One render under callgrind, counting only inside the tiles (scene loading and the
 # structures' builds are left out); writes "<Ir> <CEst> <samples>" to $work/<key>.
@@ -80,8 +111,17 @@ for scene in "${scenes[@]}"; do
         fi
     done
     for p in "${pids[@]}"; do wait "$p"; done
+    rows=("${modes[@]}")
+    if [ "$floor" = 1 ]; then
+        copy=$(transparent_copy "$scene")
+        if [ -n "$copy" ]; then
+            floor_scenes+=("$copy")
+            count "$copy" global "$name.floor"
+            rows+=(floor)
+        fi
+    fi
     read -r gi gc gn <"$work/$name.global"
-    for m in "${modes[@]}"; do
+    for m in "${rows[@]}"; do
         read -r ir cest n <"$work/$name.$m"
         awk -v s="$name" -v m="$m" -v ir="$ir" -v c="$cest" -v n="$n" -v gi="$gi" -v gc="$gc" -v gn="$gn" \
             'BEGIN { printf "%-22s %-9s %12.0f %12.0f %11.3fx %11.3fx\n", s, m, ir / n, c / n, (gi / gn) / (ir / n), (gc / gn) / (c / n) }'
