@@ -2,7 +2,7 @@
 use super::{AdaptiveMajorants, CELL_WIDTH, MAX_LEVEL};
 use crate::math::{Ray, Vec3};
 use crate::volume::bounds::CellBounds;
-use crate::volume::dda::{first_axis, DdaState};
+use crate::volume::dda::{first_axis, CellBox, DdaState};
 use crate::volume::segment::MajorantSegment;
 
 /// Lazily yields the segments of a ray (in index space) through an [`AdaptiveMajorants`]:
@@ -26,22 +26,19 @@ impl<'a> AdaptiveMajorantIterator<'a> {
     /// Segments of `ray` over `[t0, t1]` with `sigma_maj = scale * max`,
     /// `sigma_min = scale * min` of each merged node crossed.
     pub fn new(tree: &'a AdaptiveMajorants, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
-        let lo = Vec3::from_array(tree.cell_origin.map(|c| c as f32 * CELL_WIDTH));
-        let dims = tree.dims.map(|d| d as i32);
+        // The tree's level-0 cells are the per-leaf bounds' cells.
+        let cells = CellBox {
+            lo: Vec3::from_array(tree.cell_origin.map(|c| c as f32 * CELL_WIDTH)),
+            width: Vec3::splat(CELL_WIDTH),
+            dims: tree.dims.map(|d| d as i32),
+            clip: tree.walk_box,
+        };
         Self {
             node_level: &tree.node_level,
             nodes: &tree.nodes,
             level_index: &tree.level_index,
             scale,
-            dda: DdaState::enter(
-                lo,
-                Vec3::splat(CELL_WIDTH),
-                dims,
-                tree.walk_box,
-                ray,
-                t0,
-                t1,
-            ),
+            dda: DdaState::enter(&cells, ray, t0, t1),
         }
     }
 

@@ -24,7 +24,7 @@
 //! `>` at the end).
 use glam::{BVec4A, Vec4};
 
-use super::{DdaState, CELL_WIDTH};
+use super::{CellBox, DdaState, CELL_WIDTH};
 use crate::math::{trunc_xyz, Ray, Vec3};
 
 /// `v` with `w` in the padding lane.
@@ -42,14 +42,8 @@ fn pick(mask: BVec4A, if_true: Vec4, if_false: Vec4) -> Vec4 {
 /// [`DdaState::enter`] for a box of cells of edge [`CELL_WIDTH`] with every `dims` at least 1
 /// and not all 1 (the one-cell walk and an empty box take the scalar path).
 #[inline]
-pub(super) fn enter_cells(
-    lo: Vec3,
-    dims: [i32; 3],
-    clip: (Vec3, Vec3),
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-) -> DdaState {
+pub(super) fn enter_cells(cb: &CellBox, ray: &Ray, t0: f32, t1: f32) -> DdaState {
+    let CellBox { lo, dims, clip, .. } = *cb;
     debug_assert!(dims.iter().all(|&n| n >= 1) && dims != [1; 3]);
     // The padding lane: a unit direction at the origin in a unit box, so no lane divides by 0.
     let o = lanes(ray.o, 0.0);
@@ -155,7 +149,7 @@ pub(super) fn enter_cells(
 
 #[cfg(test)]
 mod tests {
-    use super::super::DdaState;
+    use super::super::{CellBox, DdaState};
     use crate::math::{Ray, Vec3};
     use crate::sampling::Rng;
 
@@ -269,9 +263,14 @@ mod tests {
                 (5.0, 1.0),
             ];
             let (t0, t1) = ranges[i % ranges.len()];
-            let w = Vec3::splat(8.0);
-            let lanes = DdaState::enter(lo, w, dims, clip, &ray, t0, t1);
-            let scalar = DdaState::enter_scalar(lo, w, dims, clip, &ray, t0, t1);
+            let cb = CellBox {
+                lo,
+                width: Vec3::splat(8.0),
+                dims,
+                clip,
+            };
+            let lanes = DdaState::enter(&cb, &ray, t0, t1);
+            let scalar = DdaState::enter_scalar(&cb, &ray, t0, t1);
             assert_eq!(
                 bits(&lanes),
                 bits(&scalar),

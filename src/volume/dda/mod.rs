@@ -30,22 +30,64 @@ pub(crate) struct BoxEntry {
     pub t_exit: f32,
 }
 
-/// [`BoxEntry`] of `ray` (with `inv_d = 1 / d` per axis) into the part of the box inside
-/// `clip` (the bounds' walk box, [`LeafBounds::walk_box`]: outside it every value is 0, so
-/// the walk never starts before it nor runs past it), or `None` when the overlap is empty (or
-/// the box is).
-#[allow(clippy::too_many_arguments)]
+/// The box a walk goes through: `dims` cells of edge `width` from `lo` (index space), walked
+/// only inside `clip`, the bounds' walk box ([`LeafBounds::walk_box`]: outside it every value
+/// is 0, so the walk never starts before it nor runs past it). The per-leaf DDA, the global
+/// bound (one cell over the whole box) and the adaptive walk each describe theirs once per
+/// flight and enter it with the ray.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CellBox {
+    pub lo: Vec3,
+    pub width: Vec3,
+    pub dims: [i32; 3],
+    pub clip: (Vec3, Vec3),
+}
+
+impl CellBox {
+    /// The per-leaf cells of `bounds`.
+    #[inline]
+    pub fn leaf_cells(bounds: &LeafBounds) -> Self {
+        Self {
+            lo: Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH)),
+            width: Vec3::splat(CELL_WIDTH),
+            dims: bounds.dims.map(|d| d as i32),
+            clip: bounds.walk_box(),
+        }
+    }
+
+    /// One cell over the whole cell box of `bounds` (none when it has no cells): the global
+    /// bound's walk.
+    #[inline]
+    pub fn whole(bounds: &LeafBounds) -> Self {
+        Self {
+            lo: Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH)),
+            width: Vec3::from_array(bounds.dims.map(|d| d as f32 * CELL_WIDTH)),
+            dims: if bounds.cells.is_empty() {
+                [0; 3]
+            } else {
+                [1; 3]
+            },
+            clip: bounds.walk_box(),
+        }
+    }
+}
+
+/// [`BoxEntry`] of `ray` (with `inv_d = 1 / d` per axis) into the part of `cb` inside its
+/// walk box, or `None` when the overlap is empty (or the box is).
 #[inline(always)]
 pub(crate) fn enter_box(
-    lo: Vec3,
-    width: Vec3,
-    dims: [i32; 3],
-    clip: (Vec3, Vec3),
+    cb: &CellBox,
     ray: &Ray,
     inv_d: [f32; 3],
     t0: f32,
     t1: f32,
 ) -> Option<BoxEntry> {
+    let CellBox {
+        lo,
+        width,
+        dims,
+        clip,
+    } = *cb;
     if dims.iter().any(|&n| n <= 0) {
         return None;
     }
@@ -141,38 +183,24 @@ pub(crate) struct DdaState {
 }
 
 impl DdaState {
-    /// The walk of `ray` over `[t0, t1]` through `dims` cells of edge `width` from `lo`,
-    /// clipped to the walk box `clip` (`done` when the ray misses it). A box of several cells
-    /// (of edge [`CELL_WIDTH`]) is set up four lanes at a time ([`lanes::enter_cells`]), bit
-    /// for bit as [`Self::enter_scalar`].
+    /// The walk of `ray` over `[t0, t1]` through the cells of `cb`, clipped to its walk box
+    /// (`done` when the ray misses it). A box of several cells (of edge [`CELL_WIDTH`]) is set
+    /// up four lanes at a time ([`lanes::enter_cells`]), bit for bit as [`Self::enter_scalar`].
     #[inline]
-    pub fn enter(
-        lo: Vec3,
-        width: Vec3,
-        dims: [i32; 3],
-        clip: (Vec3, Vec3),
-        ray: &Ray,
-        t0: f32,
-        t1: f32,
-    ) -> Self {
-        if dims == [1; 3] || dims.iter().any(|&n| n <= 0) {
-            return Self::enter_scalar(lo, width, dims, clip, ray, t0, t1);
+    pub fn enter(cb: &CellBox, ray: &Ray, t0: f32, t1: f32) -> Self {
+        if cb.dims == [1; 3] || cb.dims.iter().any(|&n| n <= 0) {
+            return Self::enter_scalar(cb, ray, t0, t1);
         }
-        debug_assert_eq!(width, Vec3::splat(CELL_WIDTH));
-        lanes::enter_cells(lo, dims, clip, ray, t0, t1)
+        debug_assert_eq!(cb.width, Vec3::splat(CELL_WIDTH));
+        lanes::enter_cells(cb, ray, t0, t1)
     }
 
     /// [`Self::enter`] one axis at a time: the one-cell walk's and an empty box's set-up, and
     /// the reference the four-lane set-up is tested against.
-    pub fn enter_scalar(
-        lo: Vec3,
-        width: Vec3,
-        dims: [i32; 3],
-        clip: (Vec3, Vec3),
-        ray: &Ray,
-        t0: f32,
-        t1: f32,
-    ) -> Self {
+    pub fn enter_scalar(cb: &CellBox, ray: &Ray, t0: f32, t1: f32) -> Self {
+        let CellBox {
+            lo, width, dims, ..
+        } = *cb;
         let mut it = Self {
             dims,
             lo: lo.to_array(),
@@ -200,7 +228,7 @@ impl DdaState {
             // instructions in callgrind) is skipped; `1 / d` is still needed, by the box's
             // slab test.
             it.inv_d = ray.d.to_array().map(|d| reciprocal_and_step(d).0);
-            if let Some(e) = enter_box(lo, width, dims, clip, ray, it.inv_d, t0, t1) {
+            if let Some(e) = enter_box(cb, ray, it.inv_d, t0, t1) {
                 (it.index, it.t, it.t_exit, it.done) = (0, e.t_enter, e.t_exit, false);
             }
             return it;
@@ -217,7 +245,7 @@ impl DdaState {
             it.stride[a] = step as isize * flat[a];
             it.plane_step[a] = step as f32 * width[a];
         }
-        let Some(e) = enter_box(lo, width, dims, clip, ray, it.inv_d, t0, t1) else {
+        let Some(e) = enter_box(cb, ray, it.inv_d, t0, t1) else {
             return it;
         };
         it.set_cell(e.cell);
@@ -310,14 +338,9 @@ impl<'a> DdaMajorantIterator<'a> {
     /// Segments of `ray` (in index space) over `[t0, t1]`, one per cell of `bounds`, with
     /// `sigma_maj = scale * max` and `sigma_min = scale * min`. `scale` must be non-negative.
     pub fn new(bounds: &'a LeafBounds, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
-        let lo = Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH));
-        let dims = bounds.dims.map(|d| d as i32);
         Self::walk(
             &bounds.cells,
-            dims,
-            lo,
-            Vec3::splat(CELL_WIDTH),
-            bounds.walk_box(),
+            &CellBox::leaf_cells(bounds),
             ray,
             t0,
             t1,
@@ -328,19 +351,9 @@ impl<'a> DdaMajorantIterator<'a> {
     /// A single segment over the ray's overlap with the walk box, carrying the global bounds:
     /// the baseline that per-cell majorants are measured against.
     pub fn global(bounds: &'a LeafBounds, ray: &Ray, t0: f32, t1: f32, scale: f32) -> Self {
-        let lo = Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH));
-        let extent = Vec3::from_array(bounds.dims.map(|d| d as f32 * CELL_WIDTH));
-        let dims = if bounds.cells.is_empty() {
-            [0; 3]
-        } else {
-            [1; 3]
-        };
         Self::walk(
             std::slice::from_ref(&bounds.global),
-            dims,
-            lo,
-            extent,
-            bounds.walk_box(),
+            &CellBox::whole(bounds),
             ray,
             t0,
             t1,
@@ -348,13 +361,9 @@ impl<'a> DdaMajorantIterator<'a> {
         )
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn walk(
         bounds: &'a [CellBounds],
-        dims: [i32; 3],
-        lo: Vec3,
-        width: Vec3,
-        clip: (Vec3, Vec3),
+        cb: &CellBox,
         ray: &Ray,
         t0: f32,
         t1: f32,
@@ -367,7 +376,7 @@ impl<'a> DdaMajorantIterator<'a> {
         DdaMajorantIterator {
             bounds,
             scale,
-            state: DdaState::enter(lo, width, dims, clip, ray, t0, t1),
+            state: DdaState::enter(cb, ray, t0, t1),
         }
     }
 }
