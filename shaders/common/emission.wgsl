@@ -1,5 +1,5 @@
 // Mirrors the emission of the VDB medium: Emission::radiance (src/integrator/emission.rs),
-// GreyView::on_collision and RgbView::on_collision (src/integrator/media.rs), and
+// GreyView::on_collision and RgbView::on_collision (src/integrator/views.rs), and
 // blackbody_rgb / blackbody_emission (src/integrator/blackbody.rs). Blender's Principled
 // Volume: radiance per metre, NOT multiplied by density, gathered at every tentative
 // collision of a free flight with weight

@@ -8,18 +8,17 @@
 //! [`transmittance_homogeneous`]. The const parameters select specialised code: `EMIT` (does
 //! any medium emit), `ABS` (does any medium absorb), `CHROM` (is any extinction chromatic);
 //! a `false` removes the corresponding work at compile time.
-use std::cell::Cell;
 use std::sync::Arc;
 
 use glam::Vec3;
 
 use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
+use super::views::{GreyView, RgbView};
 use crate::math::{Aabb, Ray};
 use crate::sampling::Rng;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{
-    self, spectral::SpectralProbabilities, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium,
-    MediumRgb, TrackingStats,
+    self, spectral::SpectralProbabilities, ControlExtinction, Event, Medium, TrackingStats,
 };
 use crate::volume::{
     AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, DdaMajorantIterator, LeafBounds,
@@ -362,235 +361,6 @@ impl Iterator for Segments<'_> {
     }
 }
 
-/// The grey view of a VDB medium along one ray (`sigma_t` equal in all channels; the RGB
-/// albedo is applied as a weight at scattering events).
-pub(super) struct GreyView<'a, const EMIT: bool, const ABS: bool> {
-    pub(super) m: &'a VdbMedium,
-    pub(super) ray_i: Ray,
-    pub(super) ray_w: Ray,
-    /// Grey coefficients per unit density: `sigma_s` is the channel mean (absorption as an
-    /// event) or `sigma_t` (absorption as a weight: no absorption events).
-    pub(super) sigma_a: f32,
-    pub(super) sigma_s: f32,
-    pub(super) control: ControlExtinction,
-    pub(super) control_albedo: f32,
-    /// Path throughput when the flight started (emission is weighted by it).
-    pub(super) beta: Vec3,
-    pub(super) emitted: Cell<Vec3>,
-    pub(super) emission_lookups: Cell<u64>,
-    /// The per-leaf culling of the culled global walk ([`VdbMedium::culling`]).
-    pub(super) culling: Option<LeafCulling<'a>>,
-    /// The per-voxel culling of the walk's kept collisions ([`VdbMedium::voxel_culling`]).
-    pub(super) voxel: Option<VoxelCulling<'a>>,
-}
-
-impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
-    pub(super) fn new(m: &'a VdbMedium, ray_w: &Ray, cfg: &TrackingConfig, beta: Vec3) -> Self {
-        let ray_i = Ray::new(
-            m.density.index_from_world.transform_point3(ray_w.o),
-            m.density.index_from_world.transform_vector3(ray_w.d),
-        );
-        let sigma_t = m.sigma_t_bound;
-        // Absorption as a weight: the trackers see a purely scattering medium with the same
-        // sigma_t (every real collision scatters); `scatter_albedo` then applies the RGB
-        // albedo sigma_s / sigma_t. As an event: the grey sigma_s is the channel mean.
-        let sigma_s = match cfg.absorption {
-            Absorption::Weight => sigma_t,
-            Absorption::Event => (m.sigma_s.x + m.sigma_s.y + m.sigma_s.z) / 3.0,
-        };
-        GreyView {
-            m,
-            ray_i,
-            ray_w: *ray_w,
-            sigma_a: if ABS {
-                (sigma_t - sigma_s).max(0.0)
-            } else {
-                0.0
-            },
-            sigma_s,
-            control: cfg.control(),
-            control_albedo: if sigma_t > 0.0 {
-                sigma_s / sigma_t
-            } else {
-                0.0
-            },
-            beta,
-            emitted: Cell::new(Vec3::ZERO),
-            emission_lookups: Cell::new(0),
-            culling: m.culling(cfg.majorant),
-            voxel: m.voxel_culling(cfg.majorant),
-        }
-    }
-
-    /// RGB factor of a scattering event chosen with the grey `sigma_s`.
-    pub(super) fn scatter_albedo(&self) -> Vec3 {
-        if self.sigma_s > 0.0 {
-            self.m.sigma_s / self.sigma_s
-        } else {
-            Vec3::ZERO
-        }
-    }
-}
-
-impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
-    #[inline]
-    fn coeffs(&self, t: f32) -> Coeffs {
-        let d = self.m.density.at_index(self.ray_i.at(t));
-        Coeffs {
-            sigma_a: if ABS { self.sigma_a * d } else { 0.0 },
-            sigma_s: self.sigma_s * d,
-        }
-    }
-
-    #[inline]
-    fn control(&self, seg: &crate::volume::MajorantSegment) -> Coeffs {
-        Coeffs::from_sigma_t(self.control.sigma_c(seg), self.control_albedo)
-    }
-
-    #[inline]
-    fn cull_ratio(&self, t: f32) -> f32 {
-        cull_ratio(self.culling.as_ref(), &self.ray_i, t)
-    }
-
-    #[inline]
-    fn voxel_ratio(&self, t: f32, _seg: &crate::volume::MajorantSegment, bound: f32) -> f32 {
-        voxel_ratio(self.voxel.as_ref(), &self.ray_i, t, bound)
-    }
-
-    #[inline]
-    fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
-        if EMIT {
-            if let Some(e) = &self.m.emission {
-                let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
-                self.emitted
-                    .set(self.emitted.get() + self.beta * (w / sigma_maj) * le);
-            }
-        }
-    }
-}
-
-/// `Medium::cull_ratio` of a view: the culling's ratio at the index-space point `ray_i(t)` (the
-/// point its lookup reads), 1 without culling.
-///
-/// Only the test for no culling is inlined. As `Option::map_or` the whole of it was a call at
-/// every tentative collision, also of the walks without culling (the per-leaf walk's), with
-/// the loop's registers saved around it; inlining the ratio as well saved instructions but
-/// grew every free-flight variant enough to raise instruction-cache misses by half
-/// (callgrind, the fire).
-#[inline(always)]
-fn cull_ratio(culling: Option<&LeafCulling>, ray_i: &Ray, t: f32) -> f32 {
-    match culling {
-        Some(c) => leaf_ratio(c, ray_i, t),
-        None => 1.0,
-    }
-}
-
-#[inline(never)]
-fn leaf_ratio(c: &LeafCulling, ray_i: &Ray, t: f32) -> f32 {
-    c.ratio(ray_i.at(t))
-}
-
-/// `Medium::voxel_ratio` of a view: the voxel culling's ratio at `ray_i(t)` against `bound`,
-/// 1 without it (the test inlined, the ratio not, as in [`cull_ratio`]).
-#[inline(always)]
-fn voxel_ratio(voxel: Option<&VoxelCulling>, ray_i: &Ray, t: f32, bound: f32) -> f32 {
-    match voxel {
-        Some(v) => voxel_ratio_at(v, ray_i, t, bound),
-        None => 1.0,
-    }
-}
-
-#[inline(never)]
-fn voxel_ratio_at(v: &VoxelCulling, ray_i: &Ray, t: f32, bound: f32) -> f32 {
-    v.ratio(ray_i.at(t), bound)
-}
-
-/// The RGB view of a VDB medium along one ray, for spectral tracking.
-pub(super) struct RgbView<'a, const EMIT: bool> {
-    pub(super) m: &'a VdbMedium,
-    pub(super) ray_i: Ray,
-    pub(super) ray_w: Ray,
-    /// Coefficients per unit density as the tracker sees them: the medium's own, or with
-    /// absorption as a weight `(0, sigma_t)` (every real collision scatters; the RGB albedo is
-    /// applied afterwards by [`RgbView::scatter_albedo`]).
-    pub(super) sigma_a: Vec3,
-    pub(super) sigma_s: Vec3,
-    /// RGB factor of a scattering event: the albedo `sigma_s / sigma_t` per channel when
-    /// absorption is a weight (a clear channel scatters nothing), 1 when it is an event.
-    pub(super) scatter_albedo: Vec3,
-    pub(super) beta: Vec3,
-    pub(super) emitted: Cell<Vec3>,
-    pub(super) emission_lookups: Cell<u64>,
-    /// As [`GreyView::culling`].
-    pub(super) culling: Option<LeafCulling<'a>>,
-}
-
-impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
-    pub(super) fn new(
-        m: &'a VdbMedium,
-        ray_w: &Ray,
-        absorption: Absorption,
-        majorant: MajorantMode,
-        beta: Vec3,
-    ) -> Self {
-        let (sigma_a, sigma_s, scatter_albedo) = match absorption {
-            Absorption::Event => (m.sigma_a, m.sigma_s, Vec3::ONE),
-            Absorption::Weight => {
-                let sigma_t = m.sigma_a + m.sigma_s;
-                (Vec3::ZERO, sigma_t, per_channel_ratio(m.sigma_s, sigma_t))
-            }
-        };
-        RgbView {
-            m,
-            ray_i: Ray::new(
-                m.density.index_from_world.transform_point3(ray_w.o),
-                m.density.index_from_world.transform_vector3(ray_w.d),
-            ),
-            ray_w: *ray_w,
-            sigma_a,
-            sigma_s,
-            scatter_albedo,
-            beta,
-            emitted: Cell::new(Vec3::ZERO),
-            emission_lookups: Cell::new(0),
-            culling: m.culling(majorant),
-        }
-    }
-}
-
-/// `num / den` per channel, 0 where `den` is not positive.
-#[inline]
-pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
-    Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
-}
-
-impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
-    #[inline]
-    fn coeffs(&self, t: f32) -> CoeffsRgb {
-        let d = self.m.density.at_index(self.ray_i.at(t));
-        CoeffsRgb {
-            sigma_a: self.sigma_a * d,
-            sigma_s: self.sigma_s * d,
-        }
-    }
-
-    #[inline]
-    fn cull_ratio(&self, t: f32) -> f32 {
-        cull_ratio(self.culling.as_ref(), &self.ray_i, t)
-    }
-
-    #[inline]
-    fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
-        if EMIT {
-            if let Some(e) = &self.m.emission {
-                let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
-                self.emitted
-                    .set(self.emitted.get() + self.beta * w * le / sigma_maj);
-            }
-        }
-    }
-}
-
 /// What a free flight through a medium ended with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MediumEvent {
@@ -665,11 +435,9 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     }
 }
 
-/// [`sample_vdb`] for a grey view (`sigma_t` equal in every channel).
-#[allow(clippy::too_many_arguments)]
-#[inline]
 /// The grey free-flight estimator `cfg` selects (delta, weighted delta, decomposition or
 /// weighted decomposition tracking) over `segs`, for one medium or a mixture.
+#[inline]
 pub(super) fn grey_free_flight<I, M>(
     cfg: &TrackingConfig,
     segs: I,
@@ -696,6 +464,7 @@ where
     }
 }
 
+/// [`sample_vdb`] for a grey view (`sigma_t` equal in every channel).
 #[allow(clippy::too_many_arguments)]
 fn sample_grey<const EMIT: bool, const ABS: bool>(
     m: &VdbMedium,

@@ -58,10 +58,11 @@ use std::cell::Cell;
 use glam::Vec3;
 
 use super::media::{
-    from_grey, segments, GreyView, HomogeneousMedium, MediaStats, MediumEvent, RgbView, Segments,
-    TrackingConfig, VdbMedium,
+    from_grey, segments, HomogeneousMedium, MediaStats, MediumEvent, Segments, TrackingConfig,
+    VdbMedium,
 };
 use super::settings::Absorption;
+use super::views::{GreyView, RgbView};
 use crate::math::Ray;
 use crate::sampling::Rng;
 use crate::volume::merge::MergedSegments;

@@ -15,6 +15,7 @@ pub mod prepare;
 pub mod settings;
 pub mod stack;
 pub mod tile;
+pub mod views;
 
 pub use prepare::{FeatureFlags, RenderScene};
 pub use settings::{
