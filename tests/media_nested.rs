@@ -11,7 +11,9 @@
 mod common;
 use common::render::{load_scene, sidak_z};
 
-use brume::integrator::media::{HomogeneousMedium, MediaStats, MediumEvent, TrackingConfig};
+use brume::integrator::media::{
+    Flight, HomogeneousMedium, MediaStats, MediumEvent, TrackingConfig,
+};
 use brume::integrator::mixture::{sample_mixture, VdbSpan};
 use brume::integrator::nested::{nested_applies, sample_nested};
 use brume::integrator::{
@@ -106,10 +108,12 @@ fn tally<const EMIT: bool, const CHROM: bool>(
                 0.0,
                 t1,
                 Vec3::ONE,
-                cfg,
-                &mut rng,
-                &mut stats,
-                &mut l,
+                Flight {
+                    cfg,
+                    rng: &mut rng,
+                    stats: &mut stats,
+                    l: &mut l,
+                },
             )
         } else {
             sample_mixture::<EMIT, false, CHROM>(
@@ -119,10 +123,12 @@ fn tally<const EMIT: bool, const CHROM: bool>(
                 0.0,
                 t1,
                 Vec3::ONE,
-                cfg,
-                &mut rng,
-                &mut stats,
-                &mut l,
+                Flight {
+                    cfg,
+                    rng: &mut rng,
+                    stats: &mut stats,
+                    l: &mut l,
+                },
             )
         };
         match event {

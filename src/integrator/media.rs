@@ -385,9 +385,33 @@ pub(super) fn from_grey(e: Event<f32>, albedo: Vec3) -> MediumEvent {
     }
 }
 
+/// What the free flights of one path segment share besides the ray: the tracking settings, the
+/// path's random numbers, the media statistics, and `l`, the radiance that emission met on the
+/// way is added to (weighted by each flight's `beta`). Passed down through the media in turn
+/// ([`sample_vdb_in_turn`]), their mixture (`integrator::mixture`) and the nested flights
+/// (`integrator::nested`).
+pub struct Flight<'f> {
+    pub cfg: &'f TrackingConfig,
+    pub rng: &'f mut Rng,
+    pub stats: &'f mut MediaStats,
+    pub l: &'f mut Vec3,
+}
+
+impl Flight<'_> {
+    /// The same flight context for one call that returns before this one is used again.
+    #[inline]
+    pub fn reborrow(&mut self) -> Flight<'_> {
+        Flight {
+            cfg: self.cfg,
+            rng: &mut *self.rng,
+            stats: &mut *self.stats,
+            l: &mut *self.l,
+        }
+    }
+}
+
 /// Free flight through VDB medium `m` along world `ray` over `[t0, t1]`, with the configured
-/// estimator. Emission met on the way is added to `l` (already weighted by `beta`).
-#[allow(clippy::too_many_arguments)]
+/// estimator. Emission met on the way is added to `f.l` (already weighted by `beta`).
 #[inline]
 pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     m: &VdbMedium,
@@ -395,12 +419,11 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     t0: f32,
     t1: f32,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> MediumEvent {
+    let cfg = f.cfg;
     if CHROM && (!m.grey || cfg.force_spectral) {
+        let Flight { rng, stats, l, .. } = f;
         let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, cfg.majorant, beta);
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             tracking::spectral::sample_distance(
@@ -428,10 +451,8 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     // With absorption as a weight the grey view has no absorption coefficient at all, so the
     // ABS = false view compiles it out of the lookups.
     match (ABS, cfg.absorption) {
-        (true, Absorption::Event) => {
-            sample_grey::<EMIT, true>(m, ray, t0, t1, beta, cfg, rng, stats, l)
-        }
-        _ => sample_grey::<EMIT, false>(m, ray, t0, t1, beta, cfg, rng, stats, l),
+        (true, Absorption::Event) => sample_grey::<EMIT, true>(m, ray, t0, t1, beta, f),
+        _ => sample_grey::<EMIT, false>(m, ray, t0, t1, beta, f),
     }
 }
 
@@ -465,18 +486,15 @@ where
 }
 
 /// [`sample_vdb`] for a grey view (`sigma_t` equal in every channel).
-#[allow(clippy::too_many_arguments)]
 fn sample_grey<const EMIT: bool, const ABS: bool>(
     m: &VdbMedium,
     ray: &Ray,
     t0: f32,
     t1: f32,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> MediumEvent {
+    let Flight { cfg, rng, stats, l } = f;
     let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
     let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
         grey_free_flight(cfg, segs, t1, &view, rng, &mut stats.tracking)
@@ -492,18 +510,14 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
 /// not overlapping, each medium over its span cut at `t_end`. The first scattering or
 /// absorption ends it, with the phase function of its medium and the weights of the media
 /// passed before it; else every flight escaped, and the escape weight is their product.
-/// Emission met on the way is added to `l` (weighted by `beta` and the weights so far).
-#[allow(clippy::too_many_arguments)]
+/// Emission met on the way is added to `f.l` (weighted by `beta` and the weights so far).
 #[inline]
 pub fn sample_vdb_in_turn<'a, const EMIT: bool, const ABS: bool, const CHROM: bool>(
     spans: impl IntoIterator<Item = (&'a VdbMedium, f32, f32)>,
     t_end: f32,
     ray: &Ray,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    mut f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     let mut weight = Vec3::ONE;
     for (m, a, b) in spans {
@@ -511,7 +525,7 @@ pub fn sample_vdb_in_turn<'a, const EMIT: bool, const ABS: bool, const CHROM: bo
             break;
         }
         let b = b.min(t_end);
-        match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, cfg, rng, stats, l) {
+        match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, f.reborrow()) {
             MediumEvent::Escape { weight: w } => weight *= w,
             MediumEvent::Scatter { t, weight: w } => {
                 return (

@@ -58,13 +58,11 @@ use std::cell::Cell;
 use glam::Vec3;
 
 use super::media::{
-    from_grey, segments, HomogeneousMedium, MediaStats, MediumEvent, Segments, TrackingConfig,
-    VdbMedium,
+    from_grey, segments, Flight, HomogeneousMedium, MediumEvent, Segments, VdbMedium,
 };
 use super::settings::Absorption;
 use super::views::{GreyView, RgbView};
 use crate::math::Ray;
-use crate::sampling::Rng;
 use crate::volume::merge::MergedSegments;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{
@@ -80,7 +78,6 @@ pub type VdbSpan<'a> = (&'a VdbMedium, f32, f32);
 /// over its span) and the homogeneous medium `hom` (over all of `[t0, t1]`). Returns the
 /// event and, for a scattering event, the phase function of the medium that scattered.
 /// Emission met on the way is added to `l` (already weighted by `beta`).
-#[allow(clippy::too_many_arguments)]
 pub fn sample_mixture<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     vdb: &[VdbSpan],
     hom: Option<&HomogeneousMedium>,
@@ -88,23 +85,19 @@ pub fn sample_mixture<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     t0: f32,
     t1: f32,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let cfg = f.cfg;
     let chromatic_hom = hom.is_some_and(|h| {
         let s = h.sigma_t();
         s.x != s.y || s.y != s.z
     });
     if CHROM && (cfg.force_spectral || chromatic_hom || vdb.iter().any(|v| !v.0.grey)) {
-        return sample_rgb::<EMIT>(vdb, hom, ray, t0, t1, beta, cfg, rng, stats, l);
+        return sample_rgb::<EMIT>(vdb, hom, ray, t0, t1, beta, f);
     }
     match (ABS, cfg.absorption) {
-        (true, Absorption::Event) => {
-            sample_grey::<EMIT, true>(vdb, hom, ray, t0, t1, beta, cfg, rng, stats, l)
-        }
-        _ => sample_grey::<EMIT, false>(vdb, hom, ray, t0, t1, beta, cfg, rng, stats, l),
+        (true, Absorption::Event) => sample_grey::<EMIT, true>(vdb, hom, ray, t0, t1, beta, f),
+        _ => sample_grey::<EMIT, false>(vdb, hom, ray, t0, t1, beta, f),
     }
 }
 
@@ -223,7 +216,6 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyMix<'_, EMIT, ABS> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn sample_grey<const EMIT: bool, const ABS: bool>(
     vdb: &[VdbSpan],
     hom: Option<&HomogeneousMedium>,
@@ -231,11 +223,9 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
     t0: f32,
     t1: f32,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let Flight { cfg, rng, stats, l } = f;
     let views: Vec<GreyView<EMIT, ABS>> = vdb
         .iter()
         .map(|(m, _, _)| GreyView::new(m, ray, cfg, beta))
@@ -345,7 +335,6 @@ impl<const EMIT: bool> MediumRgb for RgbMix<'_, EMIT> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn sample_rgb<const EMIT: bool>(
     vdb: &[VdbSpan],
     hom: Option<&HomogeneousMedium>,
@@ -353,11 +342,9 @@ fn sample_rgb<const EMIT: bool>(
     t0: f32,
     t1: f32,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let Flight { cfg, rng, stats, l } = f;
     let views: Vec<RgbView<EMIT>> = vdb
         .iter()
         .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, beta))

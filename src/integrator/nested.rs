@@ -29,13 +29,11 @@ use glam::Vec3;
 
 use super::homogeneous::exp_neg;
 use super::media::{
-    sample_homogeneous, sample_vdb_in_turn, HomogeneousMedium, MediaStats, MediumEvent,
-    TrackingConfig,
+    sample_homogeneous, sample_vdb_in_turn, Flight, HomogeneousMedium, MediumEvent,
 };
 use super::mixture::VdbSpan;
 use super::settings::Absorption;
 use crate::math::Ray;
-use crate::sampling::Rng;
 use crate::volume::phase::HenyeyGreenstein;
 
 /// Whether [`sample_nested`] takes the flight through `vdb` (sorted, non-overlapping spans)
@@ -68,7 +66,6 @@ fn transmittance_over_survival<const CHROM: bool>(h: &HomogeneousMedium, t: f32)
 /// non-overlapping, each over its span) inside the homogeneous medium `hom` (see the module
 /// doc). Emission met on the way is added to `l` (weighted by `beta`). Call only where
 /// [`nested_applies`].
-#[allow(clippy::too_many_arguments)]
 pub fn sample_nested<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     vdb: &[VdbSpan],
     hom: &HomogeneousMedium,
@@ -76,42 +73,32 @@ pub fn sample_nested<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     t0: f32,
     t1: f32,
     beta: Vec3,
-    cfg: &TrackingConfig,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     // The homogeneous part first: its collision (or t1) ends every VDB flight.
-    let (t_h, hom_event) = match sample_homogeneous::<CHROM>(hom, t1 - t0, cfg.absorption, rng) {
+    let (t_h, hom_event) = match sample_homogeneous::<CHROM>(hom, t1 - t0, f.cfg.absorption, f.rng)
+    {
         MediumEvent::Scatter { t, weight } => (t0 + t, MediumEvent::Scatter { t: t0 + t, weight }),
         escape @ MediumEvent::Escape { .. } => (t1, escape),
         // Not with absorption as a weight (`nested_applies`); no distance to cut at.
         MediumEvent::Absorb => return (MediumEvent::Absorb, hom.phase),
     };
     // Then the VDB media in turn, each cut at t_h.
-    let weight = match sample_vdb_in_turn::<EMIT, ABS, CHROM>(
-        vdb.iter().copied(),
-        t_h,
-        ray,
-        beta,
-        cfg,
-        rng,
-        stats,
-        l,
-    ) {
-        (MediumEvent::Escape { weight }, _) => weight,
-        (MediumEvent::Scatter { t, weight }, phase) => {
-            let f = transmittance_over_survival::<CHROM>(hom, t - t0);
-            return (
-                MediumEvent::Scatter {
-                    t,
-                    weight: weight * f,
-                },
-                phase,
-            );
-        }
-        absorb => return absorb,
-    };
+    let weight =
+        match sample_vdb_in_turn::<EMIT, ABS, CHROM>(vdb.iter().copied(), t_h, ray, beta, f) {
+            (MediumEvent::Escape { weight }, _) => weight,
+            (MediumEvent::Scatter { t, weight }, phase) => {
+                let f = transmittance_over_survival::<CHROM>(hom, t - t0);
+                return (
+                    MediumEvent::Scatter {
+                        t,
+                        weight: weight * f,
+                    },
+                    phase,
+                );
+            }
+            absorb => return absorb,
+        };
     let event = match hom_event {
         MediumEvent::Scatter { t, weight: w } => MediumEvent::Scatter {
             t,

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use super::bsdf::{fresnel_dielectric, refract, Principled};
 use super::lights::{emitted, power_heuristic};
 use super::media::{
-    sample_homogeneous, sample_vdb_in_turn, transmittance_homogeneous, transmittance_vdb,
+    sample_homogeneous, sample_vdb_in_turn, transmittance_homogeneous, transmittance_vdb, Flight,
     MediaStats, MediumEvent, TrackingConfig,
 };
 use super::mixture::{sample_mixture, VdbSpan};
@@ -134,7 +134,6 @@ fn intervals_overlap(iv: &[VdbSpan]) -> bool {
 /// with overlapping or nested media), VDB media side by side inside the homogeneous medium by
 /// its closed-form flight cutting theirs short (`nested`), else their sum where they overlap
 /// (`mixture`).
-#[allow(clippy::too_many_arguments)]
 #[inline]
 fn sample_media<
     const HET: bool,
@@ -145,16 +144,14 @@ fn sample_media<
     const MIX: bool,
 >(
     rs: &RenderScene,
-    cfg: &TrackingConfig,
     ray: &Ray,
     t0: f32,
     t1: f32,
     medium: Option<u32>,
     beta: Vec3,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-    l: &mut Vec3,
+    f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let cfg = f.cfg;
     // The VDB spans, found once: the mixture test's are the flights' in turn below.
     let mut spans = None;
     if MIX && HET {
@@ -166,19 +163,15 @@ fn sample_media<
             // VDB media side by side inside the homogeneous one: its closed-form flight cuts
             // theirs short (`nested`); overlapping VDB media need the merged sum.
             if let Some(h) = hom.filter(|h| !overlap && nested_applies(iv, h, cfg.absorption)) {
-                return sample_nested::<EMIT, ABS, CHROM>(
-                    iv, h, ray, t0, t1, beta, cfg, rng, stats, l,
-                );
+                return sample_nested::<EMIT, ABS, CHROM>(iv, h, ray, t0, t1, beta, f);
             }
-            return sample_mixture::<EMIT, ABS, CHROM>(
-                iv, hom, ray, t0, t1, beta, cfg, rng, stats, l,
-            );
+            return sample_mixture::<EMIT, ABS, CHROM>(iv, hom, ray, t0, t1, beta, f);
         }
     }
     if HOM {
         if let Some(h) = medium {
             let h = &rs.homogeneous[h as usize];
-            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, cfg.absorption, rng) {
+            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, cfg.absorption, f.rng) {
                 MediumEvent::Scatter { t, weight } => MediumEvent::Scatter { t: t0 + t, weight },
                 other => other,
             };
@@ -187,16 +180,7 @@ fn sample_media<
     }
     if HET {
         let spans = spans.unwrap_or_else(|| vdb_intervals(rs, ray, t0, t1));
-        return sample_vdb_in_turn::<EMIT, ABS, CHROM>(
-            spans.iter().copied(),
-            t1,
-            ray,
-            beta,
-            cfg,
-            rng,
-            stats,
-            l,
-        );
+        return sample_vdb_in_turn::<EMIT, ABS, CHROM>(spans.iter().copied(), t1, ray, beta, f);
     }
     (
         MediumEvent::Escape { weight: Vec3::ONE },
@@ -418,15 +402,17 @@ pub fn radiance<
             }
             let (ev, phase) = sample_media::<HET, HOM, EMIT, ABS, CHROM, MIX>(
                 rs,
-                cfg,
                 &ray,
                 t0,
                 t_hit,
                 media.top(),
                 beta,
-                &mut sampler.rng,
-                &mut stats.media,
-                &mut l,
+                Flight {
+                    cfg,
+                    rng: &mut sampler.rng,
+                    stats: &mut stats.media,
+                    l: &mut l,
+                },
             );
             sampler.rng.clear_queue();
             if collisions(&stats.media) - start_collisions > limits.max_collisions {
