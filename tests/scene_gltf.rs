@@ -778,7 +778,7 @@ fn out_of_range_medium_parameters() {
             json!({"uri": "grids/x.vdb", "mesh": 9}),
             format!("{ext}/mesh"),
         ),
-        // Fuzz findings (tests/fuzz_inputs.rs, seed 2000): a u64::MAX densityScale stalled
+        // Fuzz findings (tests/fuzz_inputs/, seed 2000): a u64::MAX densityScale stalled
         // free flights (steps below the float spacing), emissionStrength 3.4e38 rendered inf.
         (
             json!({"uri": "grids/x.vdb", "densityScale": 18446744073709551615u64}),
