@@ -112,8 +112,8 @@ pub fn floor_i32(x: f32) -> i32 {
 }
 
 /// `v` truncated lane by lane, as floats and (x, y, z) as integers, for lanes in `0..2^24`
-/// or NaN (which gives 0): clamped cell coordinates and counts. On x86-64 a `cvttps2dq` and a `cvtdq2ps`: `as i32`
-/// lane by lane adds six instructions of saturation handling to each.
+/// or NaN (which gives 0): clamped cell coordinates and counts. On x86-64 a `cvttps2dq` and a
+/// `cvtdq2ps`: `as i32` lane by lane adds six instructions of saturation handling to each.
 #[inline(always)]
 pub fn trunc_xyz(v: glam::Vec4) -> (glam::Vec4, [i32; 3]) {
     #[cfg(target_arch = "x86_64")]

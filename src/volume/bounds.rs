@@ -158,6 +158,12 @@ impl LeafBounds {
         self.active = active_cells(&self.cells, self.dims);
     }
 
+    /// The index-space minimum corner of the cell box (exact: a multiple of 8 well below 2^24).
+    #[inline]
+    pub fn cell_lo(&self) -> crate::math::Vec3 {
+        crate::math::Vec3::from_array(self.cell_origin.map(|c| c as f32 * 8.0))
+    }
+
     /// [`Self::active`] in index space: the box every walk clips its rays to (minimum and
     /// maximum corner; exact, multiples of 8 well below 2^24).
     #[inline]

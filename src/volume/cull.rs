@@ -19,11 +19,9 @@
 //! [`LeafCulling::new`] therefore requires the global minimum to be exactly 0 (every cell's
 //! minimum then lies in `[0, max]`).
 use super::bounds::{CellBounds, LeafBounds};
-use crate::math::{floor_i32, trunc_xyz, Vec3};
+use super::dda::cell_of;
+use crate::math::{floor_i32, Vec3};
 use glam::Vec4;
-
-/// Edge of one bounds cell in index units.
-const CELL_WIDTH: f32 = 8.0;
 
 /// The per-leaf bounds of one grid, as the culling of a walk over its global bound reads them.
 #[derive(Clone, Copy, Debug)]
@@ -55,11 +53,10 @@ impl<'a> LeafCulling<'a> {
     #[inline(always)]
     pub fn accepted(bounds: &'a LeafBounds) -> Self {
         debug_assert!(Self::accepts(bounds));
-        let [ox, oy, oz] = bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH);
         let [nx, ny, nz] = bounds.dims.map(|n| n as f32 - 1.0);
         LeafCulling {
             bounds,
-            lo: Vec4::new(ox, oy, oz, 0.0),
+            lo: bounds.cell_lo().extend(0.0),
             last: Vec4::new(nx, ny, nz, 0.0),
             global_max: bounds.global.max,
         }
@@ -87,11 +84,8 @@ impl<'a> LeafCulling<'a> {
     /// clamped into the cell box.
     #[inline(always)]
     pub fn bound_at(&self, p: Vec3) -> f32 {
-        // Clamped into the cell box, then truncated, which equals `floor` there: the cell of
-        // `dda::enter_box`'s saturating cast and integer clamp (NaN maps to 0, as `max(NaN,
-        // 0)` is 0), four lanes at a time.
-        let v = (Vec4::new(p.x, p.y, p.z, 0.0) - self.lo) * (1.0 / CELL_WIDTH);
-        let c = trunc_xyz(v.max(Vec4::ZERO).min(self.last)).1;
+        // The DDA's entry cell search, four lanes at a time (NaN maps to cell 0).
+        let c = cell_of(p.extend(0.0), self.lo, self.last).1;
         let [nx, ny, _] = self.bounds.dims.map(|n| n as usize);
         self.bounds.cells[c[0] as usize + nx * (c[1] as usize + ny * c[2] as usize)].max
     }
@@ -202,6 +196,9 @@ impl<'a> VoxelCulling<'a> {
 mod tests {
     use super::*;
     use crate::sampling::Rng;
+
+    /// Edge of one bounds cell in index units.
+    const CELL_WIDTH: f32 = 8.0;
 
     /// The four-lane cell search is the scalar one it replaced (saturating cast, then integer
     /// clamp) on points inside, outside and on the faces of the cell box, and on NaN.

@@ -39,6 +39,17 @@ fn pick(mask: BVec4A, if_true: Vec4, if_false: Vec4) -> Vec4 {
     Vec4::select(mask, if_true, if_false)
 }
 
+/// The cell of the cell box from `lo` (cells of edge [`CELL_WIDTH`], `last` the last cell's
+/// coordinates) that holds index-space point `x`, as floats and as integers: clamped into the
+/// box, then truncated, which equals `floor` there and is the scalar set-up's saturating cast
+/// and integer clamp. `max(NaN, 0)` is 0 (SSE returns its second operand), as the saturating
+/// cast maps NaN. The DDA's entry cell and the leaf culling's cell search
+/// (`volume::cull::LeafCulling::bound_at`).
+#[inline(always)]
+pub(crate) fn cell_of(x: Vec4, lo: Vec4, last: Vec4) -> (Vec4, [i32; 3]) {
+    trunc_xyz(((x - lo) * (1.0 / CELL_WIDTH)).max(Vec4::ZERO).min(last))
+}
+
 /// [`DdaState::enter`] for a box of cells of edge [`CELL_WIDTH`] with every `dims` at least 1
 /// and not all 1 (the one-cell walk and an empty box take the scalar path).
 #[inline]
@@ -123,8 +134,7 @@ pub(super) fn enter_cells(cb: &CellBox, ray: &Ray, t0: f32, t1: f32) -> DdaState
     let p = o + Vec4::splat(t_enter) * d;
     let x = pick(d.cmpeq(Vec4::ZERO), o, p);
     let last = dims_f - Vec4::ONE;
-    // `max(NaN, 0)` is 0 (SSE returns its second operand), as the saturating cast maps NaN.
-    let (cell_f, cell) = trunc_xyz(((x - lo4) * (1.0 / CELL_WIDTH)).max(Vec4::ZERO).min(last));
+    let (cell_f, cell) = cell_of(x, lo4, last);
     let plane = lo4 + (cell_f + pick(forward, Vec4::ONE, Vec4::ZERO)) * CELL_WIDTH;
     let crossing = pick(steps, (plane - o) * inv, Vec4::INFINITY).to_array();
     let plane = pick(steps, plane, Vec4::ZERO).to_array();

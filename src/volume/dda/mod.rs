@@ -13,6 +13,7 @@
 //! Where rounding puts a sample point slightly outside the cell the walk assigns it to, the
 //! one-voxel apron of [`LeafBounds`] still bounds it.
 mod lanes;
+pub(crate) use lanes::cell_of;
 
 use super::bounds::{CellBounds, LeafBounds};
 use super::segment::MajorantSegment;
@@ -48,7 +49,7 @@ impl CellBox {
     #[inline]
     pub fn leaf_cells(bounds: &LeafBounds) -> Self {
         Self {
-            lo: Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH)),
+            lo: bounds.cell_lo(),
             width: Vec3::splat(CELL_WIDTH),
             dims: bounds.dims.map(|d| d as i32),
             clip: bounds.walk_box(),
@@ -60,7 +61,7 @@ impl CellBox {
     #[inline]
     pub fn whole(bounds: &LeafBounds) -> Self {
         Self {
-            lo: Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * CELL_WIDTH)),
+            lo: bounds.cell_lo(),
             width: Vec3::from_array(bounds.dims.map(|d| d as f32 * CELL_WIDTH)),
             dims: if bounds.cells.is_empty() {
                 [0; 3]
