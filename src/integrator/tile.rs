@@ -56,11 +56,13 @@ pub fn render_tile<
     let mut lookups = vec![0u64; rect.pixel_count()];
     let mut total = PathStats::default();
     let aspect = ctx.width as f32 / ctx.height as f32;
+    // One sampler for the tile, moved from pixel to pixel.
+    let mut sampler = Sampler::for_pixel(ctx.sampler, 0, ctx.seed);
     for y in rect.y0..rect.y1 {
         for x in rect.x0..rect.x1 {
             let pixel = y * ctx.width + x;
             let before = total.media.tracking.lookups + total.media.emission_lookups;
-            let mut sampler = Sampler::for_pixel(ctx.sampler, pixel, ctx.seed);
+            sampler.set_pixel(pixel);
             for s in s0..s0 + n {
                 sampler.start(s);
                 let jitter = sampler.get2d(DIM_JITTER);

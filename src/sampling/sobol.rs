@@ -357,6 +357,19 @@ impl Sampler {
         }
     }
 
+    /// Moves the sampler to the samples of `pixel` (at sample 0 until [`Sampler::start`]),
+    /// exactly as `Sampler::for_pixel(kind, pixel, seed)`: only the kept block seeds' mask is
+    /// cleared, where a fresh sampler zeroed all of them (a 768-byte `memset` a pixel and pass,
+    /// about 20 instructions a sample at 16 spp in callgrind).
+    #[inline]
+    pub fn set_pixel(&mut self, pixel: u32) {
+        self.rng = Rng::new(pixel, 0, self.seed);
+        self.pixel = pixel;
+        self.pixel_seed = pixel_seed(pixel, self.seed);
+        self.sample_rev = 0;
+        self.cached = 0;
+    }
+
     /// Starts sample `sample` of the pixel: its own stream and points, exactly as
     /// `Sampler::new(kind, pixel, sample, seed)` (the kept block seeds are the pixel's).
     #[inline]
@@ -636,13 +649,20 @@ mod fast_path_tests {
     }
 
     /// A sampler reused across a pixel's samples (its block seeds kept, past the cached
-    /// blocks too) draws exactly what a fresh sampler per sample draws, on both kinds.
+    /// blocks too), and moved on to other pixels ([`Sampler::set_pixel`], its kept seeds the
+    /// last pixel's), draws exactly what a fresh sampler per sample draws, on both kinds.
     #[test]
     fn a_pixel_sampler_equals_fresh_samplers() {
         for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
-            let (pixel, seed) = (4321, 17);
-            let mut reused = Sampler::for_pixel(kind, pixel, seed);
-            for sample in [0u32, 1, 2, 7, 1000, 3] {
+            let seed = 17;
+            let mut reused = Sampler::for_pixel(kind, 4321, seed);
+            for (pixel, sample) in [4321, 4321, 4321, 4321, 4321, 4321, 0, 0, 4322, 4321]
+                .into_iter()
+                .zip([0u32, 1, 2, 7, 1000, 3, 0, 5, 5, 2])
+            {
+                if pixel != reused.pixel {
+                    reused.set_pixel(pixel);
+                }
                 reused.start(sample);
                 let mut fresh = Sampler::new(kind, pixel, sample, seed);
                 for block in [0u32, 5, 63, 64, 200, 5, 0] {
