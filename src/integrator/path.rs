@@ -188,11 +188,10 @@ fn sample_media<
     )
 }
 
-/// Transmittance from `p` along unit `wi` over distance `dist`, through media and null
-/// interfaces; 0 when an opaque or refracting surface blocks. Overlapping media multiply
-/// their transmittances (extinction adds), so each is estimated on its own (`MIX`: VDB media
-/// inside a homogeneous one too).
-#[allow(clippy::too_many_arguments)]
+/// Transmittance along the shadow ray `ray` (unit direction) over distance `dist`, through
+/// media and null interfaces; 0 when an opaque or refracting surface blocks. Overlapping media
+/// multiply their transmittances (extinction adds), so each is estimated on its own (`MIX`: VDB
+/// media inside a homogeneous one too).
 fn transmittance<
     const SURF: bool,
     const HET: bool,
@@ -202,19 +201,17 @@ fn transmittance<
 >(
     rs: &RenderScene,
     cfg: &TrackingConfig,
-    p: Vec3,
-    wi: Vec3,
+    ray: &Ray,
     dist: f32,
     mut media: MediumStack,
     rng: &mut Rng,
     stats: &mut MediaStats,
 ) -> Vec3 {
-    let ray = Ray::new(p, wi);
     let mut tr = Vec3::ONE;
     let mut t0 = 0.0f32;
     loop {
         let hit = if SURF {
-            rs.scene.bvh.closest_hit(&ray, t0, dist)
+            rs.scene.bvh.closest_hit(ray, t0, dist)
         } else {
             None
         };
@@ -226,8 +223,8 @@ fn transmittance<
             }
         }
         if HET && (MIX || medium.is_none()) {
-            for &(m, a, b) in vdb_intervals(rs, &ray, t0, t1).iter() {
-                tr *= transmittance_vdb::<CHROM>(m, &ray, a, b, cfg, rng, stats);
+            for &(m, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
+                tr *= transmittance_vdb::<CHROM>(m, ray, a, b, cfg, rng, stats);
                 if tr == Vec3::ZERO {
                     return tr;
                 }
@@ -241,7 +238,7 @@ fn transmittance<
         }
         if HOM {
             let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
-            let entering = (b - a).cross(c - a).dot(wi) < 0.0;
+            let entering = (b - a).cross(c - a).dot(ray.d) < 0.0;
             media.cross(rs.scene.materials[mat_index].interior_medium, entering);
         }
         t0 = h.t + 1e-4 * (1.0 + h.t);
@@ -261,14 +258,24 @@ struct EnvChoice {
     by_phase: bool,
 }
 
-/// Next-event estimation from `p`: one light sample, its visibility and transmittance, weighted
+/// Where a next-event estimate starts.
+#[derive(Clone, Copy)]
+struct Vertex<'a> {
+    /// The point (offset off a surface already).
+    p: Vec3,
+    /// The media it lies in.
+    media: MediumStack,
+    /// At a medium event: its phase function, `wo` and the continuation albedo, for the guided
+    /// light selection; `None` at a surface.
+    phase: Option<(&'a HenyeyGreenstein, Vec3, f32)>,
+}
+
+/// Next-event estimation from `v`: one light sample, its visibility and transmittance, weighted
 /// against the scattering strategy by the power heuristic. `scatter(wi)` gives the scattering
 /// factor (phase value, or BSDF times cosine) and its sampling pdf. `bounce` picks the
-/// sampler's light-selection and light-sample blocks. At a medium event (`phase`: the phase
-/// function and `wo`) the light is chosen by the guided selection of
-/// [`Lights::phase_selection`] (uniformly elsewhere). Returns the estimate and how the
-/// environment was chosen.
-#[allow(clippy::too_many_arguments)]
+/// sampler's light-selection and light-sample blocks. At a medium event (`v.phase`) the light
+/// is chosen by the guided selection of [`Lights::phase_selection`] (uniformly elsewhere).
+/// Returns the estimate and how the environment was chosen.
 fn next_event<
     const SURF: bool,
     const HET: bool,
@@ -278,14 +285,13 @@ fn next_event<
 >(
     rs: &RenderScene,
     cfg: &TrackingConfig,
-    p: Vec3,
-    media: MediumStack,
+    v: Vertex,
     sampler: &mut Sampler,
     bounce: u32,
     stats: &mut MediaStats,
-    phase: Option<(&HenyeyGreenstein, Vec3, f32)>,
     scatter: impl Fn(Vec3) -> (Vec3, f32),
 ) -> (Vec3, EnvChoice) {
+    let Vertex { p, media, phase } = v;
     // Selection before position: the independent sampler draws in this order.
     let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
     let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
@@ -328,8 +334,7 @@ fn next_event<
     let tr = transmittance::<SURF, HET, HOM, CHROM, MIX>(
         rs,
         cfg,
-        p,
-        ls.wi,
+        &Ray::new(p, ls.wi),
         dist,
         media,
         &mut sampler.rng,
@@ -344,7 +349,6 @@ fn next_event<
 }
 
 /// Radiance along the camera ray through film point `film` (in [0,1]^2).
-#[allow(clippy::too_many_arguments)]
 pub fn radiance<
     const SURF: bool,
     const HET: bool,
@@ -440,14 +444,18 @@ pub fn radiance<
                     let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
                         rs,
                         cfg,
-                        p,
-                        media,
+                        Vertex {
+                            p,
+                            media,
+                            phase: limits.guided_lights.then_some((
+                                &phase,
+                                wo,
+                                limits.continuation_albedo,
+                            )),
+                        },
                         sampler,
                         depth - 1,
                         &mut stats.media,
-                        limits
-                            .guided_lights
-                            .then_some((&phase, wo, limits.continuation_albedo)),
                         |wi| {
                             let f = phase.p(wo, wi);
                             (Vec3::splat(f), f)
@@ -558,12 +566,14 @@ pub fn radiance<
                 let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
                     rs,
                     cfg,
-                    p_off,
-                    media,
+                    Vertex {
+                        p: p_off,
+                        media,
+                        phase: None,
+                    },
                     sampler,
                     depth - 1,
                     &mut stats.media,
-                    None,
                     |wi| {
                         if n_side.dot(wi) <= 0.0 {
                             return (Vec3::ZERO, 0.0);
