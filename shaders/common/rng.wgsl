@@ -1,5 +1,5 @@
 // Mirrors src/sampling/rng.rs (`pcg_hash`, `Rng::new`, `Rng::next_u32`, `Rng::uniform_f32`,
-// `Rng::queue_uniforms`):
+// `Rng::queue_uniforms`, `Rng::push_front`):
 // PCG-RXS-M-XS-32 with u32-only wrapping arithmetic, which is exactly WGSL's u32 semantics, so
 // the streams equal the CPU's bit for bit (tests/gpu_rng.rs). Keep the two in lockstep.
 
@@ -56,4 +56,14 @@ fn rng_uniform(rng: ptr<function, Rng>) -> f32 {
 fn rng_queue_uniforms(rng: ptr<function, Rng>, a: u32, b: u32) {
     (*rng).queued = vec2<u32>(a >> 8u, b >> 8u);
     (*rng).n_queued = 2u;
+}
+
+// Rng::push_front: x (in [0, 1), its top 24 bits) is the next rng_uniform, ahead of a value
+// still queued; nothing is pushed when two are queued. WGSL's u32(f32) truncates and
+// saturates as Rust's `as u32` does.
+fn rng_push_front(rng: ptr<function, Rng>, x: f32) {
+    if ((*rng).n_queued < 2u) {
+        (*rng).queued[1u - (*rng).n_queued] = min(u32(x * 16777216.0), 0x00FFFFFFu);
+        (*rng).n_queued += 1u;
+    }
 }

@@ -206,6 +206,31 @@ fn tracker_uniform(tr: ptr<function, Tracker>) -> f32 {
     return u;
 }
 
+// tracking::RECYCLE_MIN_P and tracking::thin: keeps a tentative collision with probability r
+// (a NaN ratio culls) and hands a queued uniform on, rescaled into [0, 1), where the outcome
+// had probability at least RECYCLE_MIN_P: u / r if kept, (u - r) / (1 - r) if culled.
+const RECYCLE_MIN_P: f32 = 0.25;
+
+fn tracker_thin(tr: ptr<function, Tracker>, r: f32) -> bool {
+    var rng = (*tr).rng;
+    // Only a queued value (a sampler's point, or one handed on) is handed on.
+    let queued = rng.n_queued > 0u;
+    let u = rng_uniform(&rng);
+    let keep = u < r;
+    // The outcome's interval of u, [0, r) or [r, 1), of length p (NaN fails both tests).
+    var below = u - r;
+    var p = 1.0 - r;
+    if (keep) {
+        below = u;
+        p = r;
+    }
+    if (queued && p >= RECYCLE_MIN_P && p <= 1.0) {
+        rng_push_front(&rng, below / p);
+    }
+    (*tr).rng = rng;
+    return keep;
+}
+
 // tracking::sample_exponential. ln_f32 (math.wgsl), not WGSL's log(): the built-in may be off
 // by 2^-21 absolutely near 1, i.e. by percents on the short steps of small u.
 fn sample_exponential(u: f32, sigma: f32) -> f32 {
@@ -603,9 +628,9 @@ fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
 // since the last one reaches an exponential depth -ln(1 - u), carried across segments (one
 // uniform per collision, none per segment), and go to tracking_collide. The culled global
 // walk (dda.cull) first keeps each with probability r = dda_cull_ratio (one more uniform when
-// r < 1) and hands the kept ones on with majorant r * sigma_maj; the per-leaf and culled walks
-// (dda.voxel) then keep each with probability r2 = dda_voxel_ratio (majorant r2 * r *
-// sigma_maj). Returns T_maj as the CPU does.
+// r < 1, handed on by tracker_thin) and hands the kept ones on with majorant r * sigma_maj;
+// the per-leaf and culled walks (dda.voxel) then keep each with probability r2 =
+// dda_voxel_ratio (majorant r2 * r * sigma_maj). Returns T_maj as the CPU does.
 fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) -> f32 {
     var dda = dda_start;
     var seg: GpuMajorantSegment;
@@ -696,7 +721,7 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
                 r = dda_cull_ratio(&dda, t);
                 if (r < 1.0) {
                     // `!(u < r)`: a NaN ratio culls too.
-                    if (!(tracker_uniform(tr) < r)) {
+                    if (!tracker_thin(tr, r)) {
                         (*tr).stats.null_collisions += 1u;
                         continue;
                     }
@@ -707,7 +732,7 @@ fn sample_free_flight(tr: ptr<function, Tracker>, dda_start: Dda, t_max: f32) ->
             if (seg_voxel) {
                 let r2 = dda_voxel_ratio(&dda, t, r * seg.sigma_maj);
                 if (r2 < 1.0) {
-                    if (!(tracker_uniform(tr) < r2)) {
+                    if (!tracker_thin(tr, r2)) {
                         (*tr).stats.null_collisions += 1u;
                         continue;
                     }

@@ -110,6 +110,25 @@ impl Rng {
         self.n_queued = 2;
     }
 
+    /// Makes `x` (in `[0, 1)`, kept to its top 24 bits) the next `uniform_f32`, ahead of a
+    /// value still queued: how a thinning decision hands its uniform on
+    /// (`volume::tracking::thin`). Nothing is pushed when two values are queued already.
+    #[inline]
+    pub fn push_front(&mut self, x: f32) {
+        if self.n_queued < 2 {
+            // With `n` queued, `uniform_f32` reads `queued[1 - n]` first once there are `n + 1`.
+            self.queued[1 - self.n_queued as usize] = ((x * 16_777_216.0) as u32).min(0x00FF_FFFF);
+            self.n_queued += 1;
+        }
+    }
+
+    /// Whether the next `uniform_f32` is a queued value (a sampler's point, or one handed on)
+    /// rather than the stream's own.
+    #[inline]
+    pub fn has_queued(&self) -> bool {
+        self.n_queued > 0
+    }
+
     /// Drops queued values that were not drawn (so they never reach an unrelated decision).
     #[inline]
     pub fn clear_queue(&mut self) {

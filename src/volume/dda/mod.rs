@@ -198,6 +198,7 @@ impl DdaState {
 
     /// [`Self::enter`] one axis at a time: the one-cell walk's and an empty box's set-up, and
     /// the reference the four-lane set-up is tested against.
+    #[inline]
     pub fn enter_scalar(cb: &CellBox, ray: &Ray, t0: f32, t1: f32) -> Self {
         let CellBox {
             lo, width, dims, ..

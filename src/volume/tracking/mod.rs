@@ -20,7 +20,9 @@
 //! its exponential optical depth, drawn by the loop when the previous collision is consumed
 //! (not per segment: the depth carries across segments); then whatever the callback draws for
 //! that collision (one uniform for the event choice, one more only when Russian roulette
-//! fires).
+//! fires). A thinned walk decides each collision's culling with one more uniform before the
+//! callback; a queued one (a sampler's point) is handed on rescaled as the next uniform drawn
+//! ([`thin`]).
 //!
 //! Units: `t` is the ray parameter and every coefficient is per unit of `t`.
 // Comparisons such as `!(x > 0.0)` are written negated on purpose: NaN takes the safe branch.
@@ -29,12 +31,14 @@
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 use glam::Vec3;
+pub use thin::{thin, RECYCLE_MIN_P};
 
 pub mod decomposition;
 pub mod delta;
 pub mod ratio;
 pub mod residual_ratio;
 pub mod spectral;
+mod thin;
 pub mod weighted_decomposition;
 pub mod weighted_delta;
 
@@ -461,7 +465,8 @@ pub fn sample_exponential(u: f32, sigma: f32) -> f32 {
 /// Culling (thinning, Lewis & Shedler 1979, "Simulation of nonhomogeneous Poisson processes
 /// by thinning"): `cull(t)` gives `r = sigma_fine(t) / sigma_maj` in `[0, 1]`, where
 /// `sigma_fine` is a finer bound at the collision's point (the per-leaf cell's, under a
-/// segment over the whole grid). With `r < 1` one more uniform `u` decides:
+/// segment over the whole grid). With `r < 1` one more uniform `u` decides ([`thin`], which
+/// hands a queued `u` on rescaled):
 ///
 /// ```text
 /// u >= r  -> culled: a null collision, no lookup, no callback
@@ -483,7 +488,11 @@ pub fn sample_exponential(u: f32, sigma: f32) -> f32 {
 /// `t_max` if the walk escaped, 1 if the callback stopped it. With exponential steps the escape
 /// probability equals `T_maj`, so analog and weighted estimators never divide by it; it is
 /// returned for estimators that sample differently (as in pbrt).
+// Always inlined into its estimators: it is their whole loop, and the call and the state it
+// would spill cost about 100 instructions a sample on the fire once the thinning's hand-on
+// tipped the inliner against it (callgrind).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub fn sample_free_flight<I, M, K, R, C>(
     segments: I,
     t_max: f32,
@@ -560,7 +569,7 @@ where
             let mut sigma_kept = sigma_maj;
             if r < 1.0 {
                 // `!(u < r)`: a NaN ratio culls too (no lookup against an unknown bound).
-                if !(rng.uniform_f32() < r) {
+                if !thin(rng, r) {
                     stats.null_collisions += 1;
                     continue;
                 }
@@ -568,7 +577,7 @@ where
             }
             let r2 = refine(t, &seg, r * seg.sigma_maj);
             if r2 < 1.0 {
-                if !(rng.uniform_f32() < r2) {
+                if !thin(rng, r2) {
                     stats.null_collisions += 1;
                     continue;
                 }
