@@ -345,16 +345,18 @@ impl Sampler {
 
     /// A sampler for the samples of `pixel`, at sample 0 until [`Sampler::start`].
     pub fn for_pixel(kind: SamplerKind, pixel: u32, seed: u32) -> Self {
-        Sampler {
+        let mut sampler = Sampler {
             rng: Rng::new(pixel, 0, seed),
             kind,
             pixel,
             seed,
-            pixel_seed: pixel_seed(pixel, seed),
+            pixel_seed: 0,
             sample_rev: 0,
             block_seeds: [[0; 3]; CACHED_BLOCKS],
             cached: 0,
-        }
+        };
+        sampler.set_pixel(pixel);
+        sampler
     }
 
     /// Moves the sampler to the samples of `pixel` (at sample 0 until [`Sampler::start`]),
@@ -363,11 +365,10 @@ impl Sampler {
     /// about 20 instructions a sample at 16 spp in callgrind).
     #[inline]
     pub fn set_pixel(&mut self, pixel: u32) {
-        self.rng = Rng::new(pixel, 0, self.seed);
         self.pixel = pixel;
         self.pixel_seed = pixel_seed(pixel, self.seed);
-        self.sample_rev = 0;
         self.cached = 0;
+        self.start(0);
     }
 
     /// Starts sample `sample` of the pixel: its own stream and points, exactly as
