@@ -624,9 +624,14 @@ impl<'m, I, M: Medium + ?Sized> ControlDepthWalk<'m, I, M> {
     }
 
     /// `exp(-tau_c)`, 0 when the walk was cut.
+    #[inline]
     pub fn control_transmittance(&self) -> f32 {
         if self.tau_c > CONTROL_DEPTH_CUTOFF {
             0.0
+        } else if self.tau_c == 0.0 {
+            // No control on the walk (the culled walk's one segment has minorant 0): exp(-0)
+            // is exactly 1, and the libm call cost ~30 instructions a culled shadow ray.
+            1.0
         } else {
             (-self.tau_c).exp()
         }
