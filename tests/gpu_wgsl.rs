@@ -211,3 +211,80 @@ fn variants_without_a_feature_hold_no_code_for_it() {
         println!("{feature}: off -> none of {functions:?} reachable");
     }
 }
+
+/// A WGSL constant's value as its bits, for exact comparison.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Bits {
+    F32(u32),
+    U32(u32),
+}
+
+/// Every `const` the assembled modules declare, by name, as naga evaluated it.
+fn wgsl_constants() -> std::collections::BTreeMap<String, Bits> {
+    let mut out = std::collections::BTreeMap::new();
+    for m in MODULES {
+        let module = parse(m.label, &m.source(&[]));
+        for (_, c) in module.constants.iter() {
+            let Some(name) = c.name.clone() else { continue };
+            let value = match module.global_expressions[c.init] {
+                naga::Expression::Literal(naga::Literal::F32(x)) => Bits::F32(x.to_bits()),
+                naga::Expression::Literal(naga::Literal::U32(x)) => Bits::U32(x),
+                _ => continue,
+            };
+            if let Some(seen) = out.insert(name.clone(), value) {
+                assert_eq!(seen, value, "{name} differs between WGSL modules");
+            }
+        }
+    }
+    out
+}
+
+/// The constants the WGSL mirror writes out again hold the Rust values bit for bit: the
+/// physics constants (roulette, collision cap, control cutoff, the thinning hand-on's bound),
+/// the sampler's salts and dimension layout, the RNG's constants and the grid's encodings.
+/// The parity tests would catch most drift only on a device, and only on the paths they reach.
+#[test]
+fn mirrored_constants_match_rust() {
+    use brume::sampling::{discrete, rng, sobol};
+    use brume::volume::tracking;
+    let wgsl = wgsl_constants();
+    let f = |x: f32| Bits::F32(x.to_bits());
+    let u = Bits::U32;
+    let rust: &[(&str, Bits)] = &[
+        ("MAJORANT_TOLERANCE", f(tracking::MAJORANT_TOLERANCE)),
+        ("ROULETTE_THRESHOLD", f(tracking::ROULETTE_THRESHOLD)),
+        (
+            "MAX_TENTATIVE_COLLISIONS",
+            u(u32::try_from(tracking::MAX_TENTATIVE_COLLISIONS).expect("fits a u32")),
+        ),
+        ("CONTROL_DEPTH_CUTOFF", f(tracking::CONTROL_DEPTH_CUTOFF)),
+        ("RECYCLE_MIN_P", f(tracking::RECYCLE_MIN_P)),
+        ("ONE_MINUS_EPSILON", f(discrete::ONE_MINUS_EPSILON)),
+        ("ENV_ONE_BELOW", f(discrete::ONE_MINUS_EPSILON)),
+        ("SOBOL_SALT", u(sobol::SOBOL_SALT)),
+        ("DIM_JITTER", u(sobol::DIM_JITTER)),
+        ("DIMS_PER_BOUNCE", u(sobol::DIMS_PER_BOUNCE)),
+        ("DIM_DISTANCE", u(sobol::DIM_DISTANCE)),
+        ("DIM_LIGHT_SELECT", u(sobol::DIM_LIGHT_SELECT)),
+        ("DIM_LIGHT", u(sobol::DIM_LIGHT)),
+        ("DIM_LOBE", u(sobol::DIM_LOBE)),
+        ("DIM_SCATTER", u(sobol::DIM_SCATTER)),
+        ("DIM_RR", u(sobol::DIM_RR)),
+        ("PCG_MULT", u(rng::PCG_MULT)),
+        ("PCG_INC", u(rng::PCG_INC)),
+        ("RXS_M_XS_MULT", u(rng::RXS_M_XS_MULT)),
+        ("INC_SALT", u(rng::INC_SALT)),
+        ("CELL_WIDTH", f(brume::volume::bounds::CELL_WIDTH)),
+        ("CONSTANT_BIT", u(brume::volume::CONSTANT_BIT)),
+        ("STACK_NONE", u(brume::gpu_types::wavefront::STACK_NONE)),
+        ("INV_4PI", f(brume::sampling::warp::INV_4PI)),
+        ("PI", f(std::f32::consts::PI)),
+    ];
+    for (name, value) in rust {
+        let found = wgsl
+            .get(*name)
+            .unwrap_or_else(|| panic!("no WGSL constant {name}"));
+        assert_eq!(found, value, "WGSL {name} is not the Rust value");
+        println!("{name:<26} {value:?}: ok");
+    }
+}

@@ -42,16 +42,13 @@ use super::blackbody::{blackbody_rgb, STEFAN_BOLTZMANN_SCALE, T_MAX, T_MIN};
 use super::media::{Emission, GridField};
 use crate::math::{Aabb, Vec3};
 use crate::scene::media::transform_aabb;
-use crate::volume::bounds::{CellBounds, LeafBounds};
+use crate::volume::bounds::{CellBounds, LeafBounds, CELL_WIDTH};
 use crate::volume::grid::{BRICK_VOXELS, CONSTANT_BIT};
 use crate::volume::{LoadedGrid, SparseGrid};
 
 /// Expected tentative collisions of the brightest cells' emission floor along the diagonal of
 /// the grid's cell box (see the module docs).
 pub const EMISSION_SAMPLES_PER_DIAGONAL: f32 = 4.0;
-
-/// Edge of one bounds cell in index units.
-const CELL_WIDTH: f32 = 8.0;
 
 /// The walk bounds of a medium with density `density` (extinction `scale` per unit value,
 /// `index_per_t` index units per metre) emitting `emission`: the density's bounds with every

@@ -30,9 +30,9 @@ pub const PCG_MULT: u32 = 747_796_405;
 /// Default increment of the 32-bit PCG LCG, used by [`pcg_hash`].
 pub const PCG_INC: u32 = 2_891_336_453;
 /// Multiplier of the RXS-M-XS output permutation.
-const RXS_M_XS_MULT: u32 = 277_803_737;
+pub const RXS_M_XS_MULT: u32 = 277_803_737;
 /// Golden-ratio constant decorrelating the increment hash from the state hash.
-const INC_SALT: u32 = 0x9E37_79B9;
+pub const INC_SALT: u32 = 0x9E37_79B9;
 
 /// The RXS-M-XS output permutation of PCG: a bijection on `u32`.
 #[inline]

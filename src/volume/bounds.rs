@@ -10,7 +10,11 @@
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
 
-use super::grid::{SparseGrid, BRICK_VOXELS, CONSTANT_BIT};
+use super::grid::{SparseGrid, BRICK_DIM, BRICK_VOXELS, CONSTANT_BIT};
+
+/// Edge of one bounds cell (a brick, a leaf node) in index units: every walk over the cells
+/// (the DDA, the adaptive hierarchy, culling, emission bounds) and `dda.wgsl` use it.
+pub const CELL_WIDTH: f32 = BRICK_DIM as f32;
 
 /// Bounds of one cell, laid out for a GPU storage buffer (two `f32`, 8 bytes).
 #[repr(C)]

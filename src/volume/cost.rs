@@ -1,9 +1,6 @@
 //! The cost model of the adaptive hierarchy (`volume::adaptive`): what a segment, a tentative
 //! collision and a culled collision cost, and the geometry of random chords it prices them on.
-use super::bounds::CellBounds;
-
-/// Edge of one level-0 cell in index units.
-const CELL_WIDTH: f32 = 8.0;
+use super::bounds::{CellBounds, CELL_WIDTH};
 
 /// Relative costs of the walk, in units of one tentative collision (an exponential step, a
 /// density lookup and the event choice).

@@ -196,9 +196,7 @@ impl<'a> VoxelCulling<'a> {
 mod tests {
     use super::*;
     use crate::sampling::Rng;
-
-    /// Edge of one bounds cell in index units.
-    const CELL_WIDTH: f32 = 8.0;
+    use crate::volume::bounds::CELL_WIDTH;
 
     /// The four-lane cell search is the scalar one it replaced (saturating cast, then integer
     /// clamp) on points inside, outside and on the faces of the cell box, and on NaN.

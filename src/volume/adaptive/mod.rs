@@ -38,13 +38,11 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+pub(crate) use super::bounds::CELL_WIDTH;
 use super::bounds::{CellBounds, LeafBounds};
 use super::cost::{cell_count, children, coords, split_cost, CostModel};
 use super::cull::LeafCulling;
 use crate::math::Vec3;
-
-/// Edge of one level-0 cell in index units.
-const CELL_WIDTH: f32 = 8.0;
 
 /// Deepest level: a node of level `l` spans `2^l` leaf cells per axis (`8 * 2^l` voxels).
 pub const MAX_LEVEL: u32 = 12;

@@ -70,7 +70,7 @@ pub(super) fn enter_cells(cb: &CellBox, ray: &Ray, t0: f32, t1: f32) -> DdaState
     let lo4 = lanes(lo, 0.0);
     let hi4 = lo4 + Vec4::splat(CELL_WIDTH) * dims_f;
     let box_lo = lo4.max(lanes(clip.0, 0.0));
-    let box_hi = hi4.min(lanes(clip.1, 8.0));
+    let box_hi = hi4.min(lanes(clip.1, CELL_WIDTH));
     let ta = (box_lo - o) * inv;
     let tb = (box_hi - o) * inv;
     let swap = ta.cmpgt(tb);

@@ -15,12 +15,9 @@
 mod lanes;
 pub(crate) use lanes::cell_of;
 
-use super::bounds::{CellBounds, LeafBounds};
+use super::bounds::{CellBounds, LeafBounds, CELL_WIDTH};
 use super::segment::MajorantSegment;
 use crate::math::{Aabb, Ray, Vec3};
-
-/// Edge of one bounds cell in index units.
-const CELL_WIDTH: f32 = 8.0;
 
 /// Where a ray enters a box of `dims` cells of size `width` from `lo`, clipped to `[t0, t1]`:
 /// the entry cell and the overlap. Shared by the per-leaf DDA and
