@@ -38,7 +38,6 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-pub(crate) use super::bounds::CELL_WIDTH;
 use super::bounds::{CellBounds, LeafBounds};
 use super::cost::{cell_count, children, coords, split_cost, CostModel};
 use super::cull::LeafCulling;

@@ -1,7 +1,7 @@
 //! The walk through an [`AdaptiveMajorants`]: one segment per merged node crossed.
-use super::{AdaptiveMajorants, CELL_WIDTH, MAX_LEVEL};
+use super::{AdaptiveMajorants, MAX_LEVEL};
 use crate::math::{Ray, Vec3};
-use crate::volume::bounds::CellBounds;
+use crate::volume::bounds::{CellBounds, CELL_WIDTH};
 use crate::volume::dda::{first_axis, CellBox, DdaState};
 use crate::volume::segment::MajorantSegment;
 
