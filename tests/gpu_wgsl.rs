@@ -260,7 +260,7 @@ fn mirrored_constants_match_rust() {
         ("CONTROL_DEPTH_CUTOFF", f(tracking::CONTROL_DEPTH_CUTOFF)),
         ("RECYCLE_MIN_P", f(tracking::RECYCLE_MIN_P)),
         ("ONE_MINUS_EPSILON", f(discrete::ONE_MINUS_EPSILON)),
-        ("ENV_ONE_BELOW", f(discrete::ONE_MINUS_EPSILON)),
+        ("ENV_ONE_BELOW", f(discrete::ONE_MINUS_EPSILON)), // sampling::piecewise uses it too
         ("SOBOL_SALT", u(sobol::SOBOL_SALT)),
         ("DIM_JITTER", u(sobol::DIM_JITTER)),
         ("DIMS_PER_BOUNCE", u(sobol::DIMS_PER_BOUNCE)),

@@ -20,6 +20,8 @@
 // Comparisons are written negated (`!(pdf > 0.0)`) so that a NaN takes the safe branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::discrete::ONE_MINUS_EPSILON;
+
 /// A piecewise-constant function on `[0, 1)^2`, `nu` cells across and `nv` down, ready to
 /// sample in proportion to its value.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,8 +119,8 @@ impl PiecewiseConstant2D {
         let (v, dv) = sample_1d(&self.marg_cdf, u[1]);
         let (c, du) = sample_1d(self.row_cdf(v), u[0]);
         let uv = [
-            ((c as f32 + du) / self.nu as f32).min(ONE_BELOW),
-            ((v as f32 + dv) / self.nv as f32).min(ONE_BELOW),
+            ((c as f32 + du) / self.nu as f32).min(ONE_MINUS_EPSILON),
+            ((v as f32 + dv) / self.nv as f32).min(ONE_MINUS_EPSILON),
         ];
         Some(Sample2D {
             uv,
@@ -138,16 +140,13 @@ impl PiecewiseConstant2D {
     }
 }
 
-/// The largest f32 below one.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
-
 /// Inverts one CDF at `u`: the interval and the offset within it, in `[0, 1)`.
 #[inline]
 fn sample_1d(cdf: &[f32], u: f32) -> (usize, f32) {
     let i = find_interval(cdf, u);
     let width = cdf[i + 1] - cdf[i];
     let d = if width > 0.0 {
-        ((u - cdf[i]) / width).clamp(0.0, ONE_BELOW)
+        ((u - cdf[i]) / width).clamp(0.0, ONE_MINUS_EPSILON)
     } else {
         0.0
     };
@@ -173,7 +172,7 @@ mod tests {
             assert_eq!(s.pdf, f[v * 4 + c] / d.integral);
         }
         // u at the last representable value stays inside.
-        let s = d.sample([ONE_BELOW, ONE_BELOW]).unwrap();
+        let s = d.sample([ONE_MINUS_EPSILON, ONE_MINUS_EPSILON]).unwrap();
         assert!(s.uv[0] < 1.0 && s.uv[1] < 1.0 && f[s.cell[1] * 4 + s.cell[0]] > 0.0);
         assert!(PiecewiseConstant2D::new(vec![0.0; 4], 2, 2)
             .sample([0.5, 0.5])
