@@ -388,7 +388,9 @@ fn render_bench(
 /// grows as its majorant tightens; the culled walk spends the Sobol points of a flight's first
 /// draws on culled collisions), so time alone does not rank the modes. Round `r` renders with
 /// seed `r`; the variance is `study::stats::seed_variance` over the rounds (each pixel's
-/// sample variance across the seeds, pooled over pixels and RGB). The adaptive rows name the
+/// sample variance across the seeds, pooled over pixels and RGB), with the share of it in the
+/// worst 0.1 % of pixel values (`top 0.1%`; where it passes half, a few fireflies set the
+/// variance and the efficiency, and the table says so). The adaptive rows name the
 /// walk each medium's hierarchy takes (`VdbMedium::walk_mode`, and in brackets its shadow rays'
 /// where they differ: `VdbMedium::shadow_walk_mode`): where it is the global or
 /// per-leaf walk for both kinds of flight, the two rows time the same code and differ by
@@ -408,7 +410,7 @@ fn majorant_modes(
         rayon::current_num_threads()
     );
     println!(
-        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>16} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10} {:>10}  walk",
+        "{:<22} {:<14} {:<9} {:>9} {:>10} {:>16} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10} {:>8} {:>10}  walk",
         "scene",
         "estimator",
         "bounds",
@@ -422,8 +424,11 @@ fn majorant_modes(
         "real coll",
         "lookups/real",
         "var/px",
+        "top 0.1%",
         "eff vs gl",
     );
+    // Scenes whose variance a few pixels carry (the `top 0.1%` column), named after the table.
+    let mut outlier_scenes: Vec<String> = Vec::new();
     for path in scenes {
         let scene = brume::scene::load(path)?;
         if scene.vdb_media.is_empty() {
@@ -480,14 +485,14 @@ fn majorant_modes(
             }
             let variance = images.map(|im| {
                 let views: Vec<&[[f32; 3]]> = im.iter().map(|v| v.as_slice()).collect();
-                brume::study::stats::seed_variance(&views).ok()
+                brume::study::stats::seed_variance_profile(&views, TOP_FRACTION).ok()
             });
             let global_k = MajorantMode::ALL
                 .iter()
                 .position(|&m| m == MajorantMode::Global)
                 .unwrap_or(0);
             let mut global_ns = 0.0;
-            let global_cost = variance[global_k].map(|v| best[global_k] * v);
+            let global_cost = variance[global_k].map(|v| best[global_k] * v.pooled);
             for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
                 let out = last[k].take().unwrap();
                 let t = brume::film::totals(&out.records);
@@ -507,15 +512,23 @@ fn majorant_modes(
                     median(&rounds),
                     rounds.last().copied().unwrap_or(f64::NAN),
                 );
-                let (var, eff) = match (variance[k], global_cost) {
-                    (Some(v), Some(g)) => {
-                        (format!("{v:.3e}"), format!("{:.2}x", g / (best[k] * v)))
-                    }
-                    _ => ("-".to_string(), "-".to_string()),
+                let (var, top, eff) = match (variance[k], global_cost) {
+                    (Some(v), Some(g)) => (
+                        format!("{:.3e}", v.pooled),
+                        format!("{:.0}%", 100.0 * v.top_share),
+                        format!("{:.2}x", g / (best[k] * v.pooled)),
+                    ),
+                    _ => ("-".to_string(), "-".to_string(), "-".to_string()),
                 };
+                let name = path.file_name().unwrap_or_default().to_string_lossy();
+                if variance[k].is_some_and(|v| v.top_share > OUTLIER_SHARE)
+                    && !outlier_scenes.iter().any(|s| *s == name)
+                {
+                    outlier_scenes.push(name.to_string());
+                }
                 println!(
-                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>10}  {}",
-                    path.file_name().unwrap_or_default().to_string_lossy(),
+                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>8} {:>10}  {}",
+                    name,
                     estimator.name(),
                     majorant.name(),
                     ns,
@@ -528,6 +541,7 @@ fn majorant_modes(
                     t.real_collisions as f64 / n,
                     t.density_lookups as f64 / (t.real_collisions as f64).max(1.0),
                     var,
+                    top,
                     eff,
                     if majorant == MajorantMode::Adaptive {
                         adaptive_walk.as_str()
@@ -538,8 +552,23 @@ fn majorant_modes(
             }
         }
     }
+    if !outlier_scenes.is_empty() {
+        println!(
+            "{}: over {:.0}% of the per-pixel variance lies in 0.1% of the pixel values (a few \
+             fireflies), so var/px and eff vs gl there are set by those outliers and move by \
+             multiples with the seeds: rank those modes by time, or by var/px over many more rounds",
+            outlier_scenes.join(", "),
+            100.0 * OUTLIER_SHARE
+        );
+    }
     Ok(())
 }
+
+/// The share of the pixel values whose variance the `top 0.1%` column sums.
+const TOP_FRACTION: f64 = 1e-3;
+/// Above this share of the per-pixel variance in [`TOP_FRACTION`] of the values, the variance
+/// (and the efficiency from it) is a few outliers' and the table says so.
+const OUTLIER_SHARE: f64 = 0.5;
 
 /// The median of sorted `v` (NaN when empty): the `rounds` column's middle figure, which a
 /// slow spell of a shared machine moves less than the ratio of the bests.

@@ -90,21 +90,59 @@ pub fn mean_std(v: &[f64]) -> (f64, f64) {
 /// renders (`k - 1` in the denominator). With two renders A and B this is
 /// `mean((A - B)^2) / 2`.
 pub fn seed_variance(renders: &[&[[f32; 3]]]) -> Result<f64, String> {
+    Ok(seed_variance_profile(renders, 0.0)?.pooled)
+}
+
+/// [`seed_variance`], and the share of it that the worst values carry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeedVariance {
+    /// [`seed_variance`].
+    pub pooled: f64,
+    /// The fraction of the pooled sum contributed by the `ceil(top_fraction * 3n)` largest
+    /// per-value variances (0 when the pooled variance is 0). Near `top_fraction` for noise
+    /// spread over the image; near 1 where a few pixels carry it (a point light inside a
+    /// medium: distance sampling gives the pixel that sees the light an infinite-variance
+    /// single-scattering estimate), and then `pooled` is set by a few outliers and moves by
+    /// multiples between sets of seeds: an efficiency taken from it ranks nothing.
+    pub top_share: f64,
+}
+
+/// [`seed_variance`] and [`SeedVariance::top_share`] of the `top_fraction` worst values.
+pub fn seed_variance_profile(
+    renders: &[&[[f32; 3]]],
+    top_fraction: f64,
+) -> Result<SeedVariance, String> {
     check_renders(renders)?;
     let k = renders.len() as f64;
     let n = renders[0].len();
-    let mut sum = 0f64;
+    let mut per_value = Vec::with_capacity(3 * n);
     for p in 0..n {
         for c in 0..3 {
             let m = renders.iter().map(|r| r[p][c] as f64).sum::<f64>() / k;
-            sum += renders
-                .iter()
-                .map(|r| (r[p][c] as f64 - m).powi(2))
-                .sum::<f64>()
-                / (k - 1.0);
+            per_value.push(
+                renders
+                    .iter()
+                    .map(|r| (r[p][c] as f64 - m).powi(2))
+                    .sum::<f64>()
+                    / (k - 1.0),
+            );
         }
     }
-    Ok(sum / (3 * n) as f64)
+    let sum: f64 = per_value.iter().sum();
+    let top = ((top_fraction.clamp(0.0, 1.0) * per_value.len() as f64).ceil() as usize)
+        .min(per_value.len());
+    let top_share = if sum > 0.0 && top > 0 {
+        // Only the `top` largest need ordering.
+        let split = per_value.len() - top;
+        per_value.select_nth_unstable_by(split, f64::total_cmp);
+        per_value[split..].iter().sum::<f64>() / sum
+    } else {
+        0.0
+    };
+    Ok(SeedVariance {
+        pooled: sum / (3 * n) as f64,
+        top_share,
+    })
 }
 
 /// Mean over pixels and RGB of renders averaged over seeds, with the variance of that mean.
@@ -187,6 +225,33 @@ mod tests {
         assert!((m.variance - 1.0 / 36.0 / 2.0).abs() < 1e-12);
         assert!(seed_variance(&[&a]).is_err());
         assert!(image_mean(&[&a, &b[..1]]).is_err());
+    }
+
+    #[test]
+    fn top_share_tells_outliers_from_spread_noise() {
+        // 1000 pixels; render B differs from A by 1 in every channel (per-value variance 0.5
+        // each), except pixel 7, whose red differs by 100 (variance 5000).
+        let a = vec![[0.0f32; 3]; 1000];
+        let mut b = vec![[1.0f32; 3]; 1000];
+        let even = seed_variance_profile(&[&a, &b], 1e-3).unwrap();
+        // 3000 values, the top 3 carry 3 / 3000 of an even sum.
+        assert!((even.pooled - 0.5).abs() < 1e-12);
+        assert!((even.top_share - 1e-3).abs() < 1e-12, "{even:?}");
+        b[7][0] = 100.0;
+        let spiked = seed_variance_profile(&[&a, &b], 1e-3).unwrap();
+        let sum = 2999.0 * 0.5 + 5000.0;
+        assert!((spiked.pooled - sum / 3000.0).abs() < 1e-9);
+        // The spike and two ordinary values.
+        assert!(
+            (spiked.top_share - 5001.0 / sum).abs() < 1e-12,
+            "{spiked:?}"
+        );
+        assert_eq!(spiked.pooled, seed_variance(&[&a, &b]).unwrap());
+        // No variance at all: no share.
+        assert_eq!(
+            seed_variance_profile(&[&a, &a], 1e-3).unwrap().top_share,
+            0.0
+        );
     }
 
     #[test]
