@@ -5,7 +5,9 @@
 //! - seconds: the render time each renderer reports (Brume: the render loop, scene loading and
 //!   preparation excluded; Mitsuba: what `brume mitsuba` writes to its EXR; Cycles: its own
 //!   `total_time`, which includes the per-render set-up, shown separately as `set-up s`);
-//! - per-pixel variance: [`stats::seed_variance`], `mean((A - B)^2) / 2` for two seeds;
+//! - per-pixel variance: [`stats::seed_variance`], `mean((A - B)^2) / 2` for two seeds, and
+//!   the share of it in the worst 0.1 % of pixel values (`top 0.1 %`): near 1, a few fireflies
+//!   set it and every efficiency from it ([`stats::SeedVariance::top_share`]);
 //! - efficiency `1 / (seconds x per-pixel variance)`;
 //! - Brume / peer efficiency and the per-sample variance ratio (variance x spp, Brume / peer);
 //! - the image mean and its difference from Mitsuba's with a z-score
@@ -114,6 +116,8 @@ struct Row {
     /// Fixed per-render set-up included in `seconds` (Cycles), when the renderer reports it.
     setup: Option<f64>,
     variance: f64,
+    /// The share of `variance` in the worst 0.1 % of pixel values.
+    top_share: f64,
     mean: ImageMean,
     spp: u32,
 }
@@ -223,10 +227,10 @@ struct Table {
 impl Default for Table {
     fn default() -> Self {
         Table {
-            text: "| scene | renderer | seconds | set-up s | per-pixel variance | efficiency | \
+            text: "| scene | renderer | seconds | set-up s | per-pixel variance | top 0.1 % | efficiency | \
                    Brume/peer efficiency | per-sample variance Brume/peer | mean | mean diff vs \
                    Mitsuba (z) | Brume mean diff vs peer (z) |\n\
-                   |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+                   |---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
                 .to_string(),
         }
     }
@@ -263,11 +267,12 @@ impl Table {
             };
             let _ = writeln!(
                 self.text,
-                "| {scene} | {} | {} | {} | {:.3e} | {:.3e} | {eff_ratio} | {var_ratio} | {:.5} | {vs_mitsuba} | {brume_diff} |",
+                "| {scene} | {} | {} | {} | {:.3e} | {:.0} % | {:.3e} | {eff_ratio} | {var_ratio} | {:.5} | {vs_mitsuba} | {brume_diff} |",
                 r.renderer,
                 sig3(r.seconds),
                 r.setup.map_or(String::new(), sig3),
                 r.variance,
+                100.0 * r.top_share,
                 r.efficiency(),
                 r.mean.mean,
             );
@@ -458,13 +463,15 @@ fn row(
     spp: u32,
 ) -> Result<Row> {
     let rgb: Vec<&[[f32; 3]]> = images.iter().map(|i| i.rgb.as_slice()).collect();
-    let variance = stats::seed_variance(&rgb).map_err(|e| anyhow!("{renderer}: {e}"))?;
+    let variance =
+        stats::seed_variance_profile(&rgb, 1e-3).map_err(|e| anyhow!("{renderer}: {e}"))?;
     let mean = stats::image_mean(&rgb).map_err(|e| anyhow!("{renderer}: {e}"))?;
     Ok(Row {
         renderer,
         seconds: stats::mean_std(seconds).0,
         setup,
-        variance,
+        variance: variance.pooled,
+        top_share: variance.top_share,
         mean,
         spp,
     })
