@@ -345,30 +345,29 @@ impl Sampler {
 
     /// A sampler for the samples of `pixel`, at sample 0 until [`Sampler::start`].
     pub fn for_pixel(kind: SamplerKind, pixel: u32, seed: u32) -> Self {
-        let mut sampler = Sampler {
+        Sampler {
             rng: Rng::new(pixel, 0, seed),
             kind,
             pixel,
             seed,
-            pixel_seed: 0,
+            pixel_seed: pixel_seed(pixel, seed),
             sample_rev: 0,
             block_seeds: [[0; 3]; CACHED_BLOCKS],
             cached: 0,
-        };
-        sampler.set_pixel(pixel);
-        sampler
+        }
     }
 
-    /// Moves the sampler to the samples of `pixel` (at sample 0 until [`Sampler::start`]),
-    /// exactly as `Sampler::for_pixel(kind, pixel, seed)`: only the kept block seeds' mask is
-    /// cleared, where a fresh sampler zeroed all of them (a 768-byte `memset` a pixel and pass,
-    /// about 20 instructions a sample at 16 spp in callgrind).
+    /// Moves the sampler to the samples of `pixel`; [`Sampler::start`] must follow before it
+    /// draws (until then its stream is still the last sample's). Then it draws exactly as
+    /// `Sampler::new(kind, pixel, sample, seed)`. Only the kept block seeds' mask is cleared,
+    /// where a fresh sampler zeroed all of them (a 768-byte `memset` a pixel and pass, about
+    /// 20 instructions a sample at 16 spp in callgrind); and the stream is built once, by
+    /// `start`, not also for sample 0 here.
     #[inline]
     pub fn set_pixel(&mut self, pixel: u32) {
         self.pixel = pixel;
         self.pixel_seed = pixel_seed(pixel, self.seed);
         self.cached = 0;
-        self.start(0);
     }
 
     /// Starts sample `sample` of the pixel: its own stream and points, exactly as
