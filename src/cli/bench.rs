@@ -41,6 +41,11 @@ pub enum Which {
         /// rounds give steadier times on a busy machine.
         #[arg(long, default_value_t = 3)]
         runs: usize,
+        /// Seed of the majorant-mode table's first round (round `r` renders seed
+        /// `first_seed + r`): a rerun with other seeds shows whether its variance column is a
+        /// few fireflies' (its `top 0.1%` column says when to suspect it).
+        #[arg(long, default_value_t = 0)]
+        first_seed: u32,
     },
     /// Trilinear lookups per second: Brume's brick layout against OpenVDB's accessor +
     /// BoxSampler (through the shim, one batch call), on the same points.
@@ -95,19 +100,23 @@ pub fn run(which: Which) -> Result<()> {
             majorants_only,
             env_spp,
             runs,
+            first_seed,
         } => {
-            let runs = runs.max(1);
+            let rounds = Rounds {
+                runs: runs.max(1),
+                first_seed,
+            };
             if majorants_only {
                 let scenes = if scenes.is_empty() {
                     example_scenes()?
                 } else {
                     scenes
                 };
-                majorant_modes(&scenes, width, height, spp, runs)?;
+                majorant_modes(&scenes, width, height, spp, rounds)?;
                 return adaptive_build();
             }
             if !env_only {
-                render_bench(scenes, spp, width, height, cloud_size, cloud_spp, runs)?;
+                render_bench(scenes, spp, width, height, cloud_size, cloud_spp, rounds)?;
             }
             super::bench_env::env_map_bench(width, height, env_spp, &render_once)
         }
@@ -267,6 +276,13 @@ fn example_scenes() -> Result<Vec<PathBuf>> {
     Ok(v)
 }
 
+/// The majorant-mode table's rounds: how many, and the seed of the first.
+#[derive(Clone, Copy)]
+struct Rounds {
+    runs: usize,
+    first_seed: u32,
+}
+
 fn render_bench(
     scenes: Vec<PathBuf>,
     spp: u32,
@@ -274,7 +290,7 @@ fn render_bench(
     height: u32,
     cloud_size: u32,
     cloud_spp: u32,
-    runs: usize,
+    rounds: Rounds,
 ) -> Result<()> {
     use brume::integrator::{Estimator, MajorantMode, RenderSettings};
     let scenes = if scenes.is_empty() {
@@ -371,7 +387,7 @@ fn render_bench(
         delta_lookups[0] / delta_lookups[2].max(1e-12),
         delta_lookups[0] / delta_lookups[3].max(1e-12)
     );
-    majorant_modes(&scenes, width, height, spp, runs)?;
+    majorant_modes(&scenes, width, height, spp, rounds)?;
     adaptive_build()?;
     Ok(())
 }
@@ -387,8 +403,9 @@ fn render_bench(
 /// `(t_global var_global) / (t var)`: a walk can buy its time with variance (ratio tracking's
 /// grows as its majorant tightens; the culled walk spends the Sobol points of a flight's first
 /// draws on culled collisions), so time alone does not rank the modes. Round `r` renders with
-/// seed `r`; the variance is `study::stats::seed_variance` over the rounds (each pixel's
-/// sample variance across the seeds, pooled over pixels and RGB), with the share of it in the
+/// seed `first_seed + r` (`--first-seed`, default 0); the variance is
+/// `study::stats::seed_variance` over the rounds (each pixel's sample variance across the
+/// seeds, pooled over pixels and RGB), with the share of it in the
 /// worst 0.1 % of pixel values (`top 0.1%`; where it passes half, a few fireflies set the
 /// variance and the efficiency, and the table says so). The adaptive rows name the
 /// walk each medium's hierarchy takes (`VdbMedium::walk_mode`, and in brackets its shadow rays'
@@ -400,9 +417,10 @@ fn majorant_modes(
     width: u32,
     height: u32,
     spp: u32,
-    runs: usize,
+    rounds: Rounds,
 ) -> Result<()> {
     use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+    let Rounds { runs, first_seed } = rounds;
     println!();
     println!(
         "majorant modes ({width}x{height}, {spp} spp, {} threads; time per sample = best of {runs} renders, modes in turn; \
@@ -473,7 +491,7 @@ fn majorant_modes(
             for round in 0..runs {
                 for (k, s) in settings.iter().enumerate() {
                     let s = RenderSettings {
-                        seed: round as u32,
+                        seed: first_seed.wrapping_add(round as u32),
                         ..s.clone()
                     };
                     let o = render_once(&scene, &s)?;
