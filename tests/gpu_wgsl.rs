@@ -9,20 +9,34 @@ fn parse(label: &str, source: &str) -> naga::Module {
         .unwrap_or_else(|e| panic!("{label}: WGSL parse error\n{}", e.emit_to_string(source)))
 }
 
+/// Every module of [`MODULES`] with its default specialisation, assembled and parsed once
+/// for the tests that read them (parsing them all takes about a second).
+fn default_modules() -> &'static [(String, naga::Module)] {
+    static PARSED: std::sync::OnceLock<Vec<(String, naga::Module)>> = std::sync::OnceLock::new();
+    PARSED.get_or_init(|| {
+        MODULES
+            .iter()
+            .map(|m| {
+                let source = m.source(&[]);
+                let module = parse(m.label, &source);
+                (source, module)
+            })
+            .collect()
+    })
+}
+
 #[test]
 fn every_module_parses_and_validates() {
-    for m in MODULES {
-        let source = m.source(&[]);
-        let module = parse(m.label, &source);
+    for (m, (source, module)) in MODULES.iter().zip(default_modules()) {
         let mut validator = naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::default(),
         );
-        validator.validate(&module).unwrap_or_else(|e| {
+        validator.validate(module).unwrap_or_else(|e| {
             panic!(
                 "{}: WGSL validation error\n{}",
                 m.label,
-                e.emit_to_string(&source)
+                e.emit_to_string(source)
             )
         });
         assert!(
@@ -222,8 +236,7 @@ enum Bits {
 /// Every `const` the assembled modules declare, by name, as naga evaluated it.
 fn wgsl_constants() -> std::collections::BTreeMap<String, Bits> {
     let mut out = std::collections::BTreeMap::new();
-    for m in MODULES {
-        let module = parse(m.label, &m.source(&[]));
+    for (_, module) in default_modules() {
         for (_, c) in module.constants.iter() {
             let Some(name) = c.name.clone() else { continue };
             let value = match module.global_expressions[c.init] {
