@@ -31,12 +31,18 @@ fn the_table_has_brumes_row_and_skips_a_missing_peer_in_one_line() {
         let line = row(name);
         let cells: Vec<&str> = line.split('|').map(str::trim).collect();
         // seconds, per-pixel variance, efficiency and mean are positive numbers.
-        for k in [3, 5, 6, 9] {
+        for k in [3, 5, 7, 10] {
             let v: f64 = cells[k]
                 .parse()
                 .unwrap_or_else(|_| panic!("{name}: {:?}", cells));
             assert!(v > 0.0 && v.is_finite(), "{name}: {cells:?}");
         }
+        // The variance's share in the worst 0.1 % of pixel values: a percentage.
+        let top: f64 = cells[6]
+            .strip_suffix(" %")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{name}: {cells:?}"));
+        assert!((0.0..=100.0).contains(&top), "{name}: {cells:?}");
     }
     let skip = stdout
         .lines()
