@@ -503,7 +503,11 @@ fn majorant_modes(
             }
             let variance = images.map(|im| {
                 let views: Vec<&[[f32; 3]]> = im.iter().map(|v| v.as_slice()).collect();
-                brume::study::stats::seed_variance_profile(&views, TOP_FRACTION).ok()
+                brume::study::stats::seed_variance_profile(
+                    &views,
+                    brume::study::stats::TOP_FRACTION,
+                )
+                .ok()
             });
             let global_k = MajorantMode::ALL
                 .iter()
@@ -582,10 +586,8 @@ fn majorant_modes(
     Ok(())
 }
 
-/// The share of the pixel values whose variance the `top 0.1%` column sums.
-const TOP_FRACTION: f64 = 1e-3;
-/// Above this share of the per-pixel variance in [`TOP_FRACTION`] of the values, the variance
-/// (and the efficiency from it) is a few outliers' and the table says so.
+/// Above this share of the per-pixel variance in `stats::TOP_FRACTION` of the values, the
+/// variance (and the efficiency from it) is a few outliers' and the table says so.
 const OUTLIER_SHARE: f64 = 0.5;
 
 /// The median of sorted `v` (NaN when empty): the `rounds` column's middle figure, which a

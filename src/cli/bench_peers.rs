@@ -463,8 +463,8 @@ fn row(
     spp: u32,
 ) -> Result<Row> {
     let rgb: Vec<&[[f32; 3]]> = images.iter().map(|i| i.rgb.as_slice()).collect();
-    let variance =
-        stats::seed_variance_profile(&rgb, 1e-3).map_err(|e| anyhow!("{renderer}: {e}"))?;
+    let variance = stats::seed_variance_profile(&rgb, stats::TOP_FRACTION)
+        .map_err(|e| anyhow!("{renderer}: {e}"))?;
     let mean = stats::image_mean(&rgb).map_err(|e| anyhow!("{renderer}: {e}"))?;
     Ok(Row {
         renderer,

@@ -107,6 +107,10 @@ pub struct SeedVariance {
     pub top_share: f64,
 }
 
+/// The share of the pixel values whose variance the benches' `top 0.1%` columns sum
+/// ([`SeedVariance::top_share`]).
+pub const TOP_FRACTION: f64 = 1e-3;
+
 /// [`seed_variance`] and [`SeedVariance::top_share`] of the `top_fraction` worst values.
 pub fn seed_variance_profile(
     renders: &[&[[f32; 3]]],
