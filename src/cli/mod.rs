@@ -1,6 +1,7 @@
 pub mod bench;
 pub mod bench_env;
 pub mod bench_gpu;
+pub mod bench_majorants;
 pub mod bench_peers;
 pub mod bench_walk;
 pub mod compare;
