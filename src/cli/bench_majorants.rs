@@ -1,6 +1,6 @@
 //! `brume bench render --majorants-only`: the majorant modes side by side, with the floor no
 //! walk can pass, and the adaptive hierarchy's build on a 1024^3-voxel grid.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use brume::volume::check::SplitMix64;
@@ -34,6 +34,14 @@ pub struct Rounds {
 /// where they differ: `VdbMedium::shadow_walk_mode`): where it is the global or
 /// per-leaf walk for both kinds of flight, the two rows time the same code and differ by
 /// noise only.
+///
+/// A scene whose media do not emit gets a `floor` row, timed in the same rounds: the global
+/// walk through a copy of the scene with its VDB media made transparent
+/// ([`transparent_copy`]). It keeps every ray, span search and walk entry and drops the
+/// collisions and the rays they spawn, so no walk is faster: its `vs global` is the most any
+/// majorant structure can gain on the scene, and the notes after the table say how much of
+/// that gap the 1.2x mark needs and how much the adaptive mode takes
+/// (`tools/bench/callgrind-majorants.sh --floor` counts the same floor in instructions).
 pub fn majorant_modes(
     scenes: &[PathBuf],
     width: u32,
@@ -46,9 +54,103 @@ pub fn majorant_modes(
     println!();
     println!(
         "majorant modes ({width}x{height}, {spp} spp, {} threads; time per sample = best of {runs} renders, modes in turn; \
-         'rounds': global over mode within each round, lowest-median-highest)",
+         'rounds': global over mode within each round, lowest-median-highest; \
+         'floor': the global walk through the media made transparent)",
         rayon::current_num_threads()
     );
+    print_header();
+    // Scenes whose variance a few pixels carry (the `top 0.1%` column), named after the table.
+    let mut outlier_scenes: Vec<String> = Vec::new();
+    let mut floors: Vec<Floor> = Vec::new();
+    for path in scenes {
+        let scene = brume::scene::load(path)?;
+        if scene.vdb_media.is_empty() {
+            continue;
+        }
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        let adaptive_walk = adaptive_walk_names(&scene)?;
+        let floor_scene = transparent_copy(path)?;
+        for estimator in [Estimator::Delta, Estimator::Decomposition] {
+            let settings = MajorantMode::ALL.map(|majorant| RenderSettings {
+                width,
+                height,
+                spp,
+                estimator,
+                majorant,
+                ..RenderSettings::default()
+            });
+            let global_k = MajorantMode::ALL
+                .iter()
+                .position(|&m| m == MajorantMode::Global)
+                .unwrap_or(0);
+            let mut modes = MajorantMode::ALL.map(|_| Timed::new(runs));
+            let mut floor = Timed::new(runs);
+            for round in 0..runs {
+                let seed = first_seed.wrapping_add(round as u32);
+                for (k, s) in settings.iter().enumerate() {
+                    let s = RenderSettings { seed, ..s.clone() };
+                    modes[k].push(render_once(&scene, &s)?);
+                }
+                if let Some(fs) = &floor_scene {
+                    let s = RenderSettings {
+                        seed,
+                        ..settings[global_k].clone()
+                    };
+                    floor.push(render_once(fs, &s)?);
+                }
+            }
+            let variance = modes.each_ref().map(|m| m.variance());
+            let global_cost = variance[global_k].map(|v| modes[global_k].best * v.pooled);
+            for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
+                if variance[k].is_some_and(|v| v.top_share > OUTLIER_SHARE)
+                    && !outlier_scenes.iter().any(|s| *s == name)
+                {
+                    outlier_scenes.push(name.to_string());
+                }
+                let efficiency = match (variance[k], global_cost) {
+                    (Some(v), Some(g)) => Some((v, g / (modes[k].best * v.pooled))),
+                    _ => None,
+                };
+                let walk = if majorant == MajorantMode::Adaptive {
+                    adaptive_walk.as_str()
+                } else {
+                    majorant.name()
+                };
+                let label = (&*name, estimator.name(), majorant.name(), walk);
+                print_row(label, &modes[k], &modes[global_k], efficiency);
+            }
+            if floor_scene.is_some() {
+                let walk = "global, media transparent: no walk costs less";
+                let label = (&*name, estimator.name(), "floor", walk);
+                print_row(label, &floor, &modes[global_k], None);
+                let adaptive_k = MajorantMode::ALL
+                    .iter()
+                    .position(|&m| m == MajorantMode::Adaptive)
+                    .unwrap_or(0);
+                floors.push(Floor {
+                    scene: name.to_string(),
+                    estimator: estimator.name(),
+                    floor: floor.paired_with(&modes[global_k]).1,
+                    adaptive: modes[adaptive_k].paired_with(&modes[global_k]).1,
+                });
+            }
+        }
+    }
+    if !outlier_scenes.is_empty() {
+        println!(
+            "{}: over {:.0}% of the per-pixel variance lies in 0.1% of the pixel values (a few \
+             fireflies), so var/px and eff vs gl there are set by those outliers and move by \
+             multiples with the seeds: rank those modes by time, or by var/px over many more rounds",
+            outlier_scenes.join(", "),
+            100.0 * OUTLIER_SHARE
+        );
+    }
+    print_floor_notes(&floors);
+    Ok(())
+}
+
+/// The table's column heads.
+fn print_header() {
     println!(
         "{:<22} {:<14} {:<9} {:>9} {:>10} {:>16} {:>10} {:>10} {:>10} {:>10} {:>10} {:>11} {:>10} {:>8} {:>10}  walk",
         "scene",
@@ -67,145 +169,196 @@ pub fn majorant_modes(
         "top 0.1%",
         "eff vs gl",
     );
-    // Scenes whose variance a few pixels carry (the `top 0.1%` column), named after the table.
-    let mut outlier_scenes: Vec<String> = Vec::new();
-    for path in scenes {
-        let scene = brume::scene::load(path)?;
-        if scene.vdb_media.is_empty() {
-            continue;
-        }
-        let rs =
-            brume::integrator::RenderScene::new(&scene, false).map_err(|e| anyhow::anyhow!(e))?;
-        let adaptive_walk = rs
-            .vdb
-            .iter()
-            .map(|m| {
-                let (walk, shadow) = (
-                    m.walk_mode(MajorantMode::Adaptive),
-                    m.shadow_walk_mode(MajorantMode::Adaptive),
-                );
-                let name = match walk {
-                    MajorantMode::Adaptive => "mixed",
-                    walk => walk.name(),
-                };
-                if shadow == walk {
-                    name.to_string()
-                } else {
-                    format!("{name} ({} shadows)", shadow.name())
-                }
-            })
-            .collect::<Vec<_>>()
-            .join("+");
-        for estimator in [Estimator::Delta, Estimator::Decomposition] {
-            let settings = MajorantMode::ALL.map(|majorant| RenderSettings {
-                width,
-                height,
-                spp,
-                estimator,
-                majorant,
-                ..RenderSettings::default()
-            });
-            let mut best = [f64::INFINITY; MajorantMode::ALL.len()];
-            let mut seconds = MajorantMode::ALL.map(|_| Vec::with_capacity(runs));
-            let mut last = MajorantMode::ALL.map(|_| None);
-            // Every round's image (seeds 0, 1, ...), for the per-pixel variance.
-            let mut images: [Vec<Vec<[f32; 3]>>; MajorantMode::ALL.len()] = Default::default();
-            for round in 0..runs {
-                for (k, s) in settings.iter().enumerate() {
-                    let s = RenderSettings {
-                        seed: first_seed.wrapping_add(round as u32),
-                        ..s.clone()
-                    };
-                    let o = render_once(&scene, &s)?;
-                    best[k] = best[k].min(o.seconds);
-                    seconds[k].push(o.seconds);
-                    images[k].push(film_means(&o.film));
-                    last[k] = Some(o);
-                }
-            }
-            let variance = images.map(|im| {
-                let views: Vec<&[[f32; 3]]> = im.iter().map(|v| v.as_slice()).collect();
-                brume::study::stats::seed_variance_profile(
-                    &views,
-                    brume::study::stats::TOP_FRACTION,
-                )
-                .ok()
-            });
-            let global_k = MajorantMode::ALL
-                .iter()
-                .position(|&m| m == MajorantMode::Global)
-                .unwrap_or(0);
-            let mut global_ns = 0.0;
-            let global_cost = variance[global_k].map(|v| best[global_k] * v.pooled);
-            for (k, majorant) in MajorantMode::ALL.into_iter().enumerate() {
-                let out = last[k].take().unwrap();
-                let t = brume::film::totals(&out.records);
-                let n = t.samples.max(1) as f64;
-                let ns = 1e9 * best[k] / n;
-                if majorant == MajorantMode::Global {
-                    global_ns = ns;
-                }
-                let mut rounds: Vec<f64> = seconds[global_k]
-                    .iter()
-                    .zip(&seconds[k])
-                    .map(|(g, m)| g / m)
-                    .collect();
-                rounds.sort_by(f64::total_cmp);
-                let paired = (
-                    rounds.first().copied().unwrap_or(f64::NAN),
-                    median(&rounds),
-                    rounds.last().copied().unwrap_or(f64::NAN),
-                );
-                let (var, top, eff) = match (variance[k], global_cost) {
-                    (Some(v), Some(g)) => (
-                        format!("{:.3e}", v.pooled),
-                        format!("{:.0}%", 100.0 * v.top_share),
-                        format!("{:.2}x", g / (best[k] * v.pooled)),
-                    ),
-                    _ => ("-".to_string(), "-".to_string(), "-".to_string()),
-                };
-                let name = path.file_name().unwrap_or_default().to_string_lossy();
-                if variance[k].is_some_and(|v| v.top_share > OUTLIER_SHARE)
-                    && !outlier_scenes.iter().any(|s| *s == name)
-                {
-                    outlier_scenes.push(name.to_string());
-                }
-                println!(
-                    "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>8} {:>10}  {}",
-                    name,
-                    estimator.name(),
-                    majorant.name(),
-                    ns,
-                    global_ns / ns,
-                    format!("{:.2}-{:.2}-{:.2}", paired.0, paired.1, paired.2),
-                    (t.majorant_segments - t.shadow_segments) as f64 / n,
-                    t.shadow_segments as f64 / n,
-                    t.density_lookups as f64 / n,
-                    t.emission_lookups as f64 / n,
-                    t.real_collisions as f64 / n,
-                    t.density_lookups as f64 / (t.real_collisions as f64).max(1.0),
-                    var,
-                    top,
-                    eff,
-                    if majorant == MajorantMode::Adaptive {
-                        adaptive_walk.as_str()
-                    } else {
-                        majorant.name()
-                    },
-                );
-            }
-        }
+}
+
+/// A timed floor, against the global bound (median paired rounds) with the adaptive mode's.
+struct Floor {
+    scene: String,
+    estimator: &'static str,
+    /// Global time over the floor's, and over the adaptive mode's.
+    floor: f64,
+    adaptive: f64,
+}
+
+impl Floor {
+    /// The share of the time between the global bound and the floor that a speed-up `r` over
+    /// the global bound removes: `(1 - 1/r) / (1 - 1/floor)`.
+    fn gap_share(&self, r: f64) -> f64 {
+        (1.0 - 1.0 / r) / (1.0 - 1.0 / self.floor)
     }
-    if !outlier_scenes.is_empty() {
+}
+
+/// What the floor rows say: for each, the share of the time between the global bound and the
+/// floor that [`SPEEDUP_MARK`] needs, against the share the adaptive mode removes. Near or
+/// past 100 %, only a walk that cost nothing and collided nowhere would reach the mark.
+fn print_floor_notes(floors: &[Floor]) {
+    if floors.is_empty() {
+        return;
+    }
+    println!(
+        "floor rows: every VDB medium's densityScale times {FLOOR_DENSITY_FACTOR:e}, under the \
+         global walk: the same rays, span searches and walk entries with almost no tentative \
+         collision, and none of the rays real collisions spawn, so 'vs global' there bounds what \
+         any majorant structure can gain (scenes whose media emit get no floor: their walks \
+         must still sample the emission). Of the time between global and floor (median rounds), \
+         {SPEEDUP_MARK}x over global needs / adaptive removes:"
+    );
+    for f in floors {
         println!(
-            "{}: over {:.0}% of the per-pixel variance lies in 0.1% of the pixel values (a few \
-             fireflies), so var/px and eff vs gl there are set by those outliers and move by \
-             multiples with the seeds: rank those modes by time, or by var/px over many more rounds",
-            outlier_scenes.join(", "),
-            100.0 * OUTLIER_SHARE
+            "  {:<22} {:<14} floor {:.2}x: {SPEEDUP_MARK}x needs {:.0}%, adaptive ({:.2}x) removes {:.0}%",
+            f.scene,
+            f.estimator,
+            f.floor,
+            100.0 * f.gap_share(SPEEDUP_MARK),
+            f.adaptive,
+            100.0 * f.gap_share(f.adaptive),
         );
     }
-    Ok(())
+}
+
+/// The speed-up over the global bound asked of the adaptive mode wherever per-leaf bounds cut
+/// the density lookups 3x or more (README, "Majorant modes").
+const SPEEDUP_MARK: f64 = 1.2;
+
+/// The floor's density scale factor: small enough that almost no tentative collision happens,
+/// not zero, so the media keep their walks (a medium of no density is not tracked at all).
+const FLOOR_DENSITY_FACTOR: f32 = 1e-6;
+
+/// The scene at `path` with every VDB medium made transparent ([`FLOOR_DENSITY_FACTOR`]), for
+/// the floor rows; `None` when one of its media emits, as its walks must still sample the
+/// emission, so a transparent copy would not bound their work.
+fn transparent_copy(path: &Path) -> Result<Option<brume::scene::Scene>> {
+    let mut scene = brume::scene::load(path)?;
+    if scene.vdb_media.iter().any(|m| m.emits()) {
+        return Ok(None);
+    }
+    for m in &mut scene.vdb_media {
+        m.density_scale *= FLOOR_DENSITY_FACTOR;
+    }
+    Ok(Some(scene))
+}
+
+/// The walks each VDB medium's adaptive hierarchy takes (`VdbMedium::walk_mode`, and in
+/// brackets its shadow rays' where they differ), joined by `+`.
+fn adaptive_walk_names(scene: &brume::scene::Scene) -> Result<String> {
+    use brume::integrator::MajorantMode;
+    let rs = brume::integrator::RenderScene::new(scene, false).map_err(|e| anyhow::anyhow!(e))?;
+    Ok(rs
+        .vdb
+        .iter()
+        .map(|m| {
+            let (walk, shadow) = (
+                m.walk_mode(MajorantMode::Adaptive),
+                m.shadow_walk_mode(MajorantMode::Adaptive),
+            );
+            let name = match walk {
+                MajorantMode::Adaptive => "mixed",
+                walk => walk.name(),
+            };
+            if shadow == walk {
+                name.to_string()
+            } else {
+                format!("{name} ({} shadows)", shadow.name())
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("+"))
+}
+
+/// The renders of one row of the table, over the rounds.
+struct Timed {
+    best: f64,
+    seconds: Vec<f64>,
+    /// Every round's pixel means (seeds `first_seed`, `first_seed + 1`, ...).
+    images: Vec<Vec<[f32; 3]>>,
+    last: Option<brume::backend::cpu::RenderOutput>,
+}
+
+impl Timed {
+    fn new(runs: usize) -> Self {
+        Timed {
+            best: f64::INFINITY,
+            seconds: Vec::with_capacity(runs),
+            images: Vec::with_capacity(runs),
+            last: None,
+        }
+    }
+
+    fn push(&mut self, out: brume::backend::cpu::RenderOutput) {
+        self.best = self.best.min(out.seconds);
+        self.seconds.push(out.seconds);
+        self.images.push(film_means(&out.film));
+        self.last = Some(out);
+    }
+
+    /// The per-pixel variance over the rounds' seeds (`None` under two rounds).
+    fn variance(&self) -> Option<brume::study::stats::SeedVariance> {
+        let views: Vec<&[[f32; 3]]> = self.images.iter().map(|v| v.as_slice()).collect();
+        brume::study::stats::seed_variance_profile(&views, brume::study::stats::TOP_FRACTION).ok()
+    }
+
+    /// `global`'s time over this row's within each round: lowest, median and highest.
+    fn paired_with(&self, global: &Timed) -> (f64, f64, f64) {
+        let mut rounds: Vec<f64> = global
+            .seconds
+            .iter()
+            .zip(&self.seconds)
+            .map(|(g, m)| g / m)
+            .collect();
+        rounds.sort_by(f64::total_cmp);
+        (
+            rounds.first().copied().unwrap_or(f64::NAN),
+            median(&rounds),
+            rounds.last().copied().unwrap_or(f64::NAN),
+        )
+    }
+}
+
+/// One row: `label` is (scene, estimator, bounds, walk); `efficiency` the row's seed variance
+/// and its efficiency over the global bound's, where known.
+fn print_row(
+    label: (&str, &str, &str, &str),
+    row: &Timed,
+    global: &Timed,
+    efficiency: Option<(brume::study::stats::SeedVariance, f64)>,
+) {
+    let (scene, estimator, bounds, walk) = label;
+    let t = row
+        .last
+        .as_ref()
+        .map(|o| brume::film::totals(&o.records))
+        .unwrap_or_default();
+    let n = t.samples.max(1) as f64;
+    let ns = 1e9 * row.best / n;
+    let global_ns = 1e9 * global.best / n;
+    let paired = row.paired_with(global);
+    let (var, top, eff) = match efficiency {
+        Some((v, e)) => (
+            format!("{:.3e}", v.pooled),
+            format!("{:.0}%", 100.0 * v.top_share),
+            format!("{e:.2}x"),
+        ),
+        None => ("-".to_string(), "-".to_string(), "-".to_string()),
+    };
+    println!(
+        "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>8} {:>10}  {}",
+        scene,
+        estimator,
+        bounds,
+        ns,
+        global_ns / ns,
+        format!("{:.2}-{:.2}-{:.2}", paired.0, paired.1, paired.2),
+        (t.majorant_segments - t.shadow_segments) as f64 / n,
+        t.shadow_segments as f64 / n,
+        t.density_lookups as f64 / n,
+        t.emission_lookups as f64 / n,
+        t.real_collisions as f64 / n,
+        t.density_lookups as f64 / (t.real_collisions as f64).max(1.0),
+        var,
+        top,
+        eff,
+        walk,
+    );
 }
 
 /// Above this share of the per-pixel variance in `stats::TOP_FRACTION` of the values, the
@@ -255,4 +408,23 @@ pub fn adaptive_build() -> Result<()> {
         a.memory_bytes() as f64 / (1 << 20) as f64
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Floor;
+
+    #[test]
+    fn gap_share_is_zero_at_the_global_bound_and_whole_at_the_floor() {
+        let f = Floor {
+            scene: String::new(),
+            estimator: "delta",
+            floor: 1.25,
+            adaptive: 1.1,
+        };
+        assert_eq!(f.gap_share(1.0), 0.0);
+        assert_eq!(f.gap_share(1.25), 1.0);
+        // 1/1.2 of global's time is 5/6 of it: a sixth over the floor's fifth.
+        assert!((f.gap_share(1.2) - (1.0 / 6.0) / 0.2).abs() < 1e-12);
+    }
 }
