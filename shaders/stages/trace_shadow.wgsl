@@ -4,7 +4,8 @@
 // homogeneous medium it lies in (exactly), or by the VDB medium it crosses with ratio or
 // residual ratio tracking (Novak et al. 2014) for a grey medium and spectral tracking's
 // estimator for a chromatic one, drawn from the path's stream; a null interface changes the
-// medium and the walk goes on, any other surface blocks the ray. The path's radiance gains
+// medium and the walk goes on, any other surface blocks the ray (tested before the media up
+// to it are tracked, as on the CPU). The path's radiance gains
 // the NEE contribution times the transmittance.
 
 // Surfaces a shadow ray crosses at most: a bound for malformed geometry only (the CPU walk
@@ -28,6 +29,11 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         var t1 = sh.dist;
         if (h.prim != NO_INDEX) {
             t1 = h.t;
+            // A surface that scatters blocks the ray before the media up to it are tracked.
+            if (bvh_triangles[h.prim].kind != SURFACE_NULL) {
+                t = vec3<f32>(0.0);
+                break;
+            }
         }
 // #if FEATURE_HOMOGENEOUS
         if (medium != NO_INDEX) {
@@ -71,10 +77,6 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
             break;
         }
         let tri = bvh_triangles[h.prim];
-        if (tri.kind != SURFACE_NULL) {
-            t = vec3<f32>(0.0);
-            break;
-        }
 // #if FEATURE_HOMOGENEOUS
         let entering = dot(triangle_cross(tri), sh.wi) < 0.0;
         let m = stack_cross(medium, outer, tri.interior, entering);

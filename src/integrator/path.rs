@@ -215,6 +215,17 @@ fn transmittance<
         } else {
             None
         };
+        // A surface that scatters blocks the ray: the media before it are not tracked, as
+        // their estimate would only be multiplied by 0 (pbrt-v4's `TraceTransmittance` tests
+        // the surface first too). Where the light lies behind a refractive boundary (a smoke
+        // in a water tank lit by the sun) every shadow ray from inside is such a ray.
+        let mat_index = hit.map(|h| {
+            let tri = &rs.scene.triangles[h.triangle as usize];
+            rs.scene.instances[tri.instance as usize].material as usize
+        });
+        if mat_index.is_some_and(|m| rs.kinds[m] != SurfaceKind::Null) {
+            return Vec3::ZERO;
+        }
         let t1 = hit.map_or(dist, |h| h.t);
         let medium = media.top();
         if HOM {
@@ -230,12 +241,9 @@ fn transmittance<
                 }
             }
         }
-        let Some(h) = hit else { return tr };
-        let tri = &rs.scene.triangles[h.triangle as usize];
-        let mat_index = rs.scene.instances[tri.instance as usize].material as usize;
-        if rs.kinds[mat_index] != SurfaceKind::Null {
-            return Vec3::ZERO;
-        }
+        let (Some(h), Some(mat_index)) = (hit, mat_index) else {
+            return tr;
+        };
         if HOM {
             let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
             let entering = (b - a).cross(c - a).dot(ray.d) < 0.0;
