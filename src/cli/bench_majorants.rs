@@ -199,9 +199,10 @@ fn print_floor_notes(floors: &[Floor]) {
         "floor rows: every VDB medium's densityScale times {FLOOR_DENSITY_FACTOR:e}, under the \
          global walk: the same rays, span searches and walk entries with almost no tentative \
          collision, and none of the rays real collisions spawn, so 'vs global' there bounds what \
-         any majorant structure can gain (scenes whose media emit get no floor: their walks \
-         must still sample the emission). Of the time between global and floor (median rounds), \
-         {SPEEDUP_MARK}x over global needs / adaptive removes:"
+         any majorant structure can gain: tightly where real collisions are few, loosely where \
+         they spawn most of the work (the clouds, the fogs); scenes whose media emit get no \
+         floor, as their walks must still sample the emission. Of the time between global and \
+         floor (median rounds), {SPEEDUP_MARK}x over global needs / adaptive removes:"
     );
     for f in floors {
         println!(
