@@ -333,6 +333,12 @@ fn print_row(
     let ns = 1e9 * row.best / n;
     let global_ns = 1e9 * global.best / n;
     let paired = row.paired_with(global);
+    // No real collision (the floor): the ratio has nothing to count.
+    let lookups_per_real = if t.real_collisions > 0 {
+        format!("{:.2}", t.density_lookups as f64 / t.real_collisions as f64)
+    } else {
+        "-".to_string()
+    };
     let (var, top, eff) = match efficiency {
         Some((v, e)) => (
             format!("{:.3e}", v.pooled),
@@ -342,7 +348,7 @@ fn print_row(
         None => ("-".to_string(), "-".to_string(), "-".to_string()),
     };
     println!(
-        "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11.2} {:>10} {:>8} {:>10}  {}",
+        "{:<22} {:<14} {:<9} {:>9.1} {:>9.2}x {:>16} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.3} {:>11} {:>10} {:>8} {:>10}  {}",
         scene,
         estimator,
         bounds,
@@ -354,7 +360,7 @@ fn print_row(
         t.density_lookups as f64 / n,
         t.emission_lookups as f64 / n,
         t.real_collisions as f64 / n,
-        t.density_lookups as f64 / (t.real_collisions as f64).max(1.0),
+        lookups_per_real,
         var,
         top,
         eff,
