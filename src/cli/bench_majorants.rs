@@ -1,6 +1,6 @@
 //! `brume bench render --majorants-only`: the majorant modes side by side, with the floor no
 //! walk can pass, and the adaptive hierarchy's build on a 1024^3-voxel grid.
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
 use brume::volume::check::SplitMix64;
@@ -37,7 +37,7 @@ pub struct Rounds {
 ///
 /// A scene whose media do not emit gets a `floor` row, timed in the same rounds: the global
 /// walk through a copy of the scene with its VDB media made transparent
-/// ([`transparent_copy`]). It keeps every ray, span search and walk entry and drops the
+/// ([`transparent_scales`]). It keeps every ray, span search and walk entry and drops the
 /// collisions and the rays they spawn, so no walk is faster: its `vs global` is the most any
 /// majorant structure can gain on the scene, and the notes after the table say how much of
 /// that gap the 1.2x mark needs and how much the adaptive mode takes
@@ -63,13 +63,13 @@ pub fn majorant_modes(
     let mut outlier_scenes: Vec<String> = Vec::new();
     let mut floors: Vec<Floor> = Vec::new();
     for path in scenes {
-        let scene = brume::scene::load(path)?;
+        let mut scene = brume::scene::load(path)?;
         if scene.vdb_media.is_empty() {
             continue;
         }
         let name = path.file_name().unwrap_or_default().to_string_lossy();
         let adaptive_walk = adaptive_walk_names(&scene)?;
-        let floor_scene = transparent_copy(path)?;
+        let floor_scales = transparent_scales(&scene);
         for estimator in [Estimator::Delta, Estimator::Decomposition] {
             let settings = MajorantMode::ALL.map(|majorant| RenderSettings {
                 width,
@@ -79,10 +79,9 @@ pub fn majorant_modes(
                 majorant,
                 ..RenderSettings::default()
             });
-            let global_k = MajorantMode::ALL
-                .iter()
-                .position(|&m| m == MajorantMode::Global)
-                .unwrap_or(0);
+            let position = |mode| MajorantMode::ALL.iter().position(|&m| m == mode);
+            let global_k = position(MajorantMode::Global).unwrap_or(0);
+            let adaptive_k = position(MajorantMode::Adaptive).unwrap_or(0);
             let mut modes = MajorantMode::ALL.map(|_| Timed::new(runs));
             let mut floor = Timed::new(runs);
             for round in 0..runs {
@@ -91,12 +90,12 @@ pub fn majorant_modes(
                     let s = RenderSettings { seed, ..s.clone() };
                     modes[k].push(render_once(&scene, &s)?);
                 }
-                if let Some(fs) = &floor_scene {
+                if let Some(scales) = &floor_scales {
                     let s = RenderSettings {
                         seed,
                         ..settings[global_k].clone()
                     };
-                    floor.push(render_once(fs, &s)?);
+                    floor.push(render_with_scales(&mut scene, scales, &s)?);
                 }
             }
             let variance = modes.each_ref().map(|m| m.variance());
@@ -119,14 +118,10 @@ pub fn majorant_modes(
                 let label = (&*name, estimator.name(), majorant.name(), walk);
                 print_row(label, &modes[k], &modes[global_k], efficiency);
             }
-            if floor_scene.is_some() {
+            if floor_scales.is_some() {
                 let walk = "global, media transparent: no walk costs less";
                 let label = (&*name, estimator.name(), "floor", walk);
                 print_row(label, &floor, &modes[global_k], None);
-                let adaptive_k = MajorantMode::ALL
-                    .iter()
-                    .position(|&m| m == MajorantMode::Adaptive)
-                    .unwrap_or(0);
                 floors.push(Floor {
                     scene: name.to_string(),
                     estimator: estimator.name(),
@@ -225,18 +220,39 @@ const SPEEDUP_MARK: f64 = 1.2;
 /// not zero, so the media keep their walks (a medium of no density is not tracked at all).
 const FLOOR_DENSITY_FACTOR: f32 = 1e-6;
 
-/// The scene at `path` with every VDB medium made transparent ([`FLOOR_DENSITY_FACTOR`]), for
-/// the floor rows; `None` when one of its media emits, as its walks must still sample the
+/// Every VDB medium's `densityScale` made transparent ([`FLOOR_DENSITY_FACTOR`]), for the
+/// floor rows; `None` when one of the media emits, as its walks must still sample the
 /// emission, so a transparent copy would not bound their work.
-fn transparent_copy(path: &Path) -> Result<Option<brume::scene::Scene>> {
-    let mut scene = brume::scene::load(path)?;
+fn transparent_scales(scene: &brume::scene::Scene) -> Option<Vec<f32>> {
     if scene.vdb_media.iter().any(|m| m.emits()) {
-        return Ok(None);
+        return None;
     }
-    for m in &mut scene.vdb_media {
-        m.density_scale *= FLOOR_DENSITY_FACTOR;
-    }
-    Ok(Some(scene))
+    Some(
+        scene
+            .vdb_media
+            .iter()
+            .map(|m| m.density_scale * FLOOR_DENSITY_FACTOR)
+            .collect(),
+    )
+}
+
+/// Renders `scene` with its VDB media's `densityScale`s swapped for `scales`, then swaps them
+/// back: the floor renders the loaded scene instead of reading its grids a second time.
+fn render_with_scales(
+    scene: &mut brume::scene::Scene,
+    scales: &[f32],
+    settings: &brume::integrator::RenderSettings,
+) -> Result<brume::backend::cpu::RenderOutput> {
+    let swap = |scene: &mut brume::scene::Scene, scales: &mut Vec<f32>| {
+        for (m, s) in scene.vdb_media.iter_mut().zip(scales.iter_mut()) {
+            std::mem::swap(&mut m.density_scale, s);
+        }
+    };
+    let mut scales = scales.to_vec();
+    swap(scene, &mut scales);
+    let out = render_once(scene, settings);
+    swap(scene, &mut scales);
+    out
 }
 
 /// The walks each VDB medium's adaptive hierarchy takes (`VdbMedium::walk_mode`, and in
