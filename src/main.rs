@@ -56,13 +56,32 @@ enum Command {
     },
 }
 
+/// Mesa's Vulkan device-select layer opens a Wayland connection while the backend looks for a
+/// GPU, and libwayland prints `error: XDG_RUNTIME_DIR is invalid or not set` on a headless
+/// machine, which is no error of the render's. The layer only reorders GPUs for a desktop
+/// session (Brume picks its adapter itself), so it is switched off unless the user asked for
+/// it (`MESA_VK_DEVICE_SELECT`) or set its switch. Runs before any thread starts, since the
+/// environment may not change while another thread reads it.
+fn quiet_gpu_probe() {
+    let headless = std::env::var_os("XDG_RUNTIME_DIR").is_none();
+    let chosen = std::env::var_os("MESA_VK_DEVICE_SELECT").is_some()
+        || std::env::var_os("NODEVICE_SELECT").is_some();
+    if headless && !chosen {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
 fn main() -> ExitCode {
     // `brume info x.vdb | head` should end quietly, as other Unix tools do, not panic on the
     // closed pipe.
     // SAFETY: setting a signal disposition before any thread starts.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        // A file-size limit (`ulimit -f`) should fail the write with EFBIG, which the writer
+        // reports naming the file, not kill the process with SIGXFSZ and no message.
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
+    quiet_gpu_probe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
@@ -79,8 +98,26 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, as `{:#}` prints them, less each cause whose text
+/// the line already holds (an error that quotes its source, as `cannot write X: File too
+/// large` does, would otherwise say it twice).
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
 }

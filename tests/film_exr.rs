@@ -1,7 +1,8 @@
 //! EXR output: round trips, what OpenImageIO sees, atomic writes, and bad input to the reader.
+use brume::film::checksum::CHECKSUM_ATTRIBUTE;
 use brume::film::{
-    read_exr, write_atomically, write_exr, write_exr_single, AttrValue, Film, FilmError, Image,
-    Metadata, RenderInfo,
+    read_exr, read_exr_verified, write_atomically, write_exr, write_exr_single, AttrValue, Film,
+    FilmError, Image, Metadata, RenderInfo,
 };
 use std::path::{Path, PathBuf};
 
@@ -73,8 +74,14 @@ fn round_trip_keeps_every_value_and_attribute() {
     assert_eq!(listing(&dir), ["render.exr"], "no temporary file is left");
 
     let read = read_exr(&path).unwrap();
-    let expected = Image::from_film(&film, &metadata.sorted());
+    // Every Brume EXR carries the checksum of what it holds, which the verified read checks.
+    let sum = read.attributes.text(CHECKSUM_ATTRIBUTE).expect("a checksum");
+    let with_sum = metadata
+        .clone()
+        .with(CHECKSUM_ATTRIBUTE, AttrValue::Text(sum.to_string()));
+    let expected = Image::from_film(&film, &with_sum.sorted());
     assert_eq!(read, expected);
+    assert_eq!(read_exr_verified(&path).unwrap().0, expected);
     // Spot checks through the Film API, bit for bit.
     let i = 3 * 13 + 5;
     assert_eq!(read.rgb[i], film.mean(5, 3));

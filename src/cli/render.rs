@@ -274,17 +274,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     .into_iter()
     .flatten()
     {
-        let dir = p
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(std::path::Path::new("."));
-        if !dir.is_dir() {
-            return Err(anyhow!(
-                "{}: the folder {} does not exist",
-                p.display(),
-                dir.display()
-            ));
-        }
+        brume::film::check_writable(p)?;
     }
     let mut rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
     rs.lights.set_env_sampling(settings.env_sampling);
@@ -462,7 +452,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                         args.output.display(),
                         settings.sample_start + view.spp
                     ),
-                    Err(e) => checkpoint_error = Some(e),
+                    // A checkpoint that cannot be written (a full disk) stops the render:
+                    // going on would spend the rest of it with nothing kept.
+                    Err(e) => {
+                        checkpoint_error = Some(e);
+                        stop.store(true, Ordering::SeqCst);
+                    }
                 }
                 last = std::time::Instant::now();
             };
@@ -505,8 +500,7 @@ fn write_outputs(
         out.features,
     );
     // With the accumulator state, so any render can be merged or resumed exactly.
-    write_exr_with_state(&args.output, &out.film, &meta)
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    write_exr_with_state(&args.output, &out.film, &meta)?;
     let t = totals(&out.records);
     if let Some(path) = &args.tile_log {
         let mut w = TileLogWriter::create(path)?;

@@ -104,6 +104,34 @@ fn sync_parent_dir(path: &Path) {
     }
 }
 
+/// Checks, before any work is spent, that [`write_atomically`] could put a file at `path`:
+/// its folder exists, `path` is not a folder, and a file can be created beside it (which
+/// catches a read-only file system and missing permissions). Nothing is left behind.
+pub fn check_writable(path: impl AsRef<Path>) -> Result<(), FilmError> {
+    let path = path.as_ref();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let refuse = |reason: String| FilmError::InvalidInput {
+        path: path.to_path_buf(),
+        reason,
+    };
+    if !dir.is_dir() {
+        return Err(refuse(format!("the folder {} does not exist", dir.display())));
+    }
+    if path.is_dir() {
+        return Err(refuse("it is a folder".into()));
+    }
+    AtomicFile::create(path).map(drop).map_err(|e| match e {
+        FilmError::Io { source, .. } => refuse(format!(
+            "the folder {} cannot be written: {source}",
+            dir.display()
+        )),
+        e => e,
+    })
+}
+
 /// Writes `path` atomically: `write` fills the temporary file, which then replaces `path`.
 /// If `write` fails, the temporary file is removed and `path` is untouched.
 pub fn write_atomically(

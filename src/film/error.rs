@@ -62,6 +62,15 @@ pub enum FilmError {
         /// Why.
         reason: String,
     },
+    /// A Brume EXR whose content does not match its `brume:checksum` (damaged on disk or in
+    /// transfer), or that lacks the checksum where one is required.
+    #[error("{path} is damaged: {reason}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// What does not match.
+        reason: String,
+    },
     /// A line of a tile log that is not a tile record.
     #[error("{path}:{line}: not a tile record: {source}")]
     BadLogLine {

@@ -18,6 +18,7 @@
 //! hash map, so their order in the file is not fixed (the pixel data is).
 use super::accum::Film;
 use super::atomic::write_atomically;
+use super::checksum::{checksum, to_text, CHECKSUM_ATTRIBUTE};
 use super::error::FilmError;
 use super::metadata::{AttrValue, Metadata};
 use exr::prelude::{
@@ -225,6 +226,10 @@ fn encode_any(
         )));
     }
     let mut attributes = LayerAttributes::default();
+    let sum = checksum(channels.iter().map(|(n, v)| (n.as_str(), v)), metadata);
+    let metadata = metadata
+        .clone()
+        .with(CHECKSUM_ATTRIBUTE, AttrValue::Text(to_text(sum)));
     for (name, value) in metadata.iter() {
         // OpenEXR names are NUL-terminated and at most 255 bytes with long names enabled.
         if name.is_empty() || name.len() > 255 || name.contains('\0') {
@@ -260,9 +265,13 @@ fn encode_any(
         image
             .write()
             .to_unbuffered(file)
-            .map_err(|source| FilmError::ExrEncode {
-                path: path.to_path_buf(),
-                source,
+            .map_err(|source| match source {
+                // A full disk or a file-size limit: say so, not "cannot encode".
+                exr::error::Error::Io(e) => FilmError::io("write", path, e),
+                source => FilmError::ExrEncode {
+                    path: path.to_path_buf(),
+                    source,
+                },
             })
     })
 }
@@ -279,7 +288,36 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
 pub fn read_exr_with_state(
     path: impl AsRef<Path>,
 ) -> Result<(Image, BTreeMap<String, Vec<u32>>), FilmError> {
+    read_exr_checked(path.as_ref()).map(|(image, raw, _)| (image, raw))
+}
+
+/// [`read_exr_with_state`] for files Brume continues from (checkpoints, parts): the file must
+/// carry a `brume:checksum` and its content must match it, so a damaged file is refused
+/// instead of resumed or merged.
+pub fn read_exr_verified(
+    path: impl AsRef<Path>,
+) -> Result<(Image, BTreeMap<String, Vec<u32>>), FilmError> {
     let path = path.as_ref();
+    let (image, raw, computed) = read_exr_checked(path)?;
+    let corrupt = |reason: String| FilmError::Corrupt {
+        path: path.to_path_buf(),
+        reason,
+    };
+    match image.attributes.text(CHECKSUM_ATTRIBUTE) {
+        None => Err(corrupt(format!(
+            "it has no {CHECKSUM_ATTRIBUTE} attribute, so its content cannot be trusted"
+        ))),
+        Some(stored) if stored != to_text(computed) => Err(corrupt(format!(
+            "its content does not match its {CHECKSUM_ATTRIBUTE} ({stored} written, {} read)",
+            to_text(computed)
+        ))),
+        Some(_) => Ok((image, raw)),
+    }
+}
+
+/// Reads the file and also returns the checksum of what was read (see [`checksum`]).
+#[allow(clippy::type_complexity)]
+fn read_exr_checked(path: &Path) -> Result<(Image, BTreeMap<String, Vec<u32>>, u64), FilmError> {
     let mut raw_u32: BTreeMap<String, Vec<u32>> = BTreeMap::new();
     let meta = std::fs::metadata(path).map_err(|e| FilmError::io("read", path, e))?;
     if meta.is_dir() {
@@ -305,6 +343,7 @@ pub fn read_exr_with_state(
     let mut by_name: BTreeMap<String, Vec<f32>> = BTreeMap::new();
     let mut attributes = Metadata::new();
     let mut size: Option<(usize, usize)> = None;
+    let mut read_channels: Vec<(String, &FlatSamples)> = Vec::new();
     collect_attributes(&decoded.attributes.other, &mut attributes);
     for layer in &decoded.layer_data {
         let layer_size = (layer.size.0, layer.size.1);
@@ -334,6 +373,7 @@ pub fn read_exr_with_state(
             .unwrap_or_default();
         for channel in &layer.channel_data.list {
             let name = format!("{prefix}{}", String::from_utf8_lossy(channel.name.bytes()));
+            read_channels.push((name.clone(), &channel.sample_data));
             if let FlatSamples::U32(v) = &channel.sample_data {
                 raw_u32.insert(name.clone(), v.clone());
             }
@@ -341,6 +381,10 @@ pub fn read_exr_with_state(
         }
     }
     let (width, height) = size.unwrap_or((0, 0));
+    let computed = checksum(
+        read_channels.iter().map(|(n, v)| (n.as_str(), *v)),
+        &attributes,
+    );
     let found: Vec<String> = by_name.keys().cloned().collect();
     let missing = |missing: &[&str]| FilmError::MissingChannels {
         path: path.to_path_buf(),
@@ -394,6 +438,7 @@ pub fn read_exr_with_state(
             attributes: attributes.sorted(),
         },
         raw_u32,
+        computed,
     ))
 }
 

@@ -12,6 +12,7 @@
 //! - [`atomic`] is the one way this module puts a file on disk: temporary file, fsync, rename.
 pub mod accum;
 pub mod atomic;
+pub mod checksum;
 pub mod cost_map;
 pub mod error;
 pub mod exr_io;
@@ -21,11 +22,11 @@ pub mod tile_log;
 pub mod tiles;
 
 pub use accum::{Film, PixelStats, TileBuffer};
-pub use atomic::{write_atomically, AtomicFile};
+pub use atomic::{check_writable, write_atomically, AtomicFile};
 pub use cost_map::{cost_map_from_tiles, per_sample, write_cost_map, CostMetric};
 pub use error::FilmError;
 pub use exr_io::{
-    read_exr, read_exr_with_state, write_exr, write_exr_single, write_exr_with_state, write_image,
+    read_exr, read_exr_verified, read_exr_with_state, write_exr, write_exr_single, write_exr_with_state, write_image,
     Image,
 };
 pub use metadata::{AttrValue, Metadata, RenderInfo};

@@ -24,7 +24,7 @@ use thiserror::Error;
 
 use super::accum::{Film, PixelStats};
 use super::error::FilmError;
-use super::exr_io::{collect_attributes, read_exr_with_state};
+use super::exr_io::{collect_attributes, read_exr_verified};
 use super::metadata::{AttrValue, Metadata};
 
 /// The `u32` channels holding the accumulator state: count, then per channel the high and low
@@ -436,10 +436,11 @@ pub fn read_part_info(path: &Path) -> Result<(PartInfo, Metadata), PartError> {
     Ok((PartInfo::from_metadata(path, &attributes)?, attributes))
 }
 
-/// Reads a part with its exact state, checking that it is whole: the state channels are all
-/// there, every value is finite, and every pixel holds exactly the samples its coverage says.
+/// Reads a part with its exact state, checking that it is whole: its content matches its
+/// checksum, the state channels are all there, every value is finite, and every pixel holds
+/// exactly the samples its coverage says.
 pub fn read_part(path: &Path) -> Result<Part, PartError> {
-    let (image, raw) = read_exr_with_state(path)?;
+    let (image, raw) = read_exr_verified(path)?;
     let info = PartInfo::from_metadata(path, &image.attributes)?;
     if (image.width, image.height) != (info.width as usize, info.height as usize) {
         return Err(refused(

@@ -6,12 +6,18 @@ use brume::math::{Ray, Vec3};
 use brume::volume::{LeafBounds, SparseGrid};
 
 pub fn gpu_or_skip(test: &str) -> Option<GpuContext> {
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        // Silences Mesa's warnings about a missing runtime directory.
-        let dir = std::env::temp_dir().join(format!("brume-xdg-{}", std::process::id()));
-        let _ = std::fs::create_dir_all(&dir);
-        std::env::set_var("XDG_RUNTIME_DIR", dir);
-    }
+    // As `brume` does at start: Mesa's device-select layer would print libwayland's
+    // "XDG_RUNTIME_DIR is invalid" on a headless machine. Once for the process, and before
+    // any context exists: the test threads wait here, so no thread is inside Mesa (reading
+    // the environment) while it changes.
+    static QUIET: std::sync::Once = std::sync::Once::new();
+    QUIET.call_once(|| {
+        if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+            && std::env::var_os("MESA_VK_DEVICE_SELECT").is_none()
+        {
+            std::env::set_var("NODEVICE_SELECT", "1");
+        }
+    });
     match GpuContext::new() {
         Ok(ctx) => {
             println!("{test}: {}", ctx.describe());
