@@ -211,7 +211,7 @@ struct GpuWavefrontCounters {
     majorant_violations: atomic<u32>,
     invalid_majorants: atomic<u32>,
     collision_cap_hits: atomic<u32>,
-    _pad0: u32,
+    queue_overflows: atomic<u32>,       // pushes refused past a queue's path_count entries
     wide: array<atomic<u32>, 18>,       // WIDE_* (low, high) pairs of 64-bit totals
     _pad1: u32,
     _pad2: u32,

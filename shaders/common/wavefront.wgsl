@@ -20,18 +20,26 @@ fn queue_medium_out() -> u32 { return QUEUE_MEDIUM0 + 1u - wf.parity; }
 fn queue_done_in() -> u32 { return QUEUE_DONE0 + wf.parity; }
 fn queue_done_out() -> u32 { return QUEUE_DONE0 + 1u - wf.parity; }
 
-// The slot of item i of queue q, or false past its end.
+// The slot of item i of queue q, or false past its end. Each queue holds at most
+// wf.path_count items (its region of `queues`); a count past that is an overflow that
+// queue_push refused, so no item past the region is ever read.
 fn queue_item(q: u32, i: u32, slot: ptr<function, u32>) -> bool {
-    if (i >= atomicLoad(&counters.queue_count[q])) {
+    if (i >= min(atomicLoad(&counters.queue_count[q]), wf.path_count)) {
         return false;
     }
     *slot = queues[q * wf.path_count + i];
     return true;
 }
 
-// Appends a path slot to queue q.
+// Appends a path slot to queue q. A push past the queue's wf.path_count entries would write
+// into the next queue's region (or past the buffer): it is counted instead, and the host fails
+// the render (Wavefront::iterations).
 fn queue_push(q: u32, slot: u32) {
     let i = atomicAdd(&counters.queue_count[q], 1u);
+    if (i >= wf.path_count) {
+        atomicAdd(&counters.queue_overflows, 1u);
+        return;
+    }
     queues[q * wf.path_count + i] = slot;
 }
 

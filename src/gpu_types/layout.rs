@@ -162,7 +162,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             majorant_violations,
             invalid_majorants,
             collision_cap_hits,
-            _pad0,
+            queue_overflows,
             wide,
             _pad1,
             _pad2

@@ -225,8 +225,9 @@ pub struct GpuWavefrontCounters {
     pub invalid_majorants: u32,
     /// `TrackingStats::collision_cap_hits`.
     pub collision_cap_hits: u32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
+    /// Pushes the kernels refused because the queue already held `path_count` entries (a
+    /// scheduling bug; the render fails on any).
+    pub queue_overflows: u32,
     /// [`GpuWideCounter`] pairs (low, high) of 64-bit totals.
     pub wide: [u32; 18],
     /// Padding to a 16-byte row.

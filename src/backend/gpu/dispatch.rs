@@ -71,6 +71,13 @@ impl Wavefront<'_> {
                 return Err(dev(e.to_string()));
             }
             iteration += ITERATIONS_PER_SYNC;
+            if c.queue_overflows != 0 {
+                return Err(dev(format!(
+                    "wavefront queue overflow after {iteration} iterations: {} pushes past a \
+                     queue's {} slots were refused",
+                    c.queue_overflows, self.slots
+                )));
+            }
             if c.live == 0 && c.next_sample >= params.total_samples {
                 counters = c;
                 break;
