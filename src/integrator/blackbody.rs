@@ -1,7 +1,7 @@
 //! Blackbody colour as Cycles' Principled Volume uses it: linear Rec.709 RGB of Planck's law,
 //! normalised to unit luminance, so that intensity is carried by the Stefan-Boltzmann factor
-//! alone (`(5.670373e-8 * 1e-6 / pi) * mix(1, T^4, I) * C(T)`, measured on Cycles 5; see
-//! BUILD-NOTES.md). Like Cycles, temperatures are clamped to [800 K, 12000 K] for the colour.
+//! alone (`(5.670373e-8 * 1e-6 / pi) * mix(1, T^4, I) * C(T)`, as Cycles 5 renders it on a
+//! homogeneous cube). Like Cycles, temperatures are clamped to [800 K, 12000 K] for the colour.
 //!
 //! The CIE 1931 2-degree colour matching functions are the CIE's own table at 5 nm (CIE 015:2018,
 //! as distributed by the CIE and colour-science's `MSDS_CMFS`). An analytic multi-lobe Gaussian
