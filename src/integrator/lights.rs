@@ -36,7 +36,7 @@
 //! furnace property: in a medium of albedo `a` near 1 under a uniform sky, the path's weight
 //! barely varies whatever it does. So the shadow ray pays where `a` is small (a dark medium,
 //! where paths rarely escape), and elsewhere it is better spent on the punctual lights, whose
-//! estimates no longer get divided by a probability diluted by the sky. `a` is the
+//! estimates are then not divided by a probability diluted by the sky. `a` is the
 //! single-scattering albedo (largest channel) of the DARKEST scattering medium in the scene,
 //! so no medium gets less sky estimation than it needs. Measured (`brume bench peers`, 64 spp,
 //! against `--light-selection guided-full-sky`): per-pixel variance -30 % on the dense

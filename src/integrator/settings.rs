@@ -244,7 +244,7 @@ pub struct RenderSettings {
     /// Russian roulette starts after this many scattering events.
     pub rr_depth: u32,
     /// ... or earlier, as soon as the throughput's largest channel falls below this. With
-    /// absorption as a weight, a dark medium (albedo 0.2) no longer ends paths at absorption
+    /// absorption as a weight, a dark medium (albedo 0.2) does not end paths at absorption
     /// events; without this guard such paths carry tiny weights through `rr_depth` bounces
     /// of full-cost tracking (measured: 0.63x the efficiency of absorption events; with the
     /// guard at 0.5 they break even). 0 disables it.
