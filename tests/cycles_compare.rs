@@ -1,4 +1,4 @@
-//! Brume against Blender Cycles (docs/CYCLES.md) on the cloud, the textured backdrop, the cloud
+//! Brume against Blender Cycles (docs/comparing.md) on the cloud, the textured backdrop, the cloud
 //! under an HDR sky map, the two-grid fire (overlapping media: Cycles adds overlapping volume
 //! objects' coefficients as Brume does) and a constant glow in the plume (where a medium emits:
 //! Cycles' volume box, `integrator::media::EmissionRegion`, whole and at one face to a
@@ -71,14 +71,14 @@ fn cloud_agrees_with_cycles() {
 }
 
 /// Base-colour and emissive textures: bilinear and nearest, clamped and repeated, with
-/// KHR_texture_transform (README: textures).
+/// KHR_texture_transform (docs/scene-format.md: textures).
 #[test]
 fn textured_backdrop_agrees_with_cycles() {
     agrees_with_cycles("textured_backdrop", "textured_backdrop.gltf", "64");
 }
 
 /// The HDR-sky cloud: an environment map with a small bright sun, rotated, lights the cloud
-/// (README: environment maps). The sky seen directly tests the lookup convention and
+/// (docs/scene-format.md: `BRUME_environment`). The sky seen directly tests the lookup convention and
 /// rotation, the cloud the importance sampling and MIS.
 #[test]
 fn hdr_sky_cloud_agrees_with_cycles() {
