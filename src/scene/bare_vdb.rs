@@ -207,7 +207,7 @@ impl BareVdbScene {
     }
 
     /// The scene as glTF JSON, for a `.gltf` file written in `scene_dir` (the `.vdb` is named
-    /// relative to it when it lies below it, else by its absolute path).
+    /// by a path relative to it).
     pub fn gltf(&self, scene_dir: &Path) -> Value {
         let uri = vdb_uri(&self.vdb, scene_dir);
         let mut medium = json!({
@@ -280,31 +280,44 @@ impl BareVdbScene {
     }
 }
 
-/// The `.vdb`'s URI seen from `scene_dir`: relative when it lies below it, else absolute;
-/// percent-encoded where glTF URIs need it.
+/// The `.vdb`'s URI seen from `scene_dir`: a relative path (with `..` where needed) when both
+/// are absolute paths on the same root, else the absolute path; percent-encoded where glTF
+/// URIs need it.
 fn vdb_uri(vdb: &Path, scene_dir: &Path) -> String {
-    let abs = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
-    let (vdb_abs, dir_abs) = (abs(vdb), abs(scene_dir));
-    let path = match vdb_abs.strip_prefix(&dir_abs) {
-        Ok(rel) => rel.to_path_buf(),
-        Err(_) => vdb_abs,
+    let abs = |p: &Path| {
+        std::fs::canonicalize(p).unwrap_or_else(|_| {
+            std::env::current_dir()
+                .map(|d| d.join(p))
+                .unwrap_or_else(|_| p.to_path_buf())
+        })
     };
+    let (vdb_abs, dir_abs) = (abs(vdb), abs(scene_dir));
+    let (a, d): (Vec<Component>, Vec<Component>) =
+        (vdb_abs.components().collect(), dir_abs.components().collect());
+    let common = a.iter().zip(&d).take_while(|(x, y)| x == y).count();
+    let names = |cs: &[Component]| cs.iter().all(|c| matches!(c, Component::Normal(_)));
+    let parts: Vec<String> = if common > 0 && names(&a[common..]) && names(&d[common..]) {
+        let up = std::iter::repeat("..".to_string()).take(d.len() - common);
+        up.chain(a[common..].iter().map(|c| encode(&c.as_os_str().to_string_lossy())))
+            .collect()
+    } else {
+        let mut out = vec![String::new()];
+        out.extend(a.iter().filter_map(|c| match c {
+            Component::Normal(s) => Some(encode(&s.to_string_lossy())),
+            _ => None,
+        }));
+        out
+    };
+    parts.join("/")
+}
+
+/// Percent-encodes what a glTF URI cannot hold as is.
+fn encode(name: &str) -> String {
     let mut out = String::new();
-    for (i, c) in path.components().enumerate() {
-        match c {
-            Component::RootDir => out.push('/'),
-            Component::Normal(s) => {
-                if i > 0 && !out.ends_with('/') {
-                    out.push('/');
-                }
-                for b in s.to_string_lossy().bytes() {
-                    match b {
-                        b'%' | b' ' | b'#' | b'?' => out.push_str(&format!("%{b:02X}")),
-                        _ => out.push(b as char),
-                    }
-                }
-            }
-            _ => {}
+    for b in name.bytes() {
+        match b {
+            b'%' | b' ' | b'#' | b'?' => out.push_str(&format!("%{b:02X}")),
+            _ => out.push(b as char),
         }
     }
     out
@@ -366,10 +379,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn uris_are_relative_below_the_scene_and_encoded() {
-        let d = std::env::temp_dir();
-        assert_eq!(vdb_uri(&d.join("a b/x%.vdb"), &d), "a%20b/x%25.vdb");
-        assert!(vdb_uri(Path::new("/elsewhere/s.vdb"), &d.join("q")).starts_with("/elsewhere/"));
+    fn uris_are_relative_to_the_scene_and_encoded() {
+        let d = Path::new("/nowhere/scenes");
+        assert_eq!(vdb_uri(&d.join("a b/x%.vdb"), d), "a%20b/x%25.vdb");
+        assert_eq!(vdb_uri(Path::new("/nowhere/vdb/s.vdb"), &d.join("q")), "../../vdb/s.vdb");
     }
 
     #[test]
