@@ -100,8 +100,8 @@ fn single_scattering_agrees_with_cycles() {
 }
 
 /// The scene's own depth (`BRUME_render` maxDepth 1, no `--max-depth`): `brume render` takes
-/// it, and so does the Cycles script (it rendered at 256 before, when single scattering is
-/// 35 % darker than all orders on this plume: 0.006037 against 0.009223 in R at 64x48).
+/// it, and so must the Cycles script: single scattering is 35 % darker than all orders on this
+/// plume, so a script that ignored the scene's depth would fail by far.
 #[test]
 fn the_scenes_own_depth_reaches_cycles() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -155,8 +155,8 @@ fn glow_scene(dir: &Path, name: &str, eye: [f32; 3], yfov: f32) -> PathBuf {
 }
 
 /// A constant emission in the plume under a black sky: it glows in the box of the grid's
-/// active voxels, `[min - 1, max + 2]`, as Cycles' volume mesh (before, Brume glowed in the
-/// whole cell box: -67.85 % against Cycles at 64x48).
+/// active voxels, `[min - 1, max + 2]`, as Cycles' volume mesh (a glow over the whole cell box
+/// would be about a third too bright against Cycles).
 #[test]
 fn constant_glow_is_where_cycles_emits() {
     let dir = std::env::temp_dir().join(format!("brume-cycles-glow-{}", std::process::id()));
