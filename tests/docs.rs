@@ -420,3 +420,20 @@ fn the_quickstart_runs() {
     assert!(status.success(), "the scene written by --save-scene does not render");
     std::fs::remove_dir_all(&scratch).unwrap();
 }
+
+#[test]
+fn the_readme_is_a_short_manual_with_every_subcommand() {
+    let readme = read(&root().join("README.md"));
+    let lines = readme.lines().count();
+    assert!(lines <= 300, "README.md has {lines} lines: the rest belongs in docs/");
+    let start = readme.find("## Commands").expect("README has a Commands section");
+    let section = &readme[start..];
+    let section = &section[..section[1..].find("\n## ").map_or(section.len(), |i| i + 1)];
+    let (_, top) = command_tree().into_iter().find(|(p, _)| p.is_empty()).unwrap();
+    for name in subcommands(&top) {
+        assert!(
+            section.contains(&format!("| `{name}")),
+            "the README's command table has no row for `brume {name}`"
+        );
+    }
+}
