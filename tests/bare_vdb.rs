@@ -66,7 +66,11 @@ fn assert_framed_and_lit(exr: &Path, what: &str) -> f32 {
         "{what}: the medium covers {:.1} % of the frame",
         100.0 * covered
     );
-    let mean = medium.iter().map(|p| (p[0] + p[1] + p[2]) / 3.0).sum::<f32>() / medium.len() as f32;
+    let mean = medium
+        .iter()
+        .map(|p| (p[0] + p[1] + p[2]) / 3.0)
+        .sum::<f32>()
+        / medium.len() as f32;
     assert!(
         mean.is_finite() && mean > 0.05,
         "{what}: the medium's pixels average {mean}: not lit"
@@ -76,7 +80,10 @@ fn assert_framed_and_lit(exr: &Path, what: &str) -> f32 {
 
 fn scene_line(out: &Output) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr);
-    let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("scene for ")).collect();
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("scene for "))
+        .collect();
     assert_eq!(lines.len(), 1, "one line says what was chosen:\n{stderr}");
     lines[0].to_string()
 }
@@ -110,13 +117,24 @@ fn every_example_grid_renders_framed_and_lit() {
 #[test]
 fn emission_grids_are_found_by_name() {
     let dir = scratch::dir("emission");
-    let out = render(&root().join("scenes/vdb/fire.vdb"), &dir.join("fire.exr"), &[]);
+    let out = render(
+        &root().join("scenes/vdb/fire.vdb"),
+        &dir.join("fire.exr"),
+        &[],
+    );
     assert!(out.status.success());
     let line = scene_line(&out);
     assert!(line.contains("density grid 'density'"), "{line}");
     assert!(line.contains("emission grid 'flame'"), "{line}");
-    let out = render(&root().join("scenes/vdb/cloud.vdb"), &dir.join("cloud.exr"), &[]);
-    assert!(!scene_line(&out).contains("emission"), "the cloud has no emission grid");
+    let out = render(
+        &root().join("scenes/vdb/cloud.vdb"),
+        &dir.join("cloud.exr"),
+        &[],
+    );
+    assert!(
+        !scene_line(&out).contains("emission"),
+        "the cloud has no emission grid"
+    );
 }
 
 #[test]
@@ -124,7 +142,15 @@ fn a_grid_made_by_vdb_tool_renders_framed_and_lit() {
     let dir = scratch::dir("vdb_tool");
     let vdb = dir.join("ball.vdb");
     let made = Command::new("vdb_tool")
-        .args(["-quiet", "-sphere", "r=3.0", "dim=48", "-ls2fog", "name=density", "-write"])
+        .args([
+            "-quiet",
+            "-sphere",
+            "r=3.0",
+            "dim=48",
+            "-ls2fog",
+            "name=density",
+            "-write",
+        ])
         .arg(&vdb)
         .status();
     match made {
@@ -136,7 +162,11 @@ fn a_grid_made_by_vdb_tool_renders_framed_and_lit() {
     }
     let exr = dir.join("ball.exr");
     let out = render(&vdb, &exr, &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_framed_and_lit(&exr, "vdb_tool sphere");
 }
 
@@ -155,8 +185,15 @@ fn a_grid_far_from_the_origin_with_its_own_name_is_framed() {
     brume_ffi::write_float_grids(&vdb, &[g]).unwrap();
     let exr = dir.join("far.exr");
     let out = render(&vdb, &exr, &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(scene_line(&out).contains("density grid 'smoke'"), "the only float grid");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        scene_line(&out).contains("density grid 'smoke'"),
+        "the only float grid"
+    );
     assert_framed_and_lit(&exr, "a box 1000 m from the origin");
 }
 
@@ -170,14 +207,26 @@ fn the_saved_scene_renders_the_same_image() {
         &a,
         &["--save-scene", gltf.to_str().unwrap()],
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let scene = brume::scene::load(&gltf).expect("the saved scene loads");
     assert_eq!(scene.vdb_media.len(), 1);
     assert_eq!(scene.lights.len(), 1, "a sun");
     let b = dir.join("b.exr");
     let out = render(&gltf, &b, &[]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert_eq!(read_exr(&a).unwrap().rgb, read_exr(&b).unwrap().rgb, "same scene, same seed");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        read_exr(&a).unwrap().rgb,
+        read_exr(&b).unwrap().rgb,
+        "same scene, same seed"
+    );
     // Only a bare .vdb has a scene to save.
     let out = brume(&[
         "render",
@@ -208,10 +257,16 @@ fn an_ambiguous_or_empty_file_is_refused_with_its_grids() {
     assert!(err.contains("density"), "{err}");
 
     let empty = dir.join("empty.vdb");
-    brume_ffi::write_float_grids(&empty, &[brume_ffi::GridSpec::fog("density", 0.1, [0.0; 3])])
-        .unwrap();
+    brume_ffi::write_float_grids(
+        &empty,
+        &[brume_ffi::GridSpec::fog("density", 0.1, [0.0; 3])],
+    )
+    .unwrap();
     let out = render(&empty, &dir.join("empty.exr"), &[]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no active voxels") || err.contains("no positive"), "{err}");
+    assert!(
+        err.contains("no active voxels") || err.contains("no positive"),
+        "{err}"
+    );
 }

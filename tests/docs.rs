@@ -136,7 +136,10 @@ fn every_relative_link_resolves() {
                 if resolved.extension().is_some_and(|x| x == "md")
                     && !anchors(&read(&resolved)).contains(a)
                 {
-                    bad.push(format!("{}: {target}: no heading with anchor #{a}", rel(&page)));
+                    bad.push(format!(
+                        "{}: {target}: no heading with anchor #{a}",
+                        rel(&page)
+                    ));
                 }
             }
         }
@@ -146,7 +149,15 @@ fn every_relative_link_resolves() {
 
 /// Top-level folders and files of the repository whose paths the docs name.
 const PREFIXES: [&str; 9] = [
-    "src/", "tests/", "docs/", "scenes/", "tools/", "shaders/", "ffi/", ".ci/", "Cargo.toml",
+    "src/",
+    "tests/",
+    "docs/",
+    "scenes/",
+    "tools/",
+    "shaders/",
+    "ffi/",
+    ".ci/",
+    "Cargo.toml",
 ];
 
 /// Paths that the tools create when they run, named by the docs but not in the repository.
@@ -157,7 +168,11 @@ fn named_paths(text: &str) -> BTreeSet<String> {
     let mut out = BTreeSet::new();
     let split = |c: char| c.is_whitespace() || "`()[]<>,;:\"'|*=".contains(c);
     for token in text.split(split) {
-        let token = token.split('#').next().unwrap().trim_end_matches(['.', '!', '?']);
+        let token = token
+            .split('#')
+            .next()
+            .unwrap()
+            .trim_end_matches(['.', '!', '?']);
         if !PREFIXES.iter().any(|p| token.starts_with(p)) {
             continue;
         }
@@ -192,14 +207,22 @@ fn every_named_path_exists() {
             }
         }
     }
-    assert!(bad.is_empty(), "paths named in the docs that do not exist:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "paths named in the docs that do not exist:\n{}",
+        bad.join("\n")
+    );
 }
 
 #[test]
 fn no_page_points_outside_the_repository() {
     // Notes kept beside the repository, and absolute paths of one machine. The first needle
     // is split so that this file does not name it.
-    let outside = [["BUILD", "-NOTES"].concat(), "../shared".into(), "/work/".into()];
+    let outside = [
+        ["BUILD", "-NOTES"].concat(),
+        "../shared".into(),
+        "/work/".into(),
+    ];
     let mut bad = Vec::new();
     for page in pages().into_iter().chain([root().join("Cargo.toml")]) {
         for (n, line) in read(&page).lines().enumerate() {
@@ -208,7 +231,11 @@ fn no_page_points_outside_the_repository() {
             }
         }
     }
-    assert!(bad.is_empty(), "pointers outside the repository:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "pointers outside the repository:\n{}",
+        bad.join("\n")
+    );
 }
 
 fn help(args: &[&str]) -> String {
@@ -217,7 +244,11 @@ fn help(args: &[&str]) -> String {
         .arg("--help")
         .output()
         .expect("run brume");
-    assert!(out.status.success(), "brume {} --help failed", args.join(" "));
+    assert!(
+        out.status.success(),
+        "brume {} --help failed",
+        args.join(" ")
+    );
     String::from_utf8(out.stdout).unwrap()
 }
 
@@ -280,7 +311,10 @@ fn cli_reference() -> String {
         } else {
             format!("brume {}", path.join(" "))
         };
-        s.push_str(&format!("\n## `{name}`\n\n```text\n{}\n```\n", text.trim_end()));
+        s.push_str(&format!(
+            "\n## `{name}`\n\n```text\n{}\n```\n",
+            text.trim_end()
+        ));
     }
     s
 }
@@ -335,7 +369,9 @@ fn every_subcommand_and_flag_is_in_the_cli_reference() {
 /// The shell commands of the README's quickstart, continuation lines joined, comments cut.
 fn quickstart_commands() -> Vec<String> {
     let readme = read(&root().join("README.md"));
-    let start = readme.find("## Quickstart").expect("README has a Quickstart");
+    let start = readme
+        .find("## Quickstart")
+        .expect("README has a Quickstart");
     let section = &readme[start + 1..];
     let section = &section[..section.find("\n## ").unwrap_or(section.len())];
     let mut out = Vec::new();
@@ -408,16 +444,33 @@ fn the_quickstart_runs() {
             .unwrap_or_else(|e| panic!("`{command}`: {e}"));
         assert!(status.success(), "the quickstart's `{command}` failed");
     }
-    for made in ["cloud.exr", "cloud.tiles.jsonl", "cloud.cost.exr", "smoke.exr", "smoke.gltf"] {
-        assert!(scratch.join(made).is_file(), "the quickstart did not write out/{made}");
+    for made in [
+        "cloud.exr",
+        "cloud.tiles.jsonl",
+        "cloud.cost.exr",
+        "smoke.exr",
+        "smoke.gltf",
+    ] {
+        assert!(
+            scratch.join(made).is_file(),
+            "the quickstart did not write out/{made}"
+        );
     }
     // The saved scene renders as an ordinary scene.
     let status = Command::new(BIN)
-        .args(["render", &format!("{out_dir}smoke.gltf"), "-o", &format!("{out_dir}again.exr")])
+        .args([
+            "render",
+            &format!("{out_dir}smoke.gltf"),
+            "-o",
+            &format!("{out_dir}again.exr"),
+        ])
         .args(["--spp", "1", "--width", "32", "--height", "24"])
         .status()
         .unwrap();
-    assert!(status.success(), "the scene written by --save-scene does not render");
+    assert!(
+        status.success(),
+        "the scene written by --save-scene does not render"
+    );
     std::fs::remove_dir_all(&scratch).unwrap();
 }
 
@@ -425,11 +478,19 @@ fn the_quickstart_runs() {
 fn the_readme_is_a_short_manual_with_every_subcommand() {
     let readme = read(&root().join("README.md"));
     let lines = readme.lines().count();
-    assert!(lines <= 300, "README.md has {lines} lines: the rest belongs in docs/");
-    let start = readme.find("## Commands").expect("README has a Commands section");
+    assert!(
+        lines <= 300,
+        "README.md has {lines} lines: the rest belongs in docs/"
+    );
+    let start = readme
+        .find("## Commands")
+        .expect("README has a Commands section");
     let section = &readme[start..];
     let section = &section[..section[1..].find("\n## ").map_or(section.len(), |i| i + 1)];
-    let (_, top) = command_tree().into_iter().find(|(p, _)| p.is_empty()).unwrap();
+    let (_, top) = command_tree()
+        .into_iter()
+        .find(|(p, _)| p.is_empty())
+        .unwrap();
     for name in subcommands(&top) {
         assert!(
             section.contains(&format!("| `{name}")),

@@ -244,11 +244,15 @@ fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<O
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
-    if let Some(made) = scene::bare_vdb::prepare(&args.scene, args.save_scene.as_deref())
-        .map_err(|e| anyhow!(e))?
+    if let Some(made) =
+        scene::bare_vdb::prepare(&args.scene, args.save_scene.as_deref()).map_err(|e| anyhow!(e))?
     {
         let scene = made.path().to_path_buf();
-        return run(&RenderArgs { scene, save_scene: None, ..args.clone() });
+        return run(&RenderArgs {
+            scene,
+            save_scene: None,
+            ..args.clone()
+        });
     }
     let scene = scene::load_with(
         &args.scene,

@@ -292,14 +292,20 @@ fn vdb_uri(vdb: &Path, scene_dir: &Path) -> String {
         })
     };
     let (vdb_abs, dir_abs) = (abs(vdb), abs(scene_dir));
-    let (a, d): (Vec<Component>, Vec<Component>) =
-        (vdb_abs.components().collect(), dir_abs.components().collect());
+    let (a, d): (Vec<Component>, Vec<Component>) = (
+        vdb_abs.components().collect(),
+        dir_abs.components().collect(),
+    );
     let common = a.iter().zip(&d).take_while(|(x, y)| x == y).count();
     let names = |cs: &[Component]| cs.iter().all(|c| matches!(c, Component::Normal(_)));
     let parts: Vec<String> = if common > 0 && names(&a[common..]) && names(&d[common..]) {
         let up = std::iter::repeat("..".to_string()).take(d.len() - common);
-        up.chain(a[common..].iter().map(|c| encode(&c.as_os_str().to_string_lossy())))
-            .collect()
+        up.chain(
+            a[common..]
+                .iter()
+                .map(|c| encode(&c.as_os_str().to_string_lossy())),
+        )
+        .collect()
     } else {
         let mut out = vec![String::new()];
         out.extend(a.iter().filter_map(|c| match c {
@@ -382,7 +388,10 @@ mod tests {
     fn uris_are_relative_to_the_scene_and_encoded() {
         let d = Path::new("/nowhere/scenes");
         assert_eq!(vdb_uri(&d.join("a b/x%.vdb"), d), "a%20b/x%25.vdb");
-        assert_eq!(vdb_uri(Path::new("/nowhere/vdb/s.vdb"), &d.join("q")), "../../vdb/s.vdb");
+        assert_eq!(
+            vdb_uri(Path::new("/nowhere/vdb/s.vdb"), &d.join("q")),
+            "../../vdb/s.vdb"
+        );
     }
 
     #[test]
