@@ -498,3 +498,79 @@ fn the_readme_is_a_short_manual_with_every_subcommand() {
         );
     }
 }
+
+/// Markers of a lab notebook rather than a manual, in one lower-case line: numbered work
+/// periods, issue numbers, dates, one machine's name.
+fn history_marker(line: &str) -> Option<&'static str> {
+    let b = line.as_bytes();
+    let digit = |i: usize| b.get(i).is_some_and(u8::is_ascii_digit);
+    let word = |i: usize| b.get(i).is_some_and(|c| c.is_ascii_alphanumeric());
+    for (i, _) in line.match_indices("session") {
+        let rest = line[i + 7..].trim_start_matches('s');
+        if rest.starts_with(' ') && rest[1..].starts_with(|c: char| c.is_ascii_digit()) {
+            return Some("a numbered work period");
+        }
+    }
+    for (i, _) in line.match_indices('#') {
+        let before_ok = i == 0 || !(word(i - 1) || b[i - 1] == b'&');
+        let n = (1..=4).take_while(|&k| digit(i + k)).count();
+        if before_ok && (1..=3).contains(&n) && !word(i + 1 + n) {
+            return Some("an issue number");
+        }
+    }
+    for (i, _) in line.match_indices("20") {
+        let date = (2..4).all(|k| digit(i + k)) && b.get(i + 4) == Some(&b'-');
+        if date && (5..7).all(|k| digit(i + k)) && (i == 0 || !word(i - 1)) {
+            return Some("a date");
+        }
+    }
+    let machines = [
+        "h100",
+        "h200",
+        "this machine",
+        "development machine",
+        " 2-core",
+    ];
+    machines
+        .iter()
+        .any(|m| line.contains(m))
+        .then_some("a machine")
+}
+
+#[test]
+fn the_docs_carry_no_history() {
+    let mut bad = Vec::new();
+    for page in pages() {
+        for (n, line) in read(&page).lines().enumerate() {
+            if let Some(what) = history_marker(&line.to_lowercase()) {
+                bad.push(format!("{}:{}: {what}: {line}", rel(&page), n + 1));
+            }
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "history belongs in git, not in the docs:\n{}",
+        bad.join("\n")
+    );
+}
+
+#[test]
+fn history_markers_are_recognised() {
+    for line in [
+        "as measured in session 19",
+        "see #13",
+        "run on 2026-11-26",
+        "on the h100",
+    ] {
+        assert!(history_marker(line).is_some(), "{line}");
+    }
+    for line in [
+        "# a heading",
+        "[design](design.md#dependencies-and-packages)",
+        "2^20 cells, 1024 bricks",
+        "the render session: scene and device update",
+        "&#123;",
+    ] {
+        assert!(history_marker(line).is_none(), "{line}");
+    }
+}
