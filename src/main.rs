@@ -37,13 +37,12 @@ enum Command {
         #[command(subcommand)]
         which: cli::farm::FarmWhich,
     },
-    /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/CYCLES.md).
+    /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/comparing.md).
     Cycles(cli::cycles::CyclesArgs),
-    /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba; README "Comparing against
-    /// Mitsuba 3").
+    /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba, docs/comparing.md).
     Mitsuba(cli::mitsuba::MitsubaArgs),
     /// Convert a Blender scene (.blend) to a Brume glTF scene with the tools/blender add-on
-    /// (bpy, as `brume cycles` finds it; README "From Blender").
+    /// (bpy, as `brume cycles` finds it; docs/blender.md).
     ImportBlend(cli::import_blend::ImportBlendArgs),
     /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
     Compare(cli::compare::CompareArgs),

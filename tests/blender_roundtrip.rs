@@ -1,4 +1,4 @@
-//! From Blender to Brume (tools/blender, `brume import-blend`; README "From Blender"):
+//! From Blender to Brume (tools/blender, `brume import-blend`; docs/blender.md):
 //! - a Blender scene built in bpy (a fire Volume with a rotated, scaled, parented transform,
 //!   render space Object, a Principled Volume with emission and blackbody, a sun, a point light,
 //!   a camera, a ground plane) exported with the add-on and rendered by Brume agrees with Cycles
@@ -140,7 +140,7 @@ fn fire_blend_renders_like_cycles() {
     args.extend(size.map(std::ffi::OsStr::new));
     assert_ok(&cx.brume(&args), "brume render");
     // Cycles renders the .blend as saved (tools/cycles/brume_to_cycles.py opens it and only
-    // sets the unbiased render settings of docs/CYCLES.md).
+    // sets the unbiased render settings of docs/comparing.md).
     let mut args: Vec<&std::ffi::OsStr> = vec!["cycles".as_ref(), blend.as_os_str()];
     args.extend(["-o".as_ref(), cycles_exr.as_os_str()]);
     args.extend(["--spp", "32", "--runs", "4", "--seed", "1"].map(std::ffi::OsStr::new));
@@ -203,7 +203,7 @@ fn example_scenes_round_trip_through_blender() {
         let stem = scene.file_stem().unwrap().to_str().unwrap().to_string();
         if !original.homogeneous_media.is_empty() {
             // brume_to_cycles.py turns KHR_materials_volume into a mesh volume shader, which
-            // the add-on refuses (README: From Blender, what is refused): no round trip.
+            // the add-on refuses (docs/blender.md, "What is refused"): no round trip.
             println!("blender_roundtrip: {stem}: skipped (a KHR_materials_volume mesh medium; the add-on refuses mesh volume shaders)");
             continue;
         }

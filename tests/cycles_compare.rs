@@ -1,4 +1,4 @@
-//! Brume against Blender Cycles (docs/CYCLES.md) on the cloud, the textured backdrop, the cloud
+//! Brume against Blender Cycles (docs/comparing.md) on the cloud, the textured backdrop, the cloud
 //! under an HDR sky map, the two-grid fire (overlapping media: Cycles adds overlapping volume
 //! objects' coefficients as Brume does) and a constant glow in the plume (where a medium emits:
 //! Cycles' volume box, `integrator::media::EmissionRegion`, whole and at one face to a
@@ -71,14 +71,14 @@ fn cloud_agrees_with_cycles() {
 }
 
 /// Base-colour and emissive textures: bilinear and nearest, clamped and repeated, with
-/// KHR_texture_transform (README: textures).
+/// KHR_texture_transform (docs/scene-format.md: textures).
 #[test]
 fn textured_backdrop_agrees_with_cycles() {
     agrees_with_cycles("textured_backdrop", "textured_backdrop.gltf", "64");
 }
 
 /// The HDR-sky cloud: an environment map with a small bright sun, rotated, lights the cloud
-/// (README: environment maps). The sky seen directly tests the lookup convention and
+/// (docs/scene-format.md: `BRUME_environment`). The sky seen directly tests the lookup convention and
 /// rotation, the cloud the importance sampling and MIS.
 #[test]
 fn hdr_sky_cloud_agrees_with_cycles() {
@@ -100,8 +100,8 @@ fn single_scattering_agrees_with_cycles() {
 }
 
 /// The scene's own depth (`BRUME_render` maxDepth 1, no `--max-depth`): `brume render` takes
-/// it, and so does the Cycles script (it rendered at 256 before, when single scattering is
-/// 35 % darker than all orders on this plume: 0.006037 against 0.009223 in R at 64x48).
+/// it, and so must the Cycles script: single scattering is 35 % darker than all orders on this
+/// plume, so a script that ignored the scene's depth would fail by far.
 #[test]
 fn the_scenes_own_depth_reaches_cycles() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -155,8 +155,8 @@ fn glow_scene(dir: &Path, name: &str, eye: [f32; 3], yfov: f32) -> PathBuf {
 }
 
 /// A constant emission in the plume under a black sky: it glows in the box of the grid's
-/// active voxels, `[min - 1, max + 2]`, as Cycles' volume mesh (before, Brume glowed in the
-/// whole cell box: -67.85 % against Cycles at 64x48).
+/// active voxels, `[min - 1, max + 2]`, as Cycles' volume mesh (a glow over the whole cell box
+/// would be about a third too bright against Cycles).
 #[test]
 fn constant_glow_is_where_cycles_emits() {
     let dir = std::env::temp_dir().join(format!("brume-cycles-glow-{}", std::process::id()));

@@ -8,7 +8,7 @@
 //!   account, the per-leaf walk left out the emission outside the smoke).
 //! - A flame grid reaching past the density grid's box widens that box (the walks end
 //!   there): along a pencil through the flame alone, the exact emission integral in every
-//!   mode, on the CPU and on the GPU (before, that flame was cut off with a load warning);
+//!   mode, on the CPU and on the GPU (no flame cut off at the smoke's box);
 //!   a flame whose smoke grid has no voxels at all glows alike.
 //! - A medium with no density, seen along one pencil: its emission grid's integral along the
 //!   pencil (`common::stress::optical_depth`, exact), and a constant emission times the chord
@@ -245,8 +245,8 @@ fn a_flame_past_the_smokes_box_widens_it_and_glows_exactly() {
         .index_bounds
         .unwrap();
     assert_eq!(box_of(&inside, 0), own);
-    // Shifted 40 voxels: the flame lies past the smoke's box, which now reaches it (both grids
-    // share one index space).
+    // Shifted 40 voxels: the flame lies past the smoke's box, which is widened to reach it
+    // (both grids share one index space).
     let scene = far_flame_scene("emission_outside");
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     let widened = box_of(&scene, 0);

@@ -1,4 +1,4 @@
-//! Brume against Mitsuba 3 (README "Comparing against Mitsuba 3"): the voxel-centre alignment
+//! Brume against Mitsuba 3 (docs/comparing.md): the voxel-centre alignment
 //! of the `.vol` grids `brume mitsuba` writes, checked through Mitsuba's own texture lookups,
 //! and the cloud scene rendered by both (image means within 1 %, no more than 1 % of 8x8
 //! blocks failing a z-test at 99.9 %). Needs a Python that can `import mitsuba`

@@ -23,11 +23,9 @@ fn furnace_renders_one_for_every_estimator() {
                 // Weighted decomposition under the global bound takes `m * bound` as its
                 // control, above the density at the cloud's thin edges: rare residual
                 // collisions there carry negative weights, a heavy tail that 1024 samples of
-                // a pixel mostly miss, so their sample variance underestimates (pixels that
-                // rays mostly pass by: standard errors 4.7e-4 at 1024 spp, 5.5e-4 at 16384;
-                // 3-12 values past the z threshold at 1024 spp in every seed tried, none at
-                // 16384, image means within z 1.7). Since the walks clip to the walk box
-                // (session 18) nothing else adds noise to those pixels to hide it.
+                // a pixel mostly miss, so their sample variance underestimates: at 1024 spp a
+                // few values pass the z threshold, at 16384 none. The walks clip to the walk
+                // box, so nothing else adds noise to those pixels to hide the tail.
                 match (estimator, majorant) {
                     (Estimator::WeightedDecomposition, MajorantMode::Global) => 16384,
                     (Estimator::WeightedDecomposition, _) => 1024,

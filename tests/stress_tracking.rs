@@ -620,11 +620,11 @@ fn geometry_extremes_in_index_space() {
 
 #[test]
 fn an_underflowed_control_factor_gives_zero_not_nan() {
-    // Regression: residual ratio and weighted decomposition transmittance multiplied the
-    // closed-form control factor exp(-tau_c), which underflows to 0 beyond tau_c ~ 104, by the
-    // residual weight, whose factors exceed 1 wherever the control is above the density and
-    // which overflowed to inf: 0 * inf = NaN. Found by `optical_depths_from_1e_minus_6_to_1e5`
-    // (tau 1e3, m = 0.5, global bound). Now a zero control factor ends the estimate at 0.
+    // Residual ratio and weighted decomposition transmittance multiply the closed-form control
+    // factor exp(-tau_c), which underflows to 0 beyond tau_c ~ 104, by the residual weight,
+    // whose factors exceed 1 wherever the control is above the density and which can overflow
+    // to inf: 0 * inf = NaN. A zero control factor must end the estimate at 0 (tau 1e3,
+    // m = 0.5, global bound).
     let n = 16;
     let grid = blob_grid(n, [0, 0, 0], 1.0);
     let bounds = LeafBounds::build(&grid);

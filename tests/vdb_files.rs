@@ -327,9 +327,9 @@ fn brume_info_reports_tightness_for_every_example_grid() {
 }
 
 /// Files on which OpenVDB 10.0.1's own reader overflows the heap, segfaults or asks for absurd
-/// memory (found by `tests/fuzz_inputs/`, kept in `tests/fuzz/vdb-regressions/`). Read in
-/// this process they aborted the test binary; `VdbFile::open` reads them in a child process,
-/// so each is now a clear error naming the file, and this process goes on.
+/// memory (kept in `tests/fuzz/vdb-regressions/`). Read in this process they would abort the
+/// test binary; `VdbFile::open` reads them in a child process, so each is a clear error naming
+/// the file, and this process goes on.
 #[test]
 fn files_that_crash_openvdbs_reader_give_clear_errors() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz/vdb-regressions");

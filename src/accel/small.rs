@@ -17,10 +17,9 @@ use glam::{Vec3A, Vec4};
 use super::Hit;
 use crate::math::Ray;
 
-/// Meshes of at most this many triangles are hit by testing them all. Measured (random rays
-/// from inside closed spheres of 12-256 triangles, scratch benchmark, 2026-11): all-triangle
-/// testing 2.0-2.7x faster than the CWBVH up to 24 triangles, 1.35x at 36, 1.1x at 64, slower
-/// from 96 (149 against 119 ns). Measured for four lanes; not measured again for eight.
+/// Meshes of at most this many triangles are hit by testing them all. On random rays from
+/// inside closed spheres of 12-256 triangles, four-lane all-triangle testing is 2.0-2.7x
+/// faster than the CWBVH up to 24 triangles, 1.35x at 36, 1.1x at 64, and slower from 96.
 pub const SMALL_MESH_TRIANGLES: usize = 32;
 
 /// Three coordinates of four triangles' corners and edges, one lane a triangle.

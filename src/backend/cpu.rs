@@ -266,9 +266,8 @@ pub fn render_resumed(
 /// Tile indices, dearest first by `cost` (ties, and the first pass where every cost is 0,
 /// in tile order). Tiles differ in cost by 100x or more (the middle of a cloud against empty
 /// sky), and rayon hands out work in halves of the list: in raster order a thread could be
-/// left with a run of dear tiles while the other idled, and on a 2-core machine a cloud's
-/// passes took 20 % longer than their work. Started dearest first, one job per tile, the
-/// pass ends on cheap tiles (longest-processing-time-first scheduling, Graham 1969).
+/// left with a run of dear tiles while the others idled. Started dearest first, one job per
+/// tile, the pass ends on cheap tiles (longest-processing-time-first scheduling, Graham 1969).
 fn dearest_first(cost: &[u64]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..cost.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(cost[i]));

@@ -213,7 +213,7 @@ fn print_floor_notes(floors: &[Floor]) {
 }
 
 /// The speed-up over the global bound asked of the adaptive mode wherever per-leaf bounds cut
-/// the density lookups 3x or more (README, "Majorant modes").
+/// the density lookups 3x or more (docs/estimators.md, "Majorants").
 const SPEEDUP_MARK: f64 = 1.2;
 
 /// The floor's density scale factor: small enough that almost no tentative collision happens,

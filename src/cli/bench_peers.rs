@@ -27,7 +27,7 @@ use brume::study::stats::{self, ImageMean};
 
 const RENDERERS: [&str; 13] = [
     "brume",
-    "brume-before",
+    "brume-baseline",
     "brume-event",
     "brume-no-rr-guard",
     "brume-leaf",
@@ -41,14 +41,14 @@ const RENDERERS: [&str; 13] = [
     "cycles",
 ];
 
-/// Brume's variants for ablations: each changes one default (`brume-before` restores every
-/// default of the version before absorption weights, adaptive majorants, Sobol points and
-/// guided light selection).
+/// Brume's variants for ablations: each changes one default (`brume-baseline` changes five
+/// at once: absorption events, per-leaf majorants, independent samples, no early roulette,
+/// uniform light selection).
 fn brume_variant(name: &str, s: &mut brume::integrator::RenderSettings) -> bool {
     use brume::integrator::{Absorption, MajorantMode, SamplerKind};
     match name {
         "brume" => {}
-        "brume-before" => {
+        "brume-baseline" => {
             s.absorption = Absorption::Event;
             s.rr_throughput = 0.0;
             s.majorant = MajorantMode::Leaf;
@@ -99,9 +99,9 @@ pub struct PeersArgs {
     /// Folder for the images (SCENE/RENDERER-seedS.exr) and peers.md.
     #[arg(long, default_value = "out/peers")]
     pub out: PathBuf,
-    /// Renderers to run, of brume, its ablation variants (brume-before: the previous
-    /// defaults, absorption events, per-leaf majorants, independent sampler, no early
-    /// roulette, uniform light selection; brume-event, brume-no-rr-guard, brume-leaf,
+    /// Renderers to run, of brume, its ablation variants (brume-baseline: absorption events,
+    /// per-leaf majorants, independent sampler, no early roulette, uniform light selection;
+    /// brume-event, brume-no-rr-guard, brume-leaf,
     /// brume-global, brume-independent, brume-spectral, brume-decomposition,
     /// brume-uniform-lights, brume-sky-every-event: one default changed each), mitsuba, cycles
     /// (default: brume, mitsuba, cycles).

@@ -5,7 +5,7 @@
 //! Python that can `import bpy`, runs the script for `--runs` independent seeds, and merges
 //! them into one EXR laid out like Brume's (beauty, `variance.R/G/B` = variance of the pixel
 //! mean estimated across the runs, `samples.Y`). With `--against brume.exr` it prints the image
-//! mean relative difference and an 8x8 block z-test (docs/CYCLES.md).
+//! mean relative difference and an 8x8 block z-test (docs/comparing.md).
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;

@@ -1,6 +1,6 @@
 //! `brume import-blend scene.blend -o scene.gltf`: converts a Blender scene to a Brume glTF scene
 //! headless, with Blender's own glTF exporter and the `brume_gltf` add-on (`tools/blender`,
-//! README "From Blender"), run by the Python with bpy that `brume cycles` uses. The result is
+//! docs/blender.md), run by the Python with bpy that `brume cycles` uses. The result is
 //! then loaded as `brume render` would, so a scene Brume cannot read is reported at once.
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -2,7 +2,7 @@
 //! independent runs into one EXR laid out like Brume's (mean, variance of the mean across
 //! runs, samples), reading the per-run report of their Python scripts, and the agreement
 //! summary printed by `--against` (image mean relative difference and an 8x8 block z-test,
-//! README "Comparing against Cycles").
+//! docs/comparing.md).
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -15,10 +15,13 @@ use brume::integrator::{
 };
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
-#[derive(Args, Debug)]
+#[derive(Args, Clone, Debug)]
 pub struct RenderArgs {
-    /// The scene (.gltf or .glb).
+    /// The scene (.gltf or .glb), or a bare .vdb (rendered in a scene made for it).
     pub scene: PathBuf,
+    /// With a .vdb scene: write the scene made for it to this .gltf.
+    #[arg(long, value_name = "SCENE.gltf")]
+    pub save_scene: Option<PathBuf>,
     /// Output EXR (beauty RGBA, variance.RGB, samples.Y, render metadata).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -241,6 +244,16 @@ fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<O
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
+    if let Some(made) =
+        scene::bare_vdb::prepare(&args.scene, args.save_scene.as_deref()).map_err(|e| anyhow!(e))?
+    {
+        let scene = made.path().to_path_buf();
+        return run(&RenderArgs {
+            scene,
+            save_scene: None,
+            ..args.clone()
+        });
+    }
     let scene = scene::load_with(
         &args.scene,
         &LoadOptions {

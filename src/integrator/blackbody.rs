@@ -1,14 +1,13 @@
 //! Blackbody colour as Cycles' Principled Volume uses it: linear Rec.709 RGB of Planck's law,
 //! normalised to unit luminance, so that intensity is carried by the Stefan-Boltzmann factor
-//! alone (`(5.670373e-8 * 1e-6 / pi) * mix(1, T^4, I) * C(T)`, measured on Cycles 5; see
-//! BUILD-NOTES.md). Like Cycles, temperatures are clamped to [800 K, 12000 K] for the colour.
+//! alone (`(5.670373e-8 * 1e-6 / pi) * mix(1, T^4, I) * C(T)`, as Cycles 5 renders it on a
+//! homogeneous cube). Like Cycles, temperatures are clamped to [800 K, 12000 K] for the colour.
 //!
 //! The CIE 1931 2-degree colour matching functions are the CIE's own table at 5 nm (CIE 015:2018,
-//! as distributed by the CIE and colour-science's `MSDS_CMFS`). An analytic multi-lobe Gaussian
-//! fit (Wyman, Sloan & Shirley 2013) was used before: it halves `x_bar` beyond 700 nm, where a
-//! 800 K body emits, and made the red channel 11 % lower than Cycles' at 800 K (0.9 % at
-//! 3000 K). With the table, 800 K gives (5.406, -0.201, -0.082), Cycles' own (5.413, -0.203,
-//! -0.082).
+//! as distributed by the CIE and colour-science's `MSDS_CMFS`), not an analytic multi-lobe
+//! Gaussian fit (Wyman, Sloan & Shirley 2013): the fit halves `x_bar` beyond 700 nm, where an
+//! 800 K body emits, and would put the red channel 11 % below Cycles' at 800 K. With the table,
+//! 800 K gives (5.406, -0.201, -0.082), Cycles' own (5.413, -0.203, -0.082).
 use std::sync::OnceLock;
 
 use glam::Vec3;

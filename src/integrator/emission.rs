@@ -51,7 +51,7 @@ pub struct Emission {
 /// that box anyway; a constant emission (`emissionStrength` without a grid, a temperature
 /// offset, a blackbody intensity below 1) is not, and without the box it glowed in the whole
 /// cell box (the leaves' box and a one-cell pad): three times Cycles' light on the sunlit
-/// plume with a constant emission (`docs/CYCLES.md`).
+/// plume with a constant emission (`docs/comparing.md`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmissionRegion {
     /// The density grid's `index_from_world`: the box is in its index space.

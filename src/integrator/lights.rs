@@ -36,13 +36,12 @@
 //! furnace property: in a medium of albedo `a` near 1 under a uniform sky, the path's weight
 //! barely varies whatever it does. So the shadow ray pays where `a` is small (a dark medium,
 //! where paths rarely escape), and elsewhere it is better spent on the punctual lights, whose
-//! estimates no longer get divided by a probability diluted by the sky. `a` is the
+//! estimates are then not divided by a probability diluted by the sky. `a` is the
 //! single-scattering albedo (largest channel) of the DARKEST scattering medium in the scene,
-//! so no medium gets less sky estimation than it needs. Measured (`brume bench peers`, 64 spp,
-//! against `--light-selection guided-full-sky`): per-pixel variance -30 % on the dense
-//! chromatic fog (a = 0.95, sun and sky), -27 % on the cloud (a = 1), -76 % on the plume
-//! under a sky alone (a = 0.9, 0.1 of its events estimate the sky), +2 % on the dark fog
-//! (a = 0.2).
+//! so no medium gets less sky estimation than it needs. Against estimating the sky at every
+//! event (`--light-selection guided-full-sky`) it removes a quarter to three quarters of the
+//! per-pixel variance in bright media and costs a few per cent in a dark one (`brume bench
+//! peers`, docs/VALIDATION.md).
 //!
 //! When the environment is chosen it is sampled by the phase function, its light pdf
 //! `P_env p(wo, wi)`, and the continuation ray that escapes from that event is weighted

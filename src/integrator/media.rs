@@ -86,12 +86,10 @@ impl VdbMedium {
     /// walk: its emission is estimated at every tentative collision, and a culled walk spends
     /// a camera ray's first, stratified (Sobol) draw on the global bound's first collision, not
     /// on its first emission sample; the DDA maps that draw to optical depth under the same
-    /// cell bounds. On the fire (`brume bench render --majorants-only --runs 9`,
-    /// session 19) the per-pixel variance is 9.99e-4 per leaf against 1.451e-3 culled, for
-    /// 5-8 % more time: 1.55x the global bound's efficiency against 1.15x. Handing the culling
-    /// uniform on (`tracking::thin`, session 24) narrows the gap but keeps it (12 seeds:
-    /// 2.18e-3 per leaf, 3.31e-3 culled). Shadow flights, which estimate no emission, stay
-    /// culled ([`Self::shadow_walk_mode`]).
+    /// cell bounds, so on the example fire its per-pixel variance is about two thirds of the
+    /// culled walk's for a few per cent more time (`brume bench render --majorants-only
+    /// scenes/fire.gltf`). Shadow flights, which estimate no emission, stay culled
+    /// ([`Self::shadow_walk_mode`]).
     #[inline]
     pub fn walk_mode(&self, mode: MajorantMode) -> MajorantMode {
         match (mode, self.adaptive.shape) {

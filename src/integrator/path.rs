@@ -639,10 +639,9 @@ fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3) -> V
 ///
 /// The square root (Cycles' `path_state_continuation_probability`) kills fewer dim paths than
 /// `max(beta)` itself: a survivor's weight grows to `sqrt(max(beta))` instead of 1, which is
-/// still at most 1, so the bound on the throughput is unchanged. Measured with `brume bench
-/// peers` (2 seeds, 64 spp): efficiency +20 % in the dark fog (albedo 0.2, where every bounce
-/// meets the roulette), +10 % on the dark plume, +6.5 % in the dense chromatic fog, within 2 %
-/// on the sunlit plume and the cloud.
+/// still at most 1, so the bound on the throughput is unchanged. It pays most in dark media,
+/// where every bounce meets the roulette (`brume bench peers` on the dark scenes of
+/// `scenes/ablation/`).
 fn russian_roulette(beta: &mut Vec3, depth: u32, limits: &PathLimits, rng: &mut Decision) -> bool {
     let q = beta.abs().max_element();
     if depth < limits.rr_depth && !(q < limits.rr_throughput) {

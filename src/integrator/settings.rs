@@ -244,10 +244,10 @@ pub struct RenderSettings {
     /// Russian roulette starts after this many scattering events.
     pub rr_depth: u32,
     /// ... or earlier, as soon as the throughput's largest channel falls below this. With
-    /// absorption as a weight, a dark medium (albedo 0.2) no longer ends paths at absorption
+    /// absorption as a weight, a dark medium (albedo 0.2) does not end paths at absorption
     /// events; without this guard such paths carry tiny weights through `rr_depth` bounces
-    /// of full-cost tracking (measured: 0.63x the efficiency of absorption events; with the
-    /// guard at 0.5 they break even). 0 disables it.
+    /// of full-cost tracking, less efficient than absorption events; the guard at 0.5 makes
+    /// the weight form pay there too. 0 disables it.
     pub rr_throughput: f32,
     pub tile_size: u32,
     /// Samples per pixel in the largest pass (passes grow 1, 2, 4, ... up to this).

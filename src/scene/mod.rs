@@ -19,6 +19,7 @@
 //! let scene = brume::scene::load(std::path::Path::new("scenes/cloud.gltf")).unwrap();
 //! println!("{}", scene.summary());
 //! ```
+pub mod bare_vdb;
 pub mod camera;
 mod document;
 pub mod effects;

@@ -38,11 +38,11 @@ pub const RELMSE_EPSILON: f64 = 1e-2;
 pub const ZERO_VARIANCE_TOLERANCE: (f64, f64) = (1e-6, 1e-5);
 
 /// The standard error floor of a difference, in f32 ulps (`f32::EPSILON`) of the reference
-/// value. Measured on an NVIDIA H100 against the CPU (session 12): sky pixels seen through the
-/// chromatic smoke's empty box had standard errors of 1e-8 of their value (the f32 rounding of
-/// 256 equal samples) and differed by 1-3 ulps (3e-8 to 1.2e-7 at 0.4): z up to 41 without the
-/// floor, under 1 with it. A pixel with real noise (standard errors of 1e-6 and more) is not
-/// moved by it.
+/// value. Pixels that are constant up to rounding (sky seen through an empty box) have standard
+/// errors of about 1e-8 of their value (the f32 rounding of equal samples), and two devices
+/// that round divisions and transcendentals differently put them 1-3 ulps apart: without the
+/// floor such a pixel's z reaches tens. A pixel with real noise (standard errors of 1e-6 and
+/// more) is not moved by it.
 pub const ROUNDING_ULPS: f64 = 4.0;
 
 /// How to compare.

@@ -294,7 +294,7 @@ pub fn sig(v: f64) -> String {
     }
 }
 
-/// The Markdown table and its notes (`summary.md`, and the table in docs/STUDY.md).
+/// The Markdown table and its notes (`summary.md`, as in docs/study/summary.md).
 pub fn markdown(summary: &StudySummary) -> String {
     let mut s = String::new();
     let _ = writeln!(

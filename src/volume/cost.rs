@@ -101,7 +101,7 @@ impl CostModel {
             + self.collision as f64 * kept[0]
     }
 
-    /// Measured on the example grids (2-core x86-64, random rays and renders): a tentative
+    /// Measured on the example grids (x86-64, random rays and renders): a tentative
     /// collision in a brick (exponential step, blended lookup, event) about 35 ns, a merged
     /// node about 40 ns, a level-0 segment 11-16 ns alone and about 18 ns with the tracking
     /// loop's per-segment work in a render (fitted to `brume bench render --majorants-only`:

@@ -47,7 +47,7 @@ use serde_json::{json, Value};
 use check::{check_envmap, check_gltf, check_vdb, Verdict};
 use mutate::input;
 
-/// Iterations per campaign in CI (each about 25 s on a 2-core machine; OpenVDB reads each
+/// Iterations per campaign in CI (each well under a minute on two cores; OpenVDB reads each
 /// file in a process of its own).
 const CI_VDB_ITERATIONS: u64 = 160;
 const CI_GLTF_ITERATIONS: u64 = 1000;

@@ -4,8 +4,8 @@
 # L1 miss + 100 per last-level miss, kcachegrind's "CEst"), per camera sample, for each mode,
 # with each mode's ratio to the global bound.
 #
-# Why: on a shared 2-core machine, timing the same code twice can differ by a third (README,
-# "Majorant modes"), so a render-time ratio of 1.15 cannot be told from 1.2, nor a change of
+# Why: on a busy machine, timing the same code twice can differ by a third, so a render-time
+# ratio of 1.15 cannot be told from 1.2, nor a change of
 # a few percent in one walk. The instruction counts repeat for the seed: run it twice, get
 # the same figures within 0.03 % (the cycle estimate moves by a few percent: the tiles' order follows
 # their measured times, and the addresses differ from run to run). Use them to count what a

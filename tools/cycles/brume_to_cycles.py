@@ -13,7 +13,7 @@ A `.blend` instead of a glTF is rendered as it is, with only the render settings
 (tests/blender_roundtrip.rs compares it with Brume's render of its export). `--save-blend X
 --no-render` saves the Blender scene built from a glTF without rendering it.
 
-The Blender scene is built as follows (docs/CYCLES.md has the table and the reasons):
+The Blender scene is built as follows (docs/comparing.md has the table and the reasons):
 - meshes, camera and lights by Blender's own glTF importer, lighting mode "COMPAT"
   (point/spot: W = 4 pi * intensity, sun: W/m^2 = intensity), which is Brume's factor-1
   convention because a Cycles point light of power P has radiant intensity P / (4 pi) W/sr;

@@ -3,9 +3,8 @@
 # `brume cycles` and tests/cycles_compare.rs can run Cycles. Idempotent: an existing venv that
 # imports bpy is kept.
 #
-# Measured on the 2-core development machine (2026-11): about 50 s (download + install) and
-# 968 MB on disk for the venv (bpy 5.0.1 wheel plus numpy, requests, zstandard, cython). That
-# fits CI's 90-minute budget easily; the comparison test itself takes well under a minute.
+# About a minute (download and install) and 1 GB on disk for the venv (the bpy 5.0.1 wheel plus
+# numpy, requests, zstandard, cython); the comparison test itself takes well under a minute.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 venv="$here/.venv"

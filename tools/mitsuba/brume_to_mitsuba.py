@@ -11,7 +11,7 @@ builds Mitsuba's scene dictionary and renders `runs` seeds (seed .. seed + runs 
 `out.run<k>.exr` for each and printing `render_seconds <k> <s> <path>`; `build_seconds` is the
 scene set-up (mi.load_dict), reported apart from the render times.
 
-Mapping (README "Comparing against Mitsuba 3"):
+Mapping (docs/comparing.md):
 - integrator `volpath`, max_depth from the JSON (Brume's + 1), rr_depth Mitsuba's default (5);
 - sensor `perspective`, vertical field of view (fov_axis y) at the render's aspect, near clip
   = glTF znear, look-at from Brume's camera; `independent` sampler; `hdrfilm` with a `box`

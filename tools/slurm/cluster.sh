@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A single-node Slurm cluster on this machine, for tests (tests/farm_slurm.rs) and for trying
+# A single-node Slurm cluster on the local machine, for tests (tests/farm_slurm.rs) and for trying
 # `brume farm slurm` by hand. Debian 12's slurm-wlm 22.05 and munge, daemons started directly
 # (no systemd), everything under one folder, on 127.0.0.1.
 #
@@ -14,7 +14,7 @@
 #   export SLURM_CONF=$BRUME_SLURM_DIR/slurm.conf
 # which `start` prints as its last line.
 #
-# Traps found on the way (see README "Farm rendering"):
+# Slurm set-up traps it encodes (see docs/farm.md):
 # - kill_invalid_depend belongs in DependencyParameters; under SchedulerParameters it is
 #   silently ignored and a job behind a failed afterok dependency waits forever.
 # - munged checks that every folder above its socket is world-executable: the folder is 0755.

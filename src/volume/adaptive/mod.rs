@@ -52,15 +52,12 @@ pub const MAX_LEVEL: u32 = 12;
 /// tracking's roulette ends most of them there: they seldom cross the grid's empty margins,
 /// where a chord from outside pays most of the culled walk's culled collisions, so the chord
 /// model overprices it for them. They draw no stratified sample (a free flight's first draws
-/// are a sampler's point, which the per-leaf walk spends better: README "Majorant modes",
-/// session 16), and the culled walk's kept collisions ARE the per-leaf walk's process; only
-/// the residual ratio tracking control is lost (the culled segment's minorant is 0), which
-/// raised the per-pixel variance by 1.4-2.9 % where the cells' minorants are positive. Fitted to
-/// `brume bench render --majorants-only` (README "The culled global walk"): shadow rays culled
-/// were faster at model ratios 1.57-1.79 (the cloud 1.33-1.36x -> 1.40-1.41x over the global
-/// bound, the textured backdrop 1.15-1.17x -> 1.17-1.20x), as fast at 1.15-1.64 (the smoke
-/// tank, the two-grid fire), slower at 2.9-3.3 (the plumes, the chromatic smoke, the cloud at
-/// four times its density: 2.20x -> 1.82x).
+/// are a sampler's point, which the per-leaf walk spends better), and the culled walk's kept
+/// collisions ARE the per-leaf walk's process; only the residual ratio tracking control is
+/// lost (the culled segment's minorant is 0), which costs a few per cent of variance where the
+/// cells' minorants are positive. Fitted to `brume bench render --majorants-only`: culled
+/// shadow rays are faster where the model's ratio is below about 1.8, as fast up to about 1.6,
+/// and slower from about 2.9 (the plumes, the chromatic smoke).
 pub const SHADOW_CULLED_FACTOR: f64 = 2.0;
 
 /// One level of the pyramid: its node grid and where its nodes start in

@@ -160,22 +160,17 @@ pub trait Medium {
 ///   E[T^ ^2] = exp(-int (2 sigma - sigma^2 / mu) dt),  Var[T^] = T^2 (exp(int sigma^2 / mu dt) - 1)
 ///   ```
 ///   (with `sigma - sigma_c` for residual ratio tracking), so thinning `mu` from the cell
-///   bound to the voxel bound raises it. Measured on the sunlit plume (256x256, 64 spp, two
-///   seeds): per-pixel variance 2.92e-5 with the shadow rays thinned by voxels, 2.43e-5
-///   without, in the same time (0.49-0.51 s): 20 % more efficient without. Delta tracking's
-///   and decomposition tracking's estimates (a real collision or none) have a variance that
-///   does not depend on the majorant, so they keep the stage;
+///   bound to the voxel bound raises it (on the sunlit plume by a fifth, in the same time).
+///   Delta tracking's and decomposition tracking's estimates (a real collision or none) have
+///   a variance that does not depend on the majorant, so they keep the stage;
 /// - with a control, the majorant is the bound itself only where the segment's control `c` is
 ///   0, so those estimators thin only there;
 /// - under `b < 1` the weighted estimators' majorant is already below the density in places;
-///   thinning it further towards `b sigma_t` only fattens their weights' tails (measured on
-///   the blob, weighted delta at `b = 0.5`: largest |w| 133-166 against 62-70 without), so
-///   only `b >= 1` thins;
+///   thinning it further towards `b sigma_t` only fattens their weights' tails (on the blob,
+///   weighted delta at `b = 0.5` reaches twice the largest weight), so only `b >= 1` thins;
 /// - spectral tracking does not thin by voxels at all: its null collisions' weights divide by
-///   the null probability, which a bound tight on the densest channel shrinks. Measured with
-///   it (the chromatic two-grid scene against its summed grid, six seeds): no bias (mean
-///   differences of both signs) but worst pixel z 3.90-5.60 against 2.71-3.39 without, so it
-///   keeps the cells' (and the culled walk's) bounds.
+///   the null probability, which a bound tight on the densest channel shrinks: no bias, but
+///   heavier pixel tails, so it keeps the cells' (and the culled walk's) bounds.
 #[inline]
 pub fn voxel_stage<M: Medium + ?Sized>(
     medium: &M,
