@@ -13,7 +13,7 @@
 // The unit-luminance Rec.709 colour table of blackbody::table(), 10 K apart (xyz; w unused).
 // Read-only storage rather than a uniform: Mesa 22.3's lavapipe (Debian 12) used freed memory
 // while compiling the generic sample_medium stage with the table as one more uniform block
-// (its uniform-inlining analysis; valgrind shows the invalid reads and writes).
+// (its uniform-inlining analysis).
 @group(0) @binding(6) var<storage, read> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
 
 // blackbody_rgb: linear interpolation in the table, temperatures clamped to its range.

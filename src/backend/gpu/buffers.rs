@@ -181,9 +181,8 @@ impl Buffers {
                     .map(|c| [c.x, c.y, c.z, 0.0])
                     .collect();
                 // A storage buffer, not a uniform: with the table as a fifth uniform block,
-                // Mesa 22.3's lavapipe (Debian 12) read and wrote freed memory while compiling
-                // the generic variant's sample_medium stage (valgrind; it crashed the process
-                // in about one run in five). See shaders/common/emission.wgsl.
+                // Mesa 22.3's lavapipe (Debian 12) reads and writes freed memory compiling the
+                // generic variant's sample_medium stage. See shaders/common/emission.wgsl.
                 let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("blackbody table"),
                     size: (rows.len() * 16) as u64,

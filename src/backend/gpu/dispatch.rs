@@ -237,7 +237,7 @@ impl Wavefront<'_> {
 }
 
 /// Wavefront iterations submitted together between two reads of the counters. Each read is
-/// a host round trip (submit, map, wait: 0.3-0.5 ms on the H100, more than an iteration's
+/// a host round trip (submit, map, wait: on a large GPU longer than an iteration's
 /// kernels at 2^16 slots); a batch overshoots its end by fewer than this many empty
 /// iterations.
 pub(super) const ITERATIONS_PER_SYNC: u32 = 8;

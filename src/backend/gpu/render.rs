@@ -60,8 +60,8 @@ use crate::gpu_types::{
 use crate::integrator::media::TrackingConfig;
 use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
 
-/// Path slots in flight at most. 2^16 slots filled a quarter of an H100's resident threads
-/// (one iteration's kernels then took less time than the host's round trip); 2^18 paths take
+/// Path slots in flight at most: enough to fill a large GPU's resident threads (with fewer,
+/// one iteration's kernels take less time than the host's round trip), and 2^18 paths take
 /// 28 MiB of path state.
 pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 

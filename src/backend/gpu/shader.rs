@@ -272,8 +272,8 @@ pub fn assemble(files: &[ShaderFile], specs: &[Spec]) -> String {
 /// Keeps or blanks the blocks between `// #if NAME` (or `// #if !NAME`) and `// #endif`
 /// lines by the boolean specialisation `NAME`, so that a variant without a feature contains
 /// no code for it at all. (A `const` condition would leave the code in the module as a dead
-/// branch; Mesa's lavapipe was seen to crash running a stage whose dead branch held the whole
-/// VDB free flight.) Blanked lines stay as empty lines so naga's line numbers still match the
+/// branch, and Mesa's lavapipe crashes running a stage whose dead branch holds the whole VDB
+/// free flight.) Blanked lines stay as empty lines so naga's line numbers still match the
 /// file. Blocks nest; a directive naming no boolean spec of the module keeps its block.
 fn select_blocks(f: &ShaderFile, specs: &[Spec]) -> String {
     let mut out = String::with_capacity(f.source.len());
