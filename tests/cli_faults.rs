@@ -134,13 +134,11 @@ fn a_full_device_fails_naming_the_file_and_keeps_the_previous_output() {
         ],
     );
     limit_file_size(&mut c, 4096);
-    let t = Instant::now();
     let o = c.output().unwrap();
     assert_refused(&o, &ckpt, "checkpoint", "checkpoint write past the limit");
-    assert!(
-        t.elapsed() < Duration::from_secs(60),
-        "the render went on after its checkpoint failed"
-    );
+    // The first pass's checkpoint fails; the pass in flight then ends the render.
+    let passes = stderr(&o).lines().filter(|l| l.starts_with("pass done")).count();
+    assert!(passes <= 2, "the render went on after its checkpoint failed: {passes} passes");
     assert_eq!(std::fs::read(&ckpt).unwrap(), before);
     read_part(&ckpt).expect("the checkpoint on disk is still whole");
     assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));

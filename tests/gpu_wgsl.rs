@@ -67,7 +67,159 @@ fn every_file_names_what_it_mirrors() {
                 "{} must open with `// Mirrors <Rust function>`; found {first:?}",
                 f.name
             );
+            if first.starts_with("// Mirrors") {
+                check_mirror_header(f.name, f.source);
+            }
         }
+    }
+}
+
+/// The opening paragraph of a WGSL file's comment (up to an empty comment line or code).
+fn header(source: &str) -> String {
+    source
+        .lines()
+        .take_while(|l| l.starts_with("//") && l.trim() != "//")
+        .map(|l| l.trim_start_matches('/').trim())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn is_ident(c: char) -> bool {
+    c.is_ascii_alphanumeric() || c == '_'
+}
+
+/// Whether `word` occurs in `text` as a whole identifier.
+fn has_word(text: &str, word: &str) -> bool {
+    text.match_indices(word).any(|(i, _)| {
+        let before = text[..i].chars().next_back().is_none_or(|c| !is_ident(c));
+        let after = text[i + word.len()..].chars().next().is_none_or(|c| !is_ident(c));
+        before && after
+    })
+}
+
+/// Whether `name` is defined (a type, trait, function or constant) in `text`.
+fn defines(text: &str, name: &str) -> bool {
+    ["struct ", "enum ", "trait ", "type ", "impl ", "for ", "fn ", "const ", "mod "]
+        .iter()
+        .any(|k| has_word(text, &format!("{k}{name}")))
+}
+
+/// Whether `text` declares `name`: an item ([`defines`]), a field (`name: T`) or an enum
+/// variant (a capitalised name opening a line as `Name,`, `Name(` or `Name {`).
+fn declares(text: &str, name: &str) -> bool {
+    defines(text, name)
+        || text.match_indices(name).any(|(i, _)| {
+            let before = text[..i].chars().next_back().is_none_or(|c| !is_ident(c));
+            let rest = &text[i + name.len()..];
+            let field = rest.starts_with(':') && !rest.starts_with("::");
+            let line_start = text[..i].rsplit('\n').next().unwrap_or("").trim().is_empty();
+            let variant = line_start
+                && name.starts_with(char::is_uppercase)
+                && (rest.starts_with(',') || rest.starts_with('(') || rest.starts_with(" {"));
+            before && (field || variant)
+        })
+}
+
+/// The Rust sources a header names (`src/...` files, and every file under a named folder);
+/// all of `src/` when it names none.
+fn named_sources(file: &str, header: &str) -> Vec<(String, String)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut paths = Vec::new();
+    for (i, _) in header.match_indices("src/") {
+        if i > 0 && is_ident(header[..i].chars().next_back().unwrap()) {
+            continue;
+        }
+        let tail = &header[i..];
+        let end = tail
+            .find(|c: char| !(is_ident(c) || c == '/' || c == '.'))
+            .unwrap_or(tail.len());
+        let path = tail[..end].trim_end_matches('.').to_string();
+        let full = root.join(&path);
+        assert!(
+            full.exists(),
+            "{file}: its Mirrors header names {path}, which does not exist"
+        );
+        paths.push(full);
+    }
+    if paths.is_empty() {
+        paths.push(root.join("src"));
+    }
+    let mut out = Vec::new();
+    while let Some(p) = paths.pop() {
+        if p.is_dir() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                paths.push(e.unwrap().path());
+            }
+        } else if p.extension().is_some_and(|e| e == "rs") {
+            let text = std::fs::read_to_string(&p).unwrap();
+            out.push((p.display().to_string(), text));
+        }
+    }
+    out
+}
+
+/// Types of other crates that headers cite (obvhs' BVH, whose traversal surfaces.wgsl follows).
+const EXTERNAL: &[&str] = &["CwBvh", "CwBvhNode"];
+
+/// Every `src/...` path a "Mirrors" header names exists, and every Rust item it names as
+/// `Type::item`, or in backticks, exists in Brume's sources: a header that still names a moved
+/// file or a renamed or removed function fails here.
+fn check_mirror_header(file: &str, source: &str) {
+    let header = header(source);
+    let sources = named_sources(file, &header);
+    // A name is looked for in the files the header names, then (types it mentions in
+    // passing, such as the GPU structs) anywhere in src/.
+    let everything = named_sources(file, "src/");
+    let defined_in_sources = |name: &str| {
+        sources.iter().chain(&everything).any(|(_, t)| defines(t, name))
+    };
+    let declared_in_sources = |name: &str| {
+        sources.iter().chain(&everything).any(|(_, t)| declares(t, name))
+    };
+    // `Type::item` (items may be functions, fields or variants).
+    for (i, _) in header.match_indices("::") {
+        let ty: String = header[..i]
+            .chars()
+            .rev()
+            .take_while(|&c| is_ident(c))
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        let item: String = header[i + 2..].chars().take_while(|&c| is_ident(c)).collect();
+        // `GpuPathState::hit_*`: a family of fields.
+        let family = header[i + 2 + item.len()..].starts_with('*');
+        if family
+            || ty.is_empty()
+            || item.is_empty()
+            || !ty.starts_with(char::is_uppercase)
+            || EXTERNAL.contains(&ty.as_str())
+        {
+            continue;
+        }
+        assert!(
+            defined_in_sources(&ty),
+            "{file}: its Mirrors header names {ty}::{item}, but no named source defines {ty}"
+        );
+        assert!(
+            sources
+                .iter()
+                .chain(&everything)
+                .any(|(_, t)| defines(t, &ty) && declares(t, &item)),
+            "{file}: its Mirrors header names {ty}::{item}, but no source that defines {ty} \
+             declares {item}"
+        );
+    }
+    // `name` in backticks: a function, type, constant, field or variant (of Brume's, or a
+    // WGSL function of the file itself).
+    for (k, quoted) in header.split('`').enumerate() {
+        if k % 2 == 0 || !quoted.chars().all(is_ident) || quoted.is_empty() {
+            continue;
+        }
+        assert!(
+            declared_in_sources(quoted) || defines(source, quoted),
+            "{file}: its Mirrors header names `{quoted}`, which no named source has"
+        );
     }
 }
 

@@ -1,4 +1,4 @@
-// Mirrors src/gpu_types.rs, the source of truth for every host/WGSL shared struct (same struct
+// Mirrors src/gpu_types/, the source of truth for every host/WGSL shared struct (same struct
 // and member names). tests/gpu_wgsl.rs parses this file with naga and checks that every size
 // and member offset equals the Rust `#[repr(C)]` layout. Rows are 16 bytes: a vec3 plus one
 // scalar, so WGSL's vec3 alignment adds no hidden padding.
@@ -72,7 +72,7 @@ struct GpuTrackingStats {
     _pad2: u32,
 }
 
-// GpuPathState: one path of the wavefront integrator (see gpu_types.rs for units).
+// GpuPathState: one path of the wavefront integrator (see src/gpu_types/wavefront.rs for units).
 struct GpuPathState {
     o: vec3<f32>,       // ray origin, world, m
     t0: f32,            // ray start, m

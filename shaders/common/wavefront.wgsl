@@ -1,7 +1,8 @@
-// Mirrors the scheduling of src/backend/gpu/render.rs (`Stage`, `GpuQueue`): the bindings every
-// wavefront stage shares (group 1), queue access and the 64-bit counters. A stage is one
-// function over the items of its input queue (one path slot each); it appends the slot to the
-// queue of the stage that handles the path next (Cycles' state_flow.h in spirit). The medium
+// Mirrors the scheduling of src/backend/gpu/graph.rs (`Stage`) and src/gpu_types/wavefront.rs
+// (`GpuQueue`): the bindings every wavefront stage shares (group 1), queue access and the
+// 64-bit counters. A stage is one function over the items of its input queue (one path slot
+// each); it appends the slot to the queue of the stage that handles the path next (Cycles'
+// state_flow.h in spirit). The medium
 // and done queues are double-buffered by iteration parity: X0 + parity is read this
 // iteration, X0 + 1 - parity is filled for the next one.
 

@@ -1,4 +1,4 @@
-// Mirrors the queue bookkeeping of Wavefront::iteration (src/backend/gpu/render.rs): at the
+// Mirrors the queue bookkeeping of Wavefront::iterations (src/backend/gpu/dispatch.rs): at the
 // start of an iteration the queues it fills are emptied (`queue_reset`); before each stage the
 // indirect dispatch arguments of every queue are derived from its length (`queue_args`), so
 // the host never reads a queue length to dispatch.

@@ -158,7 +158,7 @@ pub struct Module {
 
 /// The shared enumerations as WGSL constants, generated from `gpu_types`.
 pub fn shared_constants() -> String {
-    let mut s = String::from("// ---- generated from src/gpu_types.rs ----\n");
+    let mut s = String::from("// ---- generated from src/gpu_types/ ----\n");
     for e in GpuEstimator::ALL {
         writeln!(s, "const {}: u32 = {}u;", e.wgsl_name(), e as u32).unwrap();
     }
