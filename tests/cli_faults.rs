@@ -310,7 +310,7 @@ fn an_unwritable_output_folder_is_refused_before_the_first_sample() {
     without_dac_override(&mut probe);
     let probe = probe.status();
     if !matches!(probe, Ok(s) if !s.success()) {
-        println!("SKIPPED: this machine lets the test process write into a mode-555 folder");
+        println!("SKIPPED: the test process can write into a mode-555 folder even without CAP_DAC_OVERRIDE");
         return;
     }
     for (what, flags) in [
