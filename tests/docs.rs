@@ -575,3 +575,34 @@ fn history_markers_are_recognised() {
         assert!(history_marker(line).is_none(), "{line}");
     }
 }
+
+/// No page repeats another's text: a prose line of 60 characters or more (not a table row,
+/// code or a heading) stands in one page only, so each fact has one home to keep current.
+#[test]
+fn no_page_repeats_another() {
+    let mut first_seen: std::collections::BTreeMap<String, String> = Default::default();
+    let mut repeated = Vec::new();
+    for p in pages() {
+        let mut in_code = false;
+        for line in read(&p).lines() {
+            let l = line.trim();
+            if l.starts_with("```") {
+                in_code = !in_code;
+                continue;
+            }
+            if in_code || l.len() < 60 || l.starts_with('|') || l.starts_with('#') {
+                continue;
+            }
+            match first_seen.get(l) {
+                Some(other) if *other != rel(&p) => {
+                    repeated.push(format!("{} and {}: {l}", other, rel(&p)))
+                }
+                Some(_) => {}
+                None => {
+                    first_seen.insert(l.to_string(), rel(&p));
+                }
+            }
+        }
+    }
+    assert!(repeated.is_empty(), "text in two pages:\n{}", repeated.join("\n"));
+}
