@@ -104,7 +104,11 @@ fn a_full_device_fails_naming_the_file_and_keeps_the_previous_output() {
     limit_file_size(&mut c, 4096);
     let o = c.output().unwrap();
     assert_refused(&o, &out, "cannot write", "final write past the limit");
-    assert_eq!(std::fs::read(&out).unwrap(), before, "the previous output changed");
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        before,
+        "the previous output changed"
+    );
     assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
     // A checkpoint that cannot be written stops the render at once (the rest of it would be
     // kept nowhere); the checkpoint already on disk stays whole and resumable.
@@ -137,8 +141,14 @@ fn a_full_device_fails_naming_the_file_and_keeps_the_previous_output() {
     let o = c.output().unwrap();
     assert_refused(&o, &ckpt, "checkpoint", "checkpoint write past the limit");
     // The first pass's checkpoint fails; the pass in flight then ends the render.
-    let passes = stderr(&o).lines().filter(|l| l.starts_with("pass done")).count();
-    assert!(passes <= 2, "the render went on after its checkpoint failed: {passes} passes");
+    let passes = stderr(&o)
+        .lines()
+        .filter(|l| l.starts_with("pass done"))
+        .count();
+    assert!(
+        passes <= 2,
+        "the render went on after its checkpoint failed: {passes} passes"
+    );
     assert_eq!(std::fs::read(&ckpt).unwrap(), before);
     read_part(&ckpt).expect("the checkpoint on disk is still whole");
     assert!(temporaries(&d).is_empty(), "{:?}", temporaries(&d));
@@ -160,7 +170,10 @@ fn sigkill_at_random_moments_then_resume_gives_the_uninterrupted_image_bit_for_b
     let flags = ["--spp", "1024", "--checkpoint", "0"];
     let whole = d.join("whole.exr");
     let t = Instant::now();
-    ok(render_cmd(&whole, &flags).output().unwrap(), "uninterrupted");
+    ok(
+        render_cmd(&whole, &flags).output().unwrap(),
+        "uninterrupted",
+    );
     let span = t.elapsed().as_secs_f64();
     let reference = read_part(&whole).unwrap();
     let mut rng = 0x5eed_u64;
@@ -206,15 +219,11 @@ fn truncated_or_damaged_checkpoints_and_parts_are_refused() {
     let a = d.join("a.exr");
     let b = d.join("b.exr");
     ok(
-        render_cmd(&a, &["--samples", "0..4"])
-            .output()
-            .unwrap(),
+        render_cmd(&a, &["--samples", "0..4"]).output().unwrap(),
         "a",
     );
     ok(
-        render_cmd(&b, &["--samples", "4..8"])
-            .output()
-            .unwrap(),
+        render_cmd(&b, &["--samples", "4..8"]).output().unwrap(),
         "b",
     );
     let bytes = std::fs::read(&a).unwrap();

@@ -75,7 +75,10 @@ fn round_trip_keeps_every_value_and_attribute() {
 
     let read = read_exr(&path).unwrap();
     // Every Brume EXR carries the checksum of what it holds, which the verified read checks.
-    let sum = read.attributes.text(CHECKSUM_ATTRIBUTE).expect("a checksum");
+    let sum = read
+        .attributes
+        .text(CHECKSUM_ATTRIBUTE)
+        .expect("a checksum");
     let with_sum = metadata
         .clone()
         .with(CHECKSUM_ATTRIBUTE, AttrValue::Text(sum.to_string()));

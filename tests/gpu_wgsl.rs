@@ -92,16 +92,21 @@ fn is_ident(c: char) -> bool {
 fn has_word(text: &str, word: &str) -> bool {
     text.match_indices(word).any(|(i, _)| {
         let before = text[..i].chars().next_back().is_none_or(|c| !is_ident(c));
-        let after = text[i + word.len()..].chars().next().is_none_or(|c| !is_ident(c));
+        let after = text[i + word.len()..]
+            .chars()
+            .next()
+            .is_none_or(|c| !is_ident(c));
         before && after
     })
 }
 
 /// Whether `name` is defined (a type, trait, function or constant) in `text`.
 fn defines(text: &str, name: &str) -> bool {
-    ["struct ", "enum ", "trait ", "type ", "impl ", "for ", "fn ", "const ", "mod "]
-        .iter()
-        .any(|k| has_word(text, &format!("{k}{name}")))
+    [
+        "struct ", "enum ", "trait ", "type ", "impl ", "for ", "fn ", "const ", "mod ",
+    ]
+    .iter()
+    .any(|k| has_word(text, &format!("{k}{name}")))
 }
 
 /// Whether `text` declares `name`: an item ([`defines`]), a field (`name: T`) or an enum
@@ -112,7 +117,12 @@ fn declares(text: &str, name: &str) -> bool {
             let before = text[..i].chars().next_back().is_none_or(|c| !is_ident(c));
             let rest = &text[i + name.len()..];
             let field = rest.starts_with(':') && !rest.starts_with("::");
-            let line_start = text[..i].rsplit('\n').next().unwrap_or("").trim().is_empty();
+            let line_start = text[..i]
+                .rsplit('\n')
+                .next()
+                .unwrap_or("")
+                .trim()
+                .is_empty();
             let variant = line_start
                 && name.starts_with(char::is_uppercase)
                 && (rest.starts_with(',') || rest.starts_with('(') || rest.starts_with(" {"));
@@ -171,10 +181,16 @@ fn check_mirror_header(file: &str, source: &str) {
     // passing, such as the GPU structs) anywhere in src/.
     let everything = named_sources(file, "src/");
     let defined_in_sources = |name: &str| {
-        sources.iter().chain(&everything).any(|(_, t)| defines(t, name))
+        sources
+            .iter()
+            .chain(&everything)
+            .any(|(_, t)| defines(t, name))
     };
     let declared_in_sources = |name: &str| {
-        sources.iter().chain(&everything).any(|(_, t)| declares(t, name))
+        sources
+            .iter()
+            .chain(&everything)
+            .any(|(_, t)| declares(t, name))
     };
     // `Type::item` (items may be functions, fields or variants).
     for (i, _) in header.match_indices("::") {
@@ -186,7 +202,10 @@ fn check_mirror_header(file: &str, source: &str) {
             .into_iter()
             .rev()
             .collect();
-        let item: String = header[i + 2..].chars().take_while(|&c| is_ident(c)).collect();
+        let item: String = header[i + 2..]
+            .chars()
+            .take_while(|&c| is_ident(c))
+            .collect();
         // `GpuPathState::hit_*`: a family of fields.
         let family = header[i + 2 + item.len()..].starts_with('*');
         if family

@@ -118,7 +118,10 @@ pub fn check_writable(path: impl AsRef<Path>) -> Result<(), FilmError> {
         reason,
     };
     if !dir.is_dir() {
-        return Err(refuse(format!("the folder {} does not exist", dir.display())));
+        return Err(refuse(format!(
+            "the folder {} does not exist",
+            dir.display()
+        )));
     }
     if path.is_dir() {
         return Err(refuse("it is a folder".into()));

@@ -26,8 +26,8 @@ pub use atomic::{check_writable, write_atomically, AtomicFile};
 pub use cost_map::{cost_map_from_tiles, per_sample, write_cost_map, CostMetric};
 pub use error::FilmError;
 pub use exr_io::{
-    read_exr, read_exr_verified, read_exr_with_state, write_exr, write_exr_single, write_exr_with_state, write_image,
-    Image,
+    read_exr, read_exr_verified, read_exr_with_state, write_exr, write_exr_single,
+    write_exr_with_state, write_image, Image,
 };
 pub use metadata::{AttrValue, Metadata, RenderInfo};
 pub use tile_log::{read_tile_log, totals, TileLogWriter, TileRecord, TileTotals};
