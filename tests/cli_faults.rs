@@ -6,9 +6,10 @@
 //! sample; two renders writing one path leave one whole image; a CPU render on a machine
 //! whose only GPU is a software one prints no "error".
 mod common;
+use common::cli::{assert_refused, temporaries};
 
 use std::os::unix::process::CommandExt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -47,29 +48,6 @@ fn stderr(o: &Output) -> String {
 fn ok(o: Output, what: &str) -> Output {
     assert!(o.status.success(), "{what}: {}", stderr(&o));
     o
-}
-
-/// Temporary files an atomic write left in `d` (there must be none after any failure).
-fn temporaries(d: &Path) -> Vec<PathBuf> {
-    std::fs::read_dir(d)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.file_name().unwrap().to_string_lossy().contains(".tmp-"))
-        .collect()
-}
-
-/// Asserts a refusal: non-zero exit, an `error:` line naming `culprit` and saying `why`.
-fn assert_refused(o: &Output, culprit: &Path, why: &str, what: &str) {
-    let err = stderr(o);
-    println!("{what}: {}", err.lines().last().unwrap_or("").trim());
-    assert!(!o.status.success(), "{what}: accepted\n{err}");
-    assert!(
-        err.contains(&culprit.display().to_string()),
-        "{what}: the message does not name {}: {err}",
-        culprit.display()
-    );
-    assert!(err.contains(why), "{what}: no {why:?} in {err}");
-    assert!(!err.contains("panicked"), "{what}: {err}");
 }
 
 /// A file-size limit of `bytes` for the child (`ulimit -f`): writes past it fail with EFBIG,

@@ -106,22 +106,10 @@ fn refused(d: &Path, parts: &[&Path], culprit: &Path, why: &str) {
     args.extend(["-o".into(), out.display().to_string()]);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = brume(&args);
-    let err = String::from_utf8_lossy(&o.stderr);
-    println!("{why}: {}", err.trim());
-    assert!(!o.status.success(), "{why}: accepted");
-    assert!(
-        err.contains(&culprit.display().to_string()),
-        "{why}: the message does not name {}: {err}",
-        culprit.display()
-    );
-    assert!(err.contains(why), "{why}: {err}");
+    common::cli::assert_refused(&o, culprit, why, why);
     assert!(!out.exists(), "{why}: an output was written");
     assert!(
-        !std::fs::read_dir(d).unwrap().any(|e| e
-            .unwrap()
-            .file_name()
-            .to_string_lossy()
-            .contains(".tmp")),
+        common::cli::temporaries(d).is_empty(),
         "{why}: a temporary file was left"
     );
 }

@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests: synthetic grids and statistics.
 #![allow(dead_code, unused_imports)]
 pub mod boxes;
+pub mod cli;
 pub mod culled;
 pub mod farm;
 pub mod gpu;
