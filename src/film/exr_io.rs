@@ -288,7 +288,7 @@ pub fn read_exr(path: impl AsRef<Path>) -> Result<Image, FilmError> {
 pub fn read_exr_with_state(
     path: impl AsRef<Path>,
 ) -> Result<(Image, BTreeMap<String, Vec<u32>>), FilmError> {
-    read_exr_checked(path.as_ref()).map(|(image, raw, _)| (image, raw))
+    read_exr_checked(path.as_ref(), false).map(|(image, raw, _)| (image, raw))
 }
 
 /// [`read_exr_with_state`] for files Brume continues from (checkpoints, parts): the file must
@@ -298,7 +298,7 @@ pub fn read_exr_verified(
     path: impl AsRef<Path>,
 ) -> Result<(Image, BTreeMap<String, Vec<u32>>), FilmError> {
     let path = path.as_ref();
-    let (image, raw, computed) = read_exr_checked(path)?;
+    let (image, raw, computed) = read_exr_checked(path, true)?;
     let corrupt = |reason: String| FilmError::Corrupt {
         path: path.to_path_buf(),
         reason,
@@ -315,9 +315,13 @@ pub fn read_exr_verified(
     }
 }
 
-/// Reads the file and also returns the checksum of what was read (see [`checksum`]).
+/// Reads the file and, when `verify` asks for it, the checksum of what was read (see
+/// [`checksum`]; only files Brume continues from pay for it).
 #[allow(clippy::type_complexity)]
-fn read_exr_checked(path: &Path) -> Result<(Image, BTreeMap<String, Vec<u32>>, u64), FilmError> {
+fn read_exr_checked(
+    path: &Path,
+    verify: bool,
+) -> Result<(Image, BTreeMap<String, Vec<u32>>, u64), FilmError> {
     let mut raw_u32: BTreeMap<String, Vec<u32>> = BTreeMap::new();
     let meta = std::fs::metadata(path).map_err(|e| FilmError::io("read", path, e))?;
     if meta.is_dir() {
@@ -381,10 +385,14 @@ fn read_exr_checked(path: &Path) -> Result<(Image, BTreeMap<String, Vec<u32>>, u
         }
     }
     let (width, height) = size.unwrap_or((0, 0));
-    let computed = checksum(
-        read_channels.iter().map(|(n, v)| (n.as_str(), *v)),
-        &attributes,
-    );
+    let computed = if verify {
+        checksum(
+            read_channels.iter().map(|(n, v)| (n.as_str(), *v)),
+            &attributes,
+        )
+    } else {
+        0
+    };
     let found: Vec<String> = by_name.keys().cloned().collect();
     let missing = |missing: &[&str]| FilmError::MissingChannels {
         path: path.to_path_buf(),
