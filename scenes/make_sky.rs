@@ -8,7 +8,7 @@
 //! Blender axes, R: the Mapping rotation) and arrives from world direction `s`; the horizon is
 //! level in the world, so it is a tilted curve in the image. Deterministic:
 //! rerunning reproduces the committed file.
-use brume::integrator::envmap::{lookup_from_world, uv_to_direction};
+use brume::render::envmap::{lookup_from_world, uv_to_direction};
 use brume::scene::envmap::{write_environment_exr, EnvironmentImage};
 use glam::{Quat, Vec2, Vec3};
 

@@ -4,10 +4,12 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 pub mod accel;
 pub mod backend;
+pub mod farm;
 pub mod film;
 pub mod gpu_types;
 pub mod integrator;
 pub mod math;
+pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod study;

@@ -1,4 +1,4 @@
-//! Volume emission where the density is 0 (`integrator::emission_bounds`): Principled Volume's
+//! Volume emission where the density is 0 (`render::emission_bounds`): Principled Volume's
 //! emission does not scale with density, so a flame reaching past its smoke, a glow with no
 //! emission grid and a fire with no density at all emit wherever their grids say, in every
 //! majorant mode and on both backends.
@@ -25,7 +25,7 @@ use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::RenderOutput;
 use brume::backend::gpu::{self, render::render_with_timings, GpuContext};
-use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings};
+use brume::render::{Estimator, MajorantMode, RenderScene, RenderSettings};
 use serde_json::{json, Value};
 
 /// Voxel shift of the flame against the smoke: it reaches six voxels past the blob, inside

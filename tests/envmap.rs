@@ -6,10 +6,10 @@
 mod common;
 use common::render::*;
 
-use brume::integrator::envmap::{
+use brume::render::envmap::{
     direction_to_uv, lookup_from_world, uv_to_direction, EnvLight, EnvSampling, EnvironmentMap,
 };
-use brume::integrator::RenderSettings;
+use brume::render::RenderSettings;
 use brume::sampling::chi2::{chi2_test, sidak, SphereHistogram};
 use brume::sampling::Rng;
 use brume::scene::envmap::{write_environment_exr, EnvironmentImage};

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use brume::film::part::{read_part, PartInfo};
+use brume::farm::{read_part, PartInfo};
 use brume::film::{write_exr_with_state, AttrValue, Film, PixelStats};
 
 fn scene(name: &str) -> String {

@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::{self, RenderOutput, Resume};
-use brume::film::part::{self, Coverage, PartInfo};
+use brume::farm::{self, Coverage, PartInfo};
 use brume::film::{read_exr, write_exr_with_state, Metadata};
-use brume::integrator::{RenderScene, RenderSettings, SamplerKind};
+use brume::render::{RenderScene, RenderSettings, SamplerKind};
 use proptest::prelude::*;
 
 const W: u32 = 24;
@@ -65,7 +65,7 @@ fn write_part(
     let mut meta = Metadata::new();
     PartInfo {
         scene_hash: "test".into(),
-        settings: part::settings_key(base, None),
+        settings: farm::settings_key(base, None),
         seed: base.seed.to_string(),
         version: env!("CARGO_PKG_VERSION").into(),
         width: W,
@@ -117,7 +117,7 @@ fn check_split(sampler: SamplerKind, n: u32, cuts: &[u32], region_cut: Option<u3
     }
     // Order on the command line does not matter: the merge folds in sample order.
     paths.reverse();
-    let (film, meta) = part::merge_files(&paths).unwrap();
+    let (film, meta) = farm::merge_files(&paths).unwrap();
     assert_rounding_equal(&film, &single.film, case);
     let coverage = match region_cut {
         None => format!("0..{n}@0,0,{W},{H}"),
@@ -165,7 +165,7 @@ fn a_resumed_checkpoint_is_the_uninterrupted_render_bit_for_bit() {
             let ckpt = render_range(&rs, &base, (start, reached), None, None);
             let p = common::scratch::file(&format!("ckpt-{start}-{reached}.exr"));
             write_part(&p, &base, &ckpt, (start, end), None);
-            let back = part::read_part(&p).unwrap();
+            let back = farm::read_part(&p).unwrap();
             assert_eq!(back.film, ckpt.film, "the state round-trips exactly");
             let resumed = render_range(
                 &rs,
@@ -202,11 +202,11 @@ fn merging_merges_is_associative() {
             p
         })
         .collect();
-    let all = part::merge_files(&parts).unwrap().0;
-    let (ab, meta_ab) = part::merge_files(&parts[1..]).unwrap();
+    let all = farm::merge_files(&parts).unwrap().0;
+    let (ab, meta_ab) = farm::merge_files(&parts[1..]).unwrap();
     let bc = common::scratch::file("assoc-bc.exr");
     write_exr_with_state(&bc, &ab, &meta_ab).unwrap();
-    let nested = part::merge_files(&[bc.clone(), parts[0].clone()]).unwrap();
+    let nested = farm::merge_files(&[bc.clone(), parts[0].clone()]).unwrap();
     assert_rounding_equal(&all, &single.film, "a+b+c");
     assert_rounding_equal(&nested.0, &all, "a+(b+c)");
     assert_eq!(nested.1.text("brume:coverage"), Some("0..14@0,0,24,16"));

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-use brume::film::part::read_part;
+use brume::farm::read_part;
 
 const TASKS: u32 = 4;
 

@@ -11,16 +11,16 @@ use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::{self, RenderOutput};
 use brume::backend::gpu::render::render as gpu_render;
-use brume::film::part::{self, Coverage, PartInfo};
+use brume::farm::{self, Coverage, PartInfo};
 use brume::film::{write_exr_with_state, Metadata};
-use brume::integrator::{RenderScene, RenderSettings};
+use brume::render::{RenderScene, RenderSettings};
 
 fn part_file(name: &str, s: &RenderSettings, out: &RenderOutput) -> std::path::PathBuf {
     let path = common::scratch::file(name);
     let mut meta = Metadata::new();
     PartInfo {
         scene_hash: "cloud".into(),
-        settings: part::settings_key(s, None),
+        settings: farm::settings_key(s, None),
         seed: s.seed.to_string(),
         version: env!("CARGO_PKG_VERSION").into(),
         width: s.width,
@@ -81,7 +81,7 @@ fn a_gpu_part_merges_with_a_cpu_part() {
         part_file("gpu.exr", &gpu_part, &g),
         part_file("cpu.exr", &cpu_part, &c),
     ];
-    let (film, meta) = part::merge_files(&files).unwrap();
+    let (film, meta) = farm::merge_files(&files).unwrap();
     assert_eq!(meta.text("brume:coverage"), Some("0..64@0,0,16,12"));
     let merged = RenderOutput {
         film,

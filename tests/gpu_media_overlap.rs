@@ -24,7 +24,7 @@ use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::RenderOutput;
 use brume::backend::gpu::{self, render::render_with_timings, GpuContext};
-use brume::integrator::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
+use brume::render::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
 use serde_json::json;
 
 /// Renders on the GPU and checks what every render must hold; returns the image and the

@@ -10,7 +10,7 @@ use common::render::*;
 use std::sync::atomic::AtomicBool;
 
 use brume::backend::gpu::{self, render::render_with_timings};
-use brume::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind};
+use brume::render::{Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind};
 
 fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -400,7 +400,7 @@ fn textured_scene_agrees_with_the_cpu() {
 /// sampling of the ablation; with the same seed the GPU replays the CPU's image.
 #[test]
 fn environment_map_scene_agrees_with_the_cpu() {
-    use brume::integrator::envmap::EnvSampling;
+    use brume::render::envmap::EnvSampling;
     let Some(ctx) = gpu_or_skip("environment_map_scene_agrees_with_the_cpu") else {
         return;
     };
@@ -629,7 +629,7 @@ fn absorption_events_agree_with_the_cpu() {
     for (i, (file, spp)) in configs.into_iter().enumerate() {
         let scene = load_scene(file);
         let s = RenderSettings {
-            absorption: brume::integrator::Absorption::Event,
+            absorption: brume::render::Absorption::Event,
             ..settings(16, 12, spp, 1300 + i as u32)
         };
         let label = format!("{file} absorption events");

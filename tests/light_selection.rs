@@ -10,8 +10,8 @@
 mod common;
 use common::render::*;
 
-use brume::integrator::lights::{Lights, Selection, GUIDED_UNIFORM_SHARE};
-use brume::integrator::{LightSelection, RenderScene, RenderSettings};
+use brume::render::lights::{Lights, Selection, GUIDED_UNIFORM_SHARE};
+use brume::render::{LightSelection, RenderScene, RenderSettings};
 use brume::volume::phase::HenyeyGreenstein;
 use glam::{Vec2, Vec3};
 

@@ -11,15 +11,14 @@
 mod common;
 use common::render::{load_scene, sidak_z};
 
-use brume::integrator::media::{
-    Flight, HomogeneousMedium, MediaStats, MediumEvent, TrackingConfig,
-};
-use brume::integrator::mixture::{sample_mixture, VdbSpan};
-use brume::integrator::nested::{nested_applies, sample_nested};
-use brume::integrator::{
+use brume::integrator::{media::Flight, media::MediumEvent};
+use brume::integrator::{mixture::sample_mixture, mixture::VdbSpan};
+use brume::integrator::{nested::nested_applies, nested::sample_nested};
+use brume::math::Ray;
+use brume::render::{media::HomogeneousMedium, media::MediaStats, media::TrackingConfig};
+use brume::render::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator,
 };
-use brume::math::Ray;
 use brume::sampling::Rng;
 use brume::volume::phase::HenyeyGreenstein;
 use glam::Vec3;

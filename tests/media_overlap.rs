@@ -1,4 +1,4 @@
-//! Overlapping and nested media (`integrator::mixture`, `integrator::stack`):
+//! Overlapping and nested media (`integrator::mixture`, `render::stack`):
 //! - two overlapping VDB media render the same image as ONE grid holding their voxel-wise sum
 //!   (trilinear reconstruction is linear, so the two scenes are the same medium), for every
 //!   estimator and spectral tracking, in the global and adaptive majorant modes: per-pixel
@@ -14,7 +14,7 @@ use common::stress::blob_voxels;
 
 use std::path::{Path, PathBuf};
 
-use brume::integrator::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
+use brume::render::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
 use serde_json::{json, Value};
 
 /// Renders both scenes with `s` (independent seeds) and z-tests them pixel by pixel (in

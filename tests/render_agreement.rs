@@ -7,7 +7,7 @@
 mod common;
 use common::render::*;
 
-use brume::integrator::{Estimator, MajorantMode, RenderSettings, SamplerKind};
+use brume::render::{Estimator, MajorantMode, RenderSettings, SamplerKind};
 
 fn settings(estimator: Estimator, majorant: MajorantMode, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -84,7 +84,7 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
 fn culled_walk_agrees_with_per_leaf_delta_tracking() {
     for name in ["fire.gltf", "cornell_smoke.gltf"] {
         let scene = load_scene(name);
-        let rs = brume::integrator::RenderScene::new(&scene, false).unwrap();
+        let rs = brume::render::RenderScene::new(&scene, false).unwrap();
         assert!(
             rs.vdb
                 .iter()
@@ -130,7 +130,7 @@ fn shadow_rays_walk_as_the_model_chooses() {
     // cells (`VdbMedium::walk_mode`: the stratified first draw places its emission samples).
     let walks = |name: &str| {
         let scene = load_scene(name);
-        let rs = brume::integrator::RenderScene::new(&scene, false).unwrap();
+        let rs = brume::render::RenderScene::new(&scene, false).unwrap();
         let m = &rs.vdb[0];
         (
             m.walk_mode(MajorantMode::Adaptive),
@@ -143,7 +143,7 @@ fn shadow_rays_walk_as_the_model_chooses() {
     assert_eq!(walks("fire.gltf"), (Leaf, Culled));
     // Only the adaptive mode chooses: an explicit mode walks both kinds of flight alike.
     let scene = load_scene("cloud.gltf");
-    let rs = brume::integrator::RenderScene::new(&scene, false).unwrap();
+    let rs = brume::render::RenderScene::new(&scene, false).unwrap();
     for mode in MajorantMode::ALL {
         if mode != MajorantMode::Adaptive {
             assert_eq!(rs.vdb[0].shadow_walk_mode(mode), mode);
@@ -181,12 +181,12 @@ fn specialised_and_generic_paths_give_the_same_image() {
             },
         );
         // Overlapping media run the generic variant (tile::specialised), and say so.
-        let overlapping = brume::integrator::RenderScene::new(&scene, false)
+        let overlapping = brume::render::RenderScene::new(&scene, false)
             .unwrap()
             .features
             .overlapping;
         assert_eq!(
-            special.features == brume::integrator::FeatureFlags::ALL,
+            special.features == brume::render::FeatureFlags::ALL,
             overlapping,
             "{name}: specialised features {:?}",
             special.features
@@ -291,7 +291,7 @@ fn absorption_as_a_weight_agrees_with_absorption_events() {
     // and chromatic VDB media, spectral tracking, homogeneous media, emission), delta and
     // decomposition tracking, per-pixel z-test (Sidak, 99.9 % over all configurations) and
     // image-mean z-test, independent seeds.
-    use brume::integrator::Absorption;
+    use brume::render::Absorption;
     let scenes = [
         "cloud.gltf",
         "cornell_smoke.gltf",

@@ -6,7 +6,7 @@
 mod common;
 use common::render::*;
 
-use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+use brume::render::{Estimator, MajorantMode, RenderSettings};
 
 #[test]
 fn furnace_renders_one_for_every_estimator() {
@@ -115,8 +115,8 @@ fn furnace_renders_one_for_every_estimator() {
 /// uniform sampler of the ablation.
 #[test]
 fn furnace_renders_one_under_a_constant_map() {
-    use brume::integrator::envmap::{EnvLight, EnvSampling, EnvironmentMap};
-    use brume::integrator::RenderScene;
+    use brume::render::envmap::{EnvLight, EnvSampling, EnvironmentMap};
+    use brume::render::RenderScene;
     use brume::scene::envmap::EnvironmentImage;
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;

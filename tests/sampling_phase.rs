@@ -122,3 +122,32 @@ fn hg_isotropic_is_exact() {
         assert!((s.pdf - 0.25 / std::f32::consts::PI).abs() < 1e-9);
     }
 }
+
+/// Chi-square of HG phase sampling from the Sobol sampler's points over many pixels
+/// (independent scrambles) with 16 samples each. Stratification makes the counts more even
+/// than multinomial, so the test can only fail on a wrong distribution. One of a family of two
+/// with the uniform-sphere test in `sampling::sobol`.
+#[test]
+fn hg_sampling_from_sobol_points_passes_chi_square() {
+    use brume::sampling::sobol::{bounce_dim, Sampler, SamplerKind, DIM_SCATTER};
+    let alpha = sidak(0.01, 2);
+    let (pixels, spp) = (8192u32, 16u32);
+    let n = (pixels * spp) as f64;
+    let g = 0.6f32;
+    let hg = HenyeyGreenstein::new(g);
+    let wo = -Vec3::Z; // lobe centred on +z
+    let mut h = SphereHistogram::new(32, 16);
+    for p in 0..pixels {
+        for s in 0..spp {
+            let u = Sampler::new(SamplerKind::Sobol, p, s, 11).get2d(bounce_dim(0, DIM_SCATTER));
+            h.add(hg.sample(wo, u).wi);
+        }
+    }
+    let gd = g as f64;
+    let pdf = move |mu: f64, _phi: f64| {
+        (1.0 - gd * gd) / (4.0 * std::f64::consts::PI * (1.0 + gd * gd - 2.0 * gd * mu).powf(1.5))
+    };
+    let expected = h.expected(n, &pdf, 1e-9);
+    let out = chi2_test(&h.counts, &expected, 5.0);
+    assert!(out.p_value >= alpha, "HG g={g}: {out:?}");
+}

@@ -355,7 +355,7 @@ fn smoke_tank() {
         e.contains(&"nested media") && !e.contains(&"overlapping media"),
         "{e:?}"
     );
-    let rs = brume::integrator::RenderScene::new(&s, false).unwrap();
+    let rs = brume::render::RenderScene::new(&s, false).unwrap();
     // The smoke adds to the tank's medium: the mixture runs.
     assert!(rs.features.nested && rs.features.overlapping);
 }
@@ -556,7 +556,7 @@ fn cloud_sky() {
             "environment map"
         ]
     );
-    let light = brume::integrator::envmap::EnvLight::new(&s.environment).unwrap();
+    let light = brume::render::envmap::EnvLight::new(&s.environment).unwrap();
     let sun = Vec3::new(0.383, 0.643, 0.663).normalize();
     assert!(light.le(sun).min_element() > 500.0, "{}", light.le(sun));
     assert!(light.le(-sun).max_element() < 1.0);

@@ -13,7 +13,7 @@ mod common;
 use common::render::*;
 use common::stress::*;
 
-use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+use brume::render::{Estimator, MajorantMode, RenderSettings};
 use serde_json::json;
 
 const MODES: [MajorantMode; 4] = MajorantMode::ALL;
@@ -458,10 +458,10 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     // multiplies the throughput by the albedo (<= 0.95) and Russian roulette divides by
     // min(sqrt(max(beta)), 0.95), which leaves at most max(sqrt(max(beta)), max(beta) / 0.95):
     // the throughput never exceeds 1 (the bound tested here, per path).
-    use brume::integrator::media::TrackingConfig;
-    use brume::integrator::path::{radiance, PathLimits, PathStats};
-    use brume::integrator::SamplerKind;
-    use brume::integrator::{Absorption, RenderScene};
+    use brume::integrator::{path::radiance, path::PathLimits, path::PathStats};
+    use brume::render::media::TrackingConfig;
+    use brume::render::SamplerKind;
+    use brume::render::{Absorption, RenderScene};
     use brume::sampling::sobol::Sampler;
     use glam::Vec2;
     let dir = common::scratch::dir("dense-chromatic");

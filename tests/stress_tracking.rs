@@ -668,9 +668,11 @@ fn an_underflowed_control_factor_gives_zero_not_nan() {
 fn a_clear_channel_transmits_over_an_infinite_distance() {
     // Chromatic homogeneous medium with one channel of zero extinction and a ray that never
     // leaves it (an open mesh): exp(-0 * inf) must be 1, not NaN.
-    use brume::integrator::media::HomogeneousMedium;
-    use brume::integrator::media::{sample_homogeneous, transmittance_homogeneous, MediumEvent};
-    use brume::integrator::Absorption;
+    use brume::integrator::{
+        media::sample_homogeneous, media::transmittance_homogeneous, media::MediumEvent,
+    };
+    use brume::render::media::HomogeneousMedium;
+    use brume::render::Absorption;
     use brume::sampling::Rng;
     use brume::volume::phase::HenyeyGreenstein;
     let h = HomogeneousMedium {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use brume::film::{write_image, Image, Metadata};
-use brume::integrator::{Estimator, MajorantMode};
+use brume::render::{Estimator, MajorantMode};
 use brume::study::report::{loglog_slope, time_to_rmse};
 use brume::study::run::{default_sweep, StudyConfig};
 use brume::study::Checkpoint;

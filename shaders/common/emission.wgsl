@@ -1,6 +1,6 @@
-// Mirrors the emission of the VDB medium: Emission::radiance (src/integrator/emission.rs),
+// Mirrors the emission of the VDB medium: Emission::radiance (src/render/emission.rs),
 // GreyView::on_collision and RgbView::on_collision (src/integrator/views.rs), and
-// blackbody_rgb / blackbody_emission (src/integrator/blackbody.rs). Blender's Principled
+// blackbody_rgb / blackbody_emission (src/render/blackbody.rs). Blender's Principled
 // Volume: radiance per metre, NOT multiplied by density, gathered at every tentative
 // collision of a free flight with weight
 // w / sigma_maj (the collision density of the majorant cancels the 1 / sigma_maj; pbrt-v4's

@@ -1,4 +1,4 @@
-// Mirrors src/integrator/envmap.rs (EnvironmentMap: direction_to_uv, uv_to_direction,
+// Mirrors src/render/envmap.rs (EnvironmentMap: direction_to_uv, uv_to_direction,
 // bilinear, le, sample, pdf) and src/sampling/piecewise.rs (find_interval, sample_1d,
 // PiecewiseConstant2D::sample and pdf) for the wavefront kernels. Blender's equirectangular
 // convention: u = 0.5 - atan2(d.y, d.x) / (2 pi), v = acos(d.z) / pi from the top row, with d

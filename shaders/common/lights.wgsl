@@ -1,5 +1,5 @@
 // Mirrors Lights::sample, Lights::pdf_environment, spot_falloff and power_heuristic
-// (src/integrator/lights.rs) for punctual lights, the constant environment and the area
+// (src/render/lights.rs) for punctual lights, the constant environment and the area
 // lights (emissive triangles, chosen by area times luminance), the guided selection at medium
 // events (Lights::phase_selection, sample_selected, env_weight), and uniform_sphere
 // (src/sampling/warp.rs). Needs wavefront.wgsl (wf), phase.wgsl (PI, INV_4PI), dda.wgsl

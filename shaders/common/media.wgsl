@@ -1,6 +1,6 @@
-// Mirrors the homogeneous media of src/integrator/media.rs (sample_homogeneous,
+// Mirrors the homogeneous media of src/integrator/homogeneous.rs (sample_homogeneous,
 // transmittance_homogeneous: KHR_materials_volume media inside closed meshes, sampled in
-// closed form, no tracking and no lookups) and MediumStack::cross (src/integrator/stack.rs) for
+// closed form, no tracking and no lookups) and MediumStack::cross (src/render/stack.rs) for
 // a stack of three entries (GpuPathState::medium and ::outer; backend::gpu::render::supports
 // refuses deeper nesting). Needs
 // rng.wgsl, tracking.wgsl (sample_exponential, EVENT_*) and wavefront.wgsl (wf).

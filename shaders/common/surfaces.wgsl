@@ -3,7 +3,7 @@
 // the `traverse!` macro and CwBvhNode::intersect_ray_basic of obvhs 0.4, after Ylitie et al.
 // 2017, "Efficient incoherent ray traversal on GPUs through compressed wide BVHs"), and
 // offset, shading_normal (src/integrator/path.rs), emitted and Lights::pdf_area
-// (src/integrator/lights.rs). The nodes are obvhs' 80-byte CwBvhNode as built for the CPU;
+// (src/render/lights.rs). The nodes are obvhs' 80-byte CwBvhNode as built for the CPU;
 // the triangles are uploaded in the BVH's primitive order (GpuTriangle), so a leaf's
 // primitive slot indexes them directly. Needs wavefront.wgsl (wf), tracking.wgsl (F32_MAX)
 // and textures.wgsl (emission_at).

@@ -6,10 +6,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::film::{tiles, Film, TileRecord, TileRect};
-use crate::integrator::media::TrackingConfig;
 use crate::integrator::path::PathLimits;
-use crate::integrator::tile::{specialised, TileContext, TileOutput};
-use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
+use crate::integrator::{tile::specialised, tile::TileContext, tile::TileOutput};
+use crate::render::media::TrackingConfig;
+use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
 /// What a render produced.
 pub struct RenderOutput {

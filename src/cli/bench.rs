@@ -236,9 +236,9 @@ fn lookups(files: Vec<PathBuf>, grid_name: &str, n: usize, runs: usize) -> Resul
 
 pub(super) fn render_once(
     scene: &brume::scene::Scene,
-    settings: &brume::integrator::RenderSettings,
+    settings: &brume::render::RenderSettings,
 ) -> Result<brume::backend::cpu::RenderOutput> {
-    let mut rs = brume::integrator::RenderScene::new(scene, settings.force_spectral)
+    let mut rs = brume::render::RenderScene::new(scene, settings.force_spectral)
         .map_err(|e| anyhow::anyhow!(e))?;
     rs.lights.set_env_sampling(settings.env_sampling);
     Ok(brume::backend::cpu::render(
@@ -287,7 +287,7 @@ fn render_bench(
     cloud_spp: u32,
     rounds: Rounds,
 ) -> Result<()> {
-    use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+    use brume::render::{Estimator, MajorantMode, RenderSettings};
     let scenes = if scenes.is_empty() {
         example_scenes()?
     } else {

@@ -3,8 +3,8 @@
 //! target at most 1.3x), and the ablation of the map's importance sampling against uniform
 //! sphere sampling at equal time (RMSE against a long importance-sampled reference).
 use anyhow::{anyhow, Result};
-use brume::integrator::envmap::EnvSampling;
-use brume::integrator::RenderSettings;
+use brume::render::envmap::EnvSampling;
+use brume::render::RenderSettings;
 use std::path::Path;
 
 /// Solid-angle mean of the scene's map radiance (`sin(theta)`-weighted pixel mean).

@@ -8,7 +8,7 @@ use anyhow::{anyhow, Result};
 use brume::backend::cpu;
 use brume::backend::gpu::render::{render_with_timings, Stage};
 use brume::backend::gpu::GpuContext;
-use brume::integrator::{RenderScene, RenderSettings};
+use brume::render::{RenderScene, RenderSettings};
 
 /// Renders `scene` at `width` x `height` with `spp` samples per pixel on the GPU, then on the
 /// CPU, and prints samples per second for both.

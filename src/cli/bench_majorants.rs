@@ -49,7 +49,7 @@ pub fn majorant_modes(
     spp: u32,
     rounds: Rounds,
 ) -> Result<()> {
-    use brume::integrator::{Estimator, MajorantMode, RenderSettings};
+    use brume::render::{Estimator, MajorantMode, RenderSettings};
     let Rounds { runs, first_seed } = rounds;
     println!();
     println!(
@@ -241,7 +241,7 @@ fn transparent_scales(scene: &brume::scene::Scene) -> Option<Vec<f32>> {
 fn render_with_scales(
     scene: &mut brume::scene::Scene,
     scales: &[f32],
-    settings: &brume::integrator::RenderSettings,
+    settings: &brume::render::RenderSettings,
 ) -> Result<brume::backend::cpu::RenderOutput> {
     let swap = |scene: &mut brume::scene::Scene, scales: &mut Vec<f32>| {
         for (m, s) in scene.vdb_media.iter_mut().zip(scales.iter_mut()) {
@@ -258,8 +258,8 @@ fn render_with_scales(
 /// The walks each VDB medium's adaptive hierarchy takes (`VdbMedium::walk_mode`, and in
 /// brackets its shadow rays' where they differ), joined by `+`.
 fn adaptive_walk_names(scene: &brume::scene::Scene) -> Result<String> {
-    use brume::integrator::MajorantMode;
-    let rs = brume::integrator::RenderScene::new(scene, false).map_err(|e| anyhow::anyhow!(e))?;
+    use brume::render::MajorantMode;
+    let rs = brume::render::RenderScene::new(scene, false).map_err(|e| anyhow::anyhow!(e))?;
     Ok(rs
         .vdb
         .iter()

@@ -27,18 +27,18 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
             }
             // The adaptive majorants as a render builds them (for each medium's own density
             // scale and voxel size).
-            let rs = brume::integrator::RenderScene::new(&scene, false)
-                .map_err(|e| anyhow::anyhow!(e))?;
+            let rs =
+                brume::render::RenderScene::new(&scene, false).map_err(|e| anyhow::anyhow!(e))?;
             for (i, m) in rs.vdb.iter().enumerate() {
                 print_adaptive(
                     &format!("medium {i}"),
                     &m.adaptive,
                     m.sigma_t_bound,
-                    brume::integrator::prepare::index_per_t(&m.density),
+                    brume::render::prepare::index_per_t(&m.density),
                 );
                 // What the adaptive mode walks (an emitting medium keeps the cells for its
                 // free flights where the model chose culling: `VdbMedium::walk_mode`).
-                let adaptive = brume::integrator::MajorantMode::Adaptive;
+                let adaptive = brume::render::MajorantMode::Adaptive;
                 println!(
                     "medium {i} adaptive walks: free flights {}, shadow rays {}{}",
                     m.walk_mode(adaptive).name(),
@@ -65,10 +65,10 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                         .zip(&g.bounds.cells)
                         .filter(|(w, d)| w.max > d.max)
                         .count();
-                    let floor = brume::integrator::emission_bounds::emission_floor(
+                    let floor = brume::render::emission_bounds::emission_floor(
                         w.dims,
                         m.sigma_t_bound,
-                        brume::integrator::prepare::index_per_t(&m.density),
+                        brume::render::prepare::index_per_t(&m.density),
                     )
                     .unwrap_or(0.0)
                         * m.sigma_t_bound;

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 
-use brume::film::part::merge_files;
+use brume::farm::merge_files;
 use brume::film::write_exr_with_state;
 
 #[derive(Args, Debug)]

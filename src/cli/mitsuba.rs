@@ -20,7 +20,7 @@ use serde_json::{json, Value};
 
 use brume::film::{read_exr, write_image, AttrValue, Metadata};
 use brume::integrator::bsdf::Principled;
-use brume::integrator::settings::DEFAULT_MAX_DEPTH;
+use brume::render::settings::DEFAULT_MAX_DEPTH;
 use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use brume::scene::{BoundsSource, Scene, NO_INDEX};
 use brume::volume::mitsuba_vol::vol_from_grid;

@@ -10,7 +10,7 @@ use clap::Args;
 use super::render_part::PartContext;
 use brume::backend::cpu::{self, RenderOutput};
 use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, TileLogWriter};
-use brume::integrator::{
+use brume::render::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
 };
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
@@ -69,7 +69,7 @@ pub struct RenderArgs {
     /// continuation ray; default), guided-full-sky (the same, the sky estimated at every
     /// event) or uniform.
     #[arg(long, default_value = "guided")]
-    pub light_selection: brume::integrator::LightSelection,
+    pub light_selection: brume::render::LightSelection,
     /// Russian roulette also before the 8th bounce once the throughput's largest channel is
     /// below this (0 disables; default 0.5).
     #[arg(long)]
@@ -86,7 +86,7 @@ pub struct RenderArgs {
     /// How next-event estimation draws environment-map directions: importance (by the
     /// map's luminance, the default) or uniform (the ablation baseline).
     #[arg(long, value_enum, default_value_t)]
-    pub env_sampling: brume::integrator::envmap::EnvSampling,
+    pub env_sampling: brume::render::envmap::EnvSampling,
     /// Worker threads (default: $SLURM_CPUS_PER_TASK under Slurm, else all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -210,11 +210,11 @@ impl RenderArgs {
 }
 
 fn parse_samples(s: &str) -> Result<(u32, u32), String> {
-    brume::film::part::parse_range(s)
+    brume::farm::parse_range(s)
 }
 
 fn parse_region(s: &str) -> Result<[u32; 4], String> {
-    brume::film::part::parse_region(s)
+    brume::farm::parse_region(s)
 }
 
 /// The worker count: `--threads`, else `SLURM_CPUS_PER_TASK` (Slurm without cgroups lets a
@@ -292,7 +292,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
     rs.lights.set_env_sampling(settings.env_sampling);
     let features = if settings.generic {
-        brume::integrator::FeatureFlags::ALL
+        brume::render::FeatureFlags::ALL
     } else {
         rs.features
     };

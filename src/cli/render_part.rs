@@ -1,4 +1,4 @@
-//! The part header of a `brume render` output (`brume::film::part`): what a merge or a resume
+//! The part header of a `brume render` output (`brume::farm`): what a merge or a resume
 //! needs to know about the render, and the checks a resume makes against its checkpoint.
 use std::path::Path;
 
@@ -6,9 +6,9 @@ use anyhow::{anyhow, Result};
 
 use super::render::RenderArgs;
 use brume::backend::cpu;
-use brume::film::part::{self, Coverage, PartInfo};
+use brume::farm::{self, Coverage, PartInfo};
 use brume::film::{AttrValue, Metadata, RenderInfo};
-use brume::integrator::RenderSettings;
+use brume::render::RenderSettings;
 
 /// What the header of a part needs that the settings do not hold: the scene's content hash,
 /// the camera, the Brume version.
@@ -22,8 +22,8 @@ impl PartContext {
     pub fn new(args: &RenderArgs, settings: &RenderSettings) -> Result<Self> {
         Ok(Self {
             scene: args.scene.display().to_string(),
-            scene_hash: part::scene_hash(&args.scene)?,
-            settings_key: part::settings_key(settings, args.camera.as_deref()),
+            scene_hash: farm::scene_hash(&args.scene)?,
+            settings_key: farm::settings_key(settings, args.camera.as_deref()),
         })
     }
 
@@ -37,7 +37,7 @@ impl PartContext {
         backend: &str,
         gpu_variant: Option<&str>,
         interrupted: bool,
-        features: brume::integrator::FeatureFlags,
+        features: brume::render::FeatureFlags,
     ) -> Metadata {
         let info = RenderInfo {
             estimator: settings.estimator.name().to_string(),
@@ -113,7 +113,7 @@ impl PartContext {
         path: &Path,
         settings: &RenderSettings,
     ) -> Result<(f64, cpu::Resume)> {
-        let p = part::read_part(path)?;
+        let p = farm::read_part(path)?;
         let here = self.metadata(
             settings,
             0,
@@ -121,7 +121,7 @@ impl PartContext {
             "",
             None,
             false,
-            brume::integrator::FeatureFlags::ALL,
+            brume::render::FeatureFlags::ALL,
         );
         let mine = PartInfo::from_metadata(Path::new("(this render)"), &here)?;
         mine.check_same_image(Path::new("this render"), &p.info, path)?;

@@ -6,7 +6,7 @@ use anyhow::{anyhow, Context, Result};
 use clap::Args;
 
 use brume::film::{read_exr, write_image, Image};
-use brume::integrator::{RenderScene, RenderSettings};
+use brume::render::{RenderScene, RenderSettings};
 use brume::scene;
 use brume::study::plot::{self, Bar, Curve};
 use brume::study::report::{self, markdown, sig, summarize};

@@ -126,7 +126,7 @@ fn image_channels<'a>(
 }
 
 /// [`write_exr`] plus the film's exact accumulator state as `u32` channels
-/// ([`super::part::STATE_CHANNELS`]), so that a merge or a resume continues from the very
+/// ([`super::state::STATE_CHANNELS`]), so that a merge or a resume continues from the very
 /// same f64 values instead of their f32 roundings.
 pub fn write_exr_with_state(
     path: impl AsRef<Path>,
@@ -140,7 +140,7 @@ pub fn write_exr_with_state(
         .map(|(n, v)| (n.to_string(), FlatSamples::F32(v)))
         .collect();
     list.extend(
-        super::part::state_channels(film)
+        super::state::state_channels(film)
             .into_iter()
             .map(|(n, v)| (n, FlatSamples::U32(v))),
     );

@@ -17,7 +17,7 @@ pub mod cost_map;
 pub mod error;
 pub mod exr_io;
 pub mod metadata;
-pub mod part;
+pub mod state;
 pub mod tile_log;
 pub mod tiles;
 

@@ -1,5 +1,5 @@
 //! The environment map as the wavefront kernels read it (`shaders/common/envmap.wgsl`, the
-//! mirror of `integrator::envmap`): this header as a uniform, and one flat `f32` storage
+//! mirror of `render::envmap`): this header as a uniform, and one flat `f32` storage
 //! buffer holding the pixels (3 floats each, row-major from the top) followed by the
 //! distribution's arrays (`sampling::piecewise` layout): `func`, `cond_cdf`, `marg_cdf`.
 //! One storage binding keeps the stages that sample lights within the per-stage limit.
@@ -36,7 +36,7 @@ const _: () = assert!(size_of::<GpuEnvMap>() == 96);
 
 impl GpuEnvMap {
     /// The header and the data buffer of `map`.
-    pub fn from_map(map: &crate::integrator::envmap::EnvironmentMap) -> (GpuEnvMap, Vec<f32>) {
+    pub fn from_map(map: &crate::render::envmap::EnvironmentMap) -> (GpuEnvMap, Vec<f32>) {
         let m = map.lookup_from_world;
         let row = |r: usize| [m.col(0)[r], m.col(1)[r], m.col(2)[r], 0.0];
         let d = &map.distribution;
@@ -58,7 +58,7 @@ impl GpuEnvMap {
             func_offset,
             cond_offset,
             marg_offset,
-            uniform: (map.sampling == crate::integrator::envmap::EnvSampling::Uniform) as u32,
+            uniform: (map.sampling == crate::render::envmap::EnvSampling::Uniform) as u32,
             _pad0: 0,
             _pad1: 0,
         };

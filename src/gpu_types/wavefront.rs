@@ -52,7 +52,7 @@ pub struct GpuPathState {
     pub hit_b1: f32,
     /// Barycentric weight of its third vertex.
     pub hit_b2: f32,
-    /// The media below `medium` on the path's medium stack (`integrator::stack`), 16 bits
+    /// The media below `medium` on the path's medium stack (`render::stack`), 16 bits
     /// each: the next one down in the low half, the one below it in the high half,
     /// [`STACK_NONE`] where there is none (the GPU stack holds three entries).
     pub outer: u32,

@@ -1,26 +1,12 @@
 //! Homogeneous media inside closed meshes (`KHR_materials_volume`): sampled in closed form, no
-//! tracking and no lookups. Re-exported by `integrator::media`, which holds the VDB media.
+//! tracking and no lookups.
 use glam::Vec3;
 
 use super::media::MediumEvent;
-use super::settings::Absorption;
+use crate::render::media::HomogeneousMedium;
+use crate::render::settings::Absorption;
 use crate::sampling::Rng;
-use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking;
-
-/// A homogeneous medium (`KHR_materials_volume`), coefficients in m^-1.
-#[derive(Clone, Copy, Debug)]
-pub struct HomogeneousMedium {
-    pub sigma_a: Vec3,
-    pub sigma_s: Vec3,
-    pub phase: HenyeyGreenstein,
-}
-
-impl HomogeneousMedium {
-    pub fn sigma_t(&self) -> Vec3 {
-        self.sigma_a + self.sigma_s
-    }
-}
 
 /// Closed-form free flight through a homogeneous medium over `[0, t_max]` (no tracking, no
 /// lookups). Grey extinction: an exponential step, then (absorption as an event) absorb or

@@ -1,6 +1,6 @@
 //! Free flight through overlapping media: several VDB media whose supports overlap along a
 //! ray, and the homogeneous medium around or inside them (the top of the path's
-//! [`MediumStack`](super::stack::MediumStack)).
+//! [`MediumStack`](crate::render::stack::MediumStack)).
 //!
 //! Extinction, scattering, absorption and emission ADD where media overlap (the radiative
 //! transfer equation is linear in them; Cycles, Mitsuba 3 and pbrt-v4's `MediumInterface`
@@ -57,12 +57,11 @@ use std::cell::Cell;
 
 use glam::Vec3;
 
-use super::media::{
-    from_grey, segments, Flight, HomogeneousMedium, MediumEvent, Segments, VdbMedium,
-};
-use super::settings::Absorption;
+use super::media::{from_grey, segments, Flight, MediumEvent, Segments};
 use super::views::{GreyView, RgbView};
 use crate::math::Ray;
+use crate::render::media::{HomogeneousMedium, VdbMedium};
+use crate::render::settings::Absorption;
 use crate::volume::merge::MergedSegments;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{

@@ -28,12 +28,11 @@
 use glam::Vec3;
 
 use super::homogeneous::exp_neg;
-use super::media::{
-    sample_homogeneous, sample_vdb_in_turn, Flight, HomogeneousMedium, MediumEvent,
-};
+use super::media::{sample_homogeneous, sample_vdb_in_turn, Flight, MediumEvent};
 use super::mixture::VdbSpan;
-use super::settings::Absorption;
 use crate::math::Ray;
+use crate::render::media::HomogeneousMedium;
+use crate::render::settings::Absorption;
 use crate::volume::phase::HenyeyGreenstein;
 
 /// Whether [`sample_nested`] takes the flight through `vdb` (sorted, non-overlapping spans)

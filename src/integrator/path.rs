@@ -1,20 +1,21 @@
 //! The CPU reference path tracer: one camera sample in, radiance out. Written for clarity
 //! first; every physics step calls the shared routines (`media`, `lights`, `bsdf`,
 //! `volume::tracking`). The const parameters are the scene's features (see
-//! [`super::prepare::FeatureFlags`]): a `false` removes that code from the compiled loop.
+//! [`crate::render::prepare::FeatureFlags`]): a `false` removes that code from the compiled loop.
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
-use super::lights::{emitted, power_heuristic};
 use super::media::{
     sample_homogeneous, sample_vdb_in_turn, transmittance_homogeneous, transmittance_vdb, Flight,
-    MediaStats, MediumEvent, TrackingConfig,
+    MediumEvent,
 };
 use super::mixture::{sample_mixture, VdbSpan};
 use super::nested::{nested_applies, sample_nested};
-use super::prepare::{RenderScene, SurfaceKind};
-use super::stack::MediumStack;
 use crate::math::Ray;
+use crate::render::lights::{emitted, power_heuristic};
+use crate::render::media::{MediaStats, TrackingConfig};
+use crate::render::prepare::{RenderScene, SurfaceKind};
+use crate::render::stack::MediumStack;
 use crate::sampling::sobol::{
     bounce_dim, DIM_DISTANCE, DIM_LIGHT, DIM_LIGHT_SELECT, DIM_LOBE, DIM_RR, DIM_SCATTER,
 };

@@ -3,10 +3,10 @@ use std::time::Instant;
 
 use glam::Vec2;
 
-use super::media::TrackingConfig;
 use super::path::{radiance, PathLimits, PathStats};
-use super::prepare::{FeatureFlags, RenderScene};
 use crate::film::{TileBuffer, TileRecord, TileRect};
+use crate::render::media::TrackingConfig;
+use crate::render::prepare::{FeatureFlags, RenderScene};
 use crate::sampling::sobol::DIM_JITTER;
 use crate::sampling::{Sampler, SamplerKind};
 

@@ -8,9 +8,9 @@ use std::cell::Cell;
 
 use glam::Vec3;
 
-use super::media::{TrackingConfig, VdbMedium};
-use super::settings::{Absorption, MajorantMode};
-use crate::math::Ray;
+use crate::math::{per_channel_ratio, Ray};
+use crate::render::media::{TrackingConfig, VdbMedium};
+use crate::render::settings::{Absorption, MajorantMode};
 use crate::volume::tracking::{Coeffs, CoeffsRgb, ControlExtinction, Medium, MediumRgb};
 use crate::volume::{LeafCulling, VoxelCulling};
 
@@ -208,12 +208,6 @@ impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
             culling: m.culling(majorant),
         }
     }
-}
-
-/// `num / den` per channel, 0 where `den` is not positive.
-#[inline]
-pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
-    Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
 }
 
 impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {

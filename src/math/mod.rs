@@ -194,3 +194,9 @@ mod tests {
         assert_eq!(floor_i32(f32::NEG_INFINITY), i32::MIN);
     }
 }
+
+/// `num / den` per channel, 0 where `den` is not positive.
+#[inline]
+pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
+    Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
+}

@@ -455,8 +455,6 @@ mod tests {
     use super::*;
     use crate::sampling::chi2::{chi2_test, sidak, SphereHistogram};
     use crate::sampling::warp::uniform_sphere;
-    use crate::volume::phase::HenyeyGreenstein;
-    use glam::Vec3;
 
     /// Every elementary interval of area `2^-k` holds exactly one of the `2^k` points.
     fn assert_net(points: &[(u32, u32)], k: u32, what: &str) {
@@ -583,14 +581,15 @@ mod tests {
         assert!(c.abs() < bound, "pixels 3,4: correlation {c}");
     }
 
-    /// Chi-square of directions warped from the sampler's points: uniform sphere and HG phase
-    /// sampling over many pixels (independent scrambles) with 16 samples each. Stratification
+    /// Chi-square of directions warped from the sampler's points to the uniform sphere over
+    /// many pixels (independent scrambles) with 16 samples each (HG phase sampling from the
+    /// same points: `tests/sampling_phase.rs`). Stratification
     /// makes the counts *more* even than multinomial, so the test can only fail on a wrong
     /// distribution (a bias or a broken scramble), which is what it is for.
     #[test]
     fn warped_samples_pass_chi_square() {
-        let tests = 2;
-        let alpha = sidak(0.01, tests);
+        // One of a family of two with the HG test in tests/sampling_phase.rs.
+        let alpha = sidak(0.01, 2);
         let (pixels, spp) = (8192u32, 16u32);
         let n = (pixels * spp) as f64;
 
@@ -604,26 +603,6 @@ mod tests {
         let expected = h.expected(n, &|_, _| 1.0 / (4.0 * std::f64::consts::PI), 1e-9);
         let out = chi2_test(&h.counts, &expected, 5.0);
         assert!(out.p_value >= alpha, "uniform sphere: {out:?}");
-
-        let g = 0.6f32;
-        let hg = HenyeyGreenstein::new(g);
-        let wo = -Vec3::Z; // lobe centred on +z
-        let mut h = SphereHistogram::new(32, 16);
-        for p in 0..pixels {
-            for s in 0..spp {
-                let u =
-                    Sampler::new(SamplerKind::Sobol, p, s, 11).get2d(bounce_dim(0, DIM_SCATTER));
-                h.add(hg.sample(wo, u).wi);
-            }
-        }
-        let gd = g as f64;
-        let pdf = move |mu: f64, _phi: f64| {
-            (1.0 - gd * gd)
-                / (4.0 * std::f64::consts::PI * (1.0 + gd * gd - 2.0 * gd * mu).powf(1.5))
-        };
-        let expected = h.expected(n, &pdf, 1e-9);
-        let out = chi2_test(&h.counts, &expected, 5.0);
-        assert!(out.p_value >= alpha, "HG g={g}: {out:?}");
     }
 }
 

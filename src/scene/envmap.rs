@@ -3,7 +3,7 @@
 //! `.exr` goes through the `exr` crate (the same reader as reference images, so half and float,
 //! RGB(A) or grey, scan-line or tiled); `.hdr` (Radiance RGBE) through the `image` crate. The
 //! pixels come back row-major from the top-left, as both formats store them; the direction each
-//! pixel stands for is defined in `integrator::envmap` (Blender's convention).
+//! pixel stands for is defined in `render::envmap` (Blender's convention).
 //!
 //! Every failure is a message for the scene loader to prefix with the glTF file and the JSON
 //! pointer: unreadable or truncated files, files that are not images, empty images, NaN or

@@ -144,7 +144,7 @@ pub struct Environment {
     /// Its decoded pixels.
     pub image: Option<Arc<EnvironmentImage>>,
     /// Euler XYZ rotation in radians of Blender's Mapping node (type Point) applied to the
-    /// lookup direction in Blender's Z-up axes; see `integrator::envmap` for the convention.
+    /// lookup direction in Blender's Z-up axes; see `render::envmap` for the convention.
     pub rotation: [f32; 3],
 }
 

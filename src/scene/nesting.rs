@@ -1,7 +1,7 @@
 //! How a scene's media sit relative to one another: VDB media whose supports overlap, VDB
 //! media inside (or across) the closed mesh of a `KHR_materials_volume` medium, and closed
 //! media meshes nested in one another, with the depth of that nesting (the medium stack a path
-//! needs, see `integrator::stack`). Computed once per scene from world bounds and the
+//! needs, see `render::stack`). Computed once per scene from world bounds and the
 //! parity test of [`Scene::inside_instance`].
 use glam::Vec3;
 

@@ -14,7 +14,7 @@ use serde::Serialize;
 use super::compare::mse_relmse;
 use crate::backend::cpu;
 use crate::film::{totals, AttrValue, Image, Metadata};
-use crate::integrator::{Estimator, MajorantMode, RenderScene, RenderSettings};
+use crate::render::{Estimator, MajorantMode, RenderScene, RenderSettings};
 
 /// One estimator setting of the study.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -54,7 +54,7 @@ impl StudyConfig {
         let b = if weighted { b } else { 1.0 };
         let m = if decomposition && majorant == MajorantMode::Global {
             m.or(if estimator == Estimator::WeightedDecomposition {
-                Some(crate::integrator::settings::DEFAULT_WEIGHTED_M)
+                Some(crate::render::settings::DEFAULT_WEIGHTED_M)
             } else {
                 None
             })

@@ -68,7 +68,7 @@ pub struct LeafBounds {
     /// a quarter of the grid's brick memory.
     pub voxel_q: std::sync::Arc<[u8]>,
     /// Per cell, the least `q` any of its voxels reads (`max(q, floor)`): where derived bounds
-    /// raise a cell's voxels (`integrator::emission_bounds::walk_bounds`). Empty: none.
+    /// raise a cell's voxels (`render::emission_bounds::walk_bounds`). Empty: none.
     pub voxel_floor: Vec<u8>,
     /// The walk box: the smallest box of cells, `[lo, hi)` relative to `cell_origin`, holding
     /// every cell whose bounds are not exactly `[0, 0]` (empty, `lo == hi`, when there is

@@ -5,7 +5,7 @@ use super::stress::blob_voxels;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use brume::integrator::{Absorption, Estimator, MajorantMode, RenderSettings};
+use brume::render::{Absorption, Estimator, MajorantMode, RenderSettings};
 use serde_json::{json, Value};
 
 pub const VOXEL: f64 = 0.0625;
@@ -150,7 +150,7 @@ pub fn for_each_overlap_config(mut check: impl FnMut(&RenderSettings, usize, f64
 
 /// The optical depth of VDB medium `m` along the pencil of `common::boxes::boxes_scene` (from
 /// `(0, 0, 3)` along -Z), integrated from its voxels (`common::stress::optical_depth`).
-pub fn pencil_depth(m: &brume::integrator::media::VdbMedium) -> f64 {
+pub fn pencil_depth(m: &brume::render::media::VdbMedium) -> f64 {
     use brume::math::Ray;
     let ray_w = Ray::new(
         glam::Vec3::new(0.0, 0.0, 3.0),

@@ -4,7 +4,7 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::{self, RenderOutput};
-use brume::integrator::{RenderScene, RenderSettings};
+use brume::render::{RenderScene, RenderSettings};
 use brume::scene::Scene;
 
 pub fn scene_path(name: &str) -> std::path::PathBuf {

@@ -113,7 +113,7 @@ pub(crate) fn check_gltf(path: &Path) -> Result<Verdict, String> {
         }
     }
     // A tiny render of what was accepted must be finite.
-    let settings = brume::integrator::RenderSettings {
+    let settings = brume::render::RenderSettings {
         width: 2,
         height: 2,
         spp: 1,
@@ -121,7 +121,7 @@ pub(crate) fn check_gltf(path: &Path) -> Result<Verdict, String> {
         tile_size: 2,
         ..Default::default()
     };
-    let rs = brume::integrator::RenderScene::new(&scene, false)
+    let rs = brume::render::RenderScene::new(&scene, false)
         .map_err(|e| format!("accepted scene cannot be prepared: {e}"))?;
     let out = brume::backend::cpu::render(
         &rs,
@@ -143,7 +143,7 @@ pub(crate) fn check_gltf(path: &Path) -> Result<Verdict, String> {
 /// An environment map: refused with a message, or decoded into finite, non-negative pixels of
 /// the size it claims, whose light samples and lookups are finite.
 pub(crate) fn check_envmap(path: &Path) -> Result<Verdict, String> {
-    use brume::integrator::envmap::EnvLight;
+    use brume::render::envmap::EnvLight;
     let decoded = match brume::scene::envmap::read_environment_image(path) {
         Ok(d) => d,
         Err(e) => {

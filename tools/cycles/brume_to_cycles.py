@@ -48,7 +48,7 @@ import bpy
 from mathutils import Matrix, Quaternion, Vector
 
 # Brume's default maximum number of scattering events
-# (`integrator::settings::DEFAULT_MAX_DEPTH`).
+# (`render::settings::DEFAULT_MAX_DEPTH`).
 DEFAULT_MAX_DEPTH = 256
 
 # glTF (Y up) to Blender (Z up): (x, y, z) -> (x, -z, y), as the importer converts.
@@ -439,7 +439,7 @@ def build_environment_map(nt, bg, env, base_dir):
     """`BRUME_environment.uri`: Texture Coordinate.Generated -> Mapping (Point, Euler XYZ
     `rotation`) -> Environment Texture (equirectangular, Linear) -> x `color` -> Background,
     whose Strength is `strength`. Brume's lookup is defined to be exactly this node chain
-    (src/integrator/envmap.rs); the image is read as Non-Color data (linear radiance)."""
+    (src/render/envmap.rs); the image is read as Non-Color data (linear radiance)."""
     coord = nt.nodes.new("ShaderNodeTexCoord")
     mapping = nt.nodes.new("ShaderNodeMapping")
     mapping.vector_type = "POINT"

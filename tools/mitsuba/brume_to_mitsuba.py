@@ -158,7 +158,7 @@ def register_brume_opaque():
 
 
 def register_brume_spot():
-    """Registers `brume_spot`: a glTF spot light as Brume lights it (src/integrator/lights.rs),
+    """Registers `brume_spot`: a glTF spot light as Brume lights it (src/render/lights.rs),
     radiant intensity `I * a^2` with `a = clamp((cos - cos_outer) / (cos_inner - cos_outer))`
     (denominator at least 1e-3). Mitsuba's own `spot` falls off linearly in the angle, which
     differs in the penumbra. A point-like (delta position) emitter: only sampled towards a

@@ -13,7 +13,7 @@ use crate::gpu_types::{
     GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
     GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
 };
-use crate::integrator::{blackbody, RenderScene};
+use crate::render::{blackbody, RenderScene};
 
 /// The `(group, binding)` pairs `module`'s entry point uses, from naga's analysis (the same
 /// one wgpu derives the pipeline layout from).

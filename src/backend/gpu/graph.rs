@@ -3,7 +3,7 @@
 //! of absent features at assembly ([`variant_name`], [`specs`]).
 use super::shader::{self, Module, Spec};
 use crate::gpu_types::GpuQueue;
-use crate::integrator::{FeatureFlags, SamplerKind};
+use crate::render::{FeatureFlags, SamplerKind};
 
 /// The wavefront stages, in the order an iteration runs them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -136,7 +136,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
 /// The flags the GPU variant of `rs` is built from: the scene's, with `overlapping` also set
 /// for several VDB media that do not overlap (one grid binding holds them all only in the
 /// mixture variant, `shaders/common/mixture.wgsl`).
-pub fn gpu_features(rs: &crate::integrator::RenderScene) -> FeatureFlags {
+pub fn gpu_features(rs: &crate::render::RenderScene) -> FeatureFlags {
     FeatureFlags {
         overlapping: rs.features.overlapping || rs.vdb.len() > 1,
         ..rs.features
@@ -157,7 +157,8 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
     }
 }
 
-pub(super) fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
+/// The specialisation constants of the variant for `features` and `sampler`.
+pub fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
     let f = effective(features);
     vec![
         Spec::bool("SAMPLER_SOBOL", sampler == SamplerKind::Sobol),

@@ -57,8 +57,8 @@ use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
     GpuWavefrontCounters, GpuWideCounter, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
 };
-use crate::integrator::media::TrackingConfig;
-use crate::integrator::{FeatureFlags, RenderScene, RenderSettings};
+use crate::render::media::TrackingConfig;
+use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
 /// Path slots in flight at most: enough to fill a large GPU's resident threads (with fewer,
 /// one iteration's kernels take less time than the host's round trip), and 2^18 paths take

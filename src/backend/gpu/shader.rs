@@ -218,7 +218,7 @@ pub fn shared_constants() -> String {
         ),
         (
             "GUIDED_MAX_PUNCTUAL",
-            crate::integrator::lights::GUIDED_MAX_PUNCTUAL as u32,
+            crate::render::lights::GUIDED_MAX_PUNCTUAL as u32,
         ),
         ("MAX_MIX", crate::gpu_types::GPU_MAX_VDB_MEDIA as u32),
         ("TEXTURE_WRAP_REPEAT", crate::scene::texture::WRAP_REPEAT),
@@ -231,7 +231,7 @@ pub fn shared_constants() -> String {
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
-    use crate::integrator::blackbody;
+    use crate::render::blackbody;
     writeln!(
         s,
         "const BLACKBODY_TABLE_LEN: u32 = {}u;",
@@ -241,7 +241,7 @@ pub fn shared_constants() -> String {
     for (name, v) in [
         (
             "GUIDED_UNIFORM_SHARE",
-            crate::integrator::lights::GUIDED_UNIFORM_SHARE,
+            crate::render::lights::GUIDED_UNIFORM_SHARE,
         ),
         ("BLACKBODY_T_MIN", blackbody::T_MIN),
         ("BLACKBODY_T_MAX", blackbody::T_MAX),

@@ -13,10 +13,10 @@ use crate::gpu_types::{
     GpuWavefrontParams, STACK_NONE, SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
     WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL, WF_FLAG_GUIDED_LIGHTS,
 };
-use crate::integrator::media::{GridField, TrackingConfig, VdbMedium};
-use crate::integrator::prepare::SurfaceKind;
-use crate::integrator::settings::Absorption;
-use crate::integrator::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::render::prepare::SurfaceKind;
+use crate::render::settings::Absorption;
+use crate::render::{media::GridField, media::TrackingConfig, media::VdbMedium};
+use crate::render::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
 use crate::volume::grid::BRICK_VOXELS;
 use crate::volume::SparseGrid;
 
@@ -590,11 +590,11 @@ impl Textures {
 /// reason when the data exceed one storage binding.
 pub(super) fn env_map_upload(
     rs: &RenderScene,
-    settings: &crate::integrator::RenderSettings,
+    settings: &crate::render::RenderSettings,
     max_binding: u64,
 ) -> Result<(crate::gpu_types::GpuEnvMap, Vec<f32>), String> {
     use crate::gpu_types::GpuEnvMap;
-    use crate::integrator::envmap::EnvSampling;
+    use crate::render::envmap::EnvSampling;
     let Some(env) = &rs.lights.environment else {
         return Ok((GpuEnvMap::default(), vec![0.0; 4]));
     };
@@ -658,7 +658,7 @@ fn mixture_voxel_table(rs: &RenderScene) -> (Vec<u8>, Vec<bool>) {
 /// The per-voxel bounds a medium's walks thin by on the GPU: its table where that pays
 /// (`VdbMedium::voxel_culling_pays`, as on the CPU), none (so `dda.wgsl` does not thin)
 /// elsewhere.
-fn voxel_table(m: &crate::integrator::media::VdbMedium) -> std::borrow::Cow<'_, [u8]> {
+fn voxel_table(m: &crate::render::media::VdbMedium) -> std::borrow::Cow<'_, [u8]> {
     if m.voxel_culling_pays {
         crate::volume::voxel_bounds::floored_voxel_q(m.bounds(), &m.density.grid.grid.cells)
     } else {

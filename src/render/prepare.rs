@@ -297,7 +297,7 @@ impl<'s> RenderScene<'s> {
         // KHR_materials_volume's tinted glass, never asks for a light).
         let albedo = |sigma_a: Vec3, sigma_s: Vec3| {
             (sigma_s.max_element() > 0.0)
-                .then(|| super::views::per_channel_ratio(sigma_s, sigma_a + sigma_s))
+                .then(|| crate::math::per_channel_ratio(sigma_s, sigma_a + sigma_s))
         };
         lights.set_media_albedo(
             vdb.iter()

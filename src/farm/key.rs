@@ -1,0 +1,108 @@
+//! What makes two parts parts of one image: the settings that shape its pixels
+//! ([`settings_key`]) and a content hash of the scene and every file it references
+//! ([`scene_hash`]).
+use std::path::Path;
+
+use super::part::PartError;
+use crate::film::FilmError;
+
+/// The image-shaping settings as `key=value` words (everything but the sample range, region,
+/// tile size, time limit and thread count, which do not change a pixel's samples).
+pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> String {
+    format!(
+        "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
+         sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
+         max_collisions={} env_sampling={} light_selection={} camera={}",
+        s.estimator,
+        s.b,
+        s.m_or_default()
+            .map_or("minorant".into(), |m| m.to_string()),
+        s.majorant.name(),
+        s.shadow,
+        s.force_spectral,
+        s.absorption.name(),
+        s.generic,
+        s.sampler.name(),
+        s.max_depth,
+        s.rr_depth,
+        s.rr_throughput,
+        s.max_pass_spp,
+        s.max_collisions_per_path,
+        s.env_sampling,
+        s.light_selection.name(),
+        camera.unwrap_or("-"),
+    )
+}
+
+/// FNV-1a 64 (stable across builds and machines, unlike `std`'s hasher).
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn eat(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// A content hash of a scene: FNV-1a 64 over the scene file and every file its JSON refers to
+/// by a relative `uri` (buffers, images, OpenVDB grids, environment maps), in sorted order,
+/// each preceded by its URI. Files that cannot be read are hashed by name only (the scene
+/// loader reports them).
+pub fn scene_hash(scene: &Path) -> Result<String, PartError> {
+    let bytes = std::fs::read(scene).map_err(|e| FilmError::io("read", scene, e))?;
+    let mut h = Fnv::new();
+    h.eat(&bytes);
+    // A .glb holds its JSON in the first chunk, after a 12-byte header and an 8-byte chunk
+    // header; a .gltf is JSON.
+    let json_bytes = if bytes.starts_with(b"glTF") && bytes.len() >= 20 {
+        let len = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+        &bytes[20..(20 + len).min(bytes.len())]
+    } else {
+        &bytes[..]
+    };
+    let mut uris = Vec::new();
+    if let Ok(json) = serde_json::from_slice::<serde_json::Value>(json_bytes) {
+        collect_uris(&json, &mut uris);
+    }
+    uris.sort();
+    uris.dedup();
+    let base = scene.parent().unwrap_or(Path::new("."));
+    for uri in uris {
+        h.eat(uri.as_bytes());
+        h.eat(&[0]);
+        // Streamed: a referenced VDB can be larger than memory allows to hold twice.
+        if let Ok(mut f) = std::fs::File::open(base.join(&uri)) {
+            use std::io::Read;
+            let mut buf = vec![0u8; 1 << 20];
+            loop {
+                match f.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => h.eat(&buf[..n]),
+                }
+            }
+        }
+    }
+    Ok(format!("{:016x}", h.0))
+}
+
+fn collect_uris(v: &serde_json::Value, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(map) => {
+            for (k, v) in map {
+                match v {
+                    serde_json::Value::String(s) if k == "uri" && !s.starts_with("data:") => {
+                        out.push(s.clone())
+                    }
+                    _ => collect_uris(v, out),
+                }
+            }
+        }
+        serde_json::Value::Array(a) => a.iter().for_each(|v| collect_uris(v, out)),
+        _ => {}
+    }
+}

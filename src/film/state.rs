@@ -1,0 +1,42 @@
+//! The film's exact accumulator state as `u32` EXR channels: per pixel the sample count and
+//! the f64 bits of Welford's mean and `M2` per channel, so that a resume or a merge starts from
+//! the very values the renderer held, not from their f32 roundings.
+use super::accum::Film;
+
+/// The `u32` channels holding the accumulator state: count, then per channel the high and low
+/// 32 bits of the f64 mean and of the f64 `M2`.
+pub const STATE_CHANNELS: [&str; 13] = [
+    "accum.count",
+    "accum.mean_hi.R",
+    "accum.mean_lo.R",
+    "accum.mean_hi.G",
+    "accum.mean_lo.G",
+    "accum.mean_hi.B",
+    "accum.mean_lo.B",
+    "accum.m2_hi.R",
+    "accum.m2_lo.R",
+    "accum.m2_hi.G",
+    "accum.m2_lo.G",
+    "accum.m2_hi.B",
+    "accum.m2_lo.B",
+];
+
+/// The state channels of `film`, named as in [`STATE_CHANNELS`].
+pub fn state_channels(film: &Film) -> Vec<(String, Vec<u32>)> {
+    let px = film.pixels();
+    let mut out: Vec<(String, Vec<u32>)> = STATE_CHANNELS
+        .iter()
+        .map(|n| (n.to_string(), Vec::with_capacity(px.len())))
+        .collect();
+    for p in px {
+        out[0].1.push(p.count);
+        for c in 0..3 {
+            let (m, m2) = (p.mean[c].to_bits(), p.m2[c].to_bits());
+            out[1 + 2 * c].1.push((m >> 32) as u32);
+            out[2 + 2 * c].1.push(m as u32);
+            out[7 + 2 * c].1.push((m2 >> 32) as u32);
+            out[8 + 2 * c].1.push(m2 as u32);
+        }
+    }
+    out
+}

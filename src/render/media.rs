@@ -1,0 +1,254 @@
+//! The media of a prepared render as data both backends read: heterogeneous VDB media
+//! ([`VdbMedium`], with the walk each flight takes over its majorants), homogeneous media
+//! inside closed meshes ([`HomogeneousMedium`]), the estimator settings every flight shares
+//! ([`TrackingConfig`]) and the counters of the media walks ([`MediaStats`]). The CPU's flights
+//! through them are `integrator::media`; the GPU's are `shaders/common/media.wgsl`.
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
+use crate::math::Aabb;
+use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::tracking::{ControlExtinction, TrackingStats};
+use crate::volume::{AdaptiveMajorants, AdaptiveShape, LeafBounds, LeafCulling, VoxelCulling};
+
+pub use super::emission::{Blackbody, Emission, EmissionRegion, GridField};
+
+/// A homogeneous medium (`KHR_materials_volume`), coefficients in m^-1.
+#[derive(Clone, Copy, Debug)]
+pub struct HomogeneousMedium {
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+    pub phase: HenyeyGreenstein,
+}
+
+impl HomogeneousMedium {
+    pub fn sigma_t(&self) -> Vec3 {
+        self.sigma_a + self.sigma_s
+    }
+}
+
+/// A heterogeneous medium from `BRUME_medium_vdb`, ready to track.
+#[derive(Clone)]
+pub struct VdbMedium {
+    pub density: GridField,
+    /// World bounds of the density's support.
+    pub world_bounds: Aabb,
+    /// Coefficients per unit density, m^-1.
+    pub sigma_a: Vec3,
+    pub sigma_s: Vec3,
+    /// Largest channel of `sigma_a + sigma_s`: scales density bounds into majorants.
+    pub sigma_t_bound: f32,
+    /// The adaptive majorant hierarchy of the density grid, built for this medium's
+    /// `sigma_t_bound` and voxel size (`--majorant adaptive`).
+    pub adaptive: Arc<AdaptiveMajorants>,
+    /// `sigma_t` equal in every channel (grey tracking suffices).
+    pub grey: bool,
+    pub phase: HenyeyGreenstein,
+    pub emission: Option<Emission>,
+    /// The bounds its walks take where they differ from the density's own: an emitting
+    /// medium's, raised wherever it may emit ([`super::emission_bounds`]). `None`: the
+    /// density's bounds ([`Self::bounds`]).
+    pub walk_bounds: Option<Arc<LeafBounds>>,
+    /// Whether its per-leaf and culled walks thin by the per-voxel bounds: where the model
+    /// says that pays (`volume::voxel_bounds::voxel_culling_pays`, decided when the render is
+    /// prepared).
+    pub voxel_culling_pays: bool,
+    /// What [`LeafCulling::accepts`] and [`VoxelCulling::accepts`] say of this medium's bounds
+    /// ([`Self::bounds`], its grid's cells and `sigma_t_bound`): answered once, where the
+    /// render is prepared, rather than at every flight's set-up.
+    pub culling_sound: CullingSound,
+}
+
+/// What [`LeafCulling::accepts`] and [`VoxelCulling::accepts`] answer for one medium.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CullingSound {
+    pub leaf: bool,
+    pub voxel: bool,
+}
+
+impl CullingSound {
+    pub fn of(bounds: &LeafBounds, entries: &[u32], sigma_t_bound: f32) -> Self {
+        CullingSound {
+            leaf: LeafCulling::accepts(bounds),
+            voxel: VoxelCulling::accepts(bounds, entries, sigma_t_bound),
+        }
+    }
+}
+
+impl VdbMedium {
+    /// The walk that yields `mode`'s segments for this medium most cheaply: an adaptive
+    /// hierarchy that is one node or all leaf cells is walked as the global bound or the
+    /// per-leaf DDA, which give its segments bit for bit ([`AdaptiveShape`]); one built as the
+    /// culled global walk is that walk, except in an emitting medium (below).
+    ///
+    /// An emitting medium's free flights walk the per-leaf DDA where the model chose the culled
+    /// walk: its emission is estimated at every tentative collision, and a culled walk spends
+    /// a camera ray's first, stratified (Sobol) draw on the global bound's first collision, not
+    /// on its first emission sample; the DDA maps that draw to optical depth under the same
+    /// cell bounds, so on the example fire its per-pixel variance is about two thirds of the
+    /// culled walk's for a few per cent more time (`brume bench render --majorants-only
+    /// scenes/fire.gltf`). Shadow flights, which estimate no emission, stay culled
+    /// ([`Self::shadow_walk_mode`]).
+    #[inline]
+    pub fn walk_mode(&self, mode: MajorantMode) -> MajorantMode {
+        match (mode, self.adaptive.shape) {
+            (MajorantMode::Adaptive, AdaptiveShape::OneNode) => MajorantMode::Global,
+            (MajorantMode::Adaptive, AdaptiveShape::AllLeaves) => MajorantMode::Leaf,
+            (MajorantMode::Adaptive, AdaptiveShape::Culled) if self.emission.is_some() => {
+                MajorantMode::Leaf
+            }
+            (MajorantMode::Adaptive, AdaptiveShape::Culled) => MajorantMode::Culled,
+            _ => mode,
+        }
+    }
+
+    /// The walk this medium's transmittance (shadow) flights take under `mode`: the culled
+    /// global walk where its adaptive hierarchy is every leaf cell and prices it close enough
+    /// (`AdaptiveMajorants::shadow_culled`) or is the culled walk itself, else
+    /// [`Self::walk_mode`]'s.
+    #[inline]
+    pub fn shadow_walk_mode(&self, mode: MajorantMode) -> MajorantMode {
+        if mode == MajorantMode::Adaptive
+            && (self.adaptive.shadow_culled || self.adaptive.shape == AdaptiveShape::Culled)
+        {
+            MajorantMode::Culled
+        } else {
+            self.walk_mode(mode)
+        }
+    }
+
+    /// The walk this medium's free flights take under `mode` among overlapping media
+    /// ([`segments`]): [`Self::walk_mode`]'s, with the culled walk walked as the per-leaf DDA
+    /// (the merged stream has no single grid to cull by).
+    #[inline]
+    pub fn merged_walk_mode(&self, mode: MajorantMode) -> MajorantMode {
+        match self.walk_mode(mode) {
+            MajorantMode::Culled => MajorantMode::Leaf,
+            walk => walk,
+        }
+    }
+
+    /// The per-leaf bounds (and per-voxel bounds) every walk of this medium takes: the
+    /// density's, or [`Self::walk_bounds`] where they differ.
+    #[inline]
+    pub fn bounds(&self) -> &LeafBounds {
+        self.walk_bounds
+            .as_deref()
+            .unwrap_or(&self.density.grid.bounds)
+    }
+
+    /// The per-leaf culling of this medium's walk under `mode`: only the culled global walk
+    /// culls, and only where [`LeafCulling::new`] finds it sound.
+    #[inline]
+    pub fn culling(&self, mode: MajorantMode) -> Option<LeafCulling<'_>> {
+        (self.culling_sound.leaf && self.walk_mode(mode) == MajorantMode::Culled)
+            .then(|| LeafCulling::accepted(self.bounds()))
+    }
+
+    /// The per-voxel culling of this medium's walk under `mode`: the per-leaf DDA and the
+    /// culled global walk thin by the voxel bounds (the mixed hierarchy's walk and the
+    /// global bound do not), where it pays ([`Self::voxel_culling_pays`]) and
+    /// [`VoxelCulling::new`] finds it sound.
+    #[inline]
+    pub fn voxel_culling(&self, mode: MajorantMode) -> Option<VoxelCulling<'_>> {
+        if !(self.voxel_culling_pays && self.culling_sound.voxel) {
+            return None;
+        }
+        match self.walk_mode(mode) {
+            MajorantMode::Leaf | MajorantMode::Culled => Some(VoxelCulling::accepted(
+                self.bounds(),
+                &self.density.grid.grid.cells,
+                self.sigma_t_bound,
+            )),
+            _ => None,
+        }
+    }
+
+    /// The hierarchy when `mode` walks it (a mixed adaptive hierarchy), else `None`.
+    pub fn walked_hierarchy(&self, mode: MajorantMode) -> Option<&AdaptiveMajorants> {
+        (self.walk_mode(mode) == MajorantMode::Adaptive).then_some(&*self.adaptive)
+    }
+}
+
+/// Estimator choice and parameters, shared by every flight of a render.
+#[derive(Clone, Copy, Debug)]
+pub struct TrackingConfig {
+    pub estimator: Estimator,
+    pub b: f32,
+    pub m: Option<f32>,
+    pub majorant: MajorantMode,
+    pub shadow: ShadowEstimator,
+    pub force_spectral: bool,
+    pub absorption: Absorption,
+}
+
+impl TrackingConfig {
+    /// The tracking part of a render's settings (the same for every backend).
+    pub fn from_settings(s: &RenderSettings) -> Self {
+        TrackingConfig {
+            estimator: s.estimator,
+            b: s.b,
+            m: s.m,
+            majorant: s.majorant,
+            shadow: s.shadow,
+            force_spectral: s.force_spectral,
+            absorption: s.absorption,
+        }
+    }
+
+    /// The control extinction of decomposition tracking and residual ratio tracking. With
+    /// local bounds (per-leaf or adaptive) it is the segment's minorant for every estimator:
+    /// a true minorant, so no residual is negative, and where a segment is uniform (tiles,
+    /// the inside of a fog) the residual vanishes and the control is the whole answer. The
+    /// delta-type distance samplers never look at it. With the global bound it is `m * bound`,
+    /// capped by the global minorant for analog decomposition (which must not exceed
+    /// `sigma_t`) and uncapped for the weighted estimator (signed weights where the control
+    /// exceeds the density); none for the delta-type estimators.
+    pub fn control(&self) -> ControlExtinction {
+        match (self.estimator, self.majorant.is_local(), self.m) {
+            (_, true, _) => ControlExtinction::SegmentMinorant,
+            (Estimator::Decomposition, false, Some(m)) => {
+                ControlExtinction::FractionOfBoundCapped(m)
+            }
+            (Estimator::Decomposition, false, None) => ControlExtinction::SegmentMinorant,
+            (Estimator::WeightedDecomposition, false, m) => {
+                ControlExtinction::FractionOfBound(m.unwrap_or(super::settings::DEFAULT_WEIGHTED_M))
+            }
+            _ => ControlExtinction::None,
+        }
+    }
+
+    /// Whether shadow rays use residual ratio tracking (Novak et al. 2014) rather than ratio
+    /// tracking: `--shadow auto` takes it whenever there is a control. With the local
+    /// minorant as control it never costs more lookups than ratio tracking (its residual
+    /// majorant `sigma_maj - sigma_min` is at most `sigma_maj`) and is exact, with no lookup,
+    /// across uniform segments, where ratio tracking's first collision would zero the estimate.
+    pub fn residual_shadow(&self) -> bool {
+        match self.shadow {
+            ShadowEstimator::Ratio => false,
+            ShadowEstimator::ResidualRatio => true,
+            ShadowEstimator::Auto => self.control() != ControlExtinction::None,
+        }
+    }
+
+    /// Majorant scale: the analog estimators always use the bound itself.
+    pub fn b(&self) -> f32 {
+        match self.estimator {
+            Estimator::WeightedDelta | Estimator::WeightedDecomposition => self.b,
+            Estimator::Delta | Estimator::Decomposition => 1.0,
+        }
+    }
+}
+
+/// Counters of one path (or tile), beyond what the trackers count.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MediaStats {
+    pub tracking: TrackingStats,
+    /// Lookups made by shadow-ray transmittance (also included in `tracking.lookups`).
+    pub shadow_lookups: u64,
+    /// Majorant segments walked by shadow rays (also included in `tracking.segments`).
+    pub shadow_segments: u64,
+    pub emission_lookups: u64,
+}
