@@ -1,6 +1,6 @@
 //! The WGSL Henyey-Greenstein mirror (shaders/common/phase.wgsl) against `HenyeyGreenstein`:
 //! sampled directions, pdfs and evaluations agree to rounding (WGSL's sin/cos/sqrt are not
-//! the CPU's libm, so not bit for bit).
+//! the CPU's libm, so not bit for bit; on a GPU, to the precision of its built-ins).
 mod common;
 
 use brume::backend::gpu::shader::TEST_PHASE_MODULE;
@@ -57,8 +57,21 @@ fn wgsl_hg_matches_cpu() {
         "{n} HG samples, g in {gs:?}: max |wi_gpu - wi_cpu| {max_dir:.2e}, max pdf rel diff \
          {max_pdf_rel:.2e}, max p(wo, wi) rel diff {max_p_rel:.2e}"
     );
-    assert!(max_dir < 2e-6, "directions differ by {max_dir}");
-    assert!(max_pdf_rel < 1e-6, "pdfs differ by {max_pdf_rel} relative");
+    // A CPU adapter (llvmpipe) computes sin, cos, sqrt and pow to about an ulp, as libm does.
+    // WGSL lets a GPU's built-ins be far coarser (sin and cos to 2^-11 absolute on [-pi, pi]);
+    // NVIDIA's land within 2e-5 in direction and 1e-5 in pdf. The bounds for a GPU sit below
+    // WGSL's own, and far below what a wrong formula gives (errors of order 1).
+    let cpu_adapter = ctx.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    let (dir_tol, pdf_tol) = if cpu_adapter {
+        (2e-6, 1e-6)
+    } else {
+        (1e-4, 1e-4)
+    };
+    assert!(max_dir < dir_tol, "directions differ by {max_dir}");
+    assert!(
+        max_pdf_rel < pdf_tol,
+        "pdfs differ by {max_pdf_rel} relative"
+    );
     assert!(
         max_p_rel < 1e-5,
         "p(wo, wi) differs by {max_p_rel} relative"

@@ -178,6 +178,39 @@ fn one_leaf(values: &[f32]) -> GridSpec {
     g
 }
 
+/// Writers of one path at the same moment (threads here; processes name their temporary files
+/// the same way) each put a whole file in place: the file reads back as one of them, and no
+/// temporary file is left.
+#[test]
+fn concurrent_writers_of_one_vdb_path_each_leave_a_whole_file() {
+    let dir = scratch::dir("vdb_concurrent_writers");
+    let path = dir.join("shared.vdb");
+    let values: Vec<Vec<f32>> = (0..8).map(|k| vec![1.0 + k as f32; 8]).collect();
+    std::thread::scope(|s| {
+        for v in &values {
+            let path = &path;
+            s.spawn(move || {
+                for _ in 0..5 {
+                    write_float_grids(path, &[one_leaf(v)]).unwrap_or_else(|e| panic!("{e}"));
+                }
+            });
+        }
+    });
+    let grid = load(&path, "density");
+    let first = grid.grid.voxel(0, 0, 0);
+    assert!(
+        values.iter().any(|v| v[0] == first),
+        "read back {first}, which no writer wrote"
+    );
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "shared.vdb")
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
+
 #[test]
 fn bad_values_follow_the_load_policy() {
     for (bad, what) in [

@@ -13,6 +13,7 @@
 #include <openvdb/tools/Prune.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -27,6 +28,7 @@
 #include <vector>
 
 #include <ext/stdio_filebuf.h>
+#include <unistd.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <spawn.h>
@@ -613,8 +615,12 @@ int32_t brume_vdb_write_float_grids(const char *path, const BrumeVdbGridSpec *gr
             grid->insertMeta("creator", openvdb::StringMetadata("brume"));
             out.push_back(grid);
         }
-        // Write next to the target and rename, so a failed write never leaves half a file.
-        const std::string tmp = std::string(path) + ".tmp";
+        // Write next to the target and rename, so a failed write never leaves half a file. The
+        // temporary name carries the process and a per-process count, so two writers of the
+        // same path (threads or processes) never share one: each renames a whole file.
+        static std::atomic<unsigned long> writes{0};
+        const std::string tmp = std::string(path) + ".tmp-" + std::to_string(getpid()) + "-" +
+                                std::to_string(writes.fetch_add(1));
         {
             openvdb::io::File file(tmp);
             file.setCompression(openvdb::io::Archive::hasBloscCompression()
