@@ -12,6 +12,7 @@ use obvhs::BvhBuildParams;
 
 use crate::math::Ray;
 
+mod lanes;
 mod small;
 #[cfg(target_arch = "x86_64")]
 mod small_avx;

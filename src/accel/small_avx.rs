@@ -33,7 +33,7 @@ pub(super) fn available() -> bool {
 
 /// The triangles eight to a batch.
 pub(super) fn batches(triangles: &[[Vec3A; 3]]) -> Vec<Batch8> {
-    super::small::lane_rows::<8>(triangles)
+    super::lanes::lane_rows::<8>(triangles)
         .into_iter()
         .map(|[v0, e1, e2]| Batch8 { v0, e1, e2 })
         .collect()
@@ -149,7 +149,7 @@ pub(super) unsafe fn closest_hit(
         _mm256_storeu_ps(lane_hits[0].as_mut_ptr(), t);
         _mm256_storeu_ps(lane_hits[1].as_mut_ptr(), b1);
         _mm256_storeu_ps(lane_hits[2].as_mut_ptr(), b2);
-        super::small::take_hits(&mut best, lanes, 8 * k, &lane_hits);
+        super::lanes::take_hits(&mut best, lanes, 8 * k, &lane_hits);
     }
     best
 }

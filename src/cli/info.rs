@@ -142,7 +142,7 @@ fn print_facts(g: &GridInfo) {
 /// The per-voxel culling bounds' memory, build time (rebuilt here to time it) and tightness.
 fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &LeafBounds) {
     let start = std::time::Instant::now();
-    let q = brume::volume::voxel_bounds::build_voxel_q(grid, &bounds.cells);
+    let q = brume::volume::bounds::build_voxel_q(grid, &bounds.cells);
     let seconds = start.elapsed().as_secs_f64();
     let mean = q.iter().map(|&v| v as f64).sum::<f64>() / q.len().max(1) as f64 / 255.0;
     println!(

@@ -3,7 +3,7 @@
 //! closed meshes (sampled in closed form: `integrator::homogeneous`).
 //!
 //! One function per job: [`sample_vdb`] (free flight in a VDB medium), [`transmittance_vdb`]
-//! (shadow rays), `sample_homogeneous` and `transmittance_homogeneous`. The const parameters
+//! (shadow rays); homogeneous media: `integrator::homogeneous`. The const parameters
 //! select specialised code: `EMIT` (does any medium emit), `ABS` (does any medium absorb),
 //! `CHROM` (is any extinction chromatic); a `false` removes the corresponding work at compile
 //! time.
@@ -19,8 +19,6 @@ use crate::volume::tracking::{
     self, spectral::SpectralProbabilities, Event, Medium, TrackingStats,
 };
 use crate::volume::{AdaptiveMajorantIterator, DdaMajorantIterator};
-
-pub use super::homogeneous::{sample_homogeneous, transmittance_homogeneous};
 
 /// A walk used through a mutable reference, with its `next` always inlined. The standard
 /// `impl Iterator for &mut I` is only `#[inline]`, and in `sample_grey`, which holds a free-flight

@@ -28,7 +28,8 @@
 use glam::Vec3;
 
 use super::homogeneous::exp_neg;
-use super::media::{sample_homogeneous, sample_vdb_in_turn, Flight, MediumEvent};
+use super::homogeneous::sample_homogeneous;
+use super::media::{sample_vdb_in_turn, Flight, MediumEvent};
 use super::mixture::VdbSpan;
 use crate::math::Ray;
 use crate::render::media::HomogeneousMedium;

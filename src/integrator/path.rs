@@ -5,10 +5,8 @@
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
-use super::media::{
-    sample_homogeneous, sample_vdb_in_turn, transmittance_homogeneous, transmittance_vdb, Flight,
-    MediumEvent,
-};
+use super::homogeneous::{sample_homogeneous, transmittance_homogeneous};
+use super::media::{sample_vdb_in_turn, transmittance_vdb, Flight, MediumEvent};
 use super::mixture::{sample_mixture, VdbSpan};
 use super::nested::{nested_applies, sample_nested};
 use crate::math::Ray;

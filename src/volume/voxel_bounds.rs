@@ -10,105 +10,12 @@
 //! `f32` arithmetic, the expression the culling evaluates (CPU and WGSL alike). One byte a
 //! voxel is a quarter of the brick's own memory; `q = 255` means "no tighter than the cell".
 //! Constant cells need no table: their support may reach a neighbour, and they cull by the
-//! cell bound alone.
-use rayon::prelude::*;
-
+//! cell bound alone. The table is built with the cell bounds (`volume::bounds::build_voxel_q`);
+//! this module holds what reads it.
 use std::borrow::Cow;
 
-use super::bounds::{CellBounds, LeafBounds};
+use super::bounds::LeafBounds;
 use super::grid::{SparseGrid, BRICK_VOXELS, CONSTANT_BIT};
-
-/// The `q` of a voxel whose support maximum is `max` in a cell bounded by `cm`: the smallest
-/// byte with `(q * (1/255)) * cm >= max` (255 where none is smaller, or where `cm` is not
-/// positive and finite: nothing to thin by there).
-pub fn quantize_up(max: f32, cm: f32) -> u8 {
-    if !(cm > 0.0 && cm.is_finite() && max < cm) {
-        return 255;
-    }
-    let covers = |q: u32| (q as f32 * (1.0 / 255.0)) * cm >= max;
-    // A first guess from the ratio, then the exact f32 test decides (rounding either way).
-    let mut q = ((max / cm) * 255.0).ceil().clamp(0.0, 255.0) as u32;
-    while q > 0 && covers(q - 1) {
-        q -= 1;
-    }
-    while q < 255 && !covers(q) {
-        q += 1;
-    }
-    q as u8
-}
-
-// The max filter reads index `i + 1` beside `i`: plainer as indices than as iterators.
-#[allow(clippy::needless_range_loop)]
-/// The per-voxel `q` bytes of every brick of `grid` (indexed as the bricks' voxels), relative
-/// to the cell bounds `cells` (on the grid's dense cell index), in parallel over cells.
-pub fn build_voxel_q(grid: &SparseGrid, cells: &[CellBounds]) -> Vec<u8> {
-    let mut q = vec![255u8; grid.bricks.len()];
-    let [nx, ny, _] = grid.dims.map(|d| d as usize);
-    // The bricks in cell order; each brick's bytes are written by the one cell holding it.
-    let mut by_brick: Vec<(usize, usize)> = grid
-        .cells
-        .iter()
-        .enumerate()
-        .filter(|(_, &e)| e & CONSTANT_BIT == 0)
-        .map(|(index, &e)| (e as usize, index))
-        .collect();
-    by_brick.sort_unstable();
-    let chunks: Vec<(usize, &mut [u8])> = q.chunks_mut(BRICK_VOXELS).enumerate().collect();
-    chunks.into_par_iter().for_each(|(brick, out)| {
-        let Ok(k) = by_brick.binary_search_by_key(&brick, |&(b, _)| b) else {
-            return;
-        };
-        let index = by_brick[k].1;
-        let c = [index % nx, index / nx % ny, index / (nx * ny)];
-        let v0 = [0, 1, 2].map(|a| (grid.cell_origin[a] + c[a] as i32) * 8);
-        // The brick's voxels and the first voxel past it on each axis (9^3), then the maximum
-        // over each voxel's 2x2x2 support, one axis at a time.
-        // The brick's own 512 straight from it; only the 217 on the far faces by lookup.
-        let own = &grid.bricks[brick * BRICK_VOXELS..][..BRICK_VOXELS];
-        let mut m = [[[0f32; 9]; 9]; 9];
-        for (z, plane) in m.iter_mut().enumerate() {
-            for (y, row) in plane.iter_mut().enumerate() {
-                for (x, v) in row.iter_mut().enumerate() {
-                    *v = if x < 8 && y < 8 && z < 8 {
-                        own[x + 8 * y + 64 * z]
-                    } else {
-                        grid.voxel(v0[0] + x as i32, v0[1] + y as i32, v0[2] + z as i32)
-                    };
-                }
-            }
-        }
-        for plane in m.iter_mut() {
-            for row in plane.iter_mut() {
-                for x in 0..8 {
-                    row[x] = row[x].max(row[x + 1]);
-                }
-            }
-        }
-        for plane in m.iter_mut() {
-            for y in 0..8 {
-                for x in 0..8 {
-                    plane[y][x] = plane[y][x].max(plane[y + 1][x]);
-                }
-            }
-        }
-        for z in 0..8 {
-            for y in 0..8 {
-                for x in 0..8 {
-                    m[z][y][x] = m[z][y][x].max(m[z + 1][y][x]);
-                }
-            }
-        }
-        let cm = cells[index].max;
-        for z in 0..8 {
-            for y in 0..8 {
-                for x in 0..8 {
-                    out[x + 8 * y + 64 * z] = quantize_up(m[z][y][x], cm);
-                }
-            }
-        }
-    });
-    q
-}
 
 /// What reading a voxel's bound, and the uniform that thins by it, cost at a tentative
 /// collision, in lookups (a collision's density lookup is 1): fitted to `brume bench render`
@@ -175,6 +82,7 @@ pub fn kept_fraction(grid: &SparseGrid, bounds: &LeafBounds) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::bounds::quantize_up;
 
     #[test]
     fn quantized_bounds_cover_their_maximum_and_are_the_smallest_that_do() {

@@ -4,9 +4,8 @@
 use bytemuck::Zeroable;
 
 use super::device::{GpuContext, GpuGrid};
-use super::dispatch::ITERATIONS_PER_SYNC;
+use super::error::GpuRenderError;
 use super::graph::Stage;
-use super::render::GpuRenderError;
 use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
@@ -14,6 +13,12 @@ use crate::gpu_types::{
     GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
 };
 use crate::render::{blackbody, RenderScene};
+
+/// Wavefront iterations submitted together between two reads of the counters. Each read is
+/// a host round trip (submit, map, wait: on a large GPU longer than an iteration's
+/// kernels at 2^16 slots); a batch overshoots its end by fewer than this many empty
+/// iterations. The timestamp query set holds two queries per stage for each of them.
+pub(super) const ITERATIONS_PER_SYNC: u32 = 8;
 
 /// The `(group, binding)` pairs `module`'s entry point uses, from naga's analysis (the same
 /// one wgpu derives the pipeline layout from).

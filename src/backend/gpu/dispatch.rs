@@ -4,10 +4,10 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use super::buffers::{Buffers, Kernel};
+use super::buffers::{Buffers, Kernel, ITERATIONS_PER_SYNC};
 use super::device::GpuContext;
+use super::error::GpuRenderError;
 use super::graph::Stage;
-use super::render::GpuRenderError;
 use crate::gpu_types::{GpuQueue, GpuWavefrontCounters, GpuWavefrontParams};
 
 /// The scheduler: the kernels of one render and the loop over iterations.
@@ -235,12 +235,6 @@ impl Wavefront<'_> {
         Ok(counters)
     }
 }
-
-/// Wavefront iterations submitted together between two reads of the counters. Each read is
-/// a host round trip (submit, map, wait: on a large GPU longer than an iteration's
-/// kernels at 2^16 slots); a batch overshoots its end by fewer than this many empty
-/// iterations.
-pub(super) const ITERATIONS_PER_SYNC: u32 = 8;
 
 /// Where the stage timestamps start in the read-back buffer: after the counters.
 const TS_OFFSET: u64 = std::mem::size_of::<GpuWavefrontCounters>() as u64;

@@ -14,6 +14,7 @@ pub use device::{GpuContext, GpuGrid, GpuUnavailable};
 pub use shader::{Module, ShaderFile, Spec};
 mod buffers;
 mod dispatch;
+mod error;
 pub mod graph;
 pub mod render;
 mod upload;

@@ -48,6 +48,7 @@ use std::time::Instant;
 use super::buffers::{kernel, Buffers};
 use super::device::{byte_size, GpuContext};
 use super::dispatch::Wavefront;
+pub use super::error::GpuRenderError;
 use super::graph::specs;
 pub use super::graph::{gpu_features, variant_name, Stage};
 use super::shader;
@@ -115,21 +116,6 @@ impl GpuTimings {
         }
         t
     }
-}
-
-/// Why the GPU did not render.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum GpuRenderError {
-    /// The scene needs a feature the GPU integrator does not have (one line, for the CPU
-    /// fallback message).
-    #[error("GPU backend: {0}")]
-    Unsupported(String),
-    /// The scene's data exceed the device's limits.
-    #[error("GPU backend: {0}")]
-    Limits(String),
-    /// wgpu reported an error (validation, device).
-    #[error("GPU backend: {0}")]
-    Device(String),
 }
 
 /// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.

@@ -6,7 +6,7 @@ use bytemuck::Zeroable;
 use glam::Vec3;
 
 use super::device::{bounds_layout, byte_size, GpuContext, GpuGrid};
-use super::render::GpuRenderError;
+use super::error::GpuRenderError;
 use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
     GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuVdbMedium,
