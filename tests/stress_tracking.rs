@@ -669,7 +669,7 @@ fn a_clear_channel_transmits_over_an_infinite_distance() {
     // Chromatic homogeneous medium with one channel of zero extinction and a ray that never
     // leaves it (an open mesh): exp(-0 * inf) must be 1, not NaN.
     use brume::integrator::{
-        media::sample_homogeneous, media::transmittance_homogeneous, media::MediumEvent,
+        homogeneous::sample_homogeneous, homogeneous::transmittance_homogeneous, media::MediumEvent,
     };
     use brume::render::media::HomogeneousMedium;
     use brume::render::Absorption;

@@ -81,7 +81,6 @@ pub fn kept_fraction(grid: &SparseGrid, bounds: &LeafBounds) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::volume::bounds::quantize_up;
 
     #[test]
