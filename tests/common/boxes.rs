@@ -31,7 +31,7 @@ pub fn box_mesh(d: &Path, name: &str, lo: [f32; 3], hi: [f32; 3]) -> Value {
     let mut bytes: Vec<u8> = idx.iter().flat_map(|i| i.to_le_bytes()).collect();
     let pos_offset = bytes.len();
     bytes.extend(p.iter().flatten().flat_map(|f| f.to_le_bytes()));
-    std::fs::write(d.join(name), &bytes).unwrap();
+    super::write_whole(&d.join(name), &bytes);
     json!({"uri": name, "byteLength": bytes.len(), "pos_offset": pos_offset, "lo": lo, "hi": hi})
 }
 
@@ -95,6 +95,6 @@ pub fn boxes_scene(
         "extensionsUsed": used,
     });
     let p = d.join("scene.gltf");
-    std::fs::write(&p, doc.to_string()).unwrap();
+    super::write_whole(&p, doc.to_string().as_bytes());
     p
 }

@@ -78,7 +78,7 @@ pub fn scene(media: Vec<Value>) -> Value {
 
 pub fn write_scene(d: &Path, name: &str, doc: &Value) -> PathBuf {
     let p = d.join(name);
-    std::fs::write(&p, doc.to_string()).unwrap();
+    super::write_whole(&p, doc.to_string().as_bytes());
     p
 }
 

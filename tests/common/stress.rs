@@ -280,7 +280,7 @@ impl StressScene {
         let mut g = brume_ffi::GridSpec::fog("density", self.voxel_size, self.grid_origin);
         g.voxels = self.voxels.clone();
         brume_ffi::write_float_grids(dir.join("grid.vdb"), &[g]).unwrap();
-        std::fs::write(dir.join("scene.gltf"), self.json().to_string()).unwrap();
+        super::write_whole(&dir.join("scene.gltf"), self.json().to_string().as_bytes());
         dir.join("scene.gltf")
     }
 
