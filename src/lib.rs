@@ -8,6 +8,7 @@ pub mod farm;
 pub mod film;
 pub mod gpu_types;
 pub mod integrator;
+pub mod lab;
 pub mod math;
 pub mod render;
 pub mod sampling;

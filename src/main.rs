@@ -35,15 +35,15 @@ enum Command {
     /// Render one image on a cluster: `brume farm slurm` writes/submits a job array + merge.
     Farm {
         #[command(subcommand)]
-        which: cli::farm::FarmWhich,
+        which: brume::farm::slurm::FarmWhich,
     },
     /// Render a scene with Blender Cycles (bpy) for comparison (tools/cycles, docs/comparing.md).
-    Cycles(cli::cycles::CyclesArgs),
+    Cycles(brume::lab::reference::cycles::CyclesArgs),
     /// Render a scene with Mitsuba 3 for comparison (tools/mitsuba, docs/comparing.md).
-    Mitsuba(cli::mitsuba::MitsubaArgs),
+    Mitsuba(brume::lab::reference::mitsuba::MitsubaArgs),
     /// Convert a Blender scene (.blend) to a Brume glTF scene with the tools/blender add-on
     /// (bpy, as `brume cycles` finds it; docs/blender.md).
-    ImportBlend(cli::import_blend::ImportBlendArgs),
+    ImportBlend(brume::lab::reference::import_blend::ImportBlendArgs),
     /// Compare an image with a reference: RMSE, relMSE, per-pixel and block z-tests.
     Compare(cli::compare::CompareArgs),
     /// Error against time for a sweep of estimator configurations (tables and plots).
@@ -51,7 +51,7 @@ enum Command {
     /// Print performance figures (benchmarks, not tests).
     Bench {
         #[command(subcommand)]
-        which: cli::bench::Which,
+        which: brume::lab::bench::Which,
     },
 }
 
@@ -86,13 +86,13 @@ fn main() -> ExitCode {
         Command::Info { path, no_layout } => cli::info::run(&path, !no_layout),
         Command::Render(args) => cli::render::run(&args),
         Command::Merge(args) => cli::merge::run(&args),
-        Command::Farm { which } => cli::farm::run(&which),
-        Command::Cycles(args) => cli::cycles::run(&args),
-        Command::Mitsuba(args) => cli::mitsuba::run(&args),
-        Command::ImportBlend(args) => cli::import_blend::run(&args),
+        Command::Farm { which } => brume::farm::slurm::run(&which),
+        Command::Cycles(args) => brume::lab::reference::cycles::run(&args),
+        Command::Mitsuba(args) => brume::lab::reference::mitsuba::run(&args),
+        Command::ImportBlend(args) => brume::lab::reference::import_blend::run(&args),
         Command::Compare(args) => cli::compare::run(&args),
         Command::Study(args) => cli::study::run(&args),
-        Command::Bench { which } => cli::bench::run(which),
+        Command::Bench { which } => brume::lab::bench::run(which),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -113,6 +113,22 @@ pub struct PassView<'a> {
     pub seconds: f64,
 }
 
+/// Prepares `scene` and renders it on the CPU to the end, with no observer: what a benchmark
+/// or a comparison needs from one render. The error is the preparation's.
+pub fn render_scene(
+    scene: &crate::scene::Scene,
+    settings: &RenderSettings,
+) -> Result<RenderOutput, String> {
+    let mut rs = RenderScene::new(scene, settings.force_spectral)?;
+    rs.lights.set_env_sampling(settings.env_sampling);
+    Ok(render(
+        &rs,
+        settings,
+        &AtomicBool::new(false),
+        &|_, _, _| {},
+    ))
+}
+
 /// Renders `rs` on the CPU. `stop` is polled between tiles: when set, the current pass is
 /// abandoned and what earlier passes accumulated is returned.
 pub fn render(

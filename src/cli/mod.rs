@@ -1,17 +1,5 @@
-pub mod bench;
-pub mod bench_env;
-pub mod bench_gpu;
-pub mod bench_majorants;
-pub mod bench_peers;
-pub mod bench_walk;
 pub mod compare;
-pub mod cycles;
-pub mod farm;
-pub mod import_blend;
 pub mod info;
 pub mod merge;
-pub mod mitsuba;
-pub mod reference;
 pub mod render;
-pub mod render_part;
 pub mod study;

@@ -7,8 +7,8 @@ use std::sync::Arc;
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 
-use super::render_part::PartContext;
 use brume::backend::cpu::{self, RenderOutput};
+use brume::farm::context::PartContext;
 use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, TileLogWriter};
 use brume::render::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
@@ -351,7 +351,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .build()?;
     let threads = pool.current_num_threads();
     eprintln!("threads: {threads} (from {threads_from})");
-    let part = PartContext::new(args, &settings)?;
+    let part = PartContext::new(&args.scene, &settings, args.camera.as_deref())?;
     let resume = match &args.resume {
         Some(path) => Some(part.resume_from(path, &settings)?),
         None => None,

@@ -1,14 +1,13 @@
-//! The part header of a `brume render` output (`brume::farm`): what a merge or a resume
+//! The part header of a render's output: what a merge or a resume
 //! needs to know about the render, and the checks a resume makes against its checkpoint.
 use std::path::Path;
 
 use anyhow::{anyhow, Result};
 
-use super::render::RenderArgs;
-use brume::backend::cpu;
-use brume::farm::{self, Coverage, PartInfo};
-use brume::film::{AttrValue, Metadata, RenderInfo};
-use brume::render::RenderSettings;
+use crate::backend::cpu;
+use crate::farm::{self, Coverage, PartInfo};
+use crate::film::{AttrValue, Metadata, RenderInfo};
+use crate::render::RenderSettings;
 
 /// What the header of a part needs that the settings do not hold: the scene's content hash,
 /// the camera, the Brume version.
@@ -19,11 +18,13 @@ pub struct PartContext {
 }
 
 impl PartContext {
-    pub fn new(args: &RenderArgs, settings: &RenderSettings) -> Result<Self> {
+    /// The context of a render of `scene` with `settings` through `camera` (a glTF camera's
+    /// name, or the scene's default).
+    pub fn new(scene: &Path, settings: &RenderSettings, camera: Option<&str>) -> Result<Self> {
         Ok(Self {
-            scene: args.scene.display().to_string(),
-            scene_hash: farm::scene_hash(&args.scene)?,
-            settings_key: farm::settings_key(settings, args.camera.as_deref()),
+            scene: scene.display().to_string(),
+            scene_hash: farm::scene_hash(scene)?,
+            settings_key: farm::settings_key(settings, camera),
         })
     }
 
@@ -37,7 +38,7 @@ impl PartContext {
         backend: &str,
         gpu_variant: Option<&str>,
         interrupted: bool,
-        features: brume::render::FeatureFlags,
+        features: crate::render::FeatureFlags,
     ) -> Metadata {
         let info = RenderInfo {
             estimator: settings.estimator.name().to_string(),
@@ -121,7 +122,7 @@ impl PartContext {
             "",
             None,
             false,
-            brume::render::FeatureFlags::ALL,
+            crate::render::FeatureFlags::ALL,
         );
         let mine = PartInfo::from_metadata(Path::new("(this render)"), &here)?;
         mine.check_same_image(Path::new("this render"), &p.info, path)?;

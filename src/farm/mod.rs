@@ -1,10 +1,13 @@
 //! Rendering one image in parts (farm tasks, sample ranges, regions, checkpoints) and putting
 //! it back together: what a part covers ([`coverage`]), what makes parts parts of one image
-//! ([`key`]), a part read back whole ([`part`]) and the merge ([`merge`]).
+//! ([`key`]), a part read back whole ([`part`]), the header a render writes for it
+//! ([`context`]), the merge ([`merge`]) and a render split over a Slurm array ([`slurm`]).
+pub mod context;
 pub mod coverage;
 pub mod key;
 pub mod merge;
 pub mod part;
+pub mod slurm;
 
 pub use coverage::{coalesce, parse_range, parse_region, Coverage};
 pub use key::{scene_hash, settings_key};

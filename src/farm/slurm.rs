@@ -201,10 +201,10 @@ exec {brume} merge {parts} -o {output} --spp {spp}
         dir,
     };
     for (path, text) in [(&files.render, render), (&files.merge, merge)] {
-        brume::film::write_atomically(path, |f| {
+        crate::film::write_atomically(path, |f| {
             use std::io::Write;
             f.write_all(text.as_bytes())
-                .map_err(|e| brume::film::FilmError::Io {
+                .map_err(|e| crate::film::FilmError::Io {
                     action: "write",
                     path: path.clone(),
                     source: e,

@@ -2,13 +2,13 @@
 //! against the same cloud under a constant sky of the map's mean radiance (per-sample time,
 //! target at most 1.3x), and the ablation of the map's importance sampling against uniform
 //! sphere sampling at equal time (RMSE against a long importance-sampled reference).
+use crate::render::envmap::EnvSampling;
+use crate::render::RenderSettings;
 use anyhow::{anyhow, Result};
-use brume::render::envmap::EnvSampling;
-use brume::render::RenderSettings;
 use std::path::Path;
 
 /// Solid-angle mean of the scene's map radiance (`sin(theta)`-weighted pixel mean).
-fn mean_radiance(scene: &brume::scene::Scene) -> [f32; 3] {
+fn mean_radiance(scene: &crate::scene::Scene) -> [f32; 3] {
     let env = &scene.environment;
     let Some(img) = &env.image else {
         return env.radiance;
@@ -27,7 +27,7 @@ fn mean_radiance(scene: &brume::scene::Scene) -> [f32; 3] {
     [0, 1, 2].map(|c| (acc[c] / wsum) as f32 * env.radiance[c])
 }
 
-fn rmse(a: &brume::film::Film, reference: &brume::film::Film) -> f64 {
+fn rmse(a: &crate::film::Film, reference: &crate::film::Film) -> f64 {
     let (pa, pr) = (a.pixels(), reference.pixels());
     let sum: f64 = pa
         .iter()
@@ -38,22 +38,22 @@ fn rmse(a: &brume::film::Film, reference: &brume::film::Film) -> f64 {
 }
 
 /// Prints the per-sample time of the HDR-sky cloud and of the constant-sky cloud, and the
-/// ablation. `render` renders a scene with settings (the bench's `render_once`).
+/// ablation. `render` renders a scene with settings (`backend::cpu::render_scene`).
 pub fn env_map_bench(
     width: u32,
     height: u32,
     spp: u32,
     render: &dyn Fn(
-        &brume::scene::Scene,
+        &crate::scene::Scene,
         &RenderSettings,
-    ) -> Result<brume::backend::cpu::RenderOutput>,
+    ) -> Result<crate::backend::cpu::RenderOutput>,
 ) -> Result<()> {
     let path = Path::new("scenes/cloud_sky.gltf");
-    let sky = brume::scene::load(path)?;
+    let sky = crate::scene::load(path)?;
     if sky.environment.image.is_none() {
         return Err(anyhow!("{}: no environment map", path.display()));
     }
-    let mut constant = brume::scene::load(path)?;
+    let mut constant = crate::scene::load(path)?;
     constant.environment.radiance = mean_radiance(&sky);
     constant.environment.image = None;
     constant.environment.map = None;

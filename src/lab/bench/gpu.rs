@@ -4,16 +4,16 @@
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
+use crate::backend::cpu;
+use crate::backend::gpu::render::{render_with_timings, Stage};
+use crate::backend::gpu::GpuContext;
+use crate::render::{RenderScene, RenderSettings};
 use anyhow::{anyhow, Result};
-use brume::backend::cpu;
-use brume::backend::gpu::render::{render_with_timings, Stage};
-use brume::backend::gpu::GpuContext;
-use brume::render::{RenderScene, RenderSettings};
 
 /// Renders `scene` at `width` x `height` with `spp` samples per pixel on the GPU, then on the
 /// CPU, and prints samples per second for both.
 pub fn run(scene: &Path, width: u32, height: u32, spp: u32) -> Result<()> {
-    let scene = brume::scene::load(scene).map_err(|e| anyhow!("{e}"))?;
+    let scene = crate::scene::load(scene).map_err(|e| anyhow!("{e}"))?;
     let settings = RenderSettings {
         width,
         height,
@@ -42,7 +42,7 @@ pub fn run(scene: &Path, width: u32, height: u32, spp: u32) -> Result<()> {
             }
             // Where the rest goes: the iteration loop (kernels plus a host round trip per
             // iteration), the samples' readback and their merge into the film.
-            let sum = |f: fn(&brume::backend::gpu::render::BatchTimings) -> u64| {
+            let sum = |f: fn(&crate::backend::gpu::render::BatchTimings) -> u64| {
                 t.batches.iter().map(f).sum::<u64>() as f64 * 1e-6
             };
             println!(

@@ -2,10 +2,10 @@
 //! walk can pass, and the adaptive hierarchy's build on a 1024^3-voxel grid.
 use std::path::PathBuf;
 
+use crate::volume::check::SplitMix64;
 use anyhow::Result;
-use brume::volume::check::SplitMix64;
 
-use super::bench::render_once;
+use crate::backend::cpu;
 
 /// The majorant-mode table's rounds: how many, and the seed of the first.
 #[derive(Clone, Copy)]
@@ -49,7 +49,7 @@ pub fn majorant_modes(
     spp: u32,
     rounds: Rounds,
 ) -> Result<()> {
-    use brume::render::{Estimator, MajorantMode, RenderSettings};
+    use crate::render::{Estimator, MajorantMode, RenderSettings};
     let Rounds { runs, first_seed } = rounds;
     println!();
     println!(
@@ -63,7 +63,7 @@ pub fn majorant_modes(
     let mut outlier_scenes: Vec<String> = Vec::new();
     let mut floors: Vec<Floor> = Vec::new();
     for path in scenes {
-        let mut scene = brume::scene::load(path)?;
+        let mut scene = crate::scene::load(path)?;
         if scene.vdb_media.is_empty() {
             continue;
         }
@@ -88,7 +88,7 @@ pub fn majorant_modes(
                 let seed = first_seed.wrapping_add(round as u32);
                 for (k, s) in settings.iter().enumerate() {
                     let s = RenderSettings { seed, ..s.clone() };
-                    modes[k].push(render_once(&scene, &s)?);
+                    modes[k].push(cpu::render_scene(&scene, &s).map_err(anyhow::Error::msg)?);
                 }
                 if let Some(scales) = &floor_scales {
                     let s = RenderSettings {
@@ -223,7 +223,7 @@ const FLOOR_DENSITY_FACTOR: f32 = 1e-6;
 /// Every VDB medium's `densityScale` made transparent ([`FLOOR_DENSITY_FACTOR`]), for the
 /// floor rows; `None` when one of the media emits, as its walks must still sample the
 /// emission, so a transparent copy would not bound their work.
-fn transparent_scales(scene: &brume::scene::Scene) -> Option<Vec<f32>> {
+fn transparent_scales(scene: &crate::scene::Scene) -> Option<Vec<f32>> {
     if scene.vdb_media.iter().any(|m| m.emits()) {
         return None;
     }
@@ -239,27 +239,27 @@ fn transparent_scales(scene: &brume::scene::Scene) -> Option<Vec<f32>> {
 /// Renders `scene` with its VDB media's `densityScale`s swapped for `scales`, then swaps them
 /// back: the floor renders the loaded scene instead of reading its grids a second time.
 fn render_with_scales(
-    scene: &mut brume::scene::Scene,
+    scene: &mut crate::scene::Scene,
     scales: &[f32],
-    settings: &brume::render::RenderSettings,
-) -> Result<brume::backend::cpu::RenderOutput> {
-    let swap = |scene: &mut brume::scene::Scene, scales: &mut Vec<f32>| {
+    settings: &crate::render::RenderSettings,
+) -> Result<crate::backend::cpu::RenderOutput> {
+    let swap = |scene: &mut crate::scene::Scene, scales: &mut Vec<f32>| {
         for (m, s) in scene.vdb_media.iter_mut().zip(scales.iter_mut()) {
             std::mem::swap(&mut m.density_scale, s);
         }
     };
     let mut scales = scales.to_vec();
     swap(scene, &mut scales);
-    let out = render_once(scene, settings);
+    let out = cpu::render_scene(scene, settings).map_err(anyhow::Error::msg);
     swap(scene, &mut scales);
     out
 }
 
 /// The walks each VDB medium's adaptive hierarchy takes (`VdbMedium::walk_mode`, and in
 /// brackets its shadow rays' where they differ), joined by `+`.
-fn adaptive_walk_names(scene: &brume::scene::Scene) -> Result<String> {
-    use brume::render::MajorantMode;
-    let rs = brume::render::RenderScene::new(scene, false).map_err(|e| anyhow::anyhow!(e))?;
+fn adaptive_walk_names(scene: &crate::scene::Scene) -> Result<String> {
+    use crate::render::MajorantMode;
+    let rs = crate::render::RenderScene::new(scene, false).map_err(|e| anyhow::anyhow!(e))?;
     Ok(rs
         .vdb
         .iter()
@@ -288,7 +288,7 @@ struct Timed {
     seconds: Vec<f64>,
     /// Every round's pixel means (seeds `first_seed`, `first_seed + 1`, ...).
     images: Vec<Vec<[f32; 3]>>,
-    last: Option<brume::backend::cpu::RenderOutput>,
+    last: Option<crate::backend::cpu::RenderOutput>,
 }
 
 impl Timed {
@@ -301,7 +301,7 @@ impl Timed {
         }
     }
 
-    fn push(&mut self, out: brume::backend::cpu::RenderOutput) {
+    fn push(&mut self, out: crate::backend::cpu::RenderOutput) {
         self.best = self.best.min(out.seconds);
         self.seconds.push(out.seconds);
         self.images.push(film_means(&out.film));
@@ -309,9 +309,9 @@ impl Timed {
     }
 
     /// The per-pixel variance over the rounds' seeds (`None` under two rounds).
-    fn variance(&self) -> Option<brume::study::stats::SeedVariance> {
+    fn variance(&self) -> Option<crate::study::stats::SeedVariance> {
         let views: Vec<&[[f32; 3]]> = self.images.iter().map(|v| v.as_slice()).collect();
-        brume::study::stats::seed_variance_profile(&views, brume::study::stats::TOP_FRACTION).ok()
+        crate::study::stats::seed_variance_profile(&views, crate::study::stats::TOP_FRACTION).ok()
     }
 
     /// `global`'s time over this row's within each round: lowest, median and highest.
@@ -337,13 +337,13 @@ fn print_row(
     label: (&str, &str, &str, &str),
     row: &Timed,
     global: &Timed,
-    efficiency: Option<(brume::study::stats::SeedVariance, f64)>,
+    efficiency: Option<(crate::study::stats::SeedVariance, f64)>,
 ) {
     let (scene, estimator, bounds, walk) = label;
     let t = row
         .last
         .as_ref()
-        .map(|o| brume::film::totals(&o.records))
+        .map(|o| crate::film::totals(&o.records))
         .unwrap_or_default();
     let n = t.samples.max(1) as f64;
     let ns = 1e9 * row.best / n;
@@ -399,7 +399,7 @@ fn median(v: &[f64]) -> f64 {
 }
 
 /// The film's pixel means, row-major.
-fn film_means(film: &brume::film::Film) -> Vec<[f32; 3]> {
+fn film_means(film: &crate::film::Film) -> Vec<[f32; 3]> {
     (0..film.height())
         .flat_map(|y| (0..film.width()).map(move |x| film.mean(x, y)))
         .collect()
@@ -408,7 +408,7 @@ fn film_means(film: &brume::film::Film) -> Vec<[f32; 3]> {
 /// Build time and memory of the adaptive hierarchy for a 1024^3-voxel grid (128^3 leaf
 /// cells of random bounds: the build reads only the per-leaf bounds).
 pub fn adaptive_build() -> Result<()> {
-    use brume::volume::{AdaptiveMajorants, CellBounds, CostModel, LeafBounds};
+    use crate::volume::{AdaptiveMajorants, CellBounds, CostModel, LeafBounds};
     let n = 128u32;
     let mut rng = SplitMix64(1024);
     let cells: Vec<CellBounds> = (0..n * n * n)

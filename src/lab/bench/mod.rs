@@ -1,14 +1,21 @@
 //! `brume bench`: figures for the speed targets. Benchmarks print; they never assert.
+pub mod env;
+pub mod gpu;
+pub mod majorants;
+pub mod peers;
+pub mod walk;
+
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::backend::cpu;
+use crate::volume::check::SplitMix64;
+use crate::volume::{load_grid, ConversionPolicy};
 use anyhow::Result;
-use brume::volume::check::SplitMix64;
-use brume::volume::{load_grid, ConversionPolicy};
 
-use super::bench_majorants::{adaptive_build, majorant_modes, Rounds};
 use brume_ffi::{ReadOptions, SampleOrder, VdbFile};
 use clap::Subcommand;
+use majorants::{adaptive_build, majorant_modes, Rounds};
 
 #[derive(Subcommand)]
 pub enum Which {
@@ -86,7 +93,7 @@ pub enum Which {
     /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
     /// not installed): render time, per-pixel variance from two seeds, efficiency
     /// 1 / (time x variance), the ratios, and the image mean against Mitsuba's with its z-score.
-    Peers(super::bench_peers::PeersArgs),
+    Peers(peers::PeersArgs),
 }
 
 pub fn run(which: Which) -> Result<()> {
@@ -120,7 +127,14 @@ pub fn run(which: Which) -> Result<()> {
             if !env_only {
                 render_bench(scenes, spp, width, height, cloud_size, cloud_spp, rounds)?;
             }
-            super::bench_env::env_map_bench(width, height, env_spp, &render_once)
+            env::env_map_bench(
+                width,
+                height,
+                env_spp,
+                &|sc: &crate::scene::Scene, st: &crate::render::RenderSettings| {
+                    cpu::render_scene(sc, st).map_err(anyhow::Error::msg)
+                },
+            )
         }
         Which::Lookups {
             files,
@@ -128,14 +142,14 @@ pub fn run(which: Which) -> Result<()> {
             points,
             runs,
         } => lookups(files, &grid, points, runs),
-        Which::Walk { files, grid } => super::bench_walk::run(files, &grid),
+        Which::Walk { files, grid } => walk::run(files, &grid),
         Which::Gpu {
             scene,
             width,
             height,
             spp,
-        } => super::bench_gpu::run(&scene, width, height, spp),
-        Which::Peers(args) => super::bench_peers::run(&args),
+        } => gpu::run(&scene, width, height, spp),
+        Which::Peers(args) => peers::run(&args),
     }
 }
 
@@ -234,23 +248,8 @@ fn lookups(files: Vec<PathBuf>, grid_name: &str, n: usize, runs: usize) -> Resul
     Ok(())
 }
 
-pub(super) fn render_once(
-    scene: &brume::scene::Scene,
-    settings: &brume::render::RenderSettings,
-) -> Result<brume::backend::cpu::RenderOutput> {
-    let mut rs = brume::render::RenderScene::new(scene, settings.force_spectral)
-        .map_err(|e| anyhow::anyhow!(e))?;
-    rs.lights.set_env_sampling(settings.env_sampling);
-    Ok(brume::backend::cpu::render(
-        &rs,
-        settings,
-        &std::sync::atomic::AtomicBool::new(false),
-        &|_, _, _| {},
-    ))
-}
-
 /// Largest per-pixel z-score between two renders of the same scene (independent or not).
-fn worst_z(a: &brume::film::Film, b: &brume::film::Film) -> f64 {
+fn worst_z(a: &crate::film::Film, b: &crate::film::Film) -> f64 {
     let mut worst = 0f64;
     for y in 0..a.height() {
         for x in 0..a.width() {
@@ -287,7 +286,7 @@ fn render_bench(
     cloud_spp: u32,
     rounds: Rounds,
 ) -> Result<()> {
-    use brume::render::{Estimator, MajorantMode, RenderSettings};
+    use crate::render::{Estimator, MajorantMode, RenderSettings};
     let scenes = if scenes.is_empty() {
         example_scenes()?
     } else {
@@ -302,7 +301,7 @@ fn render_bench(
         "scene", "features", "spec. S/s", "generic S/s", "speedup"
     );
     for path in &scenes {
-        let scene = brume::scene::load(path)?;
+        let scene = crate::scene::load(path)?;
         let base = RenderSettings {
             width,
             height,
@@ -310,21 +309,23 @@ fn render_bench(
             ..RenderSettings::default()
         };
         // Warm caches and the thread pool once, then time each variant.
-        render_once(
+        cpu::render_scene(
             &scene,
             &RenderSettings {
                 spp: 1,
                 ..base.clone()
             },
-        )?;
-        let special = render_once(&scene, &base)?;
-        let generic = render_once(
+        )
+        .map_err(anyhow::Error::msg)?;
+        let special = cpu::render_scene(&scene, &base).map_err(anyhow::Error::msg)?;
+        let generic = cpu::render_scene(
             &scene,
             &RenderSettings {
                 generic: true,
                 ..base.clone()
             },
-        )?;
+        )
+        .map_err(anyhow::Error::msg)?;
         let samples = (width * height * spp) as f64;
         let z = worst_z(&special.film, &generic.film);
         println!(
@@ -341,7 +342,7 @@ fn render_bench(
             }
         );
     }
-    let cloud = brume::scene::load(std::path::Path::new("scenes/cloud.gltf"))?;
+    let cloud = crate::scene::load(std::path::Path::new("scenes/cloud.gltf"))?;
     println!();
     println!("estimators on scenes/cloud.gltf ({cloud_size}x{cloud_size}, {cloud_spp} spp)");
     println!(
@@ -359,8 +360,8 @@ fn render_bench(
                 majorant,
                 ..RenderSettings::default()
             };
-            let out = render_once(&cloud, &s)?;
-            let t = brume::film::totals(&out.records);
+            let out = cpu::render_scene(&cloud, &s).map_err(anyhow::Error::msg)?;
+            let t = crate::film::totals(&out.records);
             let samples = t.samples as f64;
             let lookups = t.density_lookups as f64 / samples;
             if estimator == Estimator::Delta {

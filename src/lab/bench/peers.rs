@@ -22,8 +22,8 @@ use std::process::Command;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
-use brume::film::{read_exr, write_image, AttrValue, Image, Metadata};
-use brume::study::stats::{self, ImageMean};
+use crate::film::{read_exr, write_image, AttrValue, Image, Metadata};
+use crate::study::stats::{self, ImageMean};
 
 const RENDERERS: [&str; 13] = [
     "brume",
@@ -44,8 +44,8 @@ const RENDERERS: [&str; 13] = [
 /// Brume's variants for ablations: each changes one default (`brume-baseline` changes five
 /// at once: absorption events, per-leaf majorants, independent samples, no early roulette,
 /// uniform light selection).
-fn brume_variant(name: &str, s: &mut brume::render::RenderSettings) -> bool {
-    use brume::render::{Absorption, MajorantMode, SamplerKind};
+fn brume_variant(name: &str, s: &mut crate::render::RenderSettings) -> bool {
+    use crate::render::{Absorption, MajorantMode, SamplerKind};
     match name {
         "brume" => {}
         "brume-baseline" => {
@@ -53,7 +53,7 @@ fn brume_variant(name: &str, s: &mut brume::render::RenderSettings) -> bool {
             s.rr_throughput = 0.0;
             s.majorant = MajorantMode::Leaf;
             s.sampler = SamplerKind::Independent;
-            s.light_selection = brume::render::LightSelection::Uniform;
+            s.light_selection = crate::render::LightSelection::Uniform;
         }
         "brume-event" => s.absorption = Absorption::Event,
         "brume-no-rr-guard" => s.rr_throughput = 0.0,
@@ -61,12 +61,12 @@ fn brume_variant(name: &str, s: &mut brume::render::RenderSettings) -> bool {
         "brume-global" => s.majorant = MajorantMode::Global,
         "brume-independent" => s.sampler = SamplerKind::Independent,
         "brume-spectral" => s.force_spectral = true,
-        "brume-decomposition" => s.estimator = brume::render::Estimator::Decomposition,
+        "brume-decomposition" => s.estimator = crate::render::Estimator::Decomposition,
         "brume-uniform-lights" => {
-            s.light_selection = brume::render::LightSelection::Uniform;
+            s.light_selection = crate::render::LightSelection::Uniform;
         }
         "brume-sky-every-event" => {
-            s.light_selection = brume::render::LightSelection::GuidedFullSky;
+            s.light_selection = crate::render::LightSelection::GuidedFullSky;
         }
         _ => return false,
     }
@@ -288,8 +288,8 @@ fn brume_renders(
     args: &PeersArgs,
     name: &'static str,
 ) -> Result<Outcome> {
-    use brume::render::{Estimator, MajorantMode, RenderScene, RenderSettings};
-    let scene = brume::scene::load(scene_path)?;
+    use crate::render::{Estimator, MajorantMode, RenderScene, RenderSettings};
+    let scene = crate::scene::load(scene_path)?;
     scene
         .validate()
         .map_err(|e| anyhow!("{}: {e}", scene_path.display()))?;
@@ -323,7 +323,7 @@ fn brume_renders(
             ..base.clone()
         };
         let out = pool.install(|| {
-            brume::backend::cpu::render(
+            crate::backend::cpu::render(
                 &rs,
                 &s,
                 &std::sync::atomic::AtomicBool::new(false),

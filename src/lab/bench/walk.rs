@@ -6,13 +6,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Result;
-use brume::math::Ray;
-use brume::volume::check::SplitMix64;
-use brume::volume::{
+use crate::math::Ray;
+use crate::volume::check::SplitMix64;
+use crate::volume::{
     load_grid, AdaptiveMajorantIterator, AdaptiveMajorants, ConversionPolicy, CostModel,
     DdaMajorantIterator,
 };
+use anyhow::Result;
 use glam::DVec3;
 
 /// Rays per grid and walk.
@@ -83,7 +83,7 @@ pub fn run(files: Vec<PathBuf>, grid_name: &str) -> Result<()> {
             })
             .collect();
         let tree = AdaptiveMajorants::build(&g.bounds, 1.0, 1.0, CostModel::DEFAULT);
-        let walk = |it: &mut dyn Iterator<Item = brume::volume::MajorantSegment>| {
+        let walk = |it: &mut dyn Iterator<Item = crate::volume::MajorantSegment>| {
             it.fold((0u64, 0f32), |(n, a), s| {
                 (n + 1, a + s.sigma_maj * (s.t_max - s.t_min))
             })

@@ -13,9 +13,9 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use brume::film::{read_exr, write_image, AttrValue, Metadata};
+use crate::film::{read_exr, write_image, AttrValue, Metadata};
 
-use super::reference::{
+use super::{
     compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
     ReferenceRun,
 };

@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use super::cycles::find_bpy_python;
-use super::reference::{find_script, output_tail};
+use super::{find_script, output_tail};
 
 #[derive(Args, Debug)]
 pub struct ImportBlendArgs {
@@ -111,7 +111,7 @@ pub fn run(args: &ImportBlendArgs) -> Result<()> {
             reasons.join("\n  ")
         );
     }
-    let scene = brume::scene::load(&args.output).with_context(|| {
+    let scene = crate::scene::load(&args.output).with_context(|| {
         format!(
             "{} was written but Brume cannot read it",
             args.output.display()

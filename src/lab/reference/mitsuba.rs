@@ -4,7 +4,7 @@
 //! Unlike `brume cycles`, whose script re-reads the glTF with Blender's importer, this command
 //! loads the scene with Brume's own loader and hands Mitsuba what Brume renders: each VDB
 //! medium's density as a `.vol` grid written from Brume's converted grid
-//! (`brume::volume::mitsuba_vol`, voxel-centre aligned), the meshes as world-space PLY files,
+//! (`crate::volume::mitsuba_vol`, voxel-centre aligned), the meshes as world-space PLY files,
 //! and a JSON description of camera, lights, environment and materials with Brume's mappings
 //! (Principled Volume coefficients, light units) already applied. `tools/mitsuba/
 //! brume_to_mitsuba.py` only builds Mitsuba's scene dictionary from it and renders `--runs`
@@ -18,14 +18,14 @@ use clap::Args;
 use glam::{Mat4, Vec3};
 use serde_json::{json, Value};
 
-use brume::film::{read_exr, write_image, AttrValue, Metadata};
-use brume::integrator::bsdf::Principled;
-use brume::render::settings::DEFAULT_MAX_DEPTH;
-use brume::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
-use brume::scene::{BoundsSource, Scene, NO_INDEX};
-use brume::volume::mitsuba_vol::vol_from_grid;
+use crate::film::{read_exr, write_image, AttrValue, Metadata};
+use crate::integrator::bsdf::Principled;
+use crate::render::settings::DEFAULT_MAX_DEPTH;
+use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+use crate::scene::{BoundsSource, Scene, NO_INDEX};
+use crate::volume::mitsuba_vol::vol_from_grid;
 
-use super::reference::{
+use super::{
     compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
     ReferenceRun,
 };
@@ -76,7 +76,7 @@ pub fn run(args: &MitsubaArgs) -> Result<()> {
     let script = script_path()?;
     let started = Instant::now();
     // Scene errors already name the file and the JSON pointer.
-    let scene = brume::scene::load(&args.run.scene)?;
+    let scene = crate::scene::load(&args.run.scene)?;
     let dir = match &args.keep {
         Some(d) => d.clone(),
         None => std::env::temp_dir().join(format!("brume-mitsuba-{}", std::process::id())),
@@ -322,7 +322,7 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         }
         if mat.emission.iter().any(|&e| e > 0.0) {
             m["emission"] = json!(mat.emission);
-            if mat.flags & brume::scene::material::MATERIAL_DOUBLE_SIDED != 0 {
+            if mat.flags & crate::scene::material::MATERIAL_DOUBLE_SIDED != 0 {
                 notes.push(format!(
                     "{name}: double-sided emission is mapped to Mitsuba's one-sided area light"
                 ));
@@ -374,7 +374,7 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
 
 /// Writes instance `inst`'s world-space triangles as a binary PLY; returns whether it has
 /// shading normals (all vertices with a non-zero normal).
-fn write_ply(scene: &Scene, inst: &brume::scene::Instance, path: &Path) -> Result<bool> {
+fn write_ply(scene: &Scene, inst: &crate::scene::Instance, path: &Path) -> Result<bool> {
     use std::collections::HashMap;
     use std::io::Write;
     let tris = &scene.triangles[inst.first_triangle as usize..][..inst.triangle_count as usize];

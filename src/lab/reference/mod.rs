@@ -3,14 +3,18 @@
 //! runs, samples), reading the per-run report of their Python scripts, and the agreement
 //! summary printed by `--against` (image mean relative difference and an 8x8 block z-test,
 //! docs/comparing.md).
+pub mod cycles;
+pub mod import_blend;
+pub mod mitsuba;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
-use brume::film::{read_exr, Image, Metadata};
-use brume::study::stats::erfc;
+use crate::film::{read_exr, Image, Metadata};
+use crate::study::stats::erfc;
 
 /// One finished run reported by a translation script: a line
 /// `render_seconds <run> <seconds> <exr path>` on its stdout.

@@ -1,0 +1,6 @@
+//! The lab: what Brume is measured and checked with, beside rendering. Benchmarks of the
+//! estimators, majorants, walks, the GPU and the peers (`brume bench`, [`bench`]), and the
+//! reference renderers: driving Cycles and Mitsuba 3 on a Brume scene, translating the scene
+//! for them, importing a `.blend`, and comparing their images with Brume's ([`reference`]).
+pub mod bench;
+pub mod reference;
