@@ -51,19 +51,32 @@ def expand(tree):
 
 
 def strip_comments(text):
+    # Unit tests (an inline `mod tests` at the end of a file) are not part of the graph, and
+    # `super` inside them names the file's own module.
+    m = re.search(r"#\[cfg\(test\)\]\s*(pub\s+)?mod\s+\w+\s*\{", text)
+    if m:
+        text = text[: m.start()]
     text = re.sub(r"//[^\n]*", "", text)
     return re.sub(r"/\*.*?\*/", "", text, flags=re.S)
 
 
-def references(path, mod):
+def references(path, mod, children=()):
     """Absolute module paths (lists) that the file at `path` (module `mod`) names."""
     text = strip_comments(open(path).read())
     paths = []
-    for m in re.finditer(r"\buse\s+([^;]+);", text):
-        paths += expand(m.group(1))
+    for m in re.finditer(r"(\bpub(?:\([\w:]+\))?\s+)?\buse\s+([^;]+);", text):
+        tree = expand(m.group(2))
+        if m.group(1) and children:
+            # A parent's `pub use child::Item` is its facade, not a use of the child.
+            tree = [t for t in tree if t.split("::")[0] not in children]
+        paths += tree
+    text = re.sub(r"\bpub(?:\([\w:]+\))?\s+use\s+[^;]+;", "", text) if children else text
     paths += re.findall(r"\b((?:crate|super|brume)(?:::\w+)+)", text)
     # A file's own module is `mod`; `super` is its parent (for mod.rs files, the
     # module itself is the directory, so super is one up from that).
+    # Paths relative to the file's own module: its children (`child::item`).
+    for child in children:
+        paths += re.findall(r"(?<![\w:])(" + child + r"(?:::\w+)+)", text)
     out = []
     for p in paths:
         segs = [s for s in p.split("::") if s]
@@ -71,6 +84,8 @@ def references(path, mod):
             continue
         if segs[0] in ("crate", "brume"):
             out.append(segs[1:])
+        elif segs[0] in children:
+            out.append(list(mod) + segs)
         elif segs[0] in ("super", "self"):
             base = list(mod)
             while segs and segs[0] in ("super", "self"):
@@ -140,18 +155,20 @@ def main():
     for mod, path in mods.items():
         if not mod:
             continue
-        for ref in references(path, list(mod)):
+        children = [m[-1] for m in mods if len(m) == len(mod) + 1 and m[:-1] == mod]
+        if not os.path.basename(path) == "mod.rs":
+            children = []
+        for ref in references(path, list(mod), children):
             target = resolve(ref, mods)
             if target is None or target == mod or not target:
                 continue
             if target[0] != mod[0]:
                 top_edges.setdefault(mod[0], {}).setdefault(target[0], set()).add(
                     "/".join(os.path.relpath(path, SRC).split(os.sep)))
-            elif len(target) > 1 and target != mod[: len(target)]:
-                # A file using a sibling file of its own top-level module (a child using
-                # its parent's mod.rs is not a cycle-maker worth naming).
-                if mod[: len(target)] != target:
-                    file_edges.setdefault(mod, set()).add(target)
+            elif len(target) > 1:
+                # A file using another file of its own top-level module (a parent's mod.rs
+                # included: a child and its parent using each other is a cycle too).
+                file_edges.setdefault(mod, set()).add(target)
     tops = sorted({m[0] for m in mods if m})
     comps = sccs(tops, {k: set(v) for k, v in top_edges.items()})
     comp_of = {v: i for i, c in enumerate(comps) for v in c}
