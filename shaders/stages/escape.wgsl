@@ -1,4 +1,4 @@
-// Mirrors the no-hit branch of radiance (src/integrator/path.rs): Stage::Escape. A ray that
+// Mirrors escape (src/integrator/path.rs): Stage::Escape. A ray that
 // leaves the scene gathers the environment, MIS-weighted against light sampling
 // (Lights::pdf_environment, or the guided selection's: escape_mis) unless its direction came
 // from a delta distribution; the path ends.

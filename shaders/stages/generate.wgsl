@@ -1,5 +1,5 @@
-// Mirrors the sample loop of render_tile (src/integrator/tile.rs) and the start of
-// radiance (src/integrator/path.rs): Stage::Generate. For each free slot (the done queue of the
+// Mirrors the sample loop of render_tile (src/integrator/tile.rs) and generate
+// (src/integrator/path.rs): Stage::Generate. For each free slot (the done queue of the
 // previous iteration; every slot in the first), take the next camera sample of the batch, open
 // its stream Rng::new(pixel, sample, seed), jitter (sampler block DIM_JITTER), Camera::generate_ray and Camera::t_min
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to

@@ -1,5 +1,5 @@
-// Mirrors the closest-hit query at the top of radiance's loop (src/integrator/path.rs,
-// `scene.bvh.closest_hit(&ray, t0, inf)`): Stage::Intersect. Each path waiting in the medium
+// Mirrors intersect (src/integrator/path.rs, `scene.bvh.closest_hit(&ray, t0, inf)`):
+// Stage::Intersect. Each path waiting in the medium
 // queue records the first surface its ray meets (GpuPathState::hit_*); the medium stage that
 // reads the same queue next tracks the media up to that hit. No random numbers are drawn.
 

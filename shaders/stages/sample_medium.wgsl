@@ -1,5 +1,5 @@
-// Mirrors sample_media (src/integrator/path.rs), sample_vdb and sample_homogeneous
-// (src/integrator/media.rs): Stage::SampleMedium. (The mixture variant: sample_media_mix,
+// Mirrors sample_medium (src/integrator/path.rs), media_flight (src/integrator/flight.rs) and
+// sample_vdb (src/integrator/media.rs): Stage::SampleMedium. (The mixture variant: sample_media_mix,
 // mixture.wgsl.) The free flight along the path's ray up to
 // the surface it hits (or to infinity): through the homogeneous medium the path is in
 // (closed form, media.wgsl), else through the VDB medium it crosses with the configured

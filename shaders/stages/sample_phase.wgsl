@@ -1,5 +1,4 @@
-// Mirrors the second half of radiance's two scattering arms (src/integrator/path.rs) and
-// russian_roulette: Stage::SamplePhase, the next direction once the shadow stage has drawn
+// Mirrors sample_phase (src/integrator/path.rs) and russian_roulette: Stage::SamplePhase, the next direction once the shadow stage has drawn
 // its numbers from the same stream. In a medium: HenyeyGreenstein::sample with the g of the
 // medium the path is in. At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
 // shading frame of the hit, the path ending when it fails or points below the surface. Then

@@ -1,5 +1,4 @@
-// Mirrors the medium-scattering arm of radiance (src/integrator/path.rs), its first half:
-// Stage::ScatterMedium. Count the event and apply the depth limit, then next-event estimation:
+// Mirrors scatter_medium (src/integrator/path.rs): Stage::ScatterMedium. Count the event and apply the depth limit, then next-event estimation:
 // Lights::sample (or, guided, Lights::sample_selected) at the scattering point with the
 // sampler's light-selection and light blocks of this bounce (or the path's next three
 // uniforms), the phase

@@ -1,4 +1,4 @@
-// Mirrors the surface half of radiance's loop (src/integrator/path.rs): Stage::ShadeSurface.
+// Mirrors shade_surface (src/integrator/path.rs): Stage::ShadeSurface.
 // At the surface its ray hit (GpuPathState::hit_*): the surface's emission, MIS-weighted
 // against light sampling (Lights::pdf_area) unless the direction came from a delta
 // distribution; then by the material's kind

@@ -1,5 +1,6 @@
-// Mirrors transmittance (src/integrator/path.rs), transmittance_vdb and
-// transmittance_homogeneous (src/integrator/media.rs): Stage::TraceShadow. The shadow ray
+// Mirrors trace_shadow (src/integrator/next_event.rs), transmittance_vdb
+// (src/integrator/media.rs) and transmittance_homogeneous (src/integrator/homogeneous.rs):
+// Stage::TraceShadow. The shadow ray
 // walks from surface to surface (bvh_closest_hit): each stretch is attenuated by the
 // homogeneous medium it lies in (exactly), or by the VDB medium it crosses with ratio or
 // residual ratio tracking (Novak et al. 2014) for a grey medium and spectral tracking's

@@ -51,7 +51,7 @@
 //! flights leave (chromatic extinction around emitting media, absorption events).
 //!
 //! Shadow rays need none of this: the transmittance of a sum is the product of
-//! transmittances, so `path::transmittance` multiplies independent per-medium estimates
+//! transmittances, so `next_event::trace_shadow` multiplies independent per-medium estimates
 //! (unbiased, and cheaper than tracking the sum: medium `k` is looked up at its own rate).
 use std::cell::Cell;
 

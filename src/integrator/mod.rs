@@ -3,10 +3,12 @@
 //! the media ([`media`], [`homogeneous`], [`mixture`], [`nested`], [`views`]) and its BSDFs
 //! ([`bsdf`]). What it renders, the prepared scene and settings, is `crate::render`.
 pub mod bsdf;
+pub mod flight;
 pub mod homogeneous;
 pub mod media;
 pub mod mixture;
 pub mod nested;
+pub mod next_event;
 pub mod path;
 pub mod tile;
 pub mod views;

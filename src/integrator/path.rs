@@ -5,20 +5,18 @@
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
-use super::homogeneous::{sample_homogeneous, transmittance_homogeneous};
-use super::media::{sample_vdb_in_turn, transmittance_vdb, Flight, MediumEvent};
-use super::mixture::{sample_mixture, VdbSpan};
-use super::nested::{nested_applies, sample_nested};
+use super::flight::media_flight;
+use super::media::{Flight, MediumEvent};
+use super::next_event::{next_event, EnvChoice, Vertex};
+use crate::accel::Hit;
 use crate::math::Ray;
 use crate::render::lights::{emitted, power_heuristic};
 use crate::render::media::{MediaStats, TrackingConfig};
 use crate::render::prepare::{RenderScene, SurfaceKind};
 use crate::render::stack::MediumStack;
-use crate::sampling::sobol::{
-    bounce_dim, DIM_DISTANCE, DIM_LIGHT, DIM_LIGHT_SELECT, DIM_LOBE, DIM_RR, DIM_SCATTER,
-};
+use crate::sampling::sobol::{bounce_dim, DIM_DISTANCE, DIM_LOBE, DIM_RR, DIM_SCATTER};
 use crate::sampling::warp::Frame;
-use crate::sampling::{Decision, Rng, Sampler};
+use crate::sampling::{Decision, Sampler};
 use crate::volume::phase::HenyeyGreenstein;
 
 /// Limits of one path.
@@ -60,302 +58,70 @@ fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
     }
 }
 
-/// VDB media along one ray kept without allocating. Small on purpose: the spans are built,
-/// zeroed and moved for every flight and shadow ray (with 16 that was 256 bytes a time, a few
-/// percent of a sample), and scenes rarely cross more than a few media on one ray.
-const INLINE_SPANS: usize = 4;
-
-/// The VDB media along a ray: `(medium, t_min, t_max)` sorted by `t_min`; up to
-/// [`INLINE_SPANS`] inline (no allocation on the hot path), any number on the heap. (The size
-/// difference is the point: the inline variant lives on the stack of one flight.)
-#[allow(clippy::large_enum_variant)]
-enum Spans<'a> {
-    Inline([VdbSpan<'a>; INLINE_SPANS], usize),
-    Heap(Vec<VdbSpan<'a>>),
-}
-
-impl<'a> std::ops::Deref for Spans<'a> {
-    type Target = [VdbSpan<'a>];
-    fn deref(&self) -> &Self::Target {
-        match self {
-            Spans::Inline(a, n) => &a[..*n],
-            Spans::Heap(v) => v,
-        }
-    }
-}
-
-/// The intervals of every VDB medium whose bounds `ray` crosses within `[t0, t1]`, with the
-/// medium, sorted by start (disjoint unless media overlap).
-fn vdb_intervals<'a>(rs: &'a RenderScene, ray: &Ray, t0: f32, t1: f32) -> Spans<'a> {
-    // `1 / d` once for every medium (`intersect_inv` is `intersect` bit for bit).
-    let inv_d = [0, 1, 2].map(|a| 1.0 / ray.d[a]);
-    let mut hits = rs.vdb.iter().filter_map(|m| {
-        let (a, b) = m.world_bounds.intersect_inv(ray.o, inv_d, t0, t1)?;
-        // NaN ends are skipped too.
-        (b > a).then_some((m, a, b))
-    });
-    // Most rays of a scene miss its media (nine in ten of the smoke tank's): an empty `Vec`
-    // costs nothing to build or return, where filling the inline slots cost a fifth of the
-    // call (callgrind).
-    let Some(first) = hits.next() else {
-        return Spans::Heap(Vec::new());
-    };
-    let mut out = Spans::Inline([first; INLINE_SPANS], 1);
-    for span in hits {
-        match &mut out {
-            Spans::Inline(arr, n) if *n < arr.len() => {
-                arr[*n] = span;
-                *n += 1;
-            }
-            Spans::Inline(arr, n) => {
-                let mut v = arr[..*n].to_vec();
-                v.push(span);
-                out = Spans::Heap(v);
-            }
-            Spans::Heap(v) => v.push(span),
-        }
-    }
-    match &mut out {
-        Spans::Inline(arr, n) if *n > 1 => arr[..*n].sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
-        Spans::Inline(..) => {}
-        Spans::Heap(v) => v.sort_unstable_by(|x, y| x.1.total_cmp(&y.1)),
-    }
-    out
-}
-
-/// Whether sorted intervals overlap one another.
-fn intervals_overlap(iv: &[VdbSpan]) -> bool {
-    iv.windows(2).any(|w| w[1].1 < w[0].2)
-}
-
-/// The free flight along `ray` over `[t0, t1]` through whatever media lie there: the
-/// homogeneous medium the path is in, the VDB media the ray crosses, or, with `MIX` (a scene
-/// with overlapping or nested media), VDB media side by side inside the homogeneous medium by
-/// its closed-form flight cutting theirs short (`nested`), else their sum where they overlap
-/// (`mixture`).
-#[inline]
-fn sample_media<
-    const HET: bool,
-    const HOM: bool,
-    const EMIT: bool,
-    const ABS: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
-    rs: &RenderScene,
-    ray: &Ray,
+/// One path between stages: the ray and where its next flight starts, the medium stack, the
+/// throughput, the radiance gathered so far, and what the MIS weights of emission and of the
+/// escape need of the last event (the CPU's `GpuPathState`).
+struct PathState {
+    ray: Ray,
     t0: f32,
-    t1: f32,
-    medium: Option<u32>,
-    beta: Vec3,
-    f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
-    let cfg = f.cfg;
-    // The VDB spans, found once: the mixture test's are the flights' in turn below.
-    let mut spans = None;
-    if MIX && HET {
-        let iv = spans.insert(vdb_intervals(rs, ray, t0, t1));
-        let n = iv.len();
-        let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
-        let overlap = intervals_overlap(iv);
-        if (hom.is_some() && n > 0) || overlap {
-            // VDB media side by side inside the homogeneous one: its closed-form flight cuts
-            // theirs short (`nested`); overlapping VDB media need the merged sum.
-            if let Some(h) = hom.filter(|h| !overlap && nested_applies(iv, h, cfg.absorption)) {
-                return sample_nested::<EMIT, ABS, CHROM>(iv, h, ray, t0, t1, beta, f);
-            }
-            return sample_mixture::<EMIT, ABS, CHROM>(iv, hom, ray, t0, t1, beta, f);
-        }
-    }
-    if HOM {
-        if let Some(h) = medium {
-            let h = &rs.homogeneous[h as usize];
-            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, cfg.absorption, f.rng) {
-                MediumEvent::Scatter { t, weight } => MediumEvent::Scatter { t: t0 + t, weight },
-                other => other,
-            };
-            return (ev, h.phase);
-        }
-    }
-    if HET {
-        let spans = spans.unwrap_or_else(|| vdb_intervals(rs, ray, t0, t1));
-        return sample_vdb_in_turn::<EMIT, ABS, CHROM>(spans.iter().copied(), t1, ray, beta, f);
-    }
-    (
-        MediumEvent::Escape { weight: Vec3::ONE },
-        HenyeyGreenstein::new(0.0),
-    )
-}
-
-/// Transmittance along the shadow ray `ray` (unit direction) over distance `dist`, through
-/// media and null interfaces; 0 when an opaque or refracting surface blocks. Overlapping media
-/// multiply their transmittances (extinction adds), so each is estimated on its own (`MIX`: VDB
-/// media inside a homogeneous one too).
-fn transmittance<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
-    rs: &RenderScene,
-    cfg: &TrackingConfig,
-    ray: &Ray,
-    dist: f32,
-    mut media: MediumStack,
-    rng: &mut Rng,
-    stats: &mut MediaStats,
-) -> Vec3 {
-    let mut tr = Vec3::ONE;
-    let mut t0 = 0.0f32;
-    loop {
-        let hit = if SURF {
-            rs.scene.bvh.closest_hit(ray, t0, dist)
-        } else {
-            None
-        };
-        // A surface that scatters blocks the ray: the media before it are not tracked, as
-        // their estimate would only be multiplied by 0 (pbrt-v4's `TraceTransmittance` tests
-        // the surface first too). Where the light lies behind a refractive boundary (a smoke
-        // in a water tank lit by the sun) every shadow ray from inside is such a ray.
-        let mat_index = hit.map(|h| {
-            let tri = &rs.scene.triangles[h.triangle as usize];
-            rs.scene.instances[tri.instance as usize].material as usize
-        });
-        if mat_index.is_some_and(|m| rs.kinds[m] != SurfaceKind::Null) {
-            return Vec3::ZERO;
-        }
-        let t1 = hit.map_or(dist, |h| h.t);
-        let medium = media.top();
-        if HOM {
-            if let Some(h) = medium {
-                tr *= transmittance_homogeneous(&rs.homogeneous[h as usize], t1 - t0);
-            }
-        }
-        if HET && (MIX || medium.is_none()) {
-            for &(m, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
-                tr *= transmittance_vdb::<CHROM>(m, ray, a, b, cfg, rng, stats);
-                if tr == Vec3::ZERO {
-                    return tr;
-                }
-            }
-        }
-        let (Some(h), Some(mat_index)) = (hit, mat_index) else {
-            return tr;
-        };
-        if HOM {
-            let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
-            let entering = (b - a).cross(c - a).dot(ray.d) < 0.0;
-            media.cross(rs.scene.materials[mat_index].interior_medium, entering);
-        }
-        t0 = h.t + 1e-4 * (1.0 + h.t);
-        if t0 >= dist {
-            return tr;
-        }
-    }
-}
-
-/// How the last event chose its light for next-event estimation: what the escape of the ray
-/// sampled from it needs for its MIS weight against the environment.
-#[derive(Clone, Copy, Debug)]
-struct EnvChoice {
-    /// The environment's selection probability at the event.
-    pmf: f32,
-    /// The (constant) environment was sampled by the phase function there.
-    by_phase: bool,
-}
-
-/// Where a next-event estimate starts.
-#[derive(Clone, Copy)]
-struct Vertex<'a> {
-    /// The point (offset off a surface already).
-    p: Vec3,
-    /// The media it lies in.
     media: MediumStack,
-    /// At a medium event: its phase function, `wo` and the continuation albedo, for the guided
-    /// light selection; `None` at a surface.
-    phase: Option<(&'a HenyeyGreenstein, Vec3, f32)>,
+    beta: Vec3,
+    l: Vec3,
+    depth: u32,
+    /// Whether this bounce's free flight has drawn its sampler point (DIM_DISTANCE).
+    flight_started: bool,
+    /// Whether the last direction was chosen by a delta distribution (no MIS), and its pdf.
+    specular: bool,
+    prev_pdf: f32,
+    /// How the last event chose the environment (the escape's MIS weight).
+    prev_env: EnvChoice,
 }
 
-/// Next-event estimation from `v`: one light sample, its visibility and transmittance, weighted
-/// against the scattering strategy by the power heuristic. `scatter(wi)` gives the scattering
-/// factor (phase value, or BSDF times cosine) and its sampling pdf. `bounce` picks the
-/// sampler's light-selection and light-sample blocks. At a medium event (`v.phase`) the light
-/// is chosen by the guided selection of [`Lights::phase_selection`] (uniformly elsewhere).
-/// Returns the estimate and how the environment was chosen.
-fn next_event<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
-    rs: &RenderScene,
-    cfg: &TrackingConfig,
-    v: Vertex,
-    sampler: &mut Sampler,
-    bounce: u32,
-    stats: &mut MediaStats,
-    scatter: impl Fn(Vec3) -> (Vec3, f32),
-) -> (Vec3, EnvChoice) {
-    let Vertex { p, media, phase } = v;
-    // Selection before position: the independent sampler draws in this order.
-    let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
-    let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
-    let lights = &rs.lights;
-    let guided = phase
-        .and_then(|(ph, wo, a)| Some((ph, wo, lights.phase_selection(p, a, |wi| ph.p(wo, wi))?)));
-    let (ls, choice) = match guided {
-        Some((ph, wo, sel)) => {
-            let ls = lights.sample_selected(&sel, p, u_select, u_light, |u| {
-                let s = ph.sample(wo, u);
-                (s.wi, s.pdf)
-            });
-            let choice = EnvChoice {
-                pmf: sel.env,
-                by_phase: sel.env_by_phase,
-            };
-            (ls, choice)
-        }
-        _ => (
-            lights.sample(rs.scene, p, u_select, u_light),
-            EnvChoice {
-                pmf: lights.uniform_env_pmf(),
-                by_phase: false,
-            },
-        ),
-    };
-    let Some(ls) = ls else {
-        return (Vec3::ZERO, choice);
-    };
-    let (f, pdf_scatter) = scatter(ls.wi);
-    if f == Vec3::ZERO || !(ls.pdf > 0.0) {
-        return (Vec3::ZERO, choice);
-    }
-    // Stop short of an area light's own triangle.
-    let dist = if ls.dist.is_finite() {
-        ls.dist * (1.0 - 1e-4)
-    } else {
-        f32::INFINITY
-    };
-    let tr = transmittance::<SURF, HET, HOM, CHROM, MIX>(
-        rs,
-        cfg,
-        &Ray::new(p, ls.wi),
-        dist,
-        media,
-        &mut sampler.rng,
-        stats,
-    );
-    let w = if ls.is_delta {
-        1.0
-    } else {
-        power_heuristic(ls.pdf, pdf_scatter)
-    };
-    (tr * ls.li * f * (w / ls.pdf), choice)
+/// How a path scatters after shading, for [`sample_phase`] to draw the next direction.
+enum Scatterer {
+    /// At a medium event at `p`: the phase function and `wo`.
+    Phase {
+        phase: HenyeyGreenstein,
+        p: Vec3,
+        wo: Vec3,
+    },
+    /// At an opaque surface: its BSDF in the shading frame, `wo` there, the offset origin and
+    /// the side's normal (a direction below it ends the path).
+    Bsdf {
+        bsdf: Principled,
+        frame: Frame,
+        wo_l: Vec3,
+        p_off: Vec3,
+        n_side: Vec3,
+    },
+    /// A smooth dielectric already chose the ray (reflection or refraction).
+    Chosen,
 }
 
-/// Radiance along the camera ray through film point `film` (in [0,1]^2).
+/// What a medium flight left the path to do.
+enum FlightEnd {
+    /// No real collision before the surface (or the escape): shade it.
+    Passed,
+    /// A real scattering event at `t` with the medium's phase function.
+    Scattered { t: f32, phase: HenyeyGreenstein },
+    /// Absorbed, zero throughput, or stopped by the collision guard.
+    Ended,
+}
+
+/// What shading a surface left the path to do.
+enum SurfaceEnd {
+    /// A null interface: the ray goes on from just past it (no bounce).
+    Crossed,
+    Scatters(Scatterer),
+    Ended,
+}
+
+fn collisions(s: &MediaStats) -> u64 {
+    s.tracking.null_collisions + s.tracking.real_collisions + s.tracking.control_collisions
+}
+
+/// Radiance along the camera ray through film point `film` (in [0,1]^2): the stages of the GPU
+/// wavefront (`shaders/stages/`, `backend::gpu::graph::Stage`) run in turn for one path.
 pub fn radiance<
     const SURF: bool,
     const HET: bool,
@@ -373,248 +139,392 @@ pub fn radiance<
     sampler: &mut Sampler,
     stats: &mut PathStats,
 ) -> Vec3 {
-    let scene = rs.scene;
-    let (mut ray, mut t0) = rs.pinhole.primary_ray(film.x, film.y, aspect);
-    let mut media = if HOM {
-        rs.camera_media
-    } else {
-        MediumStack::EMPTY
-    };
-    let mut beta = Vec3::ONE;
-    let mut l = Vec3::ZERO;
-    let mut depth = 0u32;
-    // Whether this bounce's free flight has drawn its sampler point (DIM_DISTANCE).
-    let mut flight_started = false;
-    // Whether the last direction was chosen by a delta distribution (no MIS), and its pdf.
-    let mut specular = true;
-    let mut prev_pdf = 0.0f32;
-    // How the last event chose the environment (the escape's MIS weight).
-    let mut prev_env = EnvChoice {
-        pmf: rs.lights.uniform_env_pmf(),
-        by_phase: false,
-    };
-    let collisions = |s: &MediaStats| {
-        s.tracking.null_collisions + s.tracking.real_collisions + s.tracking.control_collisions
-    };
+    let mut ps = generate::<HOM>(rs, film, aspect);
     let start_collisions = collisions(&stats.media);
     loop {
-        let hit = if SURF {
-            scene.bvh.closest_hit(&ray, t0, f32::INFINITY)
-        } else {
-            None
-        };
-        let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+        let hit = intersect::<SURF>(rs, &ps);
         if HET || HOM {
-            // The first flight after each scattering event starts from the sampler's
-            // stratified point; one continued past a null interface does not reuse it.
-            if !flight_started {
-                sampler.queue_on_stream(bounce_dim(depth, DIM_DISTANCE));
-                flight_started = true;
-            }
-            let (ev, phase) = sample_media::<HET, HOM, EMIT, ABS, CHROM, MIX>(
+            let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
+            let end = sample_medium::<HET, HOM, EMIT, ABS, CHROM, MIX>(
                 rs,
-                &ray,
-                t0,
+                cfg,
+                limits,
+                &mut ps,
                 t_hit,
-                media.top(),
-                beta,
-                Flight {
-                    cfg,
-                    rng: &mut sampler.rng,
-                    stats: &mut stats.media,
-                    l: &mut l,
-                },
+                sampler,
+                stats,
+                start_collisions,
             );
-            sampler.rng.clear_queue();
-            if collisions(&stats.media) - start_collisions > limits.max_collisions {
-                stats.guard_fired += 1;
-                break;
-            }
-            match ev {
-                MediumEvent::Absorb => break,
-                MediumEvent::Escape { weight } => beta *= weight,
-                MediumEvent::Scatter { t, weight } => {
-                    beta *= weight;
-                    // A zero throughput (absorption as a weight in an albedo-0 medium) ends
-                    // the path before it counts as a bounce, as an absorption event would.
-                    if beta == Vec3::ZERO {
+            match end {
+                FlightEnd::Ended => break,
+                FlightEnd::Passed => {}
+                FlightEnd::Scattered { t, phase } => {
+                    let Some(scatterer) = scatter_medium::<SURF, HET, HOM, CHROM, MIX>(
+                        rs, cfg, limits, &mut ps, t, phase, sampler, stats,
+                    ) else {
+                        break;
+                    };
+                    if !sample_phase(limits, &mut ps, scatterer, sampler, stats) {
                         break;
                     }
-                    depth += 1;
-                    flight_started = false;
-                    if depth > limits.max_depth {
-                        break;
-                    }
-                    let p = ray.at(t);
-                    let wo = -ray.d;
-                    // Next-event estimation with the phase function.
-                    let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
-                        rs,
-                        cfg,
-                        Vertex {
-                            p,
-                            media,
-                            phase: limits.guided_lights.then_some((
-                                &phase,
-                                wo,
-                                limits.continuation_albedo,
-                            )),
-                        },
-                        sampler,
-                        depth - 1,
-                        &mut stats.media,
-                        |wi| {
-                            let f = phase.p(wo, wi);
-                            (Vec3::splat(f), f)
-                        },
-                    );
-                    l += beta * ld;
-                    prev_env = choice;
-                    let ps = phase.sample(wo, sampler.get2d(bounce_dim(depth - 1, DIM_SCATTER)));
-                    beta *= ps.weight;
-                    ray = Ray::new(p, ps.wi);
-                    t0 = 0.0;
-                    prev_pdf = ps.pdf;
-                    specular = false;
-                    let rr = &mut Decision::new(sampler, bounce_dim(depth - 1, DIM_RR));
-                    if !russian_roulette(&mut beta, depth, limits, rr) {
-                        break;
-                    }
-                    stats.max_beta = stats.max_beta.max(beta.max_element());
                     continue;
                 }
             }
         }
         let Some(h) = hit else {
-            if let Some(env) = &rs.lights.environment {
-                let w = if specular {
-                    1.0
-                } else if prev_env.by_phase {
-                    // Both strategies drew this direction from the phase function: the light
-                    // pdf is P_env times the continuation's.
-                    power_heuristic(1.0, prev_env.pmf)
-                } else {
-                    power_heuristic(prev_pdf, prev_env.pmf * env.pdf(ray.d))
-                };
-                l += beta * env.le(ray.d) * w;
-            }
+            escape(rs, &mut ps);
             break;
         };
-        let p = ray.at(h.t);
-        let wo = -ray.d;
-        let tri = &scene.triangles[h.triangle as usize];
-        let mat_index = scene.instances[tri.instance as usize].material as usize;
-        let mat = &scene.materials[mat_index];
-        let [a, b, c] = scene.triangle_corners(h.triangle as usize);
-        let ng = (b - a).cross(c - a).normalize_or_zero();
-        let cos_o = ng.dot(wo);
-        let uv = scene.material_uv(mat, h.triangle as usize, h.b1, h.b2);
-        if mat.emission != [0.0; 3] {
-            let le = emitted(scene, mat, uv, cos_o);
-            if le != Vec3::ZERO {
-                let w = if specular {
-                    1.0
-                } else {
-                    power_heuristic(prev_pdf, rs.lights.pdf_area(scene, h.triangle, h.t, cos_o))
-                };
-                l += beta * le * w;
+        match shade_surface::<SURF, HET, HOM, CHROM, MIX>(
+            rs, cfg, limits, &mut ps, h, sampler, stats,
+        ) {
+            SurfaceEnd::Crossed => continue,
+            SurfaceEnd::Ended => break,
+            SurfaceEnd::Scatters(scatterer) => {
+                if !sample_phase(limits, &mut ps, scatterer, sampler, stats) {
+                    break;
+                }
             }
         }
-        match rs.kinds[mat_index] {
-            SurfaceKind::Null => {
-                if HOM {
-                    media.cross(mat.interior_medium, cos_o > 0.0);
-                }
-                t0 = h.t + 1e-4 * (1.0 + h.t);
-                continue;
-            }
-            SurfaceKind::Dielectric => {
-                depth += 1;
-                flight_started = false;
-                if depth > limits.max_depth {
-                    break;
-                }
-                let entering = cos_o > 0.0;
-                let n = if entering { ng } else { -ng };
-                let eta = if entering { mat.ior } else { 1.0 / mat.ior };
-                let f = fresnel_dielectric(n.dot(wo), eta);
-                let wi = if sampler.get1d(bounce_dim(depth - 1, DIM_LOBE)) < f {
-                    2.0 * n.dot(wo) * n - wo
-                } else {
-                    match refract(wo, n, eta) {
-                        Some(wt) => {
-                            // Radiance is compressed by eta^2 entering a denser medium.
-                            beta *= scene.base_color_at(mat, uv) / (eta * eta);
-                            if HOM {
-                                media.cross(mat.interior_medium, entering);
-                            }
-                            wt
-                        }
-                        None => 2.0 * n.dot(wo) * n - wo,
-                    }
-                };
-                ray = Ray::new(offset(p, ng, wi), wi);
-                t0 = 0.0;
-                specular = true;
-            }
-            SurfaceKind::Opaque => {
-                depth += 1;
-                flight_started = false;
-                if depth > limits.max_depth {
-                    break;
-                }
-                let n_side = if cos_o >= 0.0 { ng } else { -ng };
-                let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side);
-                let frame = Frame::from_z(ns);
-                let bsdf =
-                    Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
-                let wo_l = frame.to_local(wo);
-                let p_off = offset(p, n_side, n_side);
-                let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
-                    rs,
-                    cfg,
-                    Vertex {
-                        p: p_off,
-                        media,
-                        phase: None,
-                    },
-                    sampler,
-                    depth - 1,
-                    &mut stats.media,
-                    |wi| {
-                        if n_side.dot(wi) <= 0.0 {
-                            return (Vec3::ZERO, 0.0);
-                        }
-                        let wi_l = frame.to_local(wi);
-                        (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
-                    },
-                );
-                l += beta * ld;
-                prev_env = choice;
-                let u_lobe = sampler.get1d(bounce_dim(depth - 1, DIM_LOBE));
-                let u_dir = sampler.get2d(bounce_dim(depth - 1, DIM_SCATTER));
-                let Some(s) = bsdf.sample(wo_l, u_lobe, u_dir) else {
-                    break;
-                };
-                let wi = frame.from_local(s.wi);
-                if n_side.dot(wi) <= 0.0 {
-                    break;
-                }
-                beta *= s.weight;
-                ray = Ray::new(p_off, wi);
-                t0 = 0.0;
-                prev_pdf = s.pdf;
-                specular = false;
-            }
-        }
-        let rr = &mut Decision::new(sampler, bounce_dim(depth - 1, DIM_RR));
-        if !russian_roulette(&mut beta, depth, limits, rr) {
-            break;
-        }
-        stats.max_beta = stats.max_beta.max(beta.max_element());
     }
-    stats.depth += depth as u64;
-    l
+    stats.depth += ps.depth as u64;
+    ps.l
+}
+
+/// The camera ray through `film` and the path's starting state (`Stage::Generate`).
+#[inline(always)]
+fn generate<const HOM: bool>(rs: &RenderScene, film: Vec2, aspect: f32) -> PathState {
+    let (ray, t0) = rs.pinhole.primary_ray(film.x, film.y, aspect);
+    PathState {
+        ray,
+        t0,
+        media: if HOM {
+            rs.camera_media
+        } else {
+            MediumStack::EMPTY
+        },
+        beta: Vec3::ONE,
+        l: Vec3::ZERO,
+        depth: 0,
+        flight_started: false,
+        specular: true,
+        prev_pdf: 0.0,
+        prev_env: EnvChoice {
+            pmf: rs.lights.uniform_env_pmf(),
+            by_phase: false,
+        },
+    }
+}
+
+/// The first surface along the path's ray (`Stage::Intersect`).
+#[inline(always)]
+fn intersect<const SURF: bool>(rs: &RenderScene, ps: &PathState) -> Option<Hit> {
+    if SURF {
+        rs.scene.bvh.closest_hit(&ps.ray, ps.t0, f32::INFINITY)
+    } else {
+        None
+    }
+}
+
+/// The free flight up to the surface at `t_hit` through the media the ray is in or crosses,
+/// gathering their emission (`Stage::SampleMedium`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn sample_medium<
+    const HET: bool,
+    const HOM: bool,
+    const EMIT: bool,
+    const ABS: bool,
+    const CHROM: bool,
+    const MIX: bool,
+>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    limits: &PathLimits,
+    ps: &mut PathState,
+    t_hit: f32,
+    sampler: &mut Sampler,
+    stats: &mut PathStats,
+    start_collisions: u64,
+) -> FlightEnd {
+    // The first flight after each scattering event starts from the sampler's stratified
+    // point; one continued past a null interface does not reuse it.
+    if !ps.flight_started {
+        sampler.queue_on_stream(bounce_dim(ps.depth, DIM_DISTANCE));
+        ps.flight_started = true;
+    }
+    let (ev, phase) = media_flight::<HET, HOM, EMIT, ABS, CHROM, MIX>(
+        rs,
+        &ps.ray,
+        ps.t0,
+        t_hit,
+        ps.media.top(),
+        ps.beta,
+        Flight {
+            cfg,
+            rng: &mut sampler.rng,
+            stats: &mut stats.media,
+            l: &mut ps.l,
+        },
+    );
+    sampler.rng.clear_queue();
+    if collisions(&stats.media) - start_collisions > limits.max_collisions {
+        stats.guard_fired += 1;
+        return FlightEnd::Ended;
+    }
+    match ev {
+        MediumEvent::Absorb => FlightEnd::Ended,
+        MediumEvent::Escape { weight } => {
+            ps.beta *= weight;
+            FlightEnd::Passed
+        }
+        MediumEvent::Scatter { t, weight } => {
+            ps.beta *= weight;
+            // A zero throughput (absorption as a weight in an albedo-0 medium) ends the path
+            // before it counts as a bounce, as an absorption event would.
+            if ps.beta == Vec3::ZERO {
+                FlightEnd::Ended
+            } else {
+                FlightEnd::Scattered { t, phase }
+            }
+        }
+    }
+}
+
+/// The depth limit and next-event estimation with the phase function at a medium scattering
+/// event at `t` (`Stage::ScatterMedium`). `None` ends the path.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn scatter_medium<
+    const SURF: bool,
+    const HET: bool,
+    const HOM: bool,
+    const CHROM: bool,
+    const MIX: bool,
+>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    limits: &PathLimits,
+    ps: &mut PathState,
+    t: f32,
+    phase: HenyeyGreenstein,
+    sampler: &mut Sampler,
+    stats: &mut PathStats,
+) -> Option<Scatterer> {
+    ps.depth += 1;
+    ps.flight_started = false;
+    if ps.depth > limits.max_depth {
+        return None;
+    }
+    let p = ps.ray.at(t);
+    let wo = -ps.ray.d;
+    let guided = limits
+        .guided_lights
+        .then_some((&phase, wo, limits.continuation_albedo));
+    let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
+        rs,
+        cfg,
+        Vertex {
+            p,
+            media: ps.media,
+            phase: guided,
+        },
+        sampler,
+        ps.depth - 1,
+        &mut stats.media,
+        |wi| {
+            let f = phase.p(wo, wi);
+            (Vec3::splat(f), f)
+        },
+    );
+    ps.l += ps.beta * ld;
+    ps.prev_env = choice;
+    Some(Scatterer::Phase { phase, p, wo })
+}
+
+/// Emission, null interfaces, smooth dielectrics and next-event estimation at opaque surfaces
+/// (`Stage::ShadeSurface`).
+#[inline(always)]
+fn shade_surface<
+    const SURF: bool,
+    const HET: bool,
+    const HOM: bool,
+    const CHROM: bool,
+    const MIX: bool,
+>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    limits: &PathLimits,
+    ps: &mut PathState,
+    h: Hit,
+    sampler: &mut Sampler,
+    stats: &mut PathStats,
+) -> SurfaceEnd {
+    let scene = rs.scene;
+    let p = ps.ray.at(h.t);
+    let wo = -ps.ray.d;
+    let tri = &scene.triangles[h.triangle as usize];
+    let mat_index = scene.instances[tri.instance as usize].material as usize;
+    let mat = &scene.materials[mat_index];
+    let [a, b, c] = scene.triangle_corners(h.triangle as usize);
+    let ng = (b - a).cross(c - a).normalize_or_zero();
+    let cos_o = ng.dot(wo);
+    let uv = scene.material_uv(mat, h.triangle as usize, h.b1, h.b2);
+    if mat.emission != [0.0; 3] {
+        let le = emitted(scene, mat, uv, cos_o);
+        if le != Vec3::ZERO {
+            let w = if ps.specular {
+                1.0
+            } else {
+                power_heuristic(
+                    ps.prev_pdf,
+                    rs.lights.pdf_area(scene, h.triangle, h.t, cos_o),
+                )
+            };
+            ps.l += ps.beta * le * w;
+        }
+    }
+    let kind = rs.kinds[mat_index];
+    if kind == SurfaceKind::Null {
+        if HOM {
+            ps.media.cross(mat.interior_medium, cos_o > 0.0);
+        }
+        ps.t0 = h.t + 1e-4 * (1.0 + h.t);
+        return SurfaceEnd::Crossed;
+    }
+    ps.depth += 1;
+    ps.flight_started = false;
+    if ps.depth > limits.max_depth {
+        return SurfaceEnd::Ended;
+    }
+    if kind == SurfaceKind::Dielectric {
+        let entering = cos_o > 0.0;
+        let n = if entering { ng } else { -ng };
+        let eta = if entering { mat.ior } else { 1.0 / mat.ior };
+        let f = fresnel_dielectric(n.dot(wo), eta);
+        let wi = if sampler.get1d(bounce_dim(ps.depth - 1, DIM_LOBE)) < f {
+            2.0 * n.dot(wo) * n - wo
+        } else {
+            match refract(wo, n, eta) {
+                Some(wt) => {
+                    // Radiance is compressed by eta^2 entering a denser medium.
+                    ps.beta *= scene.base_color_at(mat, uv) / (eta * eta);
+                    if HOM {
+                        ps.media.cross(mat.interior_medium, entering);
+                    }
+                    wt
+                }
+                None => 2.0 * n.dot(wo) * n - wo,
+            }
+        };
+        ps.ray = Ray::new(offset(p, ng, wi), wi);
+        ps.t0 = 0.0;
+        ps.specular = true;
+        return SurfaceEnd::Scatters(Scatterer::Chosen);
+    }
+    let n_side = if cos_o >= 0.0 { ng } else { -ng };
+    let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side);
+    let frame = Frame::from_z(ns);
+    let bsdf = Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
+    let wo_l = frame.to_local(wo);
+    let p_off = offset(p, n_side, n_side);
+    let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
+        rs,
+        cfg,
+        Vertex {
+            p: p_off,
+            media: ps.media,
+            phase: None,
+        },
+        sampler,
+        ps.depth - 1,
+        &mut stats.media,
+        |wi| {
+            if n_side.dot(wi) <= 0.0 {
+                return (Vec3::ZERO, 0.0);
+            }
+            let wi_l = frame.to_local(wi);
+            (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
+        },
+    );
+    ps.l += ps.beta * ld;
+    ps.prev_env = choice;
+    SurfaceEnd::Scatters(Scatterer::Bsdf {
+        bsdf,
+        frame,
+        wo_l,
+        p_off,
+        n_side,
+    })
+}
+
+/// The next direction (phase function or BSDF) and Russian roulette (`Stage::SamplePhase`).
+/// `false` ends the path.
+#[inline(always)]
+fn sample_phase(
+    limits: &PathLimits,
+    ps: &mut PathState,
+    scatterer: Scatterer,
+    sampler: &mut Sampler,
+    stats: &mut PathStats,
+) -> bool {
+    match scatterer {
+        Scatterer::Phase { phase, p, wo } => {
+            let s = phase.sample(wo, sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER)));
+            ps.beta *= s.weight;
+            ps.ray = Ray::new(p, s.wi);
+            ps.t0 = 0.0;
+            ps.prev_pdf = s.pdf;
+            ps.specular = false;
+        }
+        Scatterer::Bsdf {
+            bsdf,
+            frame,
+            wo_l,
+            p_off,
+            n_side,
+        } => {
+            let u_lobe = sampler.get1d(bounce_dim(ps.depth - 1, DIM_LOBE));
+            let u_dir = sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER));
+            let Some(s) = bsdf.sample(wo_l, u_lobe, u_dir) else {
+                return false;
+            };
+            let wi = frame.from_local(s.wi);
+            if n_side.dot(wi) <= 0.0 {
+                return false;
+            }
+            ps.beta *= s.weight;
+            ps.ray = Ray::new(p_off, wi);
+            ps.t0 = 0.0;
+            ps.prev_pdf = s.pdf;
+            ps.specular = false;
+        }
+        Scatterer::Chosen => {}
+    }
+    let rr = &mut Decision::new(sampler, bounce_dim(ps.depth - 1, DIM_RR));
+    if !russian_roulette(&mut ps.beta, ps.depth, limits, rr) {
+        return false;
+    }
+    stats.max_beta = stats.max_beta.max(ps.beta.max_element());
+    true
+}
+
+/// The environment's light for a ray that leaves the scene, MIS-weighted against how the last
+/// event chose its light (`Stage::Escape`).
+#[inline(always)]
+fn escape(rs: &RenderScene, ps: &mut PathState) {
+    if let Some(env) = &rs.lights.environment {
+        let w = if ps.specular {
+            1.0
+        } else if ps.prev_env.by_phase {
+            // Both strategies drew this direction from the phase function: the light pdf is
+            // P_env times the continuation's.
+            power_heuristic(1.0, ps.prev_env.pmf)
+        } else {
+            power_heuristic(ps.prev_pdf, ps.prev_env.pmf * env.pdf(ps.ray.d))
+        };
+        ps.l += ps.beta * env.le(ps.ray.d) * w;
+    }
 }
 
 /// Interpolated vertex normal on `side`'s hemisphere; the geometric normal when the file

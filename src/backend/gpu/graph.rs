@@ -8,24 +8,26 @@ use crate::render::{FeatureFlags, SamplerKind};
 /// The wavefront stages, in the order an iteration runs them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
-    /// Camera rays for free slots (`tile::render_tile`, `Camera::generate_ray`).
+    /// Camera rays for free slots (`tile::render_tile`, `path::generate`).
     Generate,
-    /// The first surface along each ray (`TriangleBvh::closest_hit` over obvhs' CWBVH).
+    /// The first surface along each ray (`path::intersect`: `TriangleBvh::closest_hit` over
+    /// obvhs' CWBVH).
     Intersect,
     /// Free flight up to that surface through the homogeneous medium the path is in or the
-    /// VDB medium it crosses (`path::sample_media`, `media::sample_vdb`,
-    /// `media::sample_homogeneous`), gathering volume emission.
+    /// VDB medium it crosses (`path::sample_medium`, `media::sample_vdb`,
+    /// `homogeneous::sample_homogeneous`), gathering volume emission.
     SampleMedium,
-    /// Depth limit and next-event estimation at a medium scattering event.
+    /// Depth limit and next-event estimation at a medium scattering event
+    /// (`path::scatter_medium`).
     ScatterMedium,
     /// Emission, null interfaces, smooth dielectrics and next-event estimation at opaque
-    /// surfaces (the surface half of `path::radiance`).
+    /// surfaces (`path::shade_surface`).
     ShadeSurface,
-    /// Shadow-ray transmittance through media and null interfaces (`path::transmittance`).
+    /// Shadow-ray transmittance through media and null interfaces (`next_event::trace_shadow`).
     TraceShadow,
-    /// The next direction (phase function or BSDF) and Russian roulette.
+    /// The next direction (phase function or BSDF) and Russian roulette (`path::sample_phase`).
     SamplePhase,
-    /// Environment light for rays that leave the scene.
+    /// Environment light for rays that leave the scene (`path::escape`).
     Escape,
     /// A finished path's radiance to its camera sample's entry.
     Accumulate,
