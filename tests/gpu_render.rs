@@ -73,7 +73,7 @@ fn print_parity(
     println!("{label}: same seed: {close} of {n} pixel values equal to 1e-4 (relative)");
     if let Some(ctx) = parity_on {
         // Each walk the CPU takes (free flights' and shadow rays' alike:
-        // `VdbMedium::shadow_walk_mode`) must be the GPU's too, or the streams part at once.
+        // `WalkPlan::shadow`) must be the GPU's too, or the streams part at once.
         assert!(
             !parity_asserted(ctx) || close * 100 >= n * 97,
             "{label}: same seed: {close} of {n}"
@@ -234,7 +234,7 @@ fn volume_emission_agrees_with_the_cpu() {
     // emission is gathered at the kept collisions with their thinned majorant.
     println!(
         "fire (no floor): adaptive walks {:?}",
-        rs.vdb[0].walk_mode(MajorantMode::Adaptive)
+        rs.vdb[0].walk(MajorantMode::Adaptive).free
     );
     let mut configs: Vec<(Estimator, bool)> = Estimator::ALL.iter().map(|&e| (e, false)).collect();
     configs.push((Estimator::Delta, true));

@@ -127,14 +127,14 @@ fn shadow_rays_walk_as_the_model_chooses() {
     // The cloud is walked per leaf cell, its shadow rays by the culled global walk (the every-
     // mode test above checks that image); the plume keeps the cells for both. The fire's
     // model chose the culled walk for both, but an emitting medium's free flights keep the
-    // cells (`VdbMedium::walk_mode`: the stratified first draw places its emission samples).
+    // cells (`WalkPlan::of`: the stratified first draw places its emission samples).
     let walks = |name: &str| {
         let scene = load_scene(name);
         let rs = brume::render::RenderScene::new(&scene, false).unwrap();
         let m = &rs.vdb[0];
         (
-            m.walk_mode(MajorantMode::Adaptive),
-            m.shadow_walk_mode(MajorantMode::Adaptive),
+            m.walk(MajorantMode::Adaptive).free,
+            m.walk(MajorantMode::Adaptive).shadow,
         )
     };
     use MajorantMode::{Culled, Leaf};
@@ -146,7 +146,7 @@ fn shadow_rays_walk_as_the_model_chooses() {
     let rs = brume::render::RenderScene::new(&scene, false).unwrap();
     for mode in MajorantMode::ALL {
         if mode != MajorantMode::Adaptive {
-            assert_eq!(rs.vdb[0].shadow_walk_mode(mode), mode);
+            assert_eq!(rs.vdb[0].walk(mode).shadow, mode);
         }
     }
     // A render's shadow rays then take one segment per crossing of the cloud, far fewer than

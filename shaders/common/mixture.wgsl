@@ -611,7 +611,7 @@ fn mix_transmittance(o: vec3<f32>, wi: vec3<f32>, t0: f32, t1: f32,
         let k = spans.k[i];
         let est_id = vdb_media[k].shadow_estimator;
         var tr = vdb_tracker(k, o, wi, path_rng(*ps), est_id);
-        // VdbMedium::shadow_walk_mode (each medium's estimate is its own walk: a culled one
+        // WalkPlan::shadow (each medium's estimate is its own walk: a culled one
         // culls, unlike the merged free flights' per-leaf stand-in).
         tr.params.majorant_mode = vdb_media[k].shadow_majorant_mode;
         let dda = vdb_dda(k, tr, spans.a[i], spans.b[i]);

@@ -277,7 +277,7 @@ struct GpuWavefrontParams {
     flags: u32,              // MIX_FLAG_* bits
     mix_estimator: u32,          // grey free-flight estimator of a mixture
     continuation_albedo: f32,    // Lights::continuation_albedo
-    shadow_majorant_mode: u32,   // the VDB medium's shadow rays' walk (VdbMedium::shadow_walk_mode)
+    shadow_majorant_mode: u32,   // the VDB medium's shadow rays' walk (WalkPlan::shadow)
     _pad1: u32,
     _pad2: u32,
 }
@@ -302,7 +302,7 @@ struct GpuVdbMedium {
     sigma_s: vec3<f32>,          // true sigma_s per unit density
     control_albedo: f32,         // GreyView::control_albedo
     voxel_table: u32,            // 1: its walks thin by its per-voxel bounds (grid_voxels)
-    shadow_majorant_mode: u32,   // its shadow rays' walk (VdbMedium::shadow_walk_mode)
+    shadow_majorant_mode: u32,   // its shadow rays' walk (WalkPlan::shadow)
     _pad1: u32,
     _pad2: u32,
 }

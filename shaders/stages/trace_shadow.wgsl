@@ -56,7 +56,7 @@ fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         if (medium == NO_INDEX
             && medium_interval(sh.o, sh.wi, t0, t1, &te)) {
             var tr = medium_tracker(sh.o, sh.wi, path_rng(ps), wf.shadow_estimator);
-            // VdbMedium::shadow_walk_mode: shadow rays may walk otherwise than free flights.
+            // WalkPlan::shadow: shadow rays may walk otherwise than free flights.
             tr.params.majorant_mode = wf.shadow_majorant_mode;
             let dda = medium_dda(tr, te.x, te.y);
             let est = tracking_transmittance(&tr, dda, te.y);

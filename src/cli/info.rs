@@ -37,12 +37,12 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                     brume::render::prepare::index_per_t(&m.density),
                 );
                 // What the adaptive mode walks (an emitting medium keeps the cells for its
-                // free flights where the model chose culling: `VdbMedium::walk_mode`).
+                // free flights where the model chose culling: `WalkPlan::of`).
                 let adaptive = brume::render::MajorantMode::Adaptive;
                 println!(
                     "medium {i} adaptive walks: free flights {}, shadow rays {}{}",
-                    m.walk_mode(adaptive).name(),
-                    m.shadow_walk_mode(adaptive).name(),
+                    m.walk(adaptive).free.name(),
+                    m.walk(adaptive).shadow.name(),
                     if m.emission.is_some() && m.adaptive.shape == AdaptiveShape::Culled {
                         " (emitting: free flights per leaf cell, not culled)"
                     } else {

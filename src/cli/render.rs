@@ -315,20 +315,20 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .m_or_default()
             .map_or("per-leaf minorant".to_string(), |m| m.to_string()),
     );
-    // The walk each VDB medium's flights take under the mode (`VdbMedium::walk_mode`,
-    // `VdbMedium::shadow_walk_mode`): what "majorant adaptive" chose for this scene (named as
+    // The walk each VDB medium's flights take under the mode (`WalkPlan::of`,
+    // `WalkPlan::shadow`): what "majorant adaptive" chose for this scene (named as
     // `--majorant` names them). Overlapping media merge their free flights' segments
-    // (`VdbMedium::merged_walk_mode`); shadow rays stay per medium.
+    // (`WalkPlan::merged`); shadow rays stay per medium.
     for (k, m) in rs.vdb.iter().enumerate() {
         let free = if rs.features.overlapping {
-            m.merged_walk_mode(settings.majorant)
+            m.walk(settings.majorant).merged
         } else {
-            m.walk_mode(settings.majorant)
+            m.walk(settings.majorant).free
         };
         eprintln!(
             "medium {k} walks: free flights {}, shadow rays {}",
             free.name(),
-            m.shadow_walk_mode(settings.majorant).name()
+            m.walk(settings.majorant).shadow.name()
         );
     }
 

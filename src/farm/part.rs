@@ -46,9 +46,9 @@ pub(super) fn refused(path: &Path, reason: impl Into<String>) -> PartError {
 /// What a part is a part of, and what it holds; stored as `brume:*` header attributes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PartInfo {
-    /// FNV-1a 64 of the scene file and every file it references ([`scene_hash`]).
+    /// FNV-1a 64 of the scene file and every file it references ([`super::key::scene_hash`]).
     pub scene_hash: String,
-    /// Every setting that shapes the image, as `key=value` words ([`settings_key`]).
+    /// Every setting that shapes the image, as `key=value` words ([`super::key::settings_key`]).
     pub settings: String,
     pub seed: String,
     pub version: String,

@@ -23,7 +23,7 @@ pub struct GpuGridInfo {
     /// Extinction per unit of grid value: `sigma_t = density_scale * value` (per unit `t`
     /// of an index-space ray).
     pub density_scale: f32,
-    /// Index of the global [`CellBounds`] in the bounds buffer: it follows the per-cell
+    /// Index of the global [`crate::volume::bounds::CellBounds`] in the bounds buffer: it follows the per-cell
     /// bounds, so this equals the cell count.
     pub global_bounds_index: u32,
     /// First entry of this grid in the cells buffer: 0 for the density grid; the emission

@@ -331,7 +331,7 @@ pub struct GpuWavefrontParams {
     /// `Lights::continuation_albedo`: the share of a constant environment's guided selection
     /// left to the continuation ray.
     pub continuation_albedo: f32,
-    /// The [`GpuMajorantMode`] of the VDB medium's shadow rays (`VdbMedium::shadow_walk_mode`;
+    /// The [`GpuMajorantMode`] of the VDB medium's shadow rays (`WalkPlan::shadow`;
     /// `tracking.majorant_mode` is its free flights').
     pub shadow_majorant_mode: u32,
     pub _pad1: u32,

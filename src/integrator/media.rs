@@ -35,7 +35,7 @@ impl<I: Iterator> Iterator for WalkRef<'_, I> {
 }
 
 /// Evaluates `$body` with `$segs` bound to the concrete walk that gives `$mode`'s segments
-/// over `$m`'s majorants ([`VdbMedium::walk_mode`]; in `$ray_i`'s index space over
+/// over `$m`'s majorants ([`crate::render::media::WalkPlan::of`]; in `$ray_i`'s index space over
 /// `[$t0, $t1]`), through a [`WalkRef`]. The tracking loop is then instantiated once per walk
 /// type and the walk's step inlines into it: through the [`Segments`] enum it was a call per
 /// segment. The walk is used through a reference because its state is a few hundred bytes
@@ -43,7 +43,7 @@ impl<I: Iterator> Iterator for WalkRef<'_, I> {
 macro_rules! with_walk {
     ($m:expr, $ray_i:expr, $t0:expr, $t1:expr, $mode:expr, |$segs:ident| $body:expr) => {{
         let m: &VdbMedium = $m;
-        match m.walk_mode($mode) {
+        match m.walk($mode).free {
             MajorantMode::Adaptive => {
                 let mut walk =
                     AdaptiveMajorantIterator::new(&m.adaptive, $ray_i, $t0, $t1, m.sigma_t_bound);
@@ -78,7 +78,7 @@ pub(super) fn segments<'a>(
     mode: MajorantMode,
 ) -> Segments<'a> {
     let bounds = m.bounds();
-    match m.merged_walk_mode(mode) {
+    match m.walk(mode).merged {
         MajorantMode::Leaf | MajorantMode::Culled => Segments::Dda(DdaMajorantIterator::new(
             bounds,
             ray_i,
@@ -325,7 +325,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
     let before = stats.tracking.lookups;
     let segments_before = stats.tracking.segments;
     let cfg = &TrackingConfig {
-        majorant: m.shadow_walk_mode(cfg.majorant),
+        majorant: m.walk(cfg.majorant).shadow,
         ..*cfg
     };
     let tr = if CHROM && (!m.grey || cfg.force_spectral) {

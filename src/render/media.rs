@@ -59,6 +59,27 @@ pub struct VdbMedium {
     /// ([`Self::bounds`], its grid's cells and `sigma_t_bound`): answered once, where the
     /// render is prepared, rather than at every flight's set-up.
     pub culling_sound: CullingSound,
+    /// How its flights walk under each majorant mode ([`Self::walk`]), resolved once where the
+    /// render is prepared ([`WalkPlan::of`]).
+    pub walks: [WalkPlan; 4],
+}
+
+/// How one medium's flights walk its majorants under one majorant mode: resolved once per
+/// medium where the render is prepared, and read by every flight, the GPU upload, `brume info`
+/// and the benches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WalkPlan {
+    /// The walk of free flights.
+    pub free: MajorantMode,
+    /// The walk of transmittance (shadow) flights.
+    pub shadow: MajorantMode,
+    /// The walk of free flights among overlapping media, whose merged stream has no single
+    /// grid to cull by.
+    pub merged: MajorantMode,
+    /// Free flights cull their tentative collisions by the per-leaf bounds.
+    pub leaf_culling: bool,
+    /// Free flights thin their tentative collisions by the per-voxel bounds.
+    pub voxel_culling: bool,
 }
 
 /// What [`LeafCulling::accepts`] and [`VoxelCulling::accepts`] answer for one medium.
@@ -77,57 +98,79 @@ impl CullingSound {
     }
 }
 
-impl VdbMedium {
-    /// The walk that yields `mode`'s segments for this medium most cheaply: an adaptive
-    /// hierarchy that is one node or all leaf cells is walked as the global bound or the
-    /// per-leaf DDA, which give its segments bit for bit ([`AdaptiveShape`]); one built as the
-    /// culled global walk is that walk, except in an emitting medium (below).
+impl WalkPlan {
+    /// A placeholder until [`WalkPlan::of`] has the medium to plan for.
+    pub const UNPLANNED: WalkPlan = WalkPlan {
+        free: MajorantMode::Global,
+        shadow: MajorantMode::Global,
+        merged: MajorantMode::Global,
+        leaf_culling: false,
+        voxel_culling: false,
+    };
+
+    /// The plan of medium `m` under `mode`.
     ///
-    /// An emitting medium's free flights walk the per-leaf DDA where the model chose the culled
-    /// walk: its emission is estimated at every tentative collision, and a culled walk spends
-    /// a camera ray's first, stratified (Sobol) draw on the global bound's first collision, not
-    /// on its first emission sample; the DDA maps that draw to optical depth under the same
-    /// cell bounds, so on the example fire its per-pixel variance is about two thirds of the
-    /// culled walk's for a few per cent more time (`brume bench render --majorants-only
-    /// scenes/fire.gltf`). Shadow flights, which estimate no emission, stay culled
-    /// ([`Self::shadow_walk_mode`]).
-    #[inline]
-    pub fn walk_mode(&self, mode: MajorantMode) -> MajorantMode {
-        match (mode, self.adaptive.shape) {
+    /// Free flights: an adaptive hierarchy that is one node or all leaf cells is walked as the
+    /// global bound or the per-leaf DDA, which give its segments bit for bit
+    /// ([`AdaptiveShape`]); one built as the culled global walk is that walk, except in an
+    /// emitting medium. An emitting medium's free flights walk the per-leaf DDA where the
+    /// model chose the culled walk: its emission is estimated at every tentative collision, and
+    /// a culled walk spends a camera ray's first, stratified (Sobol) draw on the global
+    /// bound's first collision, not on its first emission sample; the DDA maps that draw to
+    /// optical depth under the same cell bounds, so on the example fire its per-pixel variance
+    /// is about two thirds of the culled walk's for a few per cent more time (`brume bench
+    /// render --majorants-only scenes/fire.gltf`).
+    ///
+    /// Shadow flights, which estimate no emission, take the culled global walk where the
+    /// adaptive hierarchy is every leaf cell and prices it close enough
+    /// (`AdaptiveMajorants::shadow_culled`) or is the culled walk itself; else the free walk.
+    /// Among overlapping media the culled walk is walked as the per-leaf DDA. Only the culled
+    /// walk culls by the leaf bounds, where [`LeafCulling::accepts`] them; the per-leaf DDA and
+    /// the culled walk thin by the voxel bounds where that pays and [`VoxelCulling::accepts`]
+    /// them.
+    pub fn of(m: &VdbMedium, mode: MajorantMode) -> WalkPlan {
+        let free = match (mode, m.adaptive.shape) {
             (MajorantMode::Adaptive, AdaptiveShape::OneNode) => MajorantMode::Global,
             (MajorantMode::Adaptive, AdaptiveShape::AllLeaves) => MajorantMode::Leaf,
-            (MajorantMode::Adaptive, AdaptiveShape::Culled) if self.emission.is_some() => {
+            (MajorantMode::Adaptive, AdaptiveShape::Culled) if m.emission.is_some() => {
                 MajorantMode::Leaf
             }
             (MajorantMode::Adaptive, AdaptiveShape::Culled) => MajorantMode::Culled,
             _ => mode,
-        }
-    }
-
-    /// The walk this medium's transmittance (shadow) flights take under `mode`: the culled
-    /// global walk where its adaptive hierarchy is every leaf cell and prices it close enough
-    /// (`AdaptiveMajorants::shadow_culled`) or is the culled walk itself, else
-    /// [`Self::walk_mode`]'s.
-    #[inline]
-    pub fn shadow_walk_mode(&self, mode: MajorantMode) -> MajorantMode {
-        if mode == MajorantMode::Adaptive
-            && (self.adaptive.shadow_culled || self.adaptive.shape == AdaptiveShape::Culled)
+        };
+        let shadow = if mode == MajorantMode::Adaptive
+            && (m.adaptive.shadow_culled || m.adaptive.shape == AdaptiveShape::Culled)
         {
             MajorantMode::Culled
         } else {
-            self.walk_mode(mode)
-        }
-    }
-
-    /// The walk this medium's free flights take under `mode` among overlapping media
-    /// ([`segments`]): [`Self::walk_mode`]'s, with the culled walk walked as the per-leaf DDA
-    /// (the merged stream has no single grid to cull by).
-    #[inline]
-    pub fn merged_walk_mode(&self, mode: MajorantMode) -> MajorantMode {
-        match self.walk_mode(mode) {
+            free
+        };
+        let merged = match free {
             MajorantMode::Culled => MajorantMode::Leaf,
             walk => walk,
+        };
+        WalkPlan {
+            free,
+            shadow,
+            merged,
+            leaf_culling: m.culling_sound.leaf && free == MajorantMode::Culled,
+            voxel_culling: m.voxel_culling_pays
+                && m.culling_sound.voxel
+                && matches!(free, MajorantMode::Leaf | MajorantMode::Culled),
         }
+    }
+}
+
+impl VdbMedium {
+    /// Plans every majorant mode's walks ([`Self::walks`]) once the medium is complete.
+    pub fn plan_walks(&mut self) {
+        self.walks = MajorantMode::ALL.map(|mode| WalkPlan::of(self, mode));
+    }
+
+    /// The plan of this medium's flights under `mode`.
+    #[inline]
+    pub fn walk(&self, mode: MajorantMode) -> &WalkPlan {
+        &self.walks[mode as usize]
     }
 
     /// The per-leaf bounds (and per-voxel bounds) every walk of this medium takes: the
@@ -139,36 +182,29 @@ impl VdbMedium {
             .unwrap_or(&self.density.grid.bounds)
     }
 
-    /// The per-leaf culling of this medium's walk under `mode`: only the culled global walk
-    /// culls, and only where [`LeafCulling::new`] finds it sound.
+    /// The per-leaf culling of this medium's free flights under `mode`, where planned.
     #[inline]
     pub fn culling(&self, mode: MajorantMode) -> Option<LeafCulling<'_>> {
-        (self.culling_sound.leaf && self.walk_mode(mode) == MajorantMode::Culled)
+        self.walk(mode)
+            .leaf_culling
             .then(|| LeafCulling::accepted(self.bounds()))
     }
 
-    /// The per-voxel culling of this medium's walk under `mode`: the per-leaf DDA and the
-    /// culled global walk thin by the voxel bounds (the mixed hierarchy's walk and the
-    /// global bound do not), where it pays ([`Self::voxel_culling_pays`]) and
-    /// [`VoxelCulling::new`] finds it sound.
+    /// The per-voxel culling of this medium's free flights under `mode`, where planned.
     #[inline]
     pub fn voxel_culling(&self, mode: MajorantMode) -> Option<VoxelCulling<'_>> {
-        if !(self.voxel_culling_pays && self.culling_sound.voxel) {
-            return None;
-        }
-        match self.walk_mode(mode) {
-            MajorantMode::Leaf | MajorantMode::Culled => Some(VoxelCulling::accepted(
+        self.walk(mode).voxel_culling.then(|| {
+            VoxelCulling::accepted(
                 self.bounds(),
                 &self.density.grid.grid.cells,
                 self.sigma_t_bound,
-            )),
-            _ => None,
-        }
+            )
+        })
     }
 
-    /// The hierarchy when `mode` walks it (a mixed adaptive hierarchy), else `None`.
+    /// The hierarchy when `mode`'s free flights walk it (a mixed adaptive hierarchy).
     pub fn walked_hierarchy(&self, mode: MajorantMode) -> Option<&AdaptiveMajorants> {
-        (self.walk_mode(mode) == MajorantMode::Adaptive).then_some(&*self.adaptive)
+        (self.walk(mode).free == MajorantMode::Adaptive).then_some(&*self.adaptive)
     }
 }
 

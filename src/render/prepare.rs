@@ -6,6 +6,7 @@ use glam::{Affine3A, Mat4, Vec3};
 use super::lights::Lights;
 use super::media::{
     Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
+    WalkPlan,
 };
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::scene::nesting::Nesting;
@@ -229,7 +230,7 @@ impl<'s> RenderScene<'s> {
             let voxel_culling_pays =
                 crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
             let culling_sound = CullingSound::of(bounds, &density.grid.grid.cells, sigma_t_bound);
-            vdb.push(VdbMedium {
+            let mut medium = VdbMedium {
                 culling_sound,
                 voxel_culling_pays,
                 density,
@@ -242,7 +243,10 @@ impl<'s> RenderScene<'s> {
                 phase: HenyeyGreenstein::new(desc.anisotropy),
                 emission,
                 walk_bounds,
-            });
+                walks: [WalkPlan::UNPLANNED; 4],
+            };
+            medium.plan_walks();
+            vdb.push(medium);
         }
         let homogeneous: Vec<HomogeneousMedium> = scene
             .homogeneous_media

@@ -597,7 +597,7 @@ pub fn check_ray_bounds(
             check_one_ray(grid, &adaptive, expected, &ray, &mut rng, &mut sub)
                 .map_err(|e| context(format!("adaptive: {e}")))?;
             // The renderer walks a one-node hierarchy (and the culled one) as the global
-            // bound (`VdbMedium::walk_mode`): the two must agree bit for bit.
+            // bound (`WalkPlan::of`): the two must agree bit for bit.
             let one_node = matches!(m.shape, AdaptiveShape::OneNode | AdaptiveShape::Culled);
             if one_node && adaptive != global {
                 return Err(context(format!(

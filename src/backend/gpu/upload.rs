@@ -98,8 +98,8 @@ pub(super) fn medium_record(
         shadow_estimator: shadow as u32,
         tracking: GpuTrackingParams {
             estimator: estimator as u32,
-            // The walk the CPU's free flights take for this medium (`VdbMedium::walk_mode`).
-            majorant_mode: gpu_majorant_mode(m.walk_mode(cfg.majorant)) as u32,
+            // The walk the CPU's free flights take for this medium (`WalkPlan::of`).
+            majorant_mode: gpu_majorant_mode(m.walk(cfg.majorant).free) as u32,
             control_mode: control_mode as u32,
             spectral_mode: 0,
             b: cfg.b(),
@@ -124,12 +124,12 @@ pub(super) fn medium_record(
         rgb_sigma_s: rgb_sigma_s.to_array(),
         sigma_s: m.sigma_s.to_array(),
         control_albedo: sigma_s / bound,
-        shadow_majorant_mode: gpu_majorant_mode(m.shadow_walk_mode(cfg.majorant)) as u32,
+        shadow_majorant_mode: gpu_majorant_mode(m.walk(cfg.majorant).shadow) as u32,
         ..Default::default()
     })
 }
 
-/// The GPU walk of a CPU walk (`VdbMedium::walk_mode`, `VdbMedium::shadow_walk_mode`): an
+/// The GPU walk of a CPU walk (`WalkPlan::of`, `WalkPlan::shadow`): an
 /// adaptive hierarchy of one node or of leaf cells only is walked as the global bound or the
 /// per-leaf DDA, which give its segments bit for bit.
 fn gpu_majorant_mode(walk: MajorantMode) -> GpuMajorantMode {

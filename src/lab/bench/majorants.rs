@@ -30,8 +30,8 @@ pub struct Rounds {
 /// seeds, pooled over pixels and RGB), with the share of it in the
 /// worst 0.1 % of pixel values (`top 0.1%`; where it passes half, a few fireflies set the
 /// variance and the efficiency, and the table says so). The adaptive rows name the
-/// walk each medium's hierarchy takes (`VdbMedium::walk_mode`, and in brackets its shadow rays'
-/// where they differ: `VdbMedium::shadow_walk_mode`): where it is the global or
+/// walk each medium's hierarchy takes (`WalkPlan::of`, and in brackets its shadow rays'
+/// where they differ: `WalkPlan::shadow`): where it is the global or
 /// per-leaf walk for both kinds of flight, the two rows time the same code and differ by
 /// noise only.
 ///
@@ -255,7 +255,7 @@ fn render_with_scales(
     out
 }
 
-/// The walks each VDB medium's adaptive hierarchy takes (`VdbMedium::walk_mode`, and in
+/// The walks each VDB medium's adaptive hierarchy takes (`WalkPlan::of`, and in
 /// brackets its shadow rays' where they differ), joined by `+`.
 fn adaptive_walk_names(scene: &crate::scene::Scene) -> Result<String> {
     use crate::render::MajorantMode;
@@ -265,8 +265,8 @@ fn adaptive_walk_names(scene: &crate::scene::Scene) -> Result<String> {
         .iter()
         .map(|m| {
             let (walk, shadow) = (
-                m.walk_mode(MajorantMode::Adaptive),
-                m.shadow_walk_mode(MajorantMode::Adaptive),
+                m.walk(MajorantMode::Adaptive).free,
+                m.walk(MajorantMode::Adaptive).shadow,
             );
             let name = match walk {
                 MajorantMode::Adaptive => "mixed",
