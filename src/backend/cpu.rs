@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::film::{tiles, Film, TileRecord, TileRect};
 use crate::integrator::path::PathLimits;
-use crate::integrator::{tile::specialised, tile::TileContext, tile::TileOutput};
+use crate::integrator::tile::{specialised, TileContext, TileFn, TileOutput};
 use crate::render::media::TrackingConfig;
 use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
@@ -172,24 +172,7 @@ pub fn render_resumed(
         rs.features
     };
     let tile_fn = specialised(features);
-    let ctx = TileContext {
-        rs,
-        cfg: TrackingConfig::from_settings(settings),
-        limits: PathLimits {
-            max_depth: settings.max_depth,
-            rr_depth: settings.rr_depth,
-            rr_throughput: settings.rr_throughput,
-            max_collisions: settings.max_collisions_per_path,
-            guided_lights: settings.light_selection.guided(),
-            continuation_albedo: settings
-                .light_selection
-                .continuation_albedo(rs.lights.continuation_albedo),
-        },
-        width: settings.width,
-        height: settings.height,
-        seed: settings.seed,
-        sampler: settings.sampler,
-    };
+    let ctx = tile_context(rs, settings);
     let rects = region_tiles(settings);
     let (mut film, first) = match resume {
         Some(r) => (r.film, r.reached),
@@ -221,41 +204,15 @@ pub fn render_resumed(
             interrupted = true;
             break;
         }
-        let done: Vec<(usize, Option<TileOutput>)> = dearest_first(&tile_ns)
-            .into_par_iter()
-            // One job per tile, so an idle thread can always take the next one.
-            .with_max_len(1)
-            .map(|i| {
-                let out =
-                    (!stop.load(Ordering::Relaxed)).then(|| tile_fn(&ctx, &rects[i], pass, s0, n));
-                (i, out)
-            })
-            .collect();
-        // Back in tile order: the film merges and the records keep it.
-        let mut outputs: Vec<Option<TileOutput>> = (0..rects.len()).map(|_| None).collect();
-        for (i, out) in done {
-            outputs[i] = out;
-        }
-        for (cost, out) in tile_ns.iter_mut().zip(&outputs) {
-            if let Some(o) = out {
-                // Per sample, so a pass of another size compares the same.
-                *cost = o.record.wall_ns / n.max(1) as u64;
-            }
-        }
-        if outputs.iter().any(Option::is_none) {
+        let Some(outputs) = render_pass(&ctx, tile_fn, &rects, &mut tile_ns, (pass, s0, n), stop)
+        else {
             // Interrupted mid-pass: keep the image consistent at whole passes.
             interrupted = true;
             break;
-        }
-        for out in outputs.into_iter().flatten() {
+        };
+        for out in outputs {
             film.merge_tile(&out.buffer);
-            let r = out.buffer.rect();
-            for y in r.y0..r.y1 {
-                for x in r.x0..r.x1 {
-                    let i = ((y - r.y0) * r.width() + (x - r.x0)) as usize;
-                    lookups[(y * settings.width + x) as usize] += out.lookups[i];
-                }
-            }
+            add_lookups(&mut lookups, settings.width, &out);
             records.push(out.record);
         }
         spp += n;
@@ -276,6 +233,72 @@ pub fn render_resumed(
         seconds: start.elapsed().as_secs_f64(),
         features,
         interrupted,
+    }
+}
+
+/// The tile loop's context for a render of `rs` with `settings`.
+fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileContext<'a> {
+    TileContext {
+        rs,
+        cfg: TrackingConfig::from_settings(settings),
+        limits: PathLimits {
+            max_depth: settings.max_depth,
+            rr_depth: settings.rr_depth,
+            rr_throughput: settings.rr_throughput,
+            max_collisions: settings.max_collisions_per_path,
+            guided_lights: settings.light_selection.guided(),
+            continuation_albedo: settings
+                .light_selection
+                .continuation_albedo(rs.lights.continuation_albedo),
+        },
+        width: settings.width,
+        height: settings.height,
+        seed: settings.seed,
+        sampler: settings.sampler,
+    }
+}
+
+/// One pass (`pass`, samples `[s0, s0 + n)`) over every tile, dearest first, one job per tile
+/// so an idle thread can always take the next one. Returns the tiles' outputs in tile order
+/// (the film merges and the records keep that order) and sets each tile's time per sample in
+/// `tile_ns`; `None` where `stop` left a tile unrendered.
+fn render_pass(
+    ctx: &TileContext,
+    tile_fn: TileFn,
+    rects: &[TileRect],
+    tile_ns: &mut [u64],
+    (pass, s0, n): (u32, u32, u32),
+    stop: &AtomicBool,
+) -> Option<Vec<TileOutput>> {
+    let done: Vec<(usize, Option<TileOutput>)> = dearest_first(tile_ns)
+        .into_par_iter()
+        .with_max_len(1)
+        .map(|i| {
+            let out = (!stop.load(Ordering::Relaxed)).then(|| tile_fn(ctx, &rects[i], pass, s0, n));
+            (i, out)
+        })
+        .collect();
+    let mut outputs: Vec<Option<TileOutput>> = (0..rects.len()).map(|_| None).collect();
+    for (i, out) in done {
+        outputs[i] = out;
+    }
+    for (cost, out) in tile_ns.iter_mut().zip(&outputs) {
+        if let Some(o) = out {
+            // Per sample, so a pass of another size compares the same.
+            *cost = o.record.wall_ns / n.max(1) as u64;
+        }
+    }
+    outputs.into_iter().collect()
+}
+
+/// Adds a tile's per-pixel lookup counts into the image's (`width` pixels a row).
+fn add_lookups(lookups: &mut [u64], width: u32, out: &TileOutput) {
+    let r = out.buffer.rect();
+    for y in r.y0..r.y1 {
+        for x in r.x0..r.x1 {
+            let i = ((y - r.y0) * r.width() + (x - r.x0)) as usize;
+            lookups[(y * width + x) as usize] += out.lookups[i];
+        }
     }
 }
 

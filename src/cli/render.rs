@@ -243,6 +243,9 @@ fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<O
         .map_err(|e: String| anyhow!(e))
 }
 
+/// A render's result and what the output's header says of it: the backend and the GPU variant.
+type Rendered = (RenderOutput, String, Option<String>);
+
 pub fn run(args: &RenderArgs) -> Result<()> {
     if let Some(made) =
         scene::bare_vdb::prepare(&args.scene, args.save_scene.as_deref()).map_err(|e| anyhow!(e))?
@@ -254,18 +257,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             ..args.clone()
         });
     }
-    let scene = scene::load_with(
-        &args.scene,
-        &LoadOptions {
-            camera: args.camera.clone(),
-        },
-    )?;
-    scene
-        .validate()
-        .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
+    let scene = load_scene(args)?;
     let settings = args
         .settings(&scene.render)
         .with_context(|| format!("{}: BRUME_render", args.scene.display()))?;
@@ -278,17 +270,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
         ));
     }
-    // Fail on unwritable outputs before spending the render.
-    for p in [
-        Some(&args.output),
-        args.tile_log.as_ref(),
-        args.cost_map.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        brume::film::check_writable(p)?;
-    }
+    check_outputs(args)?;
     let mut rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
     rs.lights.set_env_sampling(settings.env_sampling);
     let features = if settings.generic {
@@ -296,55 +278,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     } else {
         rs.features
     };
-    eprintln!("scene effects: {}", scene.effects().names().join(", "));
-    eprintln!(
-        "cpu path: {} ({}), estimator {}, majorant {}, b {}, m {}",
-        features.name(),
-        if settings.generic {
-            "generic, forced"
-        } else if features.overlapping {
-            // tile::specialised: the mixture is compiled into the generic variant only.
-            "generic: the mixture of overlapping media runs in the generic variant"
-        } else {
-            "specialised"
-        },
-        settings.estimator,
-        settings.majorant.name(),
-        settings.b,
-        settings
-            .m_or_default()
-            .map_or("per-leaf minorant".to_string(), |m| m.to_string()),
-    );
-    // The walk each VDB medium's flights take under the mode (`WalkPlan::of`,
-    // `WalkPlan::shadow`): what "majorant adaptive" chose for this scene (named as
-    // `--majorant` names them). Overlapping media merge their free flights' segments
-    // (`WalkPlan::merged`); shadow rays stay per medium.
-    for (k, m) in rs.vdb.iter().enumerate() {
-        let free = if rs.features.overlapping {
-            m.walk(settings.majorant).merged
-        } else {
-            m.walk(settings.majorant).free
-        };
-        eprintln!(
-            "medium {k} walks: free flights {}, shadow rays {}",
-            free.name(),
-            m.walk(settings.majorant).shadow.name()
-        );
-    }
-
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // Ctrl-C, and SIGTERM (what Slurm and farm managers send before a kill; ctrlc's
-        // `termination` feature): stop after the current tiles and write what has accumulated
-        // at whole passes. A second signal kills as usual.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-            eprintln!("\ninterrupted: finishing, writing what has accumulated");
-        });
-    }
+    report_plan(&scene, &rs, &settings, features);
+    let stop = stop_on_signal();
     let (threads, threads_from) = thread_count(args.threads);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -364,7 +299,134 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             settings.spp
         );
     }
-    let bar = std::io::stderr().is_terminal().then(|| {
+    let bar = progress_bar(&settings);
+    let progress = |spp: u32, _target: u32, secs: f64| match &bar {
+        Some(b) => b.set_position(spp as u64),
+        None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
+    };
+    let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
+    let on_gpu = match choose_gpu(args, cpu_only, &rs)? {
+        Some(ctx) => render_on_gpu(args, &ctx, &rs, &settings, &stop, &progress)?,
+        None => None,
+    };
+    let (mut out, backend, variant) = match on_gpu {
+        Some(done) => done,
+        None => {
+            let backend = format!("cpu ({threads} threads)");
+            let run = CpuRun {
+                args,
+                rs: &rs,
+                settings: &settings,
+                part: &part,
+                features,
+                earlier,
+                stop: &stop,
+            };
+            let resume = resume.map(|(_, r)| r);
+            let out = pool.install(|| run.render(resume, &backend, &progress))?;
+            (out, backend, None)
+        }
+    };
+    out.seconds += earlier;
+    write_outputs(args, &part, &settings, &out, &backend, variant.as_deref())
+}
+
+/// The scene, validated, with its warnings printed.
+fn load_scene(args: &RenderArgs) -> Result<brume::scene::Scene> {
+    let scene = scene::load_with(
+        &args.scene,
+        &LoadOptions {
+            camera: args.camera.clone(),
+        },
+    )?;
+    scene
+        .validate()
+        .map_err(|e| anyhow!("{}: {e}", args.scene.display()))?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(scene)
+}
+
+/// Fails on unwritable outputs before the render is spent.
+fn check_outputs(args: &RenderArgs) -> Result<()> {
+    for p in [
+        Some(&args.output),
+        args.tile_log.as_ref(),
+        args.cost_map.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        brume::film::check_writable(p)?;
+    }
+    Ok(())
+}
+
+/// What the render will simulate and how: the scene's effects, the CPU path's variant and
+/// estimator, and the walk each VDB medium's flights take under the majorant mode
+/// (`WalkPlan::of`): what "majorant adaptive" chose for this scene, named as `--majorant`
+/// names them. Overlapping media merge their free flights' segments (`WalkPlan::merged`);
+/// shadow rays stay per medium.
+fn report_plan(
+    scene: &brume::scene::Scene,
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    features: brume::render::FeatureFlags,
+) {
+    eprintln!("scene effects: {}", scene.effects().names().join(", "));
+    eprintln!(
+        "cpu path: {} ({}), estimator {}, majorant {}, b {}, m {}",
+        features.name(),
+        if settings.generic {
+            "generic, forced"
+        } else if features.overlapping {
+            // tile::specialised: the mixture is compiled into the generic variant only.
+            "generic: the mixture of overlapping media runs in the generic variant"
+        } else {
+            "specialised"
+        },
+        settings.estimator,
+        settings.majorant.name(),
+        settings.b,
+        settings
+            .m_or_default()
+            .map_or("per-leaf minorant".to_string(), |m| m.to_string()),
+    );
+    for (k, m) in rs.vdb.iter().enumerate() {
+        let plan = m.walk(settings.majorant);
+        let free = if rs.features.overlapping {
+            plan.merged
+        } else {
+            plan.free
+        };
+        eprintln!(
+            "medium {k} walks: free flights {}, shadow rays {}",
+            free.name(),
+            plan.shadow.name()
+        );
+    }
+}
+
+/// The flag a render polls between tiles: set by Ctrl-C and by SIGTERM (what Slurm and farm
+/// managers send before a kill; ctrlc's `termination` feature), so the render stops after the
+/// current tiles and writes what has accumulated at whole passes. A second signal kills as
+/// usual.
+fn stop_on_signal() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing, writing what has accumulated");
+    });
+    stop
+}
+
+/// A progress bar over the samples to render, on a terminal only.
+fn progress_bar(settings: &RenderSettings) -> Option<indicatif::ProgressBar> {
+    std::io::stderr().is_terminal().then(|| {
         let bar = indicatif::ProgressBar::new(
             settings.spp.saturating_sub(settings.sample_start).max(1) as u64,
         );
@@ -375,14 +437,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             .expect("static template"),
         );
         bar
-    });
-    let progress = |spp: u32, _target: u32, secs: f64| match &bar {
-        Some(b) => b.set_position(spp as u64),
-        None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
-    };
-    // The GPU when asked or when auto finds a usable one; otherwise the CPU, saying why.
-    let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
-    let gpu = match args.backend {
+    })
+}
+
+/// The GPU when asked for, or when auto finds a usable one; `None` for the CPU, saying why.
+fn choose_gpu(
+    args: &RenderArgs,
+    cpu_only: bool,
+    rs: &RenderScene,
+) -> Result<Option<brume::backend::gpu::GpuContext>> {
+    Ok(match args.backend {
         Backend::Cpu => None,
         Backend::Auto if cpu_only => None,
         Backend::Gpu | Backend::Auto => match brume::backend::gpu::GpuContext::new() {
@@ -395,7 +459,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 eprintln!("backend: cpu (the only GPU adapter, {}, is a software rasterizer; --backend gpu forces it)", ctx.adapter_info.name);
                 None
             }
-            Ok(ctx) => match brume::backend::gpu::supports(&rs) {
+            Ok(ctx) => match brume::backend::gpu::supports(rs) {
                 Ok(()) => Some(ctx),
                 Err(why) if args.backend == Backend::Gpu => {
                     return Err(anyhow!("--backend gpu: {why}"))
@@ -411,88 +475,105 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 None
             }
         },
-    };
-    let on_gpu = match &gpu {
-        Some(ctx) => {
-            eprintln!("backend: gpu ({})", ctx.describe());
-            match brume::backend::gpu::render::render_with_timings(
-                ctx, &rs, &settings, &stop, &progress,
-            ) {
-                Ok((out, timings)) => {
-                    eprintln!("gpu variant: {}", timings.variant);
-                    Some((
-                        out,
-                        format!("wgpu: {}", ctx.describe()),
-                        Some(timings.variant),
-                    ))
-                }
-                // A grid or binding count beyond the device's limits is found while the
-                // kernels and buffers are set up, before any sample: auto renders on the CPU.
-                Err(brume::backend::gpu::render::GpuRenderError::Limits(why))
-                    if args.backend == Backend::Auto =>
-                {
-                    eprintln!("backend: cpu (the GPU's limits: {why})");
-                    None
-                }
-                Err(e) => return Err(e.into()),
-            }
+    })
+}
+
+/// The render on `ctx`; `None` where auto falls back to the CPU (the scene exceeds the
+/// device's limits, found while kernels and buffers are set up, before any sample).
+fn render_on_gpu(
+    args: &RenderArgs,
+    ctx: &brume::backend::gpu::GpuContext,
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(u32, u32, f64) + Sync),
+) -> Result<Option<Rendered>> {
+    eprintln!("backend: gpu ({})", ctx.describe());
+    match brume::backend::gpu::render::render_with_timings(ctx, rs, settings, stop, progress) {
+        Ok((out, timings)) => {
+            eprintln!("gpu variant: {}", timings.variant);
+            Ok(Some((
+                out,
+                format!("wgpu: {}", ctx.describe()),
+                Some(timings.variant),
+            )))
         }
-        None => None,
-    };
-    let (out, backend, variant): (RenderOutput, String, Option<String>) = match on_gpu {
-        Some(done) => done,
-        None => {
-            let backend = format!("cpu ({threads} threads)");
-            let mut last = std::time::Instant::now();
-            let mut checkpoint_error = None;
-            let mut observer = |view: &cpu::PassView| {
-                let Some(every) = args.checkpoint else { return };
-                if last.elapsed().as_secs_f64() < every || checkpoint_error.is_some() {
-                    return;
-                }
-                let meta = part.metadata(
-                    &settings,
-                    view.spp,
-                    earlier + view.seconds,
-                    &backend,
-                    None,
-                    true,
-                    features,
-                );
-                match write_exr_with_state(&args.output, view.film, &meta) {
-                    Ok(()) => eprintln!(
-                        "checkpoint: {} at sample {}",
-                        args.output.display(),
-                        settings.sample_start + view.spp
-                    ),
-                    // A checkpoint that cannot be written (a full disk) stops the render:
-                    // going on would spend the rest of it with nothing kept.
-                    Err(e) => {
-                        checkpoint_error = Some(e);
-                        stop.store(true, Ordering::SeqCst);
-                    }
-                }
-                last = std::time::Instant::now();
-            };
-            let out = pool.install(|| {
-                cpu::render_resumed(
-                    &rs,
-                    &settings,
-                    resume.map(|(_, r)| r),
-                    &stop,
-                    &progress,
-                    &mut observer,
-                )
-            });
-            if let Some(e) = checkpoint_error {
-                return Err(anyhow!(e).context("writing a checkpoint"));
-            }
-            (out, backend, None)
+        Err(brume::backend::gpu::render::GpuRenderError::Limits(why))
+            if args.backend == Backend::Auto =>
+        {
+            eprintln!("backend: cpu (the GPU's limits: {why})");
+            Ok(None)
         }
-    };
-    let mut out = out;
-    out.seconds += earlier;
-    write_outputs(args, &part, &settings, &out, &backend, variant.as_deref())
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// A render on the CPU backend and what its checkpoints need.
+struct CpuRun<'a> {
+    args: &'a RenderArgs,
+    rs: &'a RenderScene<'a>,
+    settings: &'a RenderSettings,
+    part: &'a PartContext,
+    features: brume::render::FeatureFlags,
+    /// Render seconds of the checkpoint resumed from.
+    earlier: f64,
+    stop: &'a AtomicBool,
+}
+
+impl CpuRun<'_> {
+    /// Renders (from `resume` where given), writing a checkpoint every `--checkpoint` seconds
+    /// at the first pass boundary after it. A checkpoint that cannot be written (a full disk)
+    /// stops the render and is the error: going on would spend the rest of it with nothing
+    /// kept.
+    fn render(
+        &self,
+        resume: Option<cpu::Resume>,
+        backend: &str,
+        progress: &(dyn Fn(u32, u32, f64) + Sync),
+    ) -> Result<RenderOutput> {
+        let (args, settings) = (self.args, self.settings);
+        let mut last = std::time::Instant::now();
+        let mut checkpoint_error = None;
+        let mut observer = |view: &cpu::PassView| {
+            let Some(every) = args.checkpoint else { return };
+            if last.elapsed().as_secs_f64() < every || checkpoint_error.is_some() {
+                return;
+            }
+            let meta = self.part.metadata(
+                settings,
+                view.spp,
+                self.earlier + view.seconds,
+                backend,
+                None,
+                true,
+                self.features,
+            );
+            match write_exr_with_state(&args.output, view.film, &meta) {
+                Ok(()) => eprintln!(
+                    "checkpoint: {} at sample {}",
+                    args.output.display(),
+                    settings.sample_start + view.spp
+                ),
+                Err(e) => {
+                    checkpoint_error = Some(e);
+                    self.stop.store(true, Ordering::SeqCst);
+                }
+            }
+            last = std::time::Instant::now();
+        };
+        let out = cpu::render_resumed(
+            self.rs,
+            settings,
+            resume,
+            self.stop,
+            progress,
+            &mut observer,
+        );
+        match checkpoint_error {
+            Some(e) => Err(anyhow!(e).context("writing a checkpoint")),
+            None => Ok(out),
+        }
+    }
 }
 
 fn write_outputs(

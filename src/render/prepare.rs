@@ -10,7 +10,7 @@ use super::media::{
 };
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::scene::nesting::Nesting;
-use crate::scene::{Material, Pinhole, Scene};
+use crate::scene::{Material, Pinhole, Scene, VdbMediumDesc};
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::{AdaptiveMajorants, CostModel};
 use std::sync::Arc;
@@ -164,90 +164,12 @@ impl<'s> RenderScene<'s> {
     /// handle: closed media meshes nested deeper than [`MAX_NESTED_MEDIA`].
     pub fn new(scene: &'s Scene, force_spectral: bool) -> Result<Self, String> {
         let file = scene.source.display();
-        let mut vdb = Vec::new();
-        for desc in &scene.vdb_media {
-            if !desc.rendered() {
-                continue;
-            }
-            let density = &desc.grids[0];
-            let world_from_node = desc.world_from_medium * density.vdb_world_from_index.inverse();
-            let mut density = field(density, world_from_node);
-            let by_name = |name: &Option<String>| {
-                desc.grid_named(name.as_deref())
-                    .map(|g| field(g, world_from_node))
-            };
-            let strength_color = Vec3::from(desc.emission_color) * desc.emission_strength;
-            let blackbody = by_name(&desc.temperature_grid)
-                .filter(|_| desc.blackbody_intensity > 0.0)
-                .map(|temperature| Blackbody {
-                    temperature,
-                    scale: desc.temperature_scale,
-                    offset: desc.temperature_offset,
-                    intensity: desc.blackbody_intensity,
-                    tint: Vec3::from(desc.blackbody_tint),
-                });
-            let emission =
-                (strength_color != Vec3::ZERO || blackbody.is_some()).then(|| Emission {
-                    strength_color,
-                    grid: by_name(&desc.emission_grid),
-                    blackbody,
-                    // Cycles' volume box, in the density's index space
-                    // (`VdbMediumDesc::emission_box`).
-                    region: Some(EmissionRegion {
-                        index_from_world: density.index_from_world,
-                        bounds: desc.emission_box(),
-                    }),
-                });
-            let sigma_a = Vec3::from(desc.sigma_a_per_density());
-            let sigma_s = Vec3::from(desc.sigma_s_per_density());
-            let sigma_t = sigma_a + sigma_s;
-            let mut sigma_t_bound = sigma_t.max_element();
-            if !(sigma_t_bound > 0.0) {
-                // An emitting medium with no extinction: a density of zeros at extinction 1
-                // per unit, walked only where it emits (`emission_bounds`).
-                density = super::emission_bounds::without_density(&density);
-                sigma_t_bound = 1.0;
-            }
-            // Every tentative collision in an emitting medium also reads its emission grids
-            // (`Medium::on_collision`), so collisions cost that much more against steps.
-            let emission_reads = emission.as_ref().map_or(0, |e| {
-                e.grid.is_some() as u32 + e.blackbody.is_some() as u32
-            });
-            let cost = CostModel {
-                collision: 1.0 + emission_reads as f32,
-                ..CostModel::DEFAULT
-            };
-            let per_t = index_per_t(&density);
-            // An emitting medium's walks sample wherever it may emit, density or not.
-            let walk_bounds = emission.as_ref().and_then(|e| {
-                super::emission_bounds::walk_bounds(&density, e, sigma_t_bound, per_t).map(Arc::new)
-            });
-            let bounds = walk_bounds.as_deref().unwrap_or(&density.grid.bounds);
-            let adaptive = Arc::new(AdaptiveMajorants::build(bounds, sigma_t_bound, per_t, cost));
-            // The per-voxel stage where the collisions it culls save more lookups than its
-            // reads cost (`voxel_bounds::voxel_culling_pays`).
-            let kept = crate::volume::voxel_bounds::kept_fraction(&density.grid.grid, bounds);
-            let voxel_culling_pays =
-                crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
-            let culling_sound = CullingSound::of(bounds, &density.grid.grid.cells, sigma_t_bound);
-            let mut medium = VdbMedium {
-                culling_sound,
-                voxel_culling_pays,
-                density,
-                world_bounds: desc.world_bounds,
-                sigma_a,
-                sigma_s,
-                sigma_t_bound,
-                adaptive,
-                grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
-                phase: HenyeyGreenstein::new(desc.anisotropy),
-                emission,
-                walk_bounds,
-                walks: [WalkPlan::UNPLANNED; 4],
-            };
-            medium.plan_walks();
-            vdb.push(medium);
-        }
+        let vdb: Vec<VdbMedium> = scene
+            .vdb_media
+            .iter()
+            .filter(|desc| desc.rendered())
+            .map(vdb_medium)
+            .collect();
         let homogeneous: Vec<HomogeneousMedium> = scene
             .homogeneous_media
             .iter()
@@ -329,4 +251,96 @@ impl<'s> RenderScene<'s> {
             pinhole: scene.camera.pinhole(),
         })
     }
+}
+
+/// One `BRUME_medium_vdb` medium ready to track: its density field, coefficients, emission,
+/// the bounds its walks take, its adaptive hierarchy, culling tables and walk plans.
+fn vdb_medium(desc: &VdbMediumDesc) -> VdbMedium {
+    let density = &desc.grids[0];
+    let world_from_node = desc.world_from_medium * density.vdb_world_from_index.inverse();
+    let mut density = field(density, world_from_node);
+    let by_name = |name: &Option<String>| {
+        desc.grid_named(name.as_deref())
+            .map(|g| field(g, world_from_node))
+    };
+    let emission = emission(desc, &density, &by_name);
+    let sigma_a = Vec3::from(desc.sigma_a_per_density());
+    let sigma_s = Vec3::from(desc.sigma_s_per_density());
+    let sigma_t = sigma_a + sigma_s;
+    let mut sigma_t_bound = sigma_t.max_element();
+    if !(sigma_t_bound > 0.0) {
+        // An emitting medium with no extinction: a density of zeros at extinction 1
+        // per unit, walked only where it emits (`emission_bounds`).
+        density = super::emission_bounds::without_density(&density);
+        sigma_t_bound = 1.0;
+    }
+    // Every tentative collision in an emitting medium also reads its emission grids
+    // (`Medium::on_collision`), so collisions cost that much more against steps.
+    let emission_reads = emission.as_ref().map_or(0, |e| {
+        e.grid.is_some() as u32 + e.blackbody.is_some() as u32
+    });
+    let cost = CostModel {
+        collision: 1.0 + emission_reads as f32,
+        ..CostModel::DEFAULT
+    };
+    let per_t = index_per_t(&density);
+    // An emitting medium's walks sample wherever it may emit, density or not.
+    let walk_bounds = emission.as_ref().and_then(|e| {
+        super::emission_bounds::walk_bounds(&density, e, sigma_t_bound, per_t).map(Arc::new)
+    });
+    let bounds = walk_bounds.as_deref().unwrap_or(&density.grid.bounds);
+    let adaptive = Arc::new(AdaptiveMajorants::build(bounds, sigma_t_bound, per_t, cost));
+    // The per-voxel stage where the collisions it culls save more lookups than its
+    // reads cost (`voxel_bounds::voxel_culling_pays`).
+    let kept = crate::volume::voxel_bounds::kept_fraction(&density.grid.grid, bounds);
+    let voxel_culling_pays =
+        crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
+    let culling_sound = CullingSound::of(bounds, &density.grid.grid.cells, sigma_t_bound);
+    let mut medium = VdbMedium {
+        culling_sound,
+        voxel_culling_pays,
+        density,
+        world_bounds: desc.world_bounds,
+        sigma_a,
+        sigma_s,
+        sigma_t_bound,
+        adaptive,
+        grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
+        phase: HenyeyGreenstein::new(desc.anisotropy),
+        emission,
+        walk_bounds,
+        walks: [WalkPlan::UNPLANNED; 4],
+    };
+    medium.plan_walks();
+    medium
+}
+
+/// The medium's emission (a colour, an emission grid, a blackbody temperature), limited to
+/// Cycles' volume box; `None` where it emits nothing. `by_name` finds a grid of the medium.
+fn emission(
+    desc: &VdbMediumDesc,
+    density: &GridField,
+    by_name: &dyn Fn(&Option<String>) -> Option<GridField>,
+) -> Option<Emission> {
+    let strength_color = Vec3::from(desc.emission_color) * desc.emission_strength;
+    let blackbody = by_name(&desc.temperature_grid)
+        .filter(|_| desc.blackbody_intensity > 0.0)
+        .map(|temperature| Blackbody {
+            temperature,
+            scale: desc.temperature_scale,
+            offset: desc.temperature_offset,
+            intensity: desc.blackbody_intensity,
+            tint: Vec3::from(desc.blackbody_tint),
+        });
+    (strength_color != Vec3::ZERO || blackbody.is_some()).then(|| Emission {
+        strength_color,
+        grid: by_name(&desc.emission_grid),
+        blackbody,
+        // Cycles' volume box, in the density's index space
+        // (`VdbMediumDesc::emission_box`).
+        region: Some(EmissionRegion {
+            index_from_world: density.index_from_world,
+            bounds: desc.emission_box(),
+        }),
+    })
 }

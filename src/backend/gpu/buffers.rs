@@ -1,7 +1,6 @@
 //! Every buffer of a render ([`Buffers`]) and the kernels bound to them ([`Kernel`]): the
 //! bindings each entry point uses come from naga's analysis, so a kernel binds only what it
 //! reads and the storage-buffer limit is checked per stage.
-use bytemuck::Zeroable;
 
 use super::device::{GpuContext, GpuGrid};
 use super::error::GpuRenderError;
@@ -95,6 +94,56 @@ pub(super) struct Buffers {
     pub(super) timestamps: Option<(wgpu::QuerySet, wgpu::Buffer)>,
 }
 
+/// A storage buffer of `data`, or of one zeroed element where `data` is empty (a binding
+/// holds at least one element; the kernels never read it then).
+fn storage_at_least_one<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    label: &str,
+    data: &[T],
+) -> wgpu::Buffer {
+    if data.is_empty() {
+        ctx.storage_buffer(label, &[T::zeroed()])
+    } else {
+        ctx.storage_buffer(label, data)
+    }
+}
+
+/// The unit-luminance blackbody colours of `blackbody::table()` (xyz; w unused). A storage
+/// buffer, not a uniform: with the table as a fifth uniform block, Mesa 22.3's lavapipe
+/// (Debian 12) reads and writes freed memory compiling the generic variant's sample_medium
+/// stage. See shaders/common/emission.wgsl.
+fn blackbody_table(ctx: &GpuContext) -> wgpu::Buffer {
+    let rows: Vec<[f32; 4]> = blackbody::table()
+        .iter()
+        .map(|c| [c.x, c.y, c.z, 0.0])
+        .collect();
+    let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("blackbody table"),
+        size: (rows.len() * 16) as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
+    b
+}
+
+/// The query set of `n` stage timestamps and the buffer they resolve into.
+fn stage_timestamps(ctx: &GpuContext, n: u32) -> (wgpu::QuerySet, wgpu::Buffer) {
+    (
+        ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("stage timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: n,
+        }),
+        ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamps"),
+            size: n as u64 * 8,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        }),
+    )
+}
+
 impl Buffers {
     /// Allocates every buffer of a render of `rs` with `slots` path slots and a sample buffer
     /// of `samples` entries, uploading what is known before the first batch.
@@ -133,22 +182,13 @@ impl Buffers {
                 "shadow rays",
                 slots as u64 * std::mem::size_of::<GpuShadowRay>() as u64,
             ),
-            // A binding holds at least one element: an unused zero light when there are none.
-            lights: if rs.lights.punctual.is_empty() {
-                ctx.storage_buffer("lights", &[crate::scene::PunctualLight::zeroed()])
-            } else {
-                ctx.storage_buffer("lights", &rs.lights.punctual)
-            },
+            lights: storage_at_least_one(ctx, "lights", &rs.lights.punctual),
             samples: ctx.storage_buffer_zeroed("samples", samples * 16),
             samples_readback: ctx.read_back_buffer("samples read-back", samples * 16),
             emission: ctx.uniform_buffer("emission", emission),
             bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
             bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),
-            materials: if rs.scene.materials.is_empty() {
-                ctx.storage_buffer("materials", &[crate::scene::Material::zeroed()])
-            } else {
-                ctx.storage_buffer("materials", &rs.scene.materials)
-            },
+            materials: storage_at_least_one(ctx, "materials", &rs.scene.materials),
             area_lights: ctx.storage_buffer("area lights", &geometry.area_lights),
             triangle_uvs: ctx.storage_buffer("triangle uvs", &geometry.triangle_uvs),
             textures: ctx.storage_buffer("textures", &textures.records),
@@ -156,7 +196,7 @@ impl Buffers {
             env_map: ctx.uniform_buffer("environment map", &env_map.0),
             env_data: ctx.storage_buffer("environment map data", &env_map.1),
             homogeneous: {
-                let mut h: Vec<GpuHomogeneousMedium> = rs
+                let h: Vec<GpuHomogeneousMedium> = rs
                     .homogeneous
                     .iter()
                     .map(|m| GpuHomogeneousMedium {
@@ -166,37 +206,14 @@ impl Buffers {
                         _pad0: 0.0,
                     })
                     .collect();
-                if h.is_empty() {
-                    h.push(GpuHomogeneousMedium::zeroed());
-                }
-                ctx.storage_buffer("homogeneous media", &h)
+                storage_at_least_one(ctx, "homogeneous media", &h)
             },
-            vdb_media: if vdb_media.is_empty() {
-                ctx.storage_buffer("vdb media", &[GpuVdbMedium::zeroed()])
-            } else {
-                ctx.storage_buffer("vdb media", vdb_media)
-            },
+            vdb_media: storage_at_least_one(ctx, "vdb media", vdb_media),
             no_grid: (
                 ctx.uniform_buffer("no grid", &GpuGridInfo::default()),
                 ctx.storage_buffer_zeroed("no grid data", 16),
             ),
-            blackbody: {
-                let rows: Vec<[f32; 4]> = blackbody::table()
-                    .iter()
-                    .map(|c| [c.x, c.y, c.z, 0.0])
-                    .collect();
-                // A storage buffer, not a uniform: with the table as a fifth uniform block,
-                // Mesa 22.3's lavapipe (Debian 12) reads and writes freed memory compiling the
-                // generic variant's sample_medium stage. See shaders/common/emission.wgsl.
-                let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("blackbody table"),
-                    size: (rows.len() * 16) as u64,
-                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
-                b
-            },
+            blackbody: blackbody_table(ctx),
             args: ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("dispatch args"),
                 size: GpuQueue::COUNT as u64 * 12,
@@ -209,22 +226,7 @@ impl Buffers {
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }),
-            timestamps: timestamps.then(|| {
-                let n = queries;
-                (
-                    ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
-                        label: Some("stage timestamps"),
-                        ty: wgpu::QueryType::Timestamp,
-                        count: n,
-                    }),
-                    ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("timestamps"),
-                        size: n as u64 * 8,
-                        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                        mapped_at_creation: false,
-                    }),
-                )
-            }),
+            timestamps: timestamps.then(|| stage_timestamps(ctx, queries)),
         }
     }
 

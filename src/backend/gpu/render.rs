@@ -169,14 +169,7 @@ pub fn render_with_timings(
     progress: Progress,
 ) -> Result<(RenderOutput, GpuTimings), GpuRenderError> {
     let start = Instant::now();
-    supports(rs).map_err(GpuRenderError::Unsupported)?;
-    settings.validate().map_err(GpuRenderError::Unsupported)?;
-    if settings.region.is_some() {
-        // Batches are whole rows of the image; a region split is a CPU feature.
-        return Err(GpuRenderError::Unsupported(
-            "--region renders on the CPU backend only (--samples works on both)".into(),
-        ));
-    }
+    check_supported(rs, settings)?;
     // As on the CPU: the generic variant has every feature on. The variant's flags also
     // count disjoint VDB media as a mixture (`gpu_features`); the output keeps the scene's.
     let (scene_features, features) = if settings.generic {
@@ -189,13 +182,7 @@ pub fn render_with_timings(
     let limit = ctx.limits.max_storage_buffer_binding_size;
     let (grid, emission, vdb_media) = upload_grid(ctx, rs, features, &cfg)?;
     let plan = BatchPlan::new(settings, limit)?;
-    // The path state is the largest per-slot binding; a device that binds less gets fewer
-    // slots (a power of two, so whole workgroups), never a binding error.
-    let path_bytes = std::mem::size_of::<crate::gpu_types::GpuPathState>() as u64;
-    let fit = (limit / path_bytes).max(64);
-    let slots = (WAVEFRONT_SIZE as u64)
-        .min(1 << fit.ilog2())
-        .min(plan.largest) as u32;
+    let slots = slot_count(limit, &plan);
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
     let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
@@ -236,9 +223,7 @@ pub fn render_with_timings(
     let mut spp = 0u32;
     let mut interrupted = false;
     // Samples [sample_start, spp) in the CPU's pass schedule, so GPU parts merge with CPU ones.
-    'passes: for (pass, s0, n) in
-        pass_schedule(settings.sample_start, plan.target, settings.max_pass_spp)
-    {
+    for (pass, s0, n) in pass_schedule(settings.sample_start, plan.target, settings.max_pass_spp) {
         if stop.load(Ordering::Relaxed)
             || settings
                 .time_limit
@@ -248,34 +233,11 @@ pub fn render_with_timings(
             break;
         }
         let rows = (plan.max_samples(w, h, n) / (w as u64 * n as u64)) as u32;
-        let mut pending = Vec::new();
-        let mut y0 = 0;
-        while y0 < h {
-            let y1 = (y0 + rows).min(h);
-            let batch_start = Instant::now();
-            params.pixel0 = y0 * w;
-            params.s0 = s0;
-            params.spp_batch = n;
-            params.total_samples = (y1 - y0) * w * n;
-            let Some((counters, iterations, stage_ns, samples, host_ns)) =
-                wave.run_batch(&params, stop)?
-            else {
-                interrupted = true;
-                break 'passes;
-            };
-            let rect = TileRect {
-                x0: 0,
-                y0,
-                x1: w,
-                y1,
-                index: pending.len() as u32,
-            };
-            let mut r = batch_record(pass, &rect, &counters);
-            r.samples = params.total_samples as u64;
-            r.wall_ns = batch_start.elapsed().as_nanos() as u64;
-            pending.push((r, iterations, stage_ns, samples, host_ns));
-            y0 = y1;
-        }
+        let Some(pending) = run_pass(&mut wave, &mut params, (pass, s0, n), (w, h), rows, stop)?
+        else {
+            interrupted = true;
+            break;
+        };
         // The pass is complete: merge it (an interrupted pass is dropped, as on the CPU).
         for (r, iterations, stage_ns, samples, (loop_ns, readback_ns)) in pending {
             let merge_start = Instant::now();
@@ -313,6 +275,79 @@ pub fn render_with_timings(
         adapter: ctx.adapter_name().to_string(),
     };
     Ok((out, timings))
+}
+
+/// Refuses what the GPU integrator does not render as the CPU would, before any upload.
+fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), GpuRenderError> {
+    supports(rs).map_err(GpuRenderError::Unsupported)?;
+    settings.validate().map_err(GpuRenderError::Unsupported)?;
+    if settings.region.is_some() {
+        // Batches are whole rows of the image; a region split is a CPU feature.
+        return Err(GpuRenderError::Unsupported(
+            "--region renders on the CPU backend only (--samples works on both)".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Wavefront slots: the path state is the largest per-slot binding, so a device that binds
+/// less than `limit` bytes gets fewer slots (a power of two, so whole workgroups), never a
+/// binding error.
+fn slot_count(limit: u64, plan: &BatchPlan) -> u32 {
+    let path_bytes = std::mem::size_of::<crate::gpu_types::GpuPathState>() as u64;
+    let fit = (limit / path_bytes).max(64);
+    (WAVEFRONT_SIZE as u64)
+        .min(1 << fit.ilog2())
+        .min(plan.largest) as u32
+}
+
+/// A batch of a pass run, with its record and what its timings need.
+type PendingBatch = (
+    TileRecord,
+    u32,
+    [u64; Stage::COUNT],
+    Vec<[f32; 4]>,
+    (u64, u64),
+);
+
+/// Runs pass `pass` (samples `[s0, s0 + n)`) of a `w` x `h` image in batches of `rows` whole
+/// rows; `None` where `stop` interrupted it.
+fn run_pass(
+    wave: &mut Wavefront,
+    params: &mut crate::gpu_types::GpuWavefrontParams,
+    (pass, s0, n): (u32, u32, u32),
+    (w, h): (u32, u32),
+    rows: u32,
+    stop: &AtomicBool,
+) -> Result<Option<Vec<PendingBatch>>, GpuRenderError> {
+    let mut pending = Vec::new();
+    let mut y0 = 0;
+    while y0 < h {
+        let y1 = (y0 + rows).min(h);
+        let batch_start = Instant::now();
+        params.pixel0 = y0 * w;
+        params.s0 = s0;
+        params.spp_batch = n;
+        params.total_samples = (y1 - y0) * w * n;
+        let Some((counters, iterations, stage_ns, samples, host_ns)) =
+            wave.run_batch(params, stop)?
+        else {
+            return Ok(None);
+        };
+        let rect = TileRect {
+            x0: 0,
+            y0,
+            x1: w,
+            y1,
+            index: pending.len() as u32,
+        };
+        let mut r = batch_record(pass, &rect, &counters);
+        r.samples = params.total_samples as u64;
+        r.wall_ns = batch_start.elapsed().as_nanos() as u64;
+        pending.push((r, iterations, stage_ns, samples, host_ns));
+        y0 = y1;
+    }
+    Ok(Some(pending))
 }
 
 /// How a render's passes are cut into batches: whole rows, at most [`MAX_BATCH_SAMPLES`]
