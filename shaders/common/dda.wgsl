@@ -11,7 +11,7 @@
 // level-0 regions of the adaptive walk as DDA steps); the planes are exact integers, so
 // recomputing them here gives the same values. The segments therefore equal the CPU's as long
 // as the device divides and adds with IEEE rounding; an FMA contraction of the entry point
-// `o + t d` may move it by an ulp (tests/gpu_dda.rs measures it).
+// `o + t d` may move it by an ulp (tests/gpu/dda.rs measures it).
 
 // Per-cell bounds (LeafBounds::cells, x fastest) followed by the global bound at
 // grid_info.global_bounds_index and the walk box (LeafBounds::gpu_walk_box: per axis the

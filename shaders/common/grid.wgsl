@@ -8,7 +8,7 @@
 // as an f32 multiply: with IEEE f32 arithmetic the two agree bit for bit. A driver may still
 // rewrite `a + (b - a) w` (Mesa's NIR applies inexact algebraic rewrites unless SPIR-V marks
 // an operation NoContraction, which naga does not), so any difference is rounding only:
-// nearly every lookup is bit-exact and the rest agree to a few ulps (tests/gpu_grid.rs).
+// nearly every lookup is bit-exact and the rest agree to a few ulps (tests/gpu/grid.rs).
 //
 // Limits: `bricks` is one storage binding, so at most maxStorageBufferBindingSize / 2048 bricks
 // (65,536 bricks under lavapipe's 128 MiB).

@@ -1,7 +1,7 @@
 // Mirrors src/sampling/rng.rs (`pcg_hash`, `Rng::new`, `Rng::next_u32`, `Rng::uniform_f32`,
 // `Rng::queue_uniforms`, `Rng::push_front`):
 // PCG-RXS-M-XS-32 with u32-only wrapping arithmetic, which is exactly WGSL's u32 semantics, so
-// the streams equal the CPU's bit for bit (tests/gpu_rng.rs). Keep the two in lockstep.
+// the streams equal the CPU's bit for bit (tests/gpu/rng.rs). Keep the two in lockstep.
 
 const PCG_MULT: u32 = 747796405u;
 const PCG_INC: u32 = 2891336453u;

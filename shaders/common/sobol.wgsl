@@ -1,7 +1,7 @@
 // Mirrors src/sampling/sobol.rs (`owen_scramble`, `sobol_dim1`, `block_seed`,
 // `sobol_point_u32`, `sobol_point`, `bounce_dim`): padded 2D Sobol with Burley's (2020,
 // "Practical Hash-based Owen Scrambling") hash-based nested uniform scrambling, in wrapping u32
-// arithmetic, so the points equal the CPU's bit for bit (tests/gpu_sobol.rs). Keep the two in
+// arithmetic, so the points equal the CPU's bit for bit (tests/gpu/sobol.rs). Keep the two in
 // lockstep. The dimension layout (which block drives which decision) is the table in
 // sobol.rs; the per-bounce offsets below are its rows.
 

@@ -14,7 +14,7 @@
 // therefore takes the same decisions as the CPU one up to rounding: exponential steps use
 // ln_f32 (math.wgsl, equal to f32::ln for 92 % of arguments, else 1 ulp off), exp() is WGSL's,
 // and the driver may rewrite arithmetic (Mesa's NIR turns `(1 - a) s + a s` into
-// `s ((1 - a) + a)`, for one). tests/gpu_transmittance.rs reports how many samples are
+// `s ((1 - a) + a)`, for one). tests/gpu/transmittance.rs reports how many samples are
 // bit-identical to the CPU's.
 //
 // The medium is a SparseGrid seen along an index-space ray: sigma_t = density_scale * value

@@ -1,5 +1,5 @@
 // Mirrors src/gpu_types/, the source of truth for every host/WGSL shared struct (same struct
-// and member names). tests/gpu_wgsl.rs parses this file with naga and checks that every size
+// and member names). tests/gpu/wgsl.rs parses this file with naga and checks that every size
 // and member offset equals the Rust `#[repr(C)]` layout. Rows are 16 bytes: a vec3 plus one
 // scalar, so WGSL's vec3 alignment adds no hidden padding.
 

@@ -1,6 +1,6 @@
 // Test kernel for DdaMajorantIterator::new / ::global (src/volume/dda/mod.rs) and
 // AdaptiveMajorantIterator (src/volume/adaptive/walk.rs): all segments of each
-// ray (up to MAX_SEGMENTS stored, all counted); tests/gpu_dda.rs compares with the CPU.
+// ray (up to MAX_SEGMENTS stored, all counted); tests/gpu/dda.rs compares with the CPU.
 
 @group(1) @binding(0) var<storage, read> rays: array<GpuRay>;
 @group(1) @binding(1) var<storage, read_write> segments: array<GpuMajorantSegment>;

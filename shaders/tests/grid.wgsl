@@ -1,5 +1,5 @@
 // Test kernel for SparseGrid::sample_nearest, SparseGrid::sample_trilinear and
-// SparseGrid::voxel (src/volume/grid.rs) at given index points; tests/gpu_grid.rs compares.
+// SparseGrid::voxel (src/volume/grid.rs) at given index points; tests/gpu/grid.rs compares.
 
 @group(1) @binding(0) var<storage, read> points: array<vec4<f32>>;
 // x: nearest, y: trilinear, z: voxel(floor(p)).

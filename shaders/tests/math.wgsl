@@ -1,5 +1,5 @@
 // Test kernel for ln_f32 (shaders/common/math.wgsl), the mirror of f32::ln: for u = 4 i 2^-24,
-// the bits of WGSL's built-in log(1 - u) and of ln_f32(1 - u); tests/gpu_math.rs compares
+// the bits of WGSL's built-in log(1 - u) and of ln_f32(1 - u); tests/gpu/math.rs compares
 // both with f32::ln and with the f64 logarithm.
 
 @group(0) @binding(0) var<storage, read_write> out: array<vec2<u32>>;

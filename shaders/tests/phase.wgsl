@@ -1,5 +1,5 @@
 // Test kernel for HenyeyGreenstein::sample and HenyeyGreenstein::p (src/volume/phase.rs);
-// tests/gpu_phase.rs compares with the CPU within a few ulps.
+// tests/gpu/phase.rs compares with the CPU within a few ulps.
 
 // Per sample two rows: (g, u.x, u.y, -) and (wo, -).
 @group(0) @binding(0) var<storage, read> inputs: array<vec4<f32>>;

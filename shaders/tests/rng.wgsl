@@ -1,6 +1,6 @@
 // Test kernel for Rng::new, Rng::raw, Rng::next_u32 and Rng::uniform_f32 (src/sampling/rng.rs):
 // per stream, the raw (state, inc) after construction, DRAWS/2 next_u32 outputs, then DRAWS/2
-// uniforms as bits. tests/gpu_rng.rs compares them with the CPU bit for bit.
+// uniforms as bits. tests/gpu/rng.rs compares them with the CPU bit for bit.
 
 @group(0) @binding(0) var<storage, read> streams: array<vec4<u32>>; // pixel, sample, seed, -
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;

@@ -1,6 +1,6 @@
 // Test kernel for sobol_point_u32 and sobol_point (src/sampling/sobol.rs): per query
 // (pixel, sample, block, seed), the point's two u32 coordinates, then its two f32 coordinates
-// as bits. tests/gpu_sobol.rs compares them with the CPU bit for bit.
+// as bits. tests/gpu/sobol.rs compares them with the CPU bit for bit.
 
 @group(0) @binding(0) var<storage, read> queries: array<vec4<u32>>; // pixel, sample, block, seed
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;

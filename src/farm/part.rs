@@ -17,7 +17,7 @@
 //! grouping of the same sums than the single render's pass-by-pass fold: it equals the single
 //! render **to the last rounding of the f64 summation order** (relative differences of order
 //! 1e-16 in the state; the f32 channels written to the EXR are equal or one unit in the last
-//! place apart). `tests/farm_parts.rs` checks both.
+//! place apart). `tests/cli/farm_parts.rs` checks both.
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;

@@ -1,5 +1,5 @@
 //! [`SHARED_STRUCTS`]: the Rust layout of every host/WGSL shared struct, which
-//! `tests/gpu_wgsl.rs` compares with naga's layout of `shaders/common/types.wgsl`.
+//! `tests/gpu/wgsl.rs` compares with naga's layout of `shaders/common/types.wgsl`.
 use std::mem::{offset_of, size_of};
 
 use super::*;
@@ -22,7 +22,7 @@ macro_rules! layout {
 }
 
 /// Every host/WGSL shared struct, as Rust lays it out. The WGSL structs carry the same names
-/// and member names; `tests/gpu_wgsl.rs` checks them with naga's layouter.
+/// and member names; `tests/gpu/wgsl.rs` checks them with naga's layouter.
 pub const SHARED_STRUCTS: &[StructLayout] = &[
     layout!(
         GpuEnvMap,

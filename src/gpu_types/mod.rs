@@ -3,7 +3,7 @@
 //! Rust is the source of truth: every struct here is `#[repr(C)]` + `bytemuck::Pod`, built from
 //! 16-byte rows (a `vec3` plus one scalar, a `vec4`, or four scalars) so that the WGSL layout
 //! rules (`vec3` aligned to 16) add no hidden padding, with any padding named. The WGSL mirrors
-//! live in `shaders/common/types.wgsl`; `tests/gpu_wgsl.rs` parses that file with naga and
+//! live in `shaders/common/types.wgsl`; `tests/gpu/wgsl.rs` parses that file with naga and
 //! compares every struct's size and member offsets against [`SHARED_STRUCTS`].
 //!
 //! Enumerations shared with WGSL ([`GpuEstimator`], ...) are emitted as WGSL `const`s by

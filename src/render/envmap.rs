@@ -18,7 +18,7 @@
 //! (Cycles writes `v` from the bottom, as Blender stores images; Brume's images run from the
 //! top row, so Cycles' `1 - v` is Brume's `v`.) So the image centre looks along Blender +X
 //! (glTF +X), the point a quarter of the way in looks along Blender +Y (glTF -Z), and the top
-//! row is Blender +Z (glTF +Y). `tests/envmap.rs` checks known directions against pixels.
+//! row is Blender +Z (glTF +Y). `tests/physics/envmap.rs` checks known directions against pixels.
 //!
 //! The lookup is bilinear between pixel centres, as Cycles' default Linear interpolation:
 //! wrapping across the `u = 0 / 1` seam, clamped at the poles (Cycles repeats vertically too,

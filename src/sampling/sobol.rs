@@ -583,12 +583,12 @@ mod tests {
 
     /// Chi-square of directions warped from the sampler's points to the uniform sphere over
     /// many pixels (independent scrambles) with 16 samples each (HG phase sampling from the
-    /// same points: `tests/sampling_phase.rs`). Stratification
+    /// same points: `tests/physics/sampling_phase.rs`). Stratification
     /// makes the counts *more* even than multinomial, so the test can only fail on a wrong
     /// distribution (a bias or a broken scramble), which is what it is for.
     #[test]
     fn warped_samples_pass_chi_square() {
-        // One of a family of two with the HG test in tests/sampling_phase.rs.
+        // One of a family of two with the HG test in tests/physics/sampling_phase.rs.
         let alpha = sidak(0.01, 2);
         let (pixels, spp) = (8192u32, 16u32);
         let n = (pixels * spp) as f64;

@@ -1,5 +1,5 @@
 //! Warps from the unit square to directions, and the orthonormal frames they are expressed in.
-//! Each warp has its pdf (per steradian) next to it; `tests/sampling_warp.rs` chi-square tests
+//! Each warp has its pdf (per steradian) next to it; `tests/physics/sampling_warp.rs` chi-square tests
 //! every pair.
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};

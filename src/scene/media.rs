@@ -347,14 +347,14 @@ pub fn read_vdb_media(
 /// Largest optical depth a medium may have across its world bounds. Free-flight distances are
 /// 32-bit ray parameters: at optical depth `tau` across a box of size `L` the mean step is
 /// `L / tau`, while the spacing of floats near `L` is `L * 1.2e-7`. Beyond about 1e7 steps stop
-/// advancing the ray (found by `tests/fuzz_inputs/`: `densityScale: 1.8e19` tracked 2^24
+/// advancing the ray (found by `tests/files/fuzz_inputs/`: `densityScale: 1.8e19` tracked 2^24
 /// null collisions at one point); 1e6 keeps the mean step at eight float spacings. The stress
 /// suite covers optical depths up to 1e5.
 pub const MAX_OPTICAL_DEPTH: f64 = 1e6;
 
 /// Largest emitted radiance per metre (`emissionStrength * emissionColor * emissionGrid`). The
 /// estimators add `beta * Le * w / sigma_maj` at collisions, so radiance near `f32::MAX` turns
-/// into infinities (found by `tests/fuzz_inputs/`: `emissionStrength: 3.4e38`); 1e20 is
+/// into infinities (found by `tests/files/fuzz_inputs/`: `emissionStrength: 3.4e38`); 1e20 is
 /// eighteen orders above the example fire and leaves room for `1 / sigma_maj`.
 pub const MAX_EMISSION: f64 = 1e20;
 
@@ -492,7 +492,7 @@ pub const MAX_TEMPERATURE_K: f32 = 1e12;
 
 /// Refuses blackbody media whose temperature (`temperatureScale * t + temperatureOffset` over
 /// the temperature grid's value range) can exceed [`MAX_TEMPERATURE_K`]. Found by
-/// `tests/fuzz_inputs/` (`temperatureOffset: 3e32` rendered infinite radiance).
+/// `tests/files/fuzz_inputs/` (`temperatureOffset: 3e32` rendered infinite radiance).
 fn check_temperature_range(ctx: &Ctx, obj: &Obj, desc: &VdbMediumDesc) -> Result<(), SceneError> {
     let Some(name) = &desc.temperature_grid else {
         return Ok(());

@@ -1,6 +1,6 @@
 """A glTF-exporter add-on whose node hook raises, as a buggy third-party add-on would: the
 exporter only logs such an exception and writes the file anyway; with brume_gltf enabled the
-export must fail instead (tests/blender_roundtrip.rs)."""
+export must fail instead (tests/external/blender_roundtrip.rs)."""
 
 bl_info = {"name": "failing glTF hook (test)", "blender": (5, 0, 0), "category": "Import-Export"}
 

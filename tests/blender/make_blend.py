@@ -1,4 +1,4 @@
-"""Builds the .blend files of tests/blender_roundtrip.rs with bpy (as a user would in Blender).
+"""Builds the .blend files of tests/external/blender_roundtrip.rs with bpy (as a user would in Blender).
 
     python make_blend.py KIND out.blend --vdb-dir scenes/vdb [--seq-dir DIR]
 

@@ -1,6 +1,6 @@
 //! Scenes of nested closed boxes of homogeneous media (and optionally a VDB grid inside),
-//! written as glTF with their buffers: the nested-media tests (`tests/media_overlap.rs`, and
-//! the GPU's medium stack in `tests/gpu_render.rs`).
+//! written as glTF with their buffers: the nested-media tests (`tests/physics/media_overlap.rs`, and
+//! the GPU's medium stack in `tests/gpu/render.rs`).
 use std::path::{Path, PathBuf};
 
 use serde_json::{json, Value};

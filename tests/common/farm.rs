@@ -1,5 +1,5 @@
 //! Farm parts: the definition of "equal to the last rounding of the summation order" that
-//! split-and-merge renders are held to (tests/farm_parts.rs, farm_cli.rs, farm_slurm.rs).
+//! split-and-merge renders are held to (tests/cli/farm_parts.rs, farm_cli.rs, farm_slurm.rs).
 use brume::film::Film;
 
 /// Half-open distance in units of the last place of f32, with +0 and -0 equal.

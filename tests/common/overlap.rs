@@ -1,4 +1,4 @@
-//! The overlapping-media scenes of `tests/media_overlap.rs` and `tests/gpu_media_overlap.rs`:
+//! The overlapping-media scenes of `tests/physics/media_overlap.rs` and `tests/gpu/media_overlap.rs`:
 //! two blobs of `common::stress::blob_voxels` overlapping over about half their width, and
 //! one grid holding their voxel-wise sum.
 use super::stress::blob_voxels;

@@ -10,7 +10,7 @@ With `--runs K > 1` it renders K independent images (seeds seed .. seed+K-1) and
 Each render's time is printed as `render_seconds <k> <s>`.
 
 A `.blend` instead of a glTF is rendered as it is, with only the render settings below changed
-(tests/blender_roundtrip.rs compares it with Brume's render of its export). `--save-blend X
+(tests/external/blender_roundtrip.rs compares it with Brume's render of its export). `--save-blend X
 --no-render` saves the Blender scene built from a glTF without rendering it.
 
 The Blender scene is built as follows (docs/comparing.md has the table and the reasons):
@@ -521,7 +521,7 @@ def configure_render(scene, args):
 
 def open_blend(args):
     """A .blend rendered as it is, with only the render settings of `configure_render` (the
-    reference for tools/blender's exporter: tests/blender_roundtrip.rs)."""
+    reference for tools/blender's exporter: tests/external/blender_roundtrip.rs)."""
     bpy.ops.wm.open_mainfile(filepath=os.path.abspath(args.scene))
     scene = bpy.context.scene
     if scene.camera is None:

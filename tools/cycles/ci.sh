@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Creates tools/cycles/.venv (Python 3.11) with Blender as a module (bpy 5.0.1 from PyPI) so that
-# `brume cycles` and tests/cycles_compare.rs can run Cycles. Idempotent: an existing venv that
+# `brume cycles` and tests/external/cycles_compare.rs can run Cycles. Idempotent: an existing venv that
 # imports bpy is kept.
 #
 # About a minute (download and install) and 1 GB on disk for the venv (the bpy 5.0.1 wheel plus
@@ -22,7 +22,7 @@ if [ -z "$py" ]; then
     done
 fi
 if [ -z "$py" ]; then
-    echo "cycles: bpy 5.0.1 needs Python 3.11, none found; tests/cycles_compare.rs will skip" >&2
+    echo "cycles: bpy 5.0.1 needs Python 3.11, none found; tests/external/cycles_compare.rs will skip" >&2
     exit 1
 fi
 start=$(date +%s)
@@ -31,7 +31,7 @@ start=$(date +%s)
 # error) leaves no half venv behind to take the space or pass for an installed one.
 if ! "$venv/bin/pip" install --quiet --disable-pip-version-check --no-cache-dir bpy==5.0.1; then
     rm -rf "$venv"
-    echo "cycles: pip install bpy==5.0.1 failed; tests/cycles_compare.rs will skip" >&2
+    echo "cycles: pip install bpy==5.0.1 failed; tests/external/cycles_compare.rs will skip" >&2
     exit 1
 fi
 "$venv/bin/python" -c "import bpy; print('cycles: bpy', bpy.app.version_string)"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Creates tools/mitsuba/.venv with Mitsuba 3 (the `mitsuba` wheel from PyPI) so that
-# `brume mitsuba` and tests/mitsuba_compare.rs can run. Idempotent: an existing venv that
+# `brume mitsuba` and tests/external/mitsuba_compare.rs can run. Idempotent: an existing venv that
 # imports mitsuba is kept. The fast variant, `llvm_ad_rgb`, JIT-compiles with LLVM and needs
 # a libLLVM >= 16 at run time, which Debian 12 has as `libllvm19`; without it Mitsuba still
 # runs as `scalar_rgb` (one ray at a time, much slower), and `brume mitsuba` says so.
@@ -28,7 +28,7 @@ else
     # No pip cache, and no half venv left behind when the install fails (see tools/cycles/ci.sh).
     if ! "$venv/bin/pip" install --quiet --disable-pip-version-check --no-cache-dir "mitsuba==3.*"; then
         rm -rf "$venv"
-        echo "mitsuba: pip install mitsuba failed; tests/mitsuba_compare.rs will skip" >&2
+        echo "mitsuba: pip install mitsuba failed; tests/external/mitsuba_compare.rs will skip" >&2
         exit 1
     fi
 fi

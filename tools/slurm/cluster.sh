@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# A single-node Slurm cluster on the local machine, for tests (tests/farm_slurm.rs) and for trying
+# A single-node Slurm cluster on the local machine, for tests (tests/external/farm_slurm.rs) and for trying
 # `brume farm slurm` by hand. Debian 12's slurm-wlm 22.05 and munge, daemons started directly
 # (no systemd), everything under one folder, on 127.0.0.1.
 #

@@ -10,7 +10,7 @@
 //!    their values are written once, in Rust.
 //!
 //! Every file is preceded by a `// ---- file: NAME ----` marker so that naga's error locations
-//! can be traced back. [`MODULES`] lists every module Brume builds; `tests/gpu_wgsl.rs`
+//! can be traced back. [`MODULES`] lists every module Brume builds; `tests/gpu/wgsl.rs`
 //! validates each with naga.
 use crate::gpu_types::{
     GpuControlMode, GpuEstimator, GpuMajorantMode, GpuQueue, GpuWideCounter,
