@@ -67,29 +67,7 @@ pub struct StudyArgs {
 pub const DEFAULT_REFERENCE_SPP: u32 = 4096;
 
 pub fn run(args: &StudyArgs) -> Result<()> {
-    if !(args.budget > 0.0 && args.budget.is_finite()) {
-        return Err(anyhow!(
-            "--budget {} must be a positive number of seconds",
-            args.budget
-        ));
-    }
-    if args.repeats == 0 {
-        return Err(anyhow!("--repeats must be at least 1"));
-    }
-    let configs: Vec<StudyConfig> = if args.configs.is_empty() {
-        default_sweep()
-    } else {
-        args.configs
-            .iter()
-            .map(|s| StudyConfig::parse(s))
-            .collect::<Result<_, _>>()
-            .map_err(|e| anyhow!(e))?
-    };
-    for (i, c) in configs.iter().enumerate() {
-        if configs[..i].iter().any(|d| d.label == c.label) {
-            return Err(anyhow!("configuration {:?} is given twice", c.label));
-        }
-    }
+    let configs = checked_configs(args)?;
     if args.replot {
         return replot(args);
     }
@@ -97,23 +75,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         Some(p) => Some(read_exr(p).with_context(|| "reading the reference")?),
         None => None,
     };
-    let (width, height) = match (&given_ref, args.width, args.height) {
-        (Some(r), w, h) => {
-            let size = (w.unwrap_or(r.width as u32), h.unwrap_or(r.height as u32));
-            if size != (r.width as u32, r.height as u32) {
-                return Err(anyhow!(
-                    "the reference {} is {}x{}, the study asks for {}x{}",
-                    args.reference.as_ref().unwrap().display(),
-                    r.width,
-                    r.height,
-                    size.0,
-                    size.1
-                ));
-            }
-            size
-        }
-        (None, w, h) => (w.unwrap_or(128), h.unwrap_or(96)),
-    };
+    let (width, height) = study_size(args, given_ref.as_ref())?;
     let scene = scene::load(&args.scene)?;
     scene
         .validate()
@@ -149,7 +111,82 @@ pub fn run(args: &StudyArgs) -> Result<()> {
             )
         }
     };
+    let points = run_sweep(args, &configs, &pool, &rs, &base, &reference)?;
+    write_reports(
+        args,
+        &points,
+        &configs,
+        width,
+        height,
+        &reference_desc,
+        reference_noise_rmse(&reference),
+        threads,
+    )
+}
 
+/// The configurations to sweep (`--config`, else the default sweep), after checking the
+/// budget, the repeat count and that no configuration is given twice.
+fn checked_configs(args: &StudyArgs) -> Result<Vec<StudyConfig>> {
+    if !(args.budget > 0.0 && args.budget.is_finite()) {
+        return Err(anyhow!(
+            "--budget {} must be a positive number of seconds",
+            args.budget
+        ));
+    }
+    if args.repeats == 0 {
+        return Err(anyhow!("--repeats must be at least 1"));
+    }
+    let configs: Vec<StudyConfig> = if args.configs.is_empty() {
+        default_sweep()
+    } else {
+        args.configs
+            .iter()
+            .map(|s| StudyConfig::parse(s))
+            .collect::<Result<_, _>>()
+            .map_err(|e| anyhow!(e))?
+    };
+    for (i, c) in configs.iter().enumerate() {
+        if configs[..i].iter().any(|d| d.label == c.label) {
+            return Err(anyhow!("configuration {:?} is given twice", c.label));
+        }
+    }
+    Ok(configs)
+}
+
+/// The study's image size: --width and --height, defaulting to a given reference's size
+/// (which they must then match), else 128x96.
+fn study_size(args: &StudyArgs, given_ref: Option<&Image>) -> Result<(u32, u32)> {
+    Ok(match (given_ref, args.width, args.height) {
+        (Some(r), w, h) => {
+            let size = (w.unwrap_or(r.width as u32), h.unwrap_or(r.height as u32));
+            if size != (r.width as u32, r.height as u32) {
+                return Err(anyhow!(
+                    "the reference {} is {}x{}, the study asks for {}x{}",
+                    args.reference.as_ref().unwrap().display(),
+                    r.width,
+                    r.height,
+                    size.0,
+                    size.1
+                ));
+            }
+            size
+        }
+        (None, w, h) => (w.unwrap_or(128), h.unwrap_or(96)),
+    })
+}
+
+/// Renders every configuration `args.repeats` times for the budget and returns all their
+/// checkpoints, rewriting `checkpoints.csv` in `--out` after each render.
+fn run_sweep(
+    args: &StudyArgs,
+    configs: &[StudyConfig],
+    pool: &rayon::ThreadPool,
+    rs: &RenderScene,
+    base: &RenderSettings,
+    reference: &Image,
+) -> Result<Vec<Checkpoint>> {
+    let (width, height) = (base.width, base.height);
+    let threads = pool.current_num_threads();
     let total = configs.len() * args.repeats as usize;
     eprintln!(
         "study: {} configurations x {} repeat(s) x {} s at {width}x{height} on {threads} thread(s): about {:.0} s",
@@ -166,7 +203,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
         for (i, cfg) in configs.iter().enumerate() {
             let seed = seed_for(args.seed, i, repeat);
             let p =
-                pool.install(|| run_config(&rs, &base, cfg, args.budget, repeat, seed, &reference));
+                pool.install(|| run_config(rs, base, cfg, args.budget, repeat, seed, reference));
             if let Some(last) = p.last() {
                 eprintln!(
                     "  [{}/{}] {} (repeat {repeat}, seed {seed}): {} spp in {:.2} s, RMSE {}",
@@ -183,17 +220,7 @@ pub fn run(args: &StudyArgs) -> Result<()> {
             report::write_csv(&csv, &points)?;
         }
     }
-
-    write_reports(
-        args,
-        &points,
-        &configs,
-        width,
-        height,
-        &reference_desc,
-        reference_noise_rmse(&reference),
-        threads,
-    )
+    Ok(points)
 }
 
 /// Summaries and plots from the checkpoints of an earlier run (`--replot`).

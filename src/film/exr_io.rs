@@ -322,84 +322,18 @@ fn read_exr_checked(
     path: &Path,
     verify: bool,
 ) -> Result<(Image, BTreeMap<String, Vec<u32>>, u64), FilmError> {
-    let mut raw_u32: BTreeMap<String, Vec<u32>> = BTreeMap::new();
-    let meta = std::fs::metadata(path).map_err(|e| FilmError::io("read", path, e))?;
-    if meta.is_dir() {
-        let e = std::io::Error::other("it is a directory, not a file");
-        return Err(FilmError::io("read", path, e));
-    }
-    let exr_error = |source| FilmError::Exr {
-        path: path.to_path_buf(),
-        source,
-    };
-    // The exr crate validates headers, but a decoder bug on hostile bytes should still come
-    // back as an error naming the file rather than take the process down.
-    let decoded = std::panic::catch_unwind(|| exr::prelude::read_all_flat_layers_from_file(path))
-        .map_err(|_| {
-            exr_error(exr::error::Error::Invalid(
-                "the decoder panicked on this file".into(),
-            ))
-        })?
-        .map_err(exr_error)?;
-
-    // Channel name (with its part's layer name prefixed, as OpenEXR multi-part files name
-    // them) -> values.
-    let mut by_name: BTreeMap<String, Vec<f32>> = BTreeMap::new();
-    let mut attributes = Metadata::new();
-    let mut size: Option<(usize, usize)> = None;
-    let mut read_channels: Vec<(String, &FlatSamples)> = Vec::new();
-    collect_attributes(&decoded.attributes.other, &mut attributes);
-    for layer in &decoded.layer_data {
-        let layer_size = (layer.size.0, layer.size.1);
-        match size {
-            None => size = Some(layer_size),
-            Some(expected) if expected != layer_size => {
-                return Err(FilmError::SizeMismatch {
-                    path: path.to_path_buf(),
-                    what: match &layer.attributes.layer_name {
-                        Some(name) => format!("part {:?}", String::from_utf8_lossy(name.bytes())),
-                        None => "an unnamed part".into(),
-                    },
-                    expected,
-                    found: layer_size,
-                })
-            }
-            Some(_) => {}
-        }
-        collect_attributes(&layer.attributes.other, &mut attributes);
-        let prefix = layer
-            .attributes
-            .layer_name
-            .as_ref()
-            // Blender writes single-layer files with an empty layer name: no prefix then.
-            .filter(|t| !t.bytes().is_empty())
-            .map(|t| format!("{}.", String::from_utf8_lossy(t.bytes())))
-            .unwrap_or_default();
-        for channel in &layer.channel_data.list {
-            let name = format!("{prefix}{}", String::from_utf8_lossy(channel.name.bytes()));
-            read_channels.push((name.clone(), &channel.sample_data));
-            if let FlatSamples::U32(v) = &channel.sample_data {
-                raw_u32.insert(name.clone(), v.clone());
-            }
-            by_name.insert(name, channel.sample_data.values_as_f32().collect());
-        }
-    }
-    let (width, height) = size.unwrap_or((0, 0));
+    let decoded = decode(path)?;
+    let channels = Channels::of(path, &decoded)?;
+    let by_name = &channels.by_name;
+    let (width, height) = channels.size.unwrap_or((0, 0));
     let computed = if verify {
         checksum(
-            read_channels.iter().map(|(n, v)| (n.as_str(), *v)),
-            &attributes,
+            channels.read.iter().map(|(n, v)| (n.as_str(), *v)),
+            &channels.attributes,
         )
     } else {
         0
     };
-    let found: Vec<String> = by_name.keys().cloned().collect();
-    let missing = |missing: &[&str]| FilmError::MissingChannels {
-        path: path.to_path_buf(),
-        missing: missing.iter().map(|s| s.to_string()).collect(),
-        found: found.clone(),
-    };
-
     let rgb = match (
         by_name.get("R"),
         by_name.get("G"),
@@ -414,7 +348,7 @@ fn read_exr_checked(
                 .filter(|(_, c)| c.is_none())
                 .map(|(n, _)| n)
                 .collect();
-            return Err(missing(&absent));
+            return Err(channels.missing(path, &absent));
         }
     };
     let variance_channels = ["variance.R", "variance.G", "variance.B"].map(|n| by_name.get(n));
@@ -428,7 +362,7 @@ fn read_exr_checked(
                 .filter(|(_, c)| c.is_none())
                 .map(|(n, _)| n)
                 .collect();
-            return Err(missing(&absent));
+            return Err(channels.missing(path, &absent));
         }
     };
     let samples = by_name
@@ -443,11 +377,112 @@ fn read_exr_checked(
             alpha: by_name.get("A").cloned(),
             variance,
             samples,
-            attributes: attributes.sorted(),
+            attributes: channels.attributes.sorted(),
         },
-        raw_u32,
+        channels.raw_u32,
         computed,
     ))
+}
+
+/// Decodes every part of the file at `path`; a directory, an unreadable file or bytes the
+/// decoder rejects (or panics on) come back as errors naming the file.
+fn decode(path: &Path) -> Result<exr::image::FlatImage, FilmError> {
+    let meta = std::fs::metadata(path).map_err(|e| FilmError::io("read", path, e))?;
+    if meta.is_dir() {
+        let e = std::io::Error::other("it is a directory, not a file");
+        return Err(FilmError::io("read", path, e));
+    }
+    let exr_error = |source| FilmError::Exr {
+        path: path.to_path_buf(),
+        source,
+    };
+    // The exr crate validates headers, but a decoder bug on hostile bytes should still come
+    // back as an error naming the file rather than take the process down.
+    std::panic::catch_unwind(|| exr::prelude::read_all_flat_layers_from_file(path))
+        .map_err(|_| {
+            exr_error(exr::error::Error::Invalid(
+                "the decoder panicked on this file".into(),
+            ))
+        })?
+        .map_err(exr_error)
+}
+
+/// The channels and attributes of every part of a decoded file, which must all have one size.
+struct Channels<'a> {
+    /// Channel name (with its part's layer name prefixed, as OpenEXR multi-part files name
+    /// them) -> values.
+    by_name: BTreeMap<String, Vec<f32>>,
+    /// The `u32` channels by name, bit for bit.
+    raw_u32: BTreeMap<String, Vec<u32>>,
+    /// The file's and every part's custom attributes.
+    attributes: Metadata,
+    /// The parts' size; `None` for a file without parts.
+    size: Option<(usize, usize)>,
+    /// Every channel as stored, in file order, for the checksum.
+    read: Vec<(String, &'a FlatSamples)>,
+}
+
+impl<'a> Channels<'a> {
+    /// Collects the channels of `decoded` (read from `path`), refusing parts of different
+    /// sizes.
+    fn of(path: &Path, decoded: &'a exr::image::FlatImage) -> Result<Self, FilmError> {
+        let mut c = Channels {
+            by_name: BTreeMap::new(),
+            raw_u32: BTreeMap::new(),
+            attributes: Metadata::new(),
+            size: None,
+            read: Vec::new(),
+        };
+        collect_attributes(&decoded.attributes.other, &mut c.attributes);
+        for layer in &decoded.layer_data {
+            let layer_size = (layer.size.0, layer.size.1);
+            match c.size {
+                None => c.size = Some(layer_size),
+                Some(expected) if expected != layer_size => {
+                    return Err(FilmError::SizeMismatch {
+                        path: path.to_path_buf(),
+                        what: match &layer.attributes.layer_name {
+                            Some(name) => {
+                                format!("part {:?}", String::from_utf8_lossy(name.bytes()))
+                            }
+                            None => "an unnamed part".into(),
+                        },
+                        expected,
+                        found: layer_size,
+                    })
+                }
+                Some(_) => {}
+            }
+            collect_attributes(&layer.attributes.other, &mut c.attributes);
+            let prefix = layer
+                .attributes
+                .layer_name
+                .as_ref()
+                // Blender writes single-layer files with an empty layer name: no prefix then.
+                .filter(|t| !t.bytes().is_empty())
+                .map(|t| format!("{}.", String::from_utf8_lossy(t.bytes())))
+                .unwrap_or_default();
+            for channel in &layer.channel_data.list {
+                let name = format!("{prefix}{}", String::from_utf8_lossy(channel.name.bytes()));
+                c.read.push((name.clone(), &channel.sample_data));
+                if let FlatSamples::U32(v) = &channel.sample_data {
+                    c.raw_u32.insert(name.clone(), v.clone());
+                }
+                c.by_name
+                    .insert(name, channel.sample_data.values_as_f32().collect());
+            }
+        }
+        Ok(c)
+    }
+
+    /// The error for the `absent` channels of the file at `path`, listing those it has.
+    fn missing(&self, path: &Path, absent: &[&str]) -> FilmError {
+        FilmError::MissingChannels {
+            path: path.to_path_buf(),
+            missing: absent.iter().map(|s| s.to_string()).collect(),
+            found: self.by_name.keys().cloned().collect(),
+        }
+    }
 }
 
 fn zip3(r: &[f32], g: &[f32], b: &[f32]) -> Vec<[f32; 3]> {

@@ -146,148 +146,12 @@ pub fn read_materials(ctx: &mut Ctx, doc: &gltf::Document) -> Result<MaterialTab
     for mat in doc.materials() {
         let i = mat.index().expect("document materials have indices");
         let at = |p: &str| format!("/materials/{i}{p}");
-        let pbr = mat.pbr_metallic_roughness();
-        let mut m = Material {
-            base_color: check_all(
-                ctx,
-                pbr.base_color_factor(),
-                &at("/pbrMetallicRoughness/baseColorFactor"),
-                0.0,
-                1.0,
-            )?,
-            metallic: check_f32(
-                ctx,
-                pbr.metallic_factor(),
-                at("/pbrMetallicRoughness/metallicFactor"),
-                0.0,
-                1.0,
-            )?,
-            roughness: check_f32(
-                ctx,
-                pbr.roughness_factor(),
-                at("/pbrMetallicRoughness/roughnessFactor"),
-                0.0,
-                1.0,
-            )?,
-            flags: if mat.double_sided() {
-                MATERIAL_DOUBLE_SIDED
-            } else {
-                0
-            },
-            ..Material::default()
-        };
-        let strength = check_f32(
-            ctx,
-            mat.emissive_strength().unwrap_or(1.0),
-            at("/extensions/KHR_materials_emissive_strength/emissiveStrength"),
-            0.0,
-            f32::MAX,
-        )?;
-        let factor = check_all(ctx, mat.emissive_factor(), &at("/emissiveFactor"), 0.0, 1.0)?;
-        m.emission = factor.map(|c| c * strength);
-        if !m.emission.iter().all(|c| c.is_finite()) {
-            return Err(ctx.invalid(
-                at("/extensions/KHR_materials_emissive_strength/emissiveStrength"),
-                "emission overflows to infinity",
-            ));
-        }
-        if let Some(info) = pbr.base_color_texture() {
-            m.base_color_texture = texture_ref(
-                ctx,
-                &mut textures,
-                &info,
-                &at("/pbrMetallicRoughness/baseColorTexture"),
-            );
-        }
-        if let Some(info) = mat.emissive_texture() {
-            m.emissive_texture = texture_ref(ctx, &mut textures, &info, &at("/emissiveTexture"));
-        }
-        if pbr.metallic_roughness_texture().is_some()
-            || mat.normal_texture().is_some()
-            || mat.occlusion_texture().is_some()
-        {
-            ctx.warn(
-                at(""),
-                "metallic-roughness, normal and occlusion textures are ignored (factors only)",
-            );
-        }
-        if let Some(ior) = mat
-            .extension_value("KHR_materials_ior")
-            .and_then(|v| v.get("ior"))
-        {
-            let obj_ptr = at("/extensions/KHR_materials_ior/ior");
-            m.ior = super::json::check_number(ctx, ior, obj_ptr, 1.0, 10.0, false)?;
-        }
-        let transmission = mat.transmission();
-        if let Some(t) = &transmission {
-            m.transmission = check_f32(
-                ctx,
-                t.transmission_factor(),
-                at("/extensions/KHR_materials_transmission/transmissionFactor"),
-                0.0,
-                1.0,
-            )?;
-        }
-        if let Some(vol) = mat.volume() {
-            let vp = at("/extensions/KHR_materials_volume");
-            let thickness = check_f32(
-                ctx,
-                vol.thickness_factor(),
-                format!("{vp}/thicknessFactor"),
-                0.0,
-                f32::MAX,
-            )?;
-            let distance = vol.attenuation_distance();
-            if distance.is_nan() || distance <= 0.0 {
-                return Err(ctx.invalid(
-                    format!("{vp}/attenuationDistance"),
-                    format!("{distance} must be > 0 (omit it for no attenuation)"),
-                ));
-            }
-            let mut color = check_all(
-                ctx,
-                vol.attenuation_color(),
-                &format!("{vp}/attenuationColor"),
-                0.0,
-                1.0,
-            )?;
-            let (albedo, g) = read_volume_scattering(
-                ctx,
-                &mat,
-                &at(&format!("/extensions/{BRUME_MATERIALS_VOLUME_SCATTERING}")),
-            )?;
-            if transmission.is_none() {
-                // The spec: the volume extension only has an effect together with transmission.
-                ctx.warn(&vp, "KHR_materials_volume without KHR_materials_transmission has no effect; no medium");
-            } else if thickness == 0.0 {
-                // The spec: thickness 0 (the default) means thin-walled, i.e. no volume.
-                ctx.warn(
-                    format!("{vp}/thicknessFactor"),
-                    "thicknessFactor 0 makes the material thin-walled; no medium",
-                );
-            } else {
-                if color.iter().any(|&c| c < MIN_ATTENUATION_COLOR) {
-                    ctx.warn(
-                        format!("{vp}/attenuationColor"),
-                        format!(
-                            "components below {MIN_ATTENUATION_COLOR} clamped (0 would be opaque)"
-                        ),
-                    );
-                    color = color.map(|c| c.max(MIN_ATTENUATION_COLOR));
-                }
-                m.interior_medium = media.len() as u32;
-                media.push(HomogeneousMedium::from_attenuation(
-                    color, distance, albedo, g, i as u32,
-                ));
-            }
-        } else if mat
-            .extension_value(BRUME_MATERIALS_VOLUME_SCATTERING)
-            .is_some()
-        {
-            ctx.warn(
-                at(&format!("/extensions/{BRUME_MATERIALS_VOLUME_SCATTERING}")),
-                "ignored without KHR_materials_volume",
-            );
+        let mut m = read_factors(ctx, &mat, &at)?;
+        read_textures(ctx, &mat, &mut textures, &mut m, &at);
+        let has_transmission = read_dielectric(ctx, &mat, &mut m, &at)?;
+        if let Some(medium) = read_interior_medium(ctx, &mat, i, has_transmission, &at)? {
+            m.interior_medium = media.len() as u32;
+            media.push(medium);
         }
         materials.push(m);
         names.push(mat.name().map(str::to_owned));
@@ -300,6 +164,198 @@ pub fn read_materials(ctx: &mut Ctx, doc: &gltf::Document) -> Result<MaterialTab
         media,
         textures,
     })
+}
+
+/// The material's factors: base colour, metallic, roughness, the double-sided flag and the
+/// emission (`emissiveFactor * emissiveStrength`, which must stay finite).
+fn read_factors(
+    ctx: &mut Ctx,
+    mat: &gltf::Material,
+    at: &impl Fn(&str) -> String,
+) -> Result<Material, SceneError> {
+    let pbr = mat.pbr_metallic_roughness();
+    let mut m = Material {
+        base_color: check_all(
+            ctx,
+            pbr.base_color_factor(),
+            &at("/pbrMetallicRoughness/baseColorFactor"),
+            0.0,
+            1.0,
+        )?,
+        metallic: check_f32(
+            ctx,
+            pbr.metallic_factor(),
+            at("/pbrMetallicRoughness/metallicFactor"),
+            0.0,
+            1.0,
+        )?,
+        roughness: check_f32(
+            ctx,
+            pbr.roughness_factor(),
+            at("/pbrMetallicRoughness/roughnessFactor"),
+            0.0,
+            1.0,
+        )?,
+        flags: if mat.double_sided() {
+            MATERIAL_DOUBLE_SIDED
+        } else {
+            0
+        },
+        ..Material::default()
+    };
+    let strength = check_f32(
+        ctx,
+        mat.emissive_strength().unwrap_or(1.0),
+        at("/extensions/KHR_materials_emissive_strength/emissiveStrength"),
+        0.0,
+        f32::MAX,
+    )?;
+    let factor = check_all(ctx, mat.emissive_factor(), &at("/emissiveFactor"), 0.0, 1.0)?;
+    m.emission = factor.map(|c| c * strength);
+    if !m.emission.iter().all(|c| c.is_finite()) {
+        return Err(ctx.invalid(
+            at("/extensions/KHR_materials_emissive_strength/emissiveStrength"),
+            "emission overflows to infinity",
+        ));
+    }
+    Ok(m)
+}
+
+/// Registers the base-colour and emissive textures of `mat` in `textures` and points `m` at
+/// them; warns about the texture kinds Brume ignores.
+fn read_textures(
+    ctx: &mut Ctx,
+    mat: &gltf::Material,
+    textures: &mut Vec<TextureRef>,
+    m: &mut Material,
+    at: &impl Fn(&str) -> String,
+) {
+    let pbr = mat.pbr_metallic_roughness();
+    if let Some(info) = pbr.base_color_texture() {
+        m.base_color_texture = texture_ref(
+            ctx,
+            textures,
+            &info,
+            &at("/pbrMetallicRoughness/baseColorTexture"),
+        );
+    }
+    if let Some(info) = mat.emissive_texture() {
+        m.emissive_texture = texture_ref(ctx, textures, &info, &at("/emissiveTexture"));
+    }
+    if pbr.metallic_roughness_texture().is_some()
+        || mat.normal_texture().is_some()
+        || mat.occlusion_texture().is_some()
+    {
+        ctx.warn(
+            at(""),
+            "metallic-roughness, normal and occlusion textures are ignored (factors only)",
+        );
+    }
+}
+
+/// Reads `KHR_materials_ior` and `KHR_materials_transmission` into `m`; returns whether the
+/// transmission extension is present (the volume extension needs it).
+fn read_dielectric(
+    ctx: &mut Ctx,
+    mat: &gltf::Material,
+    m: &mut Material,
+    at: &impl Fn(&str) -> String,
+) -> Result<bool, SceneError> {
+    if let Some(ior) = mat
+        .extension_value("KHR_materials_ior")
+        .and_then(|v| v.get("ior"))
+    {
+        let obj_ptr = at("/extensions/KHR_materials_ior/ior");
+        m.ior = super::json::check_number(ctx, ior, obj_ptr, 1.0, 10.0, false)?;
+    }
+    let transmission = mat.transmission();
+    if let Some(t) = &transmission {
+        m.transmission = check_f32(
+            ctx,
+            t.transmission_factor(),
+            at("/extensions/KHR_materials_transmission/transmissionFactor"),
+            0.0,
+            1.0,
+        )?;
+    }
+    Ok(transmission.is_some())
+}
+
+/// The homogeneous medium that material `i`'s `KHR_materials_volume` (with
+/// `BRUME_materials_volume_scattering`) puts inside its closed surfaces; `None`, with a
+/// warning saying why, where the spec gives it no volume.
+fn read_interior_medium(
+    ctx: &mut Ctx,
+    mat: &gltf::Material,
+    i: usize,
+    has_transmission: bool,
+    at: &impl Fn(&str) -> String,
+) -> Result<Option<HomogeneousMedium>, SceneError> {
+    let Some(vol) = mat.volume() else {
+        if mat
+            .extension_value(BRUME_MATERIALS_VOLUME_SCATTERING)
+            .is_some()
+        {
+            ctx.warn(
+                at(&format!("/extensions/{BRUME_MATERIALS_VOLUME_SCATTERING}")),
+                "ignored without KHR_materials_volume",
+            );
+        }
+        return Ok(None);
+    };
+    let vp = at("/extensions/KHR_materials_volume");
+    let thickness = check_f32(
+        ctx,
+        vol.thickness_factor(),
+        format!("{vp}/thicknessFactor"),
+        0.0,
+        f32::MAX,
+    )?;
+    let distance = vol.attenuation_distance();
+    if distance.is_nan() || distance <= 0.0 {
+        return Err(ctx.invalid(
+            format!("{vp}/attenuationDistance"),
+            format!("{distance} must be > 0 (omit it for no attenuation)"),
+        ));
+    }
+    let mut color = check_all(
+        ctx,
+        vol.attenuation_color(),
+        &format!("{vp}/attenuationColor"),
+        0.0,
+        1.0,
+    )?;
+    let (albedo, g) = read_volume_scattering(
+        ctx,
+        mat,
+        &at(&format!("/extensions/{BRUME_MATERIALS_VOLUME_SCATTERING}")),
+    )?;
+    if !has_transmission {
+        // The spec: the volume extension only has an effect together with transmission.
+        ctx.warn(
+            &vp,
+            "KHR_materials_volume without KHR_materials_transmission has no effect; no medium",
+        );
+        return Ok(None);
+    }
+    if thickness == 0.0 {
+        // The spec: thickness 0 (the default) means thin-walled, i.e. no volume.
+        ctx.warn(
+            format!("{vp}/thicknessFactor"),
+            "thicknessFactor 0 makes the material thin-walled; no medium",
+        );
+        return Ok(None);
+    }
+    if color.iter().any(|&c| c < MIN_ATTENUATION_COLOR) {
+        ctx.warn(
+            format!("{vp}/attenuationColor"),
+            format!("components below {MIN_ATTENUATION_COLOR} clamped (0 would be opaque)"),
+        );
+        color = color.map(|c| c.max(MIN_ATTENUATION_COLOR));
+    }
+    Ok(Some(HomogeneousMedium::from_attenuation(
+        color, distance, albedo, g, i as u32,
+    )))
 }
 
 /// `BRUME_materials_volume_scattering`: `albedo` (RGB in [0, 1], default 0: purely absorbing,

@@ -136,106 +136,11 @@ pub fn read_primitive(
         );
         return Ok(None);
     }
-    let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-        return Err(ctx.invalid(
-            format!("{pointer}/attributes"),
-            "primitive has no POSITION attribute",
-        ));
-    };
-    let attr = |name: &str| format!("{pointer}/attributes/{name}");
-    check_accessor(
-        ctx,
-        &pos_acc,
-        &attr("POSITION"),
-        &[DataType::F32],
-        Dimensions::Vec3,
-    )?;
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let positions: Vec<Vec3> = reader
-        .read_positions()
-        .map(|it| it.map(Vec3::from).collect())
-        .unwrap_or_default();
-    if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
-        return Err(ctx.invalid(
-            attr("POSITION"),
-            format!(
-                "vertex {k} has a non-finite position (accessor {})",
-                pos_acc.index()
-            ),
-        ));
-    }
+    let positions = read_positions(ctx, buffers, prim, pointer)?;
     let n = positions.len();
-
-    let normals = match prim.get(&gltf::Semantic::Normals) {
-        None => None,
-        Some(acc) => {
-            check_accessor(
-                ctx,
-                &acc,
-                &attr("NORMAL"),
-                &[DataType::F32],
-                Dimensions::Vec3,
-            )?;
-            let v: Vec<Vec3> = reader
-                .read_normals()
-                .map(|it| it.map(Vec3::from).collect())
-                .unwrap_or_default();
-            if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-                return Err(ctx.invalid(
-                    attr("NORMAL"),
-                    "NORMAL count differs from POSITION or holds non-finite values",
-                ));
-            }
-            Some(v)
-        }
-    };
-    let uvs = match prim.get(&gltf::Semantic::TexCoords(0)) {
-        None => None,
-        Some(acc) => {
-            check_accessor(
-                ctx,
-                &acc,
-                &attr("TEXCOORD_0"),
-                &[DataType::F32, DataType::U8, DataType::U16],
-                Dimensions::Vec2,
-            )?;
-            let v: Vec<[f32; 2]> = reader
-                .read_tex_coords(0)
-                .map(|it| it.into_f32().collect())
-                .unwrap_or_default();
-            if v.len() != n || v.iter().any(|x| !x[0].is_finite() || !x[1].is_finite()) {
-                return Err(ctx.invalid(
-                    attr("TEXCOORD_0"),
-                    "TEXCOORD_0 count differs from POSITION or holds non-finite values",
-                ));
-            }
-            Some(v)
-        }
-    };
-
-    let indices: Vec<u32> = match prim.indices() {
-        None => (0..n as u32).collect(),
-        Some(acc) => {
-            check_accessor(
-                ctx,
-                &acc,
-                &format!("{pointer}/indices"),
-                &[DataType::U8, DataType::U16, DataType::U32],
-                Dimensions::Scalar,
-            )?;
-            let v: Vec<u32> = reader
-                .read_indices()
-                .map(|it| it.into_u32().collect())
-                .unwrap_or_default();
-            if let Some(bad) = v.iter().find(|&&i| i as usize >= n) {
-                return Err(ctx.invalid(
-                    format!("{pointer}/indices"),
-                    format!("index {bad} is out of range for {n} vertices"),
-                ));
-            }
-            v
-        }
-    };
+    let normals = read_normals(ctx, buffers, prim, pointer, n)?;
+    let uvs = read_uvs(ctx, buffers, prim, pointer, n)?;
+    let indices = read_indices(ctx, buffers, prim, pointer, n)?;
     let triangles = assemble(mode, &indices);
     if triangles.is_empty() {
         ctx.warn(pointer, "primitive has no complete triangle");
@@ -246,6 +151,129 @@ pub fn read_primitive(
         uvs,
         triangles,
     }))
+}
+
+/// The primitive's POSITION attribute, which it must have, as finite f32 vectors.
+fn read_positions(
+    ctx: &mut Ctx,
+    buffers: &[Vec<u8>],
+    prim: &gltf::Primitive,
+    pointer: &str,
+) -> Result<Vec<Vec3>, SceneError> {
+    let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+        return Err(ctx.invalid(
+            format!("{pointer}/attributes"),
+            "primitive has no POSITION attribute",
+        ));
+    };
+    let at = format!("{pointer}/attributes/POSITION");
+    check_accessor(ctx, &pos_acc, &at, &[DataType::F32], Dimensions::Vec3)?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .map(|it| it.map(Vec3::from).collect())
+        .unwrap_or_default();
+    if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+        return Err(ctx.invalid(
+            at,
+            format!(
+                "vertex {k} has a non-finite position (accessor {})",
+                pos_acc.index()
+            ),
+        ));
+    }
+    Ok(positions)
+}
+
+/// The optional NORMAL attribute: finite f32 vectors, one per position (`n`).
+fn read_normals(
+    ctx: &mut Ctx,
+    buffers: &[Vec<u8>],
+    prim: &gltf::Primitive,
+    pointer: &str,
+    n: usize,
+) -> Result<Option<Vec<Vec3>>, SceneError> {
+    let Some(acc) = prim.get(&gltf::Semantic::Normals) else {
+        return Ok(None);
+    };
+    let at = format!("{pointer}/attributes/NORMAL");
+    check_accessor(ctx, &acc, &at, &[DataType::F32], Dimensions::Vec3)?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let v: Vec<Vec3> = reader
+        .read_normals()
+        .map(|it| it.map(Vec3::from).collect())
+        .unwrap_or_default();
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        return Err(ctx.invalid(
+            at,
+            "NORMAL count differs from POSITION or holds non-finite values",
+        ));
+    }
+    Ok(Some(v))
+}
+
+/// The optional TEXCOORD_0 attribute (f32, or normalized u8 or u16): finite coordinates, one
+/// per position (`n`).
+fn read_uvs(
+    ctx: &mut Ctx,
+    buffers: &[Vec<u8>],
+    prim: &gltf::Primitive,
+    pointer: &str,
+    n: usize,
+) -> Result<Option<Vec<[f32; 2]>>, SceneError> {
+    let Some(acc) = prim.get(&gltf::Semantic::TexCoords(0)) else {
+        return Ok(None);
+    };
+    let at = format!("{pointer}/attributes/TEXCOORD_0");
+    check_accessor(
+        ctx,
+        &acc,
+        &at,
+        &[DataType::F32, DataType::U8, DataType::U16],
+        Dimensions::Vec2,
+    )?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let v: Vec<[f32; 2]> = reader
+        .read_tex_coords(0)
+        .map(|it| it.into_f32().collect())
+        .unwrap_or_default();
+    if v.len() != n || v.iter().any(|x| !x[0].is_finite() || !x[1].is_finite()) {
+        return Err(ctx.invalid(
+            at,
+            "TEXCOORD_0 count differs from POSITION or holds non-finite values",
+        ));
+    }
+    Ok(Some(v))
+}
+
+/// The primitive's indices, each below the vertex count `n`; `0..n` when it has none.
+fn read_indices(
+    ctx: &mut Ctx,
+    buffers: &[Vec<u8>],
+    prim: &gltf::Primitive,
+    pointer: &str,
+    n: usize,
+) -> Result<Vec<u32>, SceneError> {
+    let Some(acc) = prim.indices() else {
+        return Ok((0..n as u32).collect());
+    };
+    let at = format!("{pointer}/indices");
+    check_accessor(
+        ctx,
+        &acc,
+        &at,
+        &[DataType::U8, DataType::U16, DataType::U32],
+        Dimensions::Scalar,
+    )?;
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+    let v: Vec<u32> = reader
+        .read_indices()
+        .map(|it| it.into_u32().collect())
+        .unwrap_or_default();
+    if let Some(bad) = v.iter().find(|&&i| i as usize >= n) {
+        return Err(ctx.invalid(at, format!("index {bad} is out of range for {n} vertices")));
+    }
+    Ok(v)
 }
 
 /// Triangle list from a triangle list, strip or fan (glTF spec, section 3.7.2.1).

@@ -220,6 +220,58 @@ fn z_test(zs: &[f64], skipped: usize, alpha: f64) -> ZTest {
 
 /// Compares image `a` with reference `b` (see the module docs for every figure).
 pub fn compare(a: &Image, b: &Image, opts: &CompareOptions) -> Result<Comparison, CompareError> {
+    check_comparable(a, b, opts)?;
+    let (w, h) = (a.width, a.height);
+    let ok = finite_pixels(a, b);
+    let n = ok.iter().filter(|&&f| f).count();
+    let nonfinite_pixels = w * h - n;
+    let nf = n.max(1) as f64;
+    let s = PixelSums::of(a, b, &ok);
+    let per = |s: [f64; 3]| s.map(|v| v / nf);
+    let mean_a = per(s.sum_a);
+    let mean_b = per(s.sum_b);
+    let has_var = a.variance.is_some() || b.variance.is_some();
+    let variance_from = match (a.variance.is_some(), b.variance.is_some()) {
+        (true, true) => "both",
+        (true, false) => "A",
+        (false, true) => "B",
+        (false, false) => "none",
+    };
+    let block_test = has_var.then(|| block_z_test(a, b, &ok, opts));
+    let mean_z = s.any_var.then(|| {
+        std::array::from_fn(|c| z_of(mean_a[c] - mean_b[c], s.sum_var[c] / (nf * nf), mean_b[c]))
+    });
+    Ok(Comparison {
+        width: w,
+        height: h,
+        nonfinite_pixels,
+        rmse: per(s.se).map(f64::sqrt),
+        rmse_all: (s.se.iter().sum::<f64>() / (3.0 * nf)).sqrt(),
+        relmse: per(s.rel),
+        relmse_all: s.rel.iter().sum::<f64>() / (3.0 * nf),
+        mean_abs_diff: per(s.abs),
+        mean_signed_diff: per(s.signed),
+        mean_a,
+        mean_b,
+        mean_rel_diff: std::array::from_fn(|c| {
+            if mean_b[c] != 0.0 {
+                (mean_a[c] - mean_b[c]) / mean_b[c].abs()
+            } else {
+                f64::NAN
+            }
+        }),
+        mean_z,
+        variance_from,
+        pixel_test: has_var.then(|| z_test(&s.pixel_z, s.pixel_skipped, opts.alpha)),
+        block_test,
+        block: opts.block,
+        alpha: opts.alpha,
+    })
+}
+
+/// Refuses inputs no figure can be computed for: different sizes, no pixels, a zero block
+/// size or a level outside (0, 1).
+fn check_comparable(a: &Image, b: &Image, opts: &CompareOptions) -> Result<(), CompareError> {
     if (a.width, a.height) != (b.width, b.height) {
         return Err(CompareError::SizeMismatch {
             a: (a.width, a.height),
@@ -235,7 +287,12 @@ pub fn compare(a: &Image, b: &Image, opts: &CompareOptions) -> Result<Comparison
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         return Err(CompareError::BadAlpha(opts.alpha));
     }
-    let (w, h) = (a.width, a.height);
+    Ok(())
+}
+
+/// Per pixel, whether both images' colours and known variances are finite there: only those
+/// pixels enter any figure (the others are counted as `nonfinite_pixels`).
+fn finite_pixels(a: &Image, b: &Image) -> Vec<bool> {
     let finite = |i: usize| {
         a.rgb[i].iter().chain(&b.rgb[i]).all(|v| v.is_finite())
             && [a, b].iter().all(|img| {
@@ -244,126 +301,111 @@ pub fn compare(a: &Image, b: &Image, opts: &CompareOptions) -> Result<Comparison
                     .map_or(true, |v| v[i].iter().all(|x| x.is_finite()))
             })
     };
-    let ok: Vec<bool> = (0..w * h).map(finite).collect();
-    let n = ok.iter().filter(|&&f| f).count();
-    let nonfinite_pixels = w * h - n;
-    let nf = n.max(1) as f64;
+    (0..a.width * a.height).map(finite).collect()
+}
 
-    let mut se = [0.0; 3];
-    let mut rel = [0.0; 3];
-    let mut abs = [0.0; 3];
-    let mut signed = [0.0; 3];
-    let mut sum_a = [0.0; 3];
-    let mut sum_b = [0.0; 3];
-    let mut sum_var = [0.0; 3];
-    let mut any_var = false;
-    let mut pixel_z = Vec::new();
-    let mut pixel_skipped = 0;
-    for i in (0..w * h).filter(|&i| ok[i]) {
-        for c in 0..3 {
-            let (x, y) = (a.rgb[i][c] as f64, b.rgb[i][c] as f64);
-            let d = x - y;
-            se[c] += d * d;
-            rel[c] += d * d / (y * y + RELMSE_EPSILON);
-            abs[c] += d.abs();
-            signed[c] += d;
-            sum_a[c] += x;
-            sum_b[c] += y;
-            let (v, known) = pixel_variance(a, b, i, c);
-            if a.variance.is_some() || b.variance.is_some() {
-                if known {
-                    pixel_z.push(z_of(d, v, y));
-                    sum_var[c] += v;
-                    any_var = true;
+/// Per-channel sums over the finite pixels that the norms and the mean test divide, and the
+/// per-pixel z scores, accumulated in one pass in pixel order.
+struct PixelSums {
+    se: [f64; 3],
+    rel: [f64; 3],
+    abs: [f64; 3],
+    signed: [f64; 3],
+    sum_a: [f64; 3],
+    sum_b: [f64; 3],
+    sum_var: [f64; 3],
+    /// Whether any pixel had a known variance (`sum_var` means something).
+    any_var: bool,
+    pixel_z: Vec<f64>,
+    /// Pixel channels without a known variance, left out of `pixel_z`.
+    pixel_skipped: usize,
+}
+
+impl PixelSums {
+    /// The sums over the pixels of `a` and `b` that `ok` keeps.
+    fn of(a: &Image, b: &Image, ok: &[bool]) -> Self {
+        let mut s = PixelSums {
+            se: [0.0; 3],
+            rel: [0.0; 3],
+            abs: [0.0; 3],
+            signed: [0.0; 3],
+            sum_a: [0.0; 3],
+            sum_b: [0.0; 3],
+            sum_var: [0.0; 3],
+            any_var: false,
+            pixel_z: Vec::new(),
+            pixel_skipped: 0,
+        };
+        for i in (0..a.width * a.height).filter(|&i| ok[i]) {
+            for c in 0..3 {
+                let (x, y) = (a.rgb[i][c] as f64, b.rgb[i][c] as f64);
+                let d = x - y;
+                s.se[c] += d * d;
+                s.rel[c] += d * d / (y * y + RELMSE_EPSILON);
+                s.abs[c] += d.abs();
+                s.signed[c] += d;
+                s.sum_a[c] += x;
+                s.sum_b[c] += y;
+                let (v, known) = pixel_variance(a, b, i, c);
+                if a.variance.is_some() || b.variance.is_some() {
+                    if known {
+                        s.pixel_z.push(z_of(d, v, y));
+                        s.sum_var[c] += v;
+                        s.any_var = true;
+                    } else {
+                        s.pixel_skipped += 1;
+                    }
+                }
+            }
+        }
+        s
+    }
+}
+
+/// The z-test on `opts.block`-square block means of the pixels `ok` keeps (partial blocks at
+/// the right and bottom edges included); a block channel with an unknown variance is skipped.
+fn block_z_test(a: &Image, b: &Image, ok: &[bool], opts: &CompareOptions) -> ZTest {
+    let (w, h) = (a.width, a.height);
+    let bs = opts.block;
+    let mut zs = Vec::new();
+    let mut skipped = 0;
+    for by in (0..h).step_by(bs) {
+        for bx in (0..w).step_by(bs) {
+            let mut sa = [0.0; 3];
+            let mut sb = [0.0; 3];
+            let mut sv = [0.0; 3];
+            let mut count = 0usize;
+            let mut known = [true; 3];
+            for y in by..(by + bs).min(h) {
+                for x in bx..(bx + bs).min(w) {
+                    let i = y * w + x;
+                    if !ok[i] {
+                        continue;
+                    }
+                    count += 1;
+                    for c in 0..3 {
+                        sa[c] += a.rgb[i][c] as f64;
+                        sb[c] += b.rgb[i][c] as f64;
+                        let (v, k) = pixel_variance(a, b, i, c);
+                        sv[c] += v;
+                        known[c] &= k;
+                    }
+                }
+            }
+            if count == 0 {
+                continue;
+            }
+            let k = count as f64;
+            for c in 0..3 {
+                if known[c] {
+                    zs.push(z_of((sa[c] - sb[c]) / k, sv[c] / (k * k), sb[c] / k));
                 } else {
-                    pixel_skipped += 1;
+                    skipped += 1;
                 }
             }
         }
     }
-    let per = |s: [f64; 3]| s.map(|v| v / nf);
-    let mean_a = per(sum_a);
-    let mean_b = per(sum_b);
-    let has_var = a.variance.is_some() || b.variance.is_some();
-    let variance_from = match (a.variance.is_some(), b.variance.is_some()) {
-        (true, true) => "both",
-        (true, false) => "A",
-        (false, true) => "B",
-        (false, false) => "none",
-    };
-
-    let block_test = has_var.then(|| {
-        let bs = opts.block;
-        let mut zs = Vec::new();
-        let mut skipped = 0;
-        for by in (0..h).step_by(bs) {
-            for bx in (0..w).step_by(bs) {
-                let mut sa = [0.0; 3];
-                let mut sb = [0.0; 3];
-                let mut sv = [0.0; 3];
-                let mut count = 0usize;
-                let mut known = [true; 3];
-                for y in by..(by + bs).min(h) {
-                    for x in bx..(bx + bs).min(w) {
-                        let i = y * w + x;
-                        if !ok[i] {
-                            continue;
-                        }
-                        count += 1;
-                        for c in 0..3 {
-                            sa[c] += a.rgb[i][c] as f64;
-                            sb[c] += b.rgb[i][c] as f64;
-                            let (v, k) = pixel_variance(a, b, i, c);
-                            sv[c] += v;
-                            known[c] &= k;
-                        }
-                    }
-                }
-                if count == 0 {
-                    continue;
-                }
-                let k = count as f64;
-                for c in 0..3 {
-                    if known[c] {
-                        zs.push(z_of((sa[c] - sb[c]) / k, sv[c] / (k * k), sb[c] / k));
-                    } else {
-                        skipped += 1;
-                    }
-                }
-            }
-        }
-        z_test(&zs, skipped, opts.alpha)
-    });
-
-    let mean_z = any_var.then(|| {
-        std::array::from_fn(|c| z_of(mean_a[c] - mean_b[c], sum_var[c] / (nf * nf), mean_b[c]))
-    });
-    Ok(Comparison {
-        width: w,
-        height: h,
-        nonfinite_pixels,
-        rmse: per(se).map(f64::sqrt),
-        rmse_all: (se.iter().sum::<f64>() / (3.0 * nf)).sqrt(),
-        relmse: per(rel),
-        relmse_all: rel.iter().sum::<f64>() / (3.0 * nf),
-        mean_abs_diff: per(abs),
-        mean_signed_diff: per(signed),
-        mean_a,
-        mean_b,
-        mean_rel_diff: std::array::from_fn(|c| {
-            if mean_b[c] != 0.0 {
-                (mean_a[c] - mean_b[c]) / mean_b[c].abs()
-            } else {
-                f64::NAN
-            }
-        }),
-        mean_z,
-        variance_from,
-        pixel_test: has_var.then(|| z_test(&pixel_z, pixel_skipped, opts.alpha)),
-        block_test,
-        block: opts.block,
-        alpha: opts.alpha,
-    })
+    z_test(&zs, skipped, opts.alpha)
 }
 
 /// Two-sided p-value of a z score.

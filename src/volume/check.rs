@@ -538,30 +538,12 @@ pub fn check_ray_bounds(
     let mut rng = SplitMix64(seed);
     let mut stats = RayCheckStats::default();
     let box_ = grid.index_bounds();
-    // Rays are aimed at the walk box (the non-zero cells, [`LeafBounds::walk_box`]), where the
-    // walks run; their starts and ends spread a margin around it, into the clipped cells.
-    let (walk_lo, walk_hi) = bounds.walk_box();
-    let (lo, hi) = if box_.is_empty() {
-        (Vec3::splat(-16.0), Vec3::splat(16.0))
-    } else if walk_lo.cmplt(walk_hi).all() {
-        (walk_lo, walk_hi)
-    } else {
-        (box_.min, box_.max)
-    };
+    let (lo, hi) = ray_target_box(grid, bounds);
+    let walks = RayWalks::new(grid, bounds)?;
     let mut segments = Vec::new();
-    // The adaptive hierarchy: every level 0 must reproduce the DDA bit for bit; merged
-    // structures (a sparse-ish scale, a dense one, and steps so dear that everything merges)
-    // must tile the ray and bound it like the DDA.
-    let leaves = AdaptiveMajorants::all_leaves(bounds);
-    let merged = [0.05f32, 2.0, 1e6]
-        .map(|step| AdaptiveMajorants::build(bounds, 1.0, 1.0, CostModel::uniform(step)));
-    for m in &merged {
-        m.validate(bounds)?;
-    }
-    let culling = LeafCulling::new(bounds);
-    let voxel = VoxelCulling::new(bounds, &grid.cells, 1.0);
     let mut adaptive = Vec::new();
     // Every walk clips to the walk box: the segments tile the ray's overlap with it.
+    let (walk_lo, walk_hi) = bounds.walk_box();
     let walk_box = crate::math::Aabb::new(box_.min.max(walk_lo), box_.max.min(walk_hi));
     for n in 0..n_rays {
         let (ray, t0, t1) = random_ray(&mut rng, lo, hi);
@@ -580,31 +562,20 @@ pub fn check_ray_bounds(
         stats.rays_hit += expected.is_some() as u64;
         let context = |e: String| format!("ray {n} {ray:?} over [{t0}, {t1}]: {e}");
         check_one_ray(grid, &segments, expected, &ray, &mut rng, &mut stats).map_err(context)?;
-        adaptive.clear();
-        adaptive.extend(AdaptiveMajorantIterator::new(&leaves, &ray, t0, t1, 1.0));
-        if adaptive != segments {
-            return Err(context(format!(
-                "the adaptive walk at level 0 gave {adaptive:?}, the DDA {segments:?}"
-            )));
-        }
         let global: Vec<MajorantSegment> =
             DdaMajorantIterator::global(bounds, &ray, t0, t1, 1.0).collect();
-        for m in &merged {
-            adaptive.clear();
-            adaptive.extend(AdaptiveMajorantIterator::new(m, &ray, t0, t1, 1.0));
-            stats.adaptive_segments += adaptive.len() as u64;
-            let mut sub = RayCheckStats::default();
-            check_one_ray(grid, &adaptive, expected, &ray, &mut rng, &mut sub)
-                .map_err(|e| context(format!("adaptive: {e}")))?;
-            // The renderer walks a one-node hierarchy (and the culled one) as the global
-            // bound (`WalkPlan::of`): the two must agree bit for bit.
-            let one_node = matches!(m.shape, AdaptiveShape::OneNode | AdaptiveShape::Culled);
-            if one_node && adaptive != global {
-                return Err(context(format!(
-                    "the one-node adaptive walk gave {adaptive:?}, the global walk {global:?}"
-                )));
-            }
-        }
+        walks
+            .check_adaptive_walks(
+                grid,
+                &segments,
+                &global,
+                expected,
+                (&ray, t0, t1),
+                &mut adaptive,
+                &mut rng,
+                &mut stats,
+            )
+            .map_err(context)?;
 
         let want: Vec<MajorantSegment> = expected
             .map(|(a, b)| MajorantSegment {
@@ -620,45 +591,135 @@ pub fn check_ray_bounds(
                 "global variant gave {global:?}, expected {want:?}"
             )));
         }
-        if let (Some(cull), Some(seg)) = (&culling, want.first()) {
-            check_culling(
-                grid,
-                cull,
-                bounds.global.max,
-                &ray,
-                seg,
-                &mut rng,
-                &mut stats,
-            )
-            .map_err(|e| context(format!("culling: {e}")))?;
-        }
-        if let Some(v) = &voxel {
-            // The per-leaf walk keeps every collision of its segment before the voxel stage;
-            // the culled global walk keeps those its cell test kept, at r * G.
-            check_voxel_culling(
-                grid,
-                v,
-                &ray,
-                &segments,
-                |_, s| s.sigma_maj,
-                &mut rng,
-                &mut stats,
-            )
-            .map_err(|e| context(format!("voxel culling, per-leaf walk: {e}")))?;
-            if let Some(cull) = &culling {
-                let g = bounds.global.max;
-                check_voxel_culling(
-                    grid,
-                    v,
-                    &ray,
-                    &want,
-                    |p, _| cull.ratio(p) * g,
-                    &mut rng,
-                    &mut stats,
-                )
-                .map_err(|e| context(format!("voxel culling, culled walk: {e}")))?;
-            }
-        }
+        walks
+            .check_culled_walks(grid, &segments, &want, &ray, &mut rng, &mut stats)
+            .map_err(context)?;
     }
     Ok(stats)
+}
+
+/// The box random rays are aimed at: the walk box (the non-zero cells,
+/// [`LeafBounds::walk_box`]), where the walks run, else the grid's index box, else a fixed box
+/// for an empty grid; the rays' starts and ends spread a margin around it, into the clipped
+/// cells.
+fn ray_target_box(grid: &SparseGrid, bounds: &LeafBounds) -> (Vec3, Vec3) {
+    let box_ = grid.index_bounds();
+    let (walk_lo, walk_hi) = bounds.walk_box();
+    if box_.is_empty() {
+        (Vec3::splat(-16.0), Vec3::splat(16.0))
+    } else if walk_lo.cmplt(walk_hi).all() {
+        (walk_lo, walk_hi)
+    } else {
+        (box_.min, box_.max)
+    }
+}
+
+/// The walk structures [`check_ray_bounds`] checks every ray's DDA segments against, built
+/// once per grid.
+struct RayWalks<'a> {
+    bounds: &'a LeafBounds,
+    /// The adaptive hierarchy with every cell at level 0: must reproduce the DDA bit for bit.
+    leaves: AdaptiveMajorants,
+    /// Merged hierarchies (a sparse-ish scale, a dense one, and steps so dear that everything
+    /// merges): must tile the ray and bound it like the DDA.
+    merged: [AdaptiveMajorants; 3],
+    culling: Option<LeafCulling<'a>>,
+    voxel: Option<VoxelCulling<'a>>,
+}
+
+impl<'a> RayWalks<'a> {
+    /// Builds the hierarchies and cullings of `bounds`, validating each merged hierarchy.
+    fn new(grid: &'a SparseGrid, bounds: &'a LeafBounds) -> Result<Self, String> {
+        let leaves = AdaptiveMajorants::all_leaves(bounds);
+        let merged = [0.05f32, 2.0, 1e6]
+            .map(|step| AdaptiveMajorants::build(bounds, 1.0, 1.0, CostModel::uniform(step)));
+        for m in &merged {
+            m.validate(bounds)?;
+        }
+        Ok(RayWalks {
+            bounds,
+            leaves,
+            merged,
+            culling: LeafCulling::new(bounds),
+            voxel: VoxelCulling::new(bounds, &grid.cells, 1.0),
+        })
+    }
+
+    /// The adaptive walks of one ray against its DDA `segments` and its `global` walk: level 0
+    /// equal to the DDA, each merged walk tiling and bounding the ray, and a one-node (or
+    /// culled) hierarchy equal to the global walk, which the renderer takes for it.
+    #[allow(clippy::too_many_arguments)]
+    fn check_adaptive_walks(
+        &self,
+        grid: &SparseGrid,
+        segments: &[MajorantSegment],
+        global: &[MajorantSegment],
+        expected: Option<(f32, f32)>,
+        (ray, t0, t1): (&Ray, f32, f32),
+        adaptive: &mut Vec<MajorantSegment>,
+        rng: &mut SplitMix64,
+        stats: &mut RayCheckStats,
+    ) -> Result<(), String> {
+        adaptive.clear();
+        adaptive.extend(AdaptiveMajorantIterator::new(
+            &self.leaves,
+            ray,
+            t0,
+            t1,
+            1.0,
+        ));
+        if adaptive[..] != segments[..] {
+            return Err(format!(
+                "the adaptive walk at level 0 gave {adaptive:?}, the DDA {segments:?}"
+            ));
+        }
+        for m in &self.merged {
+            adaptive.clear();
+            adaptive.extend(AdaptiveMajorantIterator::new(m, ray, t0, t1, 1.0));
+            stats.adaptive_segments += adaptive.len() as u64;
+            let mut sub = RayCheckStats::default();
+            check_one_ray(grid, adaptive, expected, ray, rng, &mut sub)
+                .map_err(|e| format!("adaptive: {e}"))?;
+            // The renderer walks a one-node hierarchy (and the culled one) as the global
+            // bound (`WalkPlan::of`): the two must agree bit for bit.
+            let one_node = matches!(m.shape, AdaptiveShape::OneNode | AdaptiveShape::Culled);
+            if one_node && adaptive[..] != global[..] {
+                return Err(format!(
+                    "the one-node adaptive walk gave {adaptive:?}, the global walk {global:?}"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The leaf and voxel cullings along one ray: the cell bound over the global segment
+    /// `want`, and the voxel bound over the per-leaf walk's `segments` and the culled global
+    /// walk's.
+    fn check_culled_walks(
+        &self,
+        grid: &SparseGrid,
+        segments: &[MajorantSegment],
+        want: &[MajorantSegment],
+        ray: &Ray,
+        rng: &mut SplitMix64,
+        stats: &mut RayCheckStats,
+    ) -> Result<(), String> {
+        let g = self.bounds.global.max;
+        if let (Some(cull), Some(seg)) = (&self.culling, want.first()) {
+            check_culling(grid, cull, g, ray, seg, rng, stats)
+                .map_err(|e| format!("culling: {e}"))?;
+        }
+        let Some(v) = &self.voxel else {
+            return Ok(());
+        };
+        // The per-leaf walk keeps every collision of its segment before the voxel stage;
+        // the culled global walk keeps those its cell test kept, at r * G.
+        check_voxel_culling(grid, v, ray, segments, |_, s| s.sigma_maj, rng, stats)
+            .map_err(|e| format!("voxel culling, per-leaf walk: {e}"))?;
+        if let Some(cull) = &self.culling {
+            check_voxel_culling(grid, v, ray, want, |p, _| cull.ratio(p) * g, rng, stats)
+                .map_err(|e| format!("voxel culling, culled walk: {e}"))?;
+        }
+        Ok(())
+    }
 }

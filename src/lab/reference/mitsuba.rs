@@ -22,7 +22,7 @@ use crate::film::{read_exr, write_image, AttrValue, Metadata};
 use crate::integrator::bsdf::Principled;
 use crate::render::settings::DEFAULT_MAX_DEPTH;
 use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
-use crate::scene::{BoundsSource, Scene, NO_INDEX};
+use crate::scene::{BoundsSource, Material, Scene, VdbMediumDesc, NO_INDEX};
 use crate::volume::mitsuba_vol::vol_from_grid;
 
 use super::{
@@ -209,20 +209,7 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         "yfov_degrees": cam.yfov.to_degrees(),
         "near_clip": cam.znear,
     });
-
-    let mut lights = Vec::new();
-    for l in &scene.lights {
-        lights.push(match l.kind {
-            LIGHT_POINT => json!({"type": "point", "position": l.position,
-                                  "intensity": l.intensity}),
-            LIGHT_SPOT => json!({"type": "spot", "position": l.position,
-                                 "direction": l.direction, "intensity": l.intensity,
-                                 "cos_inner": l.cos_inner, "cos_outer": l.cos_outer}),
-            LIGHT_DIRECTIONAL => json!({"type": "directional", "direction": l.direction,
-                                        "irradiance": l.intensity}),
-            k => bail!("{file}: light kind {k} has no Mitsuba mapping"),
-        });
-    }
+    let lights = describe_lights(scene)?;
     if scene.environment.map.is_some() {
         // A reference without the map would disagree for a reason that is not Brume's.
         bail!(
@@ -230,117 +217,17 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
              environment maps yet; compare this scene with `brume cycles`"
         );
     }
-
-    let mut vdb_media = Vec::new();
-    for (i, m) in scene.vdb_media.iter().enumerate() {
-        let at = format!("{file}: {}", m.pointer);
-        if m.emits() {
-            bail!(
-                "{at}: emitting media (emission or blackbody) are not mapped to Mitsuba: its \
-                 `volpath` integrator has no volume emission in the released variants"
-            );
-        }
-        if m.bounds_source == BoundsSource::Mesh {
-            bail!(
-                "{at}: a VDB medium bounded by a mesh (`mesh`) is not mapped to Mitsuba; \
-                 only media bounded by their grid"
-            );
-        }
-        let sigma_t = m.sigma_t_per_density();
-        let sigma_s = m.sigma_s_per_density();
-        // A single channel when extinction is grey; else per-channel extinction grids, since
-        // Mitsuba's `heterogeneous` scales its grid by one scalar.
-        let grey = sigma_t.iter().all(|&s| s == sigma_t[0]);
-        let scales: Vec<f32> = if grey {
-            vec![sigma_t[0]]
-        } else {
-            sigma_t.to_vec()
-        };
-        let grid = &m.grids[0];
-        let vol = vol_from_grid(&grid.volume.grid, &scales).map_err(|e| {
-            anyhow!(
-                "{at}: {} grid '{}' cannot be written for Mitsuba: {e}",
-                grid.path.display(),
-                grid.name
-            )
-        })?;
-        let vol_path = dir.join(format!("medium{i}.vol"));
-        vol.write(&vol_path)
-            .with_context(|| format!("writing {}", vol_path.display()))?;
-        let albedo = [0, 1, 2].map(|c| {
-            if sigma_t[c] > 0.0 {
-                sigma_s[c] / sigma_t[c]
-            } else {
-                0.0
-            }
-        });
-        vdb_media.push(json!({
-            "vol": vol_path,
-            "channels": scales.len(),
-            "to_world": rows(&m.world_from_medium),
-            "box_min": vol.bbox_min,
-            "box_max": vol.bbox_max,
-            "albedo": albedo,
-            "g": m.anisotropy,
-        }));
-    }
+    let vdb_media = scene
+        .vdb_media
+        .iter()
+        .enumerate()
+        .map(|(i, m)| describe_vdb_medium(scene, i, m, dir))
+        .collect::<Result<Vec<_>>>()?;
 
     let mut meshes = Vec::new();
     let mut notes = Vec::new();
     for (k, inst) in scene.instances.iter().enumerate() {
-        let mat = &scene.materials[inst.material as usize];
-        let name = scene.material_names[inst.material as usize]
-            .clone()
-            .unwrap_or_else(|| format!("material {}", inst.material));
-        let ply = dir.join(format!("mesh{k}.ply"));
-        let has_normals = write_ply(scene, inst, &ply)?;
-        let mut m = json!({"ply": ply, "face_normals": !has_normals});
-        if mat.transmission > 0.0 {
-            if (mat.ior - 1.0).abs() < 1e-6 {
-                m["bsdf"] = json!({"type": "null"});
-            } else {
-                m["bsdf"] = json!({"type": "dielectric", "ior": mat.ior});
-                if mat.base_color[..3].iter().any(|&c| c != 1.0) {
-                    notes.push(format!(
-                        "{name}: dielectric base colour is not mapped (Mitsuba's is white)"
-                    ));
-                }
-            }
-        } else if args.lambert_only {
-            let kd = [0, 1, 2].map(|c| mat.base_color[c] * (1.0 - mat.metallic));
-            m["bsdf"] = json!({"type": "diffuse", "reflectance": kd});
-            notes.push(format!("{name}: Lambertian part only (--lambert-only)"));
-        } else {
-            // Brume's own lobe parameters, so both sides use the same numbers.
-            let p = Principled::new(
-                Vec3::from_slice(&mat.base_color[..3]),
-                mat.metallic,
-                mat.roughness,
-            );
-            m["bsdf"] = json!({"type": "brume_opaque", "kd": p.diffuse.to_array(),
-                               "f0": p.f0.to_array(), "alpha": p.alpha, "p_spec": p.p_spec});
-        }
-        if mat.emission.iter().any(|&e| e > 0.0) {
-            m["emission"] = json!(mat.emission);
-            if mat.flags & crate::scene::material::MATERIAL_DOUBLE_SIDED != 0 {
-                notes.push(format!(
-                    "{name}: double-sided emission is mapped to Mitsuba's one-sided area light"
-                ));
-            }
-        }
-        if mat.interior_medium != NO_INDEX {
-            let h = &scene.homogeneous_media[mat.interior_medium as usize];
-            let sigma_t = h.sigma_t();
-            let albedo = [0, 1, 2].map(|c| {
-                if sigma_t[c] > 0.0 {
-                    h.sigma_s[c] / sigma_t[c]
-                } else {
-                    0.0
-                }
-            });
-            m["interior"] = json!({"sigma_t": sigma_t, "albedo": albedo, "g": h.g});
-        }
-        meshes.push(m);
+        meshes.push(describe_mesh(scene, args, k, inst, dir, &mut notes)?);
     }
     notes.sort();
     notes.dedup();
@@ -370,6 +257,150 @@ fn describe(scene: &Scene, args: &MitsubaArgs, dir: &Path) -> Result<Value> {
         "vdb_media": vdb_media,
         "meshes": meshes,
     }))
+}
+
+/// The scene's punctual lights in the script's terms; a kind without a Mitsuba emitter is an
+/// error, since leaving it out would bias the reference.
+fn describe_lights(scene: &Scene) -> Result<Vec<Value>> {
+    let file = scene.source.display();
+    let mut lights = Vec::new();
+    for l in &scene.lights {
+        lights.push(match l.kind {
+            LIGHT_POINT => json!({"type": "point", "position": l.position,
+                                  "intensity": l.intensity}),
+            LIGHT_SPOT => json!({"type": "spot", "position": l.position,
+                                 "direction": l.direction, "intensity": l.intensity,
+                                 "cos_inner": l.cos_inner, "cos_outer": l.cos_outer}),
+            LIGHT_DIRECTIONAL => json!({"type": "directional", "direction": l.direction,
+                                        "irradiance": l.intensity}),
+            k => bail!("{file}: light kind {k} has no Mitsuba mapping"),
+        });
+    }
+    Ok(lights)
+}
+
+/// Single-scattering albedo `sigma_s / sigma_t` per channel, 0 where nothing is extinguished.
+fn albedo(sigma_s: [f32; 3], sigma_t: [f32; 3]) -> [f32; 3] {
+    [0, 1, 2].map(|c| {
+        if sigma_t[c] > 0.0 {
+            sigma_s[c] / sigma_t[c]
+        } else {
+            0.0
+        }
+    })
+}
+
+/// VDB medium `i` as a `heterogeneous` medium: writes its extinction grid as `medium{i}.vol`
+/// into `dir` and returns its entry, refusing what Mitsuba's `volpath` cannot render.
+fn describe_vdb_medium(scene: &Scene, i: usize, m: &VdbMediumDesc, dir: &Path) -> Result<Value> {
+    let at = format!("{}: {}", scene.source.display(), m.pointer);
+    if m.emits() {
+        bail!(
+            "{at}: emitting media (emission or blackbody) are not mapped to Mitsuba: its \
+             `volpath` integrator has no volume emission in the released variants"
+        );
+    }
+    if m.bounds_source == BoundsSource::Mesh {
+        bail!(
+            "{at}: a VDB medium bounded by a mesh (`mesh`) is not mapped to Mitsuba; \
+             only media bounded by their grid"
+        );
+    }
+    let sigma_t = m.sigma_t_per_density();
+    let sigma_s = m.sigma_s_per_density();
+    // A single channel when extinction is grey; else per-channel extinction grids, since
+    // Mitsuba's `heterogeneous` scales its grid by one scalar.
+    let grey = sigma_t.iter().all(|&s| s == sigma_t[0]);
+    let scales: Vec<f32> = if grey {
+        vec![sigma_t[0]]
+    } else {
+        sigma_t.to_vec()
+    };
+    let grid = &m.grids[0];
+    let vol = vol_from_grid(&grid.volume.grid, &scales).map_err(|e| {
+        anyhow!(
+            "{at}: {} grid '{}' cannot be written for Mitsuba: {e}",
+            grid.path.display(),
+            grid.name
+        )
+    })?;
+    let vol_path = dir.join(format!("medium{i}.vol"));
+    vol.write(&vol_path)
+        .with_context(|| format!("writing {}", vol_path.display()))?;
+    Ok(json!({
+        "vol": vol_path,
+        "channels": scales.len(),
+        "to_world": rows(&m.world_from_medium),
+        "box_min": vol.bbox_min,
+        "box_max": vol.bbox_max,
+        "albedo": albedo(sigma_s, sigma_t),
+        "g": m.anisotropy,
+    }))
+}
+
+/// Mesh instance `k` with its material: writes `mesh{k}.ply` into `dir` and returns its entry
+/// (BSDF, area emission, interior medium); approximations are added to `notes`.
+fn describe_mesh(
+    scene: &Scene,
+    args: &MitsubaArgs,
+    k: usize,
+    inst: &crate::scene::Instance,
+    dir: &Path,
+    notes: &mut Vec<String>,
+) -> Result<Value> {
+    let mat = &scene.materials[inst.material as usize];
+    let name = scene.material_names[inst.material as usize]
+        .clone()
+        .unwrap_or_else(|| format!("material {}", inst.material));
+    let ply = dir.join(format!("mesh{k}.ply"));
+    let has_normals = write_ply(scene, inst, &ply)?;
+    let mut m = json!({"ply": ply, "face_normals": !has_normals});
+    m["bsdf"] = describe_bsdf(mat, &name, args.lambert_only, notes);
+    if mat.emission.iter().any(|&e| e > 0.0) {
+        m["emission"] = json!(mat.emission);
+        if mat.flags & crate::scene::material::MATERIAL_DOUBLE_SIDED != 0 {
+            notes.push(format!(
+                "{name}: double-sided emission is mapped to Mitsuba's one-sided area light"
+            ));
+        }
+    }
+    if mat.interior_medium != NO_INDEX {
+        let h = &scene.homogeneous_media[mat.interior_medium as usize];
+        let sigma_t = h.sigma_t();
+        m["interior"] = json!({"sigma_t": sigma_t, "albedo": albedo(h.sigma_s, sigma_t), "g": h.g});
+    }
+    Ok(m)
+}
+
+/// The surface BSDF of material `mat` (named `name` in `notes`): a null or smooth dielectric
+/// for transmissive materials, else Mitsuba's `diffuse` (`lambert_only`) or Brume's own
+/// opaque lobes with the numbers Brume samples.
+fn describe_bsdf(mat: &Material, name: &str, lambert_only: bool, notes: &mut Vec<String>) -> Value {
+    if mat.transmission > 0.0 {
+        if (mat.ior - 1.0).abs() < 1e-6 {
+            json!({"type": "null"})
+        } else {
+            if mat.base_color[..3].iter().any(|&c| c != 1.0) {
+                notes.push(format!(
+                    "{name}: dielectric base colour is not mapped (Mitsuba's is white)"
+                ));
+            }
+            json!({"type": "dielectric", "ior": mat.ior})
+        }
+    } else if lambert_only {
+        let kd = [0, 1, 2].map(|c| mat.base_color[c] * (1.0 - mat.metallic));
+        notes.push(format!("{name}: Lambertian part only (--lambert-only)"));
+        json!({"type": "diffuse", "reflectance": kd})
+    } else {
+        // Brume's own lobe parameters, so both sides use the same numbers.
+        let p = Principled::new(
+            Vec3::from_slice(&mat.base_color[..3]),
+            mat.metallic,
+            mat.roughness,
+        );
+        json!({"type": "brume_opaque", "kd": p.diffuse.to_array(),
+               "f0": p.f0.to_array(), "alpha": p.alpha, "p_spec": p.p_spec})
+    }
 }
 
 /// Writes instance `inst`'s world-space triangles as a binary PLY; returns whether it has

@@ -140,33 +140,113 @@ pub struct AdaptiveStats {
     pub build_seconds: f64,
 }
 
+/// The mip pyramid of `leaf`'s bounds: level 0 is the leaf cells, each level above halves the
+/// node grid (rounding up) with each node the union of its children, up to one node or
+/// [`MAX_LEVEL`]. Returns the levels and every level's nodes, concatenated.
+fn pyramid(leaf: &LeafBounds) -> (Vec<Level>, Vec<CellBounds>) {
+    let mut levels = vec![Level {
+        dims: leaf.dims,
+        offset: 0,
+    }];
+    let mut nodes = leaf.cells.clone();
+    while levels.len() as u32 <= MAX_LEVEL && levels.last().unwrap().dims.iter().any(|&d| d > 1) {
+        let below = *levels.last().unwrap();
+        let dims = below.dims.map(|d| d.div_ceil(2));
+        let offset = nodes.len() as u32;
+        let next: Vec<CellBounds> = (0..cell_count(dims))
+            .into_par_iter()
+            .map(|i| {
+                children(below.dims, coords(i, dims)).fold(CellBounds::EMPTY, |b, c| {
+                    b.union(nodes[below.offset as usize + c])
+                })
+            })
+            .collect();
+        nodes.extend(next);
+        levels.push(Level { dims, offset });
+    }
+    (levels, nodes)
+}
+
+/// What the bottom-up recursion chose, per node of the level it ended at (the top).
+struct MergeChoice {
+    /// The cost of the chosen structure below each node.
+    costs: Vec<f64>,
+    /// The cost of walking every leaf cell below each node (per-leaf bounds).
+    fine: Vec<f64>,
+    /// Per level (level 0 empty), per node: whether it is taken as one segment.
+    merged: Vec<Vec<bool>>,
+}
+
+/// The bottom-up recursion: each node of each level above the leaf `cells` is merged where
+/// one segment over it (`leaf_cost`) costs no more than walking its children.
+fn choose_merges(
+    dims: [u32; 3],
+    levels: &[Level],
+    cells: &[CellBounds],
+    nodes: &[CellBounds],
+    leaf_cost: &(impl Fn(usize, [usize; 3], CellBounds) -> f64 + Sync),
+) -> MergeChoice {
+    let mut costs: Vec<f64> = cells
+        .par_iter()
+        .enumerate()
+        .map(|(i, &b)| leaf_cost(0, coords(i, dims), b))
+        .collect();
+    // Alongside: the cost of walking every leaf cell (per-leaf bounds), for the margin.
+    let mut fine = costs.clone();
+    let mut merged: Vec<Vec<bool>> = vec![Vec::new()];
+    for l in 1..levels.len() {
+        let (below, here) = (levels[l - 1], levels[l]);
+        let choice: Vec<(f64, bool, f64)> = (0..cell_count(here.dims))
+            .into_par_iter()
+            .map(|i| {
+                let n = coords(i, here.dims);
+                let split = split_cost(dims, below.dims, l, n, &costs);
+                let all_fine = split_cost(dims, below.dims, l, n, &fine);
+                let as_leaf = leaf_cost(l, n, nodes[here.offset as usize + i]);
+                if as_leaf <= split {
+                    (as_leaf, true, all_fine)
+                } else {
+                    (split, false, all_fine)
+                }
+            })
+            .collect();
+        costs = choice.iter().map(|c| c.0).collect();
+        merged.push(choice.iter().map(|c| c.1).collect());
+        fine = choice.iter().map(|c| c.2).collect();
+    }
+    MergeChoice {
+        costs,
+        fine,
+        merged,
+    }
+}
+
+/// Top-down: each of the `n_cells` leaf cells (a `dims` grid) takes the level of its highest
+/// merged ancestor (0 where none is merged).
+fn node_levels(dims: [u32; 3], n_cells: usize, levels: &[Level], merged: &[Vec<bool>]) -> Vec<u8> {
+    (0..n_cells)
+        .into_par_iter()
+        .map(|i| {
+            let c = coords(i, dims);
+            for l in (1..levels.len()).rev() {
+                let d = levels[l].dims.map(|d| d as usize);
+                let n = c.map(|x| x >> l);
+                if merged[l][n[0] + d[0] * (n[1] + d[1] * n[2])] {
+                    return l as u8;
+                }
+            }
+            0
+        })
+        .collect()
+}
+
 impl AdaptiveMajorants {
     /// Builds the hierarchy from per-leaf bounds. `scale` turns bound values into majorants
     /// per unit of the ray parameter (as the DDA's `scale`), `index_per_t` is the index-space
     /// distance per unit of `t` (1 / voxel size for a unit world direction).
     pub fn build(leaf: &LeafBounds, scale: f32, index_per_t: f32, cost: CostModel) -> Self {
         let start = Instant::now();
-        let mut levels = vec![Level {
-            dims: leaf.dims,
-            offset: 0,
-        }];
-        let mut nodes = leaf.cells.clone();
-        while levels.len() as u32 <= MAX_LEVEL && levels.last().unwrap().dims.iter().any(|&d| d > 1)
-        {
-            let below = *levels.last().unwrap();
-            let dims = below.dims.map(|d| d.div_ceil(2));
-            let offset = nodes.len() as u32;
-            let next: Vec<CellBounds> = (0..cell_count(dims))
-                .into_par_iter()
-                .map(|i| {
-                    children(below.dims, coords(i, dims)).fold(CellBounds::EMPTY, |b, c| {
-                        b.union(nodes[below.offset as usize + c])
-                    })
-                })
-                .collect();
-            nodes.extend(next);
-            levels.push(Level { dims, offset });
-        }
+        let (levels, nodes) = pyramid(leaf);
         // Bottom-up costs and choices.
         let dims = leaf.dims;
         let leaf_cost = |l: usize, n: [usize; 3], b: CellBounds| {
@@ -177,49 +257,14 @@ impl AdaptiveMajorants {
                 f64::MAX
             }
         };
-        let mut costs: Vec<f64> = nodes[..leaf.cells.len()]
-            .par_iter()
-            .enumerate()
-            .map(|(i, &b)| leaf_cost(0, coords(i, dims), b))
-            .collect();
-        // Alongside: the cost of walking every leaf cell (per-leaf bounds), for the margin.
-        let mut fine = costs.clone();
-        let mut merged: Vec<Vec<bool>> = vec![Vec::new()];
-        for l in 1..levels.len() {
-            let (below, here) = (levels[l - 1], levels[l]);
-            let choice: Vec<(f64, bool, f64)> = (0..cell_count(here.dims))
-                .into_par_iter()
-                .map(|i| {
-                    let n = coords(i, here.dims);
-                    let split = split_cost(dims, below.dims, l, n, &costs);
-                    let all_fine = split_cost(dims, below.dims, l, n, &fine);
-                    let as_leaf = leaf_cost(l, n, nodes[here.offset as usize + i]);
-                    if as_leaf <= split {
-                        (as_leaf, true, all_fine)
-                    } else {
-                        (split, false, all_fine)
-                    }
-                })
-                .collect();
-            costs = choice.iter().map(|c| c.0).collect();
-            merged.push(choice.iter().map(|c| c.1).collect());
-            fine = choice.iter().map(|c| c.2).collect();
-        }
-        // Top-down: each leaf cell takes the highest merged ancestor's level.
-        let node_level: Vec<u8> = (0..leaf.cells.len())
-            .into_par_iter()
-            .map(|i| {
-                let c = coords(i, dims);
-                for l in (1..levels.len()).rev() {
-                    let d = levels[l].dims.map(|d| d as usize);
-                    let n = c.map(|x| x >> l);
-                    if merged[l][n[0] + d[0] * (n[1] + d[1] * n[2])] {
-                        return l as u8;
-                    }
-                }
-                0
-            })
-            .collect();
+        let choice = choose_merges(
+            dims,
+            &levels,
+            &nodes[..leaf.cells.len()],
+            &nodes,
+            &leaf_cost,
+        );
+        let node_level = node_levels(dims, leaf.cells.len(), &levels, &choice.merged);
         let mut level_index = [[0u32; 3]; MAX_LEVEL as usize + 1];
         for (k, lv) in levels.iter().enumerate() {
             level_index[k] = [lv.offset, lv.dims[0], lv.dims[0] * lv.dims[1]];
@@ -245,31 +290,47 @@ impl AdaptiveMajorants {
             // one segment over the whole grid is the top node taken as a leaf.
             let cost_global = leaf_cost(top as usize, [0, 0, 0], a.node(top as usize, [0, 0, 0]));
             let cost_culled = a.culled_cost(scale, index_per_t, cost);
-            if shape == AdaptiveShape::Mixed {
-                let pure = fine[0].min(cost_global).min(cost_culled);
-                // `>=` on NaN is false: a NaN cost keeps the structure the recursion chose.
-                if costs[0] >= (1.0 - cost.mixed_margin as f64) * pure {
-                    let level = if cost_global <= fine[0] { top } else { 0 };
-                    a.node_level.iter_mut().for_each(|l| *l = level);
-                    a.shape = AdaptiveShape::of(&a.node_level, top);
-                }
-            }
-            // A pure walk gives way to the culled global walk only when that models cheaper
-            // (strictly: the simpler walk wins ties).
-            let chosen = match a.shape {
-                AdaptiveShape::OneNode => cost_global,
-                AdaptiveShape::AllLeaves => fine[0],
-                _ => f64::NEG_INFINITY,
-            };
-            if cost_culled < chosen {
-                a.node_level.iter_mut().for_each(|l| *l = top);
-                a.shape = AdaptiveShape::Culled;
-            }
-            a.shadow_culled =
-                a.shape == AdaptiveShape::AllLeaves && cost_culled < SHADOW_CULLED_FACTOR * fine[0];
+            a.settle_shape(
+                top,
+                choice.costs[0],
+                choice.fine[0],
+                cost_global,
+                cost_culled,
+            );
         }
         a.build_seconds = start.elapsed().as_secs_f64();
         a
+    }
+
+    /// Replaces the recursion's structure by a simpler walk where the model prices it
+    /// (nearly) as cheap: a mixed structure by one node or every leaf cell within the cost
+    /// model's margin, a pure one by the culled global walk when strictly cheaper; then
+    /// decides whether shadow flights take the culled walk. `chosen` is the recursion's cost at
+    /// the top node, `fine` every leaf cell's, `global` the one node's, `culled` the culled
+    /// global walk's.
+    fn settle_shape(&mut self, top: u8, chosen: f64, fine: f64, global: f64, culled: f64) {
+        if self.shape == AdaptiveShape::Mixed {
+            let pure = fine.min(global).min(culled);
+            // `>=` on NaN is false: a NaN cost keeps the structure the recursion chose.
+            if chosen >= (1.0 - self.cost.mixed_margin as f64) * pure {
+                let level = if global <= fine { top } else { 0 };
+                self.node_level.iter_mut().for_each(|l| *l = level);
+                self.shape = AdaptiveShape::of(&self.node_level, top);
+            }
+        }
+        // A pure walk gives way to the culled global walk only when that models cheaper
+        // (strictly: the simpler walk wins ties).
+        let pure = match self.shape {
+            AdaptiveShape::OneNode => global,
+            AdaptiveShape::AllLeaves => fine,
+            _ => f64::NEG_INFINITY,
+        };
+        if culled < pure {
+            self.node_level.iter_mut().for_each(|l| *l = top);
+            self.shape = AdaptiveShape::Culled;
+        }
+        self.shadow_culled =
+            self.shape == AdaptiveShape::AllLeaves && culled < SHADOW_CULLED_FACTOR * fine;
     }
 
     /// The model's cost of the culled global walk over this pyramid ([`CostModel::culled_cost`]),
