@@ -29,6 +29,7 @@
 //! Requirements: `sigma_c_a <= sigma_a`, `sigma_c_s <= sigma_s` and `sigma_t <= bound`; a
 //! lookup that breaks one counts a `majorant_violation`. For controls above the minorant use
 //! weighted decomposition tracking.
+use super::delta::bernoulli;
 use super::flight::{self, Grey, Outcome, Real, Walk};
 use super::{check_bound, lookup, Event, Medium, TrackingStats, MAJORANT_TOLERANCE};
 use crate::sampling::Rng;
@@ -129,12 +130,7 @@ where
                 c.seg.sigma_maj,
                 stats,
             );
-            let sigma_r = k.sigma_t() - ctl.sigma_t();
-            if rng.uniform_f32() * c.sigma_maj < sigma_r {
-                Outcome::Real(Real::Absorb, None)
-            } else {
-                Outcome::Null(None)
-            }
+            bernoulli(k.sigma_t() - ctl.sigma_t(), c.sigma_maj, rng)
         },
     )
 }

@@ -91,11 +91,18 @@ where
         |rng, stats, c, _| {
             let sigma_t = lookup(medium, c.t, stats).sigma_t();
             check_bound(sigma_t, c.sigma_maj, stats);
-            if rng.uniform_f32() * c.sigma_maj < sigma_t {
-                Outcome::Real(Real::Absorb, None)
-            } else {
-                Outcome::Null(None)
-            }
+            bernoulli(sigma_t, c.sigma_maj, rng)
         },
     )
+}
+
+/// The transmittance rule of delta tracking, and of decomposition tracking on the residual:
+/// a real collision with probability `sigma / sigma_maj` (one uniform), else a null one.
+#[inline]
+pub(super) fn bernoulli(sigma: f32, sigma_maj: f32, rng: &mut Rng) -> Outcome<f32> {
+    if rng.uniform_f32() * sigma_maj < sigma {
+        Outcome::Real(Real::Absorb, None)
+    } else {
+        Outcome::Null(None)
+    }
 }

@@ -22,9 +22,10 @@
 //! in proportion. Transmittance: `exp(-int sigma_c)` in closed form times the weighted
 //! residual estimate (events {real: |sigma_r|, null: |r_n|}; `w` on escape, 0 on real).
 use super::flight::{self, Grey, Outcome, Real, Walk};
+use super::weighted_delta::{real_or_null, weighted_choice};
 use super::{lookup, residual_majorant, Event, Medium, TrackingStats};
 use crate::sampling::discrete::ONE_MINUS_EPSILON;
-use crate::sampling::{sample_discrete, Rng};
+use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 
 /// The walk with majorant `majorant`, with the per-voxel stage where the control is 0 and
@@ -89,18 +90,7 @@ where
             let k = lookup(medium, c.t, stats);
             let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
             let r_n = r_bar - r_a - r_s;
-            let p = [r_a.abs(), r_s.abs(), r_n.abs()];
-            let total = p[0] + p[1] + p[2];
-            let Some(choice) = sample_discrete(&p, u) else {
-                return Outcome::Skip;
-            };
-            let sigma_x = [r_a, r_s, r_n][choice.index];
-            let factor = Some((total / r_bar).copysign(sigma_x));
-            match choice.index {
-                0 => Outcome::Real(Real::Absorb, factor),
-                1 => Outcome::Real(Real::Scatter, factor),
-                _ => Outcome::Null(factor),
-            }
+            weighted_choice([r_a, r_s, r_n], r_bar, u)
         },
     )
 }
@@ -128,13 +118,7 @@ where
         stats,
         |rng, stats, c, _| {
             let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
-            let r_n = c.sigma_maj - sigma_r;
-            let total = sigma_r.abs() + r_n.abs();
-            if rng.uniform_f32() * total < sigma_r.abs() {
-                Outcome::Real(Real::Absorb, None)
-            } else {
-                Outcome::Null(Some((total / c.sigma_maj).copysign(r_n)))
-            }
+            real_or_null(sigma_r, c.sigma_maj, rng)
         },
     )
 }

@@ -58,20 +58,12 @@ where
         |rng, stats, c, _| {
             let k = lookup(medium, c.t, stats);
             let sigma_n = c.sigma_maj - k.sigma_t();
-            let p = [k.sigma_a.abs(), k.sigma_s.abs(), sigma_n.abs()];
-            let total = p[0] + p[1] + p[2];
-            let u = rng.uniform_f32();
             // total >= |sigma_a + sigma_s + sigma_n| = sigma_maj > 0, so a choice always exists.
-            let Some(choice) = sample_discrete(&p, u) else {
-                return Outcome::Skip;
-            };
-            let sigma_x = [k.sigma_a, k.sigma_s, sigma_n][choice.index];
-            let factor = Some((total / c.sigma_maj).copysign(sigma_x));
-            match choice.index {
-                0 => Outcome::Real(Real::Absorb, factor),
-                1 => Outcome::Real(Real::Scatter, factor),
-                _ => Outcome::Null(factor),
-            }
+            weighted_choice(
+                [k.sigma_a, k.sigma_s, sigma_n],
+                c.sigma_maj,
+                rng.uniform_f32(),
+            )
         },
     )
 }
@@ -96,15 +88,40 @@ where
         walk(b),
         rng,
         stats,
-        |rng, stats, c, _| {
-            let sigma_t = lookup(medium, c.t, stats).sigma_t();
-            let sigma_n = c.sigma_maj - sigma_t;
-            let total = sigma_t.abs() + sigma_n.abs();
-            if rng.uniform_f32() * total < sigma_t.abs() {
-                Outcome::Real(Real::Absorb, None)
-            } else {
-                Outcome::Null(Some((total / c.sigma_maj).copysign(sigma_n)))
-            }
-        },
+        |rng, stats, c, _| real_or_null(lookup(medium, c.t, stats).sigma_t(), c.sigma_maj, rng),
     )
+}
+
+/// The distance rule of weighted delta tracking over the coefficients `[sigma_a, sigma_s,
+/// sigma_n]` (of weighted decomposition tracking over the residual's), with uniform `u`:
+/// `x` with probability `|sigma_x| / total`, the weight times
+/// `sign(sigma_x) total / sigma_maj`. No choice (all 0) is skipped.
+#[inline]
+pub(super) fn weighted_choice(sigma: [f32; 3], sigma_maj: f32, u: f32) -> Outcome<f32> {
+    let p = [sigma[0].abs(), sigma[1].abs(), sigma[2].abs()];
+    let total = p[0] + p[1] + p[2];
+    let Some(choice) = sample_discrete(&p, u) else {
+        return Outcome::Skip;
+    };
+    let factor = Some((total / sigma_maj).copysign(sigma[choice.index]));
+    match choice.index {
+        0 => Outcome::Real(Real::Absorb, factor),
+        1 => Outcome::Real(Real::Scatter, factor),
+        _ => Outcome::Null(factor),
+    }
+}
+
+/// The transmittance rule of weighted delta tracking with extinction `sigma` (of weighted
+/// decomposition tracking with the residual): events {real: `|sigma|`, null: `|sigma_n|`},
+/// `sigma_n = sigma_maj - sigma`, one uniform; a null weighted by
+/// `sign(sigma_n) total / sigma_maj`.
+#[inline]
+pub(super) fn real_or_null(sigma: f32, sigma_maj: f32, rng: &mut Rng) -> Outcome<f32> {
+    let sigma_n = sigma_maj - sigma;
+    let total = sigma.abs() + sigma_n.abs();
+    if rng.uniform_f32() * total < sigma.abs() {
+        Outcome::Real(Real::Absorb, None)
+    } else {
+        Outcome::Null(Some((total / sigma_maj).copysign(sigma_n)))
+    }
 }
