@@ -334,21 +334,10 @@ fn mix_pick(w: array<f32, 9>, n: u32, u: f32) -> Pick {
     return Pick(last, w[last] / total);
 }
 
-// mixture::sample_mixture: the free flight through the sum of the media of `spans` and the
-// homogeneous medium `hom` (NO_INDEX: none) over [t0, t1].
-fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<function, Rng>,
-              t0: f32, t1: f32) -> Flight {
-    let o = (*ps).o;
-    let d = (*ps).d;
-    let weight_abs = wf.absorption_weight != 0u;
-    // The CPU's ABS with absorption as an event (sample_mixture's dispatch).
-    let abs = (wf.flags & WF_FLAG_ABSORPTION) != 0u && !weight_abs;
+// Whether the sum of the media of `spans` and the homogeneous medium `h` (`has_hom`) is
+// tracked spectrally (sample_mixture's RgbMix): when forced, or when any part is chromatic.
+fn mix_is_spectral(spans: Spans, h: GpuHomogeneousMedium, has_hom: bool) -> bool {
     var spectral = false;
-    var h: GpuHomogeneousMedium;
-    let has_hom = hom != NO_INDEX;
-    if (has_hom) {
-        h = homogeneous[hom];
-    }
     if (FEATURE_CHROMATIC) {
         let st = h.sigma_a + h.sigma_s;
         spectral = (wf.flags & WF_FLAG_FORCE_SPECTRAL) != 0u
@@ -357,7 +346,12 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
             spectral = spectral || vdb_media[spans.k[i]].spectral != 0u;
         }
     }
-    // The streams: every member's walk over its span, then the homogeneous part.
+    return spectral;
+}
+
+// The merged segment streams' members: every VDB medium's majorant walk over its span along
+// the world ray (o, d), and the control albedos' range over them (mix_state starts empty).
+fn mix_start_members(spans: Spans, o: vec3<f32>, d: vec3<f32>) {
     mix_state.n_vdb = spans.n;
     mix_state.n = spans.n;
     mix_state.t = -f32_inf();
@@ -385,48 +379,129 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
         mix_state.alpha_min = min(mix_state.alpha_min, vdb_media[k].control_albedo);
         mix_state.alpha_max = max(mix_state.alpha_max, vdb_media[k].control_albedo);
     }
+}
+
+// The homogeneous part of the sum over [t0, t1] (HomRgb when `spectral`, else HomGrey):
+// its tracker coefficients, its one constant segment as the last stream, and for HomGrey its
+// control albedo in the range; returns the grey tracker's scattering albedo (sigma_s per
+// channel over the tracked sigma_s; 0 when spectral).
+fn mix_add_homogeneous(h: GpuHomogeneousMedium, t0: f32, t1: f32, spectral: bool) -> vec3<f32> {
+    let weight_abs = wf.absorption_weight != 0u;
+    // The CPU's ABS with absorption as an event (sample_mixture's dispatch).
+    let abs = (wf.flags & WF_FLAG_ABSORPTION) != 0u && !weight_abs;
+    var hom_albedo = vec3<f32>(0.0);
+    var seg = GpuMajorantSegment(t0, t1, 0.0, 0.0);
+    if (spectral) {
+        // HomRgb: the medium's coefficients, or (0, sigma_t) with absorption as a weight.
+        mix_state.hom_sigma_a = h.sigma_a;
+        mix_state.hom_sigma_s = h.sigma_s;
+        if (weight_abs) {
+            mix_state.hom_sigma_a = vec3<f32>(0.0);
+            mix_state.hom_sigma_s = h.sigma_a + h.sigma_s;
+        }
+        let st = mix_state.hom_sigma_a + mix_state.hom_sigma_s;
+        seg.sigma_maj = max(st.x, max(st.y, st.z));
+        seg.sigma_min = min(st.x, min(st.y, st.z));
+    } else {
+        // HomGrey.
+        let st3 = h.sigma_a + h.sigma_s;
+        let sigma_t = max(st3.x, max(st3.y, st3.z));
+        var sigma_s = (h.sigma_s.x + h.sigma_s.y + h.sigma_s.z) / 3.0;
+        if (weight_abs) {
+            sigma_s = sigma_t;
+        }
+        var sigma_a = 0.0;
+        if (abs) {
+            sigma_a = max(sigma_t - sigma_s, 0.0);
+        }
+        if (sigma_s > 0.0) {
+            hom_albedo = h.sigma_s / sigma_s;
+        }
+        mix_state.hom_sigma_a = vec3<f32>(sigma_a);
+        mix_state.hom_sigma_s = vec3<f32>(sigma_s);
+        let a_h = sigma_s / max(sigma_a + sigma_s, 1.17549435e-38);
+        mix_state.alpha_min = min(mix_state.alpha_min, a_h);
+        mix_state.alpha_max = max(mix_state.alpha_max, a_h);
+        seg.sigma_maj = sigma_a + sigma_s;
+        seg.sigma_min = sigma_a + sigma_s;
+    }
+    let n = mix_state.n;
+    mix_streams[n].medium = NO_INDEX;
+    mix_streams[n].cur = seg;
+    mix_streams[n].has = true;
+    mix_state.n = n + 1u;
+    return hom_albedo;
+}
+
+// The scattering event of the sum at f.t: which medium scattered, in proportion to its sigma_s
+// at the point (one lookup per member, one uniform of the tracker's stream), gives the phase
+// function and the weight (its albedo, or for RGB its sigma_s over the tracked sum's);
+// absorbed when no medium scatters there (only a majorant violation gets here).
+fn mix_scatterer(tr: ptr<function, Tracker>, f: ptr<function, Flight>, h: GpuHomogeneousMedium,
+                 has_hom: bool, hom_albedo: vec3<f32>, spectral: bool) {
+    let t = (*f).t;
+    var w: array<f32, 9>;
+    var s_true: array<vec3<f32>, 9>;
+    var s_view = vec3<f32>(0.0);
+    for (var i = 0u; i < mix_state.n_vdb; i++) {
+        let m = mix_streams[i].medium;
+        let dens = mix_density(i, t);
+        if (spectral) {
+            s_true[i] = vdb_media[m].sigma_s * dens;
+            s_view += vdb_media[m].rgb_sigma_s * dens;
+            w[i] = s_true[i].x + s_true[i].y + s_true[i].z;
+        } else {
+            w[i] = vdb_media[m].grey_sigma_s * dens;
+        }
+    }
+    (*tr).stats.lookups += mix_state.n_vdb;
+    var n = mix_state.n_vdb;
+    if (has_hom) {
+        if (spectral) {
+            s_true[n] = h.sigma_s;
+            s_view += mix_state.hom_sigma_s;
+            w[n] = h.sigma_s.x + h.sigma_s.y + h.sigma_s.z;
+        } else {
+            w[n] = mix_state.hom_sigma_s.x;
+        }
+        n += 1u;
+    }
+    let pk = mix_pick(w, n, tracker_uniform(tr));
+    if (pk.k >= n) {
+        (*f).event = EVENT_ABSORB;
+        return;
+    }
+    let hom_k = pk.k >= mix_state.n_vdb;
+    if (hom_k) {
+        (*f).g = h.g;
+    } else {
+        (*f).g = vdb_media[mix_streams[pk.k].medium].phase_g;
+    }
+    if (spectral) {
+        let den = s_view * pk.p;
+        (*f).weight = (*tr).w * select(vec3<f32>(0.0), s_true[pk.k] / den, den > vec3<f32>(0.0));
+    } else if (hom_k) {
+        (*f).weight = hom_albedo * (*tr).w.x;
+    } else {
+        (*f).weight = vdb_media[mix_streams[pk.k].medium].scatter_albedo * (*tr).w.x;
+    }
+}
+
+// mixture::sample_mixture: the free flight through the sum of the media of `spans` and the
+// homogeneous medium `hom` (NO_INDEX: none) over [t0, t1].
+fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<function, Rng>,
+              t0: f32, t1: f32) -> Flight {
+    var h: GpuHomogeneousMedium;
+    let has_hom = hom != NO_INDEX;
+    if (has_hom) {
+        h = homogeneous[hom];
+    }
+    let spectral = mix_is_spectral(spans, h, has_hom);
+    // The streams: every member's walk over its span, then the homogeneous part.
+    mix_start_members(spans, (*ps).o, (*ps).d);
     var hom_albedo = vec3<f32>(0.0);
     if (has_hom) {
-        var seg = GpuMajorantSegment(t0, t1, 0.0, 0.0);
-        if (spectral) {
-            // HomRgb: the medium's coefficients, or (0, sigma_t) with absorption as a weight.
-            mix_state.hom_sigma_a = h.sigma_a;
-            mix_state.hom_sigma_s = h.sigma_s;
-            if (weight_abs) {
-                mix_state.hom_sigma_a = vec3<f32>(0.0);
-                mix_state.hom_sigma_s = h.sigma_a + h.sigma_s;
-            }
-            let st = mix_state.hom_sigma_a + mix_state.hom_sigma_s;
-            seg.sigma_maj = max(st.x, max(st.y, st.z));
-            seg.sigma_min = min(st.x, min(st.y, st.z));
-        } else {
-            // HomGrey.
-            let st3 = h.sigma_a + h.sigma_s;
-            let sigma_t = max(st3.x, max(st3.y, st3.z));
-            var sigma_s = (h.sigma_s.x + h.sigma_s.y + h.sigma_s.z) / 3.0;
-            if (weight_abs) {
-                sigma_s = sigma_t;
-            }
-            var sigma_a = 0.0;
-            if (abs) {
-                sigma_a = max(sigma_t - sigma_s, 0.0);
-            }
-            if (sigma_s > 0.0) {
-                hom_albedo = h.sigma_s / sigma_s;
-            }
-            mix_state.hom_sigma_a = vec3<f32>(sigma_a);
-            mix_state.hom_sigma_s = vec3<f32>(sigma_s);
-            let a_h = sigma_s / max(sigma_a + sigma_s, 1.17549435e-38);
-            mix_state.alpha_min = min(mix_state.alpha_min, a_h);
-            mix_state.alpha_max = max(mix_state.alpha_max, a_h);
-            seg.sigma_maj = sigma_a + sigma_s;
-            seg.sigma_min = sigma_a + sigma_s;
-        }
-        let n = mix_state.n;
-        mix_streams[n].medium = NO_INDEX;
-        mix_streams[n].cur = seg;
-        mix_streams[n].has = true;
-        mix_state.n = n + 1u;
+        hom_albedo = mix_add_homogeneous(h, t0, t1, spectral);
     }
     // The tracker of the sum: the render's estimator and knobs (the first member's record
     // carries them), spectral tracking when any part is chromatic.
@@ -437,8 +512,8 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
         tr.params.estimator = ESTIMATOR_SPECTRAL;
     }
     tr.rng = *rng;
-    tr.ow = o;
-    tr.dw = d;
+    tr.ow = (*ps).o;
+    tr.dw = (*ps).d;
     tr.w = vec3<f32>(1.0);
     tr.mix = MIX_ALL;
     var no_walk: Dda;
@@ -449,54 +524,7 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
         f.weight = tr.w;
     }
     if (tr.event == EVENT_SCATTER) {
-        // Which medium scattered: in proportion to its sigma_s at t (one lookup per member).
-        let t = tr.t_event;
-        var w: array<f32, 9>;
-        var s_true: array<vec3<f32>, 9>;
-        var s_view = vec3<f32>(0.0);
-        for (var i = 0u; i < mix_state.n_vdb; i++) {
-            let m = mix_streams[i].medium;
-            let dens = mix_density(i, t);
-            if (spectral) {
-                s_true[i] = vdb_media[m].sigma_s * dens;
-                s_view += vdb_media[m].rgb_sigma_s * dens;
-                w[i] = s_true[i].x + s_true[i].y + s_true[i].z;
-            } else {
-                w[i] = vdb_media[m].grey_sigma_s * dens;
-            }
-        }
-        tr.stats.lookups += mix_state.n_vdb;
-        var n = mix_state.n_vdb;
-        if (has_hom) {
-            if (spectral) {
-                s_true[n] = h.sigma_s;
-                s_view += mix_state.hom_sigma_s;
-                w[n] = h.sigma_s.x + h.sigma_s.y + h.sigma_s.z;
-            } else {
-                w[n] = mix_state.hom_sigma_s.x;
-            }
-            n += 1u;
-        }
-        let pk = mix_pick(w, n, tracker_uniform(&tr));
-        if (pk.k >= n) {
-            // No medium scatters at t (only a majorant violation gets here): no light.
-            f.event = EVENT_ABSORB;
-        } else {
-            let hom_k = pk.k >= mix_state.n_vdb;
-            if (hom_k) {
-                f.g = h.g;
-            } else {
-                f.g = vdb_media[mix_streams[pk.k].medium].phase_g;
-            }
-            if (spectral) {
-                let den = s_view * pk.p;
-                f.weight = tr.w * select(vec3<f32>(0.0), s_true[pk.k] / den, den > vec3<f32>(0.0));
-            } else if (hom_k) {
-                f.weight = hom_albedo * tr.w.x;
-            } else {
-                f.weight = vdb_media[mix_streams[pk.k].medium].scatter_albedo * tr.w.x;
-            }
-        }
+        mix_scatterer(&tr, &f, h, has_hom, hom_albedo, spectral);
     }
     finish_tracker(tr, ps, rng);
     return f;

@@ -1,12 +1,15 @@
-// Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs) and the
-// collision callbacks of each estimator's `transmittance` and `sample_distance` (delta.rs,
-// weighted_delta.rs, decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs,
-// spectral.rs), and sampling::sample_discrete.
+// Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs), the
+// flight every estimator shares around its collision rule (flight.rs: `Outcome` and the tail
+// of `fly`), the collision rules of each estimator's `transmittance` and `sample_distance`
+// (delta.rs, weighted_delta.rs, decomposition.rs, weighted_decomposition.rs, ratio.rs,
+// residual_ratio.rs, spectral.rs), and sampling::sample_discrete.
 // Needs types.wgsl, math.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
 //
-// WGSL has no closures, so where the CPU passes a majorant closure and a callback, the loop
-// here calls `tracking_majorant` and `tracking_collide`, which switch on the estimator id
-// (ESTIMATOR_* constants, emitted from gpu_types::GpuEstimator by backend::gpu::shader).
+// WGSL has no closures, so where the CPU passes a majorant closure and a collision rule, the
+// loop here calls `tracking_majorant` and `tracking_collide`, whose rules (`transmittance_rule`,
+// `distance_rule`) switch on the estimator id (ESTIMATOR_* constants, emitted from
+// gpu_types::GpuEstimator by backend::gpu::shader) and return an Outcome that one tail,
+// `flight_outcome`, counts and applies.
 //
 // Random-number order is the CPU's (tracking/mod.rs): one uniform per tentative collision for
 // its exponential depth, drawn by the loop; then what the callback draws for that collision (one uniform for the event
@@ -259,7 +262,7 @@ fn spectral_reduce(mode: u32, v: vec3<f32>) -> f32 {
     return (a.x + a.y + a.z) * (1.0 / 3.0);
 }
 
-// spectral::roulette_rgb.
+// flight::Weight::roulette of an RGB weight: roulette on max |w|, every channel rescaled.
 fn roulette_rgb(tr: ptr<function, Tracker>, w: vec3<f32>) -> vec3<f32> {
     let a = abs(w);
     let m = max(a.x, max(a.y, a.z));
@@ -286,112 +289,6 @@ fn transmittance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -
         }
         // weighted delta, ratio, spectral: scaled_majorant(b).
         default: { return b * seg.sigma_maj; }
-    }
-}
-
-// The collision callback of each estimator's `transmittance`; false stops the walk.
-fn transmittance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
-                    seg: GpuMajorantSegment) -> bool {
-    switch (*tr).params.estimator {
-        // delta::transmittance: Bernoulli, real with probability sigma_t / sigma_maj.
-        case ESTIMATOR_DELTA: {
-            let sigma_t = coeffs_sigma_t(lookup(tr, t));
-            check_bound(tr, sigma_t, sigma_maj);
-            if (tracker_uniform(tr) * sigma_maj < sigma_t) {
-                (*tr).stats.real_collisions += 1u;
-                (*tr).w.x = 0.0;
-                return false;
-            }
-            (*tr).stats.null_collisions += 1u;
-            return true;
-        }
-        // weighted_delta::transmittance: events {real |sigma_t|, null |sigma_n|}.
-        case ESTIMATOR_WEIGHTED_DELTA: {
-            let sigma_t = coeffs_sigma_t(lookup(tr, t));
-            let sigma_n = sigma_maj - sigma_t;
-            let total = abs(sigma_t) + abs(sigma_n);
-            if (tracker_uniform(tr) * total < abs(sigma_t)) {
-                (*tr).stats.real_collisions += 1u;
-                (*tr).w.x = 0.0;
-                return false;
-            }
-            (*tr).stats.null_collisions += 1u;
-            (*tr).w.x *= copysign(total / sigma_maj, sigma_n);
-            note_weight(tr, (*tr).w.x);
-            return true;
-        }
-        // decomposition::transmittance: Bernoulli on the residual against bound - sigma_c.
-        case ESTIMATOR_DECOMPOSITION: {
-            let ctl = control(tr, seg);
-            let k = lookup(tr, t);
-            check_bound(tr, coeffs_sigma_t(k), seg.sigma_maj);
-            check_residual(tr, k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s, seg.sigma_maj);
-            let sigma_r = coeffs_sigma_t(k) - coeffs_sigma_t(ctl);
-            if (tracker_uniform(tr) * sigma_maj < sigma_r) {
-                (*tr).stats.real_collisions += 1u;
-                (*tr).w.x = 0.0;
-                return false;
-            }
-            (*tr).stats.null_collisions += 1u;
-            return true;
-        }
-        // weighted_decomposition::transmittance: weighted residual events.
-        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
-            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
-            let r_n = sigma_maj - sigma_r;
-            let total = abs(sigma_r) + abs(r_n);
-            if (tracker_uniform(tr) * total < abs(sigma_r)) {
-                (*tr).stats.real_collisions += 1u;
-                (*tr).w.x = 0.0;
-                return false;
-            }
-            (*tr).stats.null_collisions += 1u;
-            (*tr).w.x *= copysign(total / sigma_maj, r_n);
-            note_weight(tr, (*tr).w.x);
-            return true;
-        }
-        // ratio::transmittance: T *= 1 - sigma_t / sigma_maj, then roulette.
-        case ESTIMATOR_RATIO: {
-            let sigma_t = coeffs_sigma_t(lookup(tr, t));
-            (*tr).stats.null_collisions += 1u;
-            (*tr).w.x *= 1.0 - sigma_t / sigma_maj;
-            note_weight(tr, (*tr).w.x);
-            (*tr).w.x = roulette(tr, (*tr).w.x);
-            return (*tr).w.x != 0.0;
-        }
-        // residual_ratio::transmittance: T *= 1 - sigma_r / r_bar, then roulette.
-        case ESTIMATOR_RESIDUAL_RATIO: {
-            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
-            (*tr).stats.null_collisions += 1u;
-            (*tr).w.x *= 1.0 - sigma_r / sigma_maj;
-            note_weight(tr, (*tr).w.x);
-            (*tr).w.x = roulette(tr, (*tr).w.x);
-            return (*tr).w.x != 0.0;
-        }
-        // spectral::transmittance: history-aware real/null choice, RGB weights.
-        case ESTIMATOR_SPECTRAL: {
-            let sigma_t = lookup_rgb_sigma_t(tr, t);
-            let sigma_n = vec3<f32>(sigma_maj) - sigma_t;
-            let mode = (*tr).params.spectral_mode;
-            let p_real = spectral_reduce(mode, sigma_t * (*tr).w);
-            let p_null = spectral_reduce(mode, sigma_n * (*tr).w);
-            let total = p_real + p_null;
-            // `||` short-circuits: no uniform is drawn when total is not positive (as on the CPU).
-            if (!(total > 0.0) || tracker_uniform(tr) * total < p_real) {
-                (*tr).stats.real_collisions += 1u;
-                (*tr).w = vec3<f32>(0.0);
-                return false;
-            }
-            (*tr).stats.null_collisions += 1u;
-            (*tr).w *= sigma_n * (total / (sigma_maj * p_null));
-            let a = abs((*tr).w);
-            note_weight(tr, max(a.x, max(a.y, a.z)));
-            (*tr).w = roulette_rgb(tr, (*tr).w);
-            return any((*tr).w != vec3<f32>(0.0));
-        }
-        default: {
-            return false;
-        }
     }
 }
 
@@ -446,159 +343,307 @@ fn distance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32
     }
 }
 
-// The collision callback of each estimator's `sample_distance`; false stops the walk.
-// Every one first calls Medium::on_collision with the weight so far (1 for the analog
-// trackers); the including module defines `on_collision` (emission.wgsl in the wavefront
-// integrator; a no-op in the test kernels).
-fn distance_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
-                    seg: GpuMajorantSegment) -> bool {
-    on_collision(tr, t, sigma_maj);
+// flight::Outcome kinds. The first three are in the order of the event CDF [absorb, scatter,
+// null] that sample_discrete3 picks an index from.
+const OUTCOME_ABSORB: u32 = 0u;          // Outcome::Real(Real::Absorb, ..)
+const OUTCOME_SCATTER: u32 = 1u;         // Outcome::Real(Real::Scatter, ..)
+const OUTCOME_NULL: u32 = 2u;            // Outcome::Null
+const OUTCOME_CONTROL_ABSORB: u32 = 3u;  // Outcome::Control(Real::Absorb)
+const OUTCOME_CONTROL_SCATTER: u32 = 4u; // Outcome::Control(Real::Scatter)
+const OUTCOME_SKIP: u32 = 5u;            // Outcome::Skip
+const OUTCOME_DEAD: u32 = 6u;            // Outcome::Dead
+const OUTCOME_STOP: u32 = 7u;            // no rule (an unknown estimator): stop, record nothing
+
+// flight::Outcome: what a collision rule decided, and the factor the weight takes (`weighted`
+// false: the weight is unchanged and not recorded, as in the analog trackers; grey in .x).
+struct Outcome {
+    kind: u32,
+    weighted: bool,
+    factor: vec3<f32>,
+}
+
+fn outcome(kind: u32) -> Outcome {
+    return Outcome(kind, false, vec3<f32>(0.0));
+}
+
+fn outcome_weighted(kind: u32, factor: f32) -> Outcome {
+    return Outcome(kind, true, vec3<f32>(factor, 0.0, 0.0));
+}
+
+fn outcome_rgb(kind: u32, factor: vec3<f32>) -> Outcome {
+    return Outcome(kind, true, factor);
+}
+
+// delta::bernoulli: real with probability sigma / sigma_maj (the transmittance rules of
+// delta and decomposition tracking).
+fn bernoulli(tr: ptr<function, Tracker>, sigma: f32, sigma_maj: f32) -> Outcome {
+    if (tracker_uniform(tr) * sigma_maj < sigma) {
+        return outcome(OUTCOME_ABSORB);
+    }
+    return outcome(OUTCOME_NULL);
+}
+
+// weighted_delta::real_or_null: events {real |sigma|, null |sigma_maj - sigma|}, the null
+// weighted by sign(sigma_n) total / sigma_maj.
+fn real_or_null(tr: ptr<function, Tracker>, sigma: f32, sigma_maj: f32) -> Outcome {
+    let sigma_n = sigma_maj - sigma;
+    let total = abs(sigma) + abs(sigma_n);
+    if (tracker_uniform(tr) * total < abs(sigma)) {
+        return outcome(OUTCOME_ABSORB);
+    }
+    return outcome_weighted(OUTCOME_NULL, copysign(total / sigma_maj, sigma_n));
+}
+
+// weighted_delta::weighted_choice: P_x = |sigma_x| / total over [absorb, scatter, null] with
+// uniform u, weight sign(sigma_x) total / sigma_maj.
+fn weighted_choice(sigma: array<f32, 3>, sigma_maj: f32, u: f32) -> Outcome {
+    let p = array<f32, 3>(abs(sigma[0]), abs(sigma[1]), abs(sigma[2]));
+    let total = p[0] + p[1] + p[2];
+    let c = sample_discrete3(p, u);
+    if (c.index == 3u) {
+        return outcome(OUTCOME_SKIP);
+    }
+    return outcome_weighted(c.index, copysign(total / sigma_maj, sigma[c.index]));
+}
+
+// The collision rule of each estimator's `transmittance`.
+fn transmittance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                      seg: GpuMajorantSegment) -> Outcome {
     switch (*tr).params.estimator {
-        // delta::sample_distance: one uniform against [sigma_a, sigma_a + sigma_s, sigma_maj].
+        case ESTIMATOR_DELTA: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            check_bound(tr, sigma_t, sigma_maj);
+            return bernoulli(tr, sigma_t, sigma_maj);
+        }
+        case ESTIMATOR_WEIGHTED_DELTA: {
+            return real_or_null(tr, coeffs_sigma_t(lookup(tr, t)), sigma_maj);
+        }
+        // The residual against bound - sigma_c.
+        case ESTIMATOR_DECOMPOSITION: {
+            let ctl = control(tr, seg);
+            let k = lookup(tr, t);
+            check_bound(tr, coeffs_sigma_t(k), seg.sigma_maj);
+            check_residual(tr, k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s, seg.sigma_maj);
+            return bernoulli(tr, coeffs_sigma_t(k) - coeffs_sigma_t(ctl), sigma_maj);
+        }
+        case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
+            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
+            return real_or_null(tr, sigma_r, sigma_maj);
+        }
+        // ratio: T *= 1 - sigma_t / sigma_maj.
+        case ESTIMATOR_RATIO: {
+            let sigma_t = coeffs_sigma_t(lookup(tr, t));
+            return outcome_weighted(OUTCOME_NULL, 1.0 - sigma_t / sigma_maj);
+        }
+        // residual ratio: T *= 1 - sigma_r / r_bar.
+        case ESTIMATOR_RESIDUAL_RATIO: {
+            let sigma_r = coeffs_sigma_t(lookup(tr, t)) - coeffs_sigma_t(control(tr, seg));
+            return outcome_weighted(OUTCOME_NULL, 1.0 - sigma_r / sigma_maj);
+        }
+        case ESTIMATOR_SPECTRAL: {
+            return spectral_transmittance_rule(tr, t, sigma_maj);
+        }
+        default: {
+            return outcome(OUTCOME_STOP);
+        }
+    }
+}
+
+// spectral::transmittance's rule: history-aware real/null choice, RGB weights.
+fn spectral_transmittance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) -> Outcome {
+    let sigma_t = lookup_rgb_sigma_t(tr, t);
+    let sigma_n = vec3<f32>(sigma_maj) - sigma_t;
+    let mode = (*tr).params.spectral_mode;
+    let p_real = spectral_reduce(mode, sigma_t * (*tr).w);
+    let p_null = spectral_reduce(mode, sigma_n * (*tr).w);
+    let total = p_real + p_null;
+    // `||` short-circuits: no uniform is drawn when total is not positive (as on the CPU).
+    if (!(total > 0.0) || tracker_uniform(tr) * total < p_real) {
+        return outcome(OUTCOME_ABSORB);
+    }
+    return outcome_rgb(OUTCOME_NULL, sigma_n * (total / (sigma_maj * p_null)));
+}
+
+// The collision rule of each estimator's `sample_distance`.
+fn distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                 seg: GpuMajorantSegment) -> Outcome {
+    switch (*tr).params.estimator {
+        // delta: one uniform against [sigma_a, sigma_a + sigma_s, sigma_maj].
         case ESTIMATOR_DELTA: {
             let k = lookup(tr, t);
             check_bound(tr, coeffs_sigma_t(k), sigma_maj);
             let x = tracker_uniform(tr) * sigma_maj;
             if (x < k.sigma_a) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_ABSORB, t);
+                return outcome(OUTCOME_ABSORB);
             }
             if (x < k.sigma_a + k.sigma_s) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_SCATTER, t);
+                return outcome(OUTCOME_SCATTER);
             }
-            (*tr).stats.null_collisions += 1u;
-            return true;
+            return outcome(OUTCOME_NULL);
         }
-        // weighted_delta::sample_distance: P_x = |sigma_x| / total, w *= sign total / sigma_maj.
         case ESTIMATOR_WEIGHTED_DELTA: {
             let k = lookup(tr, t);
             let sigma_n = sigma_maj - coeffs_sigma_t(k);
-            let p = array<f32, 3>(abs(k.sigma_a), abs(k.sigma_s), abs(sigma_n));
-            let total = p[0] + p[1] + p[2];
-            let c = sample_discrete3(p, tracker_uniform(tr));
-            if (c.index == 3u) {
-                return true;
-            }
-            let sigma_x = array<f32, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
-            (*tr).w.x *= copysign(total / sigma_maj, sigma_x);
-            note_weight(tr, (*tr).w.x);
-            if (c.index == 0u) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_ABSORB, t);
-            }
-            if (c.index == 1u) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_SCATTER, t);
-            }
-            (*tr).stats.null_collisions += 1u;
-            return true;
+            return weighted_choice(array<f32, 3>(k.sigma_a, k.sigma_s, sigma_n), sigma_maj,
+                                   tracker_uniform(tr));
         }
-        // decomposition::sample_distance: the control part of the CDF first (no lookup).
         case ESTIMATOR_DECOMPOSITION: {
-            let ctl = control(tr, seg);
-            var x = tracker_uniform(tr) * sigma_maj;
-            if (x < ctl.sigma_a) {
-                (*tr).stats.control_collisions += 1u;
-                return end_flight(tr, EVENT_ABSORB, t);
-            }
-            if (x < coeffs_sigma_t(ctl)) {
-                (*tr).stats.control_collisions += 1u;
-                return end_flight(tr, EVENT_SCATTER, t);
-            }
-            let k = lookup(tr, t);
-            check_bound(tr, coeffs_sigma_t(k), sigma_maj);
-            let r_a = k.sigma_a - ctl.sigma_a;
-            let r_s = k.sigma_s - ctl.sigma_s;
-            check_residual(tr, r_a, r_s, sigma_maj);
-            x = x - coeffs_sigma_t(ctl);
-            if (x < r_a) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_ABSORB, t);
-            }
-            if (x < r_a + r_s) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_SCATTER, t);
-            }
-            (*tr).stats.null_collisions += 1u;
-            return true;
+            return decomposition_distance_rule(tr, t, sigma_maj, seg);
         }
-        // weighted_decomposition::sample_distance: control first, then weighted residual
-        // events with the remapped uniform.
         case ESTIMATOR_WEIGHTED_DECOMPOSITION: {
-            let ctl = control(tr, seg);
-            let sigma_c = coeffs_sigma_t(ctl);
-            let x = tracker_uniform(tr) * sigma_maj;
-            if (x < sigma_c) {
-                (*tr).stats.control_collisions += 1u;
-                return end_flight(tr, select(EVENT_SCATTER, EVENT_ABSORB, x < ctl.sigma_a), t);
-            }
-            // Without a control, the collision's majorant itself (culling may have thinned it).
-            var r_bar = sigma_maj;
-            if (sigma_c != 0.0) {
-                r_bar = residual_majorant((*tr).params.b, seg, sigma_c);
-            }
-            if (!(r_bar > 0.0)) {
+            return weighted_decomposition_distance_rule(tr, t, sigma_maj, seg);
+        }
+        case ESTIMATOR_SPECTRAL: {
+            return spectral_distance_rule(tr, t, sigma_maj);
+        }
+        default: {
+            return outcome(OUTCOME_STOP);
+        }
+    }
+}
+
+// decomposition::sample_distance's rule: the control part of the CDF first (no lookup).
+fn decomposition_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                               seg: GpuMajorantSegment) -> Outcome {
+    let ctl = control(tr, seg);
+    var x = tracker_uniform(tr) * sigma_maj;
+    if (x < ctl.sigma_a) {
+        return outcome(OUTCOME_CONTROL_ABSORB);
+    }
+    if (x < coeffs_sigma_t(ctl)) {
+        return outcome(OUTCOME_CONTROL_SCATTER);
+    }
+    let k = lookup(tr, t);
+    check_bound(tr, coeffs_sigma_t(k), sigma_maj);
+    let r_a = k.sigma_a - ctl.sigma_a;
+    let r_s = k.sigma_s - ctl.sigma_s;
+    check_residual(tr, r_a, r_s, sigma_maj);
+    x = x - coeffs_sigma_t(ctl);
+    if (x < r_a) {
+        return outcome(OUTCOME_ABSORB);
+    }
+    if (x < r_a + r_s) {
+        return outcome(OUTCOME_SCATTER);
+    }
+    return outcome(OUTCOME_NULL);
+}
+
+// weighted_decomposition::sample_distance's rule: control first, then weighted residual
+// events with the remapped uniform.
+fn weighted_decomposition_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
+                                        seg: GpuMajorantSegment) -> Outcome {
+    let ctl = control(tr, seg);
+    let sigma_c = coeffs_sigma_t(ctl);
+    let x = tracker_uniform(tr) * sigma_maj;
+    if (x < sigma_c) {
+        return outcome(select(OUTCOME_CONTROL_SCATTER, OUTCOME_CONTROL_ABSORB, x < ctl.sigma_a));
+    }
+    // Without a control, the collision's majorant itself (culling may have thinned it).
+    var r_bar = sigma_maj;
+    if (sigma_c != 0.0) {
+        r_bar = residual_majorant((*tr).params.b, seg, sigma_c);
+    }
+    if (!(r_bar > 0.0)) {
+        return outcome(OUTCOME_SKIP);
+    }
+    let u = clamp((x - sigma_c) / r_bar, 0.0, ONE_MINUS_EPSILON);
+    let k = lookup(tr, t);
+    let r_a = k.sigma_a - ctl.sigma_a;
+    let r_s = k.sigma_s - ctl.sigma_s;
+    let r_n = r_bar - r_a - r_s;
+    return weighted_choice(array<f32, 3>(r_a, r_s, r_n), r_bar, u);
+}
+
+// spectral::sample_distance's rule: history-aware probabilities, RGB weights.
+fn spectral_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) -> Outcome {
+    let k = lookup_rgb(tr, t);
+    let sigma_n = vec3<f32>(sigma_maj) - (k.sigma_a + k.sigma_s);
+    let h = (*tr).beta * (*tr).w;
+    let mode = (*tr).params.spectral_mode;
+    let p = array<f32, 3>(spectral_reduce(mode, k.sigma_a * h),
+                          spectral_reduce(mode, k.sigma_s * h),
+                          spectral_reduce(mode, sigma_n * h));
+    let c = sample_discrete3(p, tracker_uniform(tr));
+    if (c.index == 3u) {
+        // All history is zero: nothing can contribute any more.
+        return outcome(OUTCOME_DEAD);
+    }
+    let sigma_x = array<vec3<f32>, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
+    return outcome_rgb(c.index, sigma_x / (sigma_maj * c.pmf));
+}
+
+// The weight takes the outcome's factor and is recorded (TrackingStats::note_weight).
+fn take_factor(tr: ptr<function, Tracker>, o: Outcome) {
+    if (!o.weighted) {
+        return;
+    }
+    if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
+        (*tr).w *= o.factor;
+        let a = abs((*tr).w);
+        note_weight(tr, max(a.x, max(a.y, a.z)));
+    } else {
+        (*tr).w.x *= o.factor.x;
+        note_weight(tr, (*tr).w.x);
+    }
+}
+
+// Walk::roulette: Russian roulette after the null collisions of ratio, residual ratio and
+// spectral tracking; false when it left no weight.
+fn null_roulette(tr: ptr<function, Tracker>) -> bool {
+    let est = (*tr).params.estimator;
+    if (est == ESTIMATOR_SPECTRAL) {
+        (*tr).w = roulette_rgb(tr, (*tr).w);
+        return any((*tr).w != vec3<f32>(0.0));
+    }
+    if (est == ESTIMATOR_RATIO || est == ESTIMATOR_RESIDUAL_RATIO) {
+        (*tr).w.x = roulette(tr, (*tr).w.x);
+        return (*tr).w.x != 0.0;
+    }
+    return true;
+}
+
+// flight::fly's tail, written once for every rule: counts the outcome, applies its factor
+// and the roulette, and ends the walk with its event (distance sampling; absorbed when no
+// weight is left) or its estimate (transmittance: the weight, 0 after a real collision).
+// False stops the walk.
+fn flight_outcome(tr: ptr<function, Tracker>, o: Outcome, t: f32) -> bool {
+    switch o.kind {
+        case OUTCOME_NULL: {
+            (*tr).stats.null_collisions += 1u;
+            take_factor(tr, o);
+            if (null_roulette(tr)) {
                 return true;
             }
-            let u = clamp((x - sigma_c) / r_bar, 0.0, ONE_MINUS_EPSILON);
-            let k = lookup(tr, t);
-            let r_a = k.sigma_a - ctl.sigma_a;
-            let r_s = k.sigma_s - ctl.sigma_s;
-            let r_n = r_bar - r_a - r_s;
-            let p = array<f32, 3>(abs(r_a), abs(r_s), abs(r_n));
-            let total = p[0] + p[1] + p[2];
-            let c = sample_discrete3(p, u);
-            if (c.index == 3u) {
-                return true;
-            }
-            let sigma_x = array<f32, 3>(r_a, r_s, r_n)[c.index];
-            (*tr).w.x *= copysign(total / r_bar, sigma_x);
-            note_weight(tr, (*tr).w.x);
-            if (c.index == 0u) {
-                (*tr).stats.real_collisions += 1u;
+            if ((*tr).distance) {
                 return end_flight(tr, EVENT_ABSORB, t);
             }
-            if (c.index == 1u) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_SCATTER, t);
+            return false;
+        }
+        case OUTCOME_ABSORB, OUTCOME_SCATTER: {
+            (*tr).stats.real_collisions += 1u;
+            if ((*tr).distance) {
+                take_factor(tr, o);
+                let event = select(EVENT_SCATTER, EVENT_ABSORB, o.kind == OUTCOME_ABSORB);
+                return end_flight(tr, event, t);
             }
-            (*tr).stats.null_collisions += 1u;
+            if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
+                (*tr).w = vec3<f32>(0.0);
+            } else {
+                (*tr).w.x = 0.0;
+            }
+            return false;
+        }
+        case OUTCOME_CONTROL_ABSORB, OUTCOME_CONTROL_SCATTER: {
+            (*tr).stats.control_collisions += 1u;
+            let event = select(EVENT_SCATTER, EVENT_ABSORB, o.kind == OUTCOME_CONTROL_ABSORB);
+            return end_flight(tr, event, t);
+        }
+        case OUTCOME_SKIP: {
             return true;
         }
-        // spectral::sample_distance: history-aware probabilities, RGB weights, roulette.
-        case ESTIMATOR_SPECTRAL: {
-            let k = lookup_rgb(tr, t);
-            let sigma_n = vec3<f32>(sigma_maj) - (k.sigma_a + k.sigma_s);
-            let h = (*tr).beta * (*tr).w;
-            let mode = (*tr).params.spectral_mode;
-            let p = array<f32, 3>(spectral_reduce(mode, k.sigma_a * h),
-                                  spectral_reduce(mode, k.sigma_s * h),
-                                  spectral_reduce(mode, sigma_n * h));
-            let c = sample_discrete3(p, tracker_uniform(tr));
-            if (c.index == 3u) {
-                // All history is zero: nothing can contribute any more.
-                (*tr).w = vec3<f32>(0.0);
-                return end_flight(tr, EVENT_ABSORB, t);
-            }
-            let sigma_x = array<vec3<f32>, 3>(k.sigma_a, k.sigma_s, sigma_n)[c.index];
-            (*tr).w *= sigma_x / (sigma_maj * c.pmf);
-            let a = abs((*tr).w);
-            note_weight(tr, max(a.x, max(a.y, a.z)));
-            if (c.index == 0u) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_ABSORB, t);
-            }
-            if (c.index == 1u) {
-                (*tr).stats.real_collisions += 1u;
-                return end_flight(tr, EVENT_SCATTER, t);
-            }
-            (*tr).stats.null_collisions += 1u;
-            (*tr).w = roulette_rgb(tr, (*tr).w);
-            if (all((*tr).w == vec3<f32>(0.0))) {
-                return end_flight(tr, EVENT_ABSORB, t);
-            }
-            return true;
+        case OUTCOME_DEAD: {
+            (*tr).w = vec3<f32>(0.0);
+            return end_flight(tr, EVENT_ABSORB, t);
         }
         default: {
             return false;
@@ -614,13 +659,18 @@ fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32
     return transmittance_majorant(tr, seg);
 }
 
-// The collision callback of the walk in progress.
+// The collision callback of the walk in progress (flight::distance and
+// flight::transmittance): a distance walk first calls Medium::on_collision with the weight so
+// far (the including module defines `on_collision`: emission.wgsl in the wavefront
+// integrator, a no-op in the test kernels), then the estimator's rule decides and
+// flight_outcome does the rest. False stops the walk.
 fn tracking_collide(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                     seg: GpuMajorantSegment) -> bool {
     if ((*tr).distance) {
-        return distance_collide(tr, t, sigma_maj, seg);
+        on_collision(tr, t, sigma_maj);
+        return flight_outcome(tr, distance_rule(tr, t, sigma_maj, seg), t);
     }
-    return transmittance_collide(tr, t, sigma_maj, seg);
+    return flight_outcome(tr, transmittance_rule(tr, t, sigma_maj, seg), t);
 }
 
 // tracking::sample_free_flight (pbrt-v4's SampleT_maj): walks the majorant segments of `dda`

@@ -29,10 +29,9 @@
 //! Requirements: `sigma_c_a <= sigma_a`, `sigma_c_s <= sigma_s` and `sigma_t <= bound`; a
 //! lookup that breaks one counts a `majorant_violation`. For controls above the minorant use
 //! weighted decomposition tracking.
-use super::{
-    check_bound, lookup, sample_free_flight, voxel_stage, ControlDepthWalk, Event, Medium,
-    TrackingStats, MAJORANT_TOLERANCE,
-};
+use super::delta::bernoulli;
+use super::flight::{self, Grey, Outcome, Real, Walk};
+use super::{check_bound, lookup, Event, Medium, TrackingStats, MAJORANT_TOLERANCE};
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 
@@ -42,6 +41,15 @@ fn check_residual(r_a: f32, r_s: f32, sigma_maj: f32, stats: &mut TrackingStats)
     let slack = -MAJORANT_TOLERANCE * sigma_maj;
     if r_a < slack || r_s < slack {
         stats.majorant_violations += 1;
+    }
+}
+
+/// The walk with majorant `majorant`, with the per-voxel stage where the control is 0.
+fn walk<Mj: FnMut(&MajorantSegment) -> f32>(majorant: Mj) -> Walk<Mj> {
+    Walk {
+        majorant,
+        voxel: Some((1.0, true)),
+        roulette: false,
     }
 }
 
@@ -57,34 +65,21 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    let mut event = Event::Escape { weight: 1.0 };
-    sample_free_flight(
+    flight::distance(
         segments,
         t_max,
-        |seg| seg.sigma_maj,
-        |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, 1.0, true, t, seg, bound),
+        Grey(medium),
+        walk(|seg: &MajorantSegment| seg.sigma_maj),
         rng,
         stats,
-        |rng, stats, c| {
-            medium.on_collision(c.t, c.sigma_maj, 1.0);
+        |rng, stats, c, _| {
             let ctl = medium.control(&c.seg);
             let x = rng.uniform_f32() * c.sigma_maj;
             if x < ctl.sigma_a {
-                stats.control_collisions += 1;
-                event = Event::Absorb {
-                    t: c.t,
-                    weight: 1.0,
-                };
-                return false;
+                return Outcome::Control(Real::Absorb);
             }
             if x < ctl.sigma_t() {
-                stats.control_collisions += 1;
-                event = Event::Scatter {
-                    t: c.t,
-                    weight: 1.0,
-                };
-                return false;
+                return Outcome::Control(Real::Scatter);
             }
             let k = lookup(medium, c.t, stats);
             check_bound(k.sigma_t(), c.sigma_maj, stats);
@@ -92,26 +87,14 @@ where
             check_residual(r_a, r_s, c.sigma_maj, stats);
             let x = x - ctl.sigma_t();
             if x < r_a {
-                stats.real_collisions += 1;
-                event = Event::Absorb {
-                    t: c.t,
-                    weight: 1.0,
-                };
-                false
+                Outcome::Real(Real::Absorb, None)
             } else if x < r_a + r_s {
-                stats.real_collisions += 1;
-                event = Event::Scatter {
-                    t: c.t,
-                    weight: 1.0,
-                };
-                false
+                Outcome::Real(Real::Scatter, None)
             } else {
-                stats.null_collisions += 1;
-                true
+                Outcome::Null(None)
             }
         },
-    );
-    event
+    )
 }
 
 /// `exp(-int sigma_c) * (Bernoulli residual estimate)`: either 0 or the control transmittance.
@@ -126,22 +109,18 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    // The control factor is summed in the same walk (`ControlDepthWalk`); the estimate is
-    // that factor unless a real residual collision zeroes it.
-    let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
-    let mut hit = false;
-    // The residual is delta-tracked against the bound minus the control.
+    // The residual is delta-tracked against the bound minus the control; the estimate is the
+    // control factor (a residual weight of 1) unless a real residual collision zeroes it.
     let residual_majorant =
         |seg: &MajorantSegment| (seg.sigma_maj - medium.control(seg).sigma_t()).max(0.0);
-    sample_free_flight(
-        &mut walk,
+    flight::control_transmittance(
+        segments,
         t_max,
-        residual_majorant,
-        |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, 1.0, true, t, seg, bound),
+        medium,
+        walk(residual_majorant),
         rng,
         stats,
-        |rng, stats, c| {
+        |rng, stats, c, _| {
             let ctl = medium.control(&c.seg);
             let k = lookup(medium, c.t, stats);
             check_bound(k.sigma_t(), c.seg.sigma_maj, stats);
@@ -151,20 +130,7 @@ where
                 c.seg.sigma_maj,
                 stats,
             );
-            let sigma_r = k.sigma_t() - ctl.sigma_t();
-            if rng.uniform_f32() * c.sigma_maj < sigma_r {
-                stats.real_collisions += 1;
-                hit = true;
-                false
-            } else {
-                stats.null_collisions += 1;
-                true
-            }
+            bernoulli(k.sigma_t() - ctl.sigma_t(), c.sigma_maj, rng)
         },
-    );
-    if hit {
-        0.0
-    } else {
-        walk.control_transmittance()
-    }
+    )
 }

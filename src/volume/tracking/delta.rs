@@ -20,12 +20,19 @@
 //! real-collision probability is capped at 1); this is counted in
 //! `TrackingStats::majorant_violations` so the caller can report biased results. Use weighted
 //! delta tracking when the majorant does not bound.
-use super::{
-    check_bound, lookup, sample_free_flight, scaled_majorant, voxel_stage, Event, Medium,
-    TrackingStats,
-};
+use super::flight::{self, Grey, Outcome, Real, Walk};
+use super::{check_bound, lookup, scaled_majorant, Event, Medium, TrackingStats};
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
+
+/// The walk of both functions: the bound itself, with the per-voxel stage.
+fn walk() -> Walk<impl FnMut(&MajorantSegment) -> f32> {
+    Walk {
+        majorant: scaled_majorant(1.0),
+        voxel: Some((1.0, false)),
+        roulette: false,
+    }
+}
 
 /// Samples the first real collision along the segments (analog: weights are 1).
 pub fn sample_distance<I, M>(
@@ -39,42 +46,27 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    let mut event = Event::Escape { weight: 1.0 };
-    sample_free_flight(
+    flight::distance(
         segments,
         t_max,
-        scaled_majorant(1.0),
-        |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, 1.0, false, t, seg, bound),
+        Grey(medium),
+        walk(),
         rng,
         stats,
-        |rng, stats, c| {
-            medium.on_collision(c.t, c.sigma_maj, 1.0);
+        |rng, stats, c, _| {
             let k = lookup(medium, c.t, stats);
             check_bound(k.sigma_t(), c.sigma_maj, stats);
             // One uniform against the CDF [sigma_a, sigma_a + sigma_s, sigma_maj].
             let x = rng.uniform_f32() * c.sigma_maj;
             if x < k.sigma_a {
-                stats.real_collisions += 1;
-                event = Event::Absorb {
-                    t: c.t,
-                    weight: 1.0,
-                };
-                false
+                Outcome::Real(Real::Absorb, None)
             } else if x < k.sigma_a + k.sigma_s {
-                stats.real_collisions += 1;
-                event = Event::Scatter {
-                    t: c.t,
-                    weight: 1.0,
-                };
-                false
+                Outcome::Real(Real::Scatter, None)
             } else {
-                stats.null_collisions += 1;
-                true
+                Outcome::Null(None)
             }
         },
-    );
-    event
+    )
 }
 
 /// Bernoulli transmittance estimate over `[segments, t_max]`: 1 or 0.
@@ -89,27 +81,28 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    let mut tr = 1.0;
-    sample_free_flight(
+    flight::transmittance(
         segments,
         t_max,
-        scaled_majorant(1.0),
-        |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, 1.0, false, t, seg, bound),
+        Grey(medium),
+        walk(),
         rng,
         stats,
-        |rng, stats, c| {
+        |rng, stats, c, _| {
             let sigma_t = lookup(medium, c.t, stats).sigma_t();
             check_bound(sigma_t, c.sigma_maj, stats);
-            if rng.uniform_f32() * c.sigma_maj < sigma_t {
-                stats.real_collisions += 1;
-                tr = 0.0;
-                false
-            } else {
-                stats.null_collisions += 1;
-                true
-            }
+            bernoulli(sigma_t, c.sigma_maj, rng)
         },
-    );
-    tr
+    )
+}
+
+/// The transmittance rule of delta tracking, and of decomposition tracking on the residual:
+/// a real collision with probability `sigma / sigma_maj` (one uniform), else a null one.
+#[inline]
+pub(super) fn bernoulli(sigma: f32, sigma_maj: f32, rng: &mut Rng) -> Outcome<f32> {
+    if rng.uniform_f32() * sigma_maj < sigma {
+        Outcome::Real(Real::Absorb, None)
+    } else {
+        Outcome::Null(None)
+    }
 }

@@ -4,7 +4,10 @@
 //! The model is pbrt-v4's `SampleT_maj` (`src/pbrt/media.h`): [`sample_free_flight`] walks the
 //! [`MajorantSegment`]s of a ray, samples tentative collisions with exponential steps on each
 //! segment's majorant, and hands each one to a callback that decides (absorb, scatter, null,
-//! control, ...) and says whether to continue. Each estimator file only writes that callback:
+//! control, ...) and says whether to continue. `flight.rs` writes once what every estimator
+//! does around that decision (the culling stages, the emission hook, the counters, the weight's
+//! update, Russian roulette, the event or estimate it ends with), so each estimator file only
+//! writes its majorant and its collision rule:
 //!
 //! | file                        | distance sampling | transmittance            |
 //! |-----------------------------|-------------------|--------------------------|
@@ -35,6 +38,7 @@ pub use thin::{thin, RECYCLE_MIN_P};
 
 pub mod decomposition;
 pub mod delta;
+mod flight;
 pub mod ratio;
 pub mod residual_ratio;
 pub mod spectral;
@@ -369,34 +373,6 @@ impl<W: Copy> Event<W> {
             Event::Absorb { weight, .. }
             | Event::Scatter { weight, .. }
             | Event::Escape { weight } => weight,
-        }
-    }
-}
-
-/// Records the outcome of a real/null choice over the CDF `[absorb, scatter, null]` (index 0,
-/// 1, 2) with the weight after this collision, and says whether the walk continues (null).
-/// Shared by the weighted samplers so that their counters mean the same thing.
-#[inline]
-pub(crate) fn record_choice<W: Copy>(
-    index: usize,
-    t: f32,
-    weight: W,
-    stats: &mut TrackingStats,
-    event: &mut Option<Event<W>>,
-) -> bool {
-    match index {
-        0 | 1 => {
-            stats.real_collisions += 1;
-            *event = Some(if index == 0 {
-                Event::Absorb { t, weight }
-            } else {
-                Event::Scatter { t, weight }
-            });
-            false
-        }
-        _ => {
-            stats.null_collisions += 1;
-            true
         }
     }
 }

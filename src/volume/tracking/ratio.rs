@@ -16,10 +16,8 @@
 //! shadow rays; it does not sample distances. Russian roulette on `|T| < ROULETTE_THRESHOLD`
 //! (survive with probability `|T| / threshold`, then carry `sign(T) threshold`) ends walks whose
 //! contribution has become small without biasing.
-use super::{
-    lookup, roulette, sample_free_flight, scaled_majorant, Medium, TrackingStats,
-    ROULETTE_THRESHOLD,
-};
+use super::flight::{self, Grey, Outcome, Walk};
+use super::{lookup, scaled_majorant, Medium, TrackingStats};
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 
@@ -36,24 +34,22 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    let mut tr = 1.0f32;
-    sample_free_flight(
+    let walk = Walk {
+        majorant: scaled_majorant(b),
+        // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
+        voxel: None,
+        roulette: true,
+    };
+    flight::transmittance(
         segments,
         t_max,
-        scaled_majorant(b),
-        |t| medium.cull_ratio(t),
-        // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
-        |_, _, _| 1.0,
+        Grey(medium),
+        walk,
         rng,
         stats,
-        |rng, stats, c| {
+        |_, stats, c, _| {
             let sigma_t = lookup(medium, c.t, stats).sigma_t();
-            stats.null_collisions += 1;
-            tr *= 1.0 - sigma_t / c.sigma_maj;
-            stats.note_weight(tr);
-            tr = roulette(tr, ROULETTE_THRESHOLD, rng, stats);
-            tr != 0.0
+            Outcome::Null(Some(1.0 - sigma_t / c.sigma_maj))
         },
-    );
-    tr
+    )
 }

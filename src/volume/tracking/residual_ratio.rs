@@ -14,10 +14,8 @@
 //! near 1: far less variance and fewer lookups than plain ratio tracking. Any `sigma_c` is
 //! unbiased (the factors may be negative). Russian roulette as in ratio tracking, applied to the
 //! residual product (the closed-form factor is not random).
-use super::{
-    lookup, residual_majorant, roulette, sample_free_flight, ControlDepthWalk, Medium,
-    TrackingStats, ROULETTE_THRESHOLD,
-};
+use super::flight::{self, Outcome, Walk};
+use super::{lookup, residual_majorant, Medium, TrackingStats};
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 
@@ -34,32 +32,22 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    // The control factor is summed in the same walk (`ControlDepthWalk`); a walk cut at the
-    // depth where it underflows returns 0, as the estimate is then 0.
-    let mut walk = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
-    let mut tr = 1.0f32;
-    let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
-    sample_free_flight(
-        &mut walk,
-        t_max,
-        majorant,
-        |t| medium.cull_ratio(t),
+    let walk = Walk {
+        majorant: |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t()),
         // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
-        |_, _, _| 1.0,
+        voxel: None,
+        roulette: true,
+    };
+    flight::control_transmittance(
+        segments,
+        t_max,
+        medium,
+        walk,
         rng,
         stats,
-        |rng, stats, c| {
+        |_, stats, c, _| {
             let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
-            stats.null_collisions += 1;
-            tr *= 1.0 - sigma_r / c.sigma_maj;
-            stats.note_weight(tr);
-            tr = roulette(tr, ROULETTE_THRESHOLD, rng, stats);
-            tr != 0.0
+            Outcome::Null(Some(1.0 - sigma_r / c.sigma_maj))
         },
-    );
-    let t_control = walk.control_transmittance();
-    if t_control == 0.0 {
-        return 0.0;
-    }
-    t_control * tr
+    )
 }

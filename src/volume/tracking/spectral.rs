@@ -21,10 +21,8 @@
 //!
 //! Transmittance: events {real: R(|sigma_t * h|), null: R(|sigma_n * h|)}, `h = w`;
 //! `<T> = w` on escape (an RGB estimate of every channel's transmittance), 0 on a real event.
-use super::{
-    lookup_rgb, sample_free_flight, scaled_majorant, Event, MediumRgb, TrackingStats,
-    ROULETTE_THRESHOLD,
-};
+use super::flight::{self, Outcome, Real, Rgb, Walk};
+use super::{lookup_rgb, scaled_majorant, Event, MediumRgb, TrackingStats};
 use crate::sampling::{sample_discrete, Rng};
 use crate::volume::MajorantSegment;
 use glam::Vec3;
@@ -49,18 +47,13 @@ impl SpectralProbabilities {
     }
 }
 
-/// Unbiased Russian roulette on `max |w|` of an RGB weight.
-#[inline]
-fn roulette_rgb(w: Vec3, rng: &mut Rng, stats: &mut TrackingStats) -> Vec3 {
-    let m = w.abs().max_element();
-    if m >= ROULETTE_THRESHOLD || m == 0.0 {
-        return w;
-    }
-    if rng.uniform_f32() < m / ROULETTE_THRESHOLD {
-        w * (ROULETTE_THRESHOLD / m)
-    } else {
-        stats.roulette_kills += 1;
-        Vec3::ZERO
+/// The walk of both functions: `b` times the bound, no per-voxel stage (see
+/// `tracking::voxel_stage`), Russian roulette on `max |w|` after null collisions.
+fn walk(b: f32) -> Walk<impl FnMut(&MajorantSegment) -> f32> {
+    Walk {
+        majorant: scaled_majorant(b),
+        voxel: None,
+        roulette: true,
     }
 }
 
@@ -82,19 +75,14 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: MediumRgb + ?Sized,
 {
-    let mut w = Vec3::ONE;
-    let mut event = None;
-    sample_free_flight(
+    flight::distance(
         segments,
         t_max,
-        scaled_majorant(b),
-        |t| medium.cull_ratio(t),
-        // No per-voxel stage (see `tracking::voxel_stage`).
-        |_, _, _| 1.0,
+        Rgb(medium),
+        walk(b),
         rng,
         stats,
-        |rng, stats, c| {
-            medium.on_collision(c.t, c.sigma_maj, w);
+        |rng, stats, c, w| {
             let k = lookup_rgb(medium, c.t, stats);
             let sigma_n = Vec3::splat(c.sigma_maj) - k.sigma_t();
             let h = beta * w;
@@ -106,42 +94,17 @@ where
             let u = rng.uniform_f32();
             let Some(choice) = sample_discrete(&p, u) else {
                 // All history is zero: nothing can contribute any more.
-                event = Some(Event::Absorb {
-                    t: c.t,
-                    weight: Vec3::ZERO,
-                });
-                return false;
+                return Outcome::Dead;
             };
             let sigma_x = [k.sigma_a, k.sigma_s, sigma_n][choice.index];
-            w *= sigma_x / (c.sigma_maj * choice.pmf);
-            stats.note_weight(w.abs().max_element());
+            let factor = Some(sigma_x / (c.sigma_maj * choice.pmf));
             match choice.index {
-                0 => {
-                    stats.real_collisions += 1;
-                    event = Some(Event::Absorb { t: c.t, weight: w });
-                    false
-                }
-                1 => {
-                    stats.real_collisions += 1;
-                    event = Some(Event::Scatter { t: c.t, weight: w });
-                    false
-                }
-                _ => {
-                    stats.null_collisions += 1;
-                    w = roulette_rgb(w, rng, stats);
-                    if w == Vec3::ZERO {
-                        event = Some(Event::Absorb {
-                            t: c.t,
-                            weight: Vec3::ZERO,
-                        });
-                        return false;
-                    }
-                    true
-                }
+                0 => Outcome::Real(Real::Absorb, factor),
+                1 => Outcome::Real(Real::Scatter, factor),
+                _ => Outcome::Null(factor),
             }
         },
-    );
-    event.unwrap_or(Event::Escape { weight: w })
+    )
 }
 
 /// RGB transmittance estimate by spectral tracking.
@@ -158,33 +121,23 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: MediumRgb + ?Sized,
 {
-    let mut w = Vec3::ONE;
-    sample_free_flight(
+    flight::transmittance(
         segments,
         t_max,
-        scaled_majorant(b),
-        |t| medium.cull_ratio(t),
-        // No per-voxel stage (see `tracking::voxel_stage`).
-        |_, _, _| 1.0,
+        Rgb(medium),
+        walk(b),
         rng,
         stats,
-        |rng, stats, c| {
+        |rng, stats, c, w| {
             let sigma_t = lookup_rgb(medium, c.t, stats).sigma_t();
             let sigma_n = Vec3::splat(c.sigma_maj) - sigma_t;
             let p_real = mode.reduce(sigma_t * w);
             let p_null = mode.reduce(sigma_n * w);
             let total = p_real + p_null;
             if !(total > 0.0) || rng.uniform_f32() * total < p_real {
-                stats.real_collisions += 1;
-                w = Vec3::ZERO;
-                return false;
+                return Outcome::Real(Real::Absorb, None);
             }
-            stats.null_collisions += 1;
-            w *= sigma_n * (total / (c.sigma_maj * p_null));
-            stats.note_weight(w.abs().max_element());
-            w = roulette_rgb(w, rng, stats);
-            w != Vec3::ZERO
+            Outcome::Null(Some(sigma_n * (total / (c.sigma_maj * p_null))))
         },
-    );
-    w
+    )
 }

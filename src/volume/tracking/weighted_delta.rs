@@ -21,12 +21,19 @@
 //!
 //! Transmittance: events {real: |sigma_t|, null: |sigma_n|}; `<T> = w` on escape, 0 on a real
 //! event, with `w *= sigma_n / (sigma_maj P_n)` at nulls.
-use super::{
-    lookup, record_choice, sample_free_flight, scaled_majorant, voxel_stage, Event, Medium,
-    TrackingStats,
-};
+use super::flight::{self, Grey, Outcome, Real, Walk};
+use super::{lookup, scaled_majorant, Event, Medium, TrackingStats};
 use crate::sampling::{sample_discrete, Rng};
 use crate::volume::MajorantSegment;
+
+/// The walk of both functions: `b` times the bound, with the per-voxel stage under `b >= 1`.
+fn walk(b: f32) -> Walk<impl FnMut(&MajorantSegment) -> f32> {
+    Walk {
+        majorant: scaled_majorant(b),
+        voxel: Some((b, false)),
+        roulette: false,
+    }
+}
 
 /// Samples a real collision with weights; `b` is the majorant scale.
 pub fn sample_distance<I, M>(
@@ -41,34 +48,24 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    let mut w = 1.0f32;
-    let mut event = None;
-    sample_free_flight(
+    flight::distance(
         segments,
         t_max,
-        scaled_majorant(b),
-        |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, b, false, t, seg, bound),
+        Grey(medium),
+        walk(b),
         rng,
         stats,
-        |rng, stats, c| {
-            medium.on_collision(c.t, c.sigma_maj, w);
+        |rng, stats, c, _| {
             let k = lookup(medium, c.t, stats);
             let sigma_n = c.sigma_maj - k.sigma_t();
-            let p = [k.sigma_a.abs(), k.sigma_s.abs(), sigma_n.abs()];
-            let total = p[0] + p[1] + p[2];
-            let u = rng.uniform_f32();
             // total >= |sigma_a + sigma_s + sigma_n| = sigma_maj > 0, so a choice always exists.
-            let Some(choice) = sample_discrete(&p, u) else {
-                return true;
-            };
-            let sigma_x = [k.sigma_a, k.sigma_s, sigma_n][choice.index];
-            w *= (total / c.sigma_maj).copysign(sigma_x);
-            stats.note_weight(w);
-            record_choice(choice.index, c.t, w, stats, &mut event)
+            weighted_choice(
+                [k.sigma_a, k.sigma_s, sigma_n],
+                c.sigma_maj,
+                rng.uniform_f32(),
+            )
         },
-    );
-    event.unwrap_or(Event::Escape { weight: w })
+    )
 }
 
 /// Weighted transmittance estimate (may be negative when `b < 1`; unbiased).
@@ -84,30 +81,47 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: Medium + ?Sized,
 {
-    let mut w = 1.0f32;
-    sample_free_flight(
+    flight::transmittance(
         segments,
         t_max,
-        scaled_majorant(b),
-        |t| medium.cull_ratio(t),
-        |t, seg, bound| voxel_stage(medium, b, false, t, seg, bound),
+        Grey(medium),
+        walk(b),
         rng,
         stats,
-        |rng, stats, c| {
-            let sigma_t = lookup(medium, c.t, stats).sigma_t();
-            let sigma_n = c.sigma_maj - sigma_t;
-            let total = sigma_t.abs() + sigma_n.abs();
-            if rng.uniform_f32() * total < sigma_t.abs() {
-                stats.real_collisions += 1;
-                w = 0.0;
-                false
-            } else {
-                stats.null_collisions += 1;
-                w *= (total / c.sigma_maj).copysign(sigma_n);
-                stats.note_weight(w);
-                true
-            }
-        },
-    );
-    w
+        |rng, stats, c, _| real_or_null(lookup(medium, c.t, stats).sigma_t(), c.sigma_maj, rng),
+    )
+}
+
+/// The distance rule of weighted delta tracking over the coefficients `[sigma_a, sigma_s,
+/// sigma_n]` (of weighted decomposition tracking over the residual's), with uniform `u`:
+/// `x` with probability `|sigma_x| / total`, the weight times
+/// `sign(sigma_x) total / sigma_maj`. No choice (all 0) is skipped.
+#[inline]
+pub(super) fn weighted_choice(sigma: [f32; 3], sigma_maj: f32, u: f32) -> Outcome<f32> {
+    let p = [sigma[0].abs(), sigma[1].abs(), sigma[2].abs()];
+    let total = p[0] + p[1] + p[2];
+    let Some(choice) = sample_discrete(&p, u) else {
+        return Outcome::Skip;
+    };
+    let factor = Some((total / sigma_maj).copysign(sigma[choice.index]));
+    match choice.index {
+        0 => Outcome::Real(Real::Absorb, factor),
+        1 => Outcome::Real(Real::Scatter, factor),
+        _ => Outcome::Null(factor),
+    }
+}
+
+/// The transmittance rule of weighted delta tracking with extinction `sigma` (of weighted
+/// decomposition tracking with the residual): events {real: `|sigma|`, null: `|sigma_n|`},
+/// `sigma_n = sigma_maj - sigma`, one uniform; a null weighted by
+/// `sign(sigma_n) total / sigma_maj`.
+#[inline]
+pub(super) fn real_or_null(sigma: f32, sigma_maj: f32, rng: &mut Rng) -> Outcome<f32> {
+    let sigma_n = sigma_maj - sigma;
+    let total = sigma.abs() + sigma_n.abs();
+    if rng.uniform_f32() * total < sigma.abs() {
+        Outcome::Real(Real::Absorb, None)
+    } else {
+        Outcome::Null(Some((total / sigma_maj).copysign(sigma_n)))
+    }
 }
