@@ -27,13 +27,18 @@ def functions(path):
         if not m:
             i += 1
             continue
-        depth, opened, j = 0, False, i
-        while j < len(lines):
-            code = code_only(lines[j])
-            if not opened and ";" in code and "{" not in code:
-                break  # a declaration without a body (trait method, extern)
-            for ch in code:
-                if ch == "{":
+        depth, opened, nest, j = 0, False, 0, i
+        declaration = False
+        while j < len(lines) and not declaration:
+            for ch in code_only(lines[j]):
+                if ch in "([<":
+                    nest += 1
+                elif ch in ")]>":
+                    nest -= 1
+                elif ch == ";" and not opened and nest <= 0:
+                    declaration = True  # no body (a trait method, an extern)
+                    break
+                elif ch == "{":
                     depth += 1
                     opened = True
                 elif ch == "}":
