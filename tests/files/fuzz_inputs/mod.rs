@@ -243,7 +243,12 @@ fn campaign(kind: &str, seed: u64, iterations: u64, seconds: f64) -> Campaign {
             .arg("-c")
             .arg(format!("ulimit -v {WORKER_VMEM_KIB}; exec \"$0\" \"$@\""))
             .arg(&exe)
-            .args(["--exact", "fuzz_inputs::fuzz_worker", "--ignored", "--nocapture"])
+            .args([
+                "--exact",
+                "fuzz_inputs::fuzz_worker",
+                "--ignored",
+                "--nocapture",
+            ])
             .args(["--test-threads", "1"])
             .env("BRUME_FUZZ_WORKER", kind)
             .env("BRUME_FUZZ_SEED", seed.to_string())
