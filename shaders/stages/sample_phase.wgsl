@@ -1,5 +1,5 @@
-// Mirrors sample_phase (src/integrator/path.rs) and russian_roulette: Stage::SamplePhase, the next direction once the shadow stage has drawn
-// its numbers from the same stream. In a medium: HenyeyGreenstein::sample with the g of the
+// Mirrors sample_phase (src/integrator/path.rs) and russian_roulette: Stage::SamplePhase, the
+// next direction once the shadow stage has drawn its numbers from the same stream. In a medium: HenyeyGreenstein::sample with the g of the
 // medium the path is in. At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
 // shading frame of the hit, the path ending when it fails or points below the surface. Then
 // Russian roulette on the throughput after rr_depth events; survivors go back to the
