@@ -8,11 +8,7 @@
 //
 // One invocation per (ray, sample): invocation i estimates ray i / samples_per_ray.
 
-@group(1) @binding(0) var<uniform> params: GpuTrackingParams;
-@group(1) @binding(1) var<storage, read> rays: array<GpuRay>;
-// xyz: the estimate (grey in x); w: the lookups this sample made.
-@group(1) @binding(2) var<storage, read_write> results: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read_write> stats: GpuTrackingStats;
+// results (tracking_kernel.wgsl): xyz the estimate (grey in x), w the lookups this sample made.
 
 @compute @workgroup_size(64)
 fn transmittance_main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -21,30 +17,9 @@ fn transmittance_main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray = rays[i / params.samples_per_ray];
-    var tr: Tracker;
-    tr.params = params;
-    tr.albedo_rgb = vec3<f32>(params.albedo);
-    tr.rng = rng_new(i, 0u, params.seed);
-    tr.o = ray.o;
-    tr.d = ray.d;
+    var tr = kernel_tracker(i, ray);
     tr.w = vec3<f32>(1.0);
-    let scale = grid_info.density_scale * params.majorant_channel_scale;
-    let dda = dda_new(ray.o, ray.d, ray.t_min, ray.t_max, scale, params.majorant_mode);
-    let t = tracking_transmittance(&tr, dda, ray.t_max);
+    let t = tracking_transmittance(&tr, kernel_dda(ray), ray.t_max);
     results[i] = vec4<f32>(t, f32(tr.stats.lookups));
-
-    let s = tr.stats;
-    atomicAdd(&stats.lookups, s.lookups);
-    atomicAdd(&stats.null_collisions, s.null_collisions);
-    atomicAdd(&stats.real_collisions, s.real_collisions);
-    atomicAdd(&stats.control_collisions, s.control_collisions);
-    atomicAdd(&stats.majorant_violations, s.majorant_violations);
-    atomicAdd(&stats.invalid_majorants, s.invalid_majorants);
-    atomicAdd(&stats.collision_cap_hits, s.collision_cap_hits);
-    atomicAdd(&stats.roulette_kills, s.roulette_kills);
-    atomicAdd(&stats.segments, s.segments);
-    atomicMax(&stats.max_abs_weight_bits, bitcast<u32>(s.max_abs_weight));
+    merge_stats(tr.stats);
 }
-
-// Medium::on_collision's default: the media of the test kernels do not emit.
-fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {}

@@ -54,6 +54,8 @@ pub mod files {
     pub const PHASE: ShaderFile = shader_file!("common/phase.wgsl");
     /// `sample_free_flight` and the estimators.
     pub const TRACKING: ShaderFile = shader_file!("common/tracking.wgsl");
+    /// The tracking kernels' bindings, tracker and counters.
+    pub const TRACKING_KERNEL: ShaderFile = shader_file!("kernels/tracking_kernel.wgsl");
     /// Transmittance kernel: one (ray, sample) per invocation.
     pub const TRANSMITTANCE: ShaderFile = shader_file!("kernels/transmittance.wgsl");
     /// Distance-sampling kernel: one (ray, sample) per invocation.
@@ -154,6 +156,22 @@ pub struct Module {
     pub files: &'static [ShaderFile],
     pub entry_point: &'static str,
     pub default_specs: &'static [Spec],
+}
+
+impl Module {
+    /// A module with no specialisation constants of its own.
+    pub const fn plain(
+        label: &'static str,
+        files: &'static [ShaderFile],
+        entry_point: &'static str,
+    ) -> Module {
+        Module {
+            label,
+            files,
+            entry_point,
+            default_specs: &[],
+        }
+    }
 }
 
 /// The shared enumerations as WGSL constants, generated from `gpu_types`.
@@ -338,7 +356,16 @@ use files::*;
 /// Per-estimator transmittance over a SparseGrid along index-space rays.
 pub const TRANSMITTANCE_MODULE: Module = Module {
     label: "transmittance",
-    files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, TRANSMITTANCE],
+    files: &[
+        TYPES,
+        MATH,
+        RNG,
+        GRID,
+        DDA,
+        TRACKING,
+        TRACKING_KERNEL,
+        TRANSMITTANCE,
+    ],
     entry_point: "transmittance_main",
     default_specs: KERNEL_SPECS,
 };
@@ -349,7 +376,16 @@ const KERNEL_SPECS: &[Spec] = &[Spec::bool("FEATURE_MIXTURE", false)];
 /// Per-estimator distance sampling over a SparseGrid along index-space rays.
 pub const DISTANCE_MODULE: Module = Module {
     label: "distance",
-    files: &[TYPES, MATH, RNG, GRID, DDA, TRACKING, DISTANCE],
+    files: &[
+        TYPES,
+        MATH,
+        RNG,
+        GRID,
+        DDA,
+        TRACKING,
+        TRACKING_KERNEL,
+        DISTANCE,
+    ],
     entry_point: "distance_main",
     default_specs: KERNEL_SPECS,
 };
@@ -363,20 +399,15 @@ pub const TEST_RNG_MODULE: Module = Module {
 };
 
 /// Scrambled Sobol points (test).
-pub const TEST_SOBOL_MODULE: Module = Module {
-    label: "test_sobol",
-    files: &[TYPES, RNG, SOBOL, TEST_SOBOL],
-    entry_point: "sobol_points",
-    default_specs: &[],
-};
+pub const TEST_SOBOL_MODULE: Module = Module::plain(
+    "test_sobol",
+    &[TYPES, RNG, SOBOL, TEST_SOBOL],
+    "sobol_points",
+);
 
 /// Grid lookups at given index points (test).
-pub const TEST_GRID_MODULE: Module = Module {
-    label: "test_grid",
-    files: &[TYPES, GRID, TEST_GRID],
-    entry_point: "grid_lookups",
-    default_specs: &[],
-};
+pub const TEST_GRID_MODULE: Module =
+    Module::plain("test_grid", &[TYPES, GRID, TEST_GRID], "grid_lookups");
 
 /// Majorant DDA segments of given rays (test).
 pub const TEST_DDA_MODULE: Module = Module {
@@ -391,20 +422,11 @@ pub const TEST_DDA_MODULE: Module = Module {
 };
 
 /// Henyey-Greenstein sampling and evaluation (test).
-pub const TEST_PHASE_MODULE: Module = Module {
-    label: "test_phase",
-    files: &[TYPES, PHASE, TEST_PHASE],
-    entry_point: "phase_samples",
-    default_specs: &[],
-};
+pub const TEST_PHASE_MODULE: Module =
+    Module::plain("test_phase", &[TYPES, PHASE, TEST_PHASE], "phase_samples");
 
 /// WGSL's `log` and `ln_f32` against `f32::ln` (test).
-pub const TEST_MATH_MODULE: Module = Module {
-    label: "test_math",
-    files: &[TYPES, MATH, TEST_MATH],
-    entry_point: "logs",
-    default_specs: &[],
-};
+pub const TEST_MATH_MODULE: Module = Module::plain("test_math", &[TYPES, MATH, TEST_MATH], "logs");
 
 /// The specialisation constants of the wavefront modules (from the scene's `FeatureFlags`).
 pub const WAVEFRONT_SPECS: &[Spec] = &[
