@@ -16,14 +16,21 @@ use clap::Args;
 use crate::film::{read_exr, write_image, AttrValue, Metadata};
 
 use super::{
-    compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
+    compare, find_script, in_scratch, merge_runs, output_tail, read_runs, seconds_list, PythonTool,
     ReferenceRun,
 };
 
-/// One line that says how to get a Python with bpy.
-const INSTALL_HINT: &str = "no Python with bpy found: run tools/cycles/ci.sh (Python 3.11 venv \
-     tools/cycles/.venv with `pip install bpy==5.0.1`), or set BRUME_BPY_PYTHON to a python that \
-     can `import bpy`";
+/// A Python with bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the working
+/// directory or the source tree), then `python3` on the PATH.
+pub const BPY: PythonTool = PythonTool {
+    var: "BRUME_BPY_PYTHON",
+    venv: "tools/cycles/.venv/bin/python",
+    module: "bpy",
+    path_python: true,
+    hint: "no Python with bpy found: run tools/cycles/ci.sh (Python 3.11 venv tools/cycles/.venv \
+           with `pip install bpy==5.0.1`), or set BRUME_BPY_PYTHON to a python that can `import \
+           bpy`",
+};
 
 #[derive(Args, Debug)]
 pub struct CyclesArgs {
@@ -34,37 +41,16 @@ pub struct CyclesArgs {
     pub save_blend: Option<PathBuf>,
 }
 
-/// A Python that imports bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the
-/// working directory or the source tree), then `python3` on the PATH.
-pub fn find_bpy_python() -> Result<PathBuf> {
-    find_python(
-        "BRUME_BPY_PYTHON",
-        "tools/cycles/.venv/bin/python",
-        "bpy",
-        true,
-        INSTALL_HINT,
-    )
-}
-
-/// The translation script: `BRUME_CYCLES_SCRIPT`, else `tools/cycles/brume_to_cycles.py` in
-/// the working directory or the source tree.
-fn script_path() -> Result<PathBuf> {
-    find_script("BRUME_CYCLES_SCRIPT", "tools/cycles/brume_to_cycles.py")
-}
-
 pub fn run(args: &CyclesArgs) -> Result<()> {
     if args.run.check_or_reuse()? {
         return Ok(());
     }
-    let python = find_bpy_python()?;
-    let script = script_path()?;
-    let tmp = std::env::temp_dir().join(format!("brume-cycles-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).with_context(|| format!("creating {}", tmp.display()))?;
-    // The per-run images are read back into the merged output: the folder goes whether the
-    // render succeeded or not.
-    let result = render_in(args, &python, &script, &tmp);
-    let _ = std::fs::remove_dir_all(&tmp);
-    result
+    let python = BPY.find()?;
+    // The translation script: $BRUME_CYCLES_SCRIPT, else brume_to_cycles.py in the working directory or
+    // the source tree.
+    let script = find_script("BRUME_CYCLES_SCRIPT", "tools/cycles/brume_to_cycles.py")?;
+    // The per-run images are read back into the merged output.
+    in_scratch("cycles", None, |tmp| render_in(args, &python, &script, tmp))
 }
 
 /// Runs Cycles with its per-run images in `tmp`, merges them into the output and reports.

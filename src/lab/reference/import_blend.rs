@@ -8,7 +8,7 @@ use std::process::Command;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use super::cycles::find_bpy_python;
+use super::cycles::BPY;
 use super::{find_script, output_tail};
 
 #[derive(Args, Debug)]
@@ -66,7 +66,7 @@ fn check_paths(args: &ImportBlendArgs) -> Result<()> {
 
 pub fn run(args: &ImportBlendArgs) -> Result<()> {
     check_paths(args)?;
-    let python = find_bpy_python()?;
+    let python = BPY.find()?;
     let script = script_path()?;
     let mut cmd = Command::new(&python);
     cmd.arg(&script)

@@ -26,13 +26,21 @@ use crate::scene::{BoundsSource, Material, Scene, VdbMediumDesc, NO_INDEX};
 use crate::volume::mitsuba_vol::vol_from_grid;
 
 use super::{
-    compare, find_python, find_script, merge_runs, output_tail, read_runs, seconds_list,
+    compare, find_script, in_scratch, merge_runs, output_tail, read_runs, seconds_list, PythonTool,
     ReferenceRun,
 };
 
-const INSTALL_HINT: &str = "no Python with Mitsuba 3 found: run tools/mitsuba/setup.sh (venv \
-     tools/mitsuba/.venv with `pip install mitsuba`), or set BRUME_MITSUBA_PYTHON to a python \
-     that can `import mitsuba`";
+/// A Python with mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to the
+/// working directory or the source tree.
+pub const MITSUBA: PythonTool = PythonTool {
+    var: "BRUME_MITSUBA_PYTHON",
+    venv: "tools/mitsuba/.venv/bin/python",
+    module: "mitsuba",
+    path_python: false,
+    hint: "no Python with Mitsuba 3 found: run tools/mitsuba/setup.sh (venv tools/mitsuba/.venv \
+           with `pip install mitsuba`), or set BRUME_MITSUBA_PYTHON to a python that can \
+           `import mitsuba`",
+};
 
 #[derive(Args, Debug)]
 pub struct MitsubaArgs {
@@ -50,43 +58,20 @@ pub struct MitsubaArgs {
     pub keep: Option<PathBuf>,
 }
 
-/// A Python that imports mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to
-/// the working directory or the source tree.
-pub fn find_mitsuba_python() -> Result<PathBuf> {
-    find_python(
-        "BRUME_MITSUBA_PYTHON",
-        "tools/mitsuba/.venv/bin/python",
-        "mitsuba",
-        false,
-        INSTALL_HINT,
-    )
-}
-
-/// The translation script: `BRUME_MITSUBA_SCRIPT`, else `tools/mitsuba/brume_to_mitsuba.py`
-/// in the working directory or the source tree.
-fn script_path() -> Result<PathBuf> {
-    find_script("BRUME_MITSUBA_SCRIPT", "tools/mitsuba/brume_to_mitsuba.py")
-}
-
 pub fn run(args: &MitsubaArgs) -> Result<()> {
     if args.run.check_or_reuse()? {
         return Ok(());
     }
-    let python = find_mitsuba_python()?;
-    let script = script_path()?;
+    let python = MITSUBA.find()?;
+    // The translation script: $BRUME_MITSUBA_SCRIPT, else brume_to_mitsuba.py in the working directory or
+    // the source tree.
+    let script = find_script("BRUME_MITSUBA_SCRIPT", "tools/mitsuba/brume_to_mitsuba.py")?;
     let started = Instant::now();
     // Scene errors already name the file and the JSON pointer.
     let scene = crate::scene::load(&args.run.scene)?;
-    let dir = match &args.keep {
-        Some(d) => d.clone(),
-        None => std::env::temp_dir().join(format!("brume-mitsuba-{}", std::process::id())),
-    };
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let result = translate_and_render(args, &scene, &python, &script, &dir, started);
-    if args.keep.is_none() {
-        let _ = std::fs::remove_dir_all(&dir);
-    }
-    result
+    in_scratch("mitsuba", args.keep.as_deref(), |dir| {
+        translate_and_render(args, &scene, &python, &script, dir, started)
+    })
 }
 
 fn translate_and_render(

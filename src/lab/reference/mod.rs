@@ -85,41 +85,66 @@ impl ReferenceRun {
     }
 }
 
-/// A Python that can `import module`: `$env_var` (an error if it cannot), then `venv_python`
-/// next to the working directory, then the same in the source tree, then `python3` on the
-/// PATH when `path_python`; `hint` says how to get one.
-pub fn find_python(
-    env_var: &str,
-    venv_python: &str,
-    module: &str,
-    path_python: bool,
-    hint: &str,
-) -> Result<PathBuf> {
-    let imports = |python: &Path| {
-        Command::new(python)
-            .args(["-c", &format!("import {module}")])
-            .output()
-            .is_ok_and(|o| o.status.success())
-    };
-    if let Some(p) = std::env::var_os(env_var) {
-        let p = PathBuf::from(p);
-        if imports(&p) {
-            return Ok(p);
+/// Where a reference renderer's Python is found: `var` (an error if it cannot `import
+/// module`), then `venv` next to the working directory, then the same in the source tree, then
+/// `python3` on the PATH when `path_python`; `hint` says how to get one.
+pub struct PythonTool {
+    pub var: &'static str,
+    pub venv: &'static str,
+    pub module: &'static str,
+    pub path_python: bool,
+    pub hint: &'static str,
+}
+
+impl PythonTool {
+    /// The first Python that imports the module.
+    pub fn find(&self) -> Result<PathBuf> {
+        let module = self.module;
+        let imports = |python: &Path| {
+            Command::new(python)
+                .args(["-c", &format!("import {module}")])
+                .output()
+                .is_ok_and(|o| o.status.success())
+        };
+        if let Some(p) = std::env::var_os(self.var) {
+            let p = PathBuf::from(p);
+            if imports(&p) {
+                return Ok(p);
+            }
+            bail!("{}={} cannot `import {module}`", self.var, p.display());
         }
-        bail!("{env_var}={} cannot `import {module}`", p.display());
+        let venv = Path::new(self.venv);
+        let mut candidates = vec![
+            venv.to_path_buf(),
+            Path::new(env!("CARGO_MANIFEST_DIR")).join(venv),
+        ];
+        if self.path_python {
+            candidates.push(PathBuf::from("python3"));
+        }
+        candidates
+            .into_iter()
+            .find(|p| imports(p))
+            .ok_or_else(|| anyhow!(self.hint))
     }
-    let venv = Path::new(venv_python);
-    let mut candidates = vec![
-        venv.to_path_buf(),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(venv),
-    ];
-    if path_python {
-        candidates.push(PathBuf::from("python3"));
+}
+
+/// Runs `work` in a scratch folder: `keep`, or `brume-NAME-PID` in the temporary folder, which
+/// is removed afterwards whether the work succeeded or not (what it holds has been read back).
+pub fn in_scratch<T>(
+    name: &str,
+    keep: Option<&Path>,
+    work: impl FnOnce(&Path) -> Result<T>,
+) -> Result<T> {
+    let dir = match keep {
+        Some(d) => d.to_path_buf(),
+        None => std::env::temp_dir().join(format!("brume-{name}-{}", std::process::id())),
+    };
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let result = work(&dir);
+    if keep.is_none() {
+        let _ = std::fs::remove_dir_all(&dir);
     }
-    candidates
-        .into_iter()
-        .find(|p| imports(p))
-        .ok_or_else(|| anyhow!(hint.to_string()))
+    result
 }
 
 /// A translation script: `$env_var`, else `rel` in the working directory or the source tree.
