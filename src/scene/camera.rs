@@ -167,10 +167,7 @@ pub fn choose_camera(
     bounds: &Aabb,
 ) -> Result<Camera, SceneError> {
     for placed in nodes {
-        let node = doc
-            .nodes()
-            .nth(placed.node)
-            .expect("placed node index comes from the document");
+        let node = placed.in_doc(doc);
         let Some(cam) = node.camera() else { continue };
         if let Some(name) = wanted {
             if cam.name() != Some(name) && node.name() != Some(name) {

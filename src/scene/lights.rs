@@ -63,10 +63,7 @@ pub fn read_lights(
 ) -> Result<Vec<PunctualLight>, SceneError> {
     let mut out = Vec::new();
     for placed in nodes {
-        let node = doc
-            .nodes()
-            .nth(placed.node)
-            .expect("placed node index comes from the document");
+        let node = placed.in_doc(doc);
         let Some(light) = node.light() else { continue };
         let at = |p: &str| {
             format!(

@@ -237,10 +237,7 @@ pub fn read_vdb_media(
 ) -> Result<Vec<VdbMediumDesc>, SceneError> {
     let mut out = Vec::new();
     for placed in nodes {
-        let node = doc
-            .nodes()
-            .nth(placed.node)
-            .expect("placed node index comes from the document");
+        let node = placed.in_doc(doc);
         let Some(value) = node.extension_value(BRUME_MEDIUM_VDB) else {
             continue;
         };

@@ -80,10 +80,7 @@ pub fn flatten(
 ) -> Result<Geometry, SceneError> {
     let mut geo = Geometry::default();
     for placed in nodes {
-        let node = doc
-            .nodes()
-            .nth(placed.node)
-            .expect("placed node index comes from the document");
+        let node = placed.in_doc(doc);
         let Some(mesh) = node.mesh() else { continue };
         for prim in mesh.primitives() {
             let pointer = format!("/meshes/{}/primitives/{}", mesh.index(), prim.index());

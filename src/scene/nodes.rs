@@ -13,6 +13,15 @@ pub struct PlacedNode {
     pub world_from_node: Mat4,
 }
 
+impl PlacedNode {
+    /// The glTF node this is a placement of.
+    pub fn in_doc<'a>(&self, doc: &'a gltf::Document) -> gltf::Node<'a> {
+        doc.nodes()
+            .nth(self.node)
+            .expect("placed node index comes from the document")
+    }
+}
+
 /// Smallest |det| accepted for a node's local 3x3 part. glTF units are metres; a scale of
 /// 1e-4 on every axis (det 1e-12) is still a valid, if odd, transform.
 const MIN_ABS_DET: f32 = 1e-15;
