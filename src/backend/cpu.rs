@@ -184,23 +184,14 @@ pub fn render_resumed(
     let mut records = Vec::new();
     let mut lookups = vec![0u64; (settings.width * settings.height) as usize];
     // With only a time limit, passes continue until it runs out.
-    // spp 0 is "until the time limit"; without one it is the empty range [0, 0).
-    let target = if settings.spp == 0 && settings.time_limit.is_some() {
-        u32::MAX
-    } else {
-        settings.spp
-    };
+    let target = settings.sample_end();
     let mut spp = first - settings.sample_start;
     let mut interrupted = false;
     // Each tile's time per sample in the last pass: the next pass starts the dearest tiles
     // first (see `dearest_first`).
     let mut tile_ns = vec![0u64; rects.len()];
     for (pass, s0, n) in pass_schedule(first, target, settings.max_pass_spp) {
-        if stop.load(Ordering::Relaxed)
-            || settings
-                .time_limit
-                .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
-        {
+        if settings.must_stop(stop, start) {
             interrupted = true;
             break;
         }

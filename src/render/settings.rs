@@ -1,6 +1,8 @@
 //! What a render is asked to do: the estimator and its parameters, sample counts, limits.
 use std::fmt;
 use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
 
 pub use crate::sampling::SamplerKind;
 
@@ -293,6 +295,25 @@ impl Default for RenderSettings {
 }
 
 impl RenderSettings {
+    /// One past the last sample index to render: `spp`, or without end (`u32::MAX`) when
+    /// `spp` is 0 and a time limit ends the render; spp 0 without one is the empty range.
+    pub fn sample_end(&self) -> u32 {
+        if self.spp == 0 && self.time_limit.is_some() {
+            u32::MAX
+        } else {
+            self.spp
+        }
+    }
+
+    /// Whether no further pass may start: `stop` is set (Ctrl-C, SIGTERM) or the time budget
+    /// counted from `start` is spent.
+    pub fn must_stop(&self, stop: &AtomicBool, start: Instant) -> bool {
+        stop.load(Ordering::Relaxed)
+            || self
+                .time_limit
+                .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
+    }
+
     /// Checks the numbers a user can get wrong.
     pub fn validate(&self) -> Result<(), String> {
         if self.width == 0 || self.height == 0 {

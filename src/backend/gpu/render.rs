@@ -42,7 +42,7 @@
 //! ([`GpuContext::timestamp_queries`]) each pass records its GPU start and end
 //! ([`TimingSource::TimestampQueries`]); without them every stage is submitted alone and timed
 //! on the host's clock ([`TimingSource::WallClock`]).
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use super::buffers::{kernel, Buffers};
@@ -224,11 +224,7 @@ pub fn render_with_timings(
     let mut interrupted = false;
     // Samples [sample_start, spp) in the CPU's pass schedule, so GPU parts merge with CPU ones.
     for (pass, s0, n) in pass_schedule(settings.sample_start, plan.target, settings.max_pass_spp) {
-        if stop.load(Ordering::Relaxed)
-            || settings
-                .time_limit
-                .is_some_and(|t| start.elapsed().as_secs_f64() >= t)
-        {
+        if settings.must_stop(stop, start) {
             interrupted = true;
             break;
         }
@@ -364,12 +360,7 @@ struct BatchPlan {
 impl BatchPlan {
     fn new(settings: &RenderSettings, limit: u64) -> Result<BatchPlan, GpuRenderError> {
         let (w, h) = (settings.width, settings.height);
-        // spp 0 is "until the time limit"; without one it is the empty range [0, 0).
-        let target = if settings.spp == 0 && settings.time_limit.is_some() {
-            u32::MAX
-        } else {
-            settings.spp
-        };
+        let target = settings.sample_end();
         let mut plan = BatchPlan {
             target,
             max_batch: MAX_BATCH_SAMPLES.min(limit / 16).max(1),
