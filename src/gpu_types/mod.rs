@@ -13,6 +13,36 @@
 //! parameters and enumerations), [`geometry`] (triangles, lights, homogeneous media, BVH
 //! nodes), [`wavefront`] (path state, queues, counters, parameters, emission) and [`layout`]
 //! (the layout table the WGSL test checks).
+/// A `#[repr(u32)]` enumeration that the WGSL sees as `const NAME: u32 = value;` lines
+/// (`backend::gpu::shader`): each variant's value and WGSL name written once, with `ALL` (every
+/// variant in declaration order) and `wgsl_name`.
+macro_rules! wgsl_enum {
+    (
+        $(#[$meta:meta])*
+        pub enum $name:ident {
+            $( $(#[$vmeta:meta])* $variant:ident = $value:literal => $wgsl:literal, )*
+        }
+    ) => {
+        $(#[$meta])*
+        #[repr(u32)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        pub enum $name {
+            $( $(#[$vmeta])* $variant = $value, )*
+        }
+
+        impl $name {
+            pub const ALL: [$name; [$($value),*].len()] = [$($name::$variant),*];
+
+            /// The WGSL constant's name.
+            pub fn wgsl_name(self) -> &'static str {
+                match self {
+                    $( $name::$variant => $wgsl, )*
+                }
+            }
+        }
+    };
+}
+
 pub mod envmap;
 pub mod geometry;
 pub mod grid;

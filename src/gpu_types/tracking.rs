@@ -2,48 +2,23 @@
 use bytemuck::{Pod, Zeroable};
 use std::mem::size_of;
 
-/// Which tracking estimator a kernel runs; values of [`GpuTrackingParams::estimator`].
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuEstimator {
-    /// `tracking::delta`.
-    Delta = 0,
-    /// `tracking::weighted_delta` with majorant scale `b`.
-    WeightedDelta = 1,
-    /// `tracking::decomposition`.
-    Decomposition = 2,
-    /// `tracking::weighted_decomposition` with residual majorant scale `b`.
-    WeightedDecomposition = 3,
-    /// `tracking::ratio` with majorant scale `b`.
-    Ratio = 4,
-    /// `tracking::residual_ratio` with residual majorant scale `b`.
-    ResidualRatio = 5,
-    /// `tracking::spectral` (RGB) with majorant scale `b`.
-    Spectral = 6,
-}
-
-impl GpuEstimator {
-    pub const ALL: [GpuEstimator; 7] = [
-        GpuEstimator::Delta,
-        GpuEstimator::WeightedDelta,
-        GpuEstimator::Decomposition,
-        GpuEstimator::WeightedDecomposition,
-        GpuEstimator::Ratio,
-        GpuEstimator::ResidualRatio,
-        GpuEstimator::Spectral,
-    ];
-
-    /// The WGSL constant name (`ESTIMATOR_DELTA`, ...).
-    pub fn wgsl_name(self) -> &'static str {
-        match self {
-            GpuEstimator::Delta => "ESTIMATOR_DELTA",
-            GpuEstimator::WeightedDelta => "ESTIMATOR_WEIGHTED_DELTA",
-            GpuEstimator::Decomposition => "ESTIMATOR_DECOMPOSITION",
-            GpuEstimator::WeightedDecomposition => "ESTIMATOR_WEIGHTED_DECOMPOSITION",
-            GpuEstimator::Ratio => "ESTIMATOR_RATIO",
-            GpuEstimator::ResidualRatio => "ESTIMATOR_RESIDUAL_RATIO",
-            GpuEstimator::Spectral => "ESTIMATOR_SPECTRAL",
-        }
+wgsl_enum! {
+    /// Which tracking estimator a kernel runs; values of [`GpuTrackingParams::estimator`].
+    pub enum GpuEstimator {
+        /// `tracking::delta`.
+        Delta = 0 => "ESTIMATOR_DELTA",
+        /// `tracking::weighted_delta` with majorant scale `b`.
+        WeightedDelta = 1 => "ESTIMATOR_WEIGHTED_DELTA",
+        /// `tracking::decomposition`.
+        Decomposition = 2 => "ESTIMATOR_DECOMPOSITION",
+        /// `tracking::weighted_decomposition` with residual majorant scale `b`.
+        WeightedDecomposition = 3 => "ESTIMATOR_WEIGHTED_DECOMPOSITION",
+        /// `tracking::ratio` with majorant scale `b`.
+        Ratio = 4 => "ESTIMATOR_RATIO",
+        /// `tracking::residual_ratio` with residual majorant scale `b`.
+        ResidualRatio = 5 => "ESTIMATOR_RESIDUAL_RATIO",
+        /// `tracking::spectral` (RGB) with majorant scale `b`.
+        Spectral = 6 => "ESTIMATOR_SPECTRAL",
     }
 }
 

@@ -104,106 +104,52 @@ pub struct GpuShadowRay {
 }
 const _: () = assert!(size_of::<GpuShadowRay>() == 48);
 
-/// The work queues of the wavefront integrator; `GpuWavefrontCounters::queue_count` index.
-/// Each queue holds path slot indices. The medium and done queues are double-buffered by
-/// iteration parity (`GpuWavefrontParams::parity`): a stage reads `X0 + parity` and appends
-/// to `X0 + 1 - parity` what the next iteration consumes.
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuQueue {
-    /// Paths whose current ray must be tracked through the media (parity 0).
-    Medium0 = 0,
-    /// The same, parity 1.
-    Medium1 = 1,
-    /// Finished paths (accumulated, then regenerated next iteration), parity 0.
-    Done0 = 2,
-    /// The same, parity 1.
-    Done1 = 3,
-    /// Paths that scattered in a medium (next-event estimation pending).
-    Scatter = 4,
-    /// Paths with a shadow ray to trace.
-    Shadow = 5,
-    /// Paths whose next direction is to be sampled from the phase function.
-    Phase = 6,
-    /// Paths whose ray left the scene.
-    Escape = 7,
-    /// Paths whose ray reached the surface it hits (no medium event before it).
-    Surface = 8,
-}
-
-impl GpuQueue {
-    pub const COUNT: usize = 9;
-    pub const ALL: [GpuQueue; 9] = [
-        GpuQueue::Medium0,
-        GpuQueue::Medium1,
-        GpuQueue::Done0,
-        GpuQueue::Done1,
-        GpuQueue::Scatter,
-        GpuQueue::Shadow,
-        GpuQueue::Phase,
-        GpuQueue::Escape,
-        GpuQueue::Surface,
-    ];
-
-    /// The WGSL constant name (`QUEUE_MEDIUM0`, ...).
-    pub fn wgsl_name(self) -> &'static str {
-        match self {
-            GpuQueue::Medium0 => "QUEUE_MEDIUM0",
-            GpuQueue::Medium1 => "QUEUE_MEDIUM1",
-            GpuQueue::Done0 => "QUEUE_DONE0",
-            GpuQueue::Done1 => "QUEUE_DONE1",
-            GpuQueue::Scatter => "QUEUE_SCATTER",
-            GpuQueue::Shadow => "QUEUE_SHADOW",
-            GpuQueue::Phase => "QUEUE_PHASE",
-            GpuQueue::Escape => "QUEUE_ESCAPE",
-            GpuQueue::Surface => "QUEUE_SURFACE",
-        }
+wgsl_enum! {
+    /// The work queues of the wavefront integrator; `GpuWavefrontCounters::queue_count` index.
+    /// Each queue holds path slot indices. The medium and done queues are double-buffered by
+    /// iteration parity (`GpuWavefrontParams::parity`): a stage reads `X0 + parity` and appends
+    /// to `X0 + 1 - parity` what the next iteration consumes.
+    pub enum GpuQueue {
+        /// Paths whose current ray must be tracked through the media (parity 0).
+        Medium0 = 0 => "QUEUE_MEDIUM0",
+        /// The same, parity 1.
+        Medium1 = 1 => "QUEUE_MEDIUM1",
+        /// Finished paths (accumulated, then regenerated next iteration), parity 0.
+        Done0 = 2 => "QUEUE_DONE0",
+        /// The same, parity 1.
+        Done1 = 3 => "QUEUE_DONE1",
+        /// Paths that scattered in a medium (next-event estimation pending).
+        Scatter = 4 => "QUEUE_SCATTER",
+        /// Paths with a shadow ray to trace.
+        Shadow = 5 => "QUEUE_SHADOW",
+        /// Paths whose next direction is to be sampled from the phase function.
+        Phase = 6 => "QUEUE_PHASE",
+        /// Paths whose ray left the scene.
+        Escape = 7 => "QUEUE_ESCAPE",
+        /// Paths whose ray reached the surface it hits (no medium event before it).
+        Surface = 8 => "QUEUE_SURFACE",
     }
 }
 
-/// 64-bit counters of [`GpuWavefrontCounters::wide`]: pair `2k` (low word), `2k + 1` (high).
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuWideCounter {
-    Lookups = 0,
-    NullCollisions = 1,
-    RealCollisions = 2,
-    ControlCollisions = 3,
-    ShadowLookups = 4,
-    DepthSum = 5,
-    /// Emission and temperature grid reads (`MediaStats::emission_lookups`).
-    EmissionLookups = 6,
-    /// Majorant segments walked (`TrackingStats::segments`).
-    Segments = 7,
-    /// Majorant segments walked by shadow rays (`MediaStats::shadow_segments`).
-    ShadowSegments = 8,
+impl GpuQueue {
+    pub const COUNT: usize = GpuQueue::ALL.len();
 }
 
-impl GpuWideCounter {
-    pub const ALL: [GpuWideCounter; 9] = [
-        GpuWideCounter::Lookups,
-        GpuWideCounter::NullCollisions,
-        GpuWideCounter::RealCollisions,
-        GpuWideCounter::ControlCollisions,
-        GpuWideCounter::ShadowLookups,
-        GpuWideCounter::DepthSum,
-        GpuWideCounter::EmissionLookups,
-        GpuWideCounter::Segments,
-        GpuWideCounter::ShadowSegments,
-    ];
-
-    pub fn wgsl_name(self) -> &'static str {
-        match self {
-            GpuWideCounter::Lookups => "WIDE_LOOKUPS",
-            GpuWideCounter::NullCollisions => "WIDE_NULL_COLLISIONS",
-            GpuWideCounter::RealCollisions => "WIDE_REAL_COLLISIONS",
-            GpuWideCounter::ControlCollisions => "WIDE_CONTROL_COLLISIONS",
-            GpuWideCounter::ShadowLookups => "WIDE_SHADOW_LOOKUPS",
-            GpuWideCounter::DepthSum => "WIDE_DEPTH_SUM",
-            GpuWideCounter::EmissionLookups => "WIDE_EMISSION_LOOKUPS",
-            GpuWideCounter::Segments => "WIDE_SEGMENTS",
-            GpuWideCounter::ShadowSegments => "WIDE_SHADOW_SEGMENTS",
-        }
+wgsl_enum! {
+    /// 64-bit counters of [`GpuWavefrontCounters::wide`]: pair `2k` (low word), `2k + 1` (high).
+    pub enum GpuWideCounter {
+        Lookups = 0 => "WIDE_LOOKUPS",
+        NullCollisions = 1 => "WIDE_NULL_COLLISIONS",
+        RealCollisions = 2 => "WIDE_REAL_COLLISIONS",
+        ControlCollisions = 3 => "WIDE_CONTROL_COLLISIONS",
+        ShadowLookups = 4 => "WIDE_SHADOW_LOOKUPS",
+        DepthSum = 5 => "WIDE_DEPTH_SUM",
+        /// Emission and temperature grid reads (`MediaStats::emission_lookups`).
+        EmissionLookups = 6 => "WIDE_EMISSION_LOOKUPS",
+        /// Majorant segments walked (`TrackingStats::segments`).
+        Segments = 7 => "WIDE_SEGMENTS",
+        /// Majorant segments walked by shadow rays (`MediaStats::shadow_segments`).
+        ShadowSegments = 8 => "WIDE_SHADOW_SEGMENTS",
     }
 }
 
