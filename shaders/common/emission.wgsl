@@ -11,9 +11,9 @@
 
 @group(0) @binding(5) var<uniform> emission: GpuEmissionParams;
 // The unit-luminance Rec.709 colour table of blackbody::table(), 10 K apart (xyz; w unused).
-// Read-only storage rather than a uniform: Mesa 22.3's lavapipe (Debian 12) used freed memory
-// while compiling the generic sample_medium stage with the table as one more uniform block
-// (its uniform-inlining analysis).
+// Read-only storage rather than a uniform: as a third uniform block in group 0 it made Mesa
+// 22.3's lavapipe (Debian 12) write into its free heap creating the generic sample_medium
+// pipeline (tools/lavapipe_ubo/; MAX_UNIFORM_BLOCKS_PER_GROUP in src/backend/gpu/shader.rs).
 @group(0) @binding(6) var<storage, read> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
 
 // blackbody_rgb: linear interpolation in the table, temperatures clamped to its range.

@@ -52,6 +52,32 @@ fn every_module_parses_and_validates() {
     }
 }
 
+/// No kernel reads more uniform blocks from one bind group than every driver Brume runs on
+/// handles; the generic variant (each module's defaults, every feature on) reads the most.
+/// Lavapipe corrupted its heap creating the generic `sample_medium` with three in group 0
+/// (`tools/lavapipe_ubo/`).
+#[test]
+fn no_kernel_reads_more_uniform_blocks_than_lavapipe_takes() {
+    use brume::backend::gpu::shader::MAX_UNIFORM_BLOCKS_PER_GROUP;
+    for m in MODULES {
+        let bindings = m
+            .bindings(&[])
+            .unwrap_or_else(|e| panic!("{}: {e}", m.label));
+        let per_group = [0, 1].map(|g| {
+            bindings
+                .iter()
+                .filter(|b| b.uniform && b.group == g)
+                .count()
+        });
+        println!("{:<14} uniform blocks per group {per_group:?}", m.label);
+        assert!(
+            per_group.iter().all(|&n| n <= MAX_UNIFORM_BLOCKS_PER_GROUP),
+            "{}: {per_group:?}",
+            m.label
+        );
+    }
+}
+
 /// Every stage/kernel/common file opens with a comment naming the Rust code it mirrors.
 #[test]
 fn every_file_names_what_it_mirrors() {

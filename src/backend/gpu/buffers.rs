@@ -19,30 +19,6 @@ use crate::render::{blackbody, RenderScene};
 /// iterations. The timestamp query set holds two queries per stage for each of them.
 pub(super) const ITERATIONS_PER_SYNC: u32 = 8;
 
-/// The `(group, binding)` pairs `module`'s entry point uses, from naga's analysis (the same
-/// one wgpu derives the pipeline layout from).
-fn used_bindings(module: &Module, specs: &[Spec]) -> Result<Vec<(u32, u32)>, String> {
-    let source = module.source(specs);
-    let m = naga::front::wgsl::parse_str(&source).map_err(|e| e.emit_to_string(&source))?;
-    let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    )
-    .validate(&m)
-    .map_err(|e| e.emit_to_string(&source))?;
-    let ep = m
-        .entry_points
-        .iter()
-        .position(|e| e.name == module.entry_point)
-        .ok_or_else(|| format!("no entry point {}", module.entry_point))?;
-    let fi = info.get_entry_point(ep);
-    Ok(m.global_variables
-        .iter()
-        .filter(|(h, _)| !fi[*h].is_empty())
-        .filter_map(|(_, v)| v.binding.as_ref().map(|b| (b.group, b.binding)))
-        .collect())
-}
-
 /// A pipeline and its bind groups for both parities.
 pub(super) struct Kernel {
     pub(super) pipeline: wgpu::ComputePipeline,
@@ -279,20 +255,16 @@ pub(super) fn kernel(
     grid: Option<&GpuGrid>,
 ) -> Result<Kernel, GpuRenderError> {
     let dev = |e: String| GpuRenderError::Device(format!("{}: {e}", module.label));
-    let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
-    let used = used_bindings(module, specs).map_err(dev)?;
-    // Every binding but the uniforms (grid header, emission, params, the environment map's
-    // header) is a storage buffer.
-    let storage = used
-        .iter()
-        .filter(|u| !matches!(u, (0, 0) | (0, 5) | (1, 0) | (1, 16)))
-        .count() as u32;
+    let used = module.bindings(specs).map_err(dev)?;
+    let storage = used.iter().filter(|b| !b.uniform).count() as u32;
     if storage > ctx.limits.max_storage_buffers_per_shader_stage {
         return Err(GpuRenderError::Limits(format!(
             "{} binds {storage} storage buffers; the device allows {} per stage",
             module.label, ctx.limits.max_storage_buffers_per_shader_stage
         )));
     }
+    let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
+    let used: Vec<(u32, u32)> = used.iter().map(|b| (b.group, b.binding)).collect();
     let max_group = used.iter().map(|u| u.0 + 1).max().unwrap_or(0);
     let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mut groups: [Vec<wgpu::BindGroup>; 2] = [Vec::new(), Vec::new()];

@@ -197,6 +197,8 @@ impl GpuContext {
         module: &Module,
         specs: &[Spec],
     ) -> Result<wgpu::ComputePipeline, String> {
+        // The binding rules every driver needs (`Module::bindings`), before the driver sees it.
+        module.bindings(specs)?;
         let source = module.source(specs);
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let shader = self

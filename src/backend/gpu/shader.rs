@@ -330,6 +330,23 @@ fn select_blocks(f: &ShaderFile, specs: &[Spec]) -> String {
     out
 }
 
+/// Uniform blocks one kernel may read from one bind group. Mesa 22.3's lavapipe (Debian 12's
+/// Vulkan on the CPU) wrote past the pipeline object it allocates, into the free heap, when it
+/// created the generic `sample_medium` kernel with three uniform blocks in group 0; a later
+/// `free` then failed glibc's heap checks (`tools/lavapipe_ubo/` reproduces it). With two per
+/// group it is clean; tables go in read-only storage.
+pub const MAX_UNIFORM_BLOCKS_PER_GROUP: usize = 2;
+
+/// One resource an entry point uses, from naga's analysis (the one wgpu derives the
+/// pipeline layout from).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Binding {
+    pub group: u32,
+    pub binding: u32,
+    /// A uniform block (`var<uniform>`); otherwise a storage buffer.
+    pub uniform: bool,
+}
+
 impl Module {
     /// The module's source with `specs` overriding the defaults of the same name (a spec the
     /// module does not declare is an error: it would be silently ignored otherwise).
@@ -348,6 +365,51 @@ impl Module {
             .map(|d| *specs.iter().find(|s| s.name == d.name).unwrap_or(d))
             .collect();
         assemble(self.files, &merged)
+    }
+
+    /// The resources the entry point uses with `specs`, checked against what every driver
+    /// Brume runs on takes: at most [`MAX_UNIFORM_BLOCKS_PER_GROUP`] uniform blocks a group.
+    pub fn bindings(&self, specs: &[Spec]) -> Result<Vec<Binding>, String> {
+        let source = self.source(specs);
+        let m = naga::front::wgsl::parse_str(&source).map_err(|e| e.emit_to_string(&source))?;
+        let info = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&m)
+        .map_err(|e| e.emit_to_string(&source))?;
+        let ep = m
+            .entry_points
+            .iter()
+            .position(|e| e.name == self.entry_point)
+            .ok_or_else(|| format!("no entry point {}", self.entry_point))?;
+        let used = info.get_entry_point(ep);
+        let bindings: Vec<Binding> = m
+            .global_variables
+            .iter()
+            .filter(|(h, _)| !used[*h].is_empty())
+            .filter_map(|(_, v)| {
+                v.binding.as_ref().map(|b| Binding {
+                    group: b.group,
+                    binding: b.binding,
+                    uniform: v.space == naga::AddressSpace::Uniform,
+                })
+            })
+            .collect();
+        for group in 0..=bindings.iter().map(|b| b.group).max().unwrap_or(0) {
+            let uniforms = bindings
+                .iter()
+                .filter(|b| b.uniform && b.group == group)
+                .count();
+            if uniforms > MAX_UNIFORM_BLOCKS_PER_GROUP {
+                return Err(format!(
+                    "{} reads {uniforms} uniform blocks from bind group {group}, more than the \
+                     {MAX_UNIFORM_BLOCKS_PER_GROUP} a kernel may (MAX_UNIFORM_BLOCKS_PER_GROUP)",
+                    self.label
+                ));
+            }
+        }
+        Ok(bindings)
     }
 }
 
