@@ -119,8 +119,7 @@ pub fn render_scene(
     scene: &crate::scene::Scene,
     settings: &RenderSettings,
 ) -> Result<RenderOutput, String> {
-    let mut rs = RenderScene::new(scene, settings.force_spectral)?;
-    rs.lights.set_env_sampling(settings.env_sampling);
+    let rs = RenderScene::prepare(scene, settings)?;
     Ok(render(
         &rs,
         settings,

@@ -271,8 +271,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         ));
     }
     check_outputs(args)?;
-    let mut rs = RenderScene::new(&scene, settings.force_spectral).map_err(|e| anyhow!(e))?;
-    rs.lights.set_env_sampling(settings.env_sampling);
+    let rs = RenderScene::prepare(&scene, &settings).map_err(|e| anyhow!(e))?;
     let features = if settings.generic {
         brume::render::FeatureFlags::ALL
     } else {

@@ -4,3 +4,13 @@
 //! for them, importing a `.blend`, and comparing their images with Brume's ([`reference`]).
 pub mod bench;
 pub mod reference;
+
+use crate::backend::cpu;
+
+/// [`cpu::render_scene`] with its preparation error as the lab reports errors.
+pub fn render_cpu(
+    scene: &crate::scene::Scene,
+    settings: &crate::render::RenderSettings,
+) -> anyhow::Result<cpu::RenderOutput> {
+    cpu::render_scene(scene, settings).map_err(anyhow::Error::msg)
+}

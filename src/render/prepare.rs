@@ -8,6 +8,7 @@ use super::media::{
     Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
     WalkPlan,
 };
+use super::settings::RenderSettings;
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Pinhole, Scene, VdbMediumDesc};
@@ -160,6 +161,14 @@ pub fn index_per_t(f: &GridField) -> f32 {
 }
 
 impl<'s> RenderScene<'s> {
+    /// Prepares `scene` for a render with `settings`: [`RenderScene::new`] with the settings'
+    /// spectral choice, and their environment-map sampling.
+    pub fn prepare(scene: &'s Scene, settings: &RenderSettings) -> Result<Self, String> {
+        let mut rs = RenderScene::new(scene, settings.force_spectral)?;
+        rs.lights.set_env_sampling(settings.env_sampling);
+        Ok(rs)
+    }
+
     /// Prepares `scene`. Fails (with the file named) on configurations the integrators do not
     /// handle: closed media meshes nested deeper than [`MAX_NESTED_MEDIA`].
     pub fn new(scene: &'s Scene, force_spectral: bool) -> Result<Self, String> {

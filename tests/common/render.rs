@@ -36,8 +36,7 @@ pub fn load_scene(name: &str) -> Scene {
 }
 
 pub fn render(scene: &Scene, settings: &RenderSettings) -> RenderOutput {
-    let mut rs = RenderScene::new(scene, settings.force_spectral).unwrap();
-    rs.lights.set_env_sampling(settings.env_sampling);
+    let rs = RenderScene::prepare(scene, settings).unwrap();
     cpu::render(&rs, settings, &AtomicBool::new(false), &|_, _, _| {})
 }
 

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use crate::volume::check::SplitMix64;
 use anyhow::Result;
 
-use crate::backend::cpu;
+use crate::lab::render_cpu;
 
 /// The majorant-mode table's rounds: how many, and the seed of the first.
 #[derive(Clone, Copy)]
@@ -88,7 +88,7 @@ pub fn majorant_modes(
                 let seed = first_seed.wrapping_add(round as u32);
                 for (k, s) in settings.iter().enumerate() {
                     let s = RenderSettings { seed, ..s.clone() };
-                    modes[k].push(cpu::render_scene(&scene, &s).map_err(anyhow::Error::msg)?);
+                    modes[k].push(render_cpu(&scene, &s)?);
                 }
                 if let Some(scales) = &floor_scales {
                     let s = RenderSettings {
@@ -250,7 +250,7 @@ fn render_with_scales(
     };
     let mut scales = scales.to_vec();
     swap(scene, &mut scales);
-    let out = cpu::render_scene(scene, settings).map_err(anyhow::Error::msg);
+    let out = render_cpu(scene, settings);
     swap(scene, &mut scales);
     out
 }

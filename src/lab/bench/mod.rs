@@ -8,11 +8,11 @@ pub mod walk;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::backend::cpu;
 use crate::volume::check::SplitMix64;
 use crate::volume::{load_grid, ConversionPolicy};
 use anyhow::Result;
 
+use super::render_cpu;
 use brume_ffi::{ReadOptions, SampleOrder, VdbFile};
 use clap::Subcommand;
 use majorants::{adaptive_build, majorant_modes, Rounds};
@@ -131,9 +131,7 @@ pub fn run(which: Which) -> Result<()> {
                 width,
                 height,
                 env_spp,
-                &|sc: &crate::scene::Scene, st: &crate::render::RenderSettings| {
-                    cpu::render_scene(sc, st).map_err(anyhow::Error::msg)
-                },
+                &|sc: &crate::scene::Scene, st: &crate::render::RenderSettings| render_cpu(sc, st),
             )
         }
         Which::Lookups {
@@ -309,23 +307,21 @@ fn render_bench(
             ..RenderSettings::default()
         };
         // Warm caches and the thread pool once, then time each variant.
-        cpu::render_scene(
+        render_cpu(
             &scene,
             &RenderSettings {
                 spp: 1,
                 ..base.clone()
             },
-        )
-        .map_err(anyhow::Error::msg)?;
-        let special = cpu::render_scene(&scene, &base).map_err(anyhow::Error::msg)?;
-        let generic = cpu::render_scene(
+        )?;
+        let special = render_cpu(&scene, &base)?;
+        let generic = render_cpu(
             &scene,
             &RenderSettings {
                 generic: true,
                 ..base.clone()
             },
-        )
-        .map_err(anyhow::Error::msg)?;
+        )?;
         let samples = (width * height * spp) as f64;
         let z = worst_z(&special.film, &generic.film);
         println!(
@@ -360,7 +356,7 @@ fn render_bench(
                 majorant,
                 ..RenderSettings::default()
             };
-            let out = cpu::render_scene(&cloud, &s).map_err(anyhow::Error::msg)?;
+            let out = render_cpu(&cloud, &s)?;
             let t = crate::film::totals(&out.records);
             let samples = t.samples as f64;
             let lookups = t.density_lookups as f64 / samples;

@@ -311,7 +311,7 @@ fn brume_renders(
     if !brume_variant(name, &mut base) {
         bail!("unknown Brume variant {name}");
     }
-    let rs = RenderScene::new(&scene, base.force_spectral).map_err(|e| anyhow!(e))?;
+    let rs = RenderScene::prepare(&scene, &base).map_err(|e| anyhow!(e))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads as usize)
         .build()?;
