@@ -6,12 +6,8 @@
 
 @group(1) @binding(6) var<storage, read_write> samples: array<vec4<f32>>;
 
-@compute @workgroup_size(64)
-fn accumulate(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(queue_done_out(), id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn accumulate(slot: u32) {
     let ps = paths[slot];
     samples[ps.sample_id] = vec4<f32>(ps.l, bitcast<f32>(ps.lookups));
     add_wide(WIDE_DEPTH_SUM, ps.depth);

@@ -4,12 +4,8 @@
 // from a delta distribution; the path ends.
 // With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl).
 
-@compute @workgroup_size(64)
-fn escape(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(QUEUE_ESCAPE, id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn escape(slot: u32) {
     if (wf.has_env != 0u) {
         var ps = paths[slot];
         var w = 1.0;

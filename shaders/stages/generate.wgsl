@@ -5,12 +5,8 @@
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
 // the escape stage when the scene has neither media nor surfaces).
 
-@compute @workgroup_size(64)
-fn generate(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(queue_done_in(), id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn generate(slot: u32) {
     let sample_id = atomicAdd(&counters.next_sample, 1u);
     if (sample_id >= wf.total_samples) {
         // The batch is handed out: the slot stays idle.

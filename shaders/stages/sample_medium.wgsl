@@ -9,12 +9,8 @@
 // surface stage when its ray hits one, else to the escape stage; absorption or the guard ->
 // done.
 
-@compute @workgroup_size(64)
-fn sample_medium(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(queue_medium_in(), id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn sample_medium(slot: u32) {
     var ps = paths[slot];
     let hit = FEATURE_SURFACES && ps.hit_prim != NO_INDEX;
     var t_hit = f32_inf();

@@ -5,12 +5,8 @@
 // Russian roulette on the throughput after rr_depth events; survivors go back to the
 // intersect and medium stages next iteration.
 
-@compute @workgroup_size(64)
-fn sample_phase(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(QUEUE_PHASE, id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn sample_phase(slot: u32) {
     var ps = paths[slot];
     var rng = path_rng(ps);
     var at_surface = false;

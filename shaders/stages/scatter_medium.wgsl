@@ -7,12 +7,8 @@
 // with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
 // then goes on to the phase stage.
 
-@compute @workgroup_size(64)
-fn scatter_medium(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(QUEUE_SCATTER, id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn scatter_medium(slot: u32) {
     var ps = paths[slot];
     // A zero throughput (absorption as a weight in an albedo-0 medium) ends the path before
     // it counts as a bounce, as an absorption event would.

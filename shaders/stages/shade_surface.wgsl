@@ -10,12 +10,8 @@
 //   direction stage, which samples the BSDF after the shadow ray has drawn its numbers (the
 //   CPU's order).
 
-@compute @workgroup_size(64)
-fn shade_surface(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(QUEUE_SURFACE, id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn shade_surface(slot: u32) {
     var ps = paths[slot];
     let tri = bvh_triangles[ps.hit_prim];
     let mat = materials[tri.material];

@@ -13,12 +13,8 @@
 // ends because t0 grows; so does this one, long before the bound for any real scene).
 const MAX_SHADOW_CROSSINGS: u32 = 4096u;
 
-@compute @workgroup_size(64)
-fn trace_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
-    var slot = 0u;
-    if (!queue_item(QUEUE_SHADOW, id.x, &slot)) {
-        return;
-    }
+// Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
+fn trace_shadow(slot: u32) {
     var ps = paths[slot];
     let sh = shadows[slot];
     var t = vec3<f32>(1.0);

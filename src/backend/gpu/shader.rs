@@ -156,6 +156,10 @@ pub struct Module {
     pub files: &'static [ShaderFile],
     pub entry_point: &'static str,
     pub default_specs: &'static [Spec],
+    /// A wavefront stage's input queue (a WGSL expression). The files then define the stage
+    /// as `fn LABEL(slot: u32)` and [`Module::source`] adds the entry point that runs it on
+    /// every path slot of the queue: the dispatch written once for every stage.
+    pub queue: Option<&'static str>,
 }
 
 impl Module {
@@ -170,6 +174,7 @@ impl Module {
             files,
             entry_point,
             default_specs: &[],
+            queue: None,
         }
     }
 }
@@ -364,7 +369,24 @@ impl Module {
             .iter()
             .map(|d| *specs.iter().find(|s| s.name == d.name).unwrap_or(d))
             .collect();
-        assemble(self.files, &merged)
+        let mut source = assemble(self.files, &merged);
+        if let Some(queue) = self.queue {
+            writeln!(
+                source,
+                "// ---- generated: the stage's dispatch over its queue ----\n\
+                 @compute @workgroup_size(64)\n\
+                 fn {entry}(@builtin(global_invocation_id) id: vec3<u32>) {{\n\
+                 \x20   var slot = 0u;\n\
+                 \x20   if (queue_item({queue}, id.x, &slot)) {{\n\
+                 \x20       {label}(slot);\n\
+                 \x20   }}\n\
+                 }}",
+                entry = self.entry_point,
+                label = self.label,
+            )
+            .unwrap();
+        }
+        source
     }
 
     /// The resources the entry point uses with `specs`, checked against what every driver
@@ -430,6 +452,7 @@ pub const TRANSMITTANCE_MODULE: Module = Module {
     ],
     entry_point: "transmittance_main",
     default_specs: KERNEL_SPECS,
+    queue: None,
 };
 
 /// The tracking kernels track one grid: the mixture hooks of `tracking.wgsl` are cut.
@@ -450,6 +473,7 @@ pub const DISTANCE_MODULE: Module = Module {
     ],
     entry_point: "distance_main",
     default_specs: KERNEL_SPECS,
+    queue: None,
 };
 
 /// RNG streams (test).
@@ -458,6 +482,7 @@ pub const TEST_RNG_MODULE: Module = Module {
     files: &[TYPES, RNG, TEST_RNG],
     entry_point: "rng_streams",
     default_specs: &[Spec::u32("DRAWS", 16)],
+    queue: None,
 };
 
 /// Scrambled Sobol points (test).
@@ -481,6 +506,7 @@ pub const TEST_DDA_MODULE: Module = Module {
         Spec::u32("DDA_MODE", 0),
         Spec::f32("DDA_SCALE", 1.0),
     ],
+    queue: None,
 };
 
 /// Henyey-Greenstein sampling and evaluation (test).
@@ -506,7 +532,7 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
 ];
 
 macro_rules! wavefront_module {
-    ($name:ident, $label:literal, $file:expr, $entry:literal) => {
+    ($name:ident, $file:expr, $label:literal, $entry:expr, $queue:expr) => {
         pub const $name: Module = Module {
             label: $label,
             files: &[
@@ -515,60 +541,33 @@ macro_rules! wavefront_module {
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,
+            queue: $queue,
         };
     };
+    // A stage: `fn LABEL(slot: u32)` in its file, run on every slot of `$queue`.
+    ($name:ident, $file:expr, $label:literal, queue $queue:literal) => {
+        wavefront_module!($name, $file, $label, concat!($label, "_main"), Some($queue));
+    };
 }
+// Each stage over its input queue, as `graph::Stage::input_queue` has it.
+wavefront_module!(STAGE_GENERATE_MODULE, STAGE_GENERATE, "generate", queue "queue_done_in()");
+wavefront_module!(STAGE_INTERSECT_MODULE, STAGE_INTERSECT, "intersect", queue "queue_medium_in()");
+wavefront_module!(STAGE_SHADE_SURFACE_MODULE, STAGE_SHADE_SURFACE, "shade_surface", queue "QUEUE_SURFACE");
+wavefront_module!(STAGE_SAMPLE_MEDIUM_MODULE, STAGE_SAMPLE_MEDIUM, "sample_medium", queue "queue_medium_in()");
+wavefront_module!(STAGE_SCATTER_MEDIUM_MODULE, STAGE_SCATTER_MEDIUM, "scatter_medium", queue "QUEUE_SCATTER");
+wavefront_module!(STAGE_TRACE_SHADOW_MODULE, STAGE_TRACE_SHADOW, "trace_shadow", queue "QUEUE_SHADOW");
+wavefront_module!(STAGE_SAMPLE_PHASE_MODULE, STAGE_SAMPLE_PHASE, "sample_phase", queue "QUEUE_PHASE");
+wavefront_module!(STAGE_ESCAPE_MODULE, STAGE_ESCAPE, "escape", queue "QUEUE_ESCAPE");
+wavefront_module!(STAGE_ACCUMULATE_MODULE, STAGE_ACCUMULATE, "accumulate", queue "queue_done_out()");
+// Queue bookkeeping: entry points of their own.
 wavefront_module!(
-    STAGE_GENERATE_MODULE,
-    "generate",
-    STAGE_GENERATE,
-    "generate"
+    QUEUE_RESET_MODULE,
+    QUEUES,
+    "queue_reset",
+    "queue_reset",
+    None
 );
-wavefront_module!(
-    STAGE_INTERSECT_MODULE,
-    "intersect",
-    STAGE_INTERSECT,
-    "intersect"
-);
-wavefront_module!(
-    STAGE_SHADE_SURFACE_MODULE,
-    "shade_surface",
-    STAGE_SHADE_SURFACE,
-    "shade_surface"
-);
-wavefront_module!(
-    STAGE_SAMPLE_MEDIUM_MODULE,
-    "sample_medium",
-    STAGE_SAMPLE_MEDIUM,
-    "sample_medium"
-);
-wavefront_module!(
-    STAGE_SCATTER_MEDIUM_MODULE,
-    "scatter_medium",
-    STAGE_SCATTER_MEDIUM,
-    "scatter_medium"
-);
-wavefront_module!(
-    STAGE_TRACE_SHADOW_MODULE,
-    "trace_shadow",
-    STAGE_TRACE_SHADOW,
-    "trace_shadow"
-);
-wavefront_module!(
-    STAGE_SAMPLE_PHASE_MODULE,
-    "sample_phase",
-    STAGE_SAMPLE_PHASE,
-    "sample_phase"
-);
-wavefront_module!(STAGE_ESCAPE_MODULE, "escape", STAGE_ESCAPE, "escape");
-wavefront_module!(
-    STAGE_ACCUMULATE_MODULE,
-    "accumulate",
-    STAGE_ACCUMULATE,
-    "accumulate"
-);
-wavefront_module!(QUEUE_RESET_MODULE, "queue_reset", QUEUES, "queue_reset");
-wavefront_module!(QUEUE_ARGS_MODULE, "queue_args", QUEUES, "queue_args");
+wavefront_module!(QUEUE_ARGS_MODULE, QUEUES, "queue_args", "queue_args", None);
 
 /// Every module Brume builds.
 pub const MODULES: &[Module] = &[
