@@ -57,7 +57,7 @@ impl<M: Medium + ?Sized> Estimator<M> for Decomposition {
 impl<M: Medium + ?Sized> DistanceEstimator<M> for Decomposition {
     /// The first real (control or residual) collision; weights are 1.
     #[inline]
-    fn distance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let ctl = tr.medium.control(&c.seg);
         let x = tr.rng.uniform_f32() * c.sigma_maj;
         if x < ctl.sigma_a {
@@ -91,7 +91,7 @@ impl<M: Medium + ?Sized> TransmittanceEstimator<M> for Decomposition {
     /// The Bernoulli estimate of the residual: the whole estimate is the control factor (a
     /// residual weight of 1) unless a real residual collision zeroes it.
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let ctl = tr.medium.control(&c.seg);
         let k = lookup(tr.medium, c.t, tr.stats);
         check_bound(k.sigma_t(), c.seg.sigma_maj, tr.stats);

@@ -35,7 +35,7 @@ impl<M: Medium + ?Sized> Estimator<M> for Delta {
 impl<M: Medium + ?Sized> DistanceEstimator<M> for Delta {
     /// The first real collision (analog: weights are 1).
     #[inline]
-    fn distance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let k = lookup(tr.medium, c.t, tr.stats);
         check_bound(k.sigma_t(), c.sigma_maj, tr.stats);
         // One uniform against the CDF [sigma_a, sigma_a + sigma_s, sigma_maj].
@@ -53,7 +53,7 @@ impl<M: Medium + ?Sized> DistanceEstimator<M> for Delta {
 impl<M: Medium + ?Sized> TransmittanceEstimator<M> for Delta {
     /// The Bernoulli estimate: 1 or 0.
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let sigma_t = lookup(tr.medium, c.t, tr.stats).sigma_t();
         check_bound(sigma_t, c.sigma_maj, tr.stats);
         bernoulli(sigma_t, c.sigma_maj, tr.rng)

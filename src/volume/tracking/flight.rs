@@ -112,9 +112,9 @@ pub trait FlightMedium<W> {
     fn cull_ratio(&self, t: f32) -> f32;
     /// [`Medium::on_collision`].
     fn on_collision(&self, t: f32, sigma_maj: f32, w: W);
-    /// [`voxel_stage`] with majorant scale `b` and `with_control`. Default: no per-voxel stage.
+    /// [`Medium::voxel_ratio`]. Default: no per-voxel stage.
     #[inline]
-    fn voxel_ratio(&self, _: f32, _: bool, _: f32, _: &MajorantSegment, _: f32) -> f32 {
+    fn voxel_ratio(&self, _t: f32, _seg: &MajorantSegment, _bound: f32) -> f32 {
         1.0
     }
     /// The control extinction over `seg` ([`Medium::control`]). Default: no control.
@@ -130,15 +130,8 @@ impl<M: Medium + ?Sized> FlightMedium<f32> for M {
         Medium::cull_ratio(self, t)
     }
     #[inline]
-    fn voxel_ratio(
-        &self,
-        b: f32,
-        with_control: bool,
-        t: f32,
-        seg: &MajorantSegment,
-        bound: f32,
-    ) -> f32 {
-        voxel_stage(self, b, with_control, t, seg, bound)
+    fn voxel_ratio(&self, t: f32, seg: &MajorantSegment, bound: f32) -> f32 {
+        Medium::voxel_ratio(self, t, seg, bound)
     }
     #[inline]
     fn sigma_c(&self, seg: &MajorantSegment) -> f32 {
@@ -161,12 +154,13 @@ impl<M: MediumRgb + ?Sized> FlightMedium<Vec3> for M {
     }
 }
 
-/// What a collision rule works with: the medium it looks up, the random numbers it draws and
-/// the counters it updates.
-pub struct Tracker<'a, M: ?Sized> {
+/// What a collision rule works with: the medium it looks up, the random numbers it draws, the
+/// counters it updates, and `w`, the weight before the collision.
+pub struct Tracker<'a, M: ?Sized, W> {
     pub medium: &'a M,
     pub rng: &'a mut Rng,
     pub stats: &'a mut TrackingStats,
+    pub w: W,
 }
 
 /// A null-collision estimator: the walk it samples tentative collisions with, the same for
@@ -187,7 +181,6 @@ pub trait Estimator<M: ?Sized> {
     /// estimators whose weights shrink there.
     const ROULETTE: bool = false;
     /// The majorant scale `b` (1: the bound itself).
-    #[inline]
     fn b(&self) -> f32 {
         1.0
     }
@@ -200,12 +193,11 @@ pub trait Estimator<M: ?Sized> {
 
 /// An estimator that samples free-flight distances ([`sample_distance`]).
 pub trait DistanceEstimator<M: ?Sized>: Estimator<M> {
-    /// What tentative collision `c` is, `w` the weight before it.
+    /// What tentative collision `c` is.
     fn distance_rule(
         &self,
-        tr: &mut Tracker<'_, M>,
+        tr: &mut Tracker<'_, M, Self::Weight>,
         c: &Collision,
-        w: Self::Weight,
     ) -> Outcome<Self::Weight>;
 }
 
@@ -217,13 +209,11 @@ pub trait TransmittanceEstimator<M: ?Sized>: Estimator<M> {
     fn transmittance_majorant(&self, medium: &M, seg: &MajorantSegment) -> f32 {
         self.majorant(medium, seg)
     }
-    /// What tentative collision `c` is, `w` the weight before it: a real collision zeroes
-    /// the estimate.
+    /// What tentative collision `c` is; a real collision zeroes the estimate.
     fn transmittance_rule(
         &self,
-        tr: &mut Tracker<'_, M>,
+        tr: &mut Tracker<'_, M, Self::Weight>,
         c: &Collision,
-        w: Self::Weight,
     ) -> Outcome<Self::Weight>;
 }
 
@@ -257,7 +247,7 @@ where
     I: IntoIterator<Item = MajorantSegment>,
     M: FlightMedium<E::Weight> + ?Sized,
     Mj: FnMut(&MajorantSegment) -> f32,
-    C: FnMut(&mut Tracker<'_, M>, &Collision, E::Weight) -> Outcome<E::Weight>,
+    C: FnMut(&mut Tracker<'_, M, E::Weight>, &Collision) -> Outcome<E::Weight>,
 {
     let mut end = None;
     sample_free_flight(
@@ -267,7 +257,7 @@ where
         |t| medium.cull_ratio(t),
         |t, seg, bound| {
             if E::VOXEL_STAGE {
-                medium.voxel_ratio(estimator.b(), E::CONTROL, t, seg, bound)
+                voxel_stage(medium, estimator.b(), E::CONTROL, t, seg, bound)
             } else {
                 1.0
             }
@@ -282,8 +272,9 @@ where
                 medium,
                 rng: &mut *rng,
                 stats: &mut *stats,
+                w: *w,
             };
-            let (real, factor) = match rule(&mut tr, c, *w) {
+            let (real, factor) = match rule(&mut tr, c) {
                 Outcome::Null(factor) => {
                     stats.null_collisions += 1;
                     if let Some(f) = factor {
@@ -351,7 +342,7 @@ where
         rng,
         stats,
         &mut w,
-        |tr: &mut Tracker<'_, M>, c: &Collision, w| estimator.distance_rule(tr, c, w),
+        |tr: &mut Tracker<'_, M, E::Weight>, c: &Collision| estimator.distance_rule(tr, c),
     );
     match end {
         None => Event::Escape { weight: w },
@@ -384,7 +375,8 @@ where
     M: FlightMedium<E::Weight> + ?Sized,
 {
     let majorant = |seg: &MajorantSegment| estimator.transmittance_majorant(medium, seg);
-    let rule = |tr: &mut Tracker<'_, M>, c: &Collision, w| estimator.transmittance_rule(tr, c, w);
+    let rule =
+        |tr: &mut Tracker<'_, M, E::Weight>, c: &Collision| estimator.transmittance_rule(tr, c);
     let estimate = |end: Option<End>, w| match end {
         Some(End::Event(..)) => E::Weight::ZERO,
         None | Some(End::Dead(_)) => w,

@@ -190,7 +190,7 @@ pub trait Medium {
 ///   the null probability, which a bound tight on the densest channel shrinks: no bias, but
 ///   heavier pixel tails, so it keeps the cells' (and the culled walk's) bounds.
 #[inline]
-pub fn voxel_stage<M: Medium + ?Sized>(
+pub fn voxel_stage<W, M: FlightMedium<W> + ?Sized>(
     medium: &M,
     b: f32,
     with_control: bool,
@@ -198,7 +198,7 @@ pub fn voxel_stage<M: Medium + ?Sized>(
     seg: &MajorantSegment,
     bound: f32,
 ) -> f32 {
-    if !(b >= 1.0) || (with_control && medium.control(seg).sigma_t() != 0.0) {
+    if !(b >= 1.0) || (with_control && medium.sigma_c(seg) != 0.0) {
         return 1.0;
     }
     medium.voxel_ratio(t, seg, bound)

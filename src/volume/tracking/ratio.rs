@@ -31,7 +31,6 @@ impl<M: Medium + ?Sized> Estimator<M> for Ratio {
     // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
     const VOXEL_STAGE: bool = false;
     const ROULETTE: bool = true;
-    #[inline]
     fn b(&self) -> f32 {
         self.b
     }
@@ -40,7 +39,7 @@ impl<M: Medium + ?Sized> Estimator<M> for Ratio {
 impl<M: Medium + ?Sized> TransmittanceEstimator<M> for Ratio {
     /// Every collision multiplies the estimate by its null probability.
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let sigma_t = lookup(tr.medium, c.t, tr.stats).sigma_t();
         Outcome::Null(Some(1.0 - sigma_t / c.sigma_maj))
     }

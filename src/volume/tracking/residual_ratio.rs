@@ -31,7 +31,6 @@ impl<M: Medium + ?Sized> Estimator<M> for ResidualRatio {
     // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
     const VOXEL_STAGE: bool = false;
     const ROULETTE: bool = true;
-    #[inline]
     fn b(&self) -> f32 {
         self.b
     }
@@ -45,7 +44,7 @@ impl<M: Medium + ?Sized> Estimator<M> for ResidualRatio {
 impl<M: Medium + ?Sized> TransmittanceEstimator<M> for ResidualRatio {
     /// Every collision multiplies the residual's estimate by its null probability.
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let sigma_r =
             lookup(tr.medium, c.t, tr.stats).sigma_t() - tr.medium.control(&c.seg).sigma_t();
         Outcome::Null(Some(1.0 - sigma_r / c.sigma_maj))

@@ -64,7 +64,6 @@ impl<M: MediumRgb + ?Sized> Estimator<M> for Spectral {
     type Weight = Vec3;
     const VOXEL_STAGE: bool = false;
     const ROULETTE: bool = true;
-    #[inline]
     fn b(&self) -> f32 {
         self.b
     }
@@ -74,10 +73,10 @@ impl<M: MediumRgb + ?Sized> DistanceEstimator<M> for Spectral {
     /// A real collision for RGB extinction. A path whose history is all zero ends with
     /// `Absorb { weight: 0 }`.
     #[inline]
-    fn distance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, w: Vec3) -> Outcome<Vec3> {
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, Vec3>, c: &Collision) -> Outcome<Vec3> {
         let k = lookup_rgb(tr.medium, c.t, tr.stats);
         let sigma_n = Vec3::splat(c.sigma_maj) - k.sigma_t();
-        let h = self.beta * w;
+        let h = self.beta * tr.w;
         let p = [
             self.mode.reduce(k.sigma_a * h),
             self.mode.reduce(k.sigma_s * h),
@@ -101,11 +100,11 @@ impl<M: MediumRgb + ?Sized> DistanceEstimator<M> for Spectral {
 impl<M: MediumRgb + ?Sized> TransmittanceEstimator<M> for Spectral {
     /// The RGB estimate: history-aware real or null, the history its own weight.
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, w: Vec3) -> Outcome<Vec3> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, Vec3>, c: &Collision) -> Outcome<Vec3> {
         let sigma_t = lookup_rgb(tr.medium, c.t, tr.stats).sigma_t();
         let sigma_n = Vec3::splat(c.sigma_maj) - sigma_t;
-        let p_real = self.mode.reduce(sigma_t * w);
-        let p_null = self.mode.reduce(sigma_n * w);
+        let p_real = self.mode.reduce(sigma_t * tr.w);
+        let p_null = self.mode.reduce(sigma_n * tr.w);
         let total = p_real + p_null;
         if !(total > 0.0) || tr.rng.uniform_f32() * total < p_real {
             return Outcome::Real(Real::Absorb, None);

@@ -38,7 +38,6 @@ pub struct WeightedDecomposition {
 impl<M: Medium + ?Sized> Estimator<M> for WeightedDecomposition {
     type Weight = f32;
     const CONTROL: bool = true;
-    #[inline]
     fn b(&self) -> f32 {
         self.b
     }
@@ -53,7 +52,7 @@ impl<M: Medium + ?Sized> Estimator<M> for WeightedDecomposition {
 impl<M: Medium + ?Sized> DistanceEstimator<M> for WeightedDecomposition {
     /// A (control or residual) real collision with weights.
     #[inline]
-    fn distance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let ctl = tr.medium.control(&c.seg);
         let sigma_c = ctl.sigma_t();
         let x = tr.rng.uniform_f32() * c.sigma_maj;
@@ -94,7 +93,7 @@ impl<M: Medium + ?Sized> TransmittanceEstimator<M> for WeightedDecomposition {
     /// The weighted estimate of the residual, signed when the control exceeds `sigma_t` or
     /// `b < 1`.
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let sigma_r =
             lookup(tr.medium, c.t, tr.stats).sigma_t() - tr.medium.control(&c.seg).sigma_t();
         real_or_null(sigma_r, c.sigma_maj, tr.rng)

@@ -34,7 +34,6 @@ pub struct WeightedDelta {
 
 impl<M: Medium + ?Sized> Estimator<M> for WeightedDelta {
     type Weight = f32;
-    #[inline]
     fn b(&self) -> f32 {
         self.b
     }
@@ -43,7 +42,7 @@ impl<M: Medium + ?Sized> Estimator<M> for WeightedDelta {
 impl<M: Medium + ?Sized> DistanceEstimator<M> for WeightedDelta {
     /// A real collision with weights.
     #[inline]
-    fn distance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         let k = lookup(tr.medium, c.t, tr.stats);
         let sigma_n = c.sigma_maj - k.sigma_t();
         // total >= |sigma_a + sigma_s + sigma_n| = sigma_maj > 0, so a choice always exists.
@@ -58,7 +57,7 @@ impl<M: Medium + ?Sized> DistanceEstimator<M> for WeightedDelta {
 impl<M: Medium + ?Sized> TransmittanceEstimator<M> for WeightedDelta {
     /// The weighted estimate (may be negative when `b < 1`; unbiased).
     #[inline]
-    fn transmittance_rule(&self, tr: &mut Tracker<'_, M>, c: &Collision, _: f32) -> Outcome<f32> {
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
         real_or_null(
             lookup(tr.medium, c.t, tr.stats).sigma_t(),
             c.sigma_maj,
