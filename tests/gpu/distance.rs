@@ -1,5 +1,5 @@
 //! Every distance-sampling estimator's WGSL `sample_distance` (shaders/common/tracking.wgsl via
-//! the distance kernel) against the CPU `tracking::*::sample_distance`, sample by sample with
+//! the distance kernel) against the CPU `tracking::sample_distance`, sample by sample with
 //! the same `Rng::new(i, 0, seed)` streams, and by z-tests at 99.9 % of two unbiased
 //! functionals with known values:
 //!

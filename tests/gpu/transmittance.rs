@@ -1,6 +1,6 @@
 //! Every estimator's WGSL transmittance (shaders/common/tracking.wgsl via the transmittance
 //! kernel) against the analytic / quadrature value by a z-test at 99.9 %, and against the CPU
-//! `tracking::*::transmittance` sample by sample with the same `Rng::new(i, 0, seed)` streams.
+//! `tracking::transmittance` sample by sample with the same `Rng::new(i, 0, seed)` streams.
 //!
 //! Majorants: per-cell, global, and the culled global walk (the same global segment, its
 //! collisions culled by the leaf cells on both sides with the same uniforms).

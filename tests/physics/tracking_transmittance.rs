@@ -14,6 +14,28 @@ use glam::Vec3;
 
 const N: u32 = 200_000;
 
+/// One estimate of a grey `estimator` over scene `s` through `medium`.
+fn estimate<E, M>(
+    estimator: &E,
+    s: &Scene,
+    medium: &M,
+    rng: &mut Rng,
+    st: &mut TrackingStats,
+) -> f64
+where
+    E: tr::TransmittanceEstimator<M, Weight = f32>,
+    M: Medium,
+{
+    tr::transmittance(
+        estimator,
+        s.segments.iter().copied(),
+        s.t_max,
+        medium,
+        rng,
+        st,
+    ) as f64
+}
+
 /// Runs `n` independent estimates of one estimator and z-tests their mean.
 fn check(
     label: &str,
@@ -45,14 +67,7 @@ fn delta_tracking_transmittance() {
         let medium = s.medium(ControlExtinction::None);
         let label = format!("delta {}", s.name);
         let st = check(&label, 1, N, s.transmittance(), |rng, st| {
-            tr::transmittance(
-                &tr::Delta,
-                s.segments.iter().copied(),
-                s.t_max,
-                &medium,
-                rng,
-                st,
-            ) as f64
+            estimate(&tr::Delta, &s, &medium, rng, st)
         });
         unbiased_run(&label, &st);
     }
@@ -68,14 +83,7 @@ fn weighted_delta_tracking_transmittance() {
             // sample standard error needs many more samples to be trustworthy.
             let n = if b < 0.5 { 10 * N } else { N };
             let st = check(&label, 2, n, s.transmittance(), |rng, st| {
-                tr::transmittance(
-                    &tr::WeightedDelta { b },
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::WeightedDelta { b }, &s, &medium, rng, st)
             });
             println!("    max |w| = {:.3e}", st.max_abs_weight);
             unbiased_run(&label, &st);
@@ -89,14 +97,7 @@ fn decomposition_tracking_transmittance() {
         let medium = s.medium(ControlExtinction::SegmentMinorant);
         let label = format!("decomposition sigma_c=seg.sigma_min {}", s.name);
         let st = check(&label, 3, N, s.transmittance(), |rng, st| {
-            tr::transmittance(
-                &tr::Decomposition,
-                s.segments.iter().copied(),
-                s.t_max,
-                &medium,
-                rng,
-                st,
-            ) as f64
+            estimate(&tr::Decomposition, &s, &medium, rng, st)
         });
         unbiased_run(&label, &st);
     }
@@ -111,14 +112,7 @@ fn weighted_decomposition_transmittance_control_above_minorant() {
         for b in [1.0, 0.5] {
             let label = format!("weighted decomposition m=0.8 b={b} {}", s.name);
             let st = check(&label, 4, N, s.transmittance(), |rng, st| {
-                tr::transmittance(
-                    &tr::WeightedDecomposition { b },
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::WeightedDecomposition { b }, &s, &medium, rng, st)
             });
             unbiased_run(&label, &st);
         }
@@ -132,14 +126,7 @@ fn ratio_tracking_transmittance() {
         for b in [1.0, 0.5, 2.0] {
             let label = format!("ratio b={b} {}", s.name);
             let st = check(&label, 5, N, s.transmittance(), |rng, st| {
-                tr::transmittance(
-                    &tr::Ratio { b },
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::Ratio { b }, &s, &medium, rng, st)
             });
             unbiased_run(&label, &st);
         }
@@ -157,14 +144,7 @@ fn residual_ratio_tracking_transmittance() {
             let medium = s.medium(control);
             let label = format!("residual ratio {control:?} b={b} {}", s.name);
             let st = check(&label, 6, N, s.transmittance(), |rng, st| {
-                tr::transmittance(
-                    &tr::ResidualRatio { b },
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::ResidualRatio { b }, &s, &medium, rng, st)
             });
             unbiased_run(&label, &st);
         }
@@ -326,22 +306,16 @@ fn culled_global_walk_transmittance() {
                 unbiased_run(&label, &st);
                 runs.push((label, st));
             };
+        let weighted_delta = tr::WeightedDelta { b: 2.0 };
+        let weighted_decomposition = tr::WeightedDecomposition { b: 1.0 };
+        let residual_ratio = tr::ResidualRatio { b: 1.0 };
         run(format!("culled delta {}", s.name), 21, &mut |rng, st| {
             tr::transmittance(&tr::Delta, seg(), s.t_max, &none, rng, st)
         });
         run(
             format!("culled weighted delta b=2 {}", s.name),
             22,
-            &mut |rng, st| {
-                tr::transmittance(
-                    &tr::WeightedDelta { b: 2.0 },
-                    seg(),
-                    s.t_max,
-                    &none,
-                    rng,
-                    st,
-                )
-            },
+            &mut |rng, st| tr::transmittance(&weighted_delta, seg(), s.t_max, &none, rng, st),
         );
         run(
             format!("culled decomposition {}", s.name),
@@ -354,14 +328,7 @@ fn culled_global_walk_transmittance() {
             format!("culled weighted decomposition {}", s.name),
             24,
             &mut |rng, st| {
-                tr::transmittance(
-                    &tr::WeightedDecomposition { b: 1.0 },
-                    seg(),
-                    s.t_max,
-                    &minorant,
-                    rng,
-                    st,
-                )
+                tr::transmittance(&weighted_decomposition, seg(), s.t_max, &minorant, rng, st)
             },
         );
         run(format!("culled ratio {}", s.name), 25, &mut |rng, st| {
@@ -370,16 +337,7 @@ fn culled_global_walk_transmittance() {
         run(
             format!("culled residual ratio {}", s.name),
             26,
-            &mut |rng, st| {
-                tr::transmittance(
-                    &tr::ResidualRatio { b: 1.0 },
-                    seg(),
-                    s.t_max,
-                    &minorant,
-                    rng,
-                    st,
-                )
-            },
+            &mut |rng, st| tr::transmittance(&residual_ratio, seg(), s.t_max, &minorant, rng, st),
         );
         // Thinned back to the segments' bounds, ratio tracking looks up as often as it does on
         // the segments themselves (within noise), never more than on the global segment.
@@ -414,10 +372,11 @@ fn ratio_tracking_ignores_the_voxel_stage() {
         let (global, ratio) = s.culled();
         let seg = || std::iter::once(global);
         let half = |_t: f32, _bound: f32| 0.5f32;
+        let (ratio_tracking, residual_ratio) = (tr::Ratio { b: 1.0 }, tr::ResidualRatio { b: 1.0 });
         let medium = |control, voxel: &dyn Fn(f32, f32) -> f32| {
             let inner = s.medium(control);
-            let mut rng = Rng::new(3, 5, 7);
-            let mut st = TrackingStats::default();
+            let rng = &mut Rng::new(3, 5, 7);
+            let st = &mut TrackingStats::default();
             let culled = CulledBy {
                 inner,
                 ratio: &ratio,
@@ -426,22 +385,10 @@ fn ratio_tracking_ignores_the_voxel_stage() {
             let mut out = Vec::new();
             for _ in 0..2000 {
                 out.push(match control {
-                    ControlExtinction::None => tr::transmittance(
-                        &tr::Ratio { b: 1.0 },
-                        seg(),
-                        s.t_max,
-                        &culled,
-                        &mut rng,
-                        &mut st,
-                    ),
-                    _ => tr::transmittance(
-                        &tr::ResidualRatio { b: 1.0 },
-                        seg(),
-                        s.t_max,
-                        &culled,
-                        &mut rng,
-                        &mut st,
-                    ),
+                    ControlExtinction::None => {
+                        tr::transmittance(&ratio_tracking, seg(), s.t_max, &culled, rng, st)
+                    }
+                    _ => tr::transmittance(&residual_ratio, seg(), s.t_max, &culled, rng, st),
                 });
             }
             (out, st.lookups)

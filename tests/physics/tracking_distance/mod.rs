@@ -359,61 +359,30 @@ fn control_collisions_never_look_up() {
         sigma_maj: 2.0,
         ..segs[0]
     }];
+    let decomposition = tr::Decomposition;
+    let weighted = tr::WeightedDecomposition { b: 1.0 };
+    let whole = counting(2.0);
     let mut st = TrackingStats::default();
     for i in 0..10_000 {
         let mut rng = Rng::new(i, 5, 15);
-        tr::sample_distance(
-            &tr::Decomposition,
-            full,
-            1.0,
-            &counting(2.0),
-            &mut rng,
-            &mut st,
-        );
-        tr::sample_distance(
-            &tr::WeightedDecomposition { b: 1.0 },
-            full,
-            1.0,
-            &counting(2.0),
-            &mut rng,
-            &mut st,
-        );
-        tr::transmittance(
-            &tr::Decomposition,
-            full,
-            1.0,
-            &counting(2.0),
-            &mut rng,
-            &mut st,
-        );
+        tr::sample_distance(&decomposition, full, 1.0, &whole, &mut rng, &mut st);
+        tr::sample_distance(&weighted, full, 1.0, &whole, &mut rng, &mut st);
+        tr::transmittance(&decomposition, full, 1.0, &whole, &mut rng, &mut st);
     }
     assert_eq!(calls.get(), 0);
     assert_eq!(st.lookups, 0);
     assert!(st.control_collisions > 0);
     // 2. A partial control: lookups happen exactly at residual (real or null) collisions.
+    let partial = counting(1.0);
     for analog in [true, false] {
         calls.set(0);
         let mut st = TrackingStats::default();
         for i in 0..10_000 {
             let mut rng = Rng::new(i, 6, 16);
             if analog {
-                tr::sample_distance(
-                    &tr::Decomposition,
-                    segs,
-                    1.0,
-                    &counting(1.0),
-                    &mut rng,
-                    &mut st,
-                );
+                tr::sample_distance(&decomposition, segs, 1.0, &partial, &mut rng, &mut st);
             } else {
-                tr::sample_distance(
-                    &tr::WeightedDecomposition { b: 1.0 },
-                    segs,
-                    1.0,
-                    &counting(1.0),
-                    &mut rng,
-                    &mut st,
-                );
+                tr::sample_distance(&weighted, segs, 1.0, &partial, &mut rng, &mut st);
             }
         }
         println!("analog {analog}: {st:?}");

@@ -44,32 +44,17 @@ fn furnace_slab() {
                 let rgb = FnMediumRgb(move |t: f32| {
                     CoeffsRgb::new(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.75) * sigma(t))
                 });
+                // One flight of a grey estimator.
+                macro_rules! grey {
+                    ($estimator:expr) => {
+                        tr::sample_distance(&$estimator, seg, t_exit, &medium, &mut rng, &mut st)
+                    };
+                }
                 let e = match which {
-                    0 => tr::sample_distance(&tr::Delta, seg, t_exit, &medium, &mut rng, &mut st),
-                    1 => tr::sample_distance(
-                        &tr::WeightedDelta { b },
-                        seg,
-                        t_exit,
-                        &medium,
-                        &mut rng,
-                        &mut st,
-                    ),
-                    2 => tr::sample_distance(
-                        &tr::Decomposition,
-                        seg,
-                        t_exit,
-                        &medium,
-                        &mut rng,
-                        &mut st,
-                    ),
-                    3 => tr::sample_distance(
-                        &tr::WeightedDecomposition { b },
-                        seg,
-                        t_exit,
-                        &medium,
-                        &mut rng,
-                        &mut st,
-                    ),
+                    0 => grey!(tr::Delta),
+                    1 => grey!(tr::WeightedDelta { b }),
+                    2 => grey!(tr::Decomposition),
+                    3 => grey!(tr::WeightedDecomposition { b }),
                     _ => match tr::sample_distance(
                         &tr::Spectral {
                             b,
