@@ -1,8 +1,8 @@
 // Mirrors src/volume/tracking/: the ONE free-flight loop `sample_free_flight` (mod.rs), the
 // flight every estimator shares around its collision rule (flight.rs: `Outcome` and the tail
-// of `fly`), the collision rules of each estimator's `transmittance` and `sample_distance`
-// (delta.rs, weighted_delta.rs, decomposition.rs, weighted_decomposition.rs, ratio.rs,
-// residual_ratio.rs, spectral.rs), and sampling::sample_discrete.
+// of `fly`), each estimator's `distance_rule` and `transmittance_rule` (delta.rs,
+// weighted_delta.rs, decomposition.rs, weighted_decomposition.rs, ratio.rs, residual_ratio.rs,
+// spectral.rs), and sampling::sample_discrete.
 // Needs types.wgsl, math.wgsl, rng.wgsl, grid.wgsl and dda.wgsl.
 //
 // WGSL has no closures, so where the CPU passes a majorant closure and a collision rule, the
@@ -329,7 +329,7 @@ fn end_flight(tr: ptr<function, Tracker>, event: u32, t: f32) -> bool {
     return false;
 }
 
-// The majorant closure each estimator's `sample_distance` passes to sample_free_flight.
+// Each estimator's `Estimator::majorant`: the majorant of its distance walk.
 fn distance_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32 {
     let b = (*tr).params.b;
     switch (*tr).params.estimator {
@@ -449,7 +449,7 @@ fn transmittance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
     }
 }
 
-// spectral::transmittance's rule: history-aware real/null choice, RGB weights.
+// Spectral's transmittance_rule: history-aware real/null choice, RGB weights.
 fn spectral_transmittance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) -> Outcome {
     let sigma_t = lookup_rgb_sigma_t(tr, t);
     let sigma_n = vec3<f32>(sigma_maj) - sigma_t;
@@ -464,7 +464,7 @@ fn spectral_transmittance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f3
     return outcome_rgb(OUTCOME_NULL, sigma_n * (total / (sigma_maj * p_null)));
 }
 
-// The collision rule of each estimator's `sample_distance`.
+// Each estimator's `distance_rule`.
 fn distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                  seg: GpuMajorantSegment) -> Outcome {
     switch (*tr).params.estimator {
@@ -502,7 +502,7 @@ fn distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
     }
 }
 
-// decomposition::sample_distance's rule: the control part of the CDF first (no lookup).
+// Decomposition's distance_rule: the control part of the CDF first (no lookup).
 fn decomposition_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                                seg: GpuMajorantSegment) -> Outcome {
     let ctl = control(tr, seg);
@@ -528,7 +528,7 @@ fn decomposition_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f3
     return outcome(OUTCOME_NULL);
 }
 
-// weighted_decomposition::sample_distance's rule: control first, then weighted residual
+// WeightedDecomposition's distance_rule: control first, then weighted residual
 // events with the remapped uniform.
 fn weighted_decomposition_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32,
                                         seg: GpuMajorantSegment) -> Outcome {
@@ -554,7 +554,7 @@ fn weighted_decomposition_distance_rule(tr: ptr<function, Tracker>, t: f32, sigm
     return weighted_choice(array<f32, 3>(r_a, r_s, r_n), r_bar, u);
 }
 
-// spectral::sample_distance's rule: history-aware probabilities, RGB weights.
+// Spectral's distance_rule: history-aware probabilities, RGB weights.
 fn spectral_distance_rule(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) -> Outcome {
     let k = lookup_rgb(tr, t);
     let sigma_n = vec3<f32>(sigma_maj) - (k.sigma_a + k.sigma_s);
@@ -659,8 +659,8 @@ fn tracking_majorant(tr: ptr<function, Tracker>, seg: GpuMajorantSegment) -> f32
     return transmittance_majorant(tr, seg);
 }
 
-// The collision callback of the walk in progress (flight::distance and
-// flight::transmittance): a distance walk first calls Medium::on_collision with the weight so
+// The collision callback of the walk in progress (flight::fly under sample_distance and
+// transmittance): a distance walk first calls Medium::on_collision with the weight so
 // far (the including module defines `on_collision`: emission.wgsl in the wavefront
 // integrator, a no-op in the test kernels), then the estimator's rule decides and
 // flight_outcome does the rest. False stops the walk.
@@ -829,7 +829,7 @@ fn tracking_transmittance(tr: ptr<function, Tracker>, dda: Dda, t_max: f32) -> v
     return vec3<f32>(t_control * (*tr).w.x, 0.0, 0.0);
 }
 
-// The `sample_distance` function of the estimator `(*tr).params.estimator` (delta,
+// `tracking::sample_distance` with the estimator `(*tr).params.estimator` (delta,
 // weighted_delta, decomposition, weighted_decomposition, spectral) over the segments of `dda`:
 // sets (*tr).event, (*tr).t_event and the weight (*tr).w (grey in .x; 1 for analog trackers).
 // `beta` is the path throughput, used by spectral tracking's history-aware probabilities.

@@ -1,10 +1,10 @@
-// Mirrors the `sample_distance` function of each distance-sampling estimator in
+// Mirrors `tracking::sample_distance` with each distance-sampling estimator of
 // src/volume/tracking/ (delta, weighted_delta, decomposition, weighted_decomposition, spectral),
 // run over the segments of DdaMajorantIterator::new / ::global with path throughput 1:
 //
 //   let mut rng = Rng::new(i, 0, seed);
 //   let segs = DdaMajorantIterator::new(&bounds, &ray, ray.t_min, ray.t_max, scale);
-//   estimator::sample_distance(segs, ray.t_max, .., &medium, &mut rng, &mut stats)
+//   tracking::sample_distance(&estimator, segs, ray.t_max, &medium, &mut rng, &mut stats)
 //
 // One invocation per (ray, sample): invocation i samples ray i / samples_per_ray.
 

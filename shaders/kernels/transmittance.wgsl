@@ -1,10 +1,10 @@
-// Mirrors the `transmittance` function of each estimator in src/volume/tracking/ (delta,
+// Mirrors `tracking::transmittance` with each estimator of src/volume/tracking/ (delta,
 // weighted_delta, decomposition, weighted_decomposition, ratio, residual_ratio, spectral), run
 // over the segments of DdaMajorantIterator::new / ::global, as a caller on the CPU would:
 //
 //   let mut rng = Rng::new(i, 0, seed);
 //   let segs = DdaMajorantIterator::new(&bounds, &ray, ray.t_min, ray.t_max, scale);
-//   estimator::transmittance(segs, ray.t_max, .., &medium, &mut rng, &mut stats)
+//   tracking::transmittance(&estimator, segs, ray.t_max, &medium, &mut rng, &mut stats)
 //
 // One invocation per (ray, sample): invocation i estimates ray i / samples_per_ray.
 

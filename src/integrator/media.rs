@@ -16,7 +16,8 @@ use crate::render::settings::{Absorption, Estimator, MajorantMode};
 use crate::sampling::Rng;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{
-    self, spectral::SpectralProbabilities, Event, Medium, TrackingStats,
+    self, Decomposition, Delta, Event, Medium, Ratio, ResidualRatio, Spectral,
+    SpectralProbabilities, TrackingStats, WeightedDecomposition, WeightedDelta,
 };
 use crate::volume::{AdaptiveMajorantIterator, DdaMajorantIterator};
 
@@ -194,16 +195,12 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
         let Flight { rng, stats, l, .. } = f;
         let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, cfg.majorant, beta);
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
-            tracking::spectral::sample_distance(
-                segs,
-                t1,
-                cfg.b(),
-                &view,
+            let spectral = Spectral {
+                b: cfg.b(),
+                mode: SpectralProbabilities::HistoryAwareMax,
                 beta,
-                SpectralProbabilities::HistoryAwareMax,
-                rng,
-                &mut stats.tracking,
-            )
+            };
+            tracking::sample_distance(&spectral, segs, t1, &view, rng, &mut stats.tracking)
         });
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();
@@ -240,15 +237,17 @@ where
     M: Medium,
 {
     match cfg.estimator {
-        Estimator::Delta => tracking::delta::sample_distance(segs, t1, medium, rng, st),
+        Estimator::Delta => tracking::sample_distance(&Delta, segs, t1, medium, rng, st),
         Estimator::WeightedDelta => {
-            tracking::weighted_delta::sample_distance(segs, t1, cfg.b, medium, rng, st)
+            let weighted = WeightedDelta { b: cfg.b };
+            tracking::sample_distance(&weighted, segs, t1, medium, rng, st)
         }
         Estimator::Decomposition => {
-            tracking::decomposition::sample_distance(segs, t1, medium, rng, st)
+            tracking::sample_distance(&Decomposition, segs, t1, medium, rng, st)
         }
         Estimator::WeightedDecomposition => {
-            tracking::weighted_decomposition::sample_distance(segs, t1, cfg.b, medium, rng, st)
+            let weighted = WeightedDecomposition { b: cfg.b };
+            tracking::sample_distance(&weighted, segs, t1, medium, rng, st)
         }
     }
 }
@@ -332,31 +331,22 @@ pub fn transmittance_vdb<const CHROM: bool>(
         // Only sigma_t matters to a transmittance estimate.
         let view = RgbView::<false>::new(m, ray, Absorption::Event, cfg.majorant, Vec3::ONE);
         with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
-            tracking::spectral::transmittance(
-                segs,
-                t1,
-                cfg.b(),
-                &view,
-                SpectralProbabilities::HistoryAwareMax,
-                rng,
-                &mut stats.tracking,
-            )
+            let spectral = Spectral {
+                b: cfg.b(),
+                mode: SpectralProbabilities::HistoryAwareMax,
+                beta: Vec3::ONE,
+            };
+            tracking::transmittance(&spectral, segs, t1, &view, rng, &mut stats.tracking)
         })
     } else {
         let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
         let residual = cfg.residual_shadow();
         let t = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
+            let st = &mut stats.tracking;
             if residual {
-                tracking::residual_ratio::transmittance(
-                    segs,
-                    t1,
-                    cfg.b(),
-                    &view,
-                    rng,
-                    &mut stats.tracking,
-                )
+                tracking::transmittance(&ResidualRatio { b: cfg.b() }, segs, t1, &view, rng, st)
             } else {
-                tracking::ratio::transmittance(segs, t1, cfg.b(), &view, rng, &mut stats.tracking)
+                tracking::transmittance(&Ratio { b: cfg.b() }, segs, t1, &view, rng, st)
             }
         });
         Vec3::splat(t)

@@ -65,8 +65,8 @@ use crate::render::settings::Absorption;
 use crate::volume::merge::MergedSegments;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{
-    self, spectral::SpectralProbabilities, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium,
-    MediumRgb,
+    self, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium, MediumRgb, Spectral,
+    SpectralProbabilities,
 };
 use crate::volume::MajorantSegment;
 
@@ -378,13 +378,16 @@ fn sample_rgb<const EMIT: bool>(
         hom,
         extra_lookups: Cell::new(0),
     };
-    let e = tracking::spectral::sample_distance(
+    let spectral = Spectral {
+        b: cfg.b(),
+        mode: SpectralProbabilities::HistoryAwareMax,
+        beta,
+    };
+    let e = tracking::sample_distance(
+        &spectral,
         MergedSegments::new(streams),
         t1,
-        cfg.b(),
         &mix,
-        beta,
-        SpectralProbabilities::HistoryAwareMax,
         rng,
         &mut stats.tracking,
     );

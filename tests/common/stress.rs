@@ -164,31 +164,31 @@ impl Est {
         I: IntoIterator<Item = MajorantSegment>,
         I::IntoIter: Clone,
     {
-        let escape = |e: tr::Event<f32>| match e {
-            tr::Event::Escape { weight } => weight,
-            _ => 0.0,
-        };
+        // The estimate of `T` by a transmittance estimator, and by the escape of a distance one.
+        macro_rules! transmittance {
+            ($estimator:expr) => {
+                tr::transmittance(&$estimator, segs, t_max, m, rng, st)
+            };
+        }
+        macro_rules! escape {
+            ($estimator:expr) => {
+                match tr::sample_distance(&$estimator, segs, t_max, m, rng, st) {
+                    tr::Event::Escape { weight } => weight,
+                    _ => 0.0,
+                }
+            };
+        }
         match *self {
-            Est::Delta => tr::delta::transmittance(segs, t_max, m, rng, st),
-            Est::WeightedDelta(b) => tr::weighted_delta::transmittance(segs, t_max, b, m, rng, st),
-            Est::Decomposition(_) => tr::decomposition::transmittance(segs, t_max, m, rng, st),
-            Est::WeightedDecomposition(b, _) => {
-                tr::weighted_decomposition::transmittance(segs, t_max, b, m, rng, st)
-            }
-            Est::Ratio(b) => tr::ratio::transmittance(segs, t_max, b, m, rng, st),
-            Est::ResidualRatio(b, _) => {
-                tr::residual_ratio::transmittance(segs, t_max, b, m, rng, st)
-            }
-            Est::DistDelta => escape(tr::delta::sample_distance(segs, t_max, m, rng, st)),
-            Est::DistWeightedDelta(b) => escape(tr::weighted_delta::sample_distance(
-                segs, t_max, b, m, rng, st,
-            )),
-            Est::DistDecomposition(_) => {
-                escape(tr::decomposition::sample_distance(segs, t_max, m, rng, st))
-            }
-            Est::DistWeightedDecomposition(b, _) => escape(
-                tr::weighted_decomposition::sample_distance(segs, t_max, b, m, rng, st),
-            ),
+            Est::Delta => transmittance!(tr::Delta),
+            Est::WeightedDelta(b) => transmittance!(tr::WeightedDelta { b }),
+            Est::Decomposition(_) => transmittance!(tr::Decomposition),
+            Est::WeightedDecomposition(b, _) => transmittance!(tr::WeightedDecomposition { b }),
+            Est::Ratio(b) => transmittance!(tr::Ratio { b }),
+            Est::ResidualRatio(b, _) => transmittance!(tr::ResidualRatio { b }),
+            Est::DistDelta => escape!(tr::Delta),
+            Est::DistWeightedDelta(b) => escape!(tr::WeightedDelta { b }),
+            Est::DistDecomposition(_) => escape!(tr::Decomposition),
+            Est::DistWeightedDecomposition(b, _) => escape!(tr::WeightedDecomposition { b }),
         }
     }
 }

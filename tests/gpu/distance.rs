@@ -1,5 +1,5 @@
 //! Every distance-sampling estimator's WGSL `sample_distance` (shaders/common/tracking.wgsl via
-//! the distance kernel) against the CPU `tracking::*::sample_distance`, sample by sample with
+//! the distance kernel) against the CPU `tracking::sample_distance`, sample by sample with
 //! the same `Rng::new(i, 0, seed)` streams, and by z-tests at 99.9 % of two unbiased
 //! functionals with known values:
 //!
@@ -91,20 +91,17 @@ fn cpu_sample(
     };
     let mut rng = Rng::new(i, 0, seed);
     let t_max = m.ray.t_max;
-    let grey = |e: Event<f32>| e.map3();
+    // One flight of a grey estimator.
+    macro_rules! grey {
+        ($estimator:expr) => {
+            tr::sample_distance(&$estimator, segs, t_max, &medium, &mut rng, st).map3()
+        };
+    }
     match est {
-        GpuEstimator::Delta => grey(tr::delta::sample_distance(
-            segs, t_max, &medium, &mut rng, st,
-        )),
-        GpuEstimator::WeightedDelta => grey(tr::weighted_delta::sample_distance(
-            segs, t_max, b, &medium, &mut rng, st,
-        )),
-        GpuEstimator::Decomposition => grey(tr::decomposition::sample_distance(
-            segs, t_max, &medium, &mut rng, st,
-        )),
-        GpuEstimator::WeightedDecomposition => grey(tr::weighted_decomposition::sample_distance(
-            segs, t_max, b, &medium, &mut rng, st,
-        )),
+        GpuEstimator::Delta => grey!(tr::Delta),
+        GpuEstimator::WeightedDelta => grey!(tr::WeightedDelta { b }),
+        GpuEstimator::Decomposition => grey!(tr::Decomposition),
+        GpuEstimator::WeightedDecomposition => grey!(tr::WeightedDecomposition { b }),
         GpuEstimator::Spectral => {
             let k = Vec3::from_array(RGB);
             let rgb_medium = CulledBy {
@@ -115,13 +112,15 @@ fn cpu_sample(
                 ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
                 voxel: &voxel,
             };
-            let e = tr::spectral::sample_distance(
+            let e = tr::sample_distance(
+                &tr::Spectral {
+                    b,
+                    mode: SpectralProbabilities::HistoryAwareMax,
+                    beta: Vec3::ONE,
+                },
                 segs,
                 t_max,
-                b,
                 &rgb_medium,
-                Vec3::ONE,
-                SpectralProbabilities::HistoryAwareMax,
                 &mut rng,
                 st,
             );

@@ -1,6 +1,6 @@
 //! Every estimator's WGSL transmittance (shaders/common/tracking.wgsl via the transmittance
 //! kernel) against the analytic / quadrature value by a z-test at 99.9 %, and against the CPU
-//! `tracking::*::transmittance` sample by sample with the same `Rng::new(i, 0, seed)` streams.
+//! `tracking::transmittance` sample by sample with the same `Rng::new(i, 0, seed)` streams.
 //!
 //! Majorants: per-cell, global, and the culled global walk (the same global segment, its
 //! collisions culled by the leaf cells on both sides with the same uniforms).
@@ -114,24 +114,23 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
     };
     let mut rng = Rng::new(i, 0, seed);
     let t_max = m.ray.t_max;
-    let grey = |v: f32| [v, 0.0, 0.0];
+    // One estimate of a grey estimator.
+    macro_rules! grey {
+        ($estimator:expr) => {
+            [
+                tr::transmittance(&$estimator, segs, t_max, &medium, &mut rng, st),
+                0.0,
+                0.0,
+            ]
+        };
+    }
     match c.estimator {
-        GpuEstimator::Delta => grey(tr::delta::transmittance(segs, t_max, &medium, &mut rng, st)),
-        GpuEstimator::WeightedDelta => grey(tr::weighted_delta::transmittance(
-            segs, t_max, c.b, &medium, &mut rng, st,
-        )),
-        GpuEstimator::Decomposition => grey(tr::decomposition::transmittance(
-            segs, t_max, &medium, &mut rng, st,
-        )),
-        GpuEstimator::WeightedDecomposition => grey(tr::weighted_decomposition::transmittance(
-            segs, t_max, c.b, &medium, &mut rng, st,
-        )),
-        GpuEstimator::Ratio => grey(tr::ratio::transmittance(
-            segs, t_max, c.b, &medium, &mut rng, st,
-        )),
-        GpuEstimator::ResidualRatio => grey(tr::residual_ratio::transmittance(
-            segs, t_max, c.b, &medium, &mut rng, st,
-        )),
+        GpuEstimator::Delta => grey!(tr::Delta),
+        GpuEstimator::WeightedDelta => grey!(tr::WeightedDelta { b: c.b }),
+        GpuEstimator::Decomposition => grey!(tr::Decomposition),
+        GpuEstimator::WeightedDecomposition => grey!(tr::WeightedDecomposition { b: c.b }),
+        GpuEstimator::Ratio => grey!(tr::Ratio { b: c.b }),
+        GpuEstimator::ResidualRatio => grey!(tr::ResidualRatio { b: c.b }),
         GpuEstimator::Spectral => {
             let k = Vec3::from_array(RGB);
             let rgb_medium = CulledBy {
@@ -142,12 +141,15 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
                 ratio: |t: f32| culling.map_or(1.0, |c| c.ratio(ray.at(t))),
                 voxel: &voxel,
             };
-            tr::spectral::transmittance(
+            tr::transmittance(
+                &tr::Spectral {
+                    b: c.b,
+                    mode: SpectralProbabilities::HistoryAwareMax,
+                    beta: Vec3::ONE,
+                },
                 segs,
                 t_max,
-                c.b,
                 &rgb_medium,
-                SpectralProbabilities::HistoryAwareMax,
                 &mut rng,
                 st,
             )

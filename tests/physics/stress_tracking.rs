@@ -183,11 +183,21 @@ fn non_bounding_majorants_in_1d_media() {
                 let (m, st, finite) = sample_many(n, 12, |rng, st| {
                     let segs = s.segments.iter().copied();
                     let e = match c {
-                        None => {
-                            tr::weighted_delta::sample_distance(segs, s.t_max, b, &medium, rng, st)
-                        }
-                        Some(_) => tr::weighted_decomposition::sample_distance(
-                            segs, s.t_max, b, &medium, rng, st,
+                        None => tr::sample_distance(
+                            &tr::WeightedDelta { b },
+                            segs,
+                            s.t_max,
+                            &medium,
+                            rng,
+                            st,
+                        ),
+                        Some(_) => tr::sample_distance(
+                            &tr::WeightedDecomposition { b },
+                            segs,
+                            s.t_max,
+                            &medium,
+                            rng,
+                            st,
                         ),
                     };
                     assert!(

@@ -14,6 +14,28 @@ use glam::Vec3;
 
 const N: u32 = 200_000;
 
+/// One estimate of a grey `estimator` over scene `s` through `medium`.
+fn estimate<E, M>(
+    estimator: &E,
+    s: &Scene,
+    medium: &M,
+    rng: &mut Rng,
+    st: &mut TrackingStats,
+) -> f64
+where
+    E: tr::TransmittanceEstimator<M, Weight = f32>,
+    M: Medium,
+{
+    tr::transmittance(
+        estimator,
+        s.segments.iter().copied(),
+        s.t_max,
+        medium,
+        rng,
+        st,
+    ) as f64
+}
+
 /// Runs `n` independent estimates of one estimator and z-tests their mean.
 fn check(
     label: &str,
@@ -45,7 +67,7 @@ fn delta_tracking_transmittance() {
         let medium = s.medium(ControlExtinction::None);
         let label = format!("delta {}", s.name);
         let st = check(&label, 1, N, s.transmittance(), |rng, st| {
-            tr::delta::transmittance(s.segments.iter().copied(), s.t_max, &medium, rng, st) as f64
+            estimate(&tr::Delta, &s, &medium, rng, st)
         });
         unbiased_run(&label, &st);
     }
@@ -61,14 +83,7 @@ fn weighted_delta_tracking_transmittance() {
             // sample standard error needs many more samples to be trustworthy.
             let n = if b < 0.5 { 10 * N } else { N };
             let st = check(&label, 2, n, s.transmittance(), |rng, st| {
-                tr::weighted_delta::transmittance(
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    b,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::WeightedDelta { b }, &s, &medium, rng, st)
             });
             println!("    max |w| = {:.3e}", st.max_abs_weight);
             unbiased_run(&label, &st);
@@ -82,8 +97,7 @@ fn decomposition_tracking_transmittance() {
         let medium = s.medium(ControlExtinction::SegmentMinorant);
         let label = format!("decomposition sigma_c=seg.sigma_min {}", s.name);
         let st = check(&label, 3, N, s.transmittance(), |rng, st| {
-            tr::decomposition::transmittance(s.segments.iter().copied(), s.t_max, &medium, rng, st)
-                as f64
+            estimate(&tr::Decomposition, &s, &medium, rng, st)
         });
         unbiased_run(&label, &st);
     }
@@ -98,14 +112,7 @@ fn weighted_decomposition_transmittance_control_above_minorant() {
         for b in [1.0, 0.5] {
             let label = format!("weighted decomposition m=0.8 b={b} {}", s.name);
             let st = check(&label, 4, N, s.transmittance(), |rng, st| {
-                tr::weighted_decomposition::transmittance(
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    b,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::WeightedDecomposition { b }, &s, &medium, rng, st)
             });
             unbiased_run(&label, &st);
         }
@@ -119,8 +126,7 @@ fn ratio_tracking_transmittance() {
         for b in [1.0, 0.5, 2.0] {
             let label = format!("ratio b={b} {}", s.name);
             let st = check(&label, 5, N, s.transmittance(), |rng, st| {
-                tr::ratio::transmittance(s.segments.iter().copied(), s.t_max, b, &medium, rng, st)
-                    as f64
+                estimate(&tr::Ratio { b }, &s, &medium, rng, st)
             });
             unbiased_run(&label, &st);
         }
@@ -138,14 +144,7 @@ fn residual_ratio_tracking_transmittance() {
             let medium = s.medium(control);
             let label = format!("residual ratio {control:?} b={b} {}", s.name);
             let st = check(&label, 6, N, s.transmittance(), |rng, st| {
-                tr::residual_ratio::transmittance(
-                    s.segments.iter().copied(),
-                    s.t_max,
-                    b,
-                    &medium,
-                    rng,
-                    st,
-                ) as f64
+                estimate(&tr::ResidualRatio { b }, &s, &medium, rng, st)
             });
             unbiased_run(&label, &st);
         }
@@ -160,10 +159,10 @@ fn residual_ratio_exact_control_is_free() {
     let medium = s.medium(ControlExtinction::SegmentMinorant);
     let mut st = TrackingStats::default();
     let mut rng = Rng::new(0, 0, 7);
-    let t = tr::residual_ratio::transmittance(
+    let t = tr::transmittance(
+        &tr::ResidualRatio { b: 1.0 },
         s.segments.iter().copied(),
         s.t_max,
-        1.0,
         &medium,
         &mut rng,
         &mut st,
@@ -188,12 +187,15 @@ fn spectral_tracking_transmittance_grey() {
             for b in [1.0, 0.5] {
                 let label = format!("spectral {mode:?} b={b} grey {}", s.name);
                 let st = check(&label, 8, N, s.transmittance(), |rng, st| {
-                    tr::spectral::transmittance(
+                    tr::transmittance(
+                        &tr::Spectral {
+                            b,
+                            mode,
+                            beta: Vec3::ONE,
+                        },
                         s.segments.iter().copied(),
                         s.t_max,
-                        b,
                         &medium,
-                        mode,
                         rng,
                         st,
                     )
@@ -231,12 +233,15 @@ fn spectral_tracking_transmittance_per_channel() {
             let mut st = TrackingStats::default();
             for i in 0..common::samples(N) {
                 let mut rng = Rng::new(i, 0, 9);
-                let t = tr::spectral::transmittance(
+                let t = tr::transmittance(
+                    &tr::Spectral {
+                        b: 1.0,
+                        mode,
+                        beta: Vec3::ONE,
+                    },
                     segs.iter().copied(),
                     s.t_max,
-                    1.0,
                     &medium,
-                    mode,
                     &mut rng,
                     &mut st,
                 );
@@ -301,44 +306,47 @@ fn culled_global_walk_transmittance() {
                 unbiased_run(&label, &st);
                 runs.push((label, st));
             };
+        let weighted_delta = tr::WeightedDelta { b: 2.0 };
+        let weighted_decomposition = tr::WeightedDecomposition { b: 1.0 };
+        let residual_ratio = tr::ResidualRatio { b: 1.0 };
         run(format!("culled delta {}", s.name), 21, &mut |rng, st| {
-            tr::delta::transmittance(seg(), s.t_max, &none, rng, st)
+            tr::transmittance(&tr::Delta, seg(), s.t_max, &none, rng, st)
         });
         run(
             format!("culled weighted delta b=2 {}", s.name),
             22,
-            &mut |rng, st| tr::weighted_delta::transmittance(seg(), s.t_max, 2.0, &none, rng, st),
+            &mut |rng, st| tr::transmittance(&weighted_delta, seg(), s.t_max, &none, rng, st),
         );
         run(
             format!("culled decomposition {}", s.name),
             23,
-            &mut |rng, st| tr::decomposition::transmittance(seg(), s.t_max, &minorant, rng, st),
+            &mut |rng, st| {
+                tr::transmittance(&tr::Decomposition, seg(), s.t_max, &minorant, rng, st)
+            },
         );
         run(
             format!("culled weighted decomposition {}", s.name),
             24,
             &mut |rng, st| {
-                tr::weighted_decomposition::transmittance(seg(), s.t_max, 1.0, &minorant, rng, st)
+                tr::transmittance(&weighted_decomposition, seg(), s.t_max, &minorant, rng, st)
             },
         );
         run(format!("culled ratio {}", s.name), 25, &mut |rng, st| {
-            tr::ratio::transmittance(seg(), s.t_max, 1.0, &none, rng, st)
+            tr::transmittance(&tr::Ratio { b: 1.0 }, seg(), s.t_max, &none, rng, st)
         });
         run(
             format!("culled residual ratio {}", s.name),
             26,
-            &mut |rng, st| {
-                tr::residual_ratio::transmittance(seg(), s.t_max, 1.0, &minorant, rng, st)
-            },
+            &mut |rng, st| tr::transmittance(&residual_ratio, seg(), s.t_max, &minorant, rng, st),
         );
         // Thinned back to the segments' bounds, ratio tracking looks up as often as it does on
         // the segments themselves (within noise), never more than on the global segment.
         let ratio_culled = runs[4].1.lookups;
         let plain = check("ratio, global segment", 25, N, t, |rng, st| {
-            tr::ratio::transmittance(
+            tr::transmittance(
+                &tr::Ratio { b: 1.0 },
                 seg(),
                 s.t_max,
-                1.0,
                 &s.medium(ControlExtinction::None),
                 rng,
                 st,
@@ -364,10 +372,11 @@ fn ratio_tracking_ignores_the_voxel_stage() {
         let (global, ratio) = s.culled();
         let seg = || std::iter::once(global);
         let half = |_t: f32, _bound: f32| 0.5f32;
+        let (ratio_tracking, residual_ratio) = (tr::Ratio { b: 1.0 }, tr::ResidualRatio { b: 1.0 });
         let medium = |control, voxel: &dyn Fn(f32, f32) -> f32| {
             let inner = s.medium(control);
-            let mut rng = Rng::new(3, 5, 7);
-            let mut st = TrackingStats::default();
+            let rng = &mut Rng::new(3, 5, 7);
+            let st = &mut TrackingStats::default();
             let culled = CulledBy {
                 inner,
                 ratio: &ratio,
@@ -377,16 +386,9 @@ fn ratio_tracking_ignores_the_voxel_stage() {
             for _ in 0..2000 {
                 out.push(match control {
                     ControlExtinction::None => {
-                        tr::ratio::transmittance(seg(), s.t_max, 1.0, &culled, &mut rng, &mut st)
+                        tr::transmittance(&ratio_tracking, seg(), s.t_max, &culled, rng, st)
                     }
-                    _ => tr::residual_ratio::transmittance(
-                        seg(),
-                        s.t_max,
-                        1.0,
-                        &culled,
-                        &mut rng,
-                        &mut st,
-                    ),
+                    _ => tr::transmittance(&residual_ratio, seg(), s.t_max, &culled, rng, st),
                 });
             }
             (out, st.lookups)
@@ -405,7 +407,7 @@ fn ratio_tracking_ignores_the_voxel_stage() {
             };
             let (mut rng, mut st) = (Rng::new(3, 5, 7), TrackingStats::default());
             for _ in 0..2000 {
-                tr::delta::transmittance(seg(), s.t_max, &culled, &mut rng, &mut st);
+                tr::transmittance(&tr::Delta, seg(), s.t_max, &culled, &mut rng, &mut st);
             }
             st.lookups
         };

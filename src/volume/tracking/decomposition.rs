@@ -30,9 +30,8 @@
 //! lookup that breaks one counts a `majorant_violation`. For controls above the minorant use
 //! weighted decomposition tracking.
 use super::delta::bernoulli;
-use super::flight::{self, Grey, Outcome, Real, Walk};
-use super::{check_bound, lookup, Event, Medium, TrackingStats, MAJORANT_TOLERANCE};
-use crate::sampling::Rng;
+use super::flight::{DistanceEstimator, Estimator, Outcome, Real, Tracker, TransmittanceEstimator};
+use super::{check_bound, lookup, Collision, Medium, TrackingStats, MAJORANT_TOLERANCE};
 use crate::volume::MajorantSegment;
 
 /// Counts a violation when the control exceeds a component of the looked-up coefficients.
@@ -44,93 +43,64 @@ fn check_residual(r_a: f32, r_s: f32, sigma_maj: f32, stats: &mut TrackingStats)
     }
 }
 
-/// The walk with majorant `majorant`, with the per-voxel stage where the control is 0.
-fn walk<Mj: FnMut(&MajorantSegment) -> f32>(majorant: Mj) -> Walk<Mj> {
-    Walk {
-        majorant,
-        voxel: Some((1.0, true)),
-        roulette: false,
+/// Analog decomposition tracking: the bound itself is the majorant of distance sampling, the
+/// bound minus the control that of the residual's transmittance, with the per-voxel stage where
+/// the control is 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Decomposition;
+
+impl<M: Medium + ?Sized> Estimator<M> for Decomposition {
+    type Weight = f32;
+    const CONTROL: bool = true;
+}
+
+impl<M: Medium + ?Sized> DistanceEstimator<M> for Decomposition {
+    /// The first real (control or residual) collision; weights are 1.
+    #[inline]
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let ctl = tr.medium.control(&c.seg);
+        let x = tr.rng.uniform_f32() * c.sigma_maj;
+        if x < ctl.sigma_a {
+            return Outcome::Control(Real::Absorb);
+        }
+        if x < ctl.sigma_t() {
+            return Outcome::Control(Real::Scatter);
+        }
+        let k = lookup(tr.medium, c.t, tr.stats);
+        check_bound(k.sigma_t(), c.sigma_maj, tr.stats);
+        let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
+        check_residual(r_a, r_s, c.sigma_maj, tr.stats);
+        let x = x - ctl.sigma_t();
+        if x < r_a {
+            Outcome::Real(Real::Absorb, None)
+        } else if x < r_a + r_s {
+            Outcome::Real(Real::Scatter, None)
+        } else {
+            Outcome::Null(None)
+        }
     }
 }
 
-/// Samples the first real (control or residual) collision; weights are 1.
-pub fn sample_distance<I, M>(
-    segments: I,
-    t_max: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> Event<f32>
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    flight::distance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk(|seg: &MajorantSegment| seg.sigma_maj),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let ctl = medium.control(&c.seg);
-            let x = rng.uniform_f32() * c.sigma_maj;
-            if x < ctl.sigma_a {
-                return Outcome::Control(Real::Absorb);
-            }
-            if x < ctl.sigma_t() {
-                return Outcome::Control(Real::Scatter);
-            }
-            let k = lookup(medium, c.t, stats);
-            check_bound(k.sigma_t(), c.sigma_maj, stats);
-            let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
-            check_residual(r_a, r_s, c.sigma_maj, stats);
-            let x = x - ctl.sigma_t();
-            if x < r_a {
-                Outcome::Real(Real::Absorb, None)
-            } else if x < r_a + r_s {
-                Outcome::Real(Real::Scatter, None)
-            } else {
-                Outcome::Null(None)
-            }
-        },
-    )
-}
+impl<M: Medium + ?Sized> TransmittanceEstimator<M> for Decomposition {
+    /// The residual is delta-tracked against the bound minus the control.
+    #[inline]
+    fn transmittance_majorant(&self, medium: &M, seg: &MajorantSegment) -> f32 {
+        (seg.sigma_maj - medium.control(seg).sigma_t()).max(0.0)
+    }
 
-/// `exp(-int sigma_c) * (Bernoulli residual estimate)`: either 0 or the control transmittance.
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    // The residual is delta-tracked against the bound minus the control; the estimate is the
-    // control factor (a residual weight of 1) unless a real residual collision zeroes it.
-    let residual_majorant =
-        |seg: &MajorantSegment| (seg.sigma_maj - medium.control(seg).sigma_t()).max(0.0);
-    flight::control_transmittance(
-        segments,
-        t_max,
-        medium,
-        walk(residual_majorant),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let ctl = medium.control(&c.seg);
-            let k = lookup(medium, c.t, stats);
-            check_bound(k.sigma_t(), c.seg.sigma_maj, stats);
-            check_residual(
-                k.sigma_a - ctl.sigma_a,
-                k.sigma_s - ctl.sigma_s,
-                c.seg.sigma_maj,
-                stats,
-            );
-            bernoulli(k.sigma_t() - ctl.sigma_t(), c.sigma_maj, rng)
-        },
-    )
+    /// The Bernoulli estimate of the residual: the whole estimate is the control factor (a
+    /// residual weight of 1) unless a real residual collision zeroes it.
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let ctl = tr.medium.control(&c.seg);
+        let k = lookup(tr.medium, c.t, tr.stats);
+        check_bound(k.sigma_t(), c.seg.sigma_maj, tr.stats);
+        check_residual(
+            k.sigma_a - ctl.sigma_a,
+            k.sigma_s - ctl.sigma_s,
+            c.seg.sigma_maj,
+            tr.stats,
+        );
+        bernoulli(k.sigma_t() - ctl.sigma_t(), c.sigma_maj, tr.rng)
+    }
 }

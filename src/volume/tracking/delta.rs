@@ -20,80 +20,44 @@
 //! real-collision probability is capped at 1); this is counted in
 //! `TrackingStats::majorant_violations` so the caller can report biased results. Use weighted
 //! delta tracking when the majorant does not bound.
-use super::flight::{self, Grey, Outcome, Real, Walk};
-use super::{check_bound, lookup, scaled_majorant, Event, Medium, TrackingStats};
+use super::flight::{DistanceEstimator, Estimator, Outcome, Real, Tracker, TransmittanceEstimator};
+use super::{check_bound, lookup, Collision, Medium};
 use crate::sampling::Rng;
-use crate::volume::MajorantSegment;
 
-/// The walk of both functions: the bound itself, with the per-voxel stage.
-fn walk() -> Walk<impl FnMut(&MajorantSegment) -> f32> {
-    Walk {
-        majorant: scaled_majorant(1.0),
-        voxel: Some((1.0, false)),
-        roulette: false,
+/// Analog delta tracking: the bound itself is the majorant, with the per-voxel stage.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Delta;
+
+impl<M: Medium + ?Sized> Estimator<M> for Delta {
+    type Weight = f32;
+}
+
+impl<M: Medium + ?Sized> DistanceEstimator<M> for Delta {
+    /// The first real collision (analog: weights are 1).
+    #[inline]
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let k = lookup(tr.medium, c.t, tr.stats);
+        check_bound(k.sigma_t(), c.sigma_maj, tr.stats);
+        // One uniform against the CDF [sigma_a, sigma_a + sigma_s, sigma_maj].
+        let x = tr.rng.uniform_f32() * c.sigma_maj;
+        if x < k.sigma_a {
+            Outcome::Real(Real::Absorb, None)
+        } else if x < k.sigma_a + k.sigma_s {
+            Outcome::Real(Real::Scatter, None)
+        } else {
+            Outcome::Null(None)
+        }
     }
 }
 
-/// Samples the first real collision along the segments (analog: weights are 1).
-pub fn sample_distance<I, M>(
-    segments: I,
-    t_max: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> Event<f32>
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    flight::distance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk(),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let k = lookup(medium, c.t, stats);
-            check_bound(k.sigma_t(), c.sigma_maj, stats);
-            // One uniform against the CDF [sigma_a, sigma_a + sigma_s, sigma_maj].
-            let x = rng.uniform_f32() * c.sigma_maj;
-            if x < k.sigma_a {
-                Outcome::Real(Real::Absorb, None)
-            } else if x < k.sigma_a + k.sigma_s {
-                Outcome::Real(Real::Scatter, None)
-            } else {
-                Outcome::Null(None)
-            }
-        },
-    )
-}
-
-/// Bernoulli transmittance estimate over `[segments, t_max]`: 1 or 0.
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    flight::transmittance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk(),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let sigma_t = lookup(medium, c.t, stats).sigma_t();
-            check_bound(sigma_t, c.sigma_maj, stats);
-            bernoulli(sigma_t, c.sigma_maj, rng)
-        },
-    )
+impl<M: Medium + ?Sized> TransmittanceEstimator<M> for Delta {
+    /// The Bernoulli estimate: 1 or 0.
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let sigma_t = lookup(tr.medium, c.t, tr.stats).sigma_t();
+        check_bound(sigma_t, c.sigma_maj, tr.stats);
+        bernoulli(sigma_t, c.sigma_maj, tr.rng)
+    }
 }
 
 /// The transmittance rule of delta tracking, and of decomposition tracking on the residual:

@@ -1,11 +1,14 @@
-//! The flight every estimator shares around its collision rule: the walk over majorant
-//! segments with its culling stages ([`sample_free_flight`]), the emission hook of distance
-//! sampling, the counters, the weight's update and its Russian roulette, and the event that
-//! ends the flight. An estimator writes only its majorant ([`Walk`]) and a rule that turns one
-//! tentative collision into an [`Outcome`].
+//! The flight every estimator shares around its collision rule, and the traits through which an
+//! estimator plugs into it. The walk over majorant segments with its culling stages
+//! ([`sample_free_flight`]), the emission hook of distance sampling, the counters, the weight's
+//! update and its Russian roulette, the closed-form control factor and the event or estimate
+//! that ends the flight are written here once, in [`sample_distance`] and [`transmittance`].
+//! An estimator is a type whose value holds its parameters (the majorant scale `b`, ...): it
+//! states its walk ([`Estimator`]) and the rule that turns one tentative collision into an
+//! [`Outcome`] ([`DistanceEstimator`], [`TransmittanceEstimator`]).
 use super::{
-    roulette, sample_free_flight, voxel_stage, Collision, ControlDepthWalk, Event, Medium,
-    MediumRgb, TrackingStats, ROULETTE_THRESHOLD,
+    roulette, sample_free_flight, scaled_majorant, voxel_stage, Collision, ControlDepthWalk, Event,
+    Medium, MediumRgb, TrackingStats, ROULETTE_THRESHOLD,
 };
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
@@ -46,6 +49,8 @@ pub trait Weight: Copy + MulAssign {
     /// Unbiased Russian roulette at [`ROULETTE_THRESHOLD`]: the new weight, 0 when killed.
     fn roulette(self, rng: &mut Rng, stats: &mut TrackingStats) -> Self;
     fn is_zero(self) -> bool;
+    /// `s` times the weight.
+    fn scale(self, s: f32) -> Self;
 }
 
 impl Weight for f32 {
@@ -63,6 +68,10 @@ impl Weight for f32 {
     fn is_zero(self) -> bool {
         self == 0.0
     }
+    #[inline]
+    fn scale(self, s: f32) -> f32 {
+        s * self
+    }
 }
 
 impl Weight for Vec3 {
@@ -72,98 +81,140 @@ impl Weight for Vec3 {
     fn note(self, stats: &mut TrackingStats) {
         stats.note_weight(self.abs().max_element());
     }
-    /// Roulette on `max |w|`, rescaling every channel when the path survives.
+    /// The roulette of `max |w|`: a survivor's channels are rescaled as its max was.
     #[inline]
     fn roulette(self, rng: &mut Rng, stats: &mut TrackingStats) -> Vec3 {
         let m = self.abs().max_element();
-        if m >= ROULETTE_THRESHOLD || m == 0.0 {
-            return self;
-        }
-        if rng.uniform_f32() < m / ROULETTE_THRESHOLD {
-            self * (ROULETTE_THRESHOLD / m)
-        } else {
-            stats.roulette_kills += 1;
+        let survivor = roulette(m, ROULETTE_THRESHOLD, rng, stats);
+        if survivor == m {
+            self
+        } else if survivor == 0.0 {
             Vec3::ZERO
+        } else {
+            self * (survivor / m)
         }
     }
     #[inline]
     fn is_zero(self) -> bool {
         self == Vec3::ZERO
     }
+    #[inline]
+    fn scale(self, s: f32) -> Vec3 {
+        s * self
+    }
 }
 
-/// What the shared flight asks of a medium besides its lookups (which the rules make): its
-/// culling, its per-voxel stage and its emission hook, in the weight of its estimators.
-pub trait FlightMedium {
-    type Weight: Weight;
+/// What the shared flight asks of a medium besides its lookups (which the rules make), in the
+/// weight `W` of its estimators: grey [`Medium`]s fly with `f32`, RGB [`MediumRgb`]s with
+/// `Vec3`.
+pub trait FlightMedium<W> {
     /// [`Medium::cull_ratio`].
     fn cull_ratio(&self, t: f32) -> f32;
-    /// [`voxel_stage`] with majorant scale `b` and `with_control`.
-    fn voxel_ratio(
-        &self,
-        b: f32,
-        with_control: bool,
-        t: f32,
-        seg: &MajorantSegment,
-        bound: f32,
-    ) -> f32;
     /// [`Medium::on_collision`].
-    fn on_collision(&self, t: f32, sigma_maj: f32, w: Self::Weight);
+    fn on_collision(&self, t: f32, sigma_maj: f32, w: W);
+    /// [`Medium::voxel_ratio`]. Default: no per-voxel stage.
+    #[inline]
+    fn voxel_ratio(&self, _t: f32, _seg: &MajorantSegment, _bound: f32) -> f32 {
+        1.0
+    }
+    /// The control extinction over `seg` ([`Medium::control`]). Default: no control.
+    #[inline]
+    fn sigma_c(&self, _seg: &MajorantSegment) -> f32 {
+        0.0
+    }
 }
 
-/// A grey [`Medium`] as the shared flight sees it.
-pub struct Grey<'m, M: ?Sized>(pub &'m M);
-
-/// An RGB [`MediumRgb`] as the shared flight sees it: no per-voxel stage.
-pub struct Rgb<'m, M: ?Sized>(pub &'m M);
-
-impl<M: Medium + ?Sized> FlightMedium for Grey<'_, M> {
-    type Weight = f32;
+impl<M: Medium + ?Sized> FlightMedium<f32> for M {
     #[inline]
     fn cull_ratio(&self, t: f32) -> f32 {
-        self.0.cull_ratio(t)
+        Medium::cull_ratio(self, t)
     }
     #[inline]
-    fn voxel_ratio(
-        &self,
-        b: f32,
-        with_control: bool,
-        t: f32,
-        seg: &MajorantSegment,
-        bound: f32,
-    ) -> f32 {
-        voxel_stage(self.0, b, with_control, t, seg, bound)
+    fn voxel_ratio(&self, t: f32, seg: &MajorantSegment, bound: f32) -> f32 {
+        Medium::voxel_ratio(self, t, seg, bound)
+    }
+    #[inline]
+    fn sigma_c(&self, seg: &MajorantSegment) -> f32 {
+        self.control(seg).sigma_t()
     }
     #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
-        self.0.on_collision(t, sigma_maj, w)
+        Medium::on_collision(self, t, sigma_maj, w)
     }
 }
 
-impl<M: MediumRgb + ?Sized> FlightMedium for Rgb<'_, M> {
-    type Weight = Vec3;
+impl<M: MediumRgb + ?Sized> FlightMedium<Vec3> for M {
     #[inline]
     fn cull_ratio(&self, t: f32) -> f32 {
-        self.0.cull_ratio(t)
-    }
-    #[inline]
-    fn voxel_ratio(&self, _: f32, _: bool, _: f32, _: &MajorantSegment, _: f32) -> f32 {
-        1.0
+        MediumRgb::cull_ratio(self, t)
     }
     #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
-        self.0.on_collision(t, sigma_maj, w)
+        MediumRgb::on_collision(self, t, sigma_maj, w)
     }
 }
 
-/// An estimator's walk: the majorant it samples tentative collisions with over a segment,
-/// whether it takes the per-voxel stage ([`voxel_stage`]'s `b` and `with_control`; `None`
-/// where it would raise the variance), and whether Russian roulette follows its null
-/// collisions.
-pub struct Walk<Mj> {
-    pub majorant: Mj,
-    pub voxel: Option<(f32, bool)>,
-    pub roulette: bool,
+/// What a collision rule works with: the medium it looks up, the random numbers it draws, the
+/// counters it updates, and `w`, the weight before the collision.
+pub struct Tracker<'a, M: ?Sized, W> {
+    pub medium: &'a M,
+    pub rng: &'a mut Rng,
+    pub stats: &'a mut TrackingStats,
+    pub w: W,
+}
+
+/// A null-collision estimator: the walk it samples tentative collisions with, the same for
+/// both of its functions unless [`TransmittanceEstimator::transmittance_majorant`] says
+/// otherwise. Its value holds its parameters.
+pub trait Estimator<M: ?Sized> {
+    /// `f32` for a grey [`Medium`], `Vec3` for an RGB [`MediumRgb`].
+    type Weight: Weight;
+    /// Whether the extinction splits into a lookup-free control component
+    /// ([`Medium::control`]) and a residual: the transmittance estimate is then the control's
+    /// `exp(-int sigma_c)` in closed form times the walk's estimate of the residual, and the
+    /// per-voxel stage thins only where the control is 0 ([`voxel_stage`]).
+    const CONTROL: bool = false;
+    /// Whether the walk takes the per-voxel stage ([`voxel_stage`]); `false` where it would
+    /// raise the variance.
+    const VOXEL_STAGE: bool = true;
+    /// Whether Russian roulette ([`ROULETTE_THRESHOLD`]) follows every null collision, for
+    /// estimators whose weights shrink there.
+    const ROULETTE: bool = false;
+    /// The majorant scale `b` (1: the bound itself).
+    fn b(&self) -> f32 {
+        1.0
+    }
+    /// The majorant over `seg`: [`scaled_majorant`] unless the estimator says otherwise.
+    #[inline]
+    fn majorant(&self, _medium: &M, seg: &MajorantSegment) -> f32 {
+        scaled_majorant(self.b())(seg)
+    }
+}
+
+/// An estimator that samples free-flight distances ([`sample_distance`]).
+pub trait DistanceEstimator<M: ?Sized>: Estimator<M> {
+    /// What tentative collision `c` is.
+    fn distance_rule(
+        &self,
+        tr: &mut Tracker<'_, M, Self::Weight>,
+        c: &Collision,
+    ) -> Outcome<Self::Weight>;
+}
+
+/// An estimator of transmittance ([`transmittance`]).
+pub trait TransmittanceEstimator<M: ?Sized>: Estimator<M> {
+    /// The majorant of the transmittance walk over `seg`; with a control
+    /// ([`Estimator::CONTROL`]), the residual's. Default: [`Estimator::majorant`].
+    #[inline]
+    fn transmittance_majorant(&self, medium: &M, seg: &MajorantSegment) -> f32 {
+        self.majorant(medium, seg)
+    }
+    /// What tentative collision `c` is; a real collision zeroes the estimate.
+    fn transmittance_rule(
+        &self,
+        tr: &mut Tracker<'_, M, Self::Weight>,
+        c: &Collision,
+    ) -> Outcome<Self::Weight>;
 }
 
 /// How a flight ended before `t_max`: a real or control event, or no weight left.
@@ -173,43 +224,43 @@ enum End {
     Dead(f32),
 }
 
-/// The shared flight: [`sample_free_flight`] over `walk`'s majorant and the medium's culling
-/// stages, the rule at each collision (after the emission hook when `distance`), and the
-/// outcome's counters, weight update and roulette. `w` is the weight the rule sees and
-/// updates; returns how the flight ended (`None`: it escaped).
+/// The shared flight: [`sample_free_flight`] over `majorant` and the medium's culling stages
+/// (the per-voxel one as `estimator` says), the rule at each collision (after the emission hook
+/// when `distance`), and the outcome's counters, weight update and roulette. `w` is the weight
+/// the rule sees and updates; returns how the flight ended (`None`: it escaped).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn fly<I, F, Mj, C>(
+fn fly<E, I, M, Mj, C>(
+    estimator: &E,
     segments: I,
     t_max: f32,
-    medium: &F,
-    walk: Walk<Mj>,
+    medium: &M,
+    majorant: Mj,
     distance: bool,
     rng: &mut Rng,
     stats: &mut TrackingStats,
-    w: &mut F::Weight,
+    w: &mut E::Weight,
     mut rule: C,
 ) -> Option<End>
 where
+    E: Estimator<M>,
     I: IntoIterator<Item = MajorantSegment>,
-    F: FlightMedium + ?Sized,
+    M: FlightMedium<E::Weight> + ?Sized,
     Mj: FnMut(&MajorantSegment) -> f32,
-    C: FnMut(&mut Rng, &mut TrackingStats, &Collision, F::Weight) -> Outcome<F::Weight>,
+    C: FnMut(&mut Tracker<'_, M, E::Weight>, &Collision) -> Outcome<E::Weight>,
 {
-    let Walk {
-        majorant,
-        voxel,
-        roulette,
-    } = walk;
     let mut end = None;
     sample_free_flight(
         segments,
         t_max,
         majorant,
         |t| medium.cull_ratio(t),
-        |t, seg, bound| match voxel {
-            Some((b, with_control)) => medium.voxel_ratio(b, with_control, t, seg, bound),
-            None => 1.0,
+        |t, seg, bound| {
+            if E::VOXEL_STAGE {
+                voxel_stage(medium, estimator.b(), E::CONTROL, t, seg, bound)
+            } else {
+                1.0
+            }
         },
         rng,
         stats,
@@ -217,14 +268,20 @@ where
             if distance {
                 medium.on_collision(c.t, c.sigma_maj, *w);
             }
-            let (real, factor) = match rule(rng, stats, c, *w) {
+            let mut tr = Tracker {
+                medium,
+                rng: &mut *rng,
+                stats: &mut *stats,
+                w: *w,
+            };
+            let (real, factor) = match rule(&mut tr, c) {
                 Outcome::Null(factor) => {
                     stats.null_collisions += 1;
                     if let Some(f) = factor {
                         *w *= f;
                         w.note(stats);
                     }
-                    if roulette {
+                    if E::ROULETTE {
                         *w = w.roulette(rng, stats);
                         if w.is_zero() {
                             end = Some(End::Dead(c.t));
@@ -257,29 +314,35 @@ where
     end
 }
 
-/// A `sample_distance` from its walk and collision rule: the flight calls
-/// [`Medium::on_collision`] with the weight so far at every collision the culling keeps, and
-/// ends in the rule's event with the weight after it, absorbed with weight 0 when no weight is
-/// left, or escaping with the weight.
-#[inline(always)]
-pub fn distance<I, F, Mj, C>(
+/// Samples a free flight over `segments` clipped to `t_max` with `estimator`: the first real
+/// collision and its weight, absorbed with weight 0 when no weight is left, or the escape with
+/// its weight. Calls [`Medium::on_collision`] with the weight so far at every collision the
+/// culling keeps.
+pub fn sample_distance<E, I, M>(
+    estimator: &E,
     segments: I,
     t_max: f32,
-    medium: F,
-    walk: Walk<Mj>,
+    medium: &M,
     rng: &mut Rng,
     stats: &mut TrackingStats,
-    rule: C,
-) -> Event<F::Weight>
+) -> Event<E::Weight>
 where
+    E: DistanceEstimator<M>,
     I: IntoIterator<Item = MajorantSegment>,
-    F: FlightMedium,
-    Mj: FnMut(&MajorantSegment) -> f32,
-    C: FnMut(&mut Rng, &mut TrackingStats, &Collision, F::Weight) -> Outcome<F::Weight>,
+    M: FlightMedium<E::Weight> + ?Sized,
 {
-    let mut w = F::Weight::ONE;
+    let mut w = E::Weight::ONE;
     let end = fly(
-        segments, t_max, &medium, walk, true, rng, stats, &mut w, rule,
+        estimator,
+        segments,
+        t_max,
+        medium,
+        |seg: &MajorantSegment| estimator.majorant(medium, seg),
+        true,
+        rng,
+        stats,
+        &mut w,
+        |tr: &mut Tracker<'_, M, E::Weight>, c: &Collision| estimator.distance_rule(tr, c),
     );
     match end {
         None => Event::Escape { weight: w },
@@ -287,64 +350,61 @@ where
         Some(End::Event(Real::Scatter, t)) => Event::Scatter { t, weight: w },
         Some(End::Dead(t)) => Event::Absorb {
             t,
-            weight: F::Weight::ZERO,
+            weight: E::Weight::ZERO,
         },
     }
 }
 
-/// A `transmittance` from its walk and collision rule: the weight on escape or once roulette
-/// zeroed it, 0 after a real collision.
-#[inline(always)]
-pub fn transmittance<I, F, Mj, C>(
-    segments: I,
-    t_max: f32,
-    medium: F,
-    walk: Walk<Mj>,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-    rule: C,
-) -> F::Weight
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    F: FlightMedium,
-    Mj: FnMut(&MajorantSegment) -> f32,
-    C: FnMut(&mut Rng, &mut TrackingStats, &Collision, F::Weight) -> Outcome<F::Weight>,
-{
-    let mut w = F::Weight::ONE;
-    match fly(
-        segments, t_max, &medium, walk, false, rng, stats, &mut w, rule,
-    ) {
-        Some(End::Event(..)) => F::Weight::ZERO,
-        None | Some(End::Dead(_)) => w,
-    }
-}
-
-/// The transmittance of the control-based estimators (decomposition, weighted decomposition,
-/// residual ratio tracking): `exp(-int sigma_c)` in closed form, summed in the same walk
-/// ([`ControlDepthWalk`]), times [`transmittance`] of the residual. A zero closed-form factor
-/// makes the estimate 0 (the residual weight could overflow: 0 * inf = NaN), and a walk cut
-/// at the depth where it underflows returns 0 too.
-#[inline(always)]
-pub fn control_transmittance<I, M, Mj, C>(
+/// Estimates the transmittance over `segments` clipped to `t_max` with `estimator`: the weight
+/// on escape or once roulette zeroed it, 0 after a real collision. With a control
+/// ([`Estimator::CONTROL`]) that is the residual's estimate, times `exp(-int sigma_c)` summed
+/// in closed form in the same walk ([`ControlDepthWalk`]); a zero closed-form factor makes the
+/// estimate 0 (the residual weight could overflow: 0 * inf = NaN), and a walk cut at the depth
+/// where it underflows returns 0 too.
+pub fn transmittance<E, I, M>(
+    estimator: &E,
     segments: I,
     t_max: f32,
     medium: &M,
-    walk: Walk<Mj>,
     rng: &mut Rng,
     stats: &mut TrackingStats,
-    rule: C,
-) -> f32
+) -> E::Weight
 where
+    E: TransmittanceEstimator<M>,
     I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-    Mj: FnMut(&MajorantSegment) -> f32,
-    C: FnMut(&mut Rng, &mut TrackingStats, &Collision, f32) -> Outcome<f32>,
+    M: FlightMedium<E::Weight> + ?Sized,
 {
-    let mut segments = ControlDepthWalk::new(segments.into_iter(), t_max, medium);
-    let w = transmittance(&mut segments, t_max, Grey(medium), walk, rng, stats, rule);
+    let majorant = |seg: &MajorantSegment| estimator.transmittance_majorant(medium, seg);
+    let rule =
+        |tr: &mut Tracker<'_, M, E::Weight>, c: &Collision| estimator.transmittance_rule(tr, c);
+    let estimate = |end: Option<End>, w| match end {
+        Some(End::Event(..)) => E::Weight::ZERO,
+        None | Some(End::Dead(_)) => w,
+    };
+    let mut w = E::Weight::ONE;
+    if !E::CONTROL {
+        let end = fly(
+            estimator, segments, t_max, medium, majorant, false, rng, stats, &mut w, rule,
+        );
+        return estimate(end, w);
+    }
+    let sigma_c = |seg: &MajorantSegment| medium.sigma_c(seg);
+    let mut segments = ControlDepthWalk::new(segments.into_iter(), t_max, sigma_c);
+    let end = fly(
+        estimator,
+        &mut segments,
+        t_max,
+        medium,
+        majorant,
+        false,
+        rng,
+        stats,
+        &mut w,
+        rule,
+    );
     let t_control = segments.control_transmittance();
     if t_control == 0.0 {
-        return 0.0;
+        return E::Weight::ZERO;
     }
-    t_control * w
+    estimate(end, w).scale(t_control)
 }

@@ -6,18 +6,21 @@
 //! segment's majorant, and hands each one to a callback that decides (absorb, scatter, null,
 //! control, ...) and says whether to continue. `flight.rs` writes once what every estimator
 //! does around that decision (the culling stages, the emission hook, the counters, the weight's
-//! update, Russian roulette, the event or estimate it ends with), so each estimator file only
-//! writes its majorant and its collision rule:
+//! update, Russian roulette, the closed-form control factor, the event or estimate it ends
+//! with) in the two drivers [`sample_distance`] and [`transmittance`], generic over the
+//! estimator. An estimator is a type whose value holds its parameters (`WeightedDelta { b }`),
+//! and its module writes only its walk ([`Estimator`]) and its collision rules
+//! ([`DistanceEstimator`], [`TransmittanceEstimator`]):
 //!
-//! | file                        | distance sampling | transmittance            |
-//! |-----------------------------|-------------------|--------------------------|
-//! | `delta.rs`                  | analog            | Bernoulli (track length) |
-//! | `weighted_delta.rs`         | weighted, scale b | weighted Bernoulli       |
-//! | `decomposition.rs`          | analog            | closed-form control x Bernoulli residual |
-//! | `weighted_decomposition.rs` | weighted          | closed-form control x weighted residual  |
-//! | `ratio.rs`                  | -                 | ratio tracking           |
-//! | `residual_ratio.rs`         | -                 | residual ratio tracking  |
-//! | `spectral.rs` (RGB)         | weighted, history-aware | weighted, history-aware |
+//! | estimator                 | distance sampling       | transmittance                            |
+//! |---------------------------|-------------------------|------------------------------------------|
+//! | [`Delta`]                 | analog                  | Bernoulli (track length)                 |
+//! | [`WeightedDelta`]         | weighted, scale b       | weighted Bernoulli                       |
+//! | [`Decomposition`]         | analog                  | closed-form control x Bernoulli residual |
+//! | [`WeightedDecomposition`] | weighted                | closed-form control x weighted residual  |
+//! | [`Ratio`]                 | -                       | ratio tracking                           |
+//! | [`ResidualRatio`]         | -                       | residual ratio tracking                  |
+//! | [`Spectral`] (RGB)        | weighted, history-aware | weighted, history-aware                  |
 //!
 //! Random-number order (the WGSL mirror must match): one uniform per tentative collision for
 //! its exponential optical depth, drawn by the loop when the previous collision is consumed
@@ -33,8 +36,19 @@
 
 use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
+pub use decomposition::Decomposition;
+pub use delta::Delta;
+pub use flight::{
+    sample_distance, transmittance, DistanceEstimator, Estimator, FlightMedium, Outcome, Real,
+    Tracker, TransmittanceEstimator, Weight,
+};
 use glam::Vec3;
+pub use ratio::Ratio;
+pub use residual_ratio::ResidualRatio;
+pub use spectral::{Spectral, SpectralProbabilities};
 pub use thin::{thin, RECYCLE_MIN_P};
+pub use weighted_decomposition::WeightedDecomposition;
+pub use weighted_delta::WeightedDelta;
 
 pub mod decomposition;
 pub mod delta;
@@ -176,7 +190,7 @@ pub trait Medium {
 ///   the null probability, which a bound tight on the densest channel shrinks: no bias, but
 ///   heavier pixel tails, so it keeps the cells' (and the culled walk's) bounds.
 #[inline]
-pub fn voxel_stage<M: Medium + ?Sized>(
+pub fn voxel_stage<W, M: FlightMedium<W> + ?Sized>(
     medium: &M,
     b: f32,
     with_control: bool,
@@ -184,7 +198,7 @@ pub fn voxel_stage<M: Medium + ?Sized>(
     seg: &MajorantSegment,
     bound: f32,
 ) -> f32 {
-    if !(b >= 1.0) || (with_control && medium.control(seg).sigma_t() != 0.0) {
+    if !(b >= 1.0) || (with_control && medium.sigma_c(seg) != 0.0) {
         return 1.0;
     }
     medium.voxel_ratio(t, seg, bound)
@@ -576,20 +590,21 @@ pub const CONTROL_DEPTH_CUTOFF: f32 = 104.0;
 /// decomposition, weighted decomposition and residual ratio tracking in the same walk as the
 /// residual, instead of a second walk before it. Stops the walk once the depth passes
 /// [`CONTROL_DEPTH_CUTOFF`], where the estimate is 0 whatever follows.
-pub struct ControlDepthWalk<'m, I, M: ?Sized> {
+pub struct ControlDepthWalk<I, C> {
     segments: I,
     t_max: f32,
-    medium: &'m M,
+    /// The control extinction over a segment ([`Medium::control`]).
+    sigma_c: C,
     /// The control optical depth of the segments pulled so far.
     pub tau_c: f32,
 }
 
-impl<'m, I, M: Medium + ?Sized> ControlDepthWalk<'m, I, M> {
-    pub fn new(segments: I, t_max: f32, medium: &'m M) -> Self {
+impl<I, C: Fn(&MajorantSegment) -> f32> ControlDepthWalk<I, C> {
+    pub fn new(segments: I, t_max: f32, sigma_c: C) -> Self {
         ControlDepthWalk {
             segments,
             t_max,
-            medium,
+            sigma_c,
             tau_c: 0.0,
         }
     }
@@ -609,8 +624,8 @@ impl<'m, I, M: Medium + ?Sized> ControlDepthWalk<'m, I, M> {
     }
 }
 
-impl<I: Iterator<Item = MajorantSegment>, M: Medium + ?Sized> Iterator
-    for ControlDepthWalk<'_, I, M>
+impl<I: Iterator<Item = MajorantSegment>, C: Fn(&MajorantSegment) -> f32> Iterator
+    for ControlDepthWalk<I, C>
 {
     type Item = MajorantSegment;
 
@@ -622,7 +637,7 @@ impl<I: Iterator<Item = MajorantSegment>, M: Medium + ?Sized> Iterator
         let seg = self.segments.next()?;
         if seg.t_min < self.t_max {
             let len = seg.t_max.min(self.t_max) - seg.t_min;
-            let sigma_c = self.medium.control(&seg).sigma_t();
+            let sigma_c = (self.sigma_c)(&seg);
             if len > 0.0 && sigma_c > 0.0 {
                 self.tau_c += sigma_c * len;
             }

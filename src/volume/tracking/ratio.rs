@@ -16,40 +16,31 @@
 //! shadow rays; it does not sample distances. Russian roulette on `|T| < ROULETTE_THRESHOLD`
 //! (survive with probability `|T| / threshold`, then carry `sign(T) threshold`) ends walks whose
 //! contribution has become small without biasing.
-use super::flight::{self, Grey, Outcome, Walk};
-use super::{lookup, scaled_majorant, Medium, TrackingStats};
-use crate::sampling::Rng;
-use crate::volume::MajorantSegment;
+use super::flight::{Estimator, Outcome, Tracker, TransmittanceEstimator};
+use super::{lookup, Collision, Medium};
 
-/// Ratio-tracking transmittance estimate; `b` scales the majorant.
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    let walk = Walk {
-        majorant: scaled_majorant(b),
-        // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
-        voxel: None,
-        roulette: true,
-    };
-    flight::transmittance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk,
-        rng,
-        stats,
-        |_, stats, c, _| {
-            let sigma_t = lookup(medium, c.t, stats).sigma_t();
-            Outcome::Null(Some(1.0 - sigma_t / c.sigma_maj))
-        },
-    )
+/// Ratio tracking with majorant `b * bound`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ratio {
+    /// The majorant scale, any `b > 0`.
+    pub b: f32,
+}
+
+impl<M: Medium + ?Sized> Estimator<M> for Ratio {
+    type Weight = f32;
+    // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
+    const VOXEL_STAGE: bool = false;
+    const ROULETTE: bool = true;
+    fn b(&self) -> f32 {
+        self.b
+    }
+}
+
+impl<M: Medium + ?Sized> TransmittanceEstimator<M> for Ratio {
+    /// Every collision multiplies the estimate by its null probability.
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let sigma_t = lookup(tr.medium, c.t, tr.stats).sigma_t();
+        Outcome::Null(Some(1.0 - sigma_t / c.sigma_maj))
+    }
 }

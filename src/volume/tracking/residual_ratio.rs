@@ -14,40 +14,39 @@
 //! near 1: far less variance and fewer lookups than plain ratio tracking. Any `sigma_c` is
 //! unbiased (the factors may be negative). Russian roulette as in ratio tracking, applied to the
 //! residual product (the closed-form factor is not random).
-use super::flight::{self, Outcome, Walk};
-use super::{lookup, residual_majorant, Medium, TrackingStats};
-use crate::sampling::Rng;
+use super::flight::{Estimator, Outcome, Tracker, TransmittanceEstimator};
+use super::{lookup, residual_majorant, Collision, Medium};
 use crate::volume::MajorantSegment;
 
-/// Residual-ratio-tracking transmittance estimate; `b` scales the residual majorant.
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    let walk = Walk {
-        majorant: |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t()),
-        // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
-        voxel: None,
-        roulette: true,
-    };
-    flight::control_transmittance(
-        segments,
-        t_max,
-        medium,
-        walk,
-        rng,
-        stats,
-        |_, stats, c, _| {
-            let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
-            Outcome::Null(Some(1.0 - sigma_r / c.sigma_maj))
-        },
-    )
+/// Residual ratio tracking, `b` scaling the residual majorant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResidualRatio {
+    /// The scale of the residual majorant, any `b > 0`.
+    pub b: f32,
+}
+
+impl<M: Medium + ?Sized> Estimator<M> for ResidualRatio {
+    type Weight = f32;
+    const CONTROL: bool = true;
+    // No per-voxel stage: it would raise the variance ([`super::voxel_stage`]).
+    const VOXEL_STAGE: bool = false;
+    const ROULETTE: bool = true;
+    fn b(&self) -> f32 {
+        self.b
+    }
+    /// The residual's majorant `r_bar`.
+    #[inline]
+    fn majorant(&self, medium: &M, seg: &MajorantSegment) -> f32 {
+        residual_majorant(self.b, seg, medium.control(seg).sigma_t())
+    }
+}
+
+impl<M: Medium + ?Sized> TransmittanceEstimator<M> for ResidualRatio {
+    /// Every collision multiplies the residual's estimate by its null probability.
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let sigma_r =
+            lookup(tr.medium, c.t, tr.stats).sigma_t() - tr.medium.control(&c.seg).sigma_t();
+        Outcome::Null(Some(1.0 - sigma_r / c.sigma_maj))
+    }
 }

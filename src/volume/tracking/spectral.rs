@@ -21,10 +21,9 @@
 //!
 //! Transmittance: events {real: R(|sigma_t * h|), null: R(|sigma_n * h|)}, `h = w`;
 //! `<T> = w` on escape (an RGB estimate of every channel's transmittance), 0 on a real event.
-use super::flight::{self, Outcome, Real, Rgb, Walk};
-use super::{lookup_rgb, scaled_majorant, Event, MediumRgb, TrackingStats};
-use crate::sampling::{sample_discrete, Rng};
-use crate::volume::MajorantSegment;
+use super::flight::{DistanceEstimator, Estimator, Outcome, Real, Tracker, TransmittanceEstimator};
+use super::{lookup_rgb, Collision, MediumRgb};
+use crate::sampling::sample_discrete;
 use glam::Vec3;
 
 /// How the channels of `|sigma_x * h|` are reduced to one event probability.
@@ -47,97 +46,69 @@ impl SpectralProbabilities {
     }
 }
 
-/// The walk of both functions: `b` times the bound, no per-voxel stage (see
+/// Spectral tracking with majorant `b * bound`, no per-voxel stage (see
 /// `tracking::voxel_stage`), Russian roulette on `max |w|` after null collisions.
-fn walk(b: f32) -> Walk<impl FnMut(&MajorantSegment) -> f32> {
-    Walk {
-        majorant: scaled_majorant(b),
-        voxel: None,
-        roulette: true,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spectral {
+    /// The majorant scale, any `b > 0`.
+    pub b: f32,
+    /// How the channels reduce to one event probability.
+    pub mode: SpectralProbabilities,
+    /// The path throughput before a distance-sampling flight, which only weighs its
+    /// history-aware probabilities (the returned weight multiplies it). Transmittance weighs
+    /// by its own weight alone: `Vec3::ONE` there.
+    pub beta: Vec3,
+}
+
+impl<M: MediumRgb + ?Sized> Estimator<M> for Spectral {
+    type Weight = Vec3;
+    const VOXEL_STAGE: bool = false;
+    const ROULETTE: bool = true;
+    fn b(&self) -> f32 {
+        self.b
     }
 }
 
-/// Samples a real collision for RGB extinction. `beta` is the path throughput before this
-/// flight (only used for the history-aware probabilities); the returned weight multiplies it.
-/// A path whose history is all zero ends with `Absorb { weight: 0 }`.
-#[allow(clippy::too_many_arguments)]
-pub fn sample_distance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    beta: Vec3,
-    mode: SpectralProbabilities,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> Event<Vec3>
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: MediumRgb + ?Sized,
-{
-    flight::distance(
-        segments,
-        t_max,
-        Rgb(medium),
-        walk(b),
-        rng,
-        stats,
-        |rng, stats, c, w| {
-            let k = lookup_rgb(medium, c.t, stats);
-            let sigma_n = Vec3::splat(c.sigma_maj) - k.sigma_t();
-            let h = beta * w;
-            let p = [
-                mode.reduce(k.sigma_a * h),
-                mode.reduce(k.sigma_s * h),
-                mode.reduce(sigma_n * h),
-            ];
-            let u = rng.uniform_f32();
-            let Some(choice) = sample_discrete(&p, u) else {
-                // All history is zero: nothing can contribute any more.
-                return Outcome::Dead;
-            };
-            let sigma_x = [k.sigma_a, k.sigma_s, sigma_n][choice.index];
-            let factor = Some(sigma_x / (c.sigma_maj * choice.pmf));
-            match choice.index {
-                0 => Outcome::Real(Real::Absorb, factor),
-                1 => Outcome::Real(Real::Scatter, factor),
-                _ => Outcome::Null(factor),
-            }
-        },
-    )
+impl<M: MediumRgb + ?Sized> DistanceEstimator<M> for Spectral {
+    /// A real collision for RGB extinction. A path whose history is all zero ends with
+    /// `Absorb { weight: 0 }`.
+    #[inline]
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, Vec3>, c: &Collision) -> Outcome<Vec3> {
+        let k = lookup_rgb(tr.medium, c.t, tr.stats);
+        let sigma_n = Vec3::splat(c.sigma_maj) - k.sigma_t();
+        let h = self.beta * tr.w;
+        let p = [
+            self.mode.reduce(k.sigma_a * h),
+            self.mode.reduce(k.sigma_s * h),
+            self.mode.reduce(sigma_n * h),
+        ];
+        let u = tr.rng.uniform_f32();
+        let Some(choice) = sample_discrete(&p, u) else {
+            // All history is zero: nothing can contribute any more.
+            return Outcome::Dead;
+        };
+        let sigma_x = [k.sigma_a, k.sigma_s, sigma_n][choice.index];
+        let factor = Some(sigma_x / (c.sigma_maj * choice.pmf));
+        match choice.index {
+            0 => Outcome::Real(Real::Absorb, factor),
+            1 => Outcome::Real(Real::Scatter, factor),
+            _ => Outcome::Null(factor),
+        }
+    }
 }
 
-/// RGB transmittance estimate by spectral tracking.
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    mode: SpectralProbabilities,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> Vec3
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: MediumRgb + ?Sized,
-{
-    flight::transmittance(
-        segments,
-        t_max,
-        Rgb(medium),
-        walk(b),
-        rng,
-        stats,
-        |rng, stats, c, w| {
-            let sigma_t = lookup_rgb(medium, c.t, stats).sigma_t();
-            let sigma_n = Vec3::splat(c.sigma_maj) - sigma_t;
-            let p_real = mode.reduce(sigma_t * w);
-            let p_null = mode.reduce(sigma_n * w);
-            let total = p_real + p_null;
-            if !(total > 0.0) || rng.uniform_f32() * total < p_real {
-                return Outcome::Real(Real::Absorb, None);
-            }
-            Outcome::Null(Some(sigma_n * (total / (c.sigma_maj * p_null))))
-        },
-    )
+impl<M: MediumRgb + ?Sized> TransmittanceEstimator<M> for Spectral {
+    /// The RGB estimate: history-aware real or null, the history its own weight.
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, Vec3>, c: &Collision) -> Outcome<Vec3> {
+        let sigma_t = lookup_rgb(tr.medium, c.t, tr.stats).sigma_t();
+        let sigma_n = Vec3::splat(c.sigma_maj) - sigma_t;
+        let p_real = self.mode.reduce(sigma_t * tr.w);
+        let p_null = self.mode.reduce(sigma_n * tr.w);
+        let total = p_real + p_null;
+        if !(total > 0.0) || tr.rng.uniform_f32() * total < p_real {
+            return Outcome::Real(Real::Absorb, None);
+        }
+        Outcome::Null(Some(sigma_n * (total / (c.sigma_maj * p_null))))
+    }
 }

@@ -21,104 +21,81 @@
 //! The control weight is exactly 1 because the control coefficients are non-negative and chosen
 //! in proportion. Transmittance: `exp(-int sigma_c)` in closed form times the weighted
 //! residual estimate (events {real: |sigma_r|, null: |r_n|}; `w` on escape, 0 on real).
-use super::flight::{self, Grey, Outcome, Real, Walk};
+use super::flight::{DistanceEstimator, Estimator, Outcome, Real, Tracker, TransmittanceEstimator};
 use super::weighted_delta::{real_or_null, weighted_choice};
-use super::{lookup, residual_majorant, Event, Medium, TrackingStats};
+use super::{lookup, residual_majorant, Collision, Medium};
 use crate::sampling::discrete::ONE_MINUS_EPSILON;
-use crate::sampling::Rng;
 use crate::volume::MajorantSegment;
 
-/// The walk with majorant `majorant`, with the per-voxel stage where the control is 0 and
-/// `b >= 1`.
-fn walk<Mj: FnMut(&MajorantSegment) -> f32>(majorant: Mj, b: f32) -> Walk<Mj> {
-    Walk {
-        majorant,
-        voxel: Some((b, true)),
-        roulette: false,
+/// Weighted decomposition tracking, `b` scaling the residual majorant; the per-voxel stage where
+/// the control is 0 and `b >= 1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeightedDecomposition {
+    /// The scale of the residual majorant, any `b > 0`.
+    pub b: f32,
+}
+
+impl<M: Medium + ?Sized> Estimator<M> for WeightedDecomposition {
+    type Weight = f32;
+    const CONTROL: bool = true;
+    fn b(&self) -> f32 {
+        self.b
+    }
+    /// `sigma_c + r_bar`: the control, then the residual's majorant.
+    #[inline]
+    fn majorant(&self, medium: &M, seg: &MajorantSegment) -> f32 {
+        let sigma_c = medium.control(seg).sigma_t();
+        sigma_c + residual_majorant(self.b, seg, sigma_c)
     }
 }
 
-/// Samples a (control or residual) real collision with weights; `b` scales the residual
-/// majorant.
-pub fn sample_distance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> Event<f32>
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    let majorant = |seg: &MajorantSegment| {
-        let sigma_c = medium.control(seg).sigma_t();
-        sigma_c + residual_majorant(b, seg, sigma_c)
-    };
-    flight::distance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk(majorant, b),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let ctl = medium.control(&c.seg);
-            let sigma_c = ctl.sigma_t();
-            let x = rng.uniform_f32() * c.sigma_maj;
-            if x < sigma_c {
-                return Outcome::Control(if x < ctl.sigma_a {
-                    Real::Absorb
-                } else {
-                    Real::Scatter
-                });
-            }
-            // The residual majorant the collision was sampled with: without a control it is the
-            // collision's majorant itself, which culling may have thinned below the segment's
-            // (`sample_free_flight`); `0 + r` is `r`, so unculled walks keep their bits.
-            let r_bar = if sigma_c == 0.0 {
-                c.sigma_maj
+impl<M: Medium + ?Sized> DistanceEstimator<M> for WeightedDecomposition {
+    /// A (control or residual) real collision with weights.
+    #[inline]
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let ctl = tr.medium.control(&c.seg);
+        let sigma_c = ctl.sigma_t();
+        let x = tr.rng.uniform_f32() * c.sigma_maj;
+        if x < sigma_c {
+            return Outcome::Control(if x < ctl.sigma_a {
+                Real::Absorb
             } else {
-                residual_majorant(b, &c.seg, sigma_c)
-            };
-            if !(r_bar > 0.0) {
-                // Only reachable through rounding of `x` at the top of the control interval.
-                return Outcome::Skip;
-            }
-            let u = ((x - sigma_c) / r_bar).clamp(0.0, ONE_MINUS_EPSILON);
-            let k = lookup(medium, c.t, stats);
-            let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
-            let r_n = r_bar - r_a - r_s;
-            weighted_choice([r_a, r_s, r_n], r_bar, u)
-        },
-    )
+                Real::Scatter
+            });
+        }
+        // The residual majorant the collision was sampled with: without a control it is the
+        // collision's majorant itself, which culling may have thinned below the segment's
+        // (`sample_free_flight`); `0 + r` is `r`, so unculled walks keep their bits.
+        let r_bar = if sigma_c == 0.0 {
+            c.sigma_maj
+        } else {
+            residual_majorant(self.b, &c.seg, sigma_c)
+        };
+        if !(r_bar > 0.0) {
+            // Only reachable through rounding of `x` at the top of the control interval.
+            return Outcome::Skip;
+        }
+        let u = ((x - sigma_c) / r_bar).clamp(0.0, ONE_MINUS_EPSILON);
+        let k = lookup(tr.medium, c.t, tr.stats);
+        let (r_a, r_s) = (k.sigma_a - ctl.sigma_a, k.sigma_s - ctl.sigma_s);
+        let r_n = r_bar - r_a - r_s;
+        weighted_choice([r_a, r_s, r_n], r_bar, u)
+    }
 }
 
-/// `exp(-int sigma_c) * w_residual` (signed when the control exceeds `sigma_t` or `b < 1`).
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    let majorant = |seg: &MajorantSegment| residual_majorant(b, seg, medium.control(seg).sigma_t());
-    flight::control_transmittance(
-        segments,
-        t_max,
-        medium,
-        walk(majorant, b),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let sigma_r = lookup(medium, c.t, stats).sigma_t() - medium.control(&c.seg).sigma_t();
-            real_or_null(sigma_r, c.sigma_maj, rng)
-        },
-    )
+impl<M: Medium + ?Sized> TransmittanceEstimator<M> for WeightedDecomposition {
+    /// The residual's majorant `r_bar`.
+    #[inline]
+    fn transmittance_majorant(&self, medium: &M, seg: &MajorantSegment) -> f32 {
+        residual_majorant(self.b, seg, medium.control(seg).sigma_t())
+    }
+
+    /// The weighted estimate of the residual, signed when the control exceeds `sigma_t` or
+    /// `b < 1`.
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let sigma_r =
+            lookup(tr.medium, c.t, tr.stats).sigma_t() - tr.medium.control(&c.seg).sigma_t();
+        real_or_null(sigma_r, c.sigma_maj, tr.rng)
+    }
 }

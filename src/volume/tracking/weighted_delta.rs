@@ -21,75 +21,49 @@
 //!
 //! Transmittance: events {real: |sigma_t|, null: |sigma_n|}; `<T> = w` on escape, 0 on a real
 //! event, with `w *= sigma_n / (sigma_maj P_n)` at nulls.
-use super::flight::{self, Grey, Outcome, Real, Walk};
-use super::{lookup, scaled_majorant, Event, Medium, TrackingStats};
+use super::flight::{DistanceEstimator, Estimator, Outcome, Real, Tracker, TransmittanceEstimator};
+use super::{lookup, Collision, Medium};
 use crate::sampling::{sample_discrete, Rng};
-use crate::volume::MajorantSegment;
 
-/// The walk of both functions: `b` times the bound, with the per-voxel stage under `b >= 1`.
-fn walk(b: f32) -> Walk<impl FnMut(&MajorantSegment) -> f32> {
-    Walk {
-        majorant: scaled_majorant(b),
-        voxel: Some((b, false)),
-        roulette: false,
+/// Weighted delta tracking with majorant `b * bound`, the per-voxel stage under `b >= 1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeightedDelta {
+    /// The majorant scale, any `b > 0`.
+    pub b: f32,
+}
+
+impl<M: Medium + ?Sized> Estimator<M> for WeightedDelta {
+    type Weight = f32;
+    fn b(&self) -> f32 {
+        self.b
     }
 }
 
-/// Samples a real collision with weights; `b` is the majorant scale.
-pub fn sample_distance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> Event<f32>
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    flight::distance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk(b),
-        rng,
-        stats,
-        |rng, stats, c, _| {
-            let k = lookup(medium, c.t, stats);
-            let sigma_n = c.sigma_maj - k.sigma_t();
-            // total >= |sigma_a + sigma_s + sigma_n| = sigma_maj > 0, so a choice always exists.
-            weighted_choice(
-                [k.sigma_a, k.sigma_s, sigma_n],
-                c.sigma_maj,
-                rng.uniform_f32(),
-            )
-        },
-    )
+impl<M: Medium + ?Sized> DistanceEstimator<M> for WeightedDelta {
+    /// A real collision with weights.
+    #[inline]
+    fn distance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        let k = lookup(tr.medium, c.t, tr.stats);
+        let sigma_n = c.sigma_maj - k.sigma_t();
+        // total >= |sigma_a + sigma_s + sigma_n| = sigma_maj > 0, so a choice always exists.
+        weighted_choice(
+            [k.sigma_a, k.sigma_s, sigma_n],
+            c.sigma_maj,
+            tr.rng.uniform_f32(),
+        )
+    }
 }
 
-/// Weighted transmittance estimate (may be negative when `b < 1`; unbiased).
-pub fn transmittance<I, M>(
-    segments: I,
-    t_max: f32,
-    b: f32,
-    medium: &M,
-    rng: &mut Rng,
-    stats: &mut TrackingStats,
-) -> f32
-where
-    I: IntoIterator<Item = MajorantSegment>,
-    M: Medium + ?Sized,
-{
-    flight::transmittance(
-        segments,
-        t_max,
-        Grey(medium),
-        walk(b),
-        rng,
-        stats,
-        |rng, stats, c, _| real_or_null(lookup(medium, c.t, stats).sigma_t(), c.sigma_maj, rng),
-    )
+impl<M: Medium + ?Sized> TransmittanceEstimator<M> for WeightedDelta {
+    /// The weighted estimate (may be negative when `b < 1`; unbiased).
+    #[inline]
+    fn transmittance_rule(&self, tr: &mut Tracker<'_, M, f32>, c: &Collision) -> Outcome<f32> {
+        real_or_null(
+            lookup(tr.medium, c.t, tr.stats).sigma_t(),
+            c.sigma_maj,
+            tr.rng,
+        )
+    }
 }
 
 /// The distance rule of weighted delta tracking over the coefficients `[sigma_a, sigma_s,

@@ -33,28 +33,34 @@ enum Sampler {
 fn sample(s: &Scene, which: Sampler, rng: &mut Rng, st: &mut TrackingStats) -> Event<f32> {
     let segs = s.segments.iter().copied();
     match which {
-        Sampler::Delta => {
-            tr::delta::sample_distance(segs, s.t_max, &s.medium(ControlExtinction::None), rng, st)
-        }
-        Sampler::WeightedDelta(b) => tr::weighted_delta::sample_distance(
+        Sampler::Delta => tr::sample_distance(
+            &tr::Delta,
             segs,
             s.t_max,
-            b,
             &s.medium(ControlExtinction::None),
             rng,
             st,
         ),
-        Sampler::Decomposition => tr::decomposition::sample_distance(
+        Sampler::WeightedDelta(b) => tr::sample_distance(
+            &tr::WeightedDelta { b },
+            segs,
+            s.t_max,
+            &s.medium(ControlExtinction::None),
+            rng,
+            st,
+        ),
+        Sampler::Decomposition => tr::sample_distance(
+            &tr::Decomposition,
             segs,
             s.t_max,
             &s.medium(ControlExtinction::SegmentMinorant),
             rng,
             st,
         ),
-        Sampler::WeightedDecomposition { m, b } => tr::weighted_decomposition::sample_distance(
+        Sampler::WeightedDecomposition { m, b } => tr::sample_distance(
+            &tr::WeightedDecomposition { b },
             segs,
             s.t_max,
-            b,
             &s.medium(ControlExtinction::FractionOfBound(m)),
             rng,
             st,
@@ -65,8 +71,18 @@ fn sample(s: &Scene, which: Sampler, rng: &mut Rng, st: &mut TrackingStats) -> E
                 let c = Coeffs::from_sigma_t(f(t), ALBEDO);
                 CoeffsRgb::new(Vec3::splat(c.sigma_a), Vec3::splat(c.sigma_s))
             });
-            match tr::spectral::sample_distance(segs, s.t_max, b, &medium, Vec3::ONE, mode, rng, st)
-            {
+            match tr::sample_distance(
+                &tr::Spectral {
+                    b,
+                    mode,
+                    beta: Vec3::ONE,
+                },
+                segs,
+                s.t_max,
+                &medium,
+                rng,
+                st,
+            ) {
                 Event::Absorb { t, weight } => Event::Absorb {
                     t,
                     weight: weight.x,
@@ -231,23 +247,22 @@ fn albedo_in_an_infinite_medium() {
             let mut rng = Rng::new(i, 3, 13);
             let e = match which {
                 // Controls below and above sigma_t = 2, constant along the ray.
-                Sampler::Decomposition => tr::decomposition::sample_distance(
+                Sampler::Decomposition => tr::sample_distance(
+                    &tr::Decomposition,
                     s.segments.iter().copied(),
                     s.t_max,
                     &constant_control(1.5),
                     &mut rng,
                     &mut st,
                 ),
-                Sampler::WeightedDecomposition { b, .. } => {
-                    tr::weighted_decomposition::sample_distance(
-                        s.segments.iter().copied(),
-                        s.t_max,
-                        b,
-                        &constant_control(2.3),
-                        &mut rng,
-                        &mut st,
-                    )
-                }
+                Sampler::WeightedDecomposition { b, .. } => tr::sample_distance(
+                    &tr::WeightedDecomposition { b },
+                    s.segments.iter().copied(),
+                    s.t_max,
+                    &constant_control(2.3),
+                    &mut rng,
+                    &mut st,
+                ),
                 _ => sample(&s, which, &mut rng, &mut st),
             };
             match e {
@@ -289,13 +304,15 @@ fn spectral_albedo_per_channel() {
         let mut st = TrackingStats::default();
         for i in 0..samples(N) {
             let mut rng = Rng::new(i, 4, 14);
-            let e = tr::spectral::sample_distance(
+            let e = tr::sample_distance(
+                &tr::Spectral {
+                    b: 1.0,
+                    mode,
+                    beta: Vec3::ONE,
+                },
                 infinite(3.5),
                 f32::INFINITY,
-                1.0,
                 &medium,
-                Vec3::ONE,
-                mode,
                 &mut rng,
                 &mut st,
             );
@@ -342,40 +359,30 @@ fn control_collisions_never_look_up() {
         sigma_maj: 2.0,
         ..segs[0]
     }];
+    let decomposition = tr::Decomposition;
+    let weighted = tr::WeightedDecomposition { b: 1.0 };
+    let whole = counting(2.0);
     let mut st = TrackingStats::default();
     for i in 0..10_000 {
         let mut rng = Rng::new(i, 5, 15);
-        tr::decomposition::sample_distance(full, 1.0, &counting(2.0), &mut rng, &mut st);
-        tr::weighted_decomposition::sample_distance(
-            full,
-            1.0,
-            1.0,
-            &counting(2.0),
-            &mut rng,
-            &mut st,
-        );
-        tr::decomposition::transmittance(full, 1.0, &counting(2.0), &mut rng, &mut st);
+        tr::sample_distance(&decomposition, full, 1.0, &whole, &mut rng, &mut st);
+        tr::sample_distance(&weighted, full, 1.0, &whole, &mut rng, &mut st);
+        tr::transmittance(&decomposition, full, 1.0, &whole, &mut rng, &mut st);
     }
     assert_eq!(calls.get(), 0);
     assert_eq!(st.lookups, 0);
     assert!(st.control_collisions > 0);
     // 2. A partial control: lookups happen exactly at residual (real or null) collisions.
+    let partial = counting(1.0);
     for analog in [true, false] {
         calls.set(0);
         let mut st = TrackingStats::default();
         for i in 0..10_000 {
             let mut rng = Rng::new(i, 6, 16);
             if analog {
-                tr::decomposition::sample_distance(segs, 1.0, &counting(1.0), &mut rng, &mut st);
+                tr::sample_distance(&decomposition, segs, 1.0, &partial, &mut rng, &mut st);
             } else {
-                tr::weighted_decomposition::sample_distance(
-                    segs,
-                    1.0,
-                    1.0,
-                    &counting(1.0),
-                    &mut rng,
-                    &mut st,
-                );
+                tr::sample_distance(&weighted, segs, 1.0, &partial, &mut rng, &mut st);
             }
         }
         println!("analog {analog}: {st:?}");
@@ -406,8 +413,8 @@ fn analog_trackers_report_non_bounding_majorants() {
     let mut st = TrackingStats::default();
     for i in 0..100 {
         let mut rng = Rng::new(i, 7, 17);
-        tr::delta::sample_distance(tight, 1.0, &medium, &mut rng, &mut st);
-        tr::delta::transmittance(tight, 1.0, &medium, &mut rng, &mut st);
+        tr::sample_distance(&tr::Delta, tight, 1.0, &medium, &mut rng, &mut st);
+        tr::transmittance(&tr::Delta, tight, 1.0, &medium, &mut rng, &mut st);
     }
     assert_eq!(
         st.majorant_violations, 0,
@@ -415,13 +422,13 @@ fn analog_trackers_report_non_bounding_majorants() {
     );
     for i in 0..100 {
         let mut rng = Rng::new(i, 7, 18);
-        tr::delta::sample_distance(low, 1.0, &medium, &mut rng, &mut st);
+        tr::sample_distance(&tr::Delta, low, 1.0, &medium, &mut rng, &mut st);
     }
     assert!(st.majorant_violations > 0 && st.is_biased());
     let mut st = TrackingStats::default();
     for i in 0..100 {
         let mut rng = Rng::new(i, 7, 19);
-        tr::delta::transmittance(low, 1.0, &medium, &mut rng, &mut st);
+        tr::transmittance(&tr::Delta, low, 1.0, &medium, &mut rng, &mut st);
     }
     assert!(st.majorant_violations > 0);
     // Analog decomposition with a control above sigma_t: a negative residual is reported too.
@@ -432,7 +439,14 @@ fn analog_trackers_report_non_bounding_majorants() {
     }];
     for i in 0..100 {
         let mut rng = Rng::new(i, 7, 20);
-        tr::decomposition::sample_distance(high_bound, 1.0, &medium, &mut rng, &mut st);
+        tr::sample_distance(
+            &tr::Decomposition,
+            high_bound,
+            1.0,
+            &medium,
+            &mut rng,
+            &mut st,
+        );
     }
     assert!(st.majorant_violations > 0);
 }
@@ -451,11 +465,18 @@ fn infinite_segments_are_handled() {
         sigma_min: 0.0,
     }];
     assert_eq!(
-        tr::delta::sample_distance(zero, f32::INFINITY, &empty, &mut rng, &mut st),
+        tr::sample_distance(&tr::Delta, zero, f32::INFINITY, &empty, &mut rng, &mut st),
         Event::Escape { weight: 1.0 }
     );
     assert_eq!(
-        tr::ratio::transmittance(zero, f32::INFINITY, 1.0, &empty, &mut rng, &mut st),
+        tr::transmittance(
+            &tr::Ratio { b: 1.0 },
+            zero,
+            f32::INFINITY,
+            &empty,
+            &mut rng,
+            &mut st
+        ),
         1.0
     );
     let t_maj = tr::sample_free_flight(
@@ -478,7 +499,7 @@ fn infinite_segments_are_handled() {
         sigma_maj: f32::NAN,
         sigma_min: 0.0,
     }];
-    tr::delta::transmittance(nan, 1.0, &empty, &mut rng, &mut st);
+    tr::transmittance(&tr::Delta, nan, 1.0, &empty, &mut rng, &mut st);
     assert_eq!(st.invalid_majorants, 1);
     // Negative and infinite ones too; -0 is empty space like +0, and a subnormal majorant is
     // walked (crossed without a collision on so short a segment).
@@ -497,7 +518,7 @@ fn infinite_segments_are_handled() {
         }];
         let mut st = TrackingStats::default();
         assert_eq!(
-            tr::delta::transmittance(seg, 1.0, &empty, &mut rng, &mut st),
+            tr::transmittance(&tr::Delta, seg, 1.0, &empty, &mut rng, &mut st),
             1.0
         );
         assert_eq!(
@@ -513,7 +534,14 @@ fn infinite_segments_are_handled() {
         sigma_min: 0.0,
     }];
     let mut st = TrackingStats::default();
-    let e = tr::delta::sample_distance(positive, f32::INFINITY, &empty, &mut rng, &mut st);
+    let e = tr::sample_distance(
+        &tr::Delta,
+        positive,
+        f32::INFINITY,
+        &empty,
+        &mut rng,
+        &mut st,
+    );
     assert_eq!(e, Event::Escape { weight: 1.0 });
     assert_eq!(st.collision_cap_hits, 1);
     assert!(st.is_biased());

@@ -44,24 +44,26 @@ fn furnace_slab() {
                 let rgb = FnMediumRgb(move |t: f32| {
                     CoeffsRgb::new(Vec3::ZERO, Vec3::new(1.0, 0.5, 0.75) * sigma(t))
                 });
+                // One flight of a grey estimator.
+                macro_rules! grey {
+                    ($estimator:expr) => {
+                        tr::sample_distance(&$estimator, seg, t_exit, &medium, &mut rng, &mut st)
+                    };
+                }
                 let e = match which {
-                    0 => tr::delta::sample_distance(seg, t_exit, &medium, &mut rng, &mut st),
-                    1 => tr::weighted_delta::sample_distance(
-                        seg, t_exit, b, &medium, &mut rng, &mut st,
-                    ),
-                    2 => {
-                        tr::decomposition::sample_distance(seg, t_exit, &medium, &mut rng, &mut st)
-                    }
-                    3 => tr::weighted_decomposition::sample_distance(
-                        seg, t_exit, b, &medium, &mut rng, &mut st,
-                    ),
-                    _ => match tr::spectral::sample_distance(
+                    0 => grey!(tr::Delta),
+                    1 => grey!(tr::WeightedDelta { b }),
+                    2 => grey!(tr::Decomposition),
+                    3 => grey!(tr::WeightedDecomposition { b }),
+                    _ => match tr::sample_distance(
+                        &tr::Spectral {
+                            b,
+                            mode: SpectralProbabilities::HistoryAwareMax,
+                            beta: beta_rgb,
+                        },
                         seg,
                         t_exit,
-                        b,
                         &rgb,
-                        beta_rgb,
-                        SpectralProbabilities::HistoryAwareMax,
                         &mut rng,
                         &mut st,
                     ) {
@@ -163,27 +165,34 @@ fn culled_global_walk_samples_the_right_distances() {
         let samplers: [(&str, Sample); 5] = [
             (
                 "delta",
-                Box::new(|rng, st| tr::delta::sample_distance(seg(), s.t_max, &none, rng, st)),
+                Box::new(|rng, st| tr::sample_distance(&tr::Delta, seg(), s.t_max, &none, rng, st)),
             ),
             (
                 "weighted delta b=0.5",
                 Box::new(|rng, st| {
-                    tr::weighted_delta::sample_distance(seg(), s.t_max, 0.5, &none, rng, st)
+                    tr::sample_distance(
+                        &tr::WeightedDelta { b: 0.5 },
+                        seg(),
+                        s.t_max,
+                        &none,
+                        rng,
+                        st,
+                    )
                 }),
             ),
             (
                 "decomposition",
                 Box::new(|rng, st| {
-                    tr::decomposition::sample_distance(seg(), s.t_max, &minorant, rng, st)
+                    tr::sample_distance(&tr::Decomposition, seg(), s.t_max, &minorant, rng, st)
                 }),
             ),
             (
                 "weighted decomposition b=0.5",
                 Box::new(|rng, st| {
-                    tr::weighted_decomposition::sample_distance(
+                    tr::sample_distance(
+                        &tr::WeightedDecomposition { b: 0.5 },
                         seg(),
                         s.t_max,
-                        0.5,
                         &minorant,
                         rng,
                         st,
@@ -193,13 +202,15 @@ fn culled_global_walk_samples_the_right_distances() {
             (
                 "spectral",
                 Box::new(|rng, st| {
-                    let e = tr::spectral::sample_distance(
+                    let e = tr::sample_distance(
+                        &tr::Spectral {
+                            b: 1.0,
+                            mode: SpectralProbabilities::HistoryAwareMax,
+                            beta: Vec3::ONE,
+                        },
                         seg(),
                         s.t_max,
-                        1.0,
                         &rgb,
-                        Vec3::ONE,
-                        SpectralProbabilities::HistoryAwareMax,
                         rng,
                         st,
                     );
