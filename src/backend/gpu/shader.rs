@@ -54,12 +54,9 @@ pub mod files {
     pub const PHASE: ShaderFile = shader_file!("common/phase.wgsl");
     /// `sample_free_flight` and the estimators.
     pub const TRACKING: ShaderFile = shader_file!("common/tracking.wgsl");
-    /// The tracking kernels' bindings, tracker and counters.
-    pub const TRACKING_KERNEL: ShaderFile = shader_file!("kernels/tracking_kernel.wgsl");
-    /// Transmittance kernel: one (ray, sample) per invocation.
-    pub const TRANSMITTANCE: ShaderFile = shader_file!("kernels/transmittance.wgsl");
-    /// Distance-sampling kernel: one (ray, sample) per invocation.
-    pub const DISTANCE: ShaderFile = shader_file!("kernels/distance.wgsl");
+    /// The tracking kernel, transmittance or distance sampling: one (ray, sample) per
+    /// invocation.
+    pub const TRACKING_KERNEL: ShaderFile = shader_file!("kernels/tracking.wgsl");
     /// Wavefront bindings, queues and counters.
     pub const WAVEFRONT: ShaderFile = shader_file!("common/wavefront.wgsl");
     /// `Emission::radiance`, `blackbody_emission` and the media's `on_collision`.
@@ -437,42 +434,32 @@ impl Module {
 
 use files::*;
 
+/// The tracking kernel's files: one grid, the estimators, the kernel.
+const TRACKING_KERNEL_FILES: &[ShaderFile] =
+    &[TYPES, MATH, RNG, GRID, DDA, TRACKING, TRACKING_KERNEL];
+
 /// Per-estimator transmittance over a SparseGrid along index-space rays.
 pub const TRANSMITTANCE_MODULE: Module = Module {
     label: "transmittance",
-    files: &[
-        TYPES,
-        MATH,
-        RNG,
-        GRID,
-        DDA,
-        TRACKING,
-        TRACKING_KERNEL,
-        TRANSMITTANCE,
+    files: TRACKING_KERNEL_FILES,
+    entry_point: "tracking_main",
+    // One grid: the mixture hooks of `tracking.wgsl` are cut.
+    default_specs: &[
+        Spec::bool("FEATURE_MIXTURE", false),
+        Spec::bool("KERNEL_DISTANCE", false),
     ],
-    entry_point: "transmittance_main",
-    default_specs: KERNEL_SPECS,
     queue: None,
 };
-
-/// The tracking kernels track one grid: the mixture hooks of `tracking.wgsl` are cut.
-const KERNEL_SPECS: &[Spec] = &[Spec::bool("FEATURE_MIXTURE", false)];
 
 /// Per-estimator distance sampling over a SparseGrid along index-space rays.
 pub const DISTANCE_MODULE: Module = Module {
     label: "distance",
-    files: &[
-        TYPES,
-        MATH,
-        RNG,
-        GRID,
-        DDA,
-        TRACKING,
-        TRACKING_KERNEL,
-        DISTANCE,
+    files: TRACKING_KERNEL_FILES,
+    entry_point: "tracking_main",
+    default_specs: &[
+        Spec::bool("FEATURE_MIXTURE", false),
+        Spec::bool("KERNEL_DISTANCE", true),
     ],
-    entry_point: "distance_main",
-    default_specs: KERNEL_SPECS,
     queue: None,
 };
 
