@@ -16,7 +16,7 @@ use clap::Args;
 use crate::film::{read_exr, write_image, AttrValue, Metadata};
 
 use super::{
-    compare, find_script, in_scratch, merge_runs, output_tail, read_runs, seconds_list, PythonTool,
+    compare, in_scratch, merge_runs, output_tail, read_runs, seconds_list, Driver, PythonTool,
     ReferenceRun,
 };
 
@@ -41,14 +41,17 @@ pub struct CyclesArgs {
     pub save_blend: Option<PathBuf>,
 }
 
+/// Cycles through Blender's Python module.
+const DRIVER: Driver = Driver {
+    python: BPY,
+    script_var: "BRUME_CYCLES_SCRIPT",
+    script: "tools/cycles/brume_to_cycles.py",
+};
+
 pub fn run(args: &CyclesArgs) -> Result<()> {
-    if args.run.check_or_reuse()? {
+    let Some((python, script)) = DRIVER.prepare(&args.run)? else {
         return Ok(());
-    }
-    let python = BPY.find()?;
-    // The translation script: $BRUME_CYCLES_SCRIPT, else brume_to_cycles.py in the working directory or
-    // the source tree.
-    let script = find_script("BRUME_CYCLES_SCRIPT", "tools/cycles/brume_to_cycles.py")?;
+    };
     // The per-run images are read back into the merged output.
     in_scratch("cycles", None, |tmp| render_in(args, &python, &script, tmp))
 }

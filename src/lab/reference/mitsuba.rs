@@ -26,7 +26,7 @@ use crate::scene::{BoundsSource, Material, Scene, VdbMediumDesc, NO_INDEX};
 use crate::volume::mitsuba_vol::vol_from_grid;
 
 use super::{
-    compare, find_script, in_scratch, merge_runs, output_tail, read_runs, seconds_list, PythonTool,
+    compare, in_scratch, merge_runs, output_tail, read_runs, seconds_list, Driver, PythonTool,
     ReferenceRun,
 };
 
@@ -58,14 +58,17 @@ pub struct MitsubaArgs {
     pub keep: Option<PathBuf>,
 }
 
+/// Mitsuba 3 through its Python package.
+const DRIVER: Driver = Driver {
+    python: MITSUBA,
+    script_var: "BRUME_MITSUBA_SCRIPT",
+    script: "tools/mitsuba/brume_to_mitsuba.py",
+};
+
 pub fn run(args: &MitsubaArgs) -> Result<()> {
-    if args.run.check_or_reuse()? {
+    let Some((python, script)) = DRIVER.prepare(&args.run)? else {
         return Ok(());
-    }
-    let python = MITSUBA.find()?;
-    // The translation script: $BRUME_MITSUBA_SCRIPT, else brume_to_mitsuba.py in the working directory or
-    // the source tree.
-    let script = find_script("BRUME_MITSUBA_SCRIPT", "tools/mitsuba/brume_to_mitsuba.py")?;
+    };
     let started = Instant::now();
     // Scene errors already name the file and the JSON pointer.
     let scene = crate::scene::load(&args.run.scene)?;

@@ -128,6 +128,26 @@ impl PythonTool {
     }
 }
 
+/// A reference renderer's driver: the Python it runs and the translation script it runs
+/// there (`script_var`, else `script` in the working directory or the source tree).
+pub struct Driver {
+    pub python: PythonTool,
+    pub script_var: &'static str,
+    pub script: &'static str,
+}
+
+impl Driver {
+    /// The Python and the script for `run`, after its checks; `None` when `--reuse` made the
+    /// run a comparison of existing images, already printed.
+    pub fn prepare(&self, run: &ReferenceRun) -> Result<Option<(PathBuf, PathBuf)>> {
+        if run.check_or_reuse()? {
+            return Ok(None);
+        }
+        let python = self.python.find()?;
+        Ok(Some((python, find_script(self.script_var, self.script)?)))
+    }
+}
+
 /// Runs `work` in a scratch folder: `keep`, or `brume-NAME-PID` in the temporary folder, which
 /// is removed afterwards whether the work succeeded or not (what it holds has been read back).
 pub fn in_scratch<T>(
