@@ -15,7 +15,7 @@
 //! (the layout table the WGSL test checks).
 /// A `#[repr(u32)]` enumeration that the WGSL sees as `const NAME: u32 = value;` lines
 /// (`backend::gpu::shader`): each variant's value and WGSL name written once, with `ALL` (every
-/// variant in declaration order) and `wgsl_name`.
+/// variant in declaration order), `wgsl_name` and `wgsl_constants`.
 macro_rules! wgsl_enum {
     (
         $(#[$meta:meta])*
@@ -38,6 +38,14 @@ macro_rules! wgsl_enum {
                 match self {
                     $( $name::$variant => $wgsl, )*
                 }
+            }
+
+            /// Every variant as a WGSL `const NAME: u32 = value;` line.
+            pub fn wgsl_constants() -> String {
+                Self::ALL
+                    .iter()
+                    .map(|&v| format!("const {}: u32 = {}u;\n", v.wgsl_name(), v as u32))
+                    .collect()
             }
         }
     };

@@ -22,31 +22,31 @@ wgsl_enum! {
     }
 }
 
-/// Where the majorant segments come from; values of [`GpuTrackingParams::majorant_mode`].
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuMajorantMode {
-    /// `DdaMajorantIterator::new`: one segment per cell of the leaf bounds.
-    PerCell = 0,
-    /// `DdaMajorantIterator::global`: one segment with the global bounds.
-    Global = 1,
-    /// `AdaptiveMajorantIterator`: one segment per merged node of the adaptive hierarchy.
-    Adaptive = 2,
-    /// `DdaMajorantIterator::global` with its tentative collisions culled by the leaf cells
-    /// (`volume::cull::LeafCulling`, `tracking::sample_free_flight`).
-    Culled = 3,
+wgsl_enum! {
+    /// Where the majorant segments come from; values of [`GpuTrackingParams::majorant_mode`].
+    pub enum GpuMajorantMode {
+        /// `DdaMajorantIterator::new`: one segment per cell of the leaf bounds.
+        PerCell = 0 => "MAJORANT_PER_CELL",
+        /// `DdaMajorantIterator::global`: one segment with the global bounds.
+        Global = 1 => "MAJORANT_GLOBAL",
+        /// `AdaptiveMajorantIterator`: one segment per merged node of the adaptive hierarchy.
+        Adaptive = 2 => "MAJORANT_ADAPTIVE",
+        /// `DdaMajorantIterator::global` with its tentative collisions culled by the leaf cells
+        /// (`volume::cull::LeafCulling`, `tracking::sample_free_flight`).
+        Culled = 3 => "MAJORANT_CULLED",
+    }
 }
 
-/// Mirror of [`ControlExtinction`](crate::volume::tracking::ControlExtinction)'s variants;
-/// values of [`GpuTrackingParams::control_mode`], the payload in `control_value`.
-#[repr(u32)]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuControlMode {
-    None = 0,
-    Constant = 1,
-    FractionOfBound = 2,
-    SegmentMinorant = 3,
-    FractionOfBoundCapped = 4,
+wgsl_enum! {
+    /// Mirror of [`ControlExtinction`](crate::volume::tracking::ControlExtinction)'s variants;
+    /// values of [`GpuTrackingParams::control_mode`], the payload in `control_value`.
+    pub enum GpuControlMode {
+        None = 0 => "CONTROL_NONE",
+        Constant = 1 => "CONTROL_CONSTANT",
+        FractionOfBound = 2 => "CONTROL_FRACTION_OF_BOUND",
+        SegmentMinorant = 3 => "CONTROL_SEGMENT_MINORANT",
+        FractionOfBoundCapped = 4 => "CONTROL_FRACTION_OF_BOUND_CAPPED",
+    }
 }
 
 impl GpuControlMode {

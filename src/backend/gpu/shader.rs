@@ -179,36 +179,14 @@ impl Module {
 /// The shared enumerations as WGSL constants, generated from `gpu_types`.
 pub fn shared_constants() -> String {
     let mut s = String::from("// ---- generated from src/gpu_types/ ----\n");
-    for e in GpuEstimator::ALL {
-        writeln!(s, "const {}: u32 = {}u;", e.wgsl_name(), e as u32).unwrap();
-    }
-    for (name, v) in [
-        ("MAJORANT_PER_CELL", GpuMajorantMode::PerCell as u32),
-        ("MAJORANT_GLOBAL", GpuMajorantMode::Global as u32),
-        ("MAJORANT_ADAPTIVE", GpuMajorantMode::Adaptive as u32),
-        ("MAJORANT_CULLED", GpuMajorantMode::Culled as u32),
-        ("CONTROL_NONE", GpuControlMode::None as u32),
-        ("CONTROL_CONSTANT", GpuControlMode::Constant as u32),
-        (
-            "CONTROL_FRACTION_OF_BOUND",
-            GpuControlMode::FractionOfBound as u32,
-        ),
-        (
-            "CONTROL_SEGMENT_MINORANT",
-            GpuControlMode::SegmentMinorant as u32,
-        ),
-        (
-            "CONTROL_FRACTION_OF_BOUND_CAPPED",
-            GpuControlMode::FractionOfBoundCapped as u32,
-        ),
+    for enumeration in [
+        GpuEstimator::wgsl_constants(),
+        GpuMajorantMode::wgsl_constants(),
+        GpuControlMode::wgsl_constants(),
+        GpuQueue::wgsl_constants(),
+        GpuWideCounter::wgsl_constants(),
     ] {
-        writeln!(s, "const {name}: u32 = {v}u;").unwrap();
-    }
-    for q in GpuQueue::ALL {
-        writeln!(s, "const {}: u32 = {}u;", q.wgsl_name(), q as u32).unwrap();
-    }
-    for c in GpuWideCounter::ALL {
-        writeln!(s, "const {}: u32 = {}u;", c.wgsl_name(), c as u32).unwrap();
+        s.push_str(&enumeration);
     }
     use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
     for (name, v) in [
