@@ -1,7 +1,7 @@
-// Brume's generic sample_medium kernel as Brume assembled it when the blackbody table was a
-// uniform block (three uniform blocks in bind group 0: grid_info, emission,
-// blackbody_table), reduced to what the entry point reaches, comments dropped. The input of
-// tools/lavapipe_ubo/run.sh, not a shader Brume runs: shaders/ holds those.
+// Brume's generic sample_medium kernel with the blackbody table bound as a uniform block
+// (three uniform blocks in bind group 0: grid_info, emission, blackbody_table), reduced to
+// what the entry point reaches, comments dropped: a frozen input of tools/lavapipe_ubo/run.sh,
+// not a shader Brume runs (shaders/ holds those, and keeps the table in storage).
 
 const FEATURE_SURFACES: bool = true;
 
