@@ -1,8 +1,11 @@
 //! The GPU context for the `gpu_*` tests: SKIP (with a visible line) only when no adapter
 //! exists at all; any other failure to use the GPU fails the test.
-use brume::backend::gpu::GpuContext;
-use brume::gpu_types::GpuRay;
+use brume::backend::gpu::{GpuContext, GpuGrid};
+use brume::gpu_types::{
+    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuRay, GpuTrackingParams, GpuTrackingStats,
+};
 use brume::math::{Ray, Vec3};
+use brume::volume::tracking::ControlExtinction;
 use brume::volume::{LeafBounds, SparseGrid};
 
 pub fn gpu_or_skip(test: &str) -> Option<GpuContext> {
@@ -109,5 +112,85 @@ impl Medium {
             })
             .sum::<f64>()
             * h
+    }
+}
+
+/// Samples per ray of the tracking-kernel tests, the media's single-scattering albedo and the
+/// RGB extinction scales of spectral tracking.
+pub const SAMPLES: u32 = 100_000;
+pub const ALBEDO: f32 = 0.7;
+pub const RGB: [f32; 3] = [0.4, 1.0, 2.0];
+
+/// One estimator configuration of the tracking kernel.
+#[derive(Clone, Copy, Debug)]
+pub struct TrackingCase {
+    pub estimator: GpuEstimator,
+    pub b: f32,
+    pub control: ControlExtinction,
+    pub majorant: GpuMajorantMode,
+}
+
+/// What one dispatch of the tracking kernel wrote: a `vec4` per sample, the distance kernel's
+/// events (empty for transmittance) and the summed counters.
+pub struct TrackingOutput {
+    pub results: Vec<[f32; 4]>,
+    pub events: Vec<[u32; 2]>,
+    pub stats: GpuTrackingStats,
+}
+
+/// Runs `pipeline` (the tracking kernel, as `TRANSMITTANCE_MODULE` or `DISTANCE_MODULE`) for
+/// [`SAMPLES`] samples of `m`'s ray through `grid`, seeded `seed`.
+pub fn run_tracking(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    grid: &GpuGrid,
+    m: &Medium,
+    c: TrackingCase,
+    seed: u32,
+    with_events: bool,
+) -> TrackingOutput {
+    let (control_mode, control_value) = GpuControlMode::from_control(c.control);
+    let rgb = c.estimator == GpuEstimator::Spectral;
+    let params = GpuTrackingParams {
+        estimator: c.estimator as u32,
+        majorant_mode: c.majorant as u32,
+        control_mode: control_mode as u32,
+        spectral_mode: 0,
+        b: c.b,
+        control_value,
+        albedo: ALBEDO,
+        control_albedo: ALBEDO,
+        channel_scale: if rgb { RGB } else { [1.0; 3] },
+        seed,
+        majorant_channel_scale: if rgb { RGB[2] } else { 1.0 },
+        samples_per_ray: SAMPLES,
+        invocation_count: SAMPLES,
+        _pad0: 0,
+    };
+    let params_buf = ctx.uniform_buffer("params", &params);
+    let rays = ctx.storage_buffer("rays", &[m.ray]);
+    let results = ctx.storage_buffer_zeroed("results", SAMPLES as u64 * 16);
+    let stats = ctx.storage_buffer("stats", &[GpuTrackingStats::default()]);
+    let events = ctx.storage_buffer_zeroed("events", SAMPLES as u64 * 8);
+    let mut bindings = grid.bindings(true, true);
+    bindings.extend([
+        (1, 0, &params_buf),
+        (1, 1, &rays),
+        (1, 2, &results),
+        (1, 3, &stats),
+    ]);
+    if with_events {
+        bindings.push((1, 4, &events));
+    }
+    ctx.dispatch(pipeline, &bindings, SAMPLES.div_ceil(64))
+        .unwrap();
+    TrackingOutput {
+        results: ctx.read_buffer(&results),
+        events: if with_events {
+            ctx.read_buffer(&events)
+        } else {
+            Vec::new()
+        },
+        stats: ctx.read_buffer::<GpuTrackingStats>(&stats)[0],
     }
 }

@@ -13,9 +13,7 @@ use crate::common;
 
 use brume::backend::gpu::shader::DISTANCE_MODULE;
 use brume::backend::gpu::GpuGrid;
-use brume::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuTrackingParams, GpuTrackingStats,
-};
+use brume::gpu_types::{GpuEstimator, GpuMajorantMode};
 use brume::math::{Ray, Vec3};
 use brume::sampling::Rng;
 use brume::volume::tracking::spectral::SpectralProbabilities;
@@ -24,12 +22,8 @@ use brume::volume::tracking::{
 };
 use brume::volume::{DdaMajorantIterator, LeafCulling, VoxelCulling};
 use common::culled::CulledBy;
-use common::gpu::{blob, slab, Medium};
+use common::gpu::{blob, run_tracking, slab, Medium, TrackingCase, ALBEDO, RGB, SAMPLES};
 use common::{assert_z, Moments};
-
-const SAMPLES: u32 = 100_000;
-const ALBEDO: f32 = 0.7;
-const RGB: [f32; 3] = [0.4, 1.0, 2.0];
 
 /// (estimator, b, control)
 fn cases() -> Vec<(GpuEstimator, f32, ControlExtinction, GpuMajorantMode)> {
@@ -175,41 +169,15 @@ fn wgsl_sample_distance_matches_cpu_and_analytic() {
             let label = format!("{est:?} b={b} {control:?} {majorant:?}");
             let seed = 2000 + ci as u32;
             let rgb = est == GpuEstimator::Spectral;
-            let (control_mode, control_value) = GpuControlMode::from_control(control);
-            let params = GpuTrackingParams {
-                estimator: est as u32,
-                majorant_mode: majorant as u32,
-                control_mode: control_mode as u32,
-                spectral_mode: 0,
+            let case = TrackingCase {
+                estimator: est,
                 b,
-                control_value,
-                albedo: ALBEDO,
-                control_albedo: ALBEDO,
-                channel_scale: if rgb { RGB } else { [1.0; 3] },
-                seed,
-                majorant_channel_scale: if rgb { RGB[2] } else { 1.0 },
-                samples_per_ray: SAMPLES,
-                invocation_count: SAMPLES,
-                _pad0: 0,
+                control,
+                majorant,
             };
-            let params_buf = ctx.uniform_buffer("params", &params);
-            let rays = ctx.storage_buffer("rays", &[m.ray]);
-            let results = ctx.storage_buffer_zeroed("results", SAMPLES as u64 * 16);
-            let stats = ctx.storage_buffer("stats", &[GpuTrackingStats::default()]);
-            let events = ctx.storage_buffer_zeroed("events", SAMPLES as u64 * 8);
-            let mut bindings = grid.bindings(true, true);
-            bindings.extend([
-                (1, 0, &params_buf),
-                (1, 1, &rays),
-                (1, 2, &results),
-                (1, 3, &stats),
-                (1, 4, &events),
-            ]);
-            ctx.dispatch(&pipeline, &bindings, SAMPLES.div_ceil(64))
-                .unwrap();
-            let gpu: Vec<[f32; 4]> = ctx.read_buffer(&results);
-            let gpu_events: Vec<[u32; 2]> = ctx.read_buffer(&events);
-            let gpu_stats = ctx.read_buffer::<GpuTrackingStats>(&stats)[0].to_cpu();
+            let out = run_tracking(&ctx, &pipeline, &grid, &m, case, seed, true);
+            let (gpu, gpu_events) = (out.results, out.events);
+            let gpu_stats = out.stats.to_cpu();
 
             let channels = if rgb { 3 } else { 1 };
             let mut escape = [Moments::default(); 3];

@@ -11,10 +11,8 @@
 use crate::common;
 
 use brume::backend::gpu::shader::TRANSMITTANCE_MODULE;
-use brume::backend::gpu::{GpuContext, GpuGrid};
-use brume::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuTrackingParams, GpuTrackingStats,
-};
+use brume::backend::gpu::GpuGrid;
+use brume::gpu_types::{GpuEstimator, GpuMajorantMode};
 use brume::math::{Ray, Vec3};
 use brume::sampling::Rng;
 use brume::volume::tracking::spectral::SpectralProbabilities;
@@ -23,12 +21,8 @@ use brume::volume::tracking::{
 };
 use brume::volume::{DdaMajorantIterator, LeafCulling, VoxelCulling};
 use common::culled::CulledBy;
-use common::gpu::{blob, slab, Medium};
+use common::gpu::{blob, run_tracking, slab, Medium, TrackingCase, ALBEDO, RGB, SAMPLES};
 use common::{assert_z, Moments};
-
-const SAMPLES: u32 = 100_000;
-const ALBEDO: f32 = 0.7;
-const RGB: [f32; 3] = [0.4, 1.0, 2.0];
 
 struct Case {
     label: String,
@@ -158,51 +152,6 @@ fn cpu_estimate(m: &Medium, c: &Case, seed: u32, i: u32, st: &mut TrackingStats)
     }
 }
 
-fn run_gpu(
-    ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    grid: &GpuGrid,
-    m: &Medium,
-    c: &Case,
-    seed: u32,
-) -> (Vec<[f32; 4]>, GpuTrackingStats) {
-    let (control_mode, control_value) = GpuControlMode::from_control(c.control);
-    let rgb = c.estimator == GpuEstimator::Spectral;
-    let params = GpuTrackingParams {
-        estimator: c.estimator as u32,
-        majorant_mode: c.majorant as u32,
-        control_mode: control_mode as u32,
-        spectral_mode: 0,
-        b: c.b,
-        control_value,
-        albedo: ALBEDO,
-        control_albedo: ALBEDO,
-        channel_scale: if rgb { RGB } else { [1.0; 3] },
-        seed,
-        majorant_channel_scale: if rgb { RGB[2] } else { 1.0 },
-        samples_per_ray: SAMPLES,
-        invocation_count: SAMPLES,
-        _pad0: 0,
-    };
-    let params_buf = ctx.uniform_buffer("params", &params);
-    let rays = ctx.storage_buffer("rays", &[m.ray]);
-    let results = ctx.storage_buffer_zeroed("results", SAMPLES as u64 * 16);
-    let stats = ctx.storage_buffer("stats", &[GpuTrackingStats::default()]);
-    let mut bindings = grid.bindings(true, true);
-    bindings.extend([
-        (1, 0, &params_buf),
-        (1, 1, &rays),
-        (1, 2, &results),
-        (1, 3, &stats),
-    ]);
-    ctx.dispatch(pipeline, &bindings, SAMPLES.div_ceil(64))
-        .unwrap();
-    (
-        ctx.read_buffer(&results),
-        ctx.read_buffer::<GpuTrackingStats>(&stats)[0],
-    )
-}
-
 #[test]
 fn wgsl_transmittance_matches_analytic_and_cpu() {
     let Some(ctx) = common::gpu::gpu_or_skip("gpu_transmittance") else {
@@ -223,7 +172,14 @@ fn wgsl_transmittance_matches_analytic_and_cpu() {
         for (ci, c) in cases().iter().enumerate() {
             let seed = 1000 + ci as u32;
             let t0 = std::time::Instant::now();
-            let (gpu, gpu_stats) = run_gpu(&ctx, &pipeline, &grid, &m, c, seed);
+            let case = TrackingCase {
+                estimator: c.estimator,
+                b: c.b,
+                control: c.control,
+                majorant: c.majorant,
+            };
+            let out = run_tracking(&ctx, &pipeline, &grid, &m, case, seed, false);
+            let (gpu, gpu_stats) = (out.results, out.stats);
             let gpu_time = t0.elapsed();
             let channels = if c.estimator == GpuEstimator::Spectral {
                 3
