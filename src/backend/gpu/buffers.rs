@@ -255,7 +255,7 @@ pub(super) fn kernel(
     grid: Option<&GpuGrid>,
 ) -> Result<Kernel, GpuRenderError> {
     let dev = |e: String| GpuRenderError::Device(format!("{}: {e}", module.label));
-    let used = module.bindings(specs).map_err(dev)?;
+    let (source, used) = module.checked_source(specs).map_err(dev)?;
     let storage = used.iter().filter(|b| !b.uniform).count() as u32;
     if storage > ctx.limits.max_storage_buffers_per_shader_stage {
         return Err(GpuRenderError::Limits(format!(
@@ -263,22 +263,22 @@ pub(super) fn kernel(
             module.label, ctx.limits.max_storage_buffers_per_shader_stage
         )));
     }
-    let pipeline = ctx.pipeline(module, specs).map_err(dev)?;
-    let used: Vec<(u32, u32)> = used.iter().map(|b| (b.group, b.binding)).collect();
-    let max_group = used.iter().map(|u| u.0 + 1).max().unwrap_or(0);
+    let pipeline = ctx.pipeline_from(module, source).map_err(dev)?;
+    let max_group = used.iter().map(|b| b.group + 1).max().unwrap_or(0);
     let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mut groups: [Vec<wgpu::BindGroup>; 2] = [Vec::new(), Vec::new()];
     for (parity, out) in groups.iter_mut().enumerate() {
         for g in 0..max_group {
             let mut entries = Vec::new();
-            for &(ug, ub) in used.iter().filter(|u| u.0 == g) {
-                let buffer = bufs.get(grid, parity, ug, ub).ok_or_else(|| {
+            for b in used.iter().filter(|b| b.group == g) {
+                let buffer = bufs.get(grid, parity, b.group, b.binding).ok_or_else(|| {
                     dev(format!(
-                        "binding ({ug}, {ub}) has no buffer (no grid uploaded?)"
+                        "binding ({}, {}) has no buffer (no grid uploaded?)",
+                        b.group, b.binding
                     ))
                 })?;
                 entries.push(wgpu::BindGroupEntry {
-                    binding: ub,
+                    binding: b.binding,
                     resource: buffer.as_entire_binding(),
                 });
             }

@@ -198,8 +198,16 @@ impl GpuContext {
         specs: &[Spec],
     ) -> Result<wgpu::ComputePipeline, String> {
         // The binding rules every driver needs (`Module::bindings`), before the driver sees it.
-        module.bindings(specs)?;
-        let source = module.source(specs);
+        let (source, _) = module.checked_source(specs)?;
+        self.pipeline_from(module, source)
+    }
+
+    /// [`GpuContext::pipeline`] from the source [`Module::checked_source`] gave.
+    pub fn pipeline_from(
+        &self,
+        module: &Module,
+        source: String,
+    ) -> Result<wgpu::ComputePipeline, String> {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let shader = self
             .device

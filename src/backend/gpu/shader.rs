@@ -367,6 +367,12 @@ impl Module {
     /// The resources the entry point uses with `specs`, checked against what every driver
     /// Brume runs on takes: at most [`MAX_UNIFORM_BLOCKS_PER_GROUP`] uniform blocks a group.
     pub fn bindings(&self, specs: &[Spec]) -> Result<Vec<Binding>, String> {
+        self.checked_source(specs).map(|(_, bindings)| bindings)
+    }
+
+    /// The module's source with `specs` and its [`Module::bindings`], from one assembly and
+    /// one parse: what a pipeline is created from.
+    pub fn checked_source(&self, specs: &[Spec]) -> Result<(String, Vec<Binding>), String> {
         let source = self.source(specs);
         let m = naga::front::wgsl::parse_str(&source).map_err(|e| e.emit_to_string(&source))?;
         let info = naga::valid::Validator::new(
@@ -406,7 +412,7 @@ impl Module {
                 ));
             }
         }
-        Ok(bindings)
+        Ok((source, bindings))
     }
 }
 
