@@ -274,13 +274,14 @@ where
                 stats: &mut *stats,
                 w: *w,
             };
-            let (real, factor) = match rule(&mut tr, c) {
-                Outcome::Null(factor) => {
+            let outcome = rule(&mut tr, c);
+            if let Outcome::Null(Some(f)) | Outcome::Real(_, Some(f)) = outcome {
+                *w *= f;
+                w.note(stats);
+            }
+            match outcome {
+                Outcome::Null(_) => {
                     stats.null_collisions += 1;
-                    if let Some(f) = factor {
-                        *w *= f;
-                        w.note(stats);
-                    }
                     if E::ROULETTE {
                         *w = w.roulette(rng, stats);
                         if w.is_zero() {
@@ -288,27 +289,24 @@ where
                             return false;
                         }
                     }
-                    return true;
+                    true
                 }
-                Outcome::Real(real, factor) => (real, factor),
+                Outcome::Real(real, _) => {
+                    stats.real_collisions += 1;
+                    end = Some(End::Event(real, c.t));
+                    false
+                }
                 Outcome::Control(real) => {
                     stats.control_collisions += 1;
                     end = Some(End::Event(real, c.t));
-                    return false;
+                    false
                 }
-                Outcome::Skip => return true,
+                Outcome::Skip => true,
                 Outcome::Dead => {
                     end = Some(End::Dead(c.t));
-                    return false;
+                    false
                 }
-            };
-            if let Some(f) = factor {
-                *w *= f;
-                w.note(stats);
             }
-            stats.real_collisions += 1;
-            end = Some(End::Event(real, c.t));
-            false
         },
     );
     end
