@@ -10,15 +10,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::Args;
 
-use crate::film::{read_exr, write_image, AttrValue, Metadata};
+use crate::film::{AttrValue, Metadata};
 
-use super::{
-    compare, in_scratch, merge_runs, output_tail, read_runs, seconds_list, Driver, PythonTool,
-    ReferenceRun,
-};
+use super::{in_scratch, seconds_list, Driver, PythonTool, ReferenceRun};
 
 /// A Python with bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the working
 /// directory or the source tree), then `python3` on the PATH.
@@ -80,33 +77,10 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
         cmd.arg("--save-blend").arg(b);
     }
     let started = Instant::now();
-    let out = cmd
-        .output()
-        .with_context(|| format!("running {}", python.display()))?;
-    if !out.status.success() {
-        bail!("Cycles failed ({}):\n{}", out.status, output_tail(&out, 20));
-    }
-    let runs = read_runs(
-        &String::from_utf8_lossy(&out.stdout),
-        args.run.runs,
-        "Cycles",
-    )?;
-    let render_seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
-    let images: Vec<_> = runs.into_iter().map(|r| r.image).collect();
-    let total: f64 = render_seconds.iter().sum();
-    let mut meta = Metadata::new();
-    meta.set("brume:renderer", AttrValue::Text("cycles (bpy 5.0)".into()))
-        .set(
-            "brume:spp",
-            AttrValue::Int((args.run.spp * args.run.runs) as i32),
-        )
-        .set("brume:cycles_runs", AttrValue::Int(args.run.runs as i32))
-        .set("brume:render_seconds", AttrValue::Double(total))
-        .set(
-            "brume:scene",
-            AttrValue::Text(args.run.scene.display().to_string()),
-        );
-    if let Some(t) = images
+    let (_, r) = DRIVER.render(&args.run, &mut cmd, "Cycles", "cycles (bpy 5.0)".into())?;
+    let mut meta = r.meta;
+    if let Some(t) = r
+        .images
         .iter()
         .map(|i| CyclesTimes::from_metadata(&i.attributes))
         .collect::<Option<Vec<_>>>()
@@ -126,24 +100,17 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
                 AttrValue::Double(sum(|t| t.sync)),
             );
     }
-    let merged = merge_runs(&images, args.run.spp, meta)?;
-    write_image(&args.run.output, &merged)?;
-    eprintln!(
+    let summary = format!(
         "cycles: {} run(s) x {} spp, {}x{}, render {:.2} s (per run {}), wall {:.2} s",
         args.run.runs,
         args.run.spp,
         args.run.width,
         args.run.height,
-        total,
-        seconds_list(&render_seconds),
+        r.total,
+        seconds_list(&r.seconds),
         started.elapsed().as_secs_f64()
     );
-    if let Some(brume_path) = &args.run.against {
-        let brume = read_exr(brume_path)?;
-        let a = compare(&brume, &merged, 8, 0.001)?;
-        println!("{a}");
-    }
-    Ok(())
+    args.run.finish(&r.images, meta, &summary)
 }
 
 /// The timings Cycles writes into each render's EXR (`cycles.<view layer>.total_time`,

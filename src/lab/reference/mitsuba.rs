@@ -18,17 +18,14 @@ use clap::Args;
 use glam::{Mat4, Vec3};
 use serde_json::{json, Value};
 
-use crate::film::{read_exr, write_image, AttrValue, Metadata};
+use crate::film::AttrValue;
 use crate::integrator::bsdf::Principled;
 use crate::render::settings::DEFAULT_MAX_DEPTH;
 use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{BoundsSource, Material, Scene, VdbMediumDesc, NO_INDEX};
 use crate::volume::mitsuba_vol::vol_from_grid;
 
-use super::{
-    compare, in_scratch, merge_runs, output_tail, read_runs, seconds_list, Driver, PythonTool,
-    ReferenceRun,
-};
+use super::{in_scratch, seconds_list, Driver, PythonTool, ReferenceRun};
 
 /// A Python with mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to the
 /// working directory or the source tree.
@@ -99,17 +96,7 @@ fn translate_and_render(
     if let Some(v) = &args.variant {
         cmd.args(["--variant", v]);
     }
-    let out = cmd
-        .output()
-        .with_context(|| format!("running {}", python.display()))?;
-    if !out.status.success() {
-        bail!(
-            "Mitsuba failed on {} ({}):\n{}",
-            args.run.scene.display(),
-            out.status,
-            output_tail(&out, 20)
-        );
-    }
+    let (out, r) = DRIVER.render(&args.run, &mut cmd, "Mitsuba", "mitsuba".into())?;
     // The script's notes (a variant fallback) matter even when it succeeds.
     for line in String::from_utf8_lossy(&out.stderr).lines() {
         if line.starts_with("note:") {
@@ -126,50 +113,29 @@ fn translate_and_render(
     let build_seconds: f64 = field("build_seconds ")
         .and_then(|s| s.parse().ok())
         .unwrap_or(f64::NAN);
-    let runs = read_runs(&stdout, args.run.runs, "Mitsuba")?;
-    let seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
-    let images: Vec<_> = runs.into_iter().map(|r| r.image).collect();
-    let total: f64 = seconds.iter().sum();
-    let mut meta = Metadata::new();
+    let mut meta = r.meta;
     meta.set(
         "brume:renderer",
         AttrValue::Text(format!("mitsuba ({variant})")),
     )
     .set(
-        "brume:spp",
-        AttrValue::Int((args.run.spp * args.run.runs) as i32),
-    )
-    .set("brume:mitsuba_runs", AttrValue::Int(args.run.runs as i32))
-    .set("brume:render_seconds", AttrValue::Double(total))
-    .set(
         "brume:mitsuba_seconds_per_run",
-        AttrValue::Text(seconds_list(&seconds)),
-    )
-    .set(
-        "brume:scene",
-        AttrValue::Text(args.run.scene.display().to_string()),
+        AttrValue::Text(seconds_list(&r.seconds)),
     );
-    let merged = merge_runs(&images, args.run.spp, meta)?;
-    write_image(&args.run.output, &merged)?;
-    eprintln!(
+    let summary = format!(
         "mitsuba ({variant}): {} run(s) x {} spp, {}x{}, render {:.2} s (per run {}), \
          translation {:.2} s, Mitsuba scene set-up {:.2} s, wall {:.2} s",
         args.run.runs,
         args.run.spp,
         args.run.width,
         args.run.height,
-        total,
-        seconds_list(&seconds),
+        r.total,
+        seconds_list(&r.seconds),
         prepare_seconds,
         build_seconds,
         started.elapsed().as_secs_f64()
     );
-    if let Some(brume_path) = &args.run.against {
-        let brume = read_exr(brume_path)?;
-        let a = compare(&brume, &merged, 8, 0.001)?;
-        println!("{a}");
-    }
-    Ok(())
+    args.run.finish(&r.images, meta, &summary)
 }
 
 /// Row-major 4x4 rows of a glam (column-major) matrix, as Mitsuba's `ScalarTransform4f`

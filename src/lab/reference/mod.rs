@@ -13,7 +13,7 @@ use std::process::Command;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
-use crate::film::{read_exr, Image, Metadata};
+use crate::film::{read_exr, write_image, AttrValue, Image, Metadata};
 use crate::study::stats::erfc;
 
 /// One finished run reported by a translation script: a line
@@ -145,6 +145,76 @@ impl Driver {
         }
         let python = self.python.find()?;
         Ok(Some((python, find_script(self.script_var, self.script)?)))
+    }
+}
+
+/// A reference renderer's finished runs: their images, seconds and the metadata every merged
+/// reference EXR carries.
+pub struct Rendered {
+    pub images: Vec<Image>,
+    pub seconds: Vec<f64>,
+    /// The sum of `seconds`.
+    pub total: f64,
+    pub meta: Metadata,
+}
+
+impl Driver {
+    /// Runs the translation script (`cmd`) and reads the runs it reports; `renderer` names the
+    /// renderer in messages and in the metadata keys, `label` is its `brume:renderer` value.
+    pub fn render(
+        &self,
+        run: &ReferenceRun,
+        cmd: &mut Command,
+        renderer: &str,
+        label: String,
+    ) -> Result<(std::process::Output, Rendered)> {
+        let out = cmd
+            .output()
+            .with_context(|| format!("running {}", cmd.get_program().to_string_lossy()))?;
+        if !out.status.success() {
+            bail!(
+                "{renderer} failed on {} ({}):\n{}",
+                run.scene.display(),
+                out.status,
+                output_tail(&out, 20)
+            );
+        }
+        let runs = read_runs(&String::from_utf8_lossy(&out.stdout), run.runs, renderer)?;
+        let seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
+        let images: Vec<Image> = runs.into_iter().map(|r| r.image).collect();
+        let total: f64 = seconds.iter().sum();
+        let key = renderer.to_lowercase();
+        let mut meta = Metadata::new();
+        meta.set("brume:renderer", AttrValue::Text(label))
+            .set("brume:spp", AttrValue::Int((run.spp * run.runs) as i32))
+            .set(format!("brume:{key}_runs"), AttrValue::Int(run.runs as i32))
+            .set("brume:render_seconds", AttrValue::Double(total))
+            .set(
+                "brume:scene",
+                AttrValue::Text(run.scene.display().to_string()),
+            );
+        let rendered = Rendered {
+            images,
+            seconds,
+            total,
+            meta,
+        };
+        Ok((out, rendered))
+    }
+}
+
+impl ReferenceRun {
+    /// Merges the runs into `--output`, prints `summary` and, with `--against`, the agreement
+    /// with that Brume image.
+    pub fn finish(&self, images: &[Image], meta: Metadata, summary: &str) -> Result<()> {
+        let merged = merge_runs(images, self.spp, meta)?;
+        write_image(&self.output, &merged)?;
+        eprintln!("{summary}");
+        if let Some(brume_path) = &self.against {
+            let brume = read_exr(brume_path)?;
+            println!("{}", compare(&brume, &merged, 8, 0.001)?);
+        }
+        Ok(())
     }
 }
 
