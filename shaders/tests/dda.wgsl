@@ -6,12 +6,9 @@
 @group(1) @binding(1) var<storage, read_write> segments: array<GpuMajorantSegment>;
 @group(1) @binding(2) var<storage, read_write> counts: array<u32>;
 
-@compute @workgroup_size(64)
-fn dda_segments(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&rays)) {
-        return;
-    }
+// One item; the entry point `dda_segments` that runs it on every item is generated
+// (`Dispatch::Items`).
+fn test_dda(i: u32) {
     let r = rays[i];
     var it = dda_new(r.o, r.d, r.t_min, r.t_max, DDA_SCALE, DDA_MODE);
     var seg: GpuMajorantSegment;

@@ -5,12 +5,9 @@
 // x: nearest, y: trilinear, z: voxel(floor(p)).
 @group(1) @binding(1) var<storage, read_write> values: array<vec4<f32>>;
 
-@compute @workgroup_size(64)
-fn grid_lookups(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&points)) {
-        return;
-    }
+// One item; the entry point `grid_lookups` that runs it on every item is generated
+// (`Dispatch::Items`).
+fn test_grid(i: u32) {
     let p = points[i].xyz;
     values[i] = vec4<f32>(grid_sample_nearest(p), grid_sample_trilinear(p),
                           grid_voxel(vec3<i32>(floor(p))), 0.0);

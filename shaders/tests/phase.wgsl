@@ -6,12 +6,9 @@
 // Per sample two rows: (wi, pdf) and (p(wo, wi), -, -, -).
 @group(0) @binding(1) var<storage, read_write> outputs: array<vec4<f32>>;
 
-@compute @workgroup_size(64)
-fn phase_samples(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (2u * i >= arrayLength(&inputs)) {
-        return;
-    }
+// One item; the entry point `phase_samples` that runs it on every item is generated
+// (`Dispatch::Items`).
+fn test_phase(i: u32) {
     let a = inputs[2u * i];
     let wo = inputs[2u * i + 1u].xyz;
     let s = hg_sample(a.x, wo, a.yz);

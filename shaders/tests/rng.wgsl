@@ -5,12 +5,9 @@
 @group(0) @binding(0) var<storage, read> streams: array<vec4<u32>>; // pixel, sample, seed, -
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;
 
-@compute @workgroup_size(64)
-fn rng_streams(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&streams)) {
-        return;
-    }
+// One item; the entry point `rng_streams` that runs it on every item is generated
+// (`Dispatch::Items`).
+fn test_rng(i: u32) {
     let s = streams[i];
     var rng = rng_new(s.x, s.y, s.z);
     let base = i * (DRAWS + 2u);

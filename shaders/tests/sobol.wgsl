@@ -5,12 +5,9 @@
 @group(0) @binding(0) var<storage, read> queries: array<vec4<u32>>; // pixel, sample, block, seed
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;
 
-@compute @workgroup_size(64)
-fn sobol_points(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if (i >= arrayLength(&queries)) {
-        return;
-    }
+// One item; the entry point `sobol_points` that runs it on every item is generated
+// (`Dispatch::Items`).
+fn test_sobol(i: u32) {
     let q = queries[i];
     let p = sobol_point_u32(q.x, q.y, q.z, q.w);
     let f = sobol_point(q.x, q.y, q.z, q.w);
