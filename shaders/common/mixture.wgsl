@@ -194,30 +194,36 @@ fn mix_density(i: u32, t: f32) -> f32 {
     return grid_sample_trilinear_in(g, mix_streams[i].o + t * mix_streams[i].d);
 }
 
-// GreyMix::coeffs: the homogeneous part's, plus every member's grey view (one lookup each).
-fn mix_coeffs(tr: ptr<function, Tracker>, t: f32) -> Coeffs {
-    var k = Coeffs(mix_state.hom_sigma_a.x, mix_state.hom_sigma_s.x);
+// The sum behind GreyMix::coeffs and RgbMix::coeffs: the homogeneous part's tracker
+// coefficients plus every member's view (one lookup each), the members' RGB coefficients with
+// `rgb`, else their grey ones in every lane.
+fn mix_coeffs_sum(tr: ptr<function, Tracker>, t: f32, rgb: bool) -> CoeffsRgb {
+    var k = CoeffsRgb(mix_state.hom_sigma_a, mix_state.hom_sigma_s);
     for (var i = 0u; i < mix_state.n_vdb; i++) {
         let m = mix_streams[i].medium;
         let dens = mix_density(i, t);
-        k.sigma_a += vdb_media[m].grey_sigma_a * dens;
-        k.sigma_s += vdb_media[m].grey_sigma_s * dens;
+        var sigma_a = vec3<f32>(vdb_media[m].grey_sigma_a);
+        var sigma_s = vec3<f32>(vdb_media[m].grey_sigma_s);
+        if (rgb) {
+            sigma_a = vdb_media[m].rgb_sigma_a;
+            sigma_s = vdb_media[m].rgb_sigma_s;
+        }
+        k.sigma_a += sigma_a * dens;
+        k.sigma_s += sigma_s * dens;
     }
     (*tr).stats.lookups += mix_state.n_vdb;
     return k;
 }
 
+// GreyMix::coeffs.
+fn mix_coeffs(tr: ptr<function, Tracker>, t: f32) -> Coeffs {
+    let k = mix_coeffs_sum(tr, t, false);
+    return Coeffs(k.sigma_a.x, k.sigma_s.x);
+}
+
 // RgbMix::coeffs.
 fn mix_coeffs_rgb(tr: ptr<function, Tracker>, t: f32) -> CoeffsRgb {
-    var k = CoeffsRgb(mix_state.hom_sigma_a, mix_state.hom_sigma_s);
-    for (var i = 0u; i < mix_state.n_vdb; i++) {
-        let m = mix_streams[i].medium;
-        let dens = mix_density(i, t);
-        k.sigma_a += vdb_media[m].rgb_sigma_a * dens;
-        k.sigma_s += vdb_media[m].rgb_sigma_s * dens;
-    }
-    (*tr).stats.lookups += mix_state.n_vdb;
-    return k;
+    return mix_coeffs_sum(tr, t, true);
 }
 
 // GreyMix::control: the summed minorant split so that it stays below every part's own split.
