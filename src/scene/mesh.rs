@@ -190,23 +190,24 @@ fn read_normals(
     pointer: &str,
     n: usize,
 ) -> Result<Option<Vec<Vec3>>, SceneError> {
-    let Some(acc) = prim.get(&gltf::Semantic::Normals) else {
+    let semantic = gltf::Semantic::Normals;
+    let Some(at) = optional_accessor(
+        ctx,
+        prim,
+        pointer,
+        semantic,
+        &[DataType::F32],
+        Dimensions::Vec3,
+    )?
+    else {
         return Ok(None);
     };
-    let at = format!("{pointer}/attributes/NORMAL");
-    check_accessor(ctx, &acc, &at, &[DataType::F32], Dimensions::Vec3)?;
     let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
     let v: Vec<Vec3> = reader
         .read_normals()
         .map(|it| it.map(Vec3::from).collect())
         .unwrap_or_default();
-    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-        return Err(ctx.invalid(
-            at,
-            "NORMAL count differs from POSITION or holds non-finite values",
-        ));
-    }
-    Ok(Some(v))
+    per_vertex(ctx, at, v, n, |x| x.is_finite())
 }
 
 /// The optional TEXCOORD_0 attribute (f32, or normalized u8 or u16): finite coordinates, one
@@ -218,26 +219,52 @@ fn read_uvs(
     pointer: &str,
     n: usize,
 ) -> Result<Option<Vec<[f32; 2]>>, SceneError> {
-    let Some(acc) = prim.get(&gltf::Semantic::TexCoords(0)) else {
+    let types = [DataType::F32, DataType::U8, DataType::U16];
+    let semantic = gltf::Semantic::TexCoords(0);
+    let Some(at) = optional_accessor(ctx, prim, pointer, semantic, &types, Dimensions::Vec2)?
+    else {
         return Ok(None);
     };
-    let at = format!("{pointer}/attributes/TEXCOORD_0");
-    check_accessor(
-        ctx,
-        &acc,
-        &at,
-        &[DataType::F32, DataType::U8, DataType::U16],
-        Dimensions::Vec2,
-    )?;
     let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
     let v: Vec<[f32; 2]> = reader
         .read_tex_coords(0)
         .map(|it| it.into_f32().collect())
         .unwrap_or_default();
-    if v.len() != n || v.iter().any(|x| !x[0].is_finite() || !x[1].is_finite()) {
+    per_vertex(ctx, at, v, n, |x| x[0].is_finite() && x[1].is_finite())
+}
+
+/// The JSON pointer of the optional attribute `semantic` once its accessor is checked (one of
+/// `types`, `dims`); `None` when the primitive has none.
+fn optional_accessor(
+    ctx: &mut Ctx,
+    prim: &gltf::Primitive,
+    pointer: &str,
+    semantic: gltf::Semantic,
+    types: &[DataType],
+    dims: Dimensions,
+) -> Result<Option<String>, SceneError> {
+    let name = semantic.to_string();
+    let Some(acc) = prim.get(&semantic) else {
+        return Ok(None);
+    };
+    let at = format!("{pointer}/attributes/{name}");
+    check_accessor(ctx, &acc, &at, types, dims)?;
+    Ok(Some(at))
+}
+
+/// The values `v` of the attribute at JSON pointer `at`: one finite value per position (`n`).
+fn per_vertex<T>(
+    ctx: &mut Ctx,
+    at: String,
+    v: Vec<T>,
+    n: usize,
+    finite: impl Fn(&T) -> bool,
+) -> Result<Option<Vec<T>>, SceneError> {
+    if v.len() != n || !v.iter().all(finite) {
+        let name = at.rsplit('/').next().unwrap_or_default().to_string();
         return Err(ctx.invalid(
             at,
-            "TEXCOORD_0 count differs from POSITION or holds non-finite values",
+            format!("{name} count differs from POSITION or holds non-finite values"),
         ));
     }
     Ok(Some(v))
