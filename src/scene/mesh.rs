@@ -133,11 +133,16 @@ pub fn read_primitive(
         );
         return Ok(None);
     }
-    let positions = read_positions(ctx, buffers, prim, pointer)?;
+    let src = PrimitiveSource {
+        prim,
+        buffers,
+        pointer,
+    };
+    let positions = src.positions(ctx)?;
     let n = positions.len();
-    let normals = read_normals(ctx, buffers, prim, pointer, n)?;
-    let uvs = read_uvs(ctx, buffers, prim, pointer, n)?;
-    let indices = read_indices(ctx, buffers, prim, pointer, n)?;
+    let normals = src.normals(ctx, n)?;
+    let uvs = src.uvs(ctx, n)?;
+    let indices = src.indices(ctx, n)?;
     let triangles = assemble(mode, &indices);
     if triangles.is_empty() {
         ctx.warn(pointer, "primitive has no complete triangle");
@@ -150,106 +155,116 @@ pub fn read_primitive(
     }))
 }
 
-/// The primitive's POSITION attribute, which it must have, as finite f32 vectors.
-fn read_positions(
-    ctx: &mut Ctx,
-    buffers: &[Vec<u8>],
-    prim: &gltf::Primitive,
-    pointer: &str,
-) -> Result<Vec<Vec3>, SceneError> {
-    let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-        return Err(ctx.invalid(
-            format!("{pointer}/attributes"),
-            "primitive has no POSITION attribute",
-        ));
-    };
-    let at = format!("{pointer}/attributes/POSITION");
-    check_accessor(ctx, &pos_acc, &at, &[DataType::F32], Dimensions::Vec3)?;
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let positions: Vec<Vec3> = reader
-        .read_positions()
-        .map(|it| it.map(Vec3::from).collect())
-        .unwrap_or_default();
-    if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
-        return Err(ctx.invalid(
-            at,
-            format!(
-                "vertex {k} has a non-finite position (accessor {})",
-                pos_acc.index()
-            ),
-        ));
+/// A primitive being read: the glTF primitive, the file's buffers and its JSON pointer.
+struct PrimitiveSource<'a> {
+    prim: &'a gltf::Primitive<'a>,
+    buffers: &'a [Vec<u8>],
+    pointer: &'a str,
+}
+
+impl<'a> PrimitiveSource<'a> {
+    fn reader(
+        &self,
+    ) -> gltf::mesh::Reader<'a, 'a, impl Clone + Fn(gltf::Buffer<'a>) -> Option<&'a [u8]>> {
+        let buffers = self.buffers;
+        self.prim
+            .reader(move |b| buffers.get(b.index()).map(|v| v.as_slice()))
     }
-    Ok(positions)
-}
 
-/// The optional NORMAL attribute: finite f32 vectors, one per position (`n`).
-fn read_normals(
-    ctx: &mut Ctx,
-    buffers: &[Vec<u8>],
-    prim: &gltf::Primitive,
-    pointer: &str,
-    n: usize,
-) -> Result<Option<Vec<Vec3>>, SceneError> {
-    let semantic = gltf::Semantic::Normals;
-    let Some(at) = optional_accessor(
-        ctx,
-        prim,
-        pointer,
-        semantic,
-        &[DataType::F32],
-        Dimensions::Vec3,
-    )?
-    else {
-        return Ok(None);
-    };
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let v: Vec<Vec3> = reader
-        .read_normals()
-        .map(|it| it.map(Vec3::from).collect())
-        .unwrap_or_default();
-    per_vertex(ctx, at, v, n, |x| x.is_finite())
-}
+    /// The POSITION attribute, which the primitive must have, as finite f32 vectors.
+    fn positions(&self, ctx: &mut Ctx) -> Result<Vec<Vec3>, SceneError> {
+        let pointer = self.pointer;
+        let Some(acc) = self.prim.get(&gltf::Semantic::Positions) else {
+            return Err(ctx.invalid(
+                format!("{pointer}/attributes"),
+                "primitive has no POSITION attribute",
+            ));
+        };
+        let at = format!("{pointer}/attributes/POSITION");
+        check_accessor(ctx, &acc, &at, &[DataType::F32], Dimensions::Vec3)?;
+        let positions: Vec<Vec3> = self
+            .reader()
+            .read_positions()
+            .map(|it| it.map(Vec3::from).collect())
+            .unwrap_or_default();
+        if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(ctx.invalid(
+                at,
+                format!(
+                    "vertex {k} has a non-finite position (accessor {})",
+                    acc.index()
+                ),
+            ));
+        }
+        Ok(positions)
+    }
 
-/// The optional TEXCOORD_0 attribute (f32, or normalized u8 or u16): finite coordinates, one
-/// per position (`n`).
-fn read_uvs(
-    ctx: &mut Ctx,
-    buffers: &[Vec<u8>],
-    prim: &gltf::Primitive,
-    pointer: &str,
-    n: usize,
-) -> Result<Option<Vec<[f32; 2]>>, SceneError> {
-    let types = [DataType::F32, DataType::U8, DataType::U16];
-    let semantic = gltf::Semantic::TexCoords(0);
-    let Some(at) = optional_accessor(ctx, prim, pointer, semantic, &types, Dimensions::Vec2)?
-    else {
-        return Ok(None);
-    };
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let v: Vec<[f32; 2]> = reader
-        .read_tex_coords(0)
-        .map(|it| it.into_f32().collect())
-        .unwrap_or_default();
-    per_vertex(ctx, at, v, n, |x| x[0].is_finite() && x[1].is_finite())
-}
+    /// The optional NORMAL attribute: finite f32 vectors, one per position (`n`).
+    fn normals(&self, ctx: &mut Ctx, n: usize) -> Result<Option<Vec<Vec3>>, SceneError> {
+        let semantic = gltf::Semantic::Normals;
+        let Some(at) = self.optional(ctx, semantic, &[DataType::F32], Dimensions::Vec3)? else {
+            return Ok(None);
+        };
+        let v: Vec<Vec3> = self
+            .reader()
+            .read_normals()
+            .map(|it| it.map(Vec3::from).collect())
+            .unwrap_or_default();
+        per_vertex(ctx, at, v, n, |x| x.is_finite())
+    }
 
-/// The JSON pointer of the optional attribute `semantic` once its accessor is checked (one of
-/// `types`, `dims`); `None` when the primitive has none.
-fn optional_accessor(
-    ctx: &mut Ctx,
-    prim: &gltf::Primitive,
-    pointer: &str,
-    semantic: gltf::Semantic,
-    types: &[DataType],
-    dims: Dimensions,
-) -> Result<Option<String>, SceneError> {
-    let name = semantic.to_string();
-    let Some(acc) = prim.get(&semantic) else {
-        return Ok(None);
-    };
-    let at = format!("{pointer}/attributes/{name}");
-    check_accessor(ctx, &acc, &at, types, dims)?;
-    Ok(Some(at))
+    /// The optional TEXCOORD_0 attribute (f32, or normalized u8 or u16): finite coordinates,
+    /// one per position (`n`).
+    fn uvs(&self, ctx: &mut Ctx, n: usize) -> Result<Option<Vec<[f32; 2]>>, SceneError> {
+        let types = [DataType::F32, DataType::U8, DataType::U16];
+        let semantic = gltf::Semantic::TexCoords(0);
+        let Some(at) = self.optional(ctx, semantic, &types, Dimensions::Vec2)? else {
+            return Ok(None);
+        };
+        let v: Vec<[f32; 2]> = self
+            .reader()
+            .read_tex_coords(0)
+            .map(|it| it.into_f32().collect())
+            .unwrap_or_default();
+        per_vertex(ctx, at, v, n, |x| x[0].is_finite() && x[1].is_finite())
+    }
+
+    /// The JSON pointer of the optional attribute `semantic` once its accessor is checked
+    /// (one of `types`, `dims`); `None` when the primitive has none.
+    fn optional(
+        &self,
+        ctx: &mut Ctx,
+        semantic: gltf::Semantic,
+        types: &[DataType],
+        dims: Dimensions,
+    ) -> Result<Option<String>, SceneError> {
+        let name = semantic.to_string();
+        let Some(acc) = self.prim.get(&semantic) else {
+            return Ok(None);
+        };
+        let at = format!("{}/attributes/{name}", self.pointer);
+        check_accessor(ctx, &acc, &at, types, dims)?;
+        Ok(Some(at))
+    }
+
+    /// The indices, each below the vertex count `n`; `0..n` when the primitive has none.
+    fn indices(&self, ctx: &mut Ctx, n: usize) -> Result<Vec<u32>, SceneError> {
+        let Some(acc) = self.prim.indices() else {
+            return Ok((0..n as u32).collect());
+        };
+        let at = format!("{}/indices", self.pointer);
+        let types = [DataType::U8, DataType::U16, DataType::U32];
+        check_accessor(ctx, &acc, &at, &types, Dimensions::Scalar)?;
+        let v: Vec<u32> = self
+            .reader()
+            .read_indices()
+            .map(|it| it.into_u32().collect())
+            .unwrap_or_default();
+        if let Some(bad) = v.iter().find(|&&i| i as usize >= n) {
+            return Err(ctx.invalid(at, format!("index {bad} is out of range for {n} vertices")));
+        }
+        Ok(v)
+    }
 }
 
 /// The values `v` of the attribute at JSON pointer `at`: one finite value per position (`n`).
@@ -268,36 +283,6 @@ fn per_vertex<T>(
         ));
     }
     Ok(Some(v))
-}
-
-/// The primitive's indices, each below the vertex count `n`; `0..n` when it has none.
-fn read_indices(
-    ctx: &mut Ctx,
-    buffers: &[Vec<u8>],
-    prim: &gltf::Primitive,
-    pointer: &str,
-    n: usize,
-) -> Result<Vec<u32>, SceneError> {
-    let Some(acc) = prim.indices() else {
-        return Ok((0..n as u32).collect());
-    };
-    let at = format!("{pointer}/indices");
-    check_accessor(
-        ctx,
-        &acc,
-        &at,
-        &[DataType::U8, DataType::U16, DataType::U32],
-        Dimensions::Scalar,
-    )?;
-    let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-    let v: Vec<u32> = reader
-        .read_indices()
-        .map(|it| it.into_u32().collect())
-        .unwrap_or_default();
-    if let Some(bad) = v.iter().find(|&&i| i as usize >= n) {
-        return Err(ctx.invalid(at, format!("index {bad} is out of range for {n} vertices")));
-    }
-    Ok(v)
 }
 
 /// Triangle list from a triangle list, strip or fan (glTF spec, section 3.7.2.1).
