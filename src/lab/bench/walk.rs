@@ -89,33 +89,11 @@ pub fn run(files: Vec<PathBuf>, grid_name: &str) -> Result<()> {
             })
         };
         let count = |f: &dyn Fn(&Ray) -> (u64, f32)| rays.iter().map(|r| f(r).0).sum::<u64>();
-        let global = |r: &Ray| {
-            walk(&mut DdaMajorantIterator::global(
-                &g.bounds,
-                r,
-                0.0,
-                f32::INFINITY,
-                1.0,
-            ))
-        };
-        let leaf = |r: &Ray| {
-            walk(&mut DdaMajorantIterator::new(
-                &g.bounds,
-                r,
-                0.0,
-                f32::INFINITY,
-                1.0,
-            ))
-        };
-        let adaptive = |r: &Ray| {
-            walk(&mut AdaptiveMajorantIterator::new(
-                &tree,
-                r,
-                0.0,
-                f32::INFINITY,
-                1.0,
-            ))
-        };
+        // Each walk covers the whole ray with the bounds unscaled.
+        let (t0, t1, b) = (0.0, f32::INFINITY, 1.0);
+        let global = |r: &Ray| walk(&mut DdaMajorantIterator::global(&g.bounds, r, t0, t1, b));
+        let leaf = |r: &Ray| walk(&mut DdaMajorantIterator::new(&g.bounds, r, t0, t1, b));
+        let adaptive = |r: &Ray| walk(&mut AdaptiveMajorantIterator::new(&tree, r, t0, t1, b));
         let time = |f: &dyn Fn(&Ray) -> (u64, f32)| {
             best_of(3, || rays.iter().map(|r| f(r).1).sum::<f32>()).0
         };
