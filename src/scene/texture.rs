@@ -417,23 +417,15 @@ mod tests {
     fn texel_centres_read_exactly() {
         let img = checker();
         let t = tex(WRAP_REPEAT, false);
-        assert_eq!(
-            t.sample(&img, Vec2::new(0.25, 0.25)),
-            Vec4::new(1.0, 0.0, 0.0, 1.0)
-        );
-        assert_eq!(
-            t.sample(&img, Vec2::new(0.75, 0.25)),
-            Vec4::new(0.0, 1.0, 0.0, 1.0)
-        );
-        assert_eq!(
-            t.sample(&img, Vec2::new(0.25, 0.75)),
-            Vec4::new(0.0, 0.0, 1.0, 1.0)
-        );
-        // Halfway between the two top texels: their average.
-        assert_eq!(
-            t.sample(&img, Vec2::new(0.5, 0.25)),
-            Vec4::new(0.5, 0.5, 0.0, 1.0)
-        );
+        for (uv, want) in [
+            ((0.25, 0.25), Vec4::new(1.0, 0.0, 0.0, 1.0)),
+            ((0.75, 0.25), Vec4::new(0.0, 1.0, 0.0, 1.0)),
+            ((0.25, 0.75), Vec4::new(0.0, 0.0, 1.0, 1.0)),
+            // Halfway between the two top texels: their average.
+            ((0.5, 0.25), Vec4::new(0.5, 0.5, 0.0, 1.0)),
+        ] {
+            assert_eq!(t.sample(&img, Vec2::new(uv.0, uv.1)), want, "at {uv:?}");
+        }
     }
 
     #[test]
