@@ -35,6 +35,11 @@ impl WordHash {
             self.word(u32::from_le_bytes(w));
         }
     }
+    /// A type tag, then the value's words.
+    fn tagged(&mut self, tag: u32, words: impl IntoIterator<Item = u32>) {
+        self.word(tag);
+        words.into_iter().for_each(|w| self.word(w));
+    }
 }
 
 /// The checksum of `channels` (any order: they are taken by name) and of `metadata`'s
@@ -49,18 +54,9 @@ pub fn checksum<'a>(
     for (name, samples) in channels {
         h.bytes(name.as_bytes());
         match samples {
-            FlatSamples::F16(v) => {
-                h.word(16);
-                v.iter().for_each(|x| h.word(x.to_bits() as u32));
-            }
-            FlatSamples::F32(v) => {
-                h.word(32);
-                v.iter().for_each(|x| h.word(x.to_bits()));
-            }
-            FlatSamples::U32(v) => {
-                h.word(0x7533_3200);
-                v.iter().for_each(|x| h.word(*x));
-            }
+            FlatSamples::F16(v) => h.tagged(16, v.iter().map(|x| x.to_bits() as u32)),
+            FlatSamples::F32(v) => h.tagged(32, v.iter().map(|x| x.to_bits())),
+            FlatSamples::U32(v) => h.tagged(0x7533_3200, v.iter().copied()),
         }
     }
     let mut attributes: Vec<(&str, &AttrValue)> = metadata
@@ -75,20 +71,12 @@ pub fn checksum<'a>(
                 h.word(1);
                 h.bytes(s.as_bytes());
             }
-            AttrValue::Float(v) => {
-                h.word(2);
-                h.word(v.to_bits());
-            }
+            AttrValue::Float(v) => h.tagged(2, [v.to_bits()]),
             AttrValue::Double(v) => {
-                h.word(3);
                 let b = v.to_bits();
-                h.word((b >> 32) as u32);
-                h.word(b as u32);
+                h.tagged(3, [(b >> 32) as u32, b as u32]);
             }
-            AttrValue::Int(v) => {
-                h.word(4);
-                h.word(*v as u32);
-            }
+            AttrValue::Int(v) => h.tagged(4, [*v as u32]),
         }
     }
     h.0
