@@ -148,6 +148,34 @@ pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
     Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
 }
 
+/// The smallest integer box holding every box given to [`IndexBox::include`]: a bounding box
+/// of voxels or cells grown one item at a time.
+#[derive(Clone, Copy, Debug)]
+pub struct IndexBox {
+    lo: [i64; 3],
+    hi: [i64; 3],
+}
+
+impl IndexBox {
+    pub const EMPTY: IndexBox = IndexBox {
+        lo: [i64::MAX; 3],
+        hi: [i64::MIN; 3],
+    };
+
+    /// Grows the box to hold corners `min` and `max`.
+    pub fn include(&mut self, min: [i64; 3], max: [i64; 3]) {
+        for a in 0..3 {
+            self.lo[a] = self.lo[a].min(min[a]);
+            self.hi[a] = self.hi[a].max(max[a]);
+        }
+    }
+
+    /// The corners, or `None` when nothing was included.
+    pub fn corners(self) -> Option<([i64; 3], [i64; 3])> {
+        (self.lo[0] <= self.hi[0]).then_some((self.lo, self.hi))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{floor_i32, floor_i64};

@@ -17,7 +17,7 @@ use brume_ffi::{FloatGridData, GridClass, GridInfo, Leaf, LEAF_DIM, LEAF_VOXELS}
 
 use super::error::VolumeError;
 use super::grid::{SparseGrid, BRICK_VOXELS, CONSTANT_BIT, DEFAULT_MAX_CELLS};
-use crate::math::{DAffine3, DMat4, DVec3};
+use crate::math::{DAffine3, DMat4, DVec3, IndexBox};
 
 /// Limits applied while converting.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,17 +151,10 @@ fn transforms(info: &GridInfo) -> Result<(DAffine3, DAffine3), VolumeError> {
 /// Cell box `[lo, hi)` in cell units over the leaves and the non-background tiles, before
 /// padding; `None` when there is nothing but background.
 fn occupied_cells(data: &FloatGridData, background: f32) -> Option<([i64; 3], [i64; 3])> {
-    let mut lo = [i64::MAX; 3];
-    let mut hi = [i64::MIN; 3];
-    let mut grow = |min: [i64; 3], max: [i64; 3]| {
-        for a in 0..3 {
-            lo[a] = lo[a].min(min[a]);
-            hi[a] = hi[a].max(max[a]);
-        }
-    };
+    let mut cells = IndexBox::EMPTY;
     for leaf in &data.leaves {
         let c = leaf.origin.map(|o| (o >> 3) as i64);
-        grow(c, c.map(|x| x + 1));
+        cells.include(c, c.map(|x| x + 1));
     }
     for tile in data
         .tiles
@@ -169,9 +162,9 @@ fn occupied_cells(data: &FloatGridData, background: f32) -> Option<([i64; 3], [i
         .filter(|t| clamp_density(t.value) != background)
     {
         let c = tile.origin.map(|o| (o >> 3) as i64);
-        grow(c, c.map(|x| x + (tile.dim / 8) as i64));
+        cells.include(c, c.map(|x| x + (tile.dim / 8) as i64));
     }
-    (lo[0] < hi[0]).then_some((lo, hi))
+    cells.corners()
 }
 
 /// Deduplicating table of constant-cell values; the background is entry 0.

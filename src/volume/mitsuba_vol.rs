@@ -26,6 +26,7 @@ use std::io::Write;
 use std::path::Path;
 
 use super::grid::{SparseGrid, BRICK_DIM, BRICK_VOXELS, CONSTANT_BIT};
+use crate::math::IndexBox;
 
 /// A dense grid ready to be written as a `.vol` file.
 #[derive(Clone, Debug, PartialEq)]
@@ -61,14 +62,7 @@ pub const MAX_TEXELS: u64 = 1 << 28;
 /// Brume reads stored values whether OpenVDB marks them active or not, so the box comes from
 /// the values, not from the active-voxel box.
 pub fn nonzero_index_box(grid: &SparseGrid) -> Option<([i64; 3], [i64; 3])> {
-    let mut lo = [i64::MAX; 3];
-    let mut hi = [i64::MIN; 3];
-    let mut grow = |p: [i64; 3], q: [i64; 3]| {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(q[a]);
-        }
-    };
+    let mut voxels = IndexBox::EMPTY;
     let [nx, ny, nz] = grid.dims;
     for cz in 0..nz {
         for cy in 0..ny {
@@ -79,7 +73,7 @@ pub fn nonzero_index_box(grid: &SparseGrid) -> Option<([i64; 3], [i64; 3])> {
                     [0, 1, 2].map(|a| (cell[a] as i64 + grid.cell_origin[a] as i64) * BRICK_DIM);
                 if entry & CONSTANT_BIT != 0 {
                     if grid.constants[(entry & !CONSTANT_BIT) as usize] != 0.0 {
-                        grow(base, base.map(|b| b + BRICK_DIM - 1));
+                        voxels.include(base, base.map(|b| b + BRICK_DIM - 1));
                     }
                     continue;
                 }
@@ -88,13 +82,13 @@ pub fn nonzero_index_box(grid: &SparseGrid) -> Option<([i64; 3], [i64; 3])> {
                     if v != 0.0 {
                         let l = [local % 8, local / 8 % 8, local / 64].map(|x| x as i64);
                         let p = [base[0] + l[0], base[1] + l[1], base[2] + l[2]];
-                        grow(p, p);
+                        voxels.include(p, p);
                     }
                 }
             }
         }
     }
-    (lo[0] <= hi[0]).then_some((lo, hi))
+    voxels.corners()
 }
 
 /// The grid's values at voxel centres over its non-zero box and one voxel of zeros around
