@@ -128,6 +128,26 @@ fn both(stem: &Path, size: (u32, u32), plot: &impl Plot) -> Result<Vec<PathBuf>,
     Ok(vec![png, svg])
 }
 
+/// A chart on `area`: with text, its title and axis label areas (`y_labels` pixels wide for
+/// the y axis); without, thin margins.
+fn chart_on<'a, 'b, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    text: bool,
+    y_labels: u32,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut b = ChartBuilder::on(area);
+    b.margin(12);
+    if text {
+        b.caption(title, (FONT, 20))
+            .x_label_area_size(45)
+            .y_label_area_size(y_labels);
+    } else {
+        b.x_label_area_size(4).y_label_area_size(4);
+    }
+    b
+}
+
 /// Fills `root` white, draws `plot` and writes the file.
 fn draw_on<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
@@ -195,15 +215,7 @@ impl Plot for Titled<'_, Curve> {
         let (t0, t1, r0, r1) = (t0 / 1.2, t1 * 1.2, r0 / 1.3, r1 * 1.3);
         let off_scale = |c: &Curve| c.points.iter().any(|p| p.1 > r1);
         let (plot, legend) = root.split_horizontally(760);
-        let mut b = ChartBuilder::on(&plot);
-        b.margin(12);
-        if text {
-            b.caption(title, (FONT, 20))
-                .x_label_area_size(45)
-                .y_label_area_size(70);
-        } else {
-            b.x_label_area_size(4).y_label_area_size(4);
-        }
+        let mut b = chart_on(&plot, title, text, 70);
         let mut chart = b.build_cartesian_2d((t0..t1).log_scale(), (r0..r1).log_scale())?;
         let mut mesh = chart.configure_mesh();
         if text {
@@ -310,15 +322,7 @@ impl Plot for Titled<'_, Bar> {
             .filter(|v| v.is_finite())
             .fold(0.0f64, f64::max)
             .max(1e-300);
-        let mut b = ChartBuilder::on(root);
-        b.margin(12);
-        if text {
-            b.caption(title, (FONT, 20))
-                .x_label_area_size(45)
-                .y_label_area_size(330);
-        } else {
-            b.x_label_area_size(4).y_label_area_size(4);
-        }
+        let mut b = chart_on(root, title, text, 330);
         let mut chart =
             b.build_cartesian_2d(0.0..max * 1.08, (0..(n - 1).max(1)).into_segmented())?;
         let mut mesh = chart.configure_mesh();
