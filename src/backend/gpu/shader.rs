@@ -459,15 +459,14 @@ pub const TRANSMITTANCE_MODULE: Module = Module {
 };
 
 /// Per-estimator distance sampling over a SparseGrid along index-space rays.
+/// The same kernel as [`TRANSMITTANCE_MODULE`] with `KERNEL_DISTANCE` on.
 pub const DISTANCE_MODULE: Module = Module {
     label: "distance",
-    files: TRACKING_KERNEL_FILES,
-    entry_point: "tracking_main",
     default_specs: &[
         Spec::bool("FEATURE_MIXTURE", false),
         Spec::bool("KERNEL_DISTANCE", true),
     ],
-    dispatch: Dispatch::Own,
+    ..TRANSMITTANCE_MODULE
 };
 
 /// RNG streams (test).
