@@ -275,7 +275,7 @@ fn render_pass(
     for (cost, out) in tile_ns.iter_mut().zip(&outputs) {
         if let Some(o) = out {
             // Per sample, so a pass of another size compares the same.
-            *cost = o.record.wall_ns / n.max(1) as u64;
+            *cost = o.record.counters.wall_ns / n.max(1) as u64;
         }
     }
     outputs.into_iter().collect()

@@ -612,7 +612,7 @@ fn write_outputs(
             &meta,
         )?;
     }
-    let samples = t.samples.max(1) as f64;
+    let samples = t.counters.samples.max(1) as f64;
     // Passes of this run (a part's pass indices start where its range does).
     let passes = out
         .records
@@ -625,7 +625,7 @@ fn write_outputs(
         args.output.display(),
         out.spp,
         out.seconds,
-        t.samples as f64 / out.seconds.max(1e-9),
+        t.counters.samples as f64 / out.seconds.max(1e-9),
         if out.interrupted {
             ", stopped early"
         } else {
@@ -636,32 +636,32 @@ fn write_outputs(
     );
     println!(
         "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} majorant_segments {} shadow_segments {} path_length_sum {} guard_fired {} majorant_violations {}",
-        t.samples, t.density_lookups, t.null_collisions, t.real_collisions, t.shadow_lookups, t.emission_lookups, t.majorant_segments, t.shadow_segments, t.path_length_sum, t.guard_fired, t.majorant_violations
+        t.counters.samples, t.counters.density_lookups, t.counters.null_collisions, t.counters.real_collisions, t.counters.shadow_lookups, t.counters.emission_lookups, t.counters.majorant_segments, t.counters.shadow_segments, t.counters.path_length_sum, t.counters.guard_fired, t.counters.majorant_violations
     );
     println!(
         "per sample: {:.2} lookups, {:.2} null / {:.2} real collisions, path length {:.2}",
-        t.density_lookups as f64 / samples,
-        t.null_collisions as f64 / samples,
-        t.real_collisions as f64 / samples,
-        t.path_length_sum as f64 / samples
+        t.counters.density_lookups as f64 / samples,
+        t.counters.null_collisions as f64 / samples,
+        t.counters.real_collisions as f64 / samples,
+        t.counters.path_length_sum as f64 / samples
     );
     println!(
         "walk per sample: primary {:.2} segments / {:.2} lookups, shadow {:.2} segments / {:.2} lookups",
-        (t.majorant_segments - t.shadow_segments) as f64 / samples,
-        (t.density_lookups - t.shadow_lookups) as f64 / samples,
-        t.shadow_segments as f64 / samples,
-        t.shadow_lookups as f64 / samples,
+        (t.counters.majorant_segments - t.counters.shadow_segments) as f64 / samples,
+        (t.counters.density_lookups - t.counters.shadow_lookups) as f64 / samples,
+        t.counters.shadow_segments as f64 / samples,
+        t.counters.shadow_lookups as f64 / samples,
     );
-    if t.majorant_violations > 0 {
+    if t.counters.majorant_violations > 0 {
         eprintln!(
             "warning: {} density lookups exceeded their majorant: this {} image is BIASED (use weighted-delta, or b >= 1)",
-            t.majorant_violations, settings.estimator
+            t.counters.majorant_violations, settings.estimator
         );
     }
-    if t.guard_fired > 0 {
+    if t.counters.guard_fired > 0 {
         eprintln!(
             "warning: the collision guard ended {} paths early (see guard_fired in the tile log)",
-            t.guard_fired
+            t.counters.guard_fired
         );
     }
     Ok(())

@@ -56,17 +56,17 @@ impl CostMetric {
     /// The metric over a set of records; 0 with no samples.
     pub fn per_sample(self, t: &TileTotals) -> f64 {
         let numerator = match self {
-            CostMetric::DensityLookups => t.density_lookups,
-            CostMetric::Nanoseconds => t.wall_ns,
-            CostMetric::NullCollisions => t.null_collisions,
-            CostMetric::ShadowLookups => t.shadow_lookups,
-            CostMetric::PathLength => t.path_length_sum,
-            CostMetric::Segments => t.majorant_segments,
+            CostMetric::DensityLookups => t.counters.density_lookups,
+            CostMetric::Nanoseconds => t.counters.wall_ns,
+            CostMetric::NullCollisions => t.counters.null_collisions,
+            CostMetric::ShadowLookups => t.counters.shadow_lookups,
+            CostMetric::PathLength => t.counters.path_length_sum,
+            CostMetric::Segments => t.counters.majorant_segments,
         };
-        if t.samples == 0 {
+        if t.counters.samples == 0 {
             0.0
         } else {
-            numerator as f64 / t.samples as f64
+            numerator as f64 / t.counters.samples as f64
         }
     }
 }

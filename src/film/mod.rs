@@ -30,5 +30,5 @@ pub use exr_io::{
     write_exr_with_state, write_image, Image,
 };
 pub use metadata::{AttrValue, Metadata, RenderInfo};
-pub use tile_log::{read_tile_log, totals, TileLogWriter, TileRecord, TileTotals};
+pub use tile_log::{read_tile_log, totals, TileCounters, TileLogWriter, TileRecord, TileTotals};
 pub use tiles::{tiles, TileRect};

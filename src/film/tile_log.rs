@@ -25,9 +25,19 @@ pub struct TileRecord {
     pub x1: u32,
     /// One past the last row.
     pub y1: u32,
+    /// Written as fields of the record itself (one flat JSON object per line).
+    #[serde(flatten)]
+    pub counters: TileCounters,
+}
+
+/// What rendering cost: totals over the samples of one tile in one pass ([`TileRecord`]), or
+/// over many records ([`TileTotals`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct TileCounters {
     /// Camera samples taken (summed over the tile's pixels).
     pub samples: u64,
-    /// Wall-clock time spent on the tile, in nanoseconds.
+    /// Wall-clock time spent, in nanoseconds. Summed over tiles it is CPU-thread time, more
+    /// than the render's elapsed time when tiles run in parallel.
     pub wall_ns: u64,
     /// Density grid lookups of every kind.
     pub density_lookups: u64,
@@ -37,8 +47,8 @@ pub struct TileRecord {
     pub real_collisions: u64,
     /// Density lookups made while estimating transmittance toward lights.
     pub shadow_lookups: u64,
-    /// Sum over the tile's paths of their length in scattering vertices; divided by
-    /// `samples` it is the mean path length.
+    /// Sum over the paths of their length in scattering vertices; divided by `samples` it is
+    /// the mean path length.
     pub path_length_sum: u64,
     /// How many times a safety guard (event or bounce cap) cut a path short.
     pub guard_fired: u64,
@@ -56,6 +66,35 @@ pub struct TileRecord {
     /// Majorant segments walked by shadow rays.
     #[serde(default)]
     pub shadow_segments: u64,
+}
+
+impl std::ops::AddAssign<&TileCounters> for TileCounters {
+    fn add_assign(&mut self, r: &TileCounters) {
+        self.samples += r.samples;
+        self.wall_ns += r.wall_ns;
+        self.density_lookups += r.density_lookups;
+        self.null_collisions += r.null_collisions;
+        self.real_collisions += r.real_collisions;
+        self.shadow_lookups += r.shadow_lookups;
+        self.path_length_sum += r.path_length_sum;
+        self.guard_fired += r.guard_fired;
+        self.majorant_violations += r.majorant_violations;
+        self.emission_lookups += r.emission_lookups;
+        self.majorant_segments += r.majorant_segments;
+        self.shadow_segments += r.shadow_segments;
+    }
+}
+
+impl TileCounters {
+    /// Density lookups per camera sample; 0 with no samples.
+    pub fn lookups_per_sample(&self) -> f64 {
+        ratio(self.density_lookups, self.samples)
+    }
+
+    /// Mean path length in scattering vertices per sample; 0 with no samples.
+    pub fn mean_path_length(&self) -> f64 {
+        ratio(self.path_length_sum, self.samples)
+    }
 }
 
 impl TileRecord {
@@ -82,11 +121,6 @@ impl TileRecord {
             index: self.tile,
         }
     }
-
-    /// Mean path length in scattering vertices per sample; 0 with no samples.
-    pub fn mean_path_length(&self) -> f64 {
-        ratio(self.path_length_sum, self.samples)
-    }
 }
 
 fn ratio(num: u64, den: u64) -> f64 {
@@ -102,31 +136,9 @@ fn ratio(num: u64, den: u64) -> f64 {
 pub struct TileTotals {
     /// Number of records summed.
     pub records: u64,
-    /// Camera samples.
-    pub samples: u64,
-    /// Wall-clock nanoseconds, summed over tiles: CPU-thread time, more than the render's
-    /// elapsed time when tiles run in parallel.
-    pub wall_ns: u64,
-    /// Density lookups.
-    pub density_lookups: u64,
-    /// Null collisions.
-    pub null_collisions: u64,
-    /// Real collisions.
-    pub real_collisions: u64,
-    /// Shadow-ray density lookups.
-    pub shadow_lookups: u64,
-    /// Path length sum in scattering vertices.
-    pub path_length_sum: u64,
-    /// Guard firings.
-    pub guard_fired: u64,
-    /// Majorant violations seen by analog estimators.
-    pub majorant_violations: u64,
-    /// Emission-grid lookups.
-    pub emission_lookups: u64,
-    /// Majorant segments (shadow rays included).
-    pub majorant_segments: u64,
-    /// Majorant segments of shadow rays.
-    pub shadow_segments: u64,
+    /// Their counters, summed (written as fields of the totals themselves).
+    #[serde(flatten)]
+    pub counters: TileCounters,
 }
 
 impl TileTotals {
@@ -142,28 +154,7 @@ impl TileTotals {
     /// Adds one record.
     pub fn add(&mut self, r: &TileRecord) {
         self.records += 1;
-        self.samples += r.samples;
-        self.wall_ns += r.wall_ns;
-        self.density_lookups += r.density_lookups;
-        self.null_collisions += r.null_collisions;
-        self.real_collisions += r.real_collisions;
-        self.shadow_lookups += r.shadow_lookups;
-        self.path_length_sum += r.path_length_sum;
-        self.guard_fired += r.guard_fired;
-        self.majorant_violations += r.majorant_violations;
-        self.emission_lookups += r.emission_lookups;
-        self.majorant_segments += r.majorant_segments;
-        self.shadow_segments += r.shadow_segments;
-    }
-
-    /// Density lookups per camera sample; 0 with no samples.
-    pub fn lookups_per_sample(&self) -> f64 {
-        ratio(self.density_lookups, self.samples)
-    }
-
-    /// Mean path length in scattering vertices; 0 with no samples.
-    pub fn mean_path_length(&self) -> f64 {
-        ratio(self.path_length_sum, self.samples)
+        self.counters += &r.counters;
     }
 }
 

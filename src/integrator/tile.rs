@@ -86,18 +86,18 @@ pub fn render_tile<
         }
     }
     let t = &total.media.tracking;
-    record.samples = rect.pixel_count() as u64 * n as u64;
-    record.wall_ns = start.elapsed().as_nanos() as u64;
-    record.density_lookups = t.lookups;
-    record.null_collisions = t.null_collisions;
-    record.real_collisions = t.real_collisions + t.control_collisions;
-    record.shadow_lookups = total.media.shadow_lookups;
-    record.path_length_sum = total.depth;
-    record.guard_fired = total.guard_fired;
-    record.majorant_violations = t.majorant_violations;
-    record.emission_lookups = total.media.emission_lookups;
-    record.majorant_segments = t.segments;
-    record.shadow_segments = total.media.shadow_segments;
+    record.counters.samples = rect.pixel_count() as u64 * n as u64;
+    record.counters.wall_ns = start.elapsed().as_nanos() as u64;
+    record.counters.density_lookups = t.lookups;
+    record.counters.null_collisions = t.null_collisions;
+    record.counters.real_collisions = t.real_collisions + t.control_collisions;
+    record.counters.shadow_lookups = total.media.shadow_lookups;
+    record.counters.path_length_sum = total.depth;
+    record.counters.guard_fired = total.guard_fired;
+    record.counters.majorant_violations = t.majorant_violations;
+    record.counters.emission_lookups = total.media.emission_lookups;
+    record.counters.majorant_segments = t.segments;
+    record.counters.shadow_segments = total.media.shadow_segments;
     TileOutput {
         buffer,
         record,

@@ -233,8 +233,8 @@ pub fn run_config(
             seconds: view.seconds,
             rmse: mse.sqrt(),
             relmse,
-            lookups: t.density_lookups,
-            samples: t.samples,
+            lookups: t.counters.density_lookups,
+            samples: t.counters.samples,
         });
     });
     points

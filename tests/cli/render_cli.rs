@@ -120,24 +120,24 @@ fn every_example_scene_renders_to_a_finite_exr_with_logs() {
         let t = totals(&records);
         for (k, v) in printed_totals(&stdout) {
             let logged = match k.as_str() {
-                "samples" => t.samples,
-                "density_lookups" => t.density_lookups,
-                "null_collisions" => t.null_collisions,
-                "real_collisions" => t.real_collisions,
-                "shadow_lookups" => t.shadow_lookups,
-                "emission_lookups" => t.emission_lookups,
-                "path_length_sum" => t.path_length_sum,
-                "guard_fired" => t.guard_fired,
-                "majorant_violations" => t.majorant_violations,
-                "majorant_segments" => t.majorant_segments,
-                "shadow_segments" => t.shadow_segments,
+                "samples" => t.counters.samples,
+                "density_lookups" => t.counters.density_lookups,
+                "null_collisions" => t.counters.null_collisions,
+                "real_collisions" => t.counters.real_collisions,
+                "shadow_lookups" => t.counters.shadow_lookups,
+                "emission_lookups" => t.counters.emission_lookups,
+                "path_length_sum" => t.counters.path_length_sum,
+                "guard_fired" => t.counters.guard_fired,
+                "majorant_violations" => t.counters.majorant_violations,
+                "majorant_segments" => t.counters.majorant_segments,
+                "shadow_segments" => t.counters.shadow_segments,
                 other => panic!("unexpected total {other}"),
             };
             assert_eq!(logged, v, "{name}: {k}");
         }
-        assert_eq!(t.samples, 24 * 18 * 3);
+        assert_eq!(t.counters.samples, 24 * 18 * 3);
         assert_eq!(
-            t.guard_fired, 0,
+            t.counters.guard_fired, 0,
             "{name}: the guard must not fire in the example scenes"
         );
         assert!(read_exr(&cost).is_ok());

@@ -28,14 +28,14 @@ fn records() -> Vec<TileRecord> {
         for rect in tiles(20, 12, 8) {
             let mut r = TileRecord::new(pass, &rect);
             let k = rect.index as u64 + 1;
-            r.samples = rect.pixel_count() as u64 * 4;
-            r.wall_ns = 1_000_000 * k + pass as u64;
-            r.density_lookups = r.samples * (10 + k);
-            r.null_collisions = 3 * k;
-            r.real_collisions = 5 * k;
-            r.shadow_lookups = r.samples * k;
-            r.path_length_sum = r.samples * 2 + k;
-            r.guard_fired = (k == 3) as u64;
+            r.counters.samples = rect.pixel_count() as u64 * 4;
+            r.counters.wall_ns = 1_000_000 * k + pass as u64;
+            r.counters.density_lookups = r.counters.samples * (10 + k);
+            r.counters.null_collisions = 3 * k;
+            r.counters.real_collisions = 5 * k;
+            r.counters.shadow_lookups = r.counters.samples * k;
+            r.counters.path_length_sum = r.counters.samples * 2 + k;
+            r.counters.guard_fired = (k == 3) as u64;
             out.push(r);
         }
     }
@@ -59,33 +59,36 @@ fn lines_parse_back_and_totals_add_up() {
     assert_eq!(text.lines().count(), recs.len());
     let first: serde_json::Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
     assert_eq!(first["tile"], 0);
-    assert_eq!(first["density_lookups"], recs[0].density_lookups);
+    assert_eq!(first["density_lookups"], recs[0].counters.density_lookups);
 
     let back = read_tile_log(&path).unwrap();
     assert_eq!(back, recs);
     let t = totals(&back);
     assert_eq!(t, written);
     assert_eq!(t.records, recs.len() as u64);
-    assert_eq!(t.samples, 2 * 20 * 12 * 4);
+    assert_eq!(t.counters.samples, 2 * 20 * 12 * 4);
     assert_eq!(
-        t.density_lookups,
-        recs.iter().map(|r| r.density_lookups).sum::<u64>()
-    );
-    assert_eq!(t.wall_ns, recs.iter().map(|r| r.wall_ns).sum::<u64>());
-    assert_eq!(t.null_collisions, 2 * 3 * (1..=6).sum::<u64>());
-    assert_eq!(t.real_collisions, 2 * 5 * (1..=6).sum::<u64>());
-    assert_eq!(
-        t.shadow_lookups,
-        recs.iter().map(|r| r.shadow_lookups).sum::<u64>()
+        t.counters.density_lookups,
+        recs.iter().map(|r| r.counters.density_lookups).sum::<u64>()
     );
     assert_eq!(
-        t.path_length_sum,
-        recs.iter().map(|r| r.path_length_sum).sum::<u64>()
+        t.counters.wall_ns,
+        recs.iter().map(|r| r.counters.wall_ns).sum::<u64>()
     );
-    assert_eq!(t.guard_fired, 2);
+    assert_eq!(t.counters.null_collisions, 2 * 3 * (1..=6).sum::<u64>());
+    assert_eq!(t.counters.real_collisions, 2 * 5 * (1..=6).sum::<u64>());
     assert_eq!(
-        t.mean_path_length(),
-        t.path_length_sum as f64 / t.samples as f64
+        t.counters.shadow_lookups,
+        recs.iter().map(|r| r.counters.shadow_lookups).sum::<u64>()
+    );
+    assert_eq!(
+        t.counters.path_length_sum,
+        recs.iter().map(|r| r.counters.path_length_sum).sum::<u64>()
+    );
+    assert_eq!(t.counters.guard_fired, 2);
+    assert_eq!(
+        t.counters.mean_path_length(),
+        t.counters.path_length_sum as f64 / t.counters.samples as f64
     );
 }
 
@@ -131,7 +134,8 @@ fn cost_map_paints_per_sample_cost_over_each_tile() {
     // Time: both passes' nanoseconds over both passes' samples.
     let ns = cost_map_from_tiles(20, 12, &recs, CostMetric::Nanoseconds);
     let (r0, r1) = (&recs[0], &recs[ts.len()]);
-    let expected = (r0.wall_ns + r1.wall_ns) as f64 / (r0.samples + r1.samples) as f64;
+    let expected = (r0.counters.wall_ns + r1.counters.wall_ns) as f64
+        / (r0.counters.samples + r1.counters.samples) as f64;
     assert_eq!(ns[0], expected as f32);
     // No records: zeros.
     assert!(cost_map_from_tiles(4, 4, &[], CostMetric::Nanoseconds)

@@ -41,8 +41,8 @@ fn gpu_render(
         .unwrap_or_else(|e| panic!("{label}: {e}"));
     assert_eq!(out.spp, s.spp, "{label}");
     let totals = brume::film::totals(&out.records);
-    assert_eq!(totals.guard_fired, 0, "{label}");
-    assert_eq!(totals.majorant_violations, 0, "{label}");
+    assert_eq!(totals.counters.guard_fired, 0, "{label}");
+    assert_eq!(totals.counters.majorant_violations, 0, "{label}");
     let (m, _) = moments(&out);
     assert!(
         m.iter().all(|v| v.is_finite()),
@@ -168,10 +168,10 @@ fn gpu_against_cpu(
     );
     println!(
         "{label}: lookups/sample GPU {:.2} CPU {:.2}; emission lookups GPU {} CPU {}",
-        gt.lookups_per_sample(),
-        ct.lookups_per_sample(),
-        gt.emission_lookups,
-        ct.emission_lookups
+        gt.counters.lookups_per_sample(),
+        ct.counters.lookups_per_sample(),
+        gt.counters.emission_lookups,
+        ct.counters.emission_lookups
     );
     agree(
         &g,

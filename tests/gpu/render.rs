@@ -53,7 +53,7 @@ fn gpu_render(
         }
     }
     let totals = brume::film::totals(&out.records);
-    assert_eq!(totals.guard_fired, 0, "{label}");
+    assert_eq!(totals.counters.guard_fired, 0, "{label}");
     out
 }
 
@@ -85,10 +85,10 @@ fn print_parity(
     );
     println!(
         "{label}: lookups/sample GPU {:.1} CPU {:.1}; mean path length GPU {:.3} CPU {:.3}",
-        gt.lookups_per_sample(),
-        ct.lookups_per_sample(),
-        gt.mean_path_length(),
-        ct.mean_path_length()
+        gt.counters.lookups_per_sample(),
+        ct.counters.lookups_per_sample(),
+        gt.counters.mean_path_length(),
+        ct.counters.mean_path_length()
     );
     (gt, ct)
 }
@@ -184,8 +184,8 @@ fn media_scenes_agree_with_the_cpu_for_every_estimator() {
         let c = render(&scene, &independent);
         agree(&label, &g, &c, alpha);
         let (gt, ct) = print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
-        assert_eq!(gt.samples, ct.samples, "{label}");
-        assert!(gt.density_lookups > 0, "{label}");
+        assert_eq!(gt.counters.samples, ct.counters.samples, "{label}");
+        assert!(gt.counters.density_lookups > 0, "{label}");
     }
 }
 
@@ -253,10 +253,10 @@ fn volume_emission_agrees_with_the_cpu() {
         );
         println!(
             "{label}: emission lookups/sample GPU {:.2} CPU {:.2}",
-            gt.emission_lookups as f64 / gt.samples as f64,
-            ct.emission_lookups as f64 / ct.samples as f64
+            gt.counters.emission_lookups as f64 / gt.counters.samples as f64,
+            ct.counters.emission_lookups as f64 / ct.counters.samples as f64
         );
-        assert!(gt.emission_lookups > 0, "{label}");
+        assert!(gt.counters.emission_lookups > 0, "{label}");
     }
 }
 
@@ -307,7 +307,9 @@ fn furnace_renders_one_on_the_gpu() {
         let se = (var.iter().sum::<f64>() / 3.0).sqrt() / (mean.len() / 3) as f64;
         assert!(se < 0.02, "{label}: standard error {se} too large");
         assert_eq!(
-            brume::film::totals(&out.records).majorant_violations,
+            brume::film::totals(&out.records)
+                .counters
+                .majorant_violations,
             0,
             "{label}"
         );

@@ -45,7 +45,7 @@ fn agree(
     );
     assert_eq!(r.failing, 0, "{label}: {r:?}");
     assert!(r.mean_z < 3.3, "{label}: {r:?}");
-    assert_eq!(ta.majorant_violations, 0, "{label}");
+    assert_eq!(ta.counters.majorant_violations, 0, "{label}");
 }
 
 #[test]

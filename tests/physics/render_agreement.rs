@@ -68,11 +68,11 @@ fn every_estimator_agrees_with_delta_tracking_on_the_cloud() {
             a.mean_z,
             a.worst_z,
             a.z_threshold,
-            t.density_lookups as f64 / t.samples as f64
+            t.counters.density_lookups as f64 / t.counters.samples as f64
         );
         assert_eq!(a.failing, 0, "{estimator} {majorant:?}: {a:?}");
         assert!(a.mean_z < 3.3, "{estimator} {majorant:?}: {a:?}");
-        assert_eq!(t.majorant_violations, 0);
+        assert_eq!(t.counters.majorant_violations, 0);
     }
 }
 
@@ -110,14 +110,14 @@ fn culled_walk_agrees_with_per_leaf_delta_tracking() {
                 a.mean_z,
                 a.worst_z,
                 a.z_threshold,
-                t.density_lookups as f64 / t.samples as f64,
-                r.density_lookups as f64 / r.samples as f64,
-                t.majorant_segments as f64 / t.samples as f64,
-                r.majorant_segments as f64 / r.samples as f64,
+                t.counters.density_lookups as f64 / t.counters.samples as f64,
+                r.counters.density_lookups as f64 / r.counters.samples as f64,
+                t.counters.majorant_segments as f64 / t.counters.samples as f64,
+                r.counters.majorant_segments as f64 / r.counters.samples as f64,
             );
             assert_eq!(a.failing, 0, "{name} {estimator}: {a:?}");
             assert!(a.mean_z < 3.3, "{name} {estimator}: {a:?}");
-            assert_eq!(t.majorant_violations, 0, "{name} {estimator}");
+            assert_eq!(t.counters.majorant_violations, 0, "{name} {estimator}");
         }
     }
 }
@@ -154,7 +154,7 @@ fn shadow_rays_walk_as_the_model_chooses() {
     let segs = |mode| {
         let out = render(&scene, &settings(Estimator::Delta, mode, 3));
         let t = brume::film::totals(&out.records);
-        t.shadow_segments as f64 / t.samples as f64
+        t.counters.shadow_segments as f64 / t.counters.samples as f64
     };
     let (adaptive, leaf) = (segs(MajorantMode::Adaptive), segs(MajorantMode::Leaf));
     println!("shadow segments a sample: adaptive {adaptive:.3}, per-leaf {leaf:.3}");
@@ -321,7 +321,7 @@ fn absorption_as_a_weight_agrees_with_absorption_events() {
             let a = compare((&mw, &vw), (&me, &ve), alpha);
             let lookups = |o: &brume::backend::cpu::RenderOutput| {
                 let t = brume::film::totals(&o.records);
-                t.density_lookups as f64 / t.samples as f64
+                t.counters.density_lookups as f64 / t.counters.samples as f64
             };
             println!(
                 "{name} {estimator}: weight {:.5} vs event {:.5} (z {:.2}), worst pixel z {:.2} / {:.2}; variance of the mean {:.3e} vs {:.3e}; lookups/sample {:.2} vs {:.2}",

@@ -34,9 +34,9 @@ fn render_file(path: &std::path::Path, settings: &RenderSettings) -> Rendered {
     Rendered {
         mean,
         var,
-        guard_fired: t.guard_fired,
-        violations: t.majorant_violations,
-        path_length: t.path_length_sum as f64 / t.samples.max(1) as f64,
+        guard_fired: t.counters.guard_fired,
+        violations: t.counters.majorant_violations,
+        path_length: t.counters.path_length_sum as f64 / t.counters.samples.max(1) as f64,
     }
 }
 

@@ -338,8 +338,8 @@ fn run_pass(
             index: pending.len() as u32,
         };
         let mut r = batch_record(pass, &rect, &counters);
-        r.samples = params.total_samples as u64;
-        r.wall_ns = batch_start.elapsed().as_nanos() as u64;
+        r.counters.samples = params.total_samples as u64;
+        r.counters.wall_ns = batch_start.elapsed().as_nanos() as u64;
         pending.push((r, iterations, stage_ns, samples, host_ns));
         y0 = y1;
     }
@@ -395,17 +395,17 @@ impl BatchPlan {
 /// The tile record of one batch from the wavefront's counters after it.
 fn batch_record(pass: u32, rect: &TileRect, counters: &GpuWavefrontCounters) -> TileRecord {
     let mut r = TileRecord::new(pass, rect);
-    r.density_lookups = counters.wide(GpuWideCounter::Lookups);
-    r.null_collisions = counters.wide(GpuWideCounter::NullCollisions);
-    r.real_collisions = counters.wide(GpuWideCounter::RealCollisions)
+    r.counters.density_lookups = counters.wide(GpuWideCounter::Lookups);
+    r.counters.null_collisions = counters.wide(GpuWideCounter::NullCollisions);
+    r.counters.real_collisions = counters.wide(GpuWideCounter::RealCollisions)
         + counters.wide(GpuWideCounter::ControlCollisions);
-    r.shadow_lookups = counters.wide(GpuWideCounter::ShadowLookups);
-    r.path_length_sum = counters.wide(GpuWideCounter::DepthSum);
-    r.emission_lookups = counters.wide(GpuWideCounter::EmissionLookups);
-    r.majorant_segments = counters.wide(GpuWideCounter::Segments);
-    r.shadow_segments = counters.wide(GpuWideCounter::ShadowSegments);
-    r.guard_fired = counters.guard_fired as u64;
-    r.majorant_violations = counters.majorant_violations as u64;
+    r.counters.shadow_lookups = counters.wide(GpuWideCounter::ShadowLookups);
+    r.counters.path_length_sum = counters.wide(GpuWideCounter::DepthSum);
+    r.counters.emission_lookups = counters.wide(GpuWideCounter::EmissionLookups);
+    r.counters.majorant_segments = counters.wide(GpuWideCounter::Segments);
+    r.counters.shadow_segments = counters.wide(GpuWideCounter::ShadowSegments);
+    r.counters.guard_fired = counters.guard_fired as u64;
+    r.counters.majorant_violations = counters.majorant_violations as u64;
     r
 }
 

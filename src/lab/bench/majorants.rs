@@ -345,13 +345,16 @@ fn print_row(
         .as_ref()
         .map(|o| crate::film::totals(&o.records))
         .unwrap_or_default();
-    let n = t.samples.max(1) as f64;
+    let n = t.counters.samples.max(1) as f64;
     let ns = 1e9 * row.best / n;
     let global_ns = 1e9 * global.best / n;
     let paired = row.paired_with(global);
     // No real collision (the floor): the ratio has nothing to count.
-    let lookups_per_real = if t.real_collisions > 0 {
-        format!("{:.2}", t.density_lookups as f64 / t.real_collisions as f64)
+    let lookups_per_real = if t.counters.real_collisions > 0 {
+        format!(
+            "{:.2}",
+            t.counters.density_lookups as f64 / t.counters.real_collisions as f64
+        )
     } else {
         "-".to_string()
     };
@@ -371,11 +374,11 @@ fn print_row(
         ns,
         global_ns / ns,
         format!("{:.2}-{:.2}-{:.2}", paired.0, paired.1, paired.2),
-        (t.majorant_segments - t.shadow_segments) as f64 / n,
-        t.shadow_segments as f64 / n,
-        t.density_lookups as f64 / n,
-        t.emission_lookups as f64 / n,
-        t.real_collisions as f64 / n,
+        (t.counters.majorant_segments - t.counters.shadow_segments) as f64 / n,
+        t.counters.shadow_segments as f64 / n,
+        t.counters.density_lookups as f64 / n,
+        t.counters.emission_lookups as f64 / n,
+        t.counters.real_collisions as f64 / n,
         lookups_per_real,
         var,
         top,

@@ -358,8 +358,8 @@ fn render_bench(
             };
             let out = render_cpu(&cloud, &s)?;
             let t = crate::film::totals(&out.records);
-            let samples = t.samples as f64;
-            let lookups = t.density_lookups as f64 / samples;
+            let samples = t.counters.samples as f64;
+            let lookups = t.counters.density_lookups as f64 / samples;
             if estimator == Estimator::Delta {
                 delta_lookups[k] = lookups;
             }
@@ -369,7 +369,7 @@ fn render_bench(
                 majorant.name(),
                 samples / out.seconds,
                 lookups,
-                t.null_collisions as f64 / (t.real_collisions as f64).max(1.0),
+                t.counters.null_collisions as f64 / (t.counters.real_collisions as f64).max(1.0),
             );
         }
     }
