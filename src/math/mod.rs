@@ -142,6 +142,12 @@ pub fn luminance(c: glam::Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// `num / den` per channel, 0 where `den` is not positive.
+#[inline]
+pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
+    Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
+}
+
 #[cfg(test)]
 mod tests {
     use super::{floor_i32, floor_i64};
@@ -193,10 +199,4 @@ mod tests {
         assert_eq!(floor_i32(f32::INFINITY), i32::MAX);
         assert_eq!(floor_i32(f32::NEG_INFINITY), i32::MIN);
     }
-}
-
-/// `num / den` per channel, 0 where `den` is not positive.
-#[inline]
-pub fn per_channel_ratio(num: Vec3, den: Vec3) -> Vec3 {
-    Vec3::select(den.cmpgt(Vec3::ZERO), num / den, Vec3::ZERO)
 }

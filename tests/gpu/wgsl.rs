@@ -117,11 +117,8 @@ fn is_ident(c: char) -> bool {
 /// Whether `word` occurs in `text` as a whole identifier.
 fn has_word(text: &str, word: &str) -> bool {
     text.match_indices(word).any(|(i, _)| {
-        let before = text[..i].chars().next_back().is_none_or(|c| !is_ident(c));
-        let after = text[i + word.len()..]
-            .chars()
-            .next()
-            .is_none_or(|c| !is_ident(c));
+        let before = !text[..i].chars().next_back().is_some_and(is_ident);
+        let after = !text[i + word.len()..].chars().next().is_some_and(is_ident);
         before && after
     })
 }
@@ -140,7 +137,7 @@ fn defines(text: &str, name: &str) -> bool {
 fn declares(text: &str, name: &str) -> bool {
     defines(text, name)
         || text.match_indices(name).any(|(i, _)| {
-            let before = text[..i].chars().next_back().is_none_or(|c| !is_ident(c));
+            let before = !text[..i].chars().next_back().is_some_and(is_ident);
             let rest = &text[i + name.len()..];
             let field = rest.starts_with(':') && !rest.starts_with("::");
             let line_start = text[..i]
