@@ -54,6 +54,7 @@
 //! transmittances, so `next_event::trace_shadow` multiplies independent per-medium estimates
 //! (unbiased, and cheaper than tracking the sum: medium `k` is looked up at its own rate).
 use std::cell::Cell;
+use std::ops::AddAssign;
 
 use glam::Vec3;
 
@@ -134,6 +135,24 @@ fn pick(w: &[f32], u: f32) -> Option<(usize, f32)> {
     last.map(|k| (k, w[k] / total))
 }
 
+/// The coefficients of the sum, grey or RGB: `sum` (the homogeneous part's, or zero) plus
+/// each view's `coeffs`, in order. Adds the lookups beyond the one per `coeffs` call the
+/// trackers count to `extra_lookups`.
+#[inline(always)]
+fn sum_parts<C: AddAssign, V>(
+    mut sum: C,
+    views: &[V],
+    coeffs: impl Fn(&V) -> C,
+    extra_lookups: &Cell<u64>,
+) -> C {
+    for v in views {
+        sum += coeffs(v);
+    }
+    let n = views.len() as u64;
+    extra_lookups.set(extra_lookups.get() + n.saturating_sub(1));
+    sum
+}
+
 /// A homogeneous medium as the grey trackers see it (as `GreyView` sees a VDB medium).
 struct HomGrey {
     sigma_a: f32,
@@ -182,19 +201,11 @@ struct GreyMix<'a, F: Features, const ABS: bool> {
 impl<F: Features, const ABS: bool> Medium for GreyMix<'_, F, ABS> {
     #[inline]
     fn coeffs(&self, t: f32) -> Coeffs {
-        let mut k = self.hom.as_ref().map_or(Coeffs::ZERO, |h| Coeffs {
+        let hom = self.hom.as_ref().map_or(Coeffs::ZERO, |h| Coeffs {
             sigma_a: h.sigma_a,
             sigma_s: h.sigma_s,
         });
-        for v in &self.views {
-            let c = v.coeffs(t);
-            k.sigma_a += c.sigma_a;
-            k.sigma_s += c.sigma_s;
-        }
-        let n = self.views.len() as u64;
-        self.extra_lookups
-            .set(self.extra_lookups.get() + n.saturating_sub(1));
-        k
+        sum_parts(hom, &self.views, |v| v.coeffs(t), &self.extra_lookups)
     }
 
     #[inline]
@@ -311,18 +322,10 @@ struct RgbMix<'a, F: Features> {
 impl<F: Features> MediumRgb for RgbMix<'_, F> {
     #[inline]
     fn coeffs(&self, t: f32) -> CoeffsRgb {
-        let mut k = self.hom.as_ref().map_or(CoeffsRgb::default(), |h| {
+        let hom = self.hom.as_ref().map_or(CoeffsRgb::default(), |h| {
             CoeffsRgb::new(h.sigma_a, h.sigma_s)
         });
-        for v in &self.views {
-            let c = v.coeffs(t);
-            k.sigma_a += c.sigma_a;
-            k.sigma_s += c.sigma_s;
-        }
-        let n = self.views.len() as u64;
-        self.extra_lookups
-            .set(self.extra_lookups.get() + n.saturating_sub(1));
-        k
+        sum_parts(hom, &self.views, |v| v.coeffs(t), &self.extra_lookups)
     }
 
     #[inline]
