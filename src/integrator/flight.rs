@@ -3,6 +3,7 @@
 //! The CPU half of `Stage::SampleMedium`.
 use glam::Vec3;
 
+use super::features::Features;
 use super::homogeneous::sample_homogeneous;
 use super::media::{sample_vdb_in_turn, Flight, MediumEvent};
 use super::mixture::{sample_mixture, VdbSpan};
@@ -80,19 +81,12 @@ fn intervals_overlap(iv: &[VdbSpan]) -> bool {
 }
 
 /// The free flight along `ray` over `[t0, t1]` through whatever media lie there: the
-/// homogeneous medium the path is in, the VDB media the ray crosses, or, with `MIX` (a scene
+/// homogeneous medium the path is in, the VDB media the ray crosses, or, with `F::MIX` (a scene
 /// with overlapping or nested media), VDB media side by side inside the homogeneous medium by
 /// its closed-form flight cutting theirs short (`nested`), else their sum where they overlap
 /// (`mixture`).
 #[inline]
-pub(super) fn media_flight<
-    const HET: bool,
-    const HOM: bool,
-    const EMIT: bool,
-    const ABS: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+pub(super) fn media_flight<F: Features>(
     rs: &RenderScene,
     ray: &Ray,
     t0: f32,
@@ -104,33 +98,35 @@ pub(super) fn media_flight<
     let cfg = f.cfg;
     // The VDB spans, found once: the mixture test's are the flights' in turn below.
     let mut spans = None;
-    if MIX && HET {
+    if F::MIX && F::HET {
         let iv = spans.insert(vdb_intervals(rs, ray, t0, t1));
         let n = iv.len();
-        let hom = medium.filter(|_| HOM).map(|h| &rs.homogeneous[h as usize]);
+        let hom = medium
+            .filter(|_| F::HOM)
+            .map(|h| &rs.homogeneous[h as usize]);
         let overlap = intervals_overlap(iv);
         if (hom.is_some() && n > 0) || overlap {
             // VDB media side by side inside the homogeneous one: its closed-form flight cuts
             // theirs short (`nested`); overlapping VDB media need the merged sum.
             if let Some(h) = hom.filter(|h| !overlap && nested_applies(iv, h, cfg.absorption)) {
-                return sample_nested::<EMIT, ABS, CHROM>(iv, h, ray, t0, t1, beta, f);
+                return sample_nested::<F>(iv, h, ray, t0, t1, beta, f);
             }
-            return sample_mixture::<EMIT, ABS, CHROM>(iv, hom, ray, t0, t1, beta, f);
+            return sample_mixture::<F>(iv, hom, ray, t0, t1, beta, f);
         }
     }
-    if HOM {
+    if F::HOM {
         if let Some(h) = medium {
             let h = &rs.homogeneous[h as usize];
-            let ev = match sample_homogeneous::<CHROM>(h, t1 - t0, cfg.absorption, f.rng) {
+            let ev = match sample_homogeneous::<F>(h, t1 - t0, cfg.absorption, f.rng) {
                 MediumEvent::Scatter { t, weight } => MediumEvent::Scatter { t: t0 + t, weight },
                 other => other,
             };
             return (ev, h.phase);
         }
     }
-    if HET {
+    if F::HET {
         let spans = spans.unwrap_or_else(|| vdb_intervals(rs, ray, t0, t1));
-        return sample_vdb_in_turn::<EMIT, ABS, CHROM>(spans.iter().copied(), t1, ray, beta, f);
+        return sample_vdb_in_turn::<F>(spans.iter().copied(), t1, ray, beta, f);
     }
     (
         MediumEvent::Escape { weight: Vec3::ONE },

@@ -2,6 +2,7 @@
 //! tracking and no lookups.
 use glam::Vec3;
 
+use super::features::Features;
 use super::media::MediumEvent;
 use crate::render::media::HomogeneousMedium;
 use crate::render::settings::Absorption;
@@ -14,16 +15,16 @@ use crate::volume::tracking;
 /// a weight) scatter with the RGB albedo as weight, drawing no uniform. Chromatic extinction: the distance is drawn from
 /// one channel chosen uniformly and weighted by the one-sample MIS (balance heuristic) over
 /// channels, `pdf(t) = mean_c sigma_t,c exp(-sigma_t,c t)`; absorption is a weight then, so
-/// no absorption events occur.
+/// no absorption events occur. Chromatic extinction is compiled in if `F::CHROM`.
 #[inline]
-pub fn sample_homogeneous<const CHROM: bool>(
+pub fn sample_homogeneous<F: Features>(
     h: &HomogeneousMedium,
     t_max: f32,
     absorption: Absorption,
     rng: &mut Rng,
 ) -> MediumEvent {
     let sigma_t = h.sigma_t();
-    if !CHROM || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z) {
+    if !F::CHROM || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z) {
         let st = sigma_t.x;
         if !(st > 0.0) {
             return MediumEvent::Escape { weight: Vec3::ONE };

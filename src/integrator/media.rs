@@ -3,12 +3,13 @@
 //! closed meshes (sampled in closed form: `integrator::homogeneous`).
 //!
 //! One function per job: [`sample_vdb`] (free flight in a VDB medium), [`transmittance_vdb`]
-//! (shadow rays); homogeneous media: `integrator::homogeneous`. The const parameters
-//! select specialised code: `EMIT` (does any medium emit), `ABS` (does any medium absorb),
-//! `CHROM` (is any extinction chromatic); a `false` removes the corresponding work at compile
-//! time.
+//! (shadow rays); homogeneous media: `integrator::homogeneous`. The features type `F`
+//! selects specialised code: `F::EMIT` (does any medium emit), `F::ABS` (does any medium
+//! absorb), `F::CHROM` (is any extinction chromatic); a `false` removes the corresponding work
+//! at compile time.
 use glam::Vec3;
 
+use super::features::{Features, NoFeatures};
 use super::views::{GreyView, RgbView};
 use crate::math::Ray;
 use crate::render::media::{MediaStats, TrackingConfig, VdbMedium};
@@ -182,7 +183,7 @@ impl Flight<'_> {
 /// Free flight through VDB medium `m` along world `ray` over `[t0, t1]`, with the configured
 /// estimator. Emission met on the way is added to `f.l` (already weighted by `beta`).
 #[inline]
-pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
+pub fn sample_vdb<F: Features>(
     m: &VdbMedium,
     ray: &Ray,
     t0: f32,
@@ -191,9 +192,9 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     f: Flight,
 ) -> MediumEvent {
     let cfg = f.cfg;
-    if CHROM && (!m.grey || cfg.force_spectral) {
+    if F::CHROM && (!m.grey || cfg.force_spectral) {
         let Flight { rng, stats, l, .. } = f;
-        let view = RgbView::<EMIT>::new(m, ray, cfg.absorption, cfg.majorant, beta);
+        let view = RgbView::<F>::new(m, ray, cfg.absorption, cfg.majorant, beta);
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let spectral = Spectral {
                 b: cfg.b(),
@@ -215,9 +216,11 @@ pub fn sample_vdb<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     }
     // With absorption as a weight the grey view has no absorption coefficient at all, so the
     // ABS = false view compiles it out of the lookups.
-    match (ABS, cfg.absorption) {
-        (true, Absorption::Event) => sample_grey::<EMIT, true>(m, ray, t0, t1, beta, f),
-        _ => sample_grey::<EMIT, false>(m, ray, t0, t1, beta, f),
+    match (F::ABS, cfg.absorption) {
+        (true, Absorption::Event) => {
+            sample_grey(GreyView::<F, true>::new(m, ray, cfg, beta), t0, t1, f)
+        }
+        _ => sample_grey(GreyView::<F, false>::new(m, ray, cfg, beta), t0, t1, f),
     }
 }
 
@@ -252,21 +255,19 @@ where
     }
 }
 
-/// [`sample_vdb`] for a grey view (`sigma_t` equal in every channel).
-fn sample_grey<const EMIT: bool, const ABS: bool>(
-    m: &VdbMedium,
-    ray: &Ray,
+/// [`sample_vdb`] over `[t0, t1]` through `view`, a grey view of the medium (`sigma_t` equal
+/// in every channel).
+fn sample_grey<F: Features, const ABS: bool>(
+    view: GreyView<F, ABS>,
     t0: f32,
     t1: f32,
-    beta: Vec3,
     f: Flight,
 ) -> MediumEvent {
     let Flight { cfg, rng, stats, l } = f;
-    let view = GreyView::<EMIT, ABS>::new(m, ray, cfg, beta);
-    let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
+    let e = with_walk!(view.m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
         grey_free_flight(cfg, segs, t1, &view, rng, &mut stats.tracking)
     });
-    if EMIT {
+    if F::EMIT {
         *l += view.emitted.get();
         stats.emission_lookups += view.emission_lookups.get();
     }
@@ -279,7 +280,7 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
 /// passed before it; else every flight escaped, and the escape weight is their product.
 /// Emission met on the way is added to `f.l` (weighted by `beta` and the weights so far).
 #[inline]
-pub fn sample_vdb_in_turn<'a, const EMIT: bool, const ABS: bool, const CHROM: bool>(
+pub fn sample_vdb_in_turn<'a, F: Features>(
     spans: impl IntoIterator<Item = (&'a VdbMedium, f32, f32)>,
     t_end: f32,
     ray: &Ray,
@@ -292,7 +293,7 @@ pub fn sample_vdb_in_turn<'a, const EMIT: bool, const ABS: bool, const CHROM: bo
             break;
         }
         let b = b.min(t_end);
-        match sample_vdb::<EMIT, ABS, CHROM>(m, ray, a, b, beta * weight, f.reborrow()) {
+        match sample_vdb::<F>(m, ray, a, b, beta * weight, f.reborrow()) {
             MediumEvent::Escape { weight: w } => weight *= w,
             MediumEvent::Scatter { t, weight: w } => {
                 return (
@@ -312,7 +313,7 @@ pub fn sample_vdb_in_turn<'a, const EMIT: bool, const ABS: bool, const CHROM: bo
 /// Transmittance of VDB medium `m` along world `ray` over `[t0, t1]`: ratio or residual ratio
 /// tracking (Novak et al. 2014) for grey media, spectral tracking's estimator for chromatic ones.
 #[inline]
-pub fn transmittance_vdb<const CHROM: bool>(
+pub fn transmittance_vdb<F: Features>(
     m: &VdbMedium,
     ray: &Ray,
     t0: f32,
@@ -327,9 +328,9 @@ pub fn transmittance_vdb<const CHROM: bool>(
         majorant: m.walk(cfg.majorant).shadow,
         ..*cfg
     };
-    let tr = if CHROM && (!m.grey || cfg.force_spectral) {
+    let tr = if F::CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
-        let view = RgbView::<false>::new(m, ray, Absorption::Event, cfg.majorant, Vec3::ONE);
+        let view = RgbView::<NoFeatures>::new(m, ray, Absorption::Event, cfg.majorant, Vec3::ONE);
         with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let spectral = Spectral {
                 b: cfg.b(),
@@ -339,7 +340,7 @@ pub fn transmittance_vdb<const CHROM: bool>(
             tracking::transmittance(&spectral, segs, t1, &view, rng, &mut stats.tracking)
         })
     } else {
-        let view = GreyView::<false, true>::new(m, ray, cfg, Vec3::ONE);
+        let view = GreyView::<NoFeatures, true>::new(m, ray, cfg, Vec3::ONE);
         let residual = cfg.residual_shadow();
         let t = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let st = &mut stats.tracking;

@@ -54,9 +54,11 @@
 //! transmittances, so `next_event::trace_shadow` multiplies independent per-medium estimates
 //! (unbiased, and cheaper than tracking the sum: medium `k` is looked up at its own rate).
 use std::cell::Cell;
+use std::ops::AddAssign;
 
 use glam::Vec3;
 
+use super::features::Features;
 use super::media::{from_grey, segments, Flight, MediumEvent, Segments};
 use super::views::{GreyView, RgbView};
 use crate::math::Ray;
@@ -77,7 +79,7 @@ pub type VdbSpan<'a> = (&'a VdbMedium, f32, f32);
 /// over its span) and the homogeneous medium `hom` (over all of `[t0, t1]`). Returns the
 /// event and, for a scattering event, the phase function of the medium that scattered.
 /// Emission met on the way is added to `l` (already weighted by `beta`).
-pub fn sample_mixture<const EMIT: bool, const ABS: bool, const CHROM: bool>(
+pub fn sample_mixture<F: Features>(
     vdb: &[VdbSpan],
     hom: Option<&HomogeneousMedium>,
     ray: &Ray,
@@ -91,12 +93,12 @@ pub fn sample_mixture<const EMIT: bool, const ABS: bool, const CHROM: bool>(
         let s = h.sigma_t();
         s.x != s.y || s.y != s.z
     });
-    if CHROM && (cfg.force_spectral || chromatic_hom || vdb.iter().any(|v| !v.0.grey)) {
-        return sample_rgb::<EMIT>(vdb, hom, ray, t0, t1, beta, f);
+    if F::CHROM && (cfg.force_spectral || chromatic_hom || vdb.iter().any(|v| !v.0.grey)) {
+        return sample_rgb::<F>(vdb, hom, ray, t0, t1, beta, f);
     }
-    match (ABS, cfg.absorption) {
-        (true, Absorption::Event) => sample_grey::<EMIT, true>(vdb, hom, ray, t0, t1, beta, f),
-        _ => sample_grey::<EMIT, false>(vdb, hom, ray, t0, t1, beta, f),
+    match (F::ABS, cfg.absorption) {
+        (true, Absorption::Event) => sample_grey::<F, true>(vdb, hom, ray, t0, t1, beta, f),
+        _ => sample_grey::<F, false>(vdb, hom, ray, t0, t1, beta, f),
     }
 }
 
@@ -133,6 +135,24 @@ fn pick(w: &[f32], u: f32) -> Option<(usize, f32)> {
     last.map(|k| (k, w[k] / total))
 }
 
+/// The coefficients of the sum, grey or RGB: `sum` (the homogeneous part's, or zero) plus
+/// each view's `coeffs`, in order. Adds the lookups beyond the one per `coeffs` call the
+/// trackers count to `extra_lookups`.
+#[inline(always)]
+fn sum_parts<C: AddAssign, V>(
+    mut sum: C,
+    views: &[V],
+    coeffs: impl Fn(&V) -> C,
+    extra_lookups: &Cell<u64>,
+) -> C {
+    for v in views {
+        sum += coeffs(v);
+    }
+    let n = views.len() as u64;
+    extra_lookups.set(extra_lookups.get() + n.saturating_sub(1));
+    sum
+}
+
 /// A homogeneous medium as the grey trackers see it (as `GreyView` sees a VDB medium).
 struct HomGrey {
     sigma_a: f32,
@@ -167,8 +187,8 @@ impl HomGrey {
 }
 
 /// The sum of grey views (see the module doc).
-struct GreyMix<'a, const EMIT: bool, const ABS: bool> {
-    views: Vec<GreyView<'a, EMIT, ABS>>,
+struct GreyMix<'a, F: Features, const ABS: bool> {
+    views: Vec<GreyView<'a, F, ABS>>,
     hom: Option<HomGrey>,
     control: ControlExtinction,
     /// Smallest and largest control albedo of the parts.
@@ -178,22 +198,14 @@ struct GreyMix<'a, const EMIT: bool, const ABS: bool> {
     extra_lookups: Cell<u64>,
 }
 
-impl<const EMIT: bool, const ABS: bool> Medium for GreyMix<'_, EMIT, ABS> {
+impl<F: Features, const ABS: bool> Medium for GreyMix<'_, F, ABS> {
     #[inline]
     fn coeffs(&self, t: f32) -> Coeffs {
-        let mut k = self.hom.as_ref().map_or(Coeffs::ZERO, |h| Coeffs {
+        let hom = self.hom.as_ref().map_or(Coeffs::ZERO, |h| Coeffs {
             sigma_a: h.sigma_a,
             sigma_s: h.sigma_s,
         });
-        for v in &self.views {
-            let c = v.coeffs(t);
-            k.sigma_a += c.sigma_a;
-            k.sigma_s += c.sigma_s;
-        }
-        let n = self.views.len() as u64;
-        self.extra_lookups
-            .set(self.extra_lookups.get() + n.saturating_sub(1));
-        k
+        sum_parts(hom, &self.views, |v| v.coeffs(t), &self.extra_lookups)
     }
 
     #[inline]
@@ -207,7 +219,7 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyMix<'_, EMIT, ABS> {
 
     #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
-        if EMIT {
+        if F::EMIT {
             for v in &self.views {
                 v.on_collision(t, sigma_maj, w);
             }
@@ -215,7 +227,7 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyMix<'_, EMIT, ABS> {
     }
 }
 
-fn sample_grey<const EMIT: bool, const ABS: bool>(
+fn sample_grey<F: Features, const ABS: bool>(
     vdb: &[VdbSpan],
     hom: Option<&HomogeneousMedium>,
     ray: &Ray,
@@ -225,7 +237,7 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     let Flight { cfg, rng, stats, l } = f;
-    let views: Vec<GreyView<EMIT, ABS>> = vdb
+    let views: Vec<GreyView<F, ABS>> = vdb
         .iter()
         .map(|(m, _, _)| GreyView::new(m, ray, cfg, beta))
         .collect();
@@ -255,7 +267,7 @@ fn sample_grey<const EMIT: bool, const ABS: bool>(
     };
     let segs = MergedSegments::new(streams);
     let e = super::media::grey_free_flight(cfg, segs, t1, &mix, rng, &mut stats.tracking);
-    if EMIT {
+    if F::EMIT {
         for v in &mix.views {
             *l += v.emitted.get();
             stats.emission_lookups += v.emission_lookups.get();
@@ -301,32 +313,24 @@ struct HomRgb {
 }
 
 /// The sum of RGB views (see the module doc).
-struct RgbMix<'a, const EMIT: bool> {
-    views: Vec<RgbView<'a, EMIT>>,
+struct RgbMix<'a, F: Features> {
+    views: Vec<RgbView<'a, F>>,
     hom: Option<HomRgb>,
     extra_lookups: Cell<u64>,
 }
 
-impl<const EMIT: bool> MediumRgb for RgbMix<'_, EMIT> {
+impl<F: Features> MediumRgb for RgbMix<'_, F> {
     #[inline]
     fn coeffs(&self, t: f32) -> CoeffsRgb {
-        let mut k = self.hom.as_ref().map_or(CoeffsRgb::default(), |h| {
+        let hom = self.hom.as_ref().map_or(CoeffsRgb::default(), |h| {
             CoeffsRgb::new(h.sigma_a, h.sigma_s)
         });
-        for v in &self.views {
-            let c = v.coeffs(t);
-            k.sigma_a += c.sigma_a;
-            k.sigma_s += c.sigma_s;
-        }
-        let n = self.views.len() as u64;
-        self.extra_lookups
-            .set(self.extra_lookups.get() + n.saturating_sub(1));
-        k
+        sum_parts(hom, &self.views, |v| v.coeffs(t), &self.extra_lookups)
     }
 
     #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
-        if EMIT {
+        if F::EMIT {
             for v in &self.views {
                 v.on_collision(t, sigma_maj, w);
             }
@@ -334,7 +338,7 @@ impl<const EMIT: bool> MediumRgb for RgbMix<'_, EMIT> {
     }
 }
 
-fn sample_rgb<const EMIT: bool>(
+fn sample_rgb<F: Features>(
     vdb: &[VdbSpan],
     hom: Option<&HomogeneousMedium>,
     ray: &Ray,
@@ -344,7 +348,7 @@ fn sample_rgb<const EMIT: bool>(
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     let Flight { cfg, rng, stats, l } = f;
-    let views: Vec<RgbView<EMIT>> = vdb
+    let views: Vec<RgbView<F>> = vdb
         .iter()
         .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, beta))
         .collect();
@@ -391,7 +395,7 @@ fn sample_rgb<const EMIT: bool>(
         rng,
         &mut stats.tracking,
     );
-    if EMIT {
+    if F::EMIT {
         for v in &mix.views {
             *l += v.emitted.get();
             stats.emission_lookups += v.emission_lookups.get();

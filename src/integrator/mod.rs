@@ -1,8 +1,10 @@
 //! The CPU path tracer, the reference every backend is checked against: one path per camera
 //! sample ([`path::radiance`]) over the tiles of the image ([`tile`]), its free flights through
 //! the media ([`media`], [`homogeneous`], [`mixture`], [`nested`], [`views`]) and its BSDFs
-//! ([`bsdf`]). What it renders, the prepared scene and settings, is `crate::render`.
+//! ([`bsdf`]), each compiled for the scene's [`features`]. What it renders, the prepared scene
+//! and settings, is `crate::render`.
 pub mod bsdf;
+pub mod features;
 pub mod flight;
 pub mod homogeneous;
 pub mod media;

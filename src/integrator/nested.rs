@@ -27,6 +27,7 @@
 //! medium (its absorption carries no distance back) and VDB media that overlap one another.
 use glam::Vec3;
 
+use super::features::Features;
 use super::homogeneous::exp_neg;
 use super::homogeneous::sample_homogeneous;
 use super::media::{sample_vdb_in_turn, Flight, MediumEvent};
@@ -48,9 +49,9 @@ pub fn nested_applies(vdb: &[VdbSpan], hom: &HomogeneousMedium, absorption: Abso
 /// `T_h(t) / S_h(t)` per channel for the homogeneous draw of `sample_homogeneous` (1 for grey
 /// extinction, where the draw's survival is the transmittance itself).
 #[inline]
-fn transmittance_over_survival<const CHROM: bool>(h: &HomogeneousMedium, t: f32) -> Vec3 {
+fn transmittance_over_survival<F: Features>(h: &HomogeneousMedium, t: f32) -> Vec3 {
     let sigma_t = h.sigma_t();
-    if !CHROM || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z) {
+    if !F::CHROM || (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z) {
         return Vec3::ONE;
     }
     let tr = exp_neg(sigma_t, t);
@@ -66,7 +67,7 @@ fn transmittance_over_survival<const CHROM: bool>(h: &HomogeneousMedium, t: f32)
 /// non-overlapping, each over its span) inside the homogeneous medium `hom` (see the module
 /// doc). Emission met on the way is added to `l` (weighted by `beta`). Call only where
 /// [`nested_applies`].
-pub fn sample_nested<const EMIT: bool, const ABS: bool, const CHROM: bool>(
+pub fn sample_nested<F: Features>(
     vdb: &[VdbSpan],
     hom: &HomogeneousMedium,
     ray: &Ray,
@@ -76,29 +77,27 @@ pub fn sample_nested<const EMIT: bool, const ABS: bool, const CHROM: bool>(
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     // The homogeneous part first: its collision (or t1) ends every VDB flight.
-    let (t_h, hom_event) = match sample_homogeneous::<CHROM>(hom, t1 - t0, f.cfg.absorption, f.rng)
-    {
+    let (t_h, hom_event) = match sample_homogeneous::<F>(hom, t1 - t0, f.cfg.absorption, f.rng) {
         MediumEvent::Scatter { t, weight } => (t0 + t, MediumEvent::Scatter { t: t0 + t, weight }),
         escape @ MediumEvent::Escape { .. } => (t1, escape),
         // Not with absorption as a weight (`nested_applies`); no distance to cut at.
         MediumEvent::Absorb => return (MediumEvent::Absorb, hom.phase),
     };
     // Then the VDB media in turn, each cut at t_h.
-    let weight =
-        match sample_vdb_in_turn::<EMIT, ABS, CHROM>(vdb.iter().copied(), t_h, ray, beta, f) {
-            (MediumEvent::Escape { weight }, _) => weight,
-            (MediumEvent::Scatter { t, weight }, phase) => {
-                let f = transmittance_over_survival::<CHROM>(hom, t - t0);
-                return (
-                    MediumEvent::Scatter {
-                        t,
-                        weight: weight * f,
-                    },
-                    phase,
-                );
-            }
-            absorb => return absorb,
-        };
+    let weight = match sample_vdb_in_turn::<F>(vdb.iter().copied(), t_h, ray, beta, f) {
+        (MediumEvent::Escape { weight }, _) => weight,
+        (MediumEvent::Scatter { t, weight }, phase) => {
+            let f = transmittance_over_survival::<F>(hom, t - t0);
+            return (
+                MediumEvent::Scatter {
+                    t,
+                    weight: weight * f,
+                },
+                phase,
+            );
+        }
+        absorb => return absorb,
+    };
     let event = match hom_event {
         MediumEvent::Scatter { t, weight: w } => MediumEvent::Scatter {
             t,

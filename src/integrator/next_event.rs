@@ -3,6 +3,7 @@
 //! scattering strategy by the power heuristic.
 use glam::Vec3;
 
+use super::features::Features;
 use super::flight::vdb_intervals;
 use super::homogeneous::transmittance_homogeneous;
 use super::media::transmittance_vdb;
@@ -17,15 +18,9 @@ use crate::volume::phase::HenyeyGreenstein;
 
 /// Transmittance along the shadow ray `ray` (unit direction) over distance `dist`, through
 /// media and null interfaces; 0 when an opaque or refracting surface blocks. Overlapping media
-/// multiply their transmittances (extinction adds), so each is estimated on its own (`MIX`: VDB
+/// multiply their transmittances (extinction adds), so each is estimated on its own (`F::MIX`: VDB
 /// media inside a homogeneous one too).
-pub(super) fn trace_shadow<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+pub(super) fn trace_shadow<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     ray: &Ray,
@@ -37,7 +32,7 @@ pub(super) fn trace_shadow<
     let mut tr = Vec3::ONE;
     let mut t0 = 0.0f32;
     loop {
-        let hit = if SURF {
+        let hit = if F::SURF {
             rs.scene.bvh.closest_hit(ray, t0, dist)
         } else {
             None
@@ -55,14 +50,14 @@ pub(super) fn trace_shadow<
         }
         let t1 = hit.map_or(dist, |h| h.t);
         let medium = media.top();
-        if HOM {
+        if F::HOM {
             if let Some(h) = medium {
                 tr *= transmittance_homogeneous(&rs.homogeneous[h as usize], t1 - t0);
             }
         }
-        if HET && (MIX || medium.is_none()) {
+        if F::HET && (F::MIX || medium.is_none()) {
             for &(m, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
-                tr *= transmittance_vdb::<CHROM>(m, ray, a, b, cfg, rng, stats);
+                tr *= transmittance_vdb::<F>(m, ray, a, b, cfg, rng, stats);
                 if tr == Vec3::ZERO {
                     return tr;
                 }
@@ -71,7 +66,7 @@ pub(super) fn trace_shadow<
         let (Some(h), Some(mat_index)) = (hit, mat_index) else {
             return tr;
         };
-        if HOM {
+        if F::HOM {
             let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
             let entering = (b - a).cross(c - a).dot(ray.d) < 0.0;
             media.cross(rs.scene.materials[mat_index].interior_medium, entering);
@@ -111,13 +106,7 @@ pub(super) struct Vertex<'a> {
 /// sampler's light-selection and light-sample blocks. At a medium event (`v.phase`) the light
 /// is chosen by the guided selection of [`Lights::phase_selection`] (uniformly elsewhere).
 /// Returns the estimate and how the environment was chosen.
-pub(super) fn next_event<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+pub(super) fn next_event<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     v: Vertex,
@@ -166,7 +155,7 @@ pub(super) fn next_event<
     } else {
         f32::INFINITY
     };
-    let tr = trace_shadow::<SURF, HET, HOM, CHROM, MIX>(
+    let tr = trace_shadow::<F>(
         rs,
         cfg,
         &Ray::new(p, ls.wi),

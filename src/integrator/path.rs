@@ -1,10 +1,12 @@
 //! The CPU reference path tracer: one camera sample in, radiance out. Written for clarity
 //! first; every physics step calls the shared routines (`media`, `lights`, `bsdf`,
-//! `volume::tracking`). The const parameters are the scene's features (see
-//! [`crate::render::prepare::FeatureFlags`]): a `false` removes that code from the compiled loop.
+//! `volume::tracking`). The type parameter `F` is the scene's features
+//! ([`Features`], from [`crate::render::prepare::FeatureFlags`]): a `false` removes that code
+//! from the compiled loop.
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
+use super::features::Features;
 use super::flight::media_flight;
 use super::media::{Flight, MediumEvent};
 use super::next_event::{next_event, EnvChoice, Vertex};
@@ -122,15 +124,7 @@ fn collisions(s: &MediaStats) -> u64 {
 
 /// Radiance along the camera ray through film point `film` (in [0,1]^2): the stages of the GPU
 /// wavefront (`shaders/stages/`, `backend::gpu::graph::Stage`) run in turn for one path.
-pub fn radiance<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const EMIT: bool,
-    const ABS: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+pub fn radiance<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     limits: &PathLimits,
@@ -139,13 +133,13 @@ pub fn radiance<
     sampler: &mut Sampler,
     stats: &mut PathStats,
 ) -> Vec3 {
-    let mut ps = generate::<HOM>(rs, film, aspect);
+    let mut ps = generate::<F>(rs, film, aspect);
     let start_collisions = collisions(&stats.media);
     loop {
-        let hit = intersect::<SURF>(rs, &ps);
-        if HET || HOM {
+        let hit = intersect::<F>(rs, &ps);
+        if F::HET || F::HOM {
             let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
-            let end = sample_medium::<HET, HOM, EMIT, ABS, CHROM, MIX>(
+            let end = sample_medium::<F>(
                 rs,
                 cfg,
                 limits,
@@ -159,9 +153,9 @@ pub fn radiance<
                 FlightEnd::Ended => break,
                 FlightEnd::Passed => {}
                 FlightEnd::Scattered { t, phase } => {
-                    let Some(scatterer) = scatter_medium::<SURF, HET, HOM, CHROM, MIX>(
-                        rs, cfg, limits, &mut ps, t, phase, sampler, stats,
-                    ) else {
+                    let Some(scatterer) =
+                        scatter_medium::<F>(rs, cfg, limits, &mut ps, t, phase, sampler, stats)
+                    else {
                         break;
                     };
                     if !sample_phase(limits, &mut ps, scatterer, sampler, stats) {
@@ -175,9 +169,7 @@ pub fn radiance<
             escape(rs, &mut ps);
             break;
         };
-        match shade_surface::<SURF, HET, HOM, CHROM, MIX>(
-            rs, cfg, limits, &mut ps, h, sampler, stats,
-        ) {
+        match shade_surface::<F>(rs, cfg, limits, &mut ps, h, sampler, stats) {
             SurfaceEnd::Crossed => continue,
             SurfaceEnd::Ended => break,
             SurfaceEnd::Scatters(scatterer) => {
@@ -193,12 +185,12 @@ pub fn radiance<
 
 /// The camera ray through `film` and the path's starting state (`Stage::Generate`).
 #[inline(always)]
-fn generate<const HOM: bool>(rs: &RenderScene, film: Vec2, aspect: f32) -> PathState {
+fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32) -> PathState {
     let (ray, t0) = rs.pinhole.primary_ray(film.x, film.y, aspect);
     PathState {
         ray,
         t0,
-        media: if HOM {
+        media: if F::HOM {
             rs.camera_media
         } else {
             MediumStack::EMPTY
@@ -218,8 +210,8 @@ fn generate<const HOM: bool>(rs: &RenderScene, film: Vec2, aspect: f32) -> PathS
 
 /// The first surface along the path's ray (`Stage::Intersect`).
 #[inline(always)]
-fn intersect<const SURF: bool>(rs: &RenderScene, ps: &PathState) -> Option<Hit> {
-    if SURF {
+fn intersect<F: Features>(rs: &RenderScene, ps: &PathState) -> Option<Hit> {
+    if F::SURF {
         rs.scene.bvh.closest_hit(&ps.ray, ps.t0, f32::INFINITY)
     } else {
         None
@@ -230,14 +222,7 @@ fn intersect<const SURF: bool>(rs: &RenderScene, ps: &PathState) -> Option<Hit> 
 /// gathering their emission (`Stage::SampleMedium`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn sample_medium<
-    const HET: bool,
-    const HOM: bool,
-    const EMIT: bool,
-    const ABS: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+fn sample_medium<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     limits: &PathLimits,
@@ -253,7 +238,7 @@ fn sample_medium<
         sampler.queue_on_stream(bounce_dim(ps.depth, DIM_DISTANCE));
         ps.flight_started = true;
     }
-    let (ev, phase) = media_flight::<HET, HOM, EMIT, ABS, CHROM, MIX>(
+    let (ev, phase) = media_flight::<F>(
         rs,
         &ps.ray,
         ps.t0,
@@ -295,13 +280,7 @@ fn sample_medium<
 /// event at `t` (`Stage::ScatterMedium`). `None` ends the path.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn scatter_medium<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+fn scatter_medium<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     limits: &PathLimits,
@@ -321,7 +300,7 @@ fn scatter_medium<
     let guided = limits
         .guided_lights
         .then_some((&phase, wo, limits.continuation_albedo));
-    let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
+    let (ld, choice) = next_event::<F>(
         rs,
         cfg,
         Vertex {
@@ -345,13 +324,7 @@ fn scatter_medium<
 /// Emission, null interfaces, smooth dielectrics and next-event estimation at opaque surfaces
 /// (`Stage::ShadeSurface`).
 #[inline(always)]
-fn shade_surface<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+fn shade_surface<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
     limits: &PathLimits,
@@ -386,7 +359,7 @@ fn shade_surface<
     }
     let kind = rs.kinds[mat_index];
     if kind == SurfaceKind::Null {
-        if HOM {
+        if F::HOM {
             ps.media.cross(mat.interior_medium, cos_o > 0.0);
         }
         ps.t0 = h.t + 1e-4 * (1.0 + h.t);
@@ -409,7 +382,7 @@ fn shade_surface<
                 Some(wt) => {
                     // Radiance is compressed by eta^2 entering a denser medium.
                     ps.beta *= scene.base_color_at(mat, uv) / (eta * eta);
-                    if HOM {
+                    if F::HOM {
                         ps.media.cross(mat.interior_medium, entering);
                     }
                     wt
@@ -428,7 +401,7 @@ fn shade_surface<
     let bsdf = Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
     let wo_l = frame.to_local(wo);
     let p_off = offset(p, n_side, n_side);
-    let (ld, choice) = next_event::<SURF, HET, HOM, CHROM, MIX>(
+    let (ld, choice) = next_event::<F>(
         rs,
         cfg,
         Vertex {

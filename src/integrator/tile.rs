@@ -3,6 +3,7 @@ use std::time::Instant;
 
 use glam::Vec2;
 
+use super::features::{AllFeatures, Features, Variant};
 use super::path::{radiance, PathLimits, PathStats};
 use crate::film::{TileBuffer, TileRecord, TileRect};
 use crate::render::media::TrackingConfig;
@@ -35,15 +36,7 @@ pub type TileFn = fn(&TileContext, &TileRect, u32, u32, u32) -> TileOutput;
 /// Renders samples `[s0, s0 + n)` of every pixel of `rect` in pass `pass`. Each (pixel,
 /// sample) has its own random stream and its own Sobol points at its global sample index, so
 /// the image depends neither on tiling, threads nor the split into passes.
-pub fn render_tile<
-    const SURF: bool,
-    const HET: bool,
-    const HOM: bool,
-    const EMIT: bool,
-    const ABS: bool,
-    const CHROM: bool,
-    const MIX: bool,
->(
+pub fn render_tile<F: Features>(
     ctx: &TileContext,
     rect: &TileRect,
     pass: u32,
@@ -70,7 +63,7 @@ pub fn render_tile<
                     (x as f32 + jitter.x) / ctx.width as f32,
                     (y as f32 + jitter.y) / ctx.height as f32,
                 );
-                let l = radiance::<SURF, HET, HOM, EMIT, ABS, CHROM, MIX>(
+                let l = radiance::<F>(
                     ctx.rs,
                     &ctx.cfg,
                     &ctx.limits,
@@ -105,37 +98,33 @@ pub fn render_tile<
     }
 }
 
-macro_rules! pick_next {
-    ($name:ident, $next:ident, $idx:expr, [$($c:ident),*]) => {
-        fn $name<$(const $c: bool),*>(f: &[bool; 6]) -> TileFn {
-            if f[$idx] { $next::<$($c,)* true>(f) } else { $next::<$($c,)* false>(f) }
-        }
+/// `[render_tile::<Variant<B>>, ...]` for each bit set `B` listed.
+macro_rules! variants {
+    ($($bits:literal)*) => {
+        [$(render_tile::<Variant<$bits>> as TileFn),*]
     };
 }
-pick_next!(pick0, pick1, 0, []);
-pick_next!(pick1, pick2, 1, [A]);
-pick_next!(pick2, pick3, 2, [A, B]);
-pick_next!(pick3, pick4, 3, [A, B, C]);
-pick_next!(pick4, pick5, 4, [A, B, C, D]);
 
-fn pick5<const A: bool, const B: bool, const C: bool, const D: bool, const E: bool>(
-    f: &[bool; 6],
-) -> TileFn {
-    if f[5] {
-        render_tile::<A, B, C, D, E, true, false>
-    } else {
-        render_tile::<A, B, C, D, E, false, false>
-    }
-}
+/// The 64 variants without the mixture, indexed by the bits of `FeatureFlags::as_array`.
+static SPECIALISED: [TileFn; 64] = variants![
+    0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31
+    32 33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49 50 51 52 53 54 55 56 57 58 59 60 61
+    62 63
+];
 
 /// The tile renderer compiled for exactly `features` (the generic one when all are on). The
-/// mixture of overlapping media (`MIX`) is compiled into the generic variant only: a scene
+/// mixture of overlapping media (`F::MIX`) is compiled into the generic variant only: a scene
 /// with `features.overlapping` runs the generic code (`backend::cpu` then reports every
 /// feature on), every other scene a variant without the mixture, so the 64 specialised
 /// variants do not double.
 pub fn specialised(features: FeatureFlags) -> TileFn {
     if features.overlapping {
-        return render_tile::<true, true, true, true, true, true, true>;
+        return render_tile::<AllFeatures>;
     }
-    pick0(&features.as_array())
+    let bits = features
+        .as_array()
+        .iter()
+        .enumerate()
+        .fold(0, |bits, (i, &on)| bits | usize::from(on) << i);
+    SPECIALISED[bits]
 }

@@ -5,9 +5,11 @@
 //! per medium and ray; the WGSL mirror is the tracker state of `shaders/common/tracking.wgsl`
 //! and the emission of `shaders/common/emission.wgsl`.
 use std::cell::Cell;
+use std::marker::PhantomData;
 
 use glam::Vec3;
 
+use super::features::Features;
 use crate::math::{per_channel_ratio, Ray};
 use crate::render::media::{TrackingConfig, VdbMedium};
 use crate::render::settings::{Absorption, MajorantMode};
@@ -15,8 +17,9 @@ use crate::volume::tracking::{Coeffs, CoeffsRgb, ControlExtinction, Medium, Medi
 use crate::volume::{LeafCulling, VoxelCulling};
 
 /// The grey view of a VDB medium along one ray (`sigma_t` equal in all channels; the RGB
-/// albedo is applied as a weight at scattering events).
-pub(super) struct GreyView<'a, const EMIT: bool, const ABS: bool> {
+/// albedo is applied as a weight at scattering events). It gathers emission if `F::EMIT`;
+/// `ABS` is whether it has an absorption coefficient, chosen per flight by the settings.
+pub(super) struct GreyView<'a, F: Features, const ABS: bool> {
     pub(super) m: &'a VdbMedium,
     pub(super) ray_i: Ray,
     pub(super) ray_w: Ray,
@@ -34,9 +37,10 @@ pub(super) struct GreyView<'a, const EMIT: bool, const ABS: bool> {
     pub(super) culling: Option<LeafCulling<'a>>,
     /// The per-voxel culling of the walk's kept collisions ([`VdbMedium::voxel_culling`]).
     pub(super) voxel: Option<VoxelCulling<'a>>,
+    features: PhantomData<F>,
 }
 
-impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
+impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
     pub(super) fn new(m: &'a VdbMedium, ray_w: &Ray, cfg: &TrackingConfig, beta: Vec3) -> Self {
         let ray_i = Ray::new(
             m.density.index_from_world.transform_point3(ray_w.o),
@@ -71,6 +75,7 @@ impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
             emission_lookups: Cell::new(0),
             culling: m.culling(cfg.majorant),
             voxel: m.voxel_culling(cfg.majorant),
+            features: PhantomData,
         }
     }
 
@@ -84,7 +89,7 @@ impl<'a, const EMIT: bool, const ABS: bool> GreyView<'a, EMIT, ABS> {
     }
 }
 
-impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
+impl<F: Features, const ABS: bool> Medium for GreyView<'_, F, ABS> {
     #[inline]
     fn coeffs(&self, t: f32) -> Coeffs {
         let d = self.m.density.at_index(self.ray_i.at(t));
@@ -111,7 +116,7 @@ impl<const EMIT: bool, const ABS: bool> Medium for GreyView<'_, EMIT, ABS> {
 
     #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
-        if EMIT {
+        if F::EMIT {
             if let Some(e) = &self.m.emission {
                 let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
                 self.emitted
@@ -157,8 +162,9 @@ fn voxel_ratio_at(v: &VoxelCulling, ray_i: &Ray, t: f32, bound: f32) -> f32 {
     v.ratio(ray_i.at(t), bound)
 }
 
-/// The RGB view of a VDB medium along one ray, for spectral tracking.
-pub(super) struct RgbView<'a, const EMIT: bool> {
+/// The RGB view of a VDB medium along one ray, for spectral tracking. It gathers emission if
+/// `F::EMIT`.
+pub(super) struct RgbView<'a, F: Features> {
     pub(super) m: &'a VdbMedium,
     pub(super) ray_i: Ray,
     pub(super) ray_w: Ray,
@@ -175,9 +181,10 @@ pub(super) struct RgbView<'a, const EMIT: bool> {
     pub(super) emission_lookups: Cell<u64>,
     /// As [`GreyView::culling`].
     pub(super) culling: Option<LeafCulling<'a>>,
+    features: PhantomData<F>,
 }
 
-impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
+impl<'a, F: Features> RgbView<'a, F> {
     pub(super) fn new(
         m: &'a VdbMedium,
         ray_w: &Ray,
@@ -206,11 +213,12 @@ impl<'a, const EMIT: bool> RgbView<'a, EMIT> {
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
             culling: m.culling(majorant),
+            features: PhantomData,
         }
     }
 }
 
-impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
+impl<F: Features> MediumRgb for RgbView<'_, F> {
     #[inline]
     fn coeffs(&self, t: f32) -> CoeffsRgb {
         let d = self.m.density.at_index(self.ray_i.at(t));
@@ -227,7 +235,7 @@ impl<const EMIT: bool> MediumRgb for RgbView<'_, EMIT> {
 
     #[inline]
     fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
-        if EMIT {
+        if F::EMIT {
             if let Some(e) = &self.m.emission {
                 let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
                 self.emitted

@@ -11,6 +11,7 @@
 use crate::common;
 use common::render::{load_scene, sidak_z};
 
+use brume::integrator::features::{bit, Features, Variant};
 use brume::integrator::{media::Flight, media::MediumEvent};
 use brume::integrator::{mixture::sample_mixture, mixture::VdbSpan};
 use brume::integrator::{nested::nested_applies, nested::sample_nested};
@@ -83,7 +84,7 @@ fn rays(lo: Vec3, hi: Vec3, seed: u32) -> Vec<(Ray, f32)> {
 /// Tallies `FLIGHTS` flights along `ray` over `[0, t1]` by the nested flight (`nested`) or
 /// the merged one.
 #[allow(clippy::too_many_arguments)]
-fn tally<const EMIT: bool, const CHROM: bool>(
+fn tally<F: Features>(
     nested: bool,
     span: VdbSpan,
     hom: &HomogeneousMedium,
@@ -100,7 +101,7 @@ fn tally<const EMIT: bool, const CHROM: bool>(
         let mut rng = Rng::new(i, seed, 0x5eed);
         let mut l = Vec3::ZERO;
         let (event, phase): (MediumEvent, HenyeyGreenstein) = if nested {
-            sample_nested::<EMIT, false, CHROM>(
+            sample_nested::<F>(
                 &spans,
                 hom,
                 ray,
@@ -115,7 +116,7 @@ fn tally<const EMIT: bool, const CHROM: bool>(
                 },
             )
         } else {
-            sample_mixture::<EMIT, false, CHROM>(
+            sample_mixture::<F>(
                 &spans,
                 Some(hom),
                 ray,
@@ -169,8 +170,9 @@ fn cfg(estimator: Estimator, majorant: MajorantMode, spectral: bool) -> Tracking
 }
 
 /// Every configuration's z-scores for the medium of `scene` inside each homogeneous medium of
-/// `homs` (extinction per unit of the medium's world size).
-fn check<const EMIT: bool>(
+/// `homs` (extinction per unit of the medium's world size). The flights are compiled for the
+/// features `Grey` around a grey homogeneous medium, `Chromatic` around a chromatic one.
+fn check<Grey: Features, Chromatic: Features>(
     scene: &str,
     homs: &[(Vec3, Vec3)],
     configs: &[(Estimator, MajorantMode, bool)],
@@ -201,9 +203,9 @@ fn check<const EMIT: bool>(
                 let seed = (1000 * h_index + 100 * c_index + r) as u32;
                 let run = |nested: bool, seed: u32| {
                     if chromatic {
-                        tally::<EMIT, true>(nested, span, &hom, m.phase.g, &ray, t1, &cfg, seed)
+                        tally::<Chromatic>(nested, span, &hom, m.phase.g, &ray, t1, &cfg, seed)
                     } else {
-                        tally::<EMIT, false>(nested, span, &hom, m.phase.g, &ray, t1, &cfg, seed)
+                        tally::<Grey>(nested, span, &hom, m.phase.g, &ray, t1, &cfg, seed)
                     }
                 };
                 let (a, b) = (run(true, 2 * seed), run(false, 2 * seed + 1));
@@ -245,7 +247,7 @@ fn check<const EMIT: bool>(
 fn a_smoke_inside_a_homogeneous_medium_flies_as_the_merged_sum() {
     use Estimator::*;
     use MajorantMode::*;
-    check::<false>(
+    check::<Variant<0>, Variant<{ bit::CHROM }>>(
         "smoke_tank.gltf",
         &[
             // Grey, and chromatic (spectral MIS distances in the homogeneous part).
@@ -267,7 +269,7 @@ fn a_smoke_inside_a_homogeneous_medium_flies_as_the_merged_sum() {
 fn an_emitting_medium_inside_a_grey_one_gathers_the_same_emission() {
     use Estimator::*;
     use MajorantMode::*;
-    check::<true>(
+    check::<Variant<{ bit::EMIT }>, Variant<{ bit::EMIT | bit::CHROM }>>(
         "fire.gltf",
         &[(Vec3::splat(0.2), Vec3::splat(0.8))],
         &[(Delta, Adaptive, false), (Decomposition, Global, false)],

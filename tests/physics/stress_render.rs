@@ -458,6 +458,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
     // multiplies the throughput by the albedo (<= 0.95) and Russian roulette divides by
     // min(sqrt(max(beta)), 0.95), which leaves at most max(sqrt(max(beta)), max(beta) / 0.95):
     // the throughput never exceeds 1 (the bound tested here, per path).
+    use brume::integrator::features::{bit, Variant};
     use brume::integrator::{path::radiance, path::PathLimits, path::PathStats};
     use brume::render::media::TrackingConfig;
     use brume::render::SamplerKind;
@@ -504,7 +505,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             // The central third of the image: rays through the fog's core.
             let film = Vec2::new(0.35, 0.35) + 0.3 * u;
             let mut st = PathStats::default();
-            let l = radiance::<false, true, false, false, true, false, false>(
+            let l = radiance::<Variant<{ bit::HET | bit::ABS }>>(
                 &rs, &cfg, &limits, film, 1.0, &mut rng, &mut st,
             );
             assert!(l.is_finite() && l.min_element() >= 0.0, "{l}");

@@ -678,6 +678,7 @@ fn an_underflowed_control_factor_gives_zero_not_nan() {
 fn a_clear_channel_transmits_over_an_infinite_distance() {
     // Chromatic homogeneous medium with one channel of zero extinction and a ray that never
     // leaves it (an open mesh): exp(-0 * inf) must be 1, not NaN.
+    use brume::integrator::features::{bit, Variant};
     use brume::integrator::{
         homogeneous::sample_homogeneous, homogeneous::transmittance_homogeneous, media::MediumEvent,
     };
@@ -700,7 +701,8 @@ fn a_clear_channel_transmits_over_an_infinite_distance() {
         } else {
             Absorption::Weight
         };
-        match sample_homogeneous::<true>(&h, f32::INFINITY, absorption, &mut rng) {
+        match sample_homogeneous::<Variant<{ bit::CHROM }>>(&h, f32::INFINITY, absorption, &mut rng)
+        {
             MediumEvent::Scatter { t, weight } => {
                 assert!(t.is_finite() && weight.is_finite(), "{t} {weight}")
             }

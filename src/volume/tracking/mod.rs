@@ -124,6 +124,20 @@ impl CoeffsRgb {
     }
 }
 
+/// Coefficients add where media overlap (`integrator::mixture`): grey and RGB alike.
+macro_rules! add_assign_coeffs {
+    ($($t:ty),*) => {$(
+        impl std::ops::AddAssign for $t {
+            #[inline]
+            fn add_assign(&mut self, c: $t) {
+                self.sigma_a += c.sigma_a;
+                self.sigma_s += c.sigma_s;
+            }
+        }
+    )*};
+}
+add_assign_coeffs!(Coeffs, CoeffsRgb);
+
 /// A grey medium as the trackers see it along one ray.
 pub trait Medium {
     /// `sigma_a`, `sigma_s` at ray parameter `t`: one density lookup, the cost the estimators
