@@ -1,5 +1,5 @@
-// Mirrors src/integrator/mixture.rs (sample_mixture: GreyMix, RgbMix, HomGrey, HomRgb, pick),
-// src/volume/merge.rs (MergedSegments), src/integrator/nested.rs (sample_nested: VDB media side
+// Mirrors src/integrator/mixture.rs (sample_mixture: GreyMix, RgbMix, HomGrey, HomRgb),
+// src/sampling/discrete.rs (sample_discrete), src/volume/merge.rs (MergedSegments), src/integrator/nested.rs (sample_nested: VDB media side
 // by side inside a homogeneous one) and the parts of src/integrator/path.rs that choose
 // between them (vdb_intervals, intervals_overlap, sample_media and transmittance with MIX on):
 // the mixture variant (FEATURE_MIXTURE), for scenes with several VDB media, overlapping or
@@ -309,7 +309,7 @@ fn mix_next(seg: ptr<function, GpuMajorantSegment>) -> bool {
     return true;
 }
 
-// mixture::pick: index k with probability w[k] / sum(w) (n entries; n when every weight is 0)
+// sample_discrete: index k with probability w[k] / sum(w) (n entries; n when every weight is 0)
 // and that probability.
 struct Pick {
     k: u32,

@@ -64,6 +64,7 @@ use super::views::{GreyView, RgbView};
 use crate::math::Ray;
 use crate::render::media::{HomogeneousMedium, VdbMedium};
 use crate::render::settings::Absorption;
+use crate::sampling::{sample_discrete, DiscreteSample};
 use crate::volume::merge::MergedSegments;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{
@@ -110,29 +111,6 @@ fn constant(t0: f32, t1: f32, sigma_maj: f32, sigma_min: f32) -> Segments<'stati
         sigma_maj,
         sigma_min,
     }))
-}
-
-/// Draws index `k` with probability `w[k] / sum(w)` (`None` when every weight is 0) and
-/// returns it with its probability.
-fn pick(w: &[f32], u: f32) -> Option<(usize, f32)> {
-    let total: f32 = w.iter().sum();
-    if !(total > 0.0) {
-        return None;
-    }
-    let x = u * total;
-    let mut acc = 0.0;
-    let mut last = None;
-    for (k, &wk) in w.iter().enumerate() {
-        if wk > 0.0 {
-            acc += wk;
-            last = Some(k);
-            if x < acc {
-                return Some((k, wk / total));
-            }
-        }
-    }
-    // Rounding left `x` at the top of the CDF: the last positive entry.
-    last.map(|k| (k, w[k] / total))
 }
 
 /// The coefficients of the sum, grey or RGB: `sum` (the homogeneous part's, or zero) plus
@@ -280,10 +258,13 @@ fn sample_grey<F: Features, const ABS: bool>(
             let mut w: Vec<f32> = mix.views.iter().map(|v| v.coeffs(t).sigma_s).collect();
             stats.tracking.lookups += mix.views.len() as u64;
             w.extend(mix.hom.as_ref().map(|h| h.sigma_s));
-            match pick(&w, rng.uniform_f32()) {
-                Some((k, _)) if k < mix.views.len() => {
-                    phase = mix.views[k].m.phase;
-                    from_grey(Event::Scatter { t, weight }, mix.views[k].scatter_albedo())
+            match sample_discrete(&w, rng.uniform_f32()) {
+                Some(d) if d.index < mix.views.len() => {
+                    phase = mix.views[d.index].m.phase;
+                    from_grey(
+                        Event::Scatter { t, weight },
+                        mix.views[d.index].scatter_albedo(),
+                    )
                 }
                 Some(_) => {
                     let h = mix
@@ -419,8 +400,10 @@ fn sample_rgb<F: Features>(
                 s_view += h.sigma_s;
             }
             let q: Vec<f32> = s_true.iter().map(|s| s.element_sum()).collect();
-            match pick(&q, rng.uniform_f32()) {
-                Some((k, q_k)) => {
+            match sample_discrete(&q, rng.uniform_f32()) {
+                Some(DiscreteSample {
+                    index: k, pmf: q_k, ..
+                }) => {
                     phase = if k < mix.views.len() {
                         mix.views[k].m.phase
                     } else {
@@ -441,17 +424,4 @@ fn sample_rgb<F: Features>(
     };
     stats.tracking.lookups += mix.extra_lookups.get();
     (e, phase)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::pick;
-
-    #[test]
-    fn pick_follows_the_weights_and_skips_zeros() {
-        assert_eq!(pick(&[0.0, 0.0], 0.5), None);
-        assert_eq!(pick(&[0.0, 2.0, 0.0], 0.999_999), Some((1, 1.0)));
-        assert_eq!(pick(&[1.0, 3.0], 0.2), Some((0, 0.25)));
-        assert_eq!(pick(&[1.0, 3.0], 0.3), Some((1, 0.75)));
-    }
 }
