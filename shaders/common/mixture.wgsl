@@ -1,7 +1,7 @@
 // Mirrors src/integrator/mixture.rs (sample_mixture: GreyMix, RgbMix, HomGrey, HomRgb),
-// src/sampling/discrete.rs (sample_discrete), src/volume/merge.rs (MergedSegments), src/integrator/nested.rs (sample_nested: VDB media side
-// by side inside a homogeneous one) and the parts of src/integrator/path.rs that choose
-// between them (vdb_intervals, intervals_overlap, sample_media and transmittance with MIX on):
+// src/sampling/discrete.rs (sample_discrete), src/volume/merge.rs (MergedSegments),
+// src/integrator/nested.rs (sample_nested: VDB media side by side inside a homogeneous one)
+// and the parts of src/integrator/path.rs that choose between them (vdb_intervals, intervals_overlap, sample_media and transmittance with MIX on):
 // the mixture variant (FEATURE_MIXTURE), for scenes with several VDB media, overlapping or
 // not, or a VDB medium inside a homogeneous one. Needs types.wgsl, grid.wgsl, dda.wgsl,
 // tracking.wgsl, emission.wgsl, wavefront.wgsl and media.wgsl.
