@@ -6,8 +6,11 @@
 @group(1) @binding(1) var<storage, read_write> segments: array<GpuMajorantSegment>;
 @group(1) @binding(2) var<storage, read_write> counts: array<u32>;
 
-// One item; the entry point `dda_segments` that runs it on every item is generated
-// (`Dispatch::Items`).
+// The items: the generated entry point `dda_segments` runs test_dda on each (`Dispatch::Items`).
+fn test_dda_count() -> u32 {
+    return arrayLength(&rays);
+}
+
 fn test_dda(i: u32) {
     let r = rays[i];
     var it = dda_new(r.o, r.d, r.t_min, r.t_max, DDA_SCALE, DDA_MODE);

@@ -5,8 +5,11 @@
 // x: nearest, y: trilinear, z: voxel(floor(p)).
 @group(1) @binding(1) var<storage, read_write> values: array<vec4<f32>>;
 
-// One item; the entry point `grid_lookups` that runs it on every item is generated
-// (`Dispatch::Items`).
+// The items: the generated entry point `grid_lookups` runs test_grid on each (`Dispatch::Items`).
+fn test_grid_count() -> u32 {
+    return arrayLength(&points);
+}
+
 fn test_grid(i: u32) {
     let p = points[i].xyz;
     values[i] = vec4<f32>(grid_sample_nearest(p), grid_sample_trilinear(p),

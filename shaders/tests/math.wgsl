@@ -4,8 +4,11 @@
 
 @group(0) @binding(0) var<storage, read_write> out: array<vec2<u32>>;
 
-// One item; the entry point `logs` that runs it on every item is generated
-// (`Dispatch::Items`).
+// The items: the generated entry point `logs` runs test_math on each (`Dispatch::Items`).
+fn test_math_count() -> u32 {
+    return arrayLength(&out);
+}
+
 fn test_math(i: u32) {
     let u = f32(i * 4u) * (1.0 / 16777216.0);
     out[i] = vec2<u32>(bitcast<u32>(log(1.0 - u)), bitcast<u32>(ln_f32(1.0 - u)));

@@ -6,8 +6,11 @@
 // Per sample two rows: (wi, pdf) and (p(wo, wi), -, -, -).
 @group(0) @binding(1) var<storage, read_write> outputs: array<vec4<f32>>;
 
-// One item; the entry point `phase_samples` that runs it on every item is generated
-// (`Dispatch::Items`).
+// The items: the generated entry point `phase_samples` runs test_phase on each (`Dispatch::Items`).
+fn test_phase_count() -> u32 {
+    return arrayLength(&inputs) / 2u;
+}
+
 fn test_phase(i: u32) {
     let a = inputs[2u * i];
     let wo = inputs[2u * i + 1u].xyz;

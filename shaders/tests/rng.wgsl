@@ -5,8 +5,11 @@
 @group(0) @binding(0) var<storage, read> streams: array<vec4<u32>>; // pixel, sample, seed, -
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;
 
-// One item; the entry point `rng_streams` that runs it on every item is generated
-// (`Dispatch::Items`).
+// The items: the generated entry point `rng_streams` runs test_rng on each (`Dispatch::Items`).
+fn test_rng_count() -> u32 {
+    return arrayLength(&streams);
+}
+
 fn test_rng(i: u32) {
     let s = streams[i];
     var rng = rng_new(s.x, s.y, s.z);

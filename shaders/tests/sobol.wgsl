@@ -5,8 +5,11 @@
 @group(0) @binding(0) var<storage, read> queries: array<vec4<u32>>; // pixel, sample, block, seed
 @group(0) @binding(1) var<storage, read_write> out: array<u32>;
 
-// One item; the entry point `sobol_points` that runs it on every item is generated
-// (`Dispatch::Items`).
+// The items: the generated entry point `sobol_points` runs test_sobol on each (`Dispatch::Items`).
+fn test_sobol_count() -> u32 {
+    return arrayLength(&queries);
+}
+
 fn test_sobol(i: u32) {
     let q = queries[i];
     let p = sobol_point_u32(q.x, q.y, q.z, q.w);

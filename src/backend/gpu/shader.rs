@@ -165,26 +165,25 @@ pub enum Dispatch {
     /// A wavefront stage: the files define `fn LABEL(slot: u32)`, run on every path slot of
     /// this input queue (a WGSL expression).
     Queue(&'static str),
-    /// A test kernel: the files define `fn LABEL(i: u32)`, run for every `i` below this count
-    /// (a WGSL expression).
-    Items(&'static str),
+    /// A test kernel: the files define `fn LABEL(i: u32)`, run for every `i` below
+    /// `LABEL_count()`, which they define too.
+    Items,
 }
 
 impl Module {
-    /// A test kernel with no specialisation constants of its own, run on `count` items
+    /// A test kernel with no specialisation constants of its own, run on each of its items
     /// ([`Dispatch::Items`]).
     pub const fn per_item(
         label: &'static str,
         files: &'static [ShaderFile],
         entry_point: &'static str,
-        count: &'static str,
     ) -> Module {
         Module {
             label,
             files,
             entry_point,
             default_specs: &[],
-            dispatch: Dispatch::Items(count),
+            dispatch: Dispatch::Items,
         }
     }
 }
@@ -365,10 +364,10 @@ impl Module {
                 "slot",
                 format!("var slot = 0u;\n    if (queue_item({queue}, id.x, &slot)) {{"),
             ),
-            Dispatch::Items(count) => (
+            Dispatch::Items => (
                 "one invocation per item",
                 "id.x",
-                format!("if (id.x < {count}) {{"),
+                format!("if (id.x < {}_count()) {{", self.label),
             ),
         };
         writeln!(
@@ -475,7 +474,7 @@ pub const TEST_RNG_MODULE: Module = Module {
     files: &[TYPES, RNG, TEST_RNG],
     entry_point: "rng_streams",
     default_specs: &[Spec::u32("DRAWS", 16)],
-    dispatch: Dispatch::Items("arrayLength(&streams)"),
+    dispatch: Dispatch::Items,
 };
 
 /// Scrambled Sobol points (test).
@@ -483,16 +482,11 @@ pub const TEST_SOBOL_MODULE: Module = Module::per_item(
     "test_sobol",
     &[TYPES, RNG, SOBOL, TEST_SOBOL],
     "sobol_points",
-    "arrayLength(&queries)",
 );
 
 /// Grid lookups at given index points (test).
-pub const TEST_GRID_MODULE: Module = Module::per_item(
-    "test_grid",
-    &[TYPES, GRID, TEST_GRID],
-    "grid_lookups",
-    "arrayLength(&points)",
-);
+pub const TEST_GRID_MODULE: Module =
+    Module::per_item("test_grid", &[TYPES, GRID, TEST_GRID], "grid_lookups");
 
 /// Majorant DDA segments of given rays (test).
 pub const TEST_DDA_MODULE: Module = Module {
@@ -504,24 +498,16 @@ pub const TEST_DDA_MODULE: Module = Module {
         Spec::u32("DDA_MODE", 0),
         Spec::f32("DDA_SCALE", 1.0),
     ],
-    dispatch: Dispatch::Items("arrayLength(&rays)"),
+    dispatch: Dispatch::Items,
 };
 
 /// Henyey-Greenstein sampling and evaluation (test).
-pub const TEST_PHASE_MODULE: Module = Module::per_item(
-    "test_phase",
-    &[TYPES, PHASE, TEST_PHASE],
-    "phase_samples",
-    "arrayLength(&inputs) / 2u",
-);
+pub const TEST_PHASE_MODULE: Module =
+    Module::per_item("test_phase", &[TYPES, PHASE, TEST_PHASE], "phase_samples");
 
 /// WGSL's `log` and `ln_f32` against `f32::ln` (test).
-pub const TEST_MATH_MODULE: Module = Module::per_item(
-    "test_math",
-    &[TYPES, MATH, TEST_MATH],
-    "logs",
-    "arrayLength(&out)",
-);
+pub const TEST_MATH_MODULE: Module =
+    Module::per_item("test_math", &[TYPES, MATH, TEST_MATH], "logs");
 
 /// The specialisation constants of the wavefront modules (from the scene's `FeatureFlags`).
 pub const WAVEFRONT_SPECS: &[Spec] = &[
