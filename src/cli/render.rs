@@ -22,9 +22,18 @@ pub struct RenderArgs {
     /// With a .vdb scene: write the scene made for it to this .gltf.
     #[arg(long, value_name = "SCENE.gltf")]
     pub save_scene: Option<PathBuf>,
-    /// Output EXR (beauty RGBA, variance.RGB, samples.Y, render metadata).
+    /// Output EXR (beauty RGBA, variance.RGB, samples.Y, render metadata). A run of `#` in
+    /// its file name (and in --tile-log's and --cost-map's) is replaced by the frame.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// The frame whose files a sequence reads (a medium `uri` with a run of `#`, such as
+    /// `smoke_####.vdb`); default: the scene's BRUME_render frame, else 1.
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "frames")]
+    pub frame: Option<i32>,
+    /// Render frames A..B (both included) one after another, each as with --frame; every
+    /// frame's files are checked before the first is rendered.
+    #[arg(long, value_name = "A..B", value_parser = parse_frames, allow_hyphen_values = true, conflicts_with = "resume")]
+    pub frames: Option<(i32, i32)>,
     /// Samples per pixel (default 16, or unlimited with --time).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -209,6 +218,10 @@ impl RenderArgs {
     }
 }
 
+fn parse_frames(s: &str) -> Result<(i32, i32), String> {
+    scene::sequence::parse_frames(s)
+}
+
 fn parse_samples(s: &str) -> Result<(u32, u32), String> {
     brume::farm::parse_range(s)
 }
@@ -257,7 +270,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             ..args.clone()
         });
     }
+    if let Some((a, b)) = args.frames {
+        return render_frames(args, a, b);
+    }
     let scene = load_scene(args)?;
+    let args = &args.for_frame(scene.frame);
     let settings = args
         .settings(&scene.render)
         .with_context(|| format!("{}: BRUME_render", args.scene.display()))?;
@@ -285,7 +302,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .build()?;
     let threads = pool.current_num_threads();
     eprintln!("threads: {threads} (from {threads_from})");
-    let part = PartContext::new(&args.scene, &settings, args.camera.as_deref())?;
+    let part = PartContext::new(&args.scene, scene.frame, &settings, args.camera.as_deref())?;
     let resume = match &args.resume {
         Some(path) => Some(part.resume_from(path, &settings)?),
         None => None,
@@ -330,12 +347,61 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     write_outputs(args, &part, &settings, &out, &backend, variant.as_deref())
 }
 
+/// Renders frames `a..=b` one after another as `--frame` would, once every frame's files are
+/// known to exist; several frames need a run of `#` in each output's file name.
+fn render_frames(args: &RenderArgs, a: i32, b: i32) -> Result<()> {
+    if b > a {
+        for p in [
+            Some(&args.output),
+            args.tile_log.as_ref(),
+            args.cost_map.as_ref(),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            if !scene::sequence::is_sequence(name) {
+                return Err(anyhow!(
+                    "--frames {a}..{b} writes {} images: put a run of # for the frame number \
+                     in {} (such as out_####.exr)",
+                    b - a + 1,
+                    p.display()
+                ));
+            }
+        }
+    }
+    scene::sequence::check_files(&args.scene, a, b)?;
+    for frame in a..=b {
+        eprintln!("frame {frame}");
+        run(&RenderArgs {
+            frame: Some(frame),
+            frames: None,
+            ..args.clone()
+        })?;
+    }
+    Ok(())
+}
+
+impl RenderArgs {
+    /// These arguments with every output's run of `#` replaced by `frame`.
+    fn for_frame(&self, frame: i32) -> RenderArgs {
+        let at = |p: &PathBuf| scene::sequence::path_for_frame(p, frame);
+        RenderArgs {
+            output: at(&self.output),
+            tile_log: self.tile_log.as_ref().map(at),
+            cost_map: self.cost_map.as_ref().map(at),
+            ..self.clone()
+        }
+    }
+}
+
 /// The scene, validated, with its warnings printed.
 fn load_scene(args: &RenderArgs) -> Result<brume::scene::Scene> {
     let scene = scene::load_with(
         &args.scene,
         &LoadOptions {
             camera: args.camera.clone(),
+            frame: args.frame,
         },
     )?;
     scene

@@ -18,12 +18,17 @@ pub struct PartContext {
 }
 
 impl PartContext {
-    /// The context of a render of `scene` with `settings` through `camera` (a glTF camera's
-    /// name, or the scene's default).
-    pub fn new(scene: &Path, settings: &RenderSettings, camera: Option<&str>) -> Result<Self> {
+    /// The context of a render of `scene` at `frame` with `settings` through `camera` (a glTF
+    /// camera's name, or the scene's default).
+    pub fn new(
+        scene: &Path,
+        frame: i32,
+        settings: &RenderSettings,
+        camera: Option<&str>,
+    ) -> Result<Self> {
         Ok(Self {
             scene: scene.display().to_string(),
-            scene_hash: farm::scene_hash(scene)?,
+            scene_hash: farm::scene_hash(scene, frame)?,
             settings_key: farm::settings_key(settings, camera),
         })
     }

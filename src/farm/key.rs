@@ -5,6 +5,7 @@ use std::path::Path;
 
 use super::part::PartError;
 use crate::film::FilmError;
+use crate::scene::sequence;
 
 /// The image-shaping settings as `key=value` words (everything but the sample range, region,
 /// tile size, time limit and thread count, which do not change a pixel's samples).
@@ -52,8 +53,9 @@ impl Fnv {
 /// A content hash of a scene: FNV-1a 64 over the scene file and every file its JSON refers to
 /// by a relative `uri` (buffers, images, OpenVDB grids, environment maps), in sorted order,
 /// each preceded by its URI. Files that cannot be read are hashed by name only (the scene
-/// loader reports them).
-pub fn scene_hash(scene: &Path) -> Result<String, PartError> {
+/// loader reports them). A sequence's `uri` (a run of `#`) is read for `frame`, and the frame
+/// is hashed too, so the parts of two frames never merge.
+pub fn scene_hash(scene: &Path, frame: i32) -> Result<String, PartError> {
     let bytes = std::fs::read(scene).map_err(|e| FilmError::io("read", scene, e))?;
     let mut h = Fnv::new();
     h.eat(&bytes);
@@ -72,9 +74,13 @@ pub fn scene_hash(scene: &Path) -> Result<String, PartError> {
     uris.sort();
     uris.dedup();
     let base = scene.parent().unwrap_or(Path::new("."));
+    if uris.iter().any(|u| sequence::is_sequence(u)) {
+        h.eat(&frame.to_le_bytes());
+    }
     for uri in uris {
         h.eat(uri.as_bytes());
         h.eat(&[0]);
+        let uri = sequence::for_frame(&uri, frame);
         // Streamed: a referenced VDB can be larger than memory allows to hold twice.
         if let Ok(mut f) = std::fs::File::open(base.join(&uri)) {
             use std::io::Read;

@@ -22,6 +22,7 @@ use glam::{Mat4, Vec3};
 use super::error::{Ctx, SceneError};
 use super::json::Obj;
 use super::nodes::PlacedNode;
+use super::sequence;
 use super::BRUME_MEDIUM_VDB;
 use crate::math::Aabb;
 use crate::volume::{self, GridLoadError};
@@ -227,13 +228,15 @@ pub const FIELDS: &[&str] = &[
     "mesh",
 ];
 
-/// Reads `BRUME_medium_vdb` from every placed node and loads its grids through [`load_grid`].
+/// Reads `BRUME_medium_vdb` from every placed node and loads its grids through [`load_grid`],
+/// a sequence's (a `uri` with a run of `#`) from its file for `frame`.
 pub fn read_vdb_media(
     ctx: &mut Ctx,
     doc: &gltf::Document,
     buffers: &[Vec<u8>],
     nodes: &[PlacedNode],
     base: &Path,
+    frame: i32,
 ) -> Result<Vec<VdbMediumDesc>, SceneError> {
     let mut out = Vec::new();
     for placed in nodes {
@@ -250,7 +253,8 @@ pub fn read_vdb_media(
         let uri = obj
             .string(ctx, "uri")?
             .ok_or_else(|| ctx.invalid(obj.at("uri"), "missing: the .vdb file to read"))?;
-        let path = super::document::resolve_uri(ctx, &uri, base, &obj.at("uri"))?;
+        let file = sequence::for_frame(&uri, frame);
+        let path = super::document::resolve_uri(ctx, &file, base, &obj.at("uri"))?;
         let vdb_path = std::path::absolute(&path).unwrap_or(path);
         let max = f32::MAX;
         let mut desc = VdbMediumDesc {
@@ -303,6 +307,13 @@ pub fn read_vdb_media(
         );
         for (field, name) in grid_fields {
             let (grid, warnings) = load_grid(&desc.vdb_path, &name).map_err(|e| match e {
+                GridLoadError::File(msg) if file != desc.uri => ctx.invalid(
+                    obj.at("uri"),
+                    format!(
+                        "medium file {file:?} (frame {frame} of {:?}): {msg}",
+                        desc.uri
+                    ),
+                ),
                 GridLoadError::File(msg) => {
                     ctx.invalid(obj.at("uri"), format!("medium file {:?}: {msg}", desc.uri))
                 }

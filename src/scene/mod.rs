@@ -33,6 +33,7 @@ pub mod mesh;
 pub mod nesting;
 mod nodes;
 pub mod render_settings;
+pub mod sequence;
 mod summary;
 pub mod texture;
 
@@ -70,6 +71,9 @@ pub const BRUME_MATERIALS_VOLUME_SCATTERING: &str = "BRUME_materials_volume_scat
 pub struct LoadOptions {
     /// Render through the camera (or camera node) with this name instead of the first one.
     pub camera: Option<String>,
+    /// The frame whose files a sequence (a `uri` with a run of `#`) reads; default: the
+    /// scene's `BRUME_render.frame`, else 1.
+    pub frame: Option<i32>,
 }
 
 /// A loaded scene. Everything is in world space, metres, linear RGB.
@@ -104,6 +108,8 @@ pub struct Scene {
     pub bounds: Aabb,
     /// Render defaults from `BRUME_render` (the command line overrides them).
     pub render: SceneRenderSettings,
+    /// The frame the scene was loaded for ([`LoadOptions::frame`]).
+    pub frame: i32,
     /// Non-fatal problems met while loading, each with its JSON pointer.
     pub warnings: Vec<String>,
 }
@@ -131,8 +137,15 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
     let render = render_settings::read_render_settings(&mut ctx, doc)?;
-    let vdb_media =
-        media::read_vdb_media(&mut ctx, doc, &loaded.buffers, &nodes, &loaded.base_dir)?;
+    let frame = options.frame.or(render.frame).unwrap_or(1);
+    let vdb_media = media::read_vdb_media(
+        &mut ctx,
+        doc,
+        &loaded.buffers,
+        &nodes,
+        &loaded.base_dir,
+        frame,
+    )?;
 
     let mut bounds = geo
         .vertices
@@ -171,6 +184,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         bvh,
         bounds,
         render,
+        frame,
         warnings: ctx.warnings,
     };
     // A loader bug, not a user error, if this fails; still reported, never a panic.

@@ -6,7 +6,7 @@
 //! "extensions": { "BRUME_render": {
 //!     "estimator": "weighted-delta", "b": 0.75, "m": 0.02, "majorant": "local",
 //!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0,
-//!     "sampler": "sobol" } }
+//!     "sampler": "sobol", "frame": 1 } }
 //! ```
 use super::error::{Ctx, SceneError};
 use super::json::Obj;
@@ -29,6 +29,9 @@ pub struct SceneRenderSettings {
     pub seed: Option<u32>,
     /// "sobol" or "independent".
     pub sampler: Option<String>,
+    /// The frame a sequence's files are read for (`uri` with a run of `#`) unless the command
+    /// line picks one.
+    pub frame: Option<i32>,
 }
 
 const ESTIMATORS: [&str; 4] = [
@@ -59,6 +62,7 @@ pub fn read_render_settings(
             "maxDepth",
             "seed",
             "sampler",
+            "frame",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -100,5 +104,16 @@ pub fn read_render_settings(
         max_depth: count(ctx, "maxDepth", 1e6)?,
         seed: count(ctx, "seed", u32::MAX as f32)?,
         sampler: choice(ctx, "sampler", &["sobol", "independent"])?,
+        frame: if present("frame") {
+            let f = obj.number(ctx, "frame", 1.0, -1e6, 1e6, false)?;
+            if f.fract() != 0.0 {
+                return Err(
+                    ctx.invalid(obj.at("frame"), format!("expected a whole number, got {f}"))
+                );
+            }
+            Some(f as i32)
+        } else {
+            None
+        },
     })
 }

@@ -11,6 +11,7 @@ mod cli_faults;
 mod docs;
 mod farm_cli;
 mod farm_parts;
+mod frames;
 mod render_cli;
 mod study_compare;
 mod study_run;

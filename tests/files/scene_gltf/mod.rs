@@ -225,6 +225,7 @@ fn camera_chosen_by_name() {
             &path,
             &LoadOptions {
                 camera: Some(name.into()),
+                ..Default::default()
             },
         )
         .unwrap();
@@ -241,6 +242,7 @@ fn camera_chosen_by_name() {
         "/cameras/2/orthographic",
         &LoadOptions {
             camera: Some("ortho".into()),
+            ..Default::default()
         },
     );
     load_err_with(
@@ -248,6 +250,7 @@ fn camera_chosen_by_name() {
         "/cameras",
         &LoadOptions {
             camera: Some("nope".into()),
+            ..Default::default()
         },
     );
 }
