@@ -306,7 +306,7 @@ fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
 
 /// Checks an accessor's type and that its bytes lie inside its buffer view, because the gltf
 /// crate's readers would otherwise panic on a short slice.
-fn check_accessor(
+pub(super) fn check_accessor(
     ctx: &Ctx,
     acc: &gltf::Accessor,
     pointer: &str,

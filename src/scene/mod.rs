@@ -12,13 +12,15 @@
 //!
 //! Not supported (error): orthographic cameras when named, sparse accessors, unknown
 //! extensions listed in `extensionsRequired`. Ignored with a warning: points and lines,
-//! textures other than base colour and emissive, `TEXCOORD_n` for n > 0. Skins, morph targets
-//! and animations are ignored silently (the rest pose is rendered).
+//! textures other than base colour and emissive, `TEXCOORD_n` for n > 0, morph-target
+//! animation. Skins and morph targets are ignored silently. Node animations (translation,
+//! rotation, scale) are evaluated at the frame's time (`animation`).
 //!
 //! ```no_run
 //! let scene = brume::scene::load(std::path::Path::new("scenes/cloud.gltf")).unwrap();
 //! println!("{}", scene.summary());
 //! ```
+pub mod animation;
 pub mod bare_vdb;
 pub mod camera;
 mod document;
@@ -65,6 +67,9 @@ pub const BRUME_ENVIRONMENT: &str = "BRUME_environment";
 pub const BRUME_MEDIUM_VDB: &str = "BRUME_medium_vdb";
 /// Material extension: scattering albedo and phase of a `KHR_materials_volume` medium.
 pub const BRUME_MATERIALS_VOLUME_SCATTERING: &str = "BRUME_materials_volume_scattering";
+
+/// Frames per second of a scene without `BRUME_render.fps`.
+pub const DEFAULT_FPS: f32 = 24.0;
 
 /// Caller's choices for [`load_with`].
 #[derive(Clone, Debug, Default)]
@@ -124,7 +129,11 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let mut ctx = error::Ctx::new(path);
     let loaded = document::read(&mut ctx, path)?;
     let doc = &loaded.doc;
-    let nodes = nodes::place_nodes(&mut ctx, doc)?;
+    let render = render_settings::read_render_settings(&mut ctx, doc)?;
+    let frame = options.frame.or(render.frame).unwrap_or(1);
+    let fps = render.fps.unwrap_or(DEFAULT_FPS);
+    let animations = animation::read_animations(&mut ctx, doc, &loaded.buffers)?;
+    let nodes = nodes::place_nodes(&mut ctx, doc, &animations.pose(frame as f32 / fps))?;
     let material::MaterialTables {
         materials,
         names: material_names,
@@ -136,8 +145,6 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
     let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
-    let render = render_settings::read_render_settings(&mut ctx, doc)?;
-    let frame = options.frame.or(render.frame).unwrap_or(1);
     let vdb_media = media::read_vdb_media(
         &mut ctx,
         doc,

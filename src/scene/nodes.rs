@@ -1,6 +1,7 @@
 //! The node hierarchy of the chosen glTF scene, flattened to one world matrix per node.
 use glam::{Mat4, Quat, Vec3};
 
+use super::animation::{Pose, Trs};
 use super::error::{Ctx, SceneError};
 use super::json::check_all;
 
@@ -26,8 +27,13 @@ impl PlacedNode {
 /// 1e-4 on every axis (det 1e-12) is still a valid, if odd, transform.
 const MIN_ABS_DET: f32 = 1e-15;
 
-/// Walks the scene chosen by the file (`scene`, else scene 0) depth first, in document order.
-pub fn place_nodes(ctx: &mut Ctx, doc: &gltf::Document) -> Result<Vec<PlacedNode>, SceneError> {
+/// Walks the scene chosen by the file (`scene`, else scene 0) depth first, in document order,
+/// each node in its own transform with the animated parts of `pose` in place of its own.
+pub fn place_nodes(
+    ctx: &mut Ctx,
+    doc: &gltf::Document,
+    pose: &Pose,
+) -> Result<Vec<PlacedNode>, SceneError> {
     let scene = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(s) => s,
         None => {
@@ -59,7 +65,7 @@ pub fn place_nodes(ctx: &mut Ctx, doc: &gltf::Document) -> Result<Vec<PlacedNode
                 format!("node {i} is reached twice: glTF node hierarchies must be disjoint trees"),
             ));
         }
-        let world = parent * local_matrix(ctx, &node)?;
+        let world = parent * local_matrix(ctx, &node, pose.get(&i))?;
         if !world.is_finite() {
             return Err(ctx.invalid(
                 format!("/nodes/{i}"),
@@ -78,9 +84,14 @@ pub fn place_nodes(ctx: &mut Ctx, doc: &gltf::Document) -> Result<Vec<PlacedNode
     Ok(out)
 }
 
-/// node_from_child: `matrix`, or `T * R * S` as the glTF spec defines. Rejects non-finite and
-/// singular transforms, naming the offending property.
-pub fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<Mat4, SceneError> {
+/// node_from_child: `matrix`, or `T * R * S` as the glTF spec defines, with the animated
+/// parts of `animated` in place of the node's own. Rejects non-finite and singular
+/// transforms, naming the offending property.
+pub fn local_matrix(
+    ctx: &Ctx,
+    node: &gltf::Node,
+    animated: Option<&Trs>,
+) -> Result<Mat4, SceneError> {
     let i = node.index();
     match node.transform() {
         gltf::scene::Transform::Matrix { matrix } => {
@@ -109,14 +120,15 @@ pub fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<Mat4, SceneError> {
             )?;
             check_all(ctx, rotation, &format!("/nodes/{i}/rotation"), -2.0, 2.0)?;
             check_all(ctx, scale, &format!("/nodes/{i}/scale"), f32::MIN, f32::MAX)?;
-            let s = Vec3::from(scale);
+            let a = animated.copied().unwrap_or_default();
+            let s = a.scale.unwrap_or(Vec3::from(scale));
             if (s.x * s.y * s.z).abs() < MIN_ABS_DET {
                 return Err(ctx.invalid(
                     format!("/nodes/{i}/scale"),
-                    format!("scale {scale:?} makes the transform non-invertible"),
+                    format!("scale {s:?} makes the transform non-invertible"),
                 ));
             }
-            let q = Quat::from_array(rotation);
+            let q = a.rotation.unwrap_or(Quat::from_array(rotation));
             let len = q.length();
             if (len - 1.0).abs() > 1e-3 {
                 return Err(ctx.invalid(
@@ -127,7 +139,7 @@ pub fn local_matrix(ctx: &Ctx, node: &gltf::Node) -> Result<Mat4, SceneError> {
             Ok(Mat4::from_scale_rotation_translation(
                 s,
                 q.normalize(),
-                Vec3::from(translation),
+                a.translation.unwrap_or(Vec3::from(translation)),
             ))
         }
     }

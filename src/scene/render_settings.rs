@@ -6,7 +6,7 @@
 //! "extensions": { "BRUME_render": {
 //!     "estimator": "weighted-delta", "b": 0.75, "m": 0.02, "majorant": "local",
 //!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0,
-//!     "sampler": "sobol", "frame": 1 } }
+//!     "sampler": "sobol", "frame": 1, "fps": 24 } }
 //! ```
 use super::error::{Ctx, SceneError};
 use super::json::Obj;
@@ -32,6 +32,8 @@ pub struct SceneRenderSettings {
     /// The frame a sequence's files are read for (`uri` with a run of `#`) unless the command
     /// line picks one.
     pub frame: Option<i32>,
+    /// Frames per second: frame `f` is time `f / fps` of the file's animations.
+    pub fps: Option<f32>,
 }
 
 const ESTIMATORS: [&str; 4] = [
@@ -63,6 +65,7 @@ pub fn read_render_settings(
             "seed",
             "sampler",
             "frame",
+            "fps",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -112,6 +115,11 @@ pub fn read_render_settings(
                 );
             }
             Some(f as i32)
+        } else {
+            None
+        },
+        fps: if present("fps") {
+            Some(obj.number(ctx, "fps", 24.0, 0.0, 1e6, true)?)
         } else {
             None
         },
