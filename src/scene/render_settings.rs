@@ -78,28 +78,27 @@ pub fn read_render_settings(
         }
     };
     let present = |key: &str| obj.map.contains_key(key);
-    let count = |ctx: &Ctx, key: &str, max: f32| -> Result<Option<u32>, SceneError> {
-        if !present(key) {
-            return Ok(None);
-        }
-        let v = obj.number(ctx, key, 0.0, 0.0, max, false)?;
-        if v.fract() != 0.0 {
-            return Err(ctx.invalid(obj.at(key), format!("expected a whole number, got {v}")));
-        }
-        Ok(Some(v as u32))
+    // A number in [lo, hi] (above lo with `open`), when present.
+    let number = |ctx: &Ctx, key: &str, lo: f32, hi: f32, open: bool| {
+        present(key)
+            .then(|| obj.number(ctx, key, lo, lo, hi, open))
+            .transpose()
     };
+    // A whole number in [lo, hi], when present.
+    let whole = |ctx: &Ctx, key: &str, lo: f32, hi: f32| -> Result<Option<f32>, SceneError> {
+        let v = number(ctx, key, lo, hi, false)?;
+        match v {
+            Some(v) if v.fract() != 0.0 => {
+                Err(ctx.invalid(obj.at(key), format!("expected a whole number, got {v}")))
+            }
+            v => Ok(v),
+        }
+    };
+    let count = |ctx: &Ctx, key: &str, max: f32| Ok(whole(ctx, key, 0.0, max)?.map(|v| v as u32));
     Ok(SceneRenderSettings {
         estimator: choice(ctx, "estimator", &ESTIMATORS)?,
-        b: if present("b") {
-            Some(obj.number(ctx, "b", 1.0, 0.0, f32::MAX, true)?)
-        } else {
-            None
-        },
-        m: if present("m") {
-            Some(obj.number(ctx, "m", 0.0, 0.0, f32::MAX, false)?)
-        } else {
-            None
-        },
+        b: number(ctx, "b", 0.0, f32::MAX, true)?,
+        m: number(ctx, "m", 0.0, f32::MAX, false)?,
         majorant: choice(ctx, "majorant", &["global", "leaf", "adaptive", "local"])?,
         spp: count(ctx, "spp", 1e7)?,
         width: count(ctx, "width", 32768.0)?.filter(|&w| w > 0),
@@ -107,21 +106,7 @@ pub fn read_render_settings(
         max_depth: count(ctx, "maxDepth", 1e6)?,
         seed: count(ctx, "seed", u32::MAX as f32)?,
         sampler: choice(ctx, "sampler", &["sobol", "independent"])?,
-        frame: if present("frame") {
-            let f = obj.number(ctx, "frame", 1.0, -1e6, 1e6, false)?;
-            if f.fract() != 0.0 {
-                return Err(
-                    ctx.invalid(obj.at("frame"), format!("expected a whole number, got {f}"))
-                );
-            }
-            Some(f as i32)
-        } else {
-            None
-        },
-        fps: if present("fps") {
-            Some(obj.number(ctx, "fps", 24.0, 0.0, 1e6, true)?)
-        } else {
-            None
-        },
+        frame: whole(ctx, "frame", -1e6, 1e6)?.map(|f| f as i32),
+        fps: number(ctx, "fps", 0.0, 1e6, true)?,
     })
 }
