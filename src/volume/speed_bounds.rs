@@ -89,7 +89,7 @@ impl SpeedBounds {
         };
         let own = components.each_ref().map(own_maxima);
         let [nx, ny, _] = g.dims.map(|d| d as usize);
-        bounds.component_max = (0..g.cells.len())
+        let maxima: Vec<[f32; 3]> = (0..g.cells.len())
             .into_par_iter()
             .map(|index| {
                 let cell = [index % nx, index / nx % ny, index / (nx * ny)];
@@ -98,25 +98,25 @@ impl SpeedBounds {
                     if staggered {
                         extent[a] = 2;
                     }
-                    let m = component_max(&components[a], &own[a], cell, extent);
-                    round_up_f32(m as f64 * ROUNDING_SLACK)
+                    component_max(&components[a], &own[a], cell, extent)
                 })
             })
             .collect();
-        // Speeds from the unslacked maxima would be tighter by one slack factor; reusing the
-        // slacked ones keeps `speed >= |component_max|` obviously true.
-        bounds.speed = bounds.component_max.iter().map(|&m| speed_of(m)).collect();
+        bounds.component_max = maxima
+            .iter()
+            .map(|m| m.map(|c| round_up_f32(c as f64 * ROUNDING_SLACK)))
+            .collect();
+        bounds.speed = maxima.iter().map(|&m| speed_of(m)).collect();
         bounds
     }
 
     /// Linear index of the cell containing index point `p`, or `None` outside the box (and at
     /// NaN coordinates).
     pub fn cell_at(&self, p: DVec3) -> Option<usize> {
-        let c = [p.x, p.y, p.z];
         let mut index = 0usize;
         let mut stride = 1usize;
-        for a in 0..3 {
-            let cell = (c[a] / 8.0).floor() - self.cell_origin[a] as f64;
+        for (a, c) in p.to_array().into_iter().enumerate() {
+            let cell = (c / 8.0).floor() - self.cell_origin[a] as f64;
             // Also false for NaN.
             if !(cell >= 0.0 && cell < self.dims[a] as f64) {
                 return None;
