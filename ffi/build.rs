@@ -10,6 +10,8 @@ use std::path::PathBuf;
 fn main() {
     println!("cargo:rerun-if-changed=shim/brume_vdb.h");
     println!("cargo:rerun-if-changed=shim/brume_vdb.cpp");
+    println!("cargo:rerun-if-changed=shim/brume_vdb_vec3.cpp");
+    println!("cargo:rerun-if-changed=shim/brume_vdb_internal.h");
     println!("cargo:rerun-if-env-changed=OPENVDB_DIR");
     println!("cargo:rerun-if-env-changed=OPENVDB_LIBS");
 
@@ -18,6 +20,7 @@ fn main() {
     build
         .cpp(true)
         .file("shim/brume_vdb.cpp")
+        .file("shim/brume_vdb_vec3.cpp")
         .include("shim")
         .flag("-std=c++17")
         .flag_if_supported("-Wall")

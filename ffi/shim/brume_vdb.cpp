@@ -4,7 +4,7 @@
 // and an owned copy of its message: OpenVDB throws freely (IoError on bad magic, ValueError,
 // std::bad_alloc on corrupt sizes, std::ios_base::failure on truncation) and an exception that
 // unwound into Rust would abort the process.
-#include "brume_vdb.h"
+#include "brume_vdb_internal.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/io/Stream.h>
@@ -36,73 +36,22 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-struct BrumeVdbFile {
-    openvdb::GridPtrVecPtr grids;
-    openvdb::MetaMap::Ptr metadata;
-};
-
 struct BrumeVdbFloatGrid {
     openvdb::FloatGrid::Ptr grid;
 };
 
-namespace {
-
-struct Failure {
-    int32_t status;
-    std::string message;
-};
-
-char *owned_copy(const std::string &s) {
-    char *out = static_cast<char *>(std::malloc(s.size() + 1));
-    if (out) std::memcpy(out, s.c_str(), s.size() + 1);
-    return out;
-}
-
-void set_error(char **error, const std::string &message) {
-    if (error) *error = owned_copy(message);
-}
+namespace brume_vdb {
 
 void ensure_initialized() {
     static std::once_flag once;
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-template <typename F> int32_t guarded(char **error, F &&body) {
-    if (error) *error = nullptr;
-    try {
-        ensure_initialized();
-        body();
-        return BRUME_VDB_OK;
-    } catch (const Failure &f) {
-        set_error(error, f.message);
-        return f.status;
-    } catch (const openvdb::IoError &e) {
-        set_error(error, e.what());
-        return BRUME_VDB_FORMAT_ERROR;
-    } catch (const openvdb::TypeError &e) {
-        set_error(error, e.what());
-        return BRUME_VDB_TYPE_ERROR;
-    } catch (const openvdb::Exception &e) {
-        set_error(error, e.what());
-        return BRUME_VDB_FORMAT_ERROR;
-    } catch (const std::ios_base::failure &e) {
-        set_error(error, std::string("read failed (truncated or unreadable file): ") + e.what());
-        return BRUME_VDB_IO_ERROR;
-    } catch (const std::bad_alloc &) {
-        set_error(error, "out of memory (a corrupt file can ask for absurd sizes)");
-        return BRUME_VDB_OUT_OF_MEMORY;
-    } catch (const std::exception &e) {
-        set_error(error, e.what());
-        return BRUME_VDB_INTERNAL;
-    } catch (...) {
-        set_error(error, "unknown C++ exception");
-        return BRUME_VDB_INTERNAL;
-    }
-}
+} // namespace brume_vdb
 
-void require(bool ok, int32_t status, const char *message) {
-    if (!ok) throw Failure{status, message};
-}
+using namespace brume_vdb;
+
+namespace {
 
 int32_t grid_class_of(openvdb::GridClass c) {
     switch (c) {
@@ -118,23 +67,6 @@ void world_from_index_of(const openvdb::math::Transform &xform, double out[16]) 
     const openvdb::Mat4d m = xform.baseMap()->getAffineMap()->getMat4();
     for (int r = 0; r < 4; ++r)
         for (int c = 0; c < 4; ++c) out[r * 4 + c] = m(c, r);
-}
-
-// Upper-level values worth reporting: active tiles, and inactive ones that differ from the
-// background (a level set's interior, say), since lookups read them.
-template <typename F> void for_each_tile(const openvdb::FloatTree &tree, F &&visit) {
-    const float background = tree.background();
-    for (auto it = tree.cbeginValueAll(); it; ++it) {
-        if (it.isVoxelValue()) continue;
-        const float v = *it;
-        if (it.isValueOn() || !(v == background)) visit(it);
-    }
-}
-
-uint64_t count_tiles(const openvdb::FloatTree &tree) {
-    uint64_t n = 0;
-    for_each_tile(tree, [&](const auto &) { ++n; });
-    return n;
 }
 
 std::vector<std::string> metadata_triples(const openvdb::MetaMap &meta) {
@@ -154,7 +86,9 @@ char **owned_strings(const std::vector<std::string> &v) {
     return out;
 }
 
-void fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out) {
+} // namespace
+
+void brume_vdb::fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out) {
     std::memset(out, 0, sizeof(*out));
     const auto &xform = grid.transform();
     out->is_affine = xform.isLinear() ? 1 : 0;
@@ -180,6 +114,10 @@ void fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out) {
         out->tile_count = dg->tree().activeTileCount();
         out->has_background = 1;
         out->background = dg->background();
+    } else if (const auto *vs = dynamic_cast<const openvdb::Vec3SGrid *>(&grid)) {
+        out->tile_count = count_tiles(vs->tree());
+    } else if (const auto *vd = dynamic_cast<const openvdb::Vec3DGrid *>(&grid)) {
+        out->tile_count = count_tiles(vd->tree());
     } else {
         out->tile_count = grid.baseTree().activeTileCount();
     }
@@ -190,6 +128,14 @@ void fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out) {
     out->name = owned_copy(grid.getName());
     out->value_type = owned_copy(grid.valueType());
 }
+
+openvdb::GridBase::Ptr brume_vdb::find_grid(const BrumeVdbFile &file, const char *name) {
+    for (const auto &g : *file.grids)
+        if (g && g->getName() == name) return g;
+    throw Failure{BRUME_VDB_NOT_FOUND, std::string("no grid named '") + name + "'"};
+}
+
+namespace {
 
 openvdb::math::Transform::Ptr transform_from(const double m[16]) {
     openvdb::Mat4d vdb;
@@ -205,6 +151,21 @@ typename GridT::Ptr build_grid(const BrumeVdbGridSpec &spec, ValueOf value_of) {
     for (size_t i = 0; i < spec.count; ++i) {
         const openvdb::Coord ijk(spec.coords[3 * i], spec.coords[3 * i + 1], spec.coords[3 * i + 2]);
         acc.setValue(ijk, value_of(spec.values[i]));
+    }
+    if (spec.prune) openvdb::tools::prune(grid->tree());
+    return grid;
+}
+
+// A vector grid from one 3-vector a voxel (spec.vectors), in GridT's precision.
+template <typename GridT> typename GridT::Ptr build_vector_grid(const BrumeVdbGridSpec &spec) {
+    using V = typename GridT::ValueType;
+    const float *b = spec.vector_background;
+    auto grid = GridT::create(V(b[0], b[1], b[2]));
+    auto acc = grid->getAccessor();
+    for (size_t i = 0; i < spec.count; ++i) {
+        const openvdb::Coord ijk(spec.coords[3 * i], spec.coords[3 * i + 1], spec.coords[3 * i + 2]);
+        const float *v = spec.vectors + 3 * i;
+        acc.setValue(ijk, V(v[0], v[1], v[2]));
     }
     if (spec.prune) openvdb::tools::prune(grid->tree());
     return grid;
@@ -593,7 +554,10 @@ int32_t brume_vdb_write_float_grids(const char *path, const BrumeVdbGridSpec *gr
         openvdb::GridPtrVec out;
         for (size_t g = 0; g < n; ++g) {
             const BrumeVdbGridSpec &spec = grids[g];
-            require(spec.name && (spec.count == 0 || (spec.coords && spec.values)),
+            const bool vectors = spec.value_kind == 2 || spec.value_kind == 3;
+            require(spec.name &&
+                        (spec.count == 0 ||
+                         (spec.coords && (vectors ? spec.vectors != nullptr : spec.values != nullptr))),
                     BRUME_VDB_INVALID_ARGUMENT, "grid spec has null pointers");
             openvdb::GridBase::Ptr grid;
             if (spec.value_kind == 0) {
@@ -601,13 +565,18 @@ int32_t brume_vdb_write_float_grids(const char *path, const BrumeVdbGridSpec *gr
             } else if (spec.value_kind == 1) {
                 grid = build_grid<openvdb::Vec3SGrid>(
                     spec, [](float v) { return openvdb::Vec3s(v, v, v); });
+            } else if (spec.value_kind == 2) {
+                grid = build_vector_grid<openvdb::Vec3SGrid>(spec);
+            } else if (spec.value_kind == 3) {
+                grid = build_vector_grid<openvdb::Vec3DGrid>(spec);
             } else {
-                throw Failure{BRUME_VDB_INVALID_ARGUMENT, "value_kind must be 0 or 1"};
+                throw Failure{BRUME_VDB_INVALID_ARGUMENT, "value_kind must be 0, 1, 2 or 3"};
             }
             grid->setName(spec.name);
             switch (spec.grid_class) {
             case BRUME_VDB_CLASS_LEVEL_SET: grid->setGridClass(openvdb::GRID_LEVEL_SET); break;
             case BRUME_VDB_CLASS_FOG_VOLUME: grid->setGridClass(openvdb::GRID_FOG_VOLUME); break;
+            case BRUME_VDB_CLASS_STAGGERED: grid->setGridClass(openvdb::GRID_STAGGERED); break;
             default: grid->setGridClass(openvdb::GRID_UNKNOWN); break;
             }
             grid->setTransform(transform_from(spec.world_from_index));

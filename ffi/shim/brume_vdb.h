@@ -49,6 +49,16 @@ typedef enum BrumeVdbGridClass {
 
 typedef struct BrumeVdbFile BrumeVdbFile;
 typedef struct BrumeVdbFloatGrid BrumeVdbFloatGrid;
+typedef struct BrumeVdbVec3Grid BrumeVdbVec3Grid;
+
+/* OpenVDB's samplers for brume_vdb_vec3_grid_sample. The staggered ones read component a of the
+ * vector at p + 0.5 e_a (a MAC grid's face-centred components). */
+typedef enum BrumeVdbVec3Sampler {
+    BRUME_VDB_SAMPLE_POINT = 0,           /* openvdb::tools::PointSampler */
+    BRUME_VDB_SAMPLE_BOX = 1,             /* openvdb::tools::BoxSampler */
+    BRUME_VDB_SAMPLE_STAGGERED_POINT = 2, /* openvdb::tools::StaggeredPointSampler */
+    BRUME_VDB_SAMPLE_STAGGERED_BOX = 3    /* openvdb::tools::StaggeredBoxSampler */
+} BrumeVdbVec3Sampler;
 
 /* Facts about one grid. Strings are owned by the struct: release with brume_vdb_grid_info_free. */
 typedef struct BrumeVdbGridInfo {
@@ -76,7 +86,8 @@ typedef struct BrumeVdbGridInfo {
 typedef struct BrumeVdbGridSpec {
     const char *name;
     int32_t grid_class;
-    /* 0: float, 1: vec3s (value v is written as (v, v, v)). */
+    /* 0: float, 1: vec3s (value v is written as (v, v, v)), 2: vec3s from vectors,
+     * 3: vec3d from vectors. */
     int32_t value_kind;
     /* Row-major 4x4, column-vector convention; must be affine. */
     double world_from_index[16];
@@ -89,6 +100,10 @@ typedef struct BrumeVdbGridSpec {
     int32_t prune;
     /* Nonzero: store as half floats. */
     int32_t save_as_half;
+    /* value_kind 2 and 3: 3 * count floats, one 3-vector a voxel (values is then unused), and
+     * the background vector. */
+    const float *vectors;
+    float vector_background[3];
 } BrumeVdbGridSpec;
 
 void brume_vdb_string_free(char *s);
@@ -141,6 +156,33 @@ int32_t brume_vdb_float_grid_copy_tiles(const BrumeVdbFloatGrid *grid, int32_t *
  * (nearest), order 1 is BoxSampler (trilinear). One accessor serves the whole batch. */
 int32_t brume_vdb_float_grid_sample(const BrumeVdbFloatGrid *grid, const double *points, size_t n,
                                     int32_t order, float *out, char **error);
+
+/* Opens the Vec3 grid called name: a deep copy of a vec3s grid, or of a vec3d grid converted to
+ * single precision (OpenVDB's value-converting tree copy). Grid info and class are the file's own
+ * (value type "vec3d" stays "vec3d"). Other value types give BRUME_VDB_TYPE_ERROR. */
+int32_t brume_vdb_vec3_grid_open(const BrumeVdbFile *file, const char *name,
+                                 BrumeVdbVec3Grid **out, char **error);
+void brume_vdb_vec3_grid_free(BrumeVdbVec3Grid *grid);
+int32_t brume_vdb_vec3_grid_info(const BrumeVdbVec3Grid *grid, BrumeVdbGridInfo *out,
+                                 char **error);
+/* Counts of leaves and of tiles (active, or differing from the background), and the background
+ * vector (3 floats). */
+int32_t brume_vdb_vec3_grid_counts(const BrumeVdbVec3Grid *grid, size_t *leaf_count,
+                                   size_t *tile_count, float *background, char **error);
+/* origins: 3 * capacity int32; values: 3 * 512 * capacity floats, 512 (x, y, z) triples a leaf
+ * in OpenVDB leaf order; masks: 8 * capacity words. Leaves in the same order as a float grid's.
+ * capacity must equal the leaf count. */
+int32_t brume_vdb_vec3_grid_copy_leaves(const BrumeVdbVec3Grid *grid, int32_t *origins,
+                                        float *values, uint64_t *masks, size_t capacity,
+                                        char **error);
+/* origins: 3 * capacity; dims, active: capacity each; values: 3 * capacity. */
+int32_t brume_vdb_vec3_grid_copy_tiles(const BrumeVdbVec3Grid *grid, int32_t *origins,
+                                       uint32_t *dims, float *values, uint8_t *active,
+                                       size_t capacity, char **error);
+/* OpenVDB's own sampler (a BrumeVdbVec3Sampler) at n index-space points (3 * n doubles) into
+ * 3 * n floats. One accessor serves the whole batch. */
+int32_t brume_vdb_vec3_grid_sample(const BrumeVdbVec3Grid *grid, const double *points, size_t n,
+                                   int32_t sampler, float *out, char **error);
 
 /* Writes grids to path with Blosc compression when the library has it (zip otherwise). */
 int32_t brume_vdb_write_float_grids(const char *path, const BrumeVdbGridSpec *grids, size_t n,

@@ -6,7 +6,9 @@
 //! [`types`], so no OpenVDB type escapes this crate.
 pub mod sys;
 pub mod types;
+mod vec3;
 mod wrapper;
 
 pub use types::*;
+pub use vec3::*;
 pub use wrapper::*;

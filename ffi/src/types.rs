@@ -91,3 +91,38 @@ impl Leaf {
         self.active[offset >> 6] >> (offset & 63) & 1 == 1
     }
 }
+
+/// One 8^3 leaf of a Vec3 grid exactly as OpenVDB stores it (in single precision).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vec3Leaf {
+    /// Index-space coordinate of voxel (0, 0, 0) of the leaf; a multiple of 8 on each axis.
+    pub origin: [i32; 3],
+    /// `(x, y, z)` vectors in OpenVDB's leaf order (see [`Leaf::values`]), inactive voxels
+    /// included.
+    pub values: Box<[[f32; 3]; LEAF_VOXELS]>,
+    /// Active-state bits, bit `offset % 64` of word `offset / 64`.
+    pub active: [u64; 8],
+}
+
+/// A constant vector over a region of an upper tree level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vec3Tile {
+    /// Index-space coordinate of the tile's minimum corner voxel.
+    pub origin: [i32; 3],
+    /// Edge length in voxels (a multiple of 8).
+    pub dim: u32,
+    pub value: [f32; 3],
+    pub active: bool,
+}
+
+/// A Vec3 grid (`vec3s`, or `vec3d` rounded to single precision) read completely: every leaf,
+/// every tile that is active or differs from the background, in the same order as a float
+/// grid's. Values anywhere else equal `background`. `info.class` says whether the components
+/// are cell-centred or staggered (MAC: component `a` sits on the voxel's lower face along `a`).
+#[derive(Clone, Debug)]
+pub struct Vec3GridData {
+    pub info: GridInfo,
+    pub background: [f32; 3],
+    pub leaves: Vec<Vec3Leaf>,
+    pub tiles: Vec<Vec3Tile>,
+}

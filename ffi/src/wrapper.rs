@@ -37,7 +37,7 @@ impl fmt::Display for VdbError {
 impl std::error::Error for VdbError {}
 
 impl VdbError {
-    fn new(path: &Path, kind: VdbErrorKind, message: impl Into<String>) -> Self {
+    pub(crate) fn new(path: &Path, kind: VdbErrorKind, message: impl Into<String>) -> Self {
         Self {
             path: path.to_path_buf(),
             kind,
@@ -60,7 +60,7 @@ unsafe fn take_string(s: *mut c_char) -> String {
 }
 
 /// Runs one shim call with an error slot and converts its status.
-fn call(path: &Path, f: impl FnOnce(*mut *mut c_char) -> i32) -> Result<(), VdbError> {
+pub(crate) fn call(path: &Path, f: impl FnOnce(*mut *mut c_char) -> i32) -> Result<(), VdbError> {
     let mut error: *mut c_char = ptr::null_mut();
     let status = f(&mut error);
     // SAFETY: the shim either leaves `error` null or stores an owned string in it.
@@ -84,7 +84,7 @@ fn call(path: &Path, f: impl FnOnce(*mut *mut c_char) -> i32) -> Result<(), VdbE
     Err(VdbError::new(path, kind, message))
 }
 
-fn c_string(path: &Path, s: &str) -> Result<CString, VdbError> {
+pub(crate) fn c_string(path: &Path, s: &str) -> Result<CString, VdbError> {
     CString::new(s).map_err(|_| {
         VdbError::new(
             path,
@@ -109,7 +109,7 @@ fn c_path(path: &Path) -> Result<CString, VdbError> {
 ///
 /// # Safety
 /// `raw` must have been filled by a successful shim call and not yet freed.
-unsafe fn take_info(raw: &mut sys::BrumeVdbGridInfo) -> GridInfo {
+pub(crate) unsafe fn take_info(raw: &mut sys::BrumeVdbGridInfo) -> GridInfo {
     let mut m = [[0.0; 4]; 4];
     for (r, row) in m.iter_mut().enumerate() {
         for (c, v) in row.iter_mut().enumerate() {
@@ -162,7 +162,7 @@ unsafe fn take_info(raw: &mut sys::BrumeVdbGridInfo) -> GridInfo {
 /// An open `.vdb` file with all its grids read into memory.
 pub struct VdbFile {
     path: PathBuf,
-    raw: *mut sys::BrumeVdbFile,
+    pub(crate) raw: *mut sys::BrumeVdbFile,
     grids: Vec<GridInfo>,
     metadata: Vec<(String, String, String)>,
 }
@@ -510,6 +510,18 @@ pub struct GridSpec {
     /// Collapse constant leaves into active tiles (`openvdb::tools::prune`).
     pub prune: bool,
     pub save_as_half: bool,
+    /// A Vec3 grid of one vector a voxel: when set, written in place of `voxels`,
+    /// `background` and `as_vec3`.
+    pub vectors: Option<Vec3Voxels>,
+}
+
+/// The voxels of a Vec3 grid to write (fixtures for velocity grids).
+#[derive(Clone, Debug, Default)]
+pub struct Vec3Voxels {
+    pub background: [f32; 3],
+    pub voxels: Vec<([i32; 3], [f32; 3])>,
+    /// Write `vec3d` (double) values instead of `vec3s`.
+    pub double: bool,
 }
 
 impl GridSpec {
@@ -530,6 +542,19 @@ impl GridSpec {
             voxels: Vec::new(),
             prune: true,
             save_as_half: false,
+            vectors: None,
+        }
+    }
+
+    /// A Vec3 grid of class `class` (cell-centred `Unknown` or `Staggered`), empty, with a zero
+    /// background, uniform voxels and the index origin at world `origin`; fill
+    /// `vectors.voxels`.
+    pub fn vec3(name: &str, class: GridClass, voxel_size: f64, origin: [f64; 3]) -> Self {
+        Self {
+            class,
+            prune: false,
+            vectors: Some(Vec3Voxels::default()),
+            ..Self::fog(name, voxel_size, origin)
         }
     }
 }
@@ -550,6 +575,26 @@ pub fn write_float_grids(path: impl AsRef<Path>, grids: &[GridSpec]) -> Result<(
         .iter()
         .map(|g| g.voxels.iter().map(|(_, v)| *v).collect())
         .collect();
+    let vectors: Vec<Vec<f32>> = grids
+        .iter()
+        .map(|g| {
+            g.vectors
+                .iter()
+                .flat_map(|v| &v.voxels)
+                .flat_map(|(_, v)| *v)
+                .collect()
+        })
+        .collect();
+    let vector_coords: Vec<Vec<i32>> = grids
+        .iter()
+        .map(|g| {
+            g.vectors
+                .iter()
+                .flat_map(|v| &v.voxels)
+                .flat_map(|(c, _)| *c)
+                .collect()
+        })
+        .collect();
     let specs: Vec<sys::BrumeVdbGridSpec> = grids
         .iter()
         .enumerate()
@@ -568,14 +613,26 @@ pub fn write_float_grids(path: impl AsRef<Path>, grids: &[GridSpec]) -> Result<(
                     GridClass::Staggered => sys::BRUME_VDB_CLASS_STAGGERED,
                     GridClass::Unknown => sys::BRUME_VDB_CLASS_UNKNOWN,
                 } as i32,
-                value_kind: g.as_vec3 as i32,
+                value_kind: match &g.vectors {
+                    None => g.as_vec3 as i32,
+                    Some(v) => 2 + v.double as i32,
+                },
                 world_from_index: m,
                 background: g.background,
-                count: g.voxels.len(),
-                coords: coords[i].as_ptr(),
+                count: g
+                    .vectors
+                    .as_ref()
+                    .map_or(g.voxels.len(), |v| v.voxels.len()),
+                coords: if g.vectors.is_some() {
+                    vector_coords[i].as_ptr()
+                } else {
+                    coords[i].as_ptr()
+                },
                 values: values[i].as_ptr(),
                 prune: g.prune as i32,
                 save_as_half: g.save_as_half as i32,
+                vectors: vectors[i].as_ptr(),
+                vector_background: g.vectors.as_ref().map_or([0.0; 3], |v| v.background),
             }
         })
         .collect();

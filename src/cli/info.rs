@@ -5,7 +5,8 @@ use anyhow::{bail, Result};
 use brume_ffi::{GridClass, GridInfo, VdbFile};
 
 use brume::volume::{
-    load_grid_from, AdaptiveMajorants, AdaptiveShape, ConversionPolicy, CostModel, LeafBounds,
+    load_grid_from, load_vector_grid_from, AdaptiveMajorants, AdaptiveShape, ConversionPolicy,
+    CostModel, LeafBounds,
 };
 
 pub fn run(path: &Path, layout: bool) -> Result<()> {
@@ -139,6 +140,41 @@ fn print_facts(g: &GridInfo) {
     }
 }
 
+/// Where a Vec3 grid's components sit: OpenVDB's staggered class puts component `a` on the
+/// voxel's lower face along `a`; every other class reads as cell-centred.
+fn vector_class_name(c: GridClass) -> &'static str {
+    match c {
+        GridClass::Staggered => "staggered (components on the voxel's lower faces)",
+        _ => "cell-centred",
+    }
+}
+
+/// A Vec3 grid in Brume's layout: bricks, memory and the speed its lookups can reach.
+fn print_vector_layout(file: &VdbFile, g: &GridInfo) {
+    let v = match load_vector_grid_from(file, &g.name, ConversionPolicy::default()) {
+        Ok(v) => v,
+        Err(e) => {
+            println!("  brume layout      not convertible: {e}");
+            return;
+        }
+    };
+    let d = v.dims();
+    println!(
+        "  brume layout      3 components over {} x {} x {} cells of 8^3 voxels: {} bricks, {:.2} MiB (speed bounds included)",
+        d[0],
+        d[1],
+        d[2],
+        v.brick_count(),
+        v.memory_bytes() as f64 / (1 << 20) as f64
+    );
+    println!("  background        {:?}", v.background);
+    println!(
+        "  max speed         {:.6} in the grid's value units (world units per unit time) = {:.6} voxels per unit time (per-leaf-cell bounds)",
+        v.speed.max_speed(),
+        v.max_index_speed()
+    );
+}
+
 /// The per-voxel culling bounds' memory, build time (rebuilt here to time it) and tightness.
 fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &LeafBounds) {
     let start = std::time::Instant::now();
@@ -202,14 +238,23 @@ fn vdb(path: &Path, layout: bool) -> Result<()> {
         println!("file meta {k:<16} {v} ({t})");
     }
     for g in file.grids() {
+        let vector = brume_ffi::VEC3_VALUE_TYPES.contains(&g.value_type.as_str());
         println!(
             "grid '{}': {}, {}",
             g.name,
             g.value_type,
-            class_name(g.class)
+            if vector {
+                vector_class_name(g.class)
+            } else {
+                class_name(g.class)
+            }
         );
         print_facts(g);
         if !layout {
+            continue;
+        }
+        if vector {
+            print_vector_layout(&file, g);
             continue;
         }
         if g.value_type != "float" {

@@ -72,6 +72,31 @@ fn clamp_density(v: f32) -> f32 {
     }
 }
 
+/// What conversion does to each finite value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ValueRule {
+    /// Densities: negatives clamped to 0 and reported ([`clamp_density`]).
+    Density,
+    /// Signed quantities (a velocity component): kept as they are.
+    Signed,
+}
+
+impl ValueRule {
+    #[inline]
+    fn apply(self, v: f32) -> f32 {
+        match self {
+            Self::Density => clamp_density(v),
+            Self::Signed => v,
+        }
+    }
+
+    /// Whether a negative value is a clamp to report.
+    #[inline]
+    fn reports_negative(self, v: f32) -> bool {
+        self == Self::Density && v < 0.0
+    }
+}
+
 /// Index-space coordinate of OpenVDB leaf offset `offset` in a leaf at `origin`.
 fn leaf_voxel(origin: [i32; 3], offset: usize) -> [i32; 3] {
     [
@@ -150,7 +175,11 @@ fn transforms(info: &GridInfo) -> Result<(DAffine3, DAffine3), VolumeError> {
 
 /// Cell box `[lo, hi)` in cell units over the leaves and the non-background tiles, before
 /// padding; `None` when there is nothing but background.
-fn occupied_cells(data: &FloatGridData, background: f32) -> Option<([i64; 3], [i64; 3])> {
+fn occupied_cells(
+    data: &FloatGridData,
+    background: f32,
+    rule: ValueRule,
+) -> Option<([i64; 3], [i64; 3])> {
     let mut cells = IndexBox::EMPTY;
     for leaf in &data.leaves {
         let c = leaf.origin.map(|o| (o >> 3) as i64);
@@ -159,7 +188,7 @@ fn occupied_cells(data: &FloatGridData, background: f32) -> Option<([i64; 3], [i
     for tile in data
         .tiles
         .iter()
-        .filter(|t| clamp_density(t.value) != background)
+        .filter(|t| rule.apply(t.value) != background)
     {
         let c = tile.origin.map(|o| (o >> 3) as i64);
         cells.include(c, c.map(|x| x + (tile.dim / 8) as i64));
@@ -202,89 +231,16 @@ impl SparseGrid {
         data: &FloatGridData,
         policy: ConversionPolicy,
     ) -> Result<(SparseGrid, ConversionReport), VolumeError> {
-        check_finite(data)?;
-        let (world_from_index, index_from_world) = transforms(&data.info)?;
-        for leaf in &data.leaves {
-            if leaf.origin.iter().any(|o| o % LEAF_DIM != 0) {
-                return Err(VolumeError::MisalignedLeaf {
-                    origin: leaf.origin,
-                });
-            }
-        }
-        for tile in &data.tiles {
-            if tile.dim == 0 || tile.dim % 8 != 0 || tile.origin.iter().any(|o| o % LEAF_DIM != 0) {
-                return Err(VolumeError::BadTile {
-                    origin: tile.origin,
-                    dim: tile.dim,
-                });
-            }
-        }
+        convert(data, policy, ValueRule::Density)
+    }
 
-        let mut report = ConversionReport::default();
-        let background = clamp_density(data.background);
-        if data.background < 0.0 {
-            report.negative_background = true;
-            report.note_negative(data.background, [0; 3]);
-        }
-
-        let mut grid = SparseGrid {
-            cells: Vec::new(),
-            dims: [0; 3],
-            cell_origin: [0; 3],
-            bricks: Vec::new(),
-            constants: vec![background],
-            background,
-            world_from_index,
-            index_from_world,
-            voxel_size: DVec3::from_array(data.info.voxel_size),
-            name: data.info.name.clone(),
-        };
-
-        if let Some((lo, hi)) = occupied_cells(data, background) {
-            // One cell of padding on every side: trilinear reconstruction is non-background up
-            // to one voxel beyond the last stored voxel, and the bounds need those cells.
-            let lo = lo.map(|c| c - 1);
-            let hi = hi.map(|c| c + 1);
-            let dims = [0, 1, 2].map(|a| (hi[a] - lo[a]) as u64);
-            let cells = dims[0].saturating_mul(dims[1]).saturating_mul(dims[2]);
-            if cells > policy.max_cells {
-                return Err(VolumeError::TooManyCells {
-                    dims,
-                    cells,
-                    limit: policy.max_cells,
-                });
-            }
-            if lo
-                .iter()
-                .chain(hi.iter())
-                .any(|&c| c * 8 < i32::MIN as i64 || c * 8 > i32::MAX as i64)
-            {
-                return Err(VolumeError::Transform(
-                    "cell box exceeds 32-bit voxel coordinates".into(),
-                ));
-            }
-            grid.dims = dims.map(|d| d as u32);
-            grid.cell_origin = lo.map(|c| c as i32);
-            grid.cells = vec![CONSTANT_BIT; cells as usize];
-            fill_cells(&mut grid, data, &mut report)?;
-        }
-
-        if report.negative_voxels + report.negative_tiles > 0 || report.negative_background {
-            report.warnings.push(format!(
-                "clamped negative densities to 0: {} voxel(s), {} tile(s){}; most negative {} first at {:?}",
-                report.negative_voxels,
-                report.negative_tiles,
-                if report.negative_background { ", and the background" } else { "" },
-                report.most_negative,
-                report.first_negative.unwrap_or_default(),
-            ));
-        }
-        if data.info.class == GridClass::LevelSet {
-            report.warnings.push(
-                "grid class is level set: values are signed distances, not densities".to_string(),
-            );
-        }
-        Ok((grid, report))
+    /// As [`from_vdb`](Self::from_vdb) for a signed quantity (a velocity component): values
+    /// are kept as they are, negatives included; NaN/Inf and the size limit still apply.
+    pub fn from_vdb_signed(
+        data: &FloatGridData,
+        policy: ConversionPolicy,
+    ) -> Result<SparseGrid, VolumeError> {
+        convert(data, policy, ValueRule::Signed).map(|(grid, _)| grid)
     }
 
     /// Builds a grid from a dense block of `dims` voxels whose first value sits at voxel
@@ -302,11 +258,103 @@ impl SparseGrid {
     }
 }
 
+/// The conversion behind [`SparseGrid::from_vdb`] and [`SparseGrid::from_vdb_signed`].
+fn convert(
+    data: &FloatGridData,
+    policy: ConversionPolicy,
+    rule: ValueRule,
+) -> Result<(SparseGrid, ConversionReport), VolumeError> {
+    check_finite(data)?;
+    let (world_from_index, index_from_world) = transforms(&data.info)?;
+    for leaf in &data.leaves {
+        if leaf.origin.iter().any(|o| o % LEAF_DIM != 0) {
+            return Err(VolumeError::MisalignedLeaf {
+                origin: leaf.origin,
+            });
+        }
+    }
+    for tile in &data.tiles {
+        if tile.dim == 0 || tile.dim % 8 != 0 || tile.origin.iter().any(|o| o % LEAF_DIM != 0) {
+            return Err(VolumeError::BadTile {
+                origin: tile.origin,
+                dim: tile.dim,
+            });
+        }
+    }
+
+    let mut report = ConversionReport::default();
+    let background = rule.apply(data.background);
+    if rule.reports_negative(data.background) {
+        report.negative_background = true;
+        report.note_negative(data.background, [0; 3]);
+    }
+
+    let mut grid = SparseGrid {
+        cells: Vec::new(),
+        dims: [0; 3],
+        cell_origin: [0; 3],
+        bricks: Vec::new(),
+        constants: vec![background],
+        background,
+        world_from_index,
+        index_from_world,
+        voxel_size: DVec3::from_array(data.info.voxel_size),
+        name: data.info.name.clone(),
+    };
+
+    if let Some((lo, hi)) = occupied_cells(data, background, rule) {
+        // One cell of padding on every side: trilinear reconstruction is non-background up
+        // to one voxel beyond the last stored voxel, and the bounds need those cells.
+        let lo = lo.map(|c| c - 1);
+        let hi = hi.map(|c| c + 1);
+        let dims = [0, 1, 2].map(|a| (hi[a] - lo[a]) as u64);
+        let cells = dims[0].saturating_mul(dims[1]).saturating_mul(dims[2]);
+        if cells > policy.max_cells {
+            return Err(VolumeError::TooManyCells {
+                dims,
+                cells,
+                limit: policy.max_cells,
+            });
+        }
+        if lo
+            .iter()
+            .chain(hi.iter())
+            .any(|&c| c * 8 < i32::MIN as i64 || c * 8 > i32::MAX as i64)
+        {
+            return Err(VolumeError::Transform(
+                "cell box exceeds 32-bit voxel coordinates".into(),
+            ));
+        }
+        grid.dims = dims.map(|d| d as u32);
+        grid.cell_origin = lo.map(|c| c as i32);
+        grid.cells = vec![CONSTANT_BIT; cells as usize];
+        fill_cells(&mut grid, data, &mut report, rule)?;
+    }
+
+    if report.negative_voxels + report.negative_tiles > 0 || report.negative_background {
+        report.warnings.push(format!(
+            "clamped negative densities to 0: {} voxel(s), {} tile(s){}; most negative {} first at {:?}",
+            report.negative_voxels,
+            report.negative_tiles,
+            if report.negative_background { ", and the background" } else { "" },
+            report.most_negative,
+            report.first_negative.unwrap_or_default(),
+        ));
+    }
+    if data.info.class == GridClass::LevelSet {
+        report.warnings.push(
+            "grid class is level set: values are signed distances, not densities".to_string(),
+        );
+    }
+    Ok((grid, report))
+}
+
 /// Writes tiles, then leaves (so leaves win), into the background-filled cell index.
 fn fill_cells(
     grid: &mut SparseGrid,
     data: &FloatGridData,
     report: &mut ConversionReport,
+    rule: ValueRule,
 ) -> Result<(), VolumeError> {
     let mut constants = ConstantTable::new(grid.background);
     let origin = grid.cell_origin.map(|c| c as i64);
@@ -319,7 +367,7 @@ fn fill_cells(
     };
 
     for tile in &data.tiles {
-        let value = clamp_density(tile.value);
+        let value = rule.apply(tile.value);
         if value == grid.background {
             report.background_tiles += 1;
             continue;
@@ -338,7 +386,7 @@ fn fill_cells(
     }
 
     for leaf in &data.leaves {
-        let brick = leaf_to_brick(leaf, report);
+        let brick = leaf_to_brick(leaf, report, rule);
         let at = cell_of(grid, leaf.origin.map(|o| (o >> 3) as i64));
         grid.cells[at] = if brick.iter().all(|&v| v == brick[0]) {
             report.uniform_leaves += 1;
@@ -356,7 +404,7 @@ fn fill_cells(
         };
     }
     // Counted after the leaves so "first negative" follows the same order as non-finite values.
-    for tile in data.tiles.iter().filter(|t| t.value < 0.0) {
+    for tile in data.tiles.iter().filter(|t| rule.reports_negative(t.value)) {
         report.negative_tiles += 1;
         report.note_negative(tile.value, tile.origin);
     }
@@ -370,16 +418,21 @@ fn fill_cells(
     Ok(())
 }
 
-/// One leaf's values in Brume order (`x + 8 y + 64 z`), negatives clamped and counted.
-fn leaf_to_brick(leaf: &Leaf, report: &mut ConversionReport) -> [f32; BRICK_VOXELS] {
+/// One leaf's values in Brume order (`x + 8 y + 64 z`), under `rule` (densities: negatives
+/// clamped and counted).
+fn leaf_to_brick(
+    leaf: &Leaf,
+    report: &mut ConversionReport,
+    rule: ValueRule,
+) -> [f32; BRICK_VOXELS] {
     let mut brick = [0.0f32; BRICK_VOXELS];
     for (offset, &v) in leaf.values.iter().enumerate() {
-        if v < 0.0 {
+        if rule.reports_negative(v) {
             report.negative_voxels += 1;
             report.note_negative(v, leaf_voxel(leaf.origin, offset));
         }
         let (x, y, z) = (offset >> 6, offset >> 3 & 7, offset & 7);
-        brick[x + 8 * y + 64 * z] = clamp_density(v);
+        brick[x + 8 * y + 64 * z] = rule.apply(v);
     }
     brick
 }

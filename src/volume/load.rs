@@ -9,11 +9,15 @@
 //!   ([`SparseGrid::from_vdb`]);
 //! - non-affine (frustum) transforms are refused; any affine map, non-uniform scale and shear
 //!   included, is supported because rays are walked in index space.
+//!
+//! Vector grids (a fluid cache's velocity) load through [`load_vector_grid`]: `vec3s` or
+//! `vec3d` values, kept signed; NaN or Inf refused; a wrong type or a missing name lists the
+//! file's grids with their types.
 use std::path::{Path, PathBuf};
 
 use brume_ffi::{GridClass, GridInfo, ReadOptions, VdbError, VdbFile};
 
-use super::{ConversionPolicy, ConversionReport, LeafBounds, SparseGrid, VolumeError};
+use super::{ConversionPolicy, ConversionReport, LeafBounds, SparseGrid, VectorGrid, VolumeError};
 
 /// A grid converted for rendering, with what conversion noticed.
 pub struct LoadedGrid {
@@ -92,6 +96,30 @@ pub fn load_grid_from(
         info,
         report,
         warnings,
+    })
+}
+
+/// Opens `path` and converts the Vec3 grid `grid_name` (a velocity).
+pub fn load_vector_grid(
+    path: &Path,
+    grid_name: &str,
+    policy: ConversionPolicy,
+) -> Result<VectorGrid, LoadError> {
+    let file = VdbFile::open(path)?;
+    load_vector_grid_from(&file, grid_name, policy)
+}
+
+/// As [`load_vector_grid`], from a file already open (a velocity beside a density).
+pub fn load_vector_grid_from(
+    file: &VdbFile,
+    grid_name: &str,
+    policy: ConversionPolicy,
+) -> Result<VectorGrid, LoadError> {
+    let data = file.read_vec3_grid(grid_name)?;
+    VectorGrid::from_vdb(&data, policy).map_err(|source| LoadError::Volume {
+        path: file.path().to_path_buf(),
+        grid: grid_name.to_string(),
+        source,
     })
 }
 

@@ -16,7 +16,9 @@ pub mod merge;
 pub mod phase;
 pub mod reference;
 pub mod segment;
+pub mod speed_bounds;
 pub mod tracking;
+pub mod vector;
 pub mod voxel_bounds;
 
 pub use adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, AdaptiveStats};
@@ -29,6 +31,11 @@ pub use error::VolumeError;
 pub use grid::{GridStats, SparseGrid, CONSTANT_BIT, DEFAULT_MAX_CELLS};
 pub use reference::VdbReference;
 pub use segment::MajorantSegment;
+pub use speed_bounds::SpeedBounds;
+pub use vector::VectorGrid;
 pub mod load;
 pub mod mitsuba_vol;
-pub use load::{load_grid, load_grid_from, load_scene_grid, GridLoadError, LoadError, LoadedGrid};
+pub use load::{
+    load_grid, load_grid_from, load_scene_grid, load_vector_grid, load_vector_grid_from,
+    GridLoadError, LoadError, LoadedGrid,
+};

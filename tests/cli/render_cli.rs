@@ -370,3 +370,55 @@ fn brume_info_prints_each_scenes_effects() {
         );
     }
 }
+
+#[test]
+fn brume_info_shows_vec3_grids_with_class_and_speed() {
+    use brume_ffi::{write_float_grids, GridClass, GridSpec};
+    let path = scratch::dir("info-vec3").join("fluid.vdb");
+    let mut grids = Vec::new();
+    for (name, class) in [
+        ("vel", GridClass::Staggered),
+        ("vel_centred", GridClass::Unknown),
+    ] {
+        let mut g = GridSpec::vec3(name, class, 0.1, [0.0; 3]);
+        let v = g.vectors.as_mut().unwrap();
+        for i in 0..12 {
+            for j in 0..10 {
+                v.voxels.push(([i, j, 3], [3.0, -4.0, 0.0]));
+            }
+        }
+        grids.push(g);
+    }
+    write_float_grids(&path, &grids).unwrap();
+    let o = brume(&["info", path.to_str().unwrap()]);
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    println!("{stdout}");
+    for line in [
+        "grid 'vel': vec3s, staggered (components on the voxel's lower faces)",
+        "grid 'vel_centred': vec3s, cell-centred",
+        "  background        [0.0, 0.0, 0.0]",
+    ] {
+        assert!(
+            stdout.lines().any(|l| l == line),
+            "no line {line:?} in:\n{stdout}"
+        );
+    }
+    // |(3, -4, 0)| = 5 (up to the bounds' rounding slack of 2^-18) = 50 voxels of 0.1.
+    let speeds: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.starts_with("  max speed"))
+        .collect();
+    assert_eq!(speeds.len(), 2, "{stdout}");
+    for s in speeds {
+        assert!(s.contains("5.0000") && s.contains("= 50.000"), "{s}");
+    }
+    assert_eq!(
+        stdout
+            .lines()
+            .filter(|l| l.starts_with("  brume layout      3 components over"))
+            .count(),
+        2,
+        "{stdout}"
+    );
+}

@@ -15,3 +15,4 @@ mod scene_examples;
 mod scene_gltf;
 mod scene_textures;
 mod vdb_files;
+mod vdb_vectors;
