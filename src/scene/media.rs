@@ -298,35 +298,7 @@ pub fn read_vdb_media(
             );
         }
 
-        let mut grid_fields = vec![("densityGrid", desc.density_grid.clone())];
-        grid_fields.extend(desc.emission_grid.clone().map(|g| ("emissionGrid", g)));
-        grid_fields.extend(
-            desc.temperature_grid
-                .clone()
-                .map(|g| ("temperatureGrid", g)),
-        );
-        for (field, name) in grid_fields {
-            let (grid, warnings) = load_grid(&desc.vdb_path, &name).map_err(|e| match e {
-                GridLoadError::File(msg) if file != desc.uri => ctx.invalid(
-                    obj.at("uri"),
-                    format!(
-                        "medium file {file:?} (frame {frame} of {:?}): {msg}",
-                        desc.uri
-                    ),
-                ),
-                GridLoadError::File(msg) => {
-                    ctx.invalid(obj.at("uri"), format!("medium file {:?}: {msg}", desc.uri))
-                }
-                GridLoadError::Grid(msg) => ctx.invalid(
-                    obj.at(field),
-                    format!("grid {name:?} in {}: {msg}", desc.vdb_path.display()),
-                ),
-            })?;
-            for w in warnings {
-                ctx.warn(obj.at(field), w);
-            }
-            desc.grids.push(grid);
-        }
+        load_grids(ctx, &obj, &mut desc, &file, frame)?;
         check_temperature_range(ctx, &obj, &desc)?;
         check_emission_range(ctx, &obj, &desc)?;
         widen_density_to_emission(ctx, &obj, &mut desc);
@@ -350,6 +322,47 @@ pub fn read_vdb_media(
         out.push(desc);
     }
     Ok(out)
+}
+
+/// Loads the medium's density grid and its emission and temperature grids when it names them
+/// from `file` (the `uri`, or its file for `frame` when the `uri` is a sequence).
+fn load_grids(
+    ctx: &mut Ctx,
+    obj: &Obj,
+    desc: &mut VdbMediumDesc,
+    file: &str,
+    frame: i32,
+) -> Result<(), SceneError> {
+    let mut grid_fields = vec![("densityGrid", desc.density_grid.clone())];
+    grid_fields.extend(desc.emission_grid.clone().map(|g| ("emissionGrid", g)));
+    grid_fields.extend(
+        desc.temperature_grid
+            .clone()
+            .map(|g| ("temperatureGrid", g)),
+    );
+    for (field, name) in grid_fields {
+        let (grid, warnings) = load_grid(&desc.vdb_path, &name).map_err(|e| match e {
+            GridLoadError::File(msg) if file != desc.uri => ctx.invalid(
+                obj.at("uri"),
+                format!(
+                    "medium file {file:?} (frame {frame} of {:?}): {msg}",
+                    desc.uri
+                ),
+            ),
+            GridLoadError::File(msg) => {
+                ctx.invalid(obj.at("uri"), format!("medium file {:?}: {msg}", desc.uri))
+            }
+            GridLoadError::Grid(msg) => ctx.invalid(
+                obj.at(field),
+                format!("grid {name:?} in {}: {msg}", desc.vdb_path.display()),
+            ),
+        })?;
+        for w in warnings {
+            ctx.warn(obj.at(field), w);
+        }
+        desc.grids.push(grid);
+    }
+    Ok(())
 }
 
 /// Largest optical depth a medium may have across its world bounds. Free-flight distances are
