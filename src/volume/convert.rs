@@ -15,7 +15,7 @@ use std::collections::HashMap;
 
 use brume_ffi::{FloatGridData, GridClass, GridInfo, Leaf, LEAF_DIM, LEAF_VOXELS};
 
-use super::error::VolumeError;
+use super::error::{NonFiniteTally, VolumeError};
 use super::grid::{SparseGrid, BRICK_VOXELS, CONSTANT_BIT, DEFAULT_MAX_CELLS};
 use crate::math::{DAffine3, DMat4, DVec3, IndexBox};
 
@@ -98,7 +98,7 @@ impl ValueRule {
 }
 
 /// Index-space coordinate of OpenVDB leaf offset `offset` in a leaf at `origin`.
-fn leaf_voxel(origin: [i32; 3], offset: usize) -> [i32; 3] {
+pub(super) fn leaf_voxel(origin: [i32; 3], offset: usize) -> [i32; 3] {
     [
         origin[0] + (offset >> 6) as i32,
         origin[1] + (offset >> 3 & 7) as i32,
@@ -108,35 +108,17 @@ fn leaf_voxel(origin: [i32; 3], offset: usize) -> [i32; 3] {
 
 /// Rejects NaN and Inf anywhere a lookup can read.
 fn check_finite(data: &FloatGridData) -> Result<(), VolumeError> {
-    let mut count = 0u64;
-    let mut first: Option<([i32; 3], &'static str, f32)> = None;
-    if !data.background.is_finite() {
-        count += 1;
-        first = Some(([0; 3], "background", data.background));
-    }
+    let mut tally = NonFiniteTally::default();
+    tally.note(data.background, [0; 3], "background");
     for leaf in &data.leaves {
         for (offset, &v) in leaf.values.iter().enumerate() {
-            if !v.is_finite() {
-                count += 1;
-                first.get_or_insert((leaf_voxel(leaf.origin, offset), "leaf voxel", v));
-            }
+            tally.note(v, leaf_voxel(leaf.origin, offset), "leaf voxel");
         }
     }
     for tile in &data.tiles {
-        if !tile.value.is_finite() {
-            count += 1;
-            first.get_or_insert((tile.origin, "tile", tile.value));
-        }
+        tally.note(tile.value, tile.origin, "tile");
     }
-    match first {
-        None => Ok(()),
-        Some((first, what, value)) => Err(VolumeError::NonFinite {
-            count,
-            first,
-            what,
-            value,
-        }),
-    }
+    tally.finish()
 }
 
 /// Reads OpenVDB's row-major `world_from_index` (column-vector convention: translation in the

@@ -43,3 +43,34 @@ pub enum VolumeError {
     #[error("index-to-world transform rejected: {0}")]
     Transform(String),
 }
+
+/// Counts the non-finite values a check meets and keeps the first, for
+/// [`VolumeError::NonFinite`].
+#[derive(Debug, Default)]
+pub(crate) struct NonFiniteTally {
+    count: u64,
+    first: Option<([i32; 3], &'static str, f32)>,
+}
+
+impl NonFiniteTally {
+    /// Notes `value` at index coordinate `at`; `what` says where it is stored.
+    pub fn note(&mut self, value: f32, at: [i32; 3], what: &'static str) {
+        if !value.is_finite() {
+            self.count += 1;
+            self.first.get_or_insert((at, what, value));
+        }
+    }
+
+    /// `Ok` when every value was finite, else the error with the count and the first.
+    pub fn finish(self) -> Result<(), VolumeError> {
+        match self.first {
+            None => Ok(()),
+            Some((first, what, value)) => Err(VolumeError::NonFinite {
+                count: self.count,
+                first,
+                what,
+                value,
+            }),
+        }
+    }
+}

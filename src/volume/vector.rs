@@ -3,6 +3,8 @@
 //! (cell-centred or staggered) and per-leaf-cell speed bounds ([`SpeedBounds`]).
 use brume_ffi::{FloatGridData, GridClass, Leaf, Tile, Vec3GridData, LEAF_VOXELS};
 
+use super::convert::leaf_voxel;
+use super::error::NonFiniteTally;
 use super::speed_bounds::SpeedBounds;
 use super::{ConversionPolicy, GridStats, SparseGrid, VolumeError};
 use crate::math::{DAffine3, DVec3};
@@ -114,14 +116,10 @@ impl VectorGrid {
 
 /// Rejects NaN and Inf in any component of anything a lookup can read, counting components.
 fn check_finite(data: &Vec3GridData) -> Result<(), VolumeError> {
-    let mut count = 0u64;
-    let mut first: Option<([i32; 3], &'static str, f32)> = None;
+    let mut tally = NonFiniteTally::default();
     let mut note = |v: [f32; 3], at: [i32; 3], what: [&'static str; 3]| {
         for a in 0..3 {
-            if !v[a].is_finite() {
-                count += 1;
-                first.get_or_insert((at, what[a], v[a]));
-            }
+            tally.note(v[a], at, what[a]);
         }
     };
     note(
@@ -135,11 +133,7 @@ fn check_finite(data: &Vec3GridData) -> Result<(), VolumeError> {
     );
     for leaf in &data.leaves {
         for (offset, v) in leaf.values.iter().enumerate() {
-            let at = [
-                leaf.origin[0] + (offset >> 6) as i32,
-                leaf.origin[1] + (offset >> 3 & 7) as i32,
-                leaf.origin[2] + (offset & 7) as i32,
-            ];
+            let at = leaf_voxel(leaf.origin, offset);
             note(
                 *v,
                 at,
@@ -162,15 +156,7 @@ fn check_finite(data: &Vec3GridData) -> Result<(), VolumeError> {
             ],
         );
     }
-    match first {
-        None => Ok(()),
-        Some((first, what, value)) => Err(VolumeError::NonFinite {
-            count,
-            first,
-            what,
-            value,
-        }),
-    }
+    tally.finish()
 }
 
 /// Component `a` of a Vec3 grid as a float grid (same leaves, tiles and transform).
