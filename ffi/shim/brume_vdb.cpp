@@ -491,19 +491,7 @@ int32_t brume_vdb_float_grid_copy_leaves(const BrumeVdbFloatGrid *grid, int32_t 
                                          char **error) {
     return guarded(error, [&] {
         require(grid && origins && values && masks, BRUME_VDB_INVALID_ARGUMENT, "null argument");
-        const auto &tree = grid->grid->tree();
-        require(capacity == tree.leafCount(), BRUME_VDB_INVALID_ARGUMENT,
-                "leaf buffer size does not match the leaf count");
-        size_t n = 0;
-        for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf, ++n) {
-            const openvdb::Coord o = leaf->origin();
-            for (int a = 0; a < 3; ++a) origins[3 * n + a] = o[a];
-            using Leaf = openvdb::FloatTree::LeafNodeType;
-            for (openvdb::Index i = 0; i < Leaf::SIZE; ++i)
-                values[Leaf::SIZE * n + i] = leaf->getValue(i);
-            const auto &mask = leaf->getValueMask();
-            for (openvdb::Index w = 0; w < 8; ++w) masks[8 * n + w] = mask.getWord<uint64_t>(w);
-        }
+        copy_leaves(grid->grid->tree(), origins, values, masks, capacity);
     });
 }
 
@@ -513,18 +501,7 @@ int32_t brume_vdb_float_grid_copy_tiles(const BrumeVdbFloatGrid *grid, int32_t *
     return guarded(error, [&] {
         require(grid && origins && dims && values && active, BRUME_VDB_INVALID_ARGUMENT,
                 "null argument");
-        const auto &tree = grid->grid->tree();
-        require(capacity == count_tiles(tree), BRUME_VDB_INVALID_ARGUMENT,
-                "tile buffer size does not match the tile count");
-        size_t n = 0;
-        for_each_tile(tree, [&](const auto &it) {
-            const openvdb::CoordBBox box = it.getBoundingBox();
-            for (int a = 0; a < 3; ++a) origins[3 * n + a] = box.min()[a];
-            dims[n] = static_cast<uint32_t>(box.dim()[0]);
-            values[n] = *it;
-            active[n] = it.isValueOn() ? 1 : 0;
-            ++n;
-        });
+        copy_tiles(grid->grid->tree(), origins, dims, values, active, capacity);
     });
 }
 

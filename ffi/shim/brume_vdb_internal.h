@@ -92,6 +92,49 @@ template <typename TreeT> uint64_t count_tiles(const TreeT &tree) {
     return n;
 }
 
+// Stores value i of a float or Vec3 grid into a flat float buffer (1 or 3 floats a value).
+inline void store(float v, float *out, size_t i) { out[i] = v; }
+inline void store(const openvdb::Vec3s &v, float *out, size_t i) {
+    for (int a = 0; a < 3; ++a) out[3 * i + a] = v[a];
+}
+
+// Copies every leaf of tree: origins (3 ints), values in OpenVDB leaf order (store), and the
+// active masks (8 words); capacity must be the leaf count.
+template <typename TreeT>
+void copy_leaves(const TreeT &tree, int32_t *origins, float *values, uint64_t *masks,
+                 size_t capacity) {
+    require(capacity == tree.leafCount(), BRUME_VDB_INVALID_ARGUMENT,
+            "leaf buffer size does not match the leaf count");
+    using Leaf = typename TreeT::LeafNodeType;
+    size_t n = 0;
+    for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf, ++n) {
+        const openvdb::Coord o = leaf->origin();
+        for (int a = 0; a < 3; ++a) origins[3 * n + a] = o[a];
+        for (openvdb::Index i = 0; i < Leaf::SIZE; ++i)
+            store(leaf->getValue(i), values, Leaf::SIZE * n + i);
+        const auto &mask = leaf->getValueMask();
+        for (openvdb::Index w = 0; w < 8; ++w) masks[8 * n + w] = mask.template getWord<uint64_t>(w);
+    }
+}
+
+// Copies the tiles for_each_tile visits: origin, edge length, value (store), active flag;
+// capacity must be their count.
+template <typename TreeT>
+void copy_tiles(const TreeT &tree, int32_t *origins, uint32_t *dims, float *values,
+                uint8_t *active, size_t capacity) {
+    require(capacity == count_tiles(tree), BRUME_VDB_INVALID_ARGUMENT,
+            "tile buffer size does not match the tile count");
+    size_t n = 0;
+    for_each_tile(tree, [&](const auto &it) {
+        const openvdb::CoordBBox box = it.getBoundingBox();
+        for (int a = 0; a < 3; ++a) origins[3 * n + a] = box.min()[a];
+        dims[n] = static_cast<uint32_t>(box.dim()[0]);
+        store(*it, values, n);
+        active[n] = it.isValueOn() ? 1 : 0;
+        ++n;
+    });
+}
+
 // Fills a grid-info struct (defined in brume_vdb.cpp).
 void fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out);
 

@@ -45,10 +45,6 @@ openvdb::Vec3R point_at(const double *points, size_t i) {
     return openvdb::Vec3R(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
 }
 
-void store(const openvdb::Vec3s &v, float *out, size_t i) {
-    for (int a = 0; a < 3; ++a) out[3 * i + a] = v[a];
-}
-
 // One sampler over the whole batch, through one accessor.
 template <typename Sampler>
 void sample_all(const openvdb::Vec3SGrid &grid, const double *points, size_t n, float *out) {
@@ -109,19 +105,7 @@ int32_t brume_vdb_vec3_grid_copy_leaves(const BrumeVdbVec3Grid *grid, int32_t *o
                                         char **error) {
     return guarded(error, [&] {
         require(grid && origins && values && masks, BRUME_VDB_INVALID_ARGUMENT, "null argument");
-        const auto &tree = grid->grid->tree();
-        require(capacity == tree.leafCount(), BRUME_VDB_INVALID_ARGUMENT,
-                "leaf buffer size does not match the leaf count");
-        using Leaf = openvdb::Vec3STree::LeafNodeType;
-        size_t n = 0;
-        for (auto leaf = tree.cbeginLeaf(); leaf; ++leaf, ++n) {
-            const openvdb::Coord o = leaf->origin();
-            for (int a = 0; a < 3; ++a) origins[3 * n + a] = o[a];
-            for (openvdb::Index i = 0; i < Leaf::SIZE; ++i)
-                store(leaf->getValue(i), values, Leaf::SIZE * n + i);
-            const auto &mask = leaf->getValueMask();
-            for (openvdb::Index w = 0; w < 8; ++w) masks[8 * n + w] = mask.getWord<uint64_t>(w);
-        }
+        copy_leaves(grid->grid->tree(), origins, values, masks, capacity);
     });
 }
 
@@ -131,18 +115,7 @@ int32_t brume_vdb_vec3_grid_copy_tiles(const BrumeVdbVec3Grid *grid, int32_t *or
     return guarded(error, [&] {
         require(grid && origins && dims && values && active, BRUME_VDB_INVALID_ARGUMENT,
                 "null argument");
-        const auto &tree = grid->grid->tree();
-        require(capacity == count_tiles(tree), BRUME_VDB_INVALID_ARGUMENT,
-                "tile buffer size does not match the tile count");
-        size_t n = 0;
-        for_each_tile(tree, [&](const auto &it) {
-            const openvdb::CoordBBox box = it.getBoundingBox();
-            for (int a = 0; a < 3; ++a) origins[3 * n + a] = box.min()[a];
-            dims[n] = static_cast<uint32_t>(box.dim()[0]);
-            store(*it, values, n);
-            active[n] = it.isValueOn() ? 1 : 0;
-            ++n;
-        });
+        copy_tiles(grid->grid->tree(), origins, dims, values, active, capacity);
     });
 }
 
