@@ -10,7 +10,7 @@
 //! - non-affine (frustum) transforms are refused; any affine map, non-uniform scale and shear
 //!   included, is supported because rays are walked in index space.
 //!
-//! Vector grids (a fluid cache's velocity) load through [`load_vector_grid`]: `vec3s` or
+//! Vector grids (a fluid cache's velocity) load through [`load_vector_grid_from`]: `vec3s` or
 //! `vec3d` values, kept signed; NaN or Inf refused; a wrong type or a missing name lists the
 //! file's grids with their types.
 use std::path::{Path, PathBuf};
@@ -99,17 +99,7 @@ pub fn load_grid_from(
     })
 }
 
-/// Opens `path` and converts the Vec3 grid `grid_name` (a velocity).
-pub fn load_vector_grid(
-    path: &Path,
-    grid_name: &str,
-    policy: ConversionPolicy,
-) -> Result<VectorGrid, LoadError> {
-    let file = VdbFile::open(path)?;
-    load_vector_grid_from(&file, grid_name, policy)
-}
-
-/// As [`load_vector_grid`], from a file already open (a velocity beside a density).
+/// Converts the Vec3 grid `grid_name` (a velocity) of an open file.
 pub fn load_vector_grid_from(
     file: &VdbFile,
     grid_name: &str,

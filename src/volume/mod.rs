@@ -36,6 +36,6 @@ pub use vector::VectorGrid;
 pub mod load;
 pub mod mitsuba_vol;
 pub use load::{
-    load_grid, load_grid_from, load_scene_grid, load_vector_grid, load_vector_grid_from,
-    GridLoadError, LoadError, LoadedGrid,
+    load_grid, load_grid_from, load_scene_grid, load_vector_grid_from, GridLoadError, LoadError,
+    LoadedGrid,
 };

@@ -6,7 +6,7 @@ use crate::common::scratch;
 use std::path::{Path, PathBuf};
 
 use brume::volume::check::SplitMix64;
-use brume::volume::{load_vector_grid, ConversionPolicy, LoadError, VectorGrid};
+use brume::volume::{load_vector_grid_from, ConversionPolicy, LoadError, VectorGrid};
 use brume_ffi::{write_float_grids, GridClass, GridSpec, VdbFile, Vec3Sampler};
 use glam::DVec3;
 
@@ -71,7 +71,12 @@ fn fixture(dir: &str) -> PathBuf {
 }
 
 fn load(path: &Path, name: &str) -> VectorGrid {
-    load_vector_grid(path, name, ConversionPolicy::default()).unwrap_or_else(|e| panic!("{e}"))
+    try_load(path, name).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn try_load(path: &Path, name: &str) -> Result<VectorGrid, LoadError> {
+    let file = VdbFile::open(path).unwrap();
+    load_vector_grid_from(&file, name, ConversionPolicy::default())
 }
 
 /// Points over the data with a margin outside it; every fourth on a voxel centre or half-way
@@ -203,9 +208,7 @@ fn vector_load_errors_name_the_file_the_grid_and_the_grids_there() {
                    'vel_centred_half' (vec3s), 'vel_double' (vec3d), 'density' (float)";
     let file_name = path.display().to_string();
 
-    let err = load_vector_grid(&path, "density", ConversionPolicy::default())
-        .err()
-        .unwrap();
+    let err = try_load(&path, "density").err().unwrap();
     let msg = err.to_string();
     assert!(matches!(err, LoadError::Vdb(_)));
     assert!(
@@ -215,10 +218,7 @@ fn vector_load_errors_name_the_file_the_grid_and_the_grids_there() {
         "{msg}"
     );
 
-    let msg = load_vector_grid(&path, "velocity", ConversionPolicy::default())
-        .err()
-        .unwrap()
-        .to_string();
+    let msg = try_load(&path, "velocity").err().unwrap().to_string();
     assert!(
         msg.contains(&file_name)
             && msg.contains("no grid named 'velocity'")
@@ -232,9 +232,7 @@ fn vector_load_errors_name_the_file_the_grid_and_the_grids_there() {
     v.voxels[10].1[1] = f32::NAN;
     v.voxels[20].1 = [f32::INFINITY, 0.0, f32::NAN];
     write_float_grids(&bad, &[g]).unwrap();
-    let err = load_vector_grid(&bad, "vel", ConversionPolicy::default())
-        .err()
-        .unwrap();
+    let err = try_load(&bad, "vel").err().unwrap();
     let msg = err.to_string();
     assert!(matches!(err, LoadError::Volume { .. }));
     assert!(
