@@ -15,7 +15,7 @@ use clap::Args;
 
 use crate::film::{AttrValue, Metadata};
 
-use super::{in_scratch, seconds_list, Driver, PythonTool, ReferenceRun};
+use super::{seconds_list, Driver, PythonTool, ReferenceRun};
 
 /// A Python with bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the working
 /// directory or the source tree), then `python3` on the PATH.
@@ -40,17 +40,17 @@ pub struct CyclesArgs {
 
 /// Cycles through Blender's Python module.
 const DRIVER: Driver = Driver {
+    name: "Cycles",
     python: BPY,
     script_var: "BRUME_CYCLES_SCRIPT",
     script: "tools/cycles/brume_to_cycles.py",
 };
 
 pub fn run(args: &CyclesArgs) -> Result<()> {
-    let Some((python, script)) = DRIVER.prepare(&args.run)? else {
-        return Ok(());
-    };
     // The per-run images are read back into the merged output.
-    in_scratch("cycles", None, |tmp| render_in(args, &python, &script, tmp))
+    DRIVER.run(&args.run, None, |python, script, tmp| {
+        render_in(args, python, script, tmp)
+    })
 }
 
 /// Runs Cycles with its per-run images in `tmp`, merges them into the output and reports.
@@ -77,7 +77,7 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
         cmd.arg("--save-blend").arg(b);
     }
     let started = Instant::now();
-    let (_, r) = DRIVER.render(&args.run, &mut cmd, "Cycles", "cycles (bpy 5.0)".into())?;
+    let (_, r) = DRIVER.render(&args.run, &mut cmd, "cycles (bpy 5.0)".into())?;
     let mut meta = r.meta;
     if let Some(t) = r
         .images

@@ -25,7 +25,7 @@ use crate::scene::lights::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 use crate::scene::{BoundsSource, Material, Scene, VdbMediumDesc, NO_INDEX};
 use crate::volume::mitsuba_vol::vol_from_grid;
 
-use super::{in_scratch, seconds_list, Driver, PythonTool, ReferenceRun};
+use super::{seconds_list, Driver, PythonTool, ReferenceRun};
 
 /// A Python with mitsuba: `BRUME_MITSUBA_PYTHON`, then `tools/mitsuba/.venv` next to the
 /// working directory or the source tree.
@@ -57,20 +57,18 @@ pub struct MitsubaArgs {
 
 /// Mitsuba 3 through its Python package.
 const DRIVER: Driver = Driver {
+    name: "Mitsuba",
     python: MITSUBA,
     script_var: "BRUME_MITSUBA_SCRIPT",
     script: "tools/mitsuba/brume_to_mitsuba.py",
 };
 
 pub fn run(args: &MitsubaArgs) -> Result<()> {
-    let Some((python, script)) = DRIVER.prepare(&args.run)? else {
-        return Ok(());
-    };
-    let started = Instant::now();
-    // Scene errors already name the file and the JSON pointer.
-    let scene = crate::scene::load(&args.run.scene)?;
-    in_scratch("mitsuba", args.keep.as_deref(), |dir| {
-        translate_and_render(args, &scene, &python, &script, dir, started)
+    DRIVER.run(&args.run, args.keep.as_deref(), |python, script, dir| {
+        let started = Instant::now();
+        // Scene errors already name the file and the JSON pointer.
+        let scene = crate::scene::load(&args.run.scene)?;
+        translate_and_render(args, &scene, python, script, dir, started)
     })
 }
 
@@ -96,7 +94,7 @@ fn translate_and_render(
     if let Some(v) = &args.variant {
         cmd.args(["--variant", v]);
     }
-    let (out, r) = DRIVER.render(&args.run, &mut cmd, "Mitsuba", "mitsuba".into())?;
+    let (out, r) = DRIVER.render(&args.run, &mut cmd, "mitsuba".into())?;
     // The script's notes (a variant fallback) matter even when it succeeds.
     for line in String::from_utf8_lossy(&out.stderr).lines() {
         if line.starts_with("note:") {

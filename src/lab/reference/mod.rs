@@ -131,20 +131,31 @@ impl PythonTool {
 /// A reference renderer's driver: the Python it runs and the translation script it runs
 /// there (`script_var`, else `script` in the working directory or the source tree).
 pub struct Driver {
+    /// The renderer's name in messages ("Cycles"); in lower case, in metadata keys and the
+    /// scratch folder's name.
+    pub name: &'static str,
     pub python: PythonTool,
     pub script_var: &'static str,
     pub script: &'static str,
 }
 
 impl Driver {
-    /// The Python and the script for `run`, after its checks; `None` when `--reuse` made the
+    /// After `run`'s checks, runs `work` with the Python, the script and a scratch folder
+    /// (`keep`, else a temporary one removed afterwards); nothing more when `--reuse` made the
     /// run a comparison of existing images, already printed.
-    pub fn prepare(&self, run: &ReferenceRun) -> Result<Option<(PathBuf, PathBuf)>> {
+    pub fn run(
+        &self,
+        run: &ReferenceRun,
+        keep: Option<&Path>,
+        work: impl FnOnce(&Path, &Path, &Path) -> Result<()>,
+    ) -> Result<()> {
         if run.check_or_reuse()? {
-            return Ok(None);
+            return Ok(());
         }
         let python = self.python.find()?;
-        Ok(Some((python, find_script(self.script_var, self.script)?)))
+        let script = find_script(self.script_var, self.script)?;
+        let scratch = self.name.to_lowercase();
+        in_scratch(&scratch, keep, |dir| work(&python, &script, dir))
     }
 }
 
@@ -159,15 +170,15 @@ pub struct Rendered {
 }
 
 impl Driver {
-    /// Runs the translation script (`cmd`) and reads the runs it reports; `renderer` names the
-    /// renderer in messages and in the metadata keys, `label` is its `brume:renderer` value.
+    /// Runs the translation script (`cmd`) and reads the runs it reports; `label` is the
+    /// renderer's `brume:renderer` value.
     pub fn render(
         &self,
         run: &ReferenceRun,
         cmd: &mut Command,
-        renderer: &str,
         label: String,
     ) -> Result<(std::process::Output, Rendered)> {
+        let renderer = self.name;
         let out = cmd
             .output()
             .with_context(|| format!("running {}", cmd.get_program().to_string_lossy()))?;
