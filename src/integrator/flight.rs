@@ -6,7 +6,7 @@ use glam::Vec3;
 use super::features::Features;
 use super::homogeneous::sample_homogeneous;
 use super::media::{sample_vdb_in_turn, Flight, MediumEvent};
-use super::mixture::{sample_mixture, VdbSpan};
+use super::mixture::{sample_mixture, RayMedia, VdbSpan};
 use super::nested::{nested_applies, sample_nested};
 use crate::math::Ray;
 use crate::render::prepare::RenderScene;
@@ -108,10 +108,17 @@ pub(super) fn media_flight<F: Features>(
         if (hom.is_some() && n > 0) || overlap {
             // VDB media side by side inside the homogeneous one: its closed-form flight cuts
             // theirs short (`nested`); overlapping VDB media need the merged sum.
-            if let Some(h) = hom.filter(|h| !overlap && nested_applies(iv, h, cfg.absorption)) {
-                return sample_nested::<F>(iv, h, ray, t0, t1, beta, f);
+            let media = RayMedia {
+                vdb: iv,
+                hom,
+                ray,
+                t0,
+                t1,
+            };
+            if hom.is_some_and(|h| !overlap && nested_applies(iv, h, cfg.absorption)) {
+                return sample_nested::<F>(media, beta, f);
             }
-            return sample_mixture::<F>(iv, hom, ray, t0, t1, beta, f);
+            return sample_mixture::<F>(media, beta, f);
         }
     }
     if F::HOM {

@@ -76,30 +76,37 @@ use crate::volume::MajorantSegment;
 /// The VDB media along one ray: each with the part `[a, b]` of the ray it may touch.
 pub type VdbSpan<'a> = (&'a VdbMedium, f32, f32);
 
-/// Free flight along world `ray` over `[t0, t1]` through the sum of the VDB media `vdb` (each
-/// over its span) and the homogeneous medium `hom` (over all of `[t0, t1]`). Returns the
-/// event and, for a scattering event, the phase function of the medium that scattered.
-/// Emission met on the way is added to `l` (already weighted by `beta`).
+/// The media one stretch `[t0, t1]` of world `ray` crosses: VDB media, each over its span,
+/// and the homogeneous medium around them, if any, over all of it.
+#[derive(Clone, Copy)]
+pub struct RayMedia<'a> {
+    pub vdb: &'a [VdbSpan<'a>],
+    pub hom: Option<&'a HomogeneousMedium>,
+    pub ray: &'a Ray,
+    pub t0: f32,
+    pub t1: f32,
+}
+
+/// Free flight through the sum of `media`. Returns the event and, for a scattering event, the
+/// phase function of the medium that scattered. Emission met on the way is added to `l`
+/// (already weighted by `beta`).
 pub fn sample_mixture<F: Features>(
-    vdb: &[VdbSpan],
-    hom: Option<&HomogeneousMedium>,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
+    media: RayMedia,
     beta: Vec3,
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let (vdb, hom) = (media.vdb, media.hom);
     let cfg = f.cfg;
     let chromatic_hom = hom.is_some_and(|h| {
         let s = h.sigma_t();
         s.x != s.y || s.y != s.z
     });
     if F::CHROM && (cfg.force_spectral || chromatic_hom || vdb.iter().any(|v| !v.0.grey)) {
-        return sample_rgb::<F>(vdb, hom, ray, t0, t1, beta, f);
+        return sample_rgb::<F>(media, beta, f);
     }
     match (F::ABS, cfg.absorption) {
-        (true, Absorption::Event) => sample_grey::<F, true>(vdb, hom, ray, t0, t1, beta, f),
-        _ => sample_grey::<F, false>(vdb, hom, ray, t0, t1, beta, f),
+        (true, Absorption::Event) => sample_grey::<F, true>(media, beta, f),
+        _ => sample_grey::<F, false>(media, beta, f),
     }
 }
 
@@ -206,20 +213,18 @@ impl<F: Features, const ABS: bool> Medium for GreyMix<'_, F, ABS> {
 }
 
 fn sample_grey<F: Features, const ABS: bool>(
-    vdb: &[VdbSpan],
-    hom: Option<&HomogeneousMedium>,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
+    media: RayMedia,
     beta: Vec3,
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
     let Flight { cfg, rng, stats, l } = f;
-    let views: Vec<GreyView<F, ABS>> = vdb
+    let views: Vec<GreyView<F, ABS>> = media
+        .vdb
         .iter()
         .map(|(m, _, _)| GreyView::new(m, ray, cfg, beta))
         .collect();
-    let hom = hom.map(|h| HomGrey::new(h, cfg.absorption, ABS));
+    let hom = media.hom.map(|h| HomGrey::new(h, cfg.absorption, ABS));
     let albedos = views.iter().map(|v| v.control_albedo).chain(
         hom.as_ref()
             .map(|h| h.sigma_s / (h.sigma_a + h.sigma_s).max(f32::MIN_POSITIVE)),
@@ -320,20 +325,18 @@ impl<F: Features> MediumRgb for RgbMix<'_, F> {
 }
 
 fn sample_rgb<F: Features>(
-    vdb: &[VdbSpan],
-    hom: Option<&HomogeneousMedium>,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
+    media: RayMedia,
     beta: Vec3,
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
     let Flight { cfg, rng, stats, l } = f;
-    let views: Vec<RgbView<F>> = vdb
+    let views: Vec<RgbView<F>> = media
+        .vdb
         .iter()
         .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, beta))
         .collect();
-    let hom = hom.map(|h| {
+    let hom = media.hom.map(|h| {
         let (sigma_a, sigma_s) = match cfg.absorption {
             Absorption::Event => (h.sigma_a, h.sigma_s),
             Absorption::Weight => (Vec3::ZERO, h.sigma_t()),

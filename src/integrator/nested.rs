@@ -31,8 +31,7 @@ use super::features::Features;
 use super::homogeneous::exp_neg;
 use super::homogeneous::sample_homogeneous;
 use super::media::{sample_vdb_in_turn, Flight, MediumEvent};
-use super::mixture::VdbSpan;
-use crate::math::Ray;
+use super::mixture::{RayMedia, VdbSpan};
 use crate::render::media::HomogeneousMedium;
 use crate::render::settings::Absorption;
 use crate::volume::phase::HenyeyGreenstein;
@@ -63,19 +62,19 @@ fn transmittance_over_survival<F: Features>(h: &HomogeneousMedium, t: f32) -> Ve
     }
 }
 
-/// The free flight along world `ray` over `[t0, t1]` through the VDB media `vdb` (sorted,
-/// non-overlapping, each over its span) inside the homogeneous medium `hom` (see the module
-/// doc). Emission met on the way is added to `l` (weighted by `beta`). Call only where
-/// [`nested_applies`].
+/// The free flight through `media`: VDB media (sorted, non-overlapping) inside a homogeneous
+/// one (see the module doc). Emission met on the way is added to `l` (weighted by `beta`).
+/// Call only where [`nested_applies`].
 pub fn sample_nested<F: Features>(
-    vdb: &[VdbSpan],
-    hom: &HomogeneousMedium,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
+    media: RayMedia,
     beta: Vec3,
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
+    let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
+    let Some(hom) = media.hom else {
+        // Nothing around them: the VDB media in turn.
+        return sample_vdb_in_turn::<F>(vdb.iter().copied(), t1, ray, beta, f);
+    };
     // The homogeneous part first: its collision (or t1) ends every VDB flight.
     let (t_h, hom_event) = match sample_homogeneous::<F>(hom, t1 - t0, f.cfg.absorption, f.rng) {
         MediumEvent::Scatter { t, weight } => (t0 + t, MediumEvent::Scatter { t: t0 + t, weight }),

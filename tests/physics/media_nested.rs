@@ -12,8 +12,8 @@ use crate::common;
 use common::render::{load_scene, sidak_z};
 
 use brume::integrator::features::{bit, Features, Variant};
+use brume::integrator::mixture::{sample_mixture, RayMedia, VdbSpan};
 use brume::integrator::{media::Flight, media::MediumEvent};
-use brume::integrator::{mixture::sample_mixture, mixture::VdbSpan};
 use brume::integrator::{nested::nested_applies, nested::sample_nested};
 use brume::math::Ray;
 use brume::render::{media::HomogeneousMedium, media::MediaStats, media::TrackingConfig};
@@ -100,36 +100,23 @@ fn tally<F: Features>(
     for i in 0..FLIGHTS {
         let mut rng = Rng::new(i, seed, 0x5eed);
         let mut l = Vec3::ZERO;
+        let media = RayMedia {
+            vdb: &spans,
+            hom: Some(hom),
+            ray,
+            t0: 0.0,
+            t1,
+        };
+        let f = Flight {
+            cfg,
+            rng: &mut rng,
+            stats: &mut stats,
+            l: &mut l,
+        };
         let (event, phase): (MediumEvent, HenyeyGreenstein) = if nested {
-            sample_nested::<F>(
-                &spans,
-                hom,
-                ray,
-                0.0,
-                t1,
-                Vec3::ONE,
-                Flight {
-                    cfg,
-                    rng: &mut rng,
-                    stats: &mut stats,
-                    l: &mut l,
-                },
-            )
+            sample_nested::<F>(media, Vec3::ONE, f)
         } else {
-            sample_mixture::<F>(
-                &spans,
-                Some(hom),
-                ray,
-                0.0,
-                t1,
-                Vec3::ONE,
-                Flight {
-                    cfg,
-                    rng: &mut rng,
-                    stats: &mut stats,
-                    l: &mut l,
-                },
-            )
+            sample_mixture::<F>(media, Vec3::ONE, f)
         };
         match event {
             MediumEvent::Scatter { t: ts, weight } => {
