@@ -489,20 +489,13 @@ int32_t brume_vdb_float_grid_counts(const BrumeVdbFloatGrid *grid, size_t *leaf_
 int32_t brume_vdb_float_grid_copy_leaves(const BrumeVdbFloatGrid *grid, int32_t *origins,
                                          float *values, uint64_t *masks, size_t capacity,
                                          char **error) {
-    return guarded(error, [&] {
-        require(grid && origins && values && masks, BRUME_VDB_INVALID_ARGUMENT, "null argument");
-        copy_leaves(grid->grid->tree(), origins, values, masks, capacity);
-    });
+    return copy_leaves_of(grid, origins, values, masks, capacity, error);
 }
 
 int32_t brume_vdb_float_grid_copy_tiles(const BrumeVdbFloatGrid *grid, int32_t *origins,
                                         uint32_t *dims, float *values, uint8_t *active,
                                         size_t capacity, char **error) {
-    return guarded(error, [&] {
-        require(grid && origins && dims && values && active, BRUME_VDB_INVALID_ARGUMENT,
-                "null argument");
-        copy_tiles(grid->grid->tree(), origins, dims, values, active, capacity);
-    });
+    return copy_tiles_of(grid, origins, dims, values, active, capacity, error);
 }
 
 int32_t brume_vdb_float_grid_sample(const BrumeVdbFloatGrid *grid, const double *points, size_t n,

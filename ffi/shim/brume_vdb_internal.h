@@ -135,6 +135,26 @@ void copy_tiles(const TreeT &tree, int32_t *origins, uint32_t *dims, float *valu
     });
 }
 
+// The C entry points that copy a grid handle's leaves or tiles (float and Vec3 alike).
+template <typename Handle>
+int32_t copy_leaves_of(const Handle *grid, int32_t *origins, float *values, uint64_t *masks,
+                       size_t capacity, char **error) {
+    return guarded(error, [&] {
+        require(grid && origins && values && masks, BRUME_VDB_INVALID_ARGUMENT, "null argument");
+        copy_leaves(grid->grid->tree(), origins, values, masks, capacity);
+    });
+}
+
+template <typename Handle>
+int32_t copy_tiles_of(const Handle *grid, int32_t *origins, uint32_t *dims, float *values,
+                      uint8_t *active, size_t capacity, char **error) {
+    return guarded(error, [&] {
+        require(grid && origins && dims && values && active, BRUME_VDB_INVALID_ARGUMENT,
+                "null argument");
+        copy_tiles(grid->grid->tree(), origins, dims, values, active, capacity);
+    });
+}
+
 // Fills a grid-info struct (defined in brume_vdb.cpp).
 void fill_info(const openvdb::GridBase &grid, BrumeVdbGridInfo *out);
 

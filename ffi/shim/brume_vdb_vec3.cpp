@@ -103,20 +103,13 @@ int32_t brume_vdb_vec3_grid_counts(const BrumeVdbVec3Grid *grid, size_t *leaf_co
 int32_t brume_vdb_vec3_grid_copy_leaves(const BrumeVdbVec3Grid *grid, int32_t *origins,
                                         float *values, uint64_t *masks, size_t capacity,
                                         char **error) {
-    return guarded(error, [&] {
-        require(grid && origins && values && masks, BRUME_VDB_INVALID_ARGUMENT, "null argument");
-        copy_leaves(grid->grid->tree(), origins, values, masks, capacity);
-    });
+    return copy_leaves_of(grid, origins, values, masks, capacity, error);
 }
 
 int32_t brume_vdb_vec3_grid_copy_tiles(const BrumeVdbVec3Grid *grid, int32_t *origins,
                                        uint32_t *dims, float *values, uint8_t *active,
                                        size_t capacity, char **error) {
-    return guarded(error, [&] {
-        require(grid && origins && dims && values && active, BRUME_VDB_INVALID_ARGUMENT,
-                "null argument");
-        copy_tiles(grid->grid->tree(), origins, dims, values, active, capacity);
-    });
+    return copy_tiles_of(grid, origins, dims, values, active, capacity, error);
 }
 
 int32_t brume_vdb_vec3_grid_sample(const BrumeVdbVec3Grid *grid, const double *points, size_t n,

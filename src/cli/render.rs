@@ -351,14 +351,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
 /// known to exist; several frames need a run of `#` in each output's file name.
 fn render_frames(args: &RenderArgs, a: i32, b: i32) -> Result<()> {
     if b > a {
-        for p in [
-            Some(&args.output),
-            args.tile_log.as_ref(),
-            args.cost_map.as_ref(),
-        ]
-        .into_iter()
-        .flatten()
-        {
+        for p in args.outputs() {
             let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
             if !scene::sequence::is_sequence(name) {
                 return Err(anyhow!(
@@ -383,6 +376,17 @@ fn render_frames(args: &RenderArgs, a: i32, b: i32) -> Result<()> {
 }
 
 impl RenderArgs {
+    /// The files the render writes: the image, and the tile log and cost map if asked for.
+    fn outputs(&self) -> impl Iterator<Item = &PathBuf> {
+        [
+            Some(&self.output),
+            self.tile_log.as_ref(),
+            self.cost_map.as_ref(),
+        ]
+        .into_iter()
+        .flatten()
+    }
+
     /// These arguments with every output's run of `#` replaced by `frame`.
     fn for_frame(&self, frame: i32) -> RenderArgs {
         let at = |p: &PathBuf| scene::sequence::path_for_frame(p, frame);
@@ -415,14 +419,7 @@ fn load_scene(args: &RenderArgs) -> Result<brume::scene::Scene> {
 
 /// Fails on unwritable outputs before the render is spent.
 fn check_outputs(args: &RenderArgs) -> Result<()> {
-    for p in [
-        Some(&args.output),
-        args.tile_log.as_ref(),
-        args.cost_map.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for p in args.outputs() {
         brume::film::check_writable(p)?;
     }
     Ok(())

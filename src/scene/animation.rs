@@ -8,8 +8,8 @@ use glam::{Quat, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::animation::{Interpolation, Property};
 
+use super::accessor::check_accessor;
 use super::error::{Ctx, SceneError};
-use super::mesh::check_accessor;
 
 /// Which part of a node's transform a channel drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -20,6 +20,7 @@
 //! let scene = brume::scene::load(std::path::Path::new("scenes/cloud.gltf")).unwrap();
 //! println!("{}", scene.summary());
 //! ```
+mod accessor;
 pub mod animation;
 pub mod bare_vdb;
 pub mod camera;
