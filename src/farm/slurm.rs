@@ -15,6 +15,8 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Subcommand};
 
+use crate::scene::sequence;
+
 #[derive(Subcommand, Debug)]
 pub enum FarmWhich {
     /// Write (and with --submit, submit) a Slurm job array and its merge job.
@@ -31,9 +33,13 @@ pub struct SlurmArgs {
     /// Samples per pixel of the final image.
     #[arg(long)]
     pub spp: u32,
-    /// Number of array tasks; task i renders samples [i N / K, (i + 1) N / K).
+    /// Number of array tasks (per frame); task i renders samples [i N / K, (i + 1) N / K).
     #[arg(long)]
     pub tasks: u32,
+    /// Frames A..B (both included) of a sequence: --tasks array tasks per frame, and one merged
+    /// image per frame, at --output with its run of `#` replaced by the frame.
+    #[arg(long, value_name = "A..B", value_parser = crate::scene::sequence::parse_frames, allow_hyphen_values = true)]
+    pub frames: Option<(i32, i32)>,
     /// Slurm partition (default: the cluster's default).
     #[arg(long)]
     pub partition: Option<String>,
@@ -100,107 +106,206 @@ struct FarmFiles {
     merge: PathBuf,
 }
 
-fn write_scripts(args: &SlurmArgs) -> Result<FarmFiles> {
-    if args.tasks == 0 || args.spp == 0 {
-        bail!("--tasks and --spp must be at least 1");
+/// What both scripts are written from: the checked arguments, made absolute.
+struct Plan<'a> {
+    args: &'a SlurmArgs,
+    scene: PathBuf,
+    output: PathBuf,
+    dir: PathBuf,
+    brume: PathBuf,
+    /// The frames of a sequence; empty without --frames.
+    frames: Vec<i32>,
+    /// `#!/bin/bash` and the #SBATCH lines both jobs share.
+    header: String,
+}
+
+impl<'a> Plan<'a> {
+    /// Checks the arguments (and, with --frames, every frame's files) and makes paths absolute.
+    fn new(args: &'a SlurmArgs) -> Result<Self> {
+        if args.tasks == 0 || args.spp == 0 {
+            bail!("--tasks and --spp must be at least 1");
+        }
+        if args.tasks > args.spp {
+            bail!(
+                "--tasks {} is more than --spp {}: some tasks would render nothing",
+                args.tasks,
+                args.spp
+            );
+        }
+        if args.cpus_per_task == 0 {
+            bail!("--cpus-per-task must be at least 1");
+        }
+        if !(args.checkpoint > 0.0 && args.checkpoint.is_finite()) {
+            bail!("--checkpoint must be a positive number of seconds");
+        }
+        let scene = absolute(&args.scene)?;
+        if !scene.is_file() {
+            bail!("{}: no such scene file", scene.display());
+        }
+        let output = absolute(&args.output)?;
+        let frames: Vec<i32> = args.frames.map_or(Vec::new(), |(a, b)| (a..=b).collect());
+        if let Some((a, b)) = args.frames {
+            let name = output
+                .file_name()
+                .and_then(|n| n.to_str())
+                .unwrap_or_default();
+            if b > a && !sequence::is_sequence(name) {
+                bail!(
+                    "--frames {a}..{b} merges {} images: put a run of # for the frame number \
+                     in {} (such as out_####.exr)",
+                    frames.len(),
+                    output.display()
+                );
+            }
+            sequence::check_files(&scene, a, b)?;
+        }
+        let dir = match &args.dir {
+            Some(d) => absolute(d)?,
+            None => output.with_extension("farm"),
+        };
+        let mut header = String::from("#!/bin/bash\n");
+        if let Some(p) = &args.partition {
+            header += &format!("#SBATCH --partition={p}\n");
+        }
+        if let Some(t) = &args.time {
+            header += &format!("#SBATCH --time={t}\n");
+        }
+        Ok(Plan {
+            args,
+            scene,
+            output,
+            dir,
+            brume: std::env::current_exe().context("finding the brume executable")?,
+            frames,
+            header,
+        })
     }
-    if args.tasks > args.spp {
-        bail!(
-            "--tasks {} is more than --spp {}: some tasks would render nothing",
-            args.tasks,
-            args.spp
-        );
+
+    /// Each frame to merge: `None` for the one image without --frames.
+    fn frame_list(&self) -> Vec<Option<i32>> {
+        match self.frames.is_empty() {
+            true => vec![None],
+            false => self.frames.iter().map(|&f| Some(f)).collect(),
+        }
     }
-    if args.cpus_per_task == 0 {
-        bail!("--cpus-per-task must be at least 1");
+
+    /// The part that sample range `r` of `frame` renders into.
+    fn part(&self, frame: Option<i32>, r: u32) -> PathBuf {
+        let parts = self.dir.join("parts");
+        match frame {
+            None => parts.join(format!("part-{r}.exr")),
+            Some(f) => parts.join(format!("frame-{f}-part-{r}.exr")),
+        }
     }
-    if !(args.checkpoint > 0.0 && args.checkpoint.is_finite()) {
-        bail!("--checkpoint must be a positive number of seconds");
-    }
-    let scene = absolute(&args.scene)?;
-    if !scene.is_file() {
-        bail!("{}: no such scene file", scene.display());
-    }
-    let output = absolute(&args.output)?;
-    let dir = match &args.dir {
-        Some(d) => absolute(d)?,
-        None => output.with_extension("farm"),
-    };
-    std::fs::create_dir_all(dir.join("parts"))
-        .and_then(|_| std::fs::create_dir_all(dir.join("logs")))
-        .with_context(|| format!("creating {}", dir.display()))?;
-    let brume = std::env::current_exe().context("finding the brume executable")?;
-    let ranges = task_ranges(args.spp, args.tasks);
-    let parts: Vec<PathBuf> = (0..args.tasks)
-        .map(|i| dir.join("parts").join(format!("part-{i}.exr")))
-        .collect();
-    let mut header = String::from("#!/bin/bash\n");
-    if let Some(p) = &args.partition {
-        header += &format!("#SBATCH --partition={p}\n");
-    }
-    if let Some(t) = &args.time {
-        header += &format!("#SBATCH --time={t}\n");
-    }
-    let extra: Vec<String> = args.render_args.iter().map(|a| quote(a)).collect();
-    let render = format!(
-        r#"{header}#SBATCH --job-name=brume-render
+
+    /// The array job: task i renders sample range i % tasks of frame i / tasks.
+    fn render_script(&self) -> String {
+        let args = self.args;
+        let tasks = args.tasks;
+        let (frame_lines, frame_arg, part_name, frame_note) = if self.frames.is_empty() {
+            (String::new(), "", r#"part-"$r".exr"#, "")
+        } else {
+            let list: Vec<String> = self.frames.iter().map(|f| f.to_string()).collect();
+            (
+                format!(
+                    "FRAMES=({})\nf=\"${{FRAMES[$((i / {tasks}))]}}\"\n",
+                    list.join(" ")
+                ),
+                r#" --frame "$f""#,
+                r#"frame-"$f"-part-"$r".exr"#,
+                ", frame $f",
+            )
+        };
+        let ranges: Vec<String> = task_ranges(args.spp, tasks)
+            .iter()
+            .map(|(a, b)| format!("{a}..{b}"))
+            .collect();
+        let extra: Vec<String> = args.render_args.iter().map(|a| quote(a)).collect();
+        format!(
+            r#"{header}#SBATCH --job-name=brume-render
 #SBATCH --array=0-{last}
 #SBATCH --cpus-per-task={cpus}
 #SBATCH --output={logs_raw}/task-%a.log
 #SBATCH --requeue
-# Written by `brume farm slurm`: task i renders sample range RANGES[i] of every pixel into its
-# own part, checkpointing every {ckpt} s and on SIGTERM; a requeued or resubmitted task
-# resumes its part. Brume sizes its thread pool from SLURM_CPUS_PER_TASK.
+# Written by `brume farm slurm`: task i renders sample range RANGES[i % {tasks}] of every pixel
+# (of frame FRAMES[i / {tasks}] of a sequence) into its own part, checkpointing every {ckpt} s
+# and on SIGTERM; a requeued or resubmitted task resumes its part. Brume sizes its thread pool
+# from SLURM_CPUS_PER_TASK.
 set -euo pipefail
 RANGES=({ranges})
 i="$SLURM_ARRAY_TASK_ID"
-part={parts}/part-"$i".exr
+r=$((i % {tasks}))
+{frame_lines}part={parts}/{part_name}
 resume=()
 if [ -f "$part" ]; then resume=(--resume "$part"); fi
-echo "brume farm: task $i of {tasks}, samples ${{RANGES[$i]}}, $SLURM_CPUS_PER_TASK CPUs on $(hostname)"
-exec {brume} render {scene} -o "$part" --samples "${{RANGES[$i]}}" --checkpoint {ckpt} --backend cpu "${{resume[@]}}" {extra}
+echo "brume farm: task $i, samples ${{RANGES[$r]}}{frame_note}, $SLURM_CPUS_PER_TASK CPUs on $(hostname)"
+exec {brume} render {scene} -o "$part" --samples "${{RANGES[$r]}}"{frame_arg} --checkpoint {ckpt} --backend cpu "${{resume[@]}}" {extra}
 "#,
-        last = args.tasks - 1,
-        // sbatch reads #SBATCH lines without a shell: no quotes there.
-        logs_raw = dir.join("logs").display(),
-        cpus = args.cpus_per_task,
-        ckpt = args.checkpoint,
-        ranges = ranges
-            .iter()
-            .map(|(a, b)| format!("{a}..{b}"))
-            .collect::<Vec<_>>()
-            .join(" "),
-        parts = quote(&dir.join("parts").display().to_string()),
-        tasks = args.tasks,
-        brume = quote(&brume.display().to_string()),
-        scene = quote(&scene.display().to_string()),
-        extra = extra.join(" "),
-    );
-    let merge = format!(
-        r#"{header}#SBATCH --job-name=brume-merge
+            header = self.header,
+            last = self.frame_list().len() as u32 * tasks - 1,
+            // sbatch reads #SBATCH lines without a shell: no quotes there.
+            logs_raw = self.dir.join("logs").display(),
+            cpus = args.cpus_per_task,
+            ckpt = args.checkpoint,
+            ranges = ranges.join(" "),
+            parts = quote(&self.dir.join("parts").display().to_string()),
+            brume = quote(&self.brume.display().to_string()),
+            scene = quote(&self.scene.display().to_string()),
+            extra = extra.join(" "),
+        )
+    }
+
+    /// The merge job: one `brume merge` per frame.
+    fn merge_script(&self) -> String {
+        let merges: Vec<String> = self
+            .frame_list()
+            .into_iter()
+            .map(|frame| {
+                let parts: Vec<String> = (0..self.args.tasks)
+                    .map(|r| quote(&self.part(frame, r).display().to_string()))
+                    .collect();
+                let out = frame.map_or(self.output.clone(), |f| {
+                    sequence::path_for_frame(&self.output, f)
+                });
+                format!(
+                    "{} merge {} -o {} --spp {}\n",
+                    quote(&self.brume.display().to_string()),
+                    parts.join(" "),
+                    quote(&out.display().to_string()),
+                    self.args.spp
+                )
+            })
+            .collect();
+        format!(
+            r#"{header}#SBATCH --job-name=brume-merge
 #SBATCH --cpus-per-task=1
 #SBATCH --output={logs_raw}/merge.log
 # Written by `brume farm slurm`: submit with --dependency=afterok:<array job>
 # --kill-on-invalid-dep=yes, so it runs only when every task succeeded.
 set -euo pipefail
-exec {brume} merge {parts} -o {output} --spp {spp}
-"#,
-        spp = args.spp,
-        logs_raw = dir.join("logs").display(),
-        brume = quote(&brume.display().to_string()),
-        parts = parts
-            .iter()
-            .map(|p| quote(&p.display().to_string()))
-            .collect::<Vec<_>>()
-            .join(" "),
-        output = quote(&output.display().to_string()),
-    );
+{merges}"#,
+            header = self.header,
+            logs_raw = self.dir.join("logs").display(),
+            merges = merges.concat(),
+        )
+    }
+}
+
+fn write_scripts(args: &SlurmArgs) -> Result<FarmFiles> {
+    let plan = Plan::new(args)?;
+    let dir = plan.dir.clone();
+    std::fs::create_dir_all(dir.join("parts"))
+        .and_then(|_| std::fs::create_dir_all(dir.join("logs")))
+        .with_context(|| format!("creating {}", dir.display()))?;
     let files = FarmFiles {
         render: dir.join("render.sbatch"),
         merge: dir.join("merge.sbatch"),
         dir,
     };
-    for (path, text) in [(&files.render, render), (&files.merge, merge)] {
+    for (path, text) in [
+        (&files.render, plan.render_script()),
+        (&files.merge, plan.merge_script()),
+    ] {
         crate::film::write_atomically(path, |f| {
             use std::io::Write;
             f.write_all(text.as_bytes())
@@ -297,9 +402,11 @@ fn slurm(args: &SlurmArgs) -> Result<()> {
     let files = write_scripts(args)?;
     let render = files.render.display().to_string();
     let merge = files.merge.display().to_string();
+    let frames = args.frames.map_or(1, |(a, b)| (b - a + 1) as u32);
+    let tasks = frames * args.tasks;
     println!(
-        "wrote {} ({} tasks, {} CPUs each) and {}",
-        render, args.tasks, args.cpus_per_task, merge
+        "wrote {} ({tasks} tasks, {} CPUs each) and {}",
+        render, args.cpus_per_task, merge
     );
     if !args.submit {
         println!("submit with:");
@@ -314,10 +421,7 @@ fn slurm(args: &SlurmArgs) -> Result<()> {
     let array = sbatch(&[&render])?;
     let dep = format!("--dependency=afterok:{array}");
     let merge_job = sbatch(&[&dep, "--kill-on-invalid-dep=yes", &merge])?;
-    println!(
-        "submitted: array job {array} ({} tasks), merge job {merge_job}",
-        args.tasks
-    );
+    println!("submitted: array job {array} ({tasks} tasks), merge job {merge_job}");
     std::fs::write(
         files.dir.join("jobs.txt"),
         format!("array {array}\nmerge {merge_job}\n"),
@@ -343,9 +447,9 @@ fn slurm(args: &SlurmArgs) -> Result<()> {
     };
     if merge_state == "COMPLETED" {
         println!(
-            "merged: {} from {} tasks; time from sbatch to merged EXR {:.1} s",
+            "merged: {} ({frames} frame(s)) from {tasks} tasks; time from sbatch to merged EXR \
+             {:.1} s",
             absolute(&args.output)?.display(),
-            args.tasks,
             t0.elapsed().as_secs_f64()
         );
         return Ok(());

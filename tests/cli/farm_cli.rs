@@ -464,3 +464,74 @@ fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_
     assert!(String::from_utf8_lossy(&o.stderr).contains("is empty"));
     assert!(!out.exists());
 }
+
+#[test]
+fn the_farm_scripts_of_a_sequence_merge_each_frame_to_its_single_render() {
+    // Frames 1..2 of a sequence, 2 tasks each: task i renders samples of frame 1 + i / 2.
+    let d = common::scratch::dir("sequence_scripts");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for (f, source) in [(1, "cloud.vdb"), (2, "smoke.vdb")] {
+        std::fs::copy(
+            root.join("vdb").join(source),
+            d.join(format!("cloud_{f:04}.vdb")),
+        )
+        .unwrap();
+    }
+    let json = std::fs::read_to_string(root.join("cloud.gltf")).unwrap();
+    let seq = d.join("seq.gltf");
+    std::fs::write(
+        &seq,
+        json.replace("\"vdb/cloud.vdb\"", "\"cloud_####.vdb\""),
+    )
+    .unwrap();
+    let work = d.join("work");
+    let merged = d.join("final_####.exr");
+    let mut args = vec!["farm", "slurm", seq.to_str().unwrap(), "-o"];
+    args.extend([merged.to_str().unwrap(), "--spp", "6", "--tasks", "2"]);
+    args.extend(["--frames", "1..2", "--dir", work.to_str().unwrap()]);
+    args.extend(["--", "--width", "40", "--height", "24"]);
+    let o = ok(brume(&args), "farm slurm --frames");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("(4 tasks"));
+    let script = std::fs::read_to_string(work.join("render.sbatch")).unwrap();
+    for needle in ["#SBATCH --array=0-3", "FRAMES=(1 2)", "--frame \"$f\""] {
+        assert!(script.contains(needle), "{needle}:\n{script}");
+    }
+    for i in 0..4 {
+        let o = Command::new("bash")
+            .arg(work.join("render.sbatch"))
+            .env("SLURM_ARRAY_TASK_ID", i.to_string())
+            .env("SLURM_CPUS_PER_TASK", "1")
+            .output()
+            .unwrap();
+        ok(o, &format!("task {i}"));
+    }
+    let merge = Command::new("bash")
+        .arg(work.join("merge.sbatch"))
+        .output()
+        .unwrap();
+    ok(merge, "merge");
+    for f in [1, 2] {
+        let single = d.join(format!("single_{f}.exr"));
+        let mut args = vec![
+            "render",
+            seq.to_str().unwrap(),
+            "-o",
+            single.to_str().unwrap(),
+        ];
+        args.extend(["--spp", "6", "--frame", if f == 1 { "1" } else { "2" }]);
+        args.extend(SIZE);
+        ok(brume(&args), "single");
+        let m = read_part(&d.join(format!("final_{f:04}.exr"))).unwrap();
+        let s = read_part(&single).unwrap();
+        assert_rounding_equal(&m.film, &s.film, &format!("frame {f}"));
+        assert_eq!(m.info.parts, 2);
+    }
+    // Several frames into one file name would overwrite each other.
+    let one = d.join("one.exr");
+    let mut args = vec!["farm", "slurm", seq.to_str().unwrap(), "-o"];
+    args.extend([one.to_str().unwrap(), "--spp", "6", "--tasks", "2"]);
+    args.extend(["--frames", "1..2", "--dir", work.to_str().unwrap()]);
+    let o = brume(&args);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("run of #"));
+}

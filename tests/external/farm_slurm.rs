@@ -4,7 +4,8 @@
 //! rounding of the summation order, as tests/cli/farm_parts.rs defines it); each task's log shows
 //! the threads of its SLURM_CPUS_PER_TASK; a task made to fail leaves the merge cancelled,
 //! `brume farm` names it and prints the resubmit command, and running that command completes
-//! the image. Prints `SKIPPED:` and why when Slurm cannot be installed or started.
+//! the image; a 24-frame sequence (`--frames`) merges each frame to its `brume render --frames`
+//! image. Prints `SKIPPED:` and why when Slurm cannot be installed or started.
 use crate::common;
 use common::farm::assert_rounding_equal;
 
@@ -235,6 +236,74 @@ fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted
     assert_rounding_equal(&merged2.film, &single.film, "slurm after resubmit");
     say(&format!(
         "farm_slurm: the array with a failing task 2, its resubmit alone and the merge: {:.1} s",
+        t0.elapsed().as_secs_f64()
+    ));
+
+    // 4. A 24-frame sequence: one task per frame, one merge per frame, each frame equal to
+    // that frame of `brume render --frames`.
+    sequence_on_the_farm(&cluster, &work.join("sequence"));
+}
+
+/// The cloud scene reading `cloud_####.vdb` in `dir`, frames 1..=24 (the cloud on odd frames,
+/// the smoke plume on even ones, as links).
+fn sequence_scene(dir: &Path) -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::create_dir_all(dir).unwrap();
+    for f in 1..=FRAMES {
+        let source = if f % 2 == 0 { "smoke.vdb" } else { "cloud.vdb" };
+        std::fs::hard_link(
+            root.join("vdb").join(source),
+            dir.join(format!("cloud_{f:04}.vdb")),
+        )
+        .unwrap();
+    }
+    let json = std::fs::read_to_string(root.join("cloud.gltf")).unwrap();
+    let scene = dir.join("seq.gltf");
+    std::fs::write(
+        &scene,
+        json.replace("\"vdb/cloud.vdb\"", "\"cloud_####.vdb\""),
+    )
+    .unwrap();
+    scene
+}
+
+const FRAMES: i32 = 24;
+
+fn sequence_on_the_farm(cluster: &Cluster, dir: &Path) {
+    let scene = sequence_scene(dir);
+    let size = ["--spp", "2", "--width", "16", "--height", "12"];
+    let o = Command::new(env!("CARGO_BIN_EXE_brume"))
+        .args(["render", scene.to_str().unwrap(), "-o"])
+        .arg(dir.join("single_####.exr"))
+        .args(["--frames", "1..24", "--backend", "cpu"])
+        .args(size)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o).1);
+    let t0 = Instant::now();
+    let o = cluster
+        .command(env!("CARGO_BIN_EXE_brume"))
+        .args(["farm", "slurm", scene.to_str().unwrap(), "-o"])
+        .arg(dir.join("farm_####.exr"))
+        .args(["--spp", "2", "--tasks", "1", "--frames", "1..24"])
+        .args(["--cpus-per-task", "1", "--checkpoint", "60"])
+        .args(["--submit", "--wait", "--wait-timeout", "300"])
+        .args(["--", "--width", "16", "--height", "12"])
+        .output()
+        .unwrap();
+    let (out, err) = text(&o);
+    assert!(
+        o.status.success(),
+        "brume farm slurm --frames: {out}\n{err}"
+    );
+    for f in 1..=FRAMES {
+        let farm = read_part(&dir.join(format!("farm_{f:04}.exr"))).unwrap();
+        let single = read_part(&dir.join(format!("single_{f:04}.exr"))).unwrap();
+        assert_rounding_equal(&farm.film, &single.film, &format!("frame {f}"));
+    }
+    say(&format!(
+        "farm_slurm: {FRAMES} frames, 1 task each, every frame equal to its --frames render: \
+         {:.1} s from sbatch to the last merge",
         t0.elapsed().as_secs_f64()
     ));
 }
