@@ -13,6 +13,7 @@ pub mod dda;
 pub mod error;
 pub mod grid;
 pub mod merge;
+pub mod motion;
 pub mod phase;
 pub mod reference;
 pub mod segment;
