@@ -469,21 +469,7 @@ fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_
 fn the_farm_scripts_of_a_sequence_merge_each_frame_to_its_single_render() {
     // Frames 1..2 of a sequence, 2 tasks each: task i renders samples of frame 1 + i / 2.
     let d = common::scratch::dir("sequence_scripts");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    for (f, source) in [(1, "cloud.vdb"), (2, "smoke.vdb")] {
-        std::fs::copy(
-            root.join("vdb").join(source),
-            d.join(format!("cloud_{f:04}.vdb")),
-        )
-        .unwrap();
-    }
-    let json = std::fs::read_to_string(root.join("cloud.gltf")).unwrap();
-    let seq = d.join("seq.gltf");
-    std::fs::write(
-        &seq,
-        json.replace("\"vdb/cloud.vdb\"", "\"cloud_####.vdb\""),
-    )
-    .unwrap();
+    let seq = common::sequence::cloud_sequence(&d, [1, 2]);
     let work = d.join("work");
     let merged = d.join("final_####.exr");
     let mut args = vec!["farm", "slurm", seq.to_str().unwrap(), "-o"];

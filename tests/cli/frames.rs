@@ -2,6 +2,7 @@
 //! `--frames A..B` with `#` in the outputs, and a missing frame refused before any rendering.
 use crate::common::cli::assert_refused;
 use crate::common::scratch;
+use crate::common::sequence::cloud_sequence;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -13,29 +14,6 @@ fn brume(args: &[&str]) -> Output {
         .args(args)
         .output()
         .unwrap()
-}
-
-/// The cloud scene with its medium read from `cloud_####.vdb` in `dir`: frames 1 and 3 are
-/// the cloud, frame 2 the smoke plume (`frames` of them are written).
-fn sequence_scene(dir: &Path, frames: &[i32]) -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let json = std::fs::read_to_string(root.join("cloud.gltf")).unwrap();
-    assert!(json.contains("\"vdb/cloud.vdb\""));
-    let scene = dir.join("seq.gltf");
-    std::fs::write(
-        &scene,
-        json.replace("\"vdb/cloud.vdb\"", "\"cloud_####.vdb\""),
-    )
-    .unwrap();
-    for &f in frames {
-        let source = if f == 2 { "smoke.vdb" } else { "cloud.vdb" };
-        std::fs::copy(
-            root.join("vdb").join(source),
-            dir.join(format!("cloud_{f:04}.vdb")),
-        )
-        .unwrap();
-    }
-    scene
 }
 
 const SMALL: [&str; 8] = [
@@ -56,7 +34,7 @@ fn pixels(path: &Path) -> Vec<[f32; 3]> {
 #[test]
 fn each_frame_of_a_sequence_equals_its_single_render() {
     let dir = scratch::dir("frames");
-    let scene = sequence_scene(&dir, &[1, 2, 3]);
+    let scene = cloud_sequence(&dir, [1, 2, 3]);
     let pattern = dir.join("out_####.exr");
     let mut args = vec!["render", scene.to_str().unwrap(), "-o"];
     args.extend([pattern.to_str().unwrap(), "--frames", "1..3"]);
@@ -84,7 +62,7 @@ fn each_frame_of_a_sequence_equals_its_single_render() {
 #[test]
 fn a_missing_frame_is_refused_before_rendering() {
     let dir = scratch::dir("frames_missing");
-    let scene = sequence_scene(&dir, &[1, 3]);
+    let scene = cloud_sequence(&dir, [1, 3]);
     let pattern = dir.join("out_####.exr");
     let mut args = vec!["render", scene.to_str().unwrap(), "-o"];
     args.extend([pattern.to_str().unwrap(), "--frames", "1..3"]);

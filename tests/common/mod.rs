@@ -10,6 +10,7 @@ pub mod overlap;
 pub mod reference;
 pub mod render;
 pub mod scratch;
+pub mod sequence;
 pub mod stats;
 pub mod stress;
 pub use grids::*;

@@ -244,33 +244,10 @@ fn a_job_array_renders_the_single_process_image_and_a_failed_task_is_resubmitted
     sequence_on_the_farm(&cluster, &work.join("sequence"));
 }
 
-/// The cloud scene reading `cloud_####.vdb` in `dir`, frames 1..=24 (the cloud on odd frames,
-/// the smoke plume on even ones, as links).
-fn sequence_scene(dir: &Path) -> PathBuf {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    std::fs::create_dir_all(dir).unwrap();
-    for f in 1..=FRAMES {
-        let source = if f % 2 == 0 { "smoke.vdb" } else { "cloud.vdb" };
-        std::fs::hard_link(
-            root.join("vdb").join(source),
-            dir.join(format!("cloud_{f:04}.vdb")),
-        )
-        .unwrap();
-    }
-    let json = std::fs::read_to_string(root.join("cloud.gltf")).unwrap();
-    let scene = dir.join("seq.gltf");
-    std::fs::write(
-        &scene,
-        json.replace("\"vdb/cloud.vdb\"", "\"cloud_####.vdb\""),
-    )
-    .unwrap();
-    scene
-}
-
 const FRAMES: i32 = 24;
 
 fn sequence_on_the_farm(cluster: &Cluster, dir: &Path) {
-    let scene = sequence_scene(dir);
+    let scene = common::sequence::cloud_sequence(dir, 1..=FRAMES);
     let size = ["--spp", "2", "--width", "16", "--height", "12"];
     let o = Command::new(env!("CARGO_BIN_EXE_brume"))
         .args(["render", scene.to_str().unwrap(), "-o"])
