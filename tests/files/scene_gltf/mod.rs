@@ -3,6 +3,7 @@
 //! the JSON location. Nothing here may panic.
 use crate::common::scratch;
 
+mod animations;
 mod bad_inputs;
 
 use std::path::{Path, PathBuf};
