@@ -116,6 +116,10 @@ pub struct Scene {
     pub render: SceneRenderSettings,
     /// The frame the scene was loaded for ([`LoadOptions::frame`]).
     pub frame: i32,
+    /// Frames per second: the frame is time `frame / fps` of the file's animations.
+    pub fps: f32,
+    /// Nodes the file's animations move.
+    pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
     pub warnings: Vec<String>,
 }
@@ -134,7 +138,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let frame = options.frame.or(render.frame).unwrap_or(1);
     let fps = render.fps.unwrap_or(DEFAULT_FPS);
     let animations = animation::read_animations(&mut ctx, doc, &loaded.buffers)?;
-    let nodes = nodes::place_nodes(&mut ctx, doc, &animations.pose(frame as f32 / fps))?;
+    let pose = animations.pose(frame as f32 / fps);
+    let nodes = nodes::place_nodes(&mut ctx, doc, &pose)?;
     let material::MaterialTables {
         materials,
         names: material_names,
@@ -193,6 +198,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         bounds,
         render,
         frame,
+        fps,
+        animated_nodes: pose.len(),
         warnings: ctx.warnings,
     };
     // A loader bug, not a user error, if this fails; still reported, never a panic.

@@ -95,6 +95,18 @@ fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
             )
         })
     )?;
+    let sequences = s
+        .vdb_media
+        .iter()
+        .filter(|m| super::sequence::is_sequence(&m.uri))
+        .count();
+    if sequences > 0 || s.animated_nodes > 0 {
+        writeln!(
+            o,
+            "frame {} at {} fps: {} animated node(s), {sequences} medium file sequence(s)",
+            s.frame, s.fps, s.animated_nodes
+        )?;
+    }
     writeln!(
         o,
         "media: {} homogeneous, {} VDB",

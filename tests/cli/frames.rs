@@ -57,6 +57,12 @@ fn each_frame_of_a_sequence_equals_its_single_render() {
         frames[1],
         "--frame 2 equals frame 2 of --frames"
     );
+    let o = brume(&["info", scene.to_str().unwrap()]);
+    let info = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        info.contains("frame 1 at 24 fps: 0 animated node(s), 1 medium file sequence(s)"),
+        "{info}"
+    );
 }
 
 #[test]
