@@ -95,6 +95,16 @@ fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
             )
         })
     )?;
+    write_media(s, o)?;
+    writeln!(o, "effects: {}", s.effects().names().join(", "))?;
+    for w in &s.warnings {
+        writeln!(o, "warning: {w}")?;
+    }
+    Ok(())
+}
+
+/// The frame (for animations and sequences) and the media.
+fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
     let sequences = s
         .vdb_media
         .iter()
@@ -134,10 +144,6 @@ fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
             m.world_bounds,
             m.bounds_source
         )?;
-    }
-    writeln!(o, "effects: {}", s.effects().names().join(", "))?;
-    for w in &s.warnings {
-        writeln!(o, "warning: {w}")?;
     }
     Ok(())
 }
