@@ -77,8 +77,9 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
         cmd.arg("--save-blend").arg(b);
     }
     let started = Instant::now();
-    let (_, r) = DRIVER.render(&args.run, &mut cmd, "cycles (bpy 5.0)".into())?;
+    let (_, r) = DRIVER.render(&args.run, &mut cmd)?;
     let mut meta = r.meta;
+    meta.set("brume:renderer", AttrValue::Text("cycles (bpy 5.0)".into()));
     if let Some(t) = r
         .images
         .iter()

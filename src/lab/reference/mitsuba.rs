@@ -94,7 +94,7 @@ fn translate_and_render(
     if let Some(v) = &args.variant {
         cmd.args(["--variant", v]);
     }
-    let (out, r) = DRIVER.render(&args.run, &mut cmd, "mitsuba".into())?;
+    let (out, r) = DRIVER.render(&args.run, &mut cmd)?;
     // The script's notes (a variant fallback) matter even when it succeeds.
     for line in String::from_utf8_lossy(&out.stderr).lines() {
         if line.starts_with("note:") {

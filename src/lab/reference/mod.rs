@@ -139,6 +139,16 @@ pub struct Driver {
     pub script: &'static str,
 }
 
+/// A reference renderer's finished runs: their images, seconds and the metadata every merged
+/// reference EXR carries.
+pub struct Rendered {
+    pub images: Vec<Image>,
+    pub seconds: Vec<f64>,
+    /// The sum of `seconds`.
+    pub total: f64,
+    pub meta: Metadata,
+}
+
 impl Driver {
     /// After `run`'s checks, runs `work` with the Python, the script and a scratch folder
     /// (`keep`, else a temporary one removed afterwards); nothing more when `--reuse` made the
@@ -157,26 +167,13 @@ impl Driver {
         let scratch = self.name.to_lowercase();
         in_scratch(&scratch, keep, |dir| work(&python, &script, dir))
     }
-}
 
-/// A reference renderer's finished runs: their images, seconds and the metadata every merged
-/// reference EXR carries.
-pub struct Rendered {
-    pub images: Vec<Image>,
-    pub seconds: Vec<f64>,
-    /// The sum of `seconds`.
-    pub total: f64,
-    pub meta: Metadata,
-}
-
-impl Driver {
-    /// Runs the translation script (`cmd`) and reads the runs it reports; `label` is the
-    /// renderer's `brume:renderer` value.
+    /// Runs the translation script (`cmd`) and reads the runs it reports; the caller adds
+    /// `brume:renderer`, which may depend on what the script printed.
     pub fn render(
         &self,
         run: &ReferenceRun,
         cmd: &mut Command,
-        label: String,
     ) -> Result<(std::process::Output, Rendered)> {
         let renderer = self.name;
         let out = cmd
@@ -196,8 +193,7 @@ impl Driver {
         let total: f64 = seconds.iter().sum();
         let key = renderer.to_lowercase();
         let mut meta = Metadata::new();
-        meta.set("brume:renderer", AttrValue::Text(label))
-            .set("brume:spp", AttrValue::Int((run.spp * run.runs) as i32))
+        meta.set("brume:spp", AttrValue::Int((run.spp * run.runs) as i32))
             .set(format!("brume:{key}_runs"), AttrValue::Int(run.runs as i32))
             .set("brume:render_seconds", AttrValue::Double(total))
             .set(
