@@ -3,7 +3,7 @@
 //! The shapes are deterministic (a hash-based value noise, no RNG state), so rerunning the
 //! script reproduces the committed files. Each grid sits around the origin inside about
 //! [-1, 1]^3 in world units, as the example scenes expect.
-use brume_ffi::{write_float_grids, GridSpec};
+use brume_ffi::{write_float_grids, GridClass, GridSpec};
 use std::path::PathBuf;
 
 fn hash3(x: i32, y: i32, z: i32, seed: u32) -> f32 {
@@ -220,6 +220,43 @@ fn plume() -> GridSpec {
     g
 }
 
+/// The plume's velocity, as a fluid cache stores it beside the density (`plume_blur.gltf`):
+/// a staggered Vec3 grid named `velocity` (Blender's name and Mantaflow's layout: component
+/// `a` of voxel `ijk` on its lower face along `a`), in grid units per second, over the voxels
+/// within two of the smoke. The smoke rises at up to 1.2 units a second along the column's
+/// axis, faster at its core, and swirls about the axis at 2.5 radians a second.
+fn plume_velocity(density: &GridSpec) -> GridSpec {
+    let voxel = 1.0 / 40.0;
+    let mut g = GridSpec::vec3("velocity", GridClass::Staggered, voxel as f64, [0.0; 3]);
+    let mut near = std::collections::BTreeSet::new();
+    for (c, _) in &density.voxels {
+        for d in 0..125 {
+            near.insert([c[0] + d % 5 - 2, c[1] + d / 5 % 5 - 2, c[2] + d / 25 - 2]);
+        }
+    }
+    let velocity = |p: [f32; 3]| -> [f32; 3] {
+        let h = ((p[1] + 1.0) * 0.5).clamp(0.0, 1.0);
+        let cx = 0.1 * (2.5 * p[1] + 0.5).sin() + 0.35 * h * h;
+        let cz = 0.07 * (3.0 * p[1]).cos();
+        let (x, z) = (p[0] - cx, p[2] - cz);
+        let radius = 0.06 + 0.45 * h;
+        let core = (-(x * x + z * z) / (radius * radius)).exp();
+        let omega = 2.5;
+        [-omega * z, 0.4 + 0.8 * core, omega * x]
+    };
+    let v = g.vectors.as_mut().unwrap();
+    for c in near {
+        let at = |a: usize| {
+            let mut p = c.map(|i| i as f32 * voxel);
+            p[a] -= 0.5 * voxel;
+            velocity(p)[a]
+        };
+        v.voxels.push((c, [at(0), at(1), at(2)]));
+    }
+    g.save_as_half = true;
+    g
+}
+
 /// A 128^3 block of constant density that OpenVDB stores as one upper-level tile, beside a
 /// ramp held in leaves: the case where leaf-only readers see an almost empty grid.
 fn tiles() -> GridSpec {
@@ -256,7 +293,10 @@ fn main() {
     write("smoke.vdb", &[smoke()]);
     write("fire.vdb", &fire());
     write("tiles.vdb", &[tiles()]);
-    write("plume.vdb", &[plume()]);
+    let plume = plume();
+    let velocity = plume_velocity(&plume);
+    write("plume_vel.vdb", &[plume.clone(), velocity]);
+    write("plume.vdb", &[plume]);
     let (smoke, flame) = fire2();
     write("fire2_smoke.vdb", &[smoke]);
     write("fire2_flame.vdb", &flame);

@@ -9,7 +9,8 @@
 - plume_sun.gltf, plume_sky.gltf: a thin procedural smoke plume (scenes/vdb/plume.vdb, optical
   depth across it of order 1-3) with albedo 0.9 (color 0.9, absorptionColor 0, so
   sigma_s = 0.9 d and sigma_a = 0.1 d), lit by a sun over a black background, or by a
-  constant sky alone.
+  constant sky alone. plume_blur.gltf: plume_sun with the plume's velocity grid
+  (scenes/vdb/plume_vel.vdb) and a half-frame shutter: velocity motion blur.
 - textured_backdrop.gltf: the cloud in front of a textured backdrop (base-colour texture,
   clamped), on a textured ground (repeat, KHR_texture_transform scale and rotation, nearest
   filter) beside an emissive sign (emissive texture), under a sun and a sky: textures/*.png
@@ -119,11 +120,14 @@ def chromatic_smoke():
 SUN_ROTATION = [-0.3303661, 0.2432103, 0.0885213, 0.9076734]  # as cloud.gltf
 
 
-def plume(name, sun, sky):
+def plume(name, sun, sky, blur=False):
     """The plume grid spans about [-1, 1]^3 (height along y); scale 2 makes it 4 m tall. Its
     column integral across the axis is 0.060 grid units at most and 0.039 at the median height
     (printed by make_grids), so with the node's scale 2 densityScale 20 gives optical depths
-    across the plume of about 1.6 (median) to 2.4 (largest): thin, as smoke from a chimney."""
+    across the plume of about 1.6 (median) to 2.4 (largest): thin, as smoke from a chimney.
+    With `blur`, the plume's velocity grid (scenes/vdb/plume_vel.vdb) at velocityScale 8 under
+    a half-frame shutter at 24 fps: the smoke moves by up to about 7 voxels either side of
+    the frame."""
     nodes = [
         {"name": "camera_node", "camera": 0, "translation": [0.0, 0.0, 9.0]},
         {"name": "plume", "scale": [2.0, 2.0, 2.0], "extensions": {"BRUME_medium_vdb": {
@@ -132,6 +136,12 @@ def plume(name, sun, sky):
     ]
     ext = {}
     used = ["BRUME_medium_vdb"]
+    if blur:
+        medium = nodes[1]["extensions"]["BRUME_medium_vdb"]
+        medium.update({"uri": "vdb/plume_vel.vdb", "velocityGrid": "velocity", "velocityScale": 8.0,
+                       "velocityUnit": "second"})
+        ext["BRUME_render"] = {"fps": 24, "shutter": {"open": -0.25, "close": 0.25}}
+        used.append("BRUME_render")
     if sun:
         nodes.append({"name": "sun", "rotation": SUN_ROTATION, "extensions": {"KHR_lights_punctual": {"light": 0}}})
         ext["KHR_lights_punctual"] = {"lights": [{"name": "sun", "type": "directional", "color": [1.0, 0.97, 0.9], "intensity": 3.0}]}
@@ -404,6 +414,7 @@ if __name__ == "__main__":
     chromatic_smoke()
     plume("plume_sun.gltf", sun=True, sky=False)
     plume("plume_sky.gltf", sun=False, sky=True)
+    plume("plume_blur.gltf", sun=True, sky=False, blur=True)
     dense_fog()
     textured_backdrop()
     fire2()

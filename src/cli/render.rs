@@ -34,6 +34,11 @@ pub struct RenderArgs {
     /// frame's files are checked before the first is rendered.
     #[arg(long, value_name = "A..B", value_parser = parse_frames, allow_hyphen_values = true, conflicts_with = "resume")]
     pub frames: Option<(i32, i32)>,
+    /// The shutter in frames around the frame's time, OPEN,CLOSE (such as -0.25,0.25):
+    /// each sample's time is uniform in it. Overrides the scene's BRUME_render shutter;
+    /// 0,0 renders without motion blur.
+    #[arg(long, value_name = "OPEN,CLOSE", value_parser = scene::Shutter::parse, allow_hyphen_values = true)]
+    pub shutter: Option<scene::Shutter>,
     /// Samples per pixel (default 16, or unlimited with --time).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -406,6 +411,7 @@ fn load_scene(args: &RenderArgs) -> Result<brume::scene::Scene> {
         &LoadOptions {
             camera: args.camera.clone(),
             frame: args.frame,
+            shutter: args.shutter,
         },
     )?;
     scene

@@ -194,7 +194,7 @@ pub fn sample_vdb<F: Features>(
     let cfg = f.cfg;
     if F::CHROM && (!m.grey || cfg.force_spectral) {
         let Flight { rng, stats, l, .. } = f;
-        let view = RgbView::<F>::new(m, ray, cfg.absorption, cfg.majorant, beta);
+        let view = RgbView::<F>::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta);
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let spectral = Spectral {
                 b: cfg.b(),
@@ -330,7 +330,14 @@ pub fn transmittance_vdb<F: Features>(
     };
     let tr = if F::CHROM && (!m.grey || cfg.force_spectral) {
         // Only sigma_t matters to a transmittance estimate.
-        let view = RgbView::<NoFeatures>::new(m, ray, Absorption::Event, cfg.majorant, Vec3::ONE);
+        let view = RgbView::<NoFeatures>::new(
+            m,
+            ray,
+            Absorption::Event,
+            cfg.majorant,
+            cfg.time,
+            Vec3::ONE,
+        );
         with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let spectral = Spectral {
                 b: cfg.b(),

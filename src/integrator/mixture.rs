@@ -334,7 +334,7 @@ fn sample_rgb<F: Features>(
     let views: Vec<RgbView<F>> = media
         .vdb
         .iter()
-        .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, beta))
+        .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta))
         .collect();
     let hom = media.hom.map(|h| {
         let (sigma_a, sigma_s) = match cfg.absorption {
@@ -393,7 +393,7 @@ fn sample_rgb<F: Features>(
             let mut s_true: Vec<Vec3> = Vec::with_capacity(mix.views.len() + 1);
             let mut s_view = Vec3::ZERO;
             for v in &mix.views {
-                let d = v.m.density.at_index(v.ray_i.at(t));
+                let d = v.density(t);
                 s_true.push(v.m.sigma_s * d);
                 s_view += v.sigma_s * d;
             }

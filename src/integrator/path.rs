@@ -16,7 +16,7 @@ use crate::render::lights::{emitted, power_heuristic};
 use crate::render::media::{MediaStats, TrackingConfig};
 use crate::render::prepare::{RenderScene, SurfaceKind};
 use crate::render::stack::MediumStack;
-use crate::sampling::sobol::{bounce_dim, DIM_DISTANCE, DIM_LOBE, DIM_RR, DIM_SCATTER};
+use crate::sampling::sobol::{bounce_dim, DIM_DISTANCE, DIM_LOBE, DIM_RR, DIM_SCATTER, DIM_TIME};
 use crate::sampling::warp::Frame;
 use crate::sampling::{Decision, Sampler};
 use crate::volume::phase::HenyeyGreenstein;
@@ -133,6 +133,15 @@ pub fn radiance<F: Features>(
     sampler: &mut Sampler,
     stats: &mut PathStats,
 ) -> Vec3 {
+    // A blurred scene's sample sees one instant of the shutter, drawn from its own dimension.
+    let timed;
+    let cfg = match rs.shutter {
+        Some(shutter) => {
+            timed = cfg.at_time(shutter.time(sampler.get1d(DIM_TIME)));
+            &timed
+        }
+        None => cfg,
+    };
     let mut ps = generate::<F>(rs, film, aspect);
     let start_collisions = collisions(&stats.media);
     loop {

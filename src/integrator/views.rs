@@ -11,7 +11,7 @@ use glam::Vec3;
 
 use super::features::Features;
 use crate::math::{per_channel_ratio, Ray};
-use crate::render::media::{TrackingConfig, VdbMedium};
+use crate::render::media::{TrackingConfig, VdbMedium, VelocityBlur};
 use crate::render::settings::{Absorption, MajorantMode};
 use crate::volume::tracking::{Coeffs, CoeffsRgb, ControlExtinction, Medium, MediumRgb};
 use crate::volume::{LeafCulling, VoxelCulling};
@@ -37,7 +37,37 @@ pub(super) struct GreyView<'a, F: Features, const ABS: bool> {
     pub(super) culling: Option<LeafCulling<'a>>,
     /// The per-voxel culling of the walk's kept collisions ([`VdbMedium::voxel_culling`]).
     pub(super) voxel: Option<VoxelCulling<'a>>,
+    pub(super) blur: Blur<'a>,
     features: PhantomData<F>,
+}
+
+/// A view's velocity blur: the medium's and the sample's time offset, where the medium is
+/// blurred and the time is not the frame's.
+#[derive(Clone, Copy)]
+pub(super) struct Blur<'a>(Option<(&'a VelocityBlur, f32)>);
+
+impl<'a> Blur<'a> {
+    fn of(m: &'a VdbMedium, time: f32) -> Self {
+        Blur(m.blur.as_deref().filter(|_| time != 0.0).map(|b| (b, time)))
+    }
+
+    /// The index point a lookup at `ray_i(t)` reads.
+    #[inline(always)]
+    fn index_point(&self, ray_i: &Ray, t: f32) -> Vec3 {
+        match self.0 {
+            None => ray_i.at(t),
+            Some((b, dt)) => b.source(ray_i.at(t), dt),
+        }
+    }
+
+    /// The world point an emission lookup at `ray_w(t)` (`ray_i(t)` in index space) reads.
+    #[inline(always)]
+    fn world_point(&self, ray_w: &Ray, ray_i: &Ray, t: f32) -> Vec3 {
+        match self.0 {
+            None => ray_w.at(t),
+            Some((b, dt)) => b.source_world(ray_i.at(t), dt),
+        }
+    }
 }
 
 impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
@@ -75,6 +105,7 @@ impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
             emission_lookups: Cell::new(0),
             culling: m.culling(cfg.majorant),
             voxel: m.voxel_culling(cfg.majorant),
+            blur: Blur::of(m, cfg.time),
             features: PhantomData,
         }
     }
@@ -92,7 +123,10 @@ impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
 impl<F: Features, const ABS: bool> Medium for GreyView<'_, F, ABS> {
     #[inline]
     fn coeffs(&self, t: f32) -> Coeffs {
-        let d = self.m.density.at_index(self.ray_i.at(t));
+        let d = self
+            .m
+            .density
+            .at_index(self.blur.index_point(&self.ray_i, t));
         Coeffs {
             sigma_a: if ABS { self.sigma_a * d } else { 0.0 },
             sigma_s: self.sigma_s * d,
@@ -118,7 +152,8 @@ impl<F: Features, const ABS: bool> Medium for GreyView<'_, F, ABS> {
     fn on_collision(&self, t: f32, sigma_maj: f32, w: f32) {
         if F::EMIT {
             if let Some(e) = &self.m.emission {
-                let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
+                let p = self.blur.world_point(&self.ray_w, &self.ray_i, t);
+                let le = e.radiance(p, &self.emission_lookups);
                 self.emitted
                     .set(self.emitted.get() + self.beta * (w / sigma_maj) * le);
             }
@@ -181,6 +216,7 @@ pub(super) struct RgbView<'a, F: Features> {
     pub(super) emission_lookups: Cell<u64>,
     /// As [`GreyView::culling`].
     pub(super) culling: Option<LeafCulling<'a>>,
+    pub(super) blur: Blur<'a>,
     features: PhantomData<F>,
 }
 
@@ -190,6 +226,7 @@ impl<'a, F: Features> RgbView<'a, F> {
         ray_w: &Ray,
         absorption: Absorption,
         majorant: MajorantMode,
+        time: f32,
         beta: Vec3,
     ) -> Self {
         let (sigma_a, sigma_s, scatter_albedo) = match absorption {
@@ -213,15 +250,26 @@ impl<'a, F: Features> RgbView<'a, F> {
             emitted: Cell::new(Vec3::ZERO),
             emission_lookups: Cell::new(0),
             culling: m.culling(majorant),
+            blur: Blur::of(m, time),
             features: PhantomData,
         }
+    }
+}
+
+impl<F: Features> RgbView<'_, F> {
+    /// The density a lookup at `ray_i(t)` reads (advected where the medium is blurred).
+    #[inline]
+    pub(super) fn density(&self, t: f32) -> f32 {
+        self.m
+            .density
+            .at_index(self.blur.index_point(&self.ray_i, t))
     }
 }
 
 impl<F: Features> MediumRgb for RgbView<'_, F> {
     #[inline]
     fn coeffs(&self, t: f32) -> CoeffsRgb {
-        let d = self.m.density.at_index(self.ray_i.at(t));
+        let d = self.density(t);
         CoeffsRgb {
             sigma_a: self.sigma_a * d,
             sigma_s: self.sigma_s * d,
@@ -237,7 +285,8 @@ impl<F: Features> MediumRgb for RgbView<'_, F> {
     fn on_collision(&self, t: f32, sigma_maj: f32, w: Vec3) {
         if F::EMIT {
             if let Some(e) = &self.m.emission {
-                let le = e.radiance(self.ray_w.at(t), &self.emission_lookups);
+                let p = self.blur.world_point(&self.ray_w, &self.ray_i, t);
+                let le = e.radiance(p, &self.emission_lookups);
                 self.emitted
                     .set(self.emitted.get() + self.beta * w * le / sigma_maj);
             }

@@ -11,7 +11,9 @@ use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, Shado
 use crate::math::Aabb;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{ControlExtinction, TrackingStats};
-use crate::volume::{AdaptiveMajorants, AdaptiveShape, LeafBounds, LeafCulling, VoxelCulling};
+use crate::volume::{
+    AdaptiveMajorants, AdaptiveShape, Advection, LeafBounds, LeafCulling, VoxelCulling,
+};
 
 pub use super::emission::{Blackbody, Emission, EmissionRegion, GridField};
 
@@ -62,6 +64,39 @@ pub struct VdbMedium {
     /// How its flights walk under each majorant mode ([`Self::walk`]), resolved once where the
     /// render is prepared ([`WalkPlan::of`]).
     pub walks: [WalkPlan; 4],
+    /// Velocity motion blur, where the medium has a velocity grid and the shutter is open: its
+    /// lookups are then advected, and [`Self::walk_bounds`] and `world_bounds` are dilated to
+    /// bound them over the whole shutter.
+    pub blur: Option<Arc<VelocityBlur>>,
+}
+
+/// A medium's velocity motion blur: a lookup at density index point `p` by a sample at time
+/// offset `dt` (frames from the frame) reads the density, emission and temperature at
+/// `advection.source(p, dt * factor)`.
+#[derive(Clone, Debug)]
+pub struct VelocityBlur {
+    pub advection: Advection,
+    /// Displacement per frame per unit of velocity (`scene::VelocityDesc::factor`).
+    pub factor: f32,
+    /// The density's `world_from_index`: where emission, read at world points, is looked up.
+    pub world_from_index: glam::Affine3A,
+}
+
+impl VelocityBlur {
+    /// The density index point read for `p_index` by a sample at time offset `dt`.
+    #[inline]
+    pub fn source(&self, p_index: Vec3, dt: f32) -> Vec3 {
+        self.advection
+            .source(p_index.as_dvec3(), dt as f64 * self.factor as f64)
+            .as_vec3()
+    }
+
+    /// The world point read for density index point `p_index` at time offset `dt`.
+    #[inline]
+    pub fn source_world(&self, p_index: Vec3, dt: f32) -> Vec3 {
+        self.world_from_index
+            .transform_point3(self.source(p_index, dt))
+    }
 }
 
 /// How one medium's flights walk its majorants under one majorant mode: resolved once per
@@ -218,9 +253,19 @@ pub struct TrackingConfig {
     pub shadow: ShadowEstimator,
     pub force_spectral: bool,
     pub absorption: Absorption,
+    /// The time offset, in frames from the frame's time, of the camera sample the flights
+    /// belong to ([`Self::at_time`]): what blurred media advect their lookups by. 0 without
+    /// a shutter.
+    pub time: f32,
 }
 
 impl TrackingConfig {
+    /// The same settings for the flights of a camera sample at time offset `time`.
+    #[inline]
+    pub fn at_time(&self, time: f32) -> TrackingConfig {
+        TrackingConfig { time, ..*self }
+    }
+
     /// The tracking part of a render's settings (the same for every backend).
     pub fn from_settings(s: &RenderSettings) -> Self {
         TrackingConfig {
@@ -231,6 +276,7 @@ impl TrackingConfig {
             shadow: s.shadow,
             force_spectral: s.force_spectral,
             absorption: s.absorption,
+            time: 0.0,
         }
     }
 

@@ -6,14 +6,15 @@ use glam::{Affine3A, Mat4, Vec3};
 use super::lights::Lights;
 use super::media::{
     Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
-    WalkPlan,
+    VelocityBlur, WalkPlan,
 };
 use super::settings::RenderSettings;
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
+use crate::math::Aabb;
 use crate::scene::nesting::Nesting;
-use crate::scene::{Material, Pinhole, Scene, VdbMediumDesc};
+use crate::scene::{Material, Pinhole, Scene, Shutter, VdbMediumDesc};
 use crate::volume::phase::HenyeyGreenstein;
-use crate::volume::{AdaptiveMajorants, CostModel};
+use crate::volume::{AdaptiveMajorants, Advection, CostModel};
 use std::sync::Arc;
 
 /// How a surface interacts with light.
@@ -143,6 +144,9 @@ pub struct RenderScene<'s> {
     pub features: FeatureFlags,
     /// The scene camera's primary-ray frame, derived once (`Camera::pinhole`).
     pub pinhole: Pinhole,
+    /// The shutter camera samples draw their time over, where some medium is blurred
+    /// ([`VdbMedium::blur`]); `None`: every sample sees the frame's instant.
+    pub shutter: Option<Shutter>,
 }
 
 fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
@@ -177,8 +181,9 @@ impl<'s> RenderScene<'s> {
             .vdb_media
             .iter()
             .filter(|desc| desc.rendered())
-            .map(vdb_medium)
-            .collect();
+            .map(|desc| vdb_medium(desc, scene.shutter, scene.fps))
+            .collect::<Result<_, _>>()
+            .map_err(|why| format!("{file}: {why}"))?;
         let homogeneous: Vec<HomogeneousMedium> = scene
             .homogeneous_media
             .iter()
@@ -247,6 +252,10 @@ impl<'s> RenderScene<'s> {
             env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
             ..features
         };
+        let shutter = vdb
+            .iter()
+            .any(|m| m.blur.is_some())
+            .then_some(scene.shutter);
         Ok(RenderScene {
             scene,
             vdb,
@@ -258,13 +267,15 @@ impl<'s> RenderScene<'s> {
             nesting_depth: nesting.deepest().map_or(0, |m| m.depth),
             features,
             pinhole: scene.camera.pinhole(),
+            shutter,
         })
     }
 }
 
 /// One `BRUME_medium_vdb` medium ready to track: its density field, coefficients, emission,
-/// the bounds its walks take, its adaptive hierarchy, culling tables and walk plans.
-fn vdb_medium(desc: &VdbMediumDesc) -> VdbMedium {
+/// the bounds its walks take, its adaptive hierarchy, culling tables and walk plans, and its
+/// velocity blur under `shutter` at `fps`.
+fn vdb_medium(desc: &VdbMediumDesc, shutter: Shutter, fps: f32) -> Result<VdbMedium, String> {
     let density = &desc.grids[0];
     let world_from_node = desc.world_from_medium * density.vdb_world_from_index.inverse();
     let mut density = field(density, world_from_node);
@@ -294,22 +305,32 @@ fn vdb_medium(desc: &VdbMediumDesc) -> VdbMedium {
     };
     let per_t = index_per_t(&density);
     // An emitting medium's walks sample wherever it may emit, density or not.
-    let walk_bounds = emission.as_ref().and_then(|e| {
+    let mut walk_bounds = emission.as_ref().and_then(|e| {
         super::emission_bounds::walk_bounds(&density, e, sigma_t_bound, per_t).map(Arc::new)
     });
+    let mut world_bounds = desc.world_bounds;
+    let blur = velocity_blur(desc, &density, shutter, fps);
+    if let Some(blur) = &blur {
+        let bounds = walk_bounds.as_deref().unwrap_or(&density.grid.bounds);
+        let dilated = blurred_bounds(desc, &density, bounds, blur, shutter)?;
+        world_bounds = world_bounds.union(&cell_box_in_world(&density, &dilated));
+        walk_bounds = Some(Arc::new(dilated));
+    }
     let bounds = walk_bounds.as_deref().unwrap_or(&density.grid.bounds);
     let adaptive = Arc::new(AdaptiveMajorants::build(bounds, sigma_t_bound, per_t, cost));
     // The per-voxel stage where the collisions it culls save more lookups than its
-    // reads cost (`voxel_bounds::voxel_culling_pays`).
-    let kept = crate::volume::voxel_bounds::kept_fraction(&density.grid.grid, bounds);
-    let voxel_culling_pays =
-        crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64);
+    // reads cost (`voxel_bounds::voxel_culling_pays`); the dilated bounds of a blurred medium
+    // have no per-voxel table.
+    let voxel_culling_pays = blur.is_none() && {
+        let kept = crate::volume::voxel_bounds::kept_fraction(&density.grid.grid, bounds);
+        crate::volume::voxel_bounds::voxel_culling_pays(kept, 1.0 + emission_reads as f64)
+    };
     let culling_sound = CullingSound::of(bounds, &density.grid.grid.cells, sigma_t_bound);
     let mut medium = VdbMedium {
         culling_sound,
         voxel_culling_pays,
         density,
-        world_bounds: desc.world_bounds,
+        world_bounds,
         sigma_a,
         sigma_s,
         sigma_t_bound,
@@ -319,9 +340,67 @@ fn vdb_medium(desc: &VdbMediumDesc) -> VdbMedium {
         emission,
         walk_bounds,
         walks: [WalkPlan::UNPLANNED; 4],
+        blur: blur.map(Arc::new),
     };
     medium.plan_walks();
-    medium
+    Ok(medium)
+}
+
+/// The medium's velocity blur under `shutter` at `fps`: `None` without a velocity grid, with
+/// the shutter closed or a zero velocity factor (the medium then renders as without blur).
+fn velocity_blur(
+    desc: &VdbMediumDesc,
+    density: &GridField,
+    shutter: Shutter,
+    fps: f32,
+) -> Option<VelocityBlur> {
+    let velocity = desc.velocity.as_ref()?;
+    let factor = velocity.factor(shutter, fps);
+    (factor != 0.0).then(|| VelocityBlur {
+        advection: Advection::new(
+            velocity.grid.clone(),
+            desc.grids[0].volume.grid.world_from_index,
+        ),
+        factor,
+        world_from_index: density.index_from_world.inverse(),
+    })
+}
+
+/// `bounds` dilated to bound every lookup `blur` makes over `shutter`
+/// (`volume::motion::advected_bounds`), refused where the dilation is unbounded or too large.
+fn blurred_bounds(
+    desc: &VdbMediumDesc,
+    density: &GridField,
+    bounds: &crate::volume::LeafBounds,
+    blur: &VelocityBlur,
+    shutter: Shutter,
+) -> Result<crate::volume::LeafBounds, String> {
+    let k_max = shutter.max_offset() as f64 * blur.factor.abs() as f64;
+    let outside = crate::volume::CellBounds::point(density.grid.grid.background.max(0.0));
+    crate::volume::motion::advected_bounds(
+        bounds,
+        outside,
+        &blur.advection,
+        k_max,
+        crate::volume::DEFAULT_MAX_CELLS,
+    )
+    .ok_or_else(|| {
+        format!(
+            "{}: the velocity grid {:?} moves the medium by up to {:.0} voxels over the \
+             shutter, more than its bounds can be dilated by; lower velocityScale or the shutter",
+            desc.pointer,
+            desc.velocity.as_ref().map_or("", |v| v.grid_name.as_str()),
+            k_max * blur.advection.max_speed()
+        )
+    })
+}
+
+/// The world box of `bounds`' cell box in `density`'s index space.
+fn cell_box_in_world(density: &GridField, bounds: &crate::volume::LeafBounds) -> Aabb {
+    let lo = Vec3::from_array(bounds.cell_origin.map(|c| c as f32 * 8.0));
+    let hi = lo + Vec3::from_array(bounds.dims.map(|d| d as f32 * 8.0));
+    let world_from_index = Mat4::from(density.index_from_world.inverse());
+    crate::scene::media::transform_aabb(&world_from_index, &Aabb::new(lo, hi))
 }
 
 /// The medium's emission (a colour, an emission grid, a blackbody temperature), limited to

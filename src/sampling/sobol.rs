@@ -49,6 +49,7 @@
 //! 1 + 6d + 3       1D       lobe choice: BSDF lobe, or dielectric Fresnel reflect/refract
 //! 1 + 6d + 4       2D       phase / BSDF direction sample
 //! 1 + 6d + 5       1D       Russian roulette
+//! 2^32 - 1         1D       the camera sample's time in the shutter (motion blur only)
 //! ```
 //!
 //! The free-flight loops (delta, ratio and decomposition tracking) draw an unbounded number of
@@ -73,6 +74,9 @@ pub const SOBOL_SALT: u32 = 0x5EED_50B0;
 
 /// Dimension block of the pixel jitter.
 pub const DIM_JITTER: u32 = 0;
+/// Dimension block of the camera sample's time: the last block, which no bounce reaches
+/// (padded blocks are independent, so its place costs nothing).
+pub const DIM_TIME: u32 = u32::MAX;
 /// Blocks per bounce (see the layout table in the module docs).
 pub const DIMS_PER_BOUNCE: u32 = 6;
 /// Offsets of the per-bounce blocks.

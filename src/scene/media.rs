@@ -137,6 +137,8 @@ pub struct VdbMediumDesc {
     pub node: usize,
     /// JSON pointer of the extension object, for later errors.
     pub pointer: String,
+    /// The velocity grid and its scaling (`velocityGrid`), for velocity motion blur.
+    pub velocity: Option<super::velocity::VelocityDesc>,
 }
 
 impl VdbMediumDesc {
@@ -226,6 +228,9 @@ pub const FIELDS: &[&str] = &[
     "temperatureScale",
     "temperatureOffset",
     "mesh",
+    "velocityGrid",
+    "velocityScale",
+    "velocityUnit",
 ];
 
 /// Reads `BRUME_medium_vdb` from every placed node and loads its grids through [`load_grid`],
@@ -282,6 +287,7 @@ pub fn read_vdb_media(
             grids: Vec::new(),
             node: placed.node,
             pointer: obj.pointer.clone(),
+            velocity: None,
         };
         if let Some(m) = desc.bounding_mesh {
             if m >= doc.meshes().len() {
@@ -299,6 +305,7 @@ pub fn read_vdb_media(
         }
 
         load_grids(ctx, &obj, &mut desc, &file, frame)?;
+        desc.velocity = super::velocity::read_velocity(ctx, &obj, &desc.vdb_path)?;
         check_temperature_range(ctx, &obj, &desc)?;
         check_emission_range(ctx, &obj, &desc)?;
         widen_density_to_emission(ctx, &obj, &mut desc);

@@ -39,6 +39,7 @@ pub mod render_settings;
 pub mod sequence;
 mod summary;
 pub mod texture;
+pub mod velocity;
 
 use std::path::{Path, PathBuf};
 
@@ -58,6 +59,7 @@ pub use texture::{TextureImage, TextureRef};
 
 use crate::accel::TriangleBvh;
 use crate::math::{Aabb, Ray};
+pub use velocity::{Shutter, VelocityDesc, VelocityUnit};
 
 /// "No such element" in the `u32` index fields of GPU structs.
 pub const NO_INDEX: u32 = u32::MAX;
@@ -80,6 +82,8 @@ pub struct LoadOptions {
     /// The frame whose files a sequence (a `uri` with a run of `#`) reads; default: the
     /// scene's `BRUME_render.frame`, else 1.
     pub frame: Option<i32>,
+    /// The shutter, overriding the scene's `BRUME_render.shutter` (closed by default).
+    pub shutter: Option<Shutter>,
 }
 
 /// A loaded scene. Everything is in world space, metres, linear RGB.
@@ -118,6 +122,8 @@ pub struct Scene {
     pub frame: i32,
     /// Frames per second: the frame is time `frame / fps` of the file's animations.
     pub fps: f32,
+    /// The shutter each camera sample's time is drawn over ([`LoadOptions::shutter`]).
+    pub shutter: Shutter,
     /// Nodes the file's animations move.
     pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
@@ -137,6 +143,10 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let render = render_settings::read_render_settings(&mut ctx, doc)?;
     let frame = options.frame.or(render.frame).unwrap_or(1);
     let fps = render.fps.unwrap_or(DEFAULT_FPS);
+    let shutter = options
+        .shutter
+        .or(render.shutter)
+        .unwrap_or(Shutter::CLOSED);
     let animations = animation::read_animations(&mut ctx, doc, &loaded.buffers)?;
     let pose = animations.pose(frame as f32 / fps);
     let nodes = nodes::place_nodes(&mut ctx, doc, &pose)?;
@@ -199,6 +209,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         render,
         frame,
         fps,
+        shutter,
         animated_nodes: pose.len(),
         warnings: ctx.warnings,
     };

@@ -6,7 +6,8 @@
 //! "extensions": { "BRUME_render": {
 //!     "estimator": "weighted-delta", "b": 0.75, "m": 0.02, "majorant": "local",
 //!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0,
-//!     "sampler": "sobol", "frame": 1, "fps": 24 } }
+//!     "sampler": "sobol", "frame": 1, "fps": 24,
+//!     "shutter": { "open": -0.25, "close": 0.25 } } }
 //! ```
 use super::error::{Ctx, SceneError};
 use super::json::Obj;
@@ -34,6 +35,8 @@ pub struct SceneRenderSettings {
     pub frame: Option<i32>,
     /// Frames per second: frame `f` is time `f / fps` of the file's animations.
     pub fps: Option<f32>,
+    /// The shutter, `{ "open": -0.25, "close": 0.25 }` in frames around the frame's time.
+    pub shutter: Option<super::velocity::Shutter>,
 }
 
 const ESTIMATORS: [&str; 4] = [
@@ -66,6 +69,7 @@ pub fn read_render_settings(
             "sampler",
             "frame",
             "fps",
+            "shutter",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -108,5 +112,20 @@ pub fn read_render_settings(
         sampler: choice(ctx, "sampler", &["sobol", "independent"])?,
         frame: whole(ctx, "frame", -1e6, 1e6)?.map(|f| f as i32),
         fps: number(ctx, "fps", 0.0, 1e6, true)?,
+        shutter: read_shutter(ctx, &obj)?,
     })
+}
+
+/// `shutter`: `open` and `close` in frames around the frame's time, `open <= close`.
+fn read_shutter(ctx: &mut Ctx, obj: &Obj) -> Result<Option<super::velocity::Shutter>, SceneError> {
+    let Some(value) = obj.map.get("shutter") else {
+        return Ok(None);
+    };
+    let s = Obj::new(ctx, value, obj.at("shutter"))?;
+    s.warn_unknown(ctx, &["open", "close"]);
+    let open = s.number(ctx, "open", -0.25, -1e4, 1e4, false)?;
+    let close = s.number(ctx, "close", 0.25, -1e4, 1e4, false)?;
+    super::velocity::Shutter::new(open, close)
+        .map(Some)
+        .map_err(|why| ctx.invalid(obj.at("shutter"), why))
 }

@@ -117,6 +117,13 @@ fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
             s.frame, s.fps, s.animated_nodes
         )?;
     }
+    if s.shutter.is_open() {
+        writeln!(
+            o,
+            "shutter: {} to {} frames around the frame ({} fps)",
+            s.shutter.open, s.shutter.close, s.fps
+        )?;
+    }
     writeln!(
         o,
         "media: {} homogeneous, {} VDB",
@@ -144,6 +151,32 @@ fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
             m.world_bounds,
             m.bounds_source
         )?;
+        if let Some(v) = &m.velocity {
+            let g = &v.grid;
+            let factor = v.factor(s.shutter, s.fps);
+            let blur = if factor == 0.0 {
+                "no blur (shutter closed or scale 0)".to_string()
+            } else {
+                format!(
+                    "blur up to {:.1} voxels from the frame",
+                    g.max_index_speed() * (factor * s.shutter.max_offset()) as f64
+                )
+            };
+            writeln!(
+                o,
+                "    velocity {:?} ({}, per {}, scale {}): max speed {:.4} per {}, {blur}",
+                v.grid_name,
+                if g.staggered {
+                    "staggered"
+                } else {
+                    "cell-centred"
+                },
+                v.unit.name(),
+                v.scale,
+                g.speed.max_speed(),
+                v.unit.name()
+            )?;
+        }
     }
     Ok(())
 }

@@ -132,3 +132,12 @@ pub fn load_scene_grid(path: &Path, grid_name: &str) -> Result<LoadedGrid, GridL
         LoadError::Volume { source, .. } => GridLoadError::Grid(source.to_string()),
     })
 }
+
+/// As [`load_scene_grid`] for a Vec3 grid (a medium's velocity).
+pub fn load_scene_vector_grid(path: &Path, grid_name: &str) -> Result<VectorGrid, GridLoadError> {
+    let file = VdbFile::open(path).map_err(|e| GridLoadError::File(e.message))?;
+    load_vector_grid_from(&file, grid_name, ConversionPolicy::default()).map_err(|e| match e {
+        LoadError::Vdb(e) => GridLoadError::Grid(e.message),
+        LoadError::Volume { source, .. } => GridLoadError::Grid(source.to_string()),
+    })
+}

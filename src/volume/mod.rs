@@ -4,6 +4,7 @@
 //! [`FloatGridData`](brume_ffi::FloatGridData) --[`SparseGrid::from_vdb`]--> [`SparseGrid`]
 //! --[`LeafBounds::build`]--> [`LeafBounds`] --[`DdaMajorantIterator`]--> [`MajorantSegment`]s.
 pub mod adaptive;
+pub mod advection;
 pub mod bounds;
 pub mod check;
 pub mod convert;
@@ -23,6 +24,7 @@ pub mod vector;
 pub mod voxel_bounds;
 
 pub use adaptive::{AdaptiveMajorantIterator, AdaptiveMajorants, AdaptiveShape, AdaptiveStats};
+pub use advection::Advection;
 pub use bounds::{BoundsStats, CellBounds, LeafBounds};
 pub use convert::{dense_to_vdb, synthetic_info, ConversionPolicy, ConversionReport};
 pub use cost::CostModel;
@@ -37,6 +39,6 @@ pub use vector::VectorGrid;
 pub mod load;
 pub mod mitsuba_vol;
 pub use load::{
-    load_grid, load_grid_from, load_scene_grid, load_vector_grid_from, GridLoadError, LoadError,
-    LoadedGrid,
+    load_grid, load_grid_from, load_scene_grid, load_scene_vector_grid, load_vector_grid_from,
+    GridLoadError, LoadError, LoadedGrid,
 };

@@ -10,7 +10,38 @@
 //! minorant, with no statistical guess of the velocity.
 use rayon::prelude::*;
 
+use super::advection::Advection;
 use super::bounds::{CellBounds, LeafBounds, CELL_WIDTH};
+use crate::math::DVec3;
+
+/// `bounds` dilated for lookups advected along `adv` at factors `|k| <= k_max`
+/// ([`Advection::source`]): each cell's radius is [`Advection::radius`] over the cell, so
+/// the result bounds every value a blurred lookup made from the cell reads. `outside` stands
+/// for the cells beyond `bounds`' box. `None` where the velocity is unbounded (an infinite
+/// speed or factor) or the dilated box would exceed `max_cells` cells.
+pub fn advected_bounds(
+    bounds: &LeafBounds,
+    outside: CellBounds,
+    adv: &Advection,
+    k_max: f64,
+    max_cells: u64,
+) -> Option<LeafBounds> {
+    let reach = k_max * adv.max_speed();
+    if !reach.is_finite() {
+        return None;
+    }
+    // Covers the largest radius of any cell, the background's included.
+    let grow = (reach / CELL_WIDTH as f64).ceil() as u64 + 1;
+    let cells: u64 = bounds.dims.iter().map(|&d| d as u64 + 2 * grow).product();
+    if grow > u32::MAX as u64 / 4 || cells > max_cells {
+        return None;
+    }
+    let w = CELL_WIDTH as f64;
+    Some(dilated_bounds(bounds, outside, grow as u32, |c| {
+        let lo = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * w;
+        adv.radius(lo, lo + DVec3::splat(w), k_max)
+    }))
+}
 
 /// `bounds` dilated for advection, over its cell box grown by `grow` cells on every side. Cell
 /// `c` of the result (absolute cell coordinates) holds the union of the bounds of the cells

@@ -1,5 +1,6 @@
 //! Helpers shared by the integration tests: synthetic grids and statistics.
 #![allow(dead_code, unused_imports)]
+pub mod blur;
 pub mod boxes;
 pub mod cli;
 pub mod culled;

@@ -12,6 +12,7 @@ mod envmap;
 mod light_selection;
 mod media_nested;
 mod media_overlap;
+mod motion_blur;
 mod render_agreement;
 mod render_furnace;
 mod sampling_phase;

@@ -138,6 +138,13 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
             rs.vdb.len()
         ));
     }
+    if rs.shutter.is_some() {
+        return Err(
+            "velocity motion blur (a medium with a velocityGrid under an open shutter) renders \
+             on the CPU backend only; --shutter 0,0 renders the frame without it"
+                .into(),
+        );
+    }
     if rs.scene.triangles.len() >= crate::scene::NO_INDEX as usize {
         return Err(format!(
             "{} triangles; the GPU integrator indexes fewer than 2^32",
