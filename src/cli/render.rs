@@ -31,9 +31,10 @@ pub struct RenderArgs {
     #[arg(long, allow_hyphen_values = true, conflicts_with = "frames")]
     pub frame: Option<i32>,
     /// Render frames A..B (both included) one after another, each as with --frame; every
-    /// frame's files are checked before the first is rendered.
-    #[arg(long, value_name = "A..B", value_parser = parse_frames, allow_hyphen_values = true, conflicts_with = "resume")]
-    pub frames: Option<(i32, i32)>,
+    /// frame's files are checked before the first is rendered. `scene`: the scene's
+    /// BRUME_render frameRange.
+    #[arg(long, value_name = "A..B", value_parser = scene::sequence::FrameChoice::parse, allow_hyphen_values = true, conflicts_with = "resume")]
+    pub frames: Option<scene::sequence::FrameChoice>,
     /// The shutter in frames around the frame's time, OPEN,CLOSE (such as -0.25,0.25):
     /// each sample's time is uniform in it. Overrides the scene's BRUME_render shutter;
     /// 0,0 renders without motion blur.
@@ -223,10 +224,6 @@ impl RenderArgs {
     }
 }
 
-fn parse_frames(s: &str) -> Result<(i32, i32), String> {
-    scene::sequence::parse_frames(s)
-}
-
 fn parse_samples(s: &str) -> Result<(u32, u32), String> {
     brume::farm::parse_range(s)
 }
@@ -275,7 +272,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             ..args.clone()
         });
     }
-    if let Some((a, b)) = args.frames {
+    if let Some(frames) = args.frames {
+        let (a, b) = frames.resolve(&args.scene)?;
         return render_frames(args, a, b);
     }
     let scene = load_scene(args)?;

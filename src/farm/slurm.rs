@@ -37,9 +37,10 @@ pub struct SlurmArgs {
     #[arg(long)]
     pub tasks: u32,
     /// Frames A..B (both included) of a sequence: --tasks array tasks per frame, and one merged
-    /// image per frame, at --output with its run of `#` replaced by the frame.
-    #[arg(long, value_name = "A..B", value_parser = crate::scene::sequence::parse_frames, allow_hyphen_values = true)]
-    pub frames: Option<(i32, i32)>,
+    /// image per frame, at --output with its run of `#` replaced by the frame. `scene`: the
+    /// scene's BRUME_render frameRange.
+    #[arg(long, value_name = "A..B", value_parser = crate::scene::sequence::FrameChoice::parse, allow_hyphen_values = true)]
+    pub frames: Option<sequence::FrameChoice>,
     /// Slurm partition (default: the cluster's default).
     #[arg(long)]
     pub partition: Option<String>,
@@ -143,8 +144,9 @@ impl<'a> Plan<'a> {
             bail!("{}: no such scene file", scene.display());
         }
         let output = absolute(&args.output)?;
-        let frames: Vec<i32> = args.frames.map_or(Vec::new(), |(a, b)| (a..=b).collect());
-        if let Some((a, b)) = args.frames {
+        let range = args.frames.map(|f| f.resolve(&scene)).transpose()?;
+        let frames: Vec<i32> = range.map_or(Vec::new(), |(a, b)| (a..=b).collect());
+        if let Some((a, b)) = range {
             let name = output
                 .file_name()
                 .and_then(|n| n.to_str())
@@ -402,7 +404,13 @@ fn slurm(args: &SlurmArgs) -> Result<()> {
     let files = write_scripts(args)?;
     let render = files.render.display().to_string();
     let merge = files.merge.display().to_string();
-    let frames = args.frames.map_or(1, |(a, b)| (b - a + 1) as u32);
+    let frames = match args.frames {
+        Some(f) => {
+            let (a, b) = f.resolve(&args.scene)?;
+            (b - a + 1) as u32
+        }
+        None => 1,
+    };
     let tasks = frames * args.tasks;
     println!(
         "wrote {} ({tasks} tasks, {} CPUs each) and {}",

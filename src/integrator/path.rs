@@ -142,7 +142,7 @@ pub fn radiance<F: Features>(
         }
         None => cfg,
     };
-    let mut ps = generate::<F>(rs, film, aspect);
+    let mut ps = generate::<F>(rs, film, aspect, cfg.time);
     let start_collisions = collisions(&stats.media);
     loop {
         let hit = intersect::<F>(rs, &ps);
@@ -192,10 +192,17 @@ pub fn radiance<F: Features>(
     ps.l
 }
 
-/// The camera ray through `film` and the path's starting state (`Stage::Generate`).
+/// The camera ray through `film` at time offset `time` and the path's starting state
+/// (`Stage::Generate`).
 #[inline(always)]
-fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32) -> PathState {
-    let (ray, t0) = rs.pinhole.primary_ray(film.x, film.y, aspect);
+fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -> PathState {
+    let (ray, t0) = match &rs.scene.camera_motion {
+        None => rs.pinhole.primary_ray(film.x, film.y, aspect),
+        Some(motion) => rs
+            .pinhole
+            .posed(motion.world_from_camera(time))
+            .primary_ray(film.x, film.y, aspect),
+    };
     PathState {
         ray,
         t0,

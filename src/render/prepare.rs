@@ -145,7 +145,8 @@ pub struct RenderScene<'s> {
     /// The scene camera's primary-ray frame, derived once (`Camera::pinhole`).
     pub pinhole: Pinhole,
     /// The shutter camera samples draw their time over, where some medium is blurred
-    /// ([`VdbMedium::blur`]); `None`: every sample sees the frame's instant.
+    /// ([`VdbMedium::blur`]) or the camera moves (`Scene::camera_motion`); `None`: every
+    /// sample sees the frame's instant.
     pub shutter: Option<Shutter>,
 }
 
@@ -252,10 +253,8 @@ impl<'s> RenderScene<'s> {
             env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
             ..features
         };
-        let shutter = vdb
-            .iter()
-            .any(|m| m.blur.is_some())
-            .then_some(scene.shutter);
+        let moves = vdb.iter().any(|m| m.blur.is_some()) || scene.camera_motion.is_some();
+        let shutter = moves.then_some(scene.shutter);
         Ok(RenderScene {
             scene,
             vdb,

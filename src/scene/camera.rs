@@ -103,6 +103,17 @@ pub struct Pinhole {
 }
 
 impl Pinhole {
+    /// The same lens at another rigid pose (a moving camera at one sample's time).
+    #[inline]
+    pub fn posed(&self, world_from_camera: Mat4) -> Pinhole {
+        Pinhole {
+            world_from_camera,
+            position: world_from_camera.transform_point3(Vec3::ZERO),
+            forward: world_from_camera.transform_vector3(Vec3::NEG_Z).normalize(),
+            ..*self
+        }
+    }
+
     /// [`Camera::generate_ray`].
     #[inline]
     pub fn generate_ray(&self, x: f32, y: f32, aspect: f32) -> Ray {

@@ -231,6 +231,7 @@ pub const FIELDS: &[&str] = &[
     "velocityGrid",
     "velocityScale",
     "velocityUnit",
+    "frameOffset",
 ];
 
 /// Reads `BRUME_medium_vdb` from every placed node and loads its grids through [`load_grid`],
@@ -258,7 +259,21 @@ pub fn read_vdb_media(
         let uri = obj
             .string(ctx, "uri")?
             .ok_or_else(|| ctx.invalid(obj.at("uri"), "missing: the .vdb file to read"))?;
-        let file = sequence::for_frame(&uri, frame);
+        let offset = obj.number(ctx, "frameOffset", 0.0, -1e6, 1e6, false)?;
+        if offset.fract() != 0.0 {
+            return Err(ctx.invalid(
+                obj.at("frameOffset"),
+                format!("expected a whole number of frames, got {offset}"),
+            ));
+        }
+        if offset != 0.0 && !sequence::is_sequence(&uri) {
+            ctx.warn(
+                obj.at("frameOffset"),
+                "the uri names one file (no run of #): no effect",
+            );
+        }
+        // The file of a sequence is frame + frameOffset: Blender's sequence start and offset.
+        let file = sequence::for_frame(&uri, frame + offset as i32);
         let path = super::document::resolve_uri(ctx, &file, base, &obj.at("uri"))?;
         let vdb_path = std::path::absolute(&path).unwrap_or(path);
         let max = f32::MAX;

@@ -24,6 +24,7 @@ mod accessor;
 pub mod animation;
 pub mod bare_vdb;
 pub mod camera;
+pub mod camera_motion;
 mod document;
 pub mod effects;
 pub mod envmap;
@@ -124,6 +125,9 @@ pub struct Scene {
     pub fps: f32,
     /// The shutter each camera sample's time is drawn over ([`LoadOptions::shutter`]).
     pub shutter: Shutter,
+    /// The camera's poses across the shutter where an animation moves it during the shutter
+    /// (transformation motion blur); `None`: the camera stands still.
+    pub camera_motion: Option<camera_motion::CameraMotion>,
     /// Nodes the file's animations move.
     pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
@@ -178,6 +182,16 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         bounds = bounds.union(&m.world_bounds);
     }
     let camera = camera::choose_camera(&mut ctx, doc, &nodes, options.camera.as_deref(), &bounds)?;
+    let camera_motion = camera_motion::camera_motion(
+        path,
+        doc,
+        &animations,
+        options.camera.as_deref(),
+        &bounds,
+        frame,
+        fps,
+        shutter,
+    )?;
 
     let corners = geo
         .triangles
@@ -210,6 +224,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         frame,
         fps,
         shutter,
+        camera_motion,
         animated_nodes: pose.len(),
         warnings: ctx.warnings,
     };

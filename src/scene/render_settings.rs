@@ -7,7 +7,7 @@
 //!     "estimator": "weighted-delta", "b": 0.75, "m": 0.02, "majorant": "local",
 //!     "spp": 64, "width": 320, "height": 240, "maxDepth": 256, "seed": 0,
 //!     "sampler": "sobol", "frame": 1, "fps": 24,
-//!     "shutter": { "open": -0.25, "close": 0.25 } } }
+//!     "frameRange": [1, 240], "shutter": { "open": -0.25, "close": 0.25 } } }
 //! ```
 use super::error::{Ctx, SceneError};
 use super::json::Obj;
@@ -35,6 +35,8 @@ pub struct SceneRenderSettings {
     pub frame: Option<i32>,
     /// Frames per second: frame `f` is time `f / fps` of the file's animations.
     pub fps: Option<f32>,
+    /// The shot's frames, `[first, last]` (both included): what `--frames scene` renders.
+    pub frame_range: Option<(i32, i32)>,
     /// The shutter, `{ "open": -0.25, "close": 0.25 }` in frames around the frame's time.
     pub shutter: Option<super::velocity::Shutter>,
 }
@@ -70,6 +72,7 @@ pub fn read_render_settings(
             "frame",
             "fps",
             "shutter",
+            "frameRange",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -113,7 +116,33 @@ pub fn read_render_settings(
         frame: whole(ctx, "frame", -1e6, 1e6)?.map(|f| f as i32),
         fps: number(ctx, "fps", 0.0, 1e6, true)?,
         shutter: read_shutter(ctx, &obj)?,
+        frame_range: read_frame_range(ctx, &obj)?,
     })
+}
+
+/// `frameRange`: `[first, last]`, whole numbers, `first <= last`.
+fn read_frame_range(ctx: &Ctx, obj: &Obj) -> Result<Option<(i32, i32)>, SceneError> {
+    let Some(value) = obj.map.get("frameRange") else {
+        return Ok(None);
+    };
+    let bad = || {
+        ctx.invalid(
+            obj.at("frameRange"),
+            "expected [first, last]: two whole frame numbers, first <= last",
+        )
+    };
+    let frame = |v: &serde_json::Value| {
+        v.as_i64()
+            .filter(|f| f.abs() <= 1_000_000)
+            .map(|f| f as i32)
+    };
+    match value.as_array().map(|a| a.as_slice()) {
+        Some([a, b]) => match (frame(a), frame(b)) {
+            (Some(a), Some(b)) if a <= b => Ok(Some((a, b))),
+            _ => Err(bad()),
+        },
+        _ => Err(bad()),
+    }
 }
 
 /// `shutter`: `open` and `close` in frames around the frame's time, `open <= close`.

@@ -13,6 +13,9 @@ pub fn hash_run(s: &str) -> Option<(usize, usize)> {
     Some((start, end - start))
 }
 
+/// Largest `|frameOffset|` of a medium sequence.
+pub const MAX_FRAME_OFFSET: i64 = 1_000_000;
+
 /// Whether `s` names a sequence (holds a `#`).
 pub fn is_sequence(s: &str) -> bool {
     hash_run(s).is_some()
@@ -31,6 +34,43 @@ pub fn path_for_frame(path: &Path, frame: i32) -> PathBuf {
     match path.file_name().and_then(|n| n.to_str()) {
         Some(name) if is_sequence(name) => path.with_file_name(for_frame(name, frame)),
         _ => path.to_path_buf(),
+    }
+}
+
+/// What `--frames` asks for: frames `A..B`, or the scene's own `BRUME_render.frameRange`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameChoice {
+    Range(i32, i32),
+    Scene,
+}
+
+impl FrameChoice {
+    /// `A..B`, `N`, or `scene`.
+    pub fn parse(s: &str) -> Result<FrameChoice, String> {
+        if s.trim() == "scene" {
+            return Ok(FrameChoice::Scene);
+        }
+        parse_frames(s)
+            .map(|(a, b)| FrameChoice::Range(a, b))
+            .map_err(|e| format!("{e}, or scene (the scene's BRUME_render frameRange)"))
+    }
+
+    /// The frames asked for, reading the scene at `path` for [`FrameChoice::Scene`].
+    pub fn resolve(self, path: &Path) -> Result<(i32, i32), SceneError> {
+        match self {
+            FrameChoice::Range(a, b) => Ok((a, b)),
+            FrameChoice::Scene => {
+                let mut ctx = Ctx::new(path);
+                let loaded = super::document::read(&mut ctx, path)?;
+                let render = super::render_settings::read_render_settings(&mut ctx, &loaded.doc)?;
+                render.frame_range.ok_or_else(|| {
+                    ctx.invalid(
+                        "/extensions/BRUME_render",
+                        "--frames scene: the scene has no frameRange",
+                    )
+                })
+            }
+        }
     }
 }
 
@@ -65,10 +105,16 @@ pub fn check_files(path: &Path, a: i32, b: i32) -> Result<(), SceneError> {
             continue;
         };
         let pointer = format!("/nodes/{}/extensions/{BRUME_MEDIUM_VDB}/uri", node.index());
+        // A malformed offset is the scene loader's to report; here it only shifts the files.
+        let offset = node
+            .extension_value(BRUME_MEDIUM_VDB)
+            .and_then(|v| v.get("frameOffset"))
+            .and_then(|o| o.as_i64())
+            .map_or(0, |o| o.clamp(-MAX_FRAME_OFFSET, MAX_FRAME_OFFSET) as i32);
         for frame in a..=b {
             let file = super::document::resolve_uri(
                 &ctx,
-                &for_frame(uri, frame),
+                &for_frame(uri, frame.saturating_add(offset)),
                 &loaded.base_dir,
                 &pointer,
             )?;

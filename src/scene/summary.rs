@@ -117,10 +117,17 @@ fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
             s.frame, s.fps, s.animated_nodes
         )?;
     }
+    if let Some((a, b)) = s.render.frame_range {
+        writeln!(o, "shot: frames {a}..{b} (--frames scene renders them)")?;
+    }
     if s.shutter.is_open() {
+        let camera = match &s.camera_motion {
+            Some(m) => format!("the camera moves ({} poses across it)", m.poses.len()),
+            None => "the camera stands still".into(),
+        };
         writeln!(
             o,
-            "shutter: {} to {} frames around the frame ({} fps)",
+            "shutter: {} to {} frames around the frame ({} fps); {camera}",
             s.shutter.open, s.shutter.close, s.fps
         )?;
     }

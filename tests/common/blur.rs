@@ -68,3 +68,34 @@ pub fn load(d: &Path, name: &str, doc: &Value) -> brume::scene::Scene {
     super::write_whole(&p, doc.to_string().as_bytes());
     brume::scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
 }
+
+/// Adds to `doc` a LINEAR animation of node `node`'s translation from `from` at time 0 to
+/// `to` at `t1` seconds, its keys in the buffer file `d/bin`.
+pub fn animate_translation(
+    doc: &mut Value,
+    d: &Path,
+    bin: &str,
+    node: usize,
+    from: [f32; 3],
+    to: [f32; 3],
+    t1: f32,
+) {
+    let mut bytes = Vec::new();
+    for x in [0.0, t1].into_iter().chain(from).chain(to) {
+        bytes.extend_from_slice(&f32::to_le_bytes(x));
+    }
+    super::write_whole(&d.join(bin), &bytes);
+    doc["buffers"] = json!([{"uri": bin, "byteLength": bytes.len()}]);
+    doc["bufferViews"] = json!([
+        {"buffer": 0, "byteOffset": 0, "byteLength": 8},
+        {"buffer": 0, "byteOffset": 8, "byteLength": 24}
+    ]);
+    doc["accessors"] = json!([
+        {"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0.0], "max": [t1]},
+        {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC3"}
+    ]);
+    doc["animations"] = json!([{
+        "channels": [{"sampler": 0, "target": {"node": node, "path": "translation"}}],
+        "samplers": [{"input": 0, "output": 1, "interpolation": "LINEAR"}]
+    }]);
+}
