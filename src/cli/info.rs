@@ -59,7 +59,20 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                         b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
                     );
                 }
-                if let Some(w) = &m.walk_bounds {
+                if let (Some(w), Some(_)) = (&m.walk_bounds, &m.blur) {
+                    let mean = |b: &brume::volume::LeafBounds| {
+                        b.cells.iter().map(|c| c.max as f64).sum::<f64>()
+                            / b.cells.len().max(1) as f64
+                    };
+                    println!(
+                        "medium {i} velocity blur: walk bounds dilated over the shutter by each cell's speed bound: {} cells (the density's {}), mean cell bound {:.4} (the density's {:.4}), world bounds {:?}; no per-voxel culling",
+                        w.cells.len(),
+                        g.bounds.cells.len(),
+                        mean(w),
+                        mean(&g.bounds),
+                        m.world_bounds,
+                    );
+                } else if let Some(w) = &m.walk_bounds {
                     let raised = w
                         .cells
                         .iter()

@@ -7,6 +7,7 @@ mod common;
 
 mod bench_majorants;
 mod bench_peers;
+mod blur;
 mod cli_faults;
 mod docs;
 mod farm_cli;

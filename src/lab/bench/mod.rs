@@ -1,4 +1,5 @@
 //! `brume bench`: figures for the speed targets. Benchmarks print; they never assert.
+pub mod blur;
 pub mod env;
 pub mod gpu;
 pub mod majorants;
@@ -90,6 +91,21 @@ pub enum Which {
         #[arg(long, default_value_t = 4)]
         spp: u32,
     },
+    /// What motion blur costs: the scene with its shutter against the shutter closed (time per
+    /// sample, density lookups per sample and per real collision, majorant violations).
+    Blur {
+        #[arg(default_value = "scenes/plume_blur.gltf")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 240)]
+        width: u32,
+        #[arg(long, default_value_t = 320)]
+        height: u32,
+        #[arg(long, default_value_t = 32)]
+        spp: u32,
+        /// Rounds (each renders both); the best time of each is reported.
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
     /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
     /// not installed): render time, per-pixel variance from two seeds, efficiency
     /// 1 / (time x variance), the ratios, and the image mean against Mitsuba's with its z-score.
@@ -147,6 +163,13 @@ pub fn run(which: Which) -> Result<()> {
             height,
             spp,
         } => gpu::run(&scene, width, height, spp),
+        Which::Blur {
+            scene,
+            width,
+            height,
+            spp,
+            runs,
+        } => blur::run(&scene, width, height, spp, runs),
         Which::Peers(args) => peers::run(&args),
     }
 }
