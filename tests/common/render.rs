@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 14] = [
+pub const EXAMPLE_SCENES: [&str; 15] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -24,6 +24,7 @@ pub const EXAMPLE_SCENES: [&str; 14] = [
     "furnace.gltf",
     "plume_sun.gltf",
     "plume_sky.gltf",
+    "plume_blur.gltf",
     "dense_fog.gltf",
     "textured_backdrop.gltf",
     "cloud_sky.gltf",

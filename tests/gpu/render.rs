@@ -323,6 +323,13 @@ fn example_scenes_are_supported_and_too_many_grids_refused() {
     for file in EXAMPLE_SCENES {
         let scene = load_scene(file);
         let rs = RenderScene::new(&scene, false).unwrap();
+        if rs.shutter.is_some() {
+            // Motion blur renders on the CPU only: refused with a one-line reason.
+            let why = gpu::supports(&rs).expect_err("motion blur is CPU-only");
+            println!("{file}: refused: {why}");
+            assert!(why.contains("motion blur") && !why.contains('\n'), "{why}");
+            continue;
+        }
         gpu::supports(&rs).unwrap_or_else(|e| panic!("{file}: {e}"));
         let variant = gpu::render::variant_name(gpu::render::gpu_features(&rs));
         println!("{file}: {} -> {variant}", rs.features.name());
