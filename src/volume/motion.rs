@@ -3,11 +3,11 @@
 //! Blurred by a velocity field, a lookup at index point `p` and time offset `dt` reads the
 //! density at `p - s`, where the displacement `s = v(p) dt` is at most `r` long: the speed
 //! bound of `p`'s cell (`SpeedBounds`) times the largest `|dt|` of the shutter, in index units.
-//! Every point within `r` of bounds cell `c` lies in a cell at most `ceil(r / 8)` cells away
-//! along each axis, and every value reconstructed in a cell lies within that cell's
-//! [`CellBounds`] (`volume::bounds`). So the union of the bounds of the cells that close to `c`
-//! bounds every advected lookup made from `c` at any time of the shutter: a true majorant and
-//! minorant, with no statistical guess of the velocity.
+//! Every point within `r` of bounds cell `c` lies in a cell whose box comes within `r` of `c`'s
+//! box (at most `ceil(r / 8)` cells away along each axis), and every value reconstructed in a
+//! cell lies within that cell's [`CellBounds`] (`volume::bounds`). So the union of the bounds
+//! of those cells bounds every advected lookup made from `c` at any time of the shutter: a
+//! true majorant and minorant, with no statistical guess of the velocity.
 use rayon::prelude::*;
 
 use super::advection::Advection;
@@ -45,7 +45,7 @@ pub fn advected_bounds(
 
 /// `bounds` dilated for advection, over its cell box grown by `grow` cells on every side. Cell
 /// `c` of the result (absolute cell coordinates) holds the union of the bounds of the cells
-/// within `ceil(radius(c) / 8)` cells of it along each axis, `outside` standing for the cells
+/// whose boxes come within `radius(c)` of its box, `outside` standing for the cells
 /// beyond `bounds`' box (the grid's background). `radius(c)` is the longest displacement, in
 /// index units, of a lookup made in cell `c`; `grow` must cover the largest radius where it is
 /// not 0 outside the box. The result has no per-voxel table (no voxel culling).
@@ -81,11 +81,19 @@ pub fn dilated_bounds(
             };
             let lo = [0, 1, 2].map(|a| (c[a] - k).max(origin[a] - 1));
             let hi = [0, 1, 2].map(|a| (c[a] + k).min(origin[a] + dims[a] as i32));
+            // Only the cells whose box comes within `r` of cell `c`'s box: the corners of the
+            // cube of cells `k` away lie farther than `r` once `k >= 2`.
+            let gap = |a: usize, x: i32| ((x - c[a]).abs() - 1).max(0) as f64 * CELL_WIDTH as f64;
+            let r2 = r * r;
             let mut b = CellBounds::EMPTY;
             for z in lo[2]..=hi[2] {
+                let gz = gap(2, z).powi(2);
                 for y in lo[1]..=hi[1] {
+                    let gyz = gz + gap(1, y).powi(2);
                     for x in lo[0]..=hi[0] {
-                        b = b.union(at([x, y, z]));
+                        if gyz + gap(0, x).powi(2) <= r2 {
+                            b = b.union(at([x, y, z]));
+                        }
                     }
                 }
             }
