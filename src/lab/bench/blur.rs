@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::{anyhow, Result};
 
-use super::render_cpu;
+use crate::lab::render_cpu;
 use crate::film::totals;
 use crate::render::RenderSettings;
 use crate::scene::{self, LoadOptions, Shutter};
