@@ -200,7 +200,7 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
         None => rs.pinhole.primary_ray(film.x, film.y, aspect),
         Some(motion) => rs
             .pinhole
-            .posed(motion.world_from_camera(time))
+            .posed(motion.world_from_node(time))
             .primary_ray(film.x, film.y, aspect),
     };
     PathState {

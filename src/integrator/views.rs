@@ -72,6 +72,7 @@ impl<'a> Blur<'a> {
 
 impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
     pub(super) fn new(m: &'a VdbMedium, ray_w: &Ray, cfg: &TrackingConfig, beta: Vec3) -> Self {
+        let ray_w = &m.rest_ray(ray_w, cfg.time);
         let ray_i = Ray::new(
             m.density.index_from_world.transform_point3(ray_w.o),
             m.density.index_from_world.transform_vector3(ray_w.d),
@@ -236,6 +237,7 @@ impl<'a, F: Features> RgbView<'a, F> {
                 (Vec3::ZERO, sigma_t, per_channel_ratio(m.sigma_s, sigma_t))
             }
         };
+        let ray_w = &m.rest_ray(ray_w, time);
         RgbView {
             m,
             ray_i: Ray::new(

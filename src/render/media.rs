@@ -8,7 +8,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
-use crate::math::Aabb;
+use crate::math::{Aabb, Ray};
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{ControlExtinction, TrackingStats};
 use crate::volume::{
@@ -68,6 +68,29 @@ pub struct VdbMedium {
     /// lookups are then advected, and [`Self::walk_bounds`] and `world_bounds` are dilated to
     /// bound them over the whole shutter.
     pub blur: Option<Arc<VelocityBlur>>,
+    /// The node's motion across the shutter, where an animation moves the medium then: a
+    /// sample at time offset `dt` sees it at that pose ([`Self::rest_ray`]), and
+    /// `world_bounds` covers every pose.
+    pub motion: Option<Arc<MediumMotion>>,
+}
+
+/// A medium's node motion across the shutter (transformation motion blur).
+#[derive(Clone, Debug)]
+pub struct MediumMotion {
+    pub node: crate::scene::motion::NodeMotion,
+    /// The node's world matrix at the frame, where the medium's fields are placed.
+    pub frame_world_from_node: glam::Mat4,
+}
+
+impl MediumMotion {
+    /// Maps world space at time offset `dt` to world space at the frame, where the medium's
+    /// fields are placed: the frame's pose after the inverse of `dt`'s.
+    #[inline]
+    pub fn rest_from_world(&self, dt: f32) -> glam::Affine3A {
+        glam::Affine3A::from_mat4(
+            self.frame_world_from_node * self.node.world_from_node(dt).inverse(),
+        )
+    }
 }
 
 /// A medium's velocity motion blur: a lookup at density index point `p` by a sample at time
@@ -200,6 +223,19 @@ impl VdbMedium {
     /// Plans every majorant mode's walks ([`Self::walks`]) once the medium is complete.
     pub fn plan_walks(&mut self) {
         self.walks = MajorantMode::ALL.map(|mode| WalkPlan::of(self, mode));
+    }
+
+    /// `ray` (world space, at time offset `time`) carried to where the medium's fields are
+    /// placed: itself unless the medium's node moves. The ray parameter is unchanged.
+    #[inline]
+    pub fn rest_ray(&self, ray: &Ray, time: f32) -> Ray {
+        match &self.motion {
+            None => *ray,
+            Some(m) => {
+                let f = m.rest_from_world(time);
+                Ray::new(f.transform_point3(ray.o), f.transform_vector3(ray.d))
+            }
+        }
     }
 
     /// The plan of this medium's flights under `mode`.

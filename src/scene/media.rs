@@ -139,6 +139,10 @@ pub struct VdbMediumDesc {
     pub pointer: String,
     /// The velocity grid and its scaling (`velocityGrid`), for velocity motion blur.
     pub velocity: Option<super::velocity::VelocityDesc>,
+    /// Which placement of its node it is (`nodes::place_nodes`' order).
+    pub placement: usize,
+    /// Its node's motion across the shutter, where an animation moves it then.
+    pub motion: Option<super::motion::NodeMotion>,
 }
 
 impl VdbMediumDesc {
@@ -245,7 +249,7 @@ pub fn read_vdb_media(
     frame: i32,
 ) -> Result<Vec<VdbMediumDesc>, SceneError> {
     let mut out = Vec::new();
-    for placed in nodes {
+    for (placement, placed) in nodes.iter().enumerate() {
         let node = placed.in_doc(doc);
         let Some(value) = node.extension_value(BRUME_MEDIUM_VDB) else {
             continue;
@@ -303,6 +307,8 @@ pub fn read_vdb_media(
             node: placed.node,
             pointer: obj.pointer.clone(),
             velocity: None,
+            placement,
+            motion: None,
         };
         if let Some(m) = desc.bounding_mesh {
             if m >= doc.meshes().len() {

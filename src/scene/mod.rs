@@ -24,7 +24,6 @@ mod accessor;
 pub mod animation;
 pub mod bare_vdb;
 pub mod camera;
-pub mod camera_motion;
 mod document;
 pub mod effects;
 pub mod envmap;
@@ -34,6 +33,7 @@ pub mod lights;
 pub mod material;
 pub mod media;
 pub mod mesh;
+pub mod motion;
 pub mod nesting;
 mod nodes;
 pub mod render_settings;
@@ -127,7 +127,7 @@ pub struct Scene {
     pub shutter: Shutter,
     /// The camera's poses across the shutter where an animation moves it during the shutter
     /// (transformation motion blur); `None`: the camera stands still.
-    pub camera_motion: Option<camera_motion::CameraMotion>,
+    pub camera_motion: Option<motion::NodeMotion>,
     /// Nodes the file's animations move.
     pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
@@ -165,7 +165,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
     let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
-    let vdb_media = media::read_vdb_media(
+    let mut vdb_media = media::read_vdb_media(
         &mut ctx,
         doc,
         &loaded.buffers,
@@ -182,16 +182,23 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         bounds = bounds.union(&m.world_bounds);
     }
     let camera = camera::choose_camera(&mut ctx, doc, &nodes, options.camera.as_deref(), &bounds)?;
-    let camera_motion = camera_motion::camera_motion(
-        path,
-        doc,
-        &animations,
-        options.camera.as_deref(),
-        &bounds,
-        frame,
-        fps,
-        shutter,
-    )?;
+    let steps = motion::placements(path, doc, &animations, frame, fps, shutter)?;
+    let camera_motion = match &steps {
+        Some(steps) => motion::camera_motion(
+            path,
+            doc,
+            steps,
+            options.camera.as_deref(),
+            &bounds,
+            shutter,
+        )?,
+        None => None,
+    };
+    for m in &mut vdb_media {
+        m.motion = steps
+            .as_ref()
+            .and_then(|s| motion::placement_motion(s, m.placement, shutter));
+    }
 
     let corners = geo
         .triangles

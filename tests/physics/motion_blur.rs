@@ -366,9 +366,68 @@ fn moving_absorbing_slab_transmittance_matches_its_closed_form() {
     println!("slab: {n_tests} time-averaged transmittances, worst z {worst:.2}");
 }
 
-/// A camera sliding sideways under the shutter (a glTF translation animation): the blurred
-/// render agrees, pixel by pixel and on 4 x 4 blocks, with the mean of still renders from 16
-/// camera positions spread over the shutter.
+/// The blurred render of `moving` against the mean of 16 renders of `still(dt)`, the scene at
+/// instants `dt` spread over a one-frame shutter: pixel by pixel and on 4 x 4 blocks, and a
+/// check that the blur differs from the frame's instant. Prints and returns nothing; asserts.
+fn assert_shutter_average(
+    label: &str,
+    moving: &brume::scene::Scene,
+    still: &dyn Fn(f64) -> brume::scene::Scene,
+) {
+    const K: usize = 16;
+    let statics: Vec<_> = (0..K)
+        .map(|k| still(-0.5 + (k as f64 + 0.5) / K as f64))
+        .collect();
+    let e = Estimator::Delta;
+    let mode = MajorantMode::Adaptive;
+    let out = render(moving, &settings(e, mode, 512, 31));
+    let mut mean = moments(&render(&statics[0], &settings(e, mode, 32, 32)));
+    for (k, s) in statics.iter().enumerate().skip(1) {
+        let m = moments(&render(s, &settings(e, mode, 32, 32 + k as u32)));
+        for (a, b) in mean.0.iter_mut().zip(&m.0) {
+            *a += b;
+        }
+        for (a, b) in mean.1.iter_mut().zip(&m.1) {
+            *a += b;
+        }
+    }
+    mean.0.iter_mut().for_each(|x| *x /= K as f64);
+    mean.1.iter_mut().for_each(|x| *x /= (K * K) as f64);
+    let m = moments(&out);
+    let pixels = crate::common::render::compare((&m.0, &m.1), (&mean.0, &mean.1), 1e-3);
+    let a = crate::common::render::block_moments(&m, 16, 16, 4);
+    let b = crate::common::render::block_moments(&mean, 16, 16, 4);
+    let blocks = crate::common::render::compare((&a.0, &a.1), (&b.0, &b.1), 1e-3);
+    let centre = render(&still(0.0), &settings(e, mode, 512, 33));
+    let apart = compare_renders(&out, &centre, 16, 16, 1, 1e-3);
+    let violations: u64 = out
+        .records
+        .iter()
+        .map(|r| r.counters.majorant_violations)
+        .sum();
+    println!(
+        "{label}: mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z {:.2}); \
+         blocks failing {} (worst z {:.2}); against one instant: {} pixels failing; \
+         violations {violations}",
+        pixels.mean_a,
+        pixels.mean_b,
+        pixels.mean_z,
+        pixels.failing,
+        pixels.pixels,
+        pixels.worst_z,
+        blocks.failing,
+        blocks.worst_z,
+        apart.failing
+    );
+    assert_eq!(pixels.failing, 0, "{label}: {pixels:?}");
+    assert_eq!(blocks.failing, 0, "{label}: {blocks:?}");
+    assert!(pixels.mean_z < pixels.z_threshold, "{label}: {pixels:?}");
+    assert!(apart.failing >= 8, "{label}: {apart:?}");
+    assert_eq!(violations, 0, "{label}");
+}
+
+/// A camera sliding sideways under the shutter (a glTF translation animation) against still
+/// cameras.
 #[test]
 fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
     let d = blur::dir("camera");
@@ -398,52 +457,47 @@ fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
         moving.camera_motion.is_some(),
         "the camera moves during the shutter"
     );
-    const K: usize = 16;
-    let statics: Vec<_> = (0..K)
-        .map(|k| {
-            let dt = -0.5 + (k as f64 + 0.5) / K as f64;
-            let mut still = blur::scene("m.vdb", [0.0; 3], json!({}), json!({}));
-            still["nodes"][0]["translation"] = json!([0.8 * dt, 0.0, 2.2]);
-            blur::load(&d, &format!("still_{k}.gltf"), &still)
-        })
-        .collect();
-    let e = Estimator::Delta;
-    let mode = MajorantMode::Adaptive;
-    let out = render(&moving, &settings(e, mode, 512, 31));
-    let mut mean = moments(&render(&statics[0], &settings(e, mode, 32, 32)));
-    for (k, s) in statics.iter().enumerate().skip(1) {
-        let m = moments(&render(s, &settings(e, mode, 32, 32 + k as u32)));
-        for (a, b) in mean.0.iter_mut().zip(&m.0) {
-            *a += b;
-        }
-        for (a, b) in mean.1.iter_mut().zip(&m.1) {
-            *a += b;
-        }
-    }
-    mean.0.iter_mut().for_each(|x| *x /= K as f64);
-    mean.1.iter_mut().for_each(|x| *x /= (K * K) as f64);
-    let m = moments(&out);
-    let pixels = crate::common::render::compare((&m.0, &m.1), (&mean.0, &mean.1), 1e-3);
-    let a = crate::common::render::block_moments(&m, 16, 16, 4);
-    let b = crate::common::render::block_moments(&mean, 16, 16, 4);
-    let blocks = crate::common::render::compare((&a.0, &a.1), (&b.0, &b.1), 1e-3);
-    let centre = render(&statics[K / 2], &settings(e, mode, 512, 33));
-    let apart = compare_renders(&out, &centre, 16, 16, 1, 1e-3);
-    println!(
-        "camera blur: mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z {:.2}); \
-         blocks failing {} (worst z {:.2}); against one instant: {} pixels failing",
-        pixels.mean_a,
-        pixels.mean_b,
-        pixels.mean_z,
-        pixels.failing,
-        pixels.pixels,
-        pixels.worst_z,
-        blocks.failing,
-        blocks.worst_z,
-        apart.failing
+    let still = |dt: f64| {
+        let mut still = blur::scene("m.vdb", [0.0; 3], json!({}), json!({}));
+        still["nodes"][0]["translation"] = json!([0.8 * dt, 0.0, 2.2]);
+        blur::load(&d, &format!("still_{dt}.gltf"), &still)
+    };
+    assert_shutter_average("camera blur", &moving, &still);
+}
+
+/// A medium node moving diagonally under the shutter (a glTF translation animation) against
+/// still renders with the node placed at each instant.
+#[test]
+fn medium_node_motion_blur_is_the_shutter_average_of_still_media() {
+    let d = blur::dir("medium_node");
+    blur::write_medium(
+        &d.join("m.vdb"),
+        blob_voxels(N),
+        origin(),
+        [0.0; 3],
+        Vec::new(),
+        GridClass::Unknown,
     );
-    assert_eq!(pixels.failing, 0, "{pixels:?}");
-    assert_eq!(blocks.failing, 0, "{blocks:?}");
-    assert!(pixels.mean_z < pixels.z_threshold, "{pixels:?}");
-    assert!(apart.failing >= 8, "{apart:?}");
+    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
+    let mut doc = blur::scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    // 0.6 units a frame along x and 0.3 along y; at the origin on the frame.
+    blur::animate_translation(
+        &mut doc,
+        &d,
+        "medium.bin",
+        2,
+        [-0.6, -0.3, 0.0],
+        [0.6, 0.3, 0.0],
+        2.0 / 24.0,
+    );
+    let moving = blur::load(&d, "moving.gltf", &doc);
+    assert!(
+        moving.vdb_media[0].motion.is_some(),
+        "the medium moves during the shutter"
+    );
+    let still = |dt: f64| {
+        let doc = blur::scene("m.vdb", [0.6 * dt, 0.3 * dt, 0.0], json!({}), json!({}));
+        blur::load(&d, &format!("still_{dt}.gltf"), &doc)
+    };
+    assert_shutter_average("medium node blur", &moving, &still);
 }

@@ -4,8 +4,8 @@ use std::path::Path;
 
 use anyhow::{anyhow, Result};
 
-use crate::lab::render_cpu;
 use crate::film::totals;
+use crate::lab::render_cpu;
 use crate::render::RenderSettings;
 use crate::scene::{self, LoadOptions, Shutter};
 
