@@ -248,30 +248,27 @@ fn vortex_blur_keeps_true_majorants_in_every_mode() {
 /// the trilinear profile of voxels 0..8 at density 1: 0 below -1, rising to 1 over [-1, 0],
 /// 1 up to 7, falling to 0 over [7, 8].
 fn slab_average(x: f64, h: f64, a: f64) -> f64 {
-    // Integral of exp(-a * r(u)) over u in [lo, hi] for each linear piece r of the profile.
-    let piece = |lo: f64, hi: f64, r: &dyn Fn(f64) -> f64, slope: f64| -> f64 {
+    // The profile's linear pieces `r(u) = r0 + slope u` over `[lo, hi]`; the integral of
+    // `exp(-a r(u))` over each, clipped to `[x - h, x + h]`, in closed form.
+    let pieces = [
+        (f64::NEG_INFINITY, -1.0, 0.0, 0.0),
+        (-1.0, 0.0, 1.0, 1.0),
+        (0.0, 7.0, 1.0, 0.0),
+        (7.0, 8.0, 8.0, -1.0),
+        (8.0, f64::INFINITY, 0.0, 0.0),
+    ];
+    let mut total = 0.0;
+    for (lo, hi, r0, slope) in pieces {
+        let (lo, hi) = (lo.max(x - h), hi.min(x + h));
         if hi <= lo {
-            return 0.0;
+            continue;
         }
-        if slope == 0.0 {
-            (-a * r(lo)).exp() * (hi - lo)
+        let r = |u: f64| r0 + slope * u;
+        total += if slope == 0.0 {
+            (-a * r0).exp() * (hi - lo)
         } else {
             ((-a * r(lo)).exp() - (-a * r(hi)).exp()) / (a * slope)
-        }
-    };
-    let (u0, u1) = (x - h, x + h);
-    let clip = |lo: f64, hi: f64| (lo.max(u0), hi.min(u1));
-    let mut total = 0.0;
-    let pieces: [(f64, f64, &dyn Fn(f64) -> f64, f64); 5] = [
-        (f64::NEG_INFINITY, -1.0, &|_| 0.0, 0.0),
-        (-1.0, 0.0, &|u| u + 1.0, 1.0),
-        (0.0, 7.0, &|_| 1.0, 0.0),
-        (7.0, 8.0, &|u| 8.0 - u, -1.0),
-        (8.0, f64::INFINITY, &|_| 0.0, 0.0),
-    ];
-    for (lo, hi, r, slope) in pieces {
-        let (lo, hi) = clip(lo, hi);
-        total += piece(lo, hi, r, slope);
+        };
     }
     total / (2.0 * h)
 }
