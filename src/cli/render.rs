@@ -305,7 +305,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         .build()?;
     let threads = pool.current_num_threads();
     eprintln!("threads: {threads} (from {threads_from})");
-    let part = PartContext::new(&args.scene, scene.frame, &settings, args.camera.as_deref())?;
+    let part = PartContext::new(
+        &args.scene,
+        scene.frame,
+        &settings,
+        args.camera.as_deref(),
+        scene.shutter,
+    )?;
     let resume = match &args.resume {
         Some(path) => Some(part.resume_from(path, &settings)?),
         None => None,

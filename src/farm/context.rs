@@ -19,17 +19,23 @@ pub struct PartContext {
 
 impl PartContext {
     /// The context of a render of `scene` at `frame` with `settings` through `camera` (a glTF
-    /// camera's name, or the scene's default).
+    /// camera's name, or the scene's default) under `shutter` (the scene's, or `--shutter`'s:
+    /// an open one is part of the key, since the command line can change it).
     pub fn new(
         scene: &Path,
         frame: i32,
         settings: &RenderSettings,
         camera: Option<&str>,
+        shutter: crate::scene::Shutter,
     ) -> Result<Self> {
+        let mut settings_key = farm::settings_key(settings, camera);
+        if shutter.is_open() {
+            settings_key += &format!(" shutter={},{}", shutter.open, shutter.close);
+        }
         Ok(Self {
             scene: scene.display().to_string(),
             scene_hash: farm::scene_hash(scene, frame)?,
-            settings_key: farm::settings_key(settings, camera),
+            settings_key,
         })
     }
 

@@ -74,13 +74,13 @@ pub fn scene_hash(scene: &Path, frame: i32) -> Result<String, PartError> {
     uris.sort();
     uris.dedup();
     let base = scene.parent().unwrap_or(Path::new("."));
-    if uris.iter().any(|u| sequence::is_sequence(u)) {
+    if uris.iter().any(|(u, _)| sequence::is_sequence(u)) {
         h.eat(&frame.to_le_bytes());
     }
-    for uri in uris {
+    for (uri, offset) in uris {
         h.eat(uri.as_bytes());
         h.eat(&[0]);
-        let uri = sequence::for_frame(&uri, frame);
+        let uri = sequence::for_frame(&uri, frame.saturating_add(offset));
         // Streamed: a referenced VDB can be larger than memory allows to hold twice.
         if let Ok(mut f) = std::fs::File::open(base.join(&uri)) {
             use std::io::Read;
@@ -96,13 +96,21 @@ pub fn scene_hash(scene: &Path, frame: i32) -> Result<String, PartError> {
     Ok(format!("{:016x}", h.0))
 }
 
-fn collect_uris(v: &serde_json::Value, out: &mut Vec<String>) {
+/// Every relative `uri` under `v`, with the `frameOffset` beside it (a medium sequence's; 0
+/// elsewhere).
+fn collect_uris(v: &serde_json::Value, out: &mut Vec<(String, i32)>) {
     match v {
         serde_json::Value::Object(map) => {
+            let offset = map
+                .get("frameOffset")
+                .and_then(|o| o.as_i64())
+                .map_or(0, |o| {
+                    o.clamp(-sequence::MAX_FRAME_OFFSET, sequence::MAX_FRAME_OFFSET) as i32
+                });
             for (k, v) in map {
                 match v {
                     serde_json::Value::String(s) if k == "uri" && !s.starts_with("data:") => {
-                        out.push(s.clone())
+                        out.push((s.clone(), offset))
                     }
                     _ => collect_uris(v, out),
                 }
@@ -110,5 +118,31 @@ fn collect_uris(v: &serde_json::Value, out: &mut Vec<String>) {
         }
         serde_json::Value::Array(a) => a.iter().for_each(|v| collect_uris(v, out)),
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sequence's hash reads the file its `frameOffset` names for the frame, not the one
+    /// numbered like the frame.
+    #[test]
+    fn a_sequence_hash_follows_its_frame_offset() {
+        let d = std::env::temp_dir().join(format!("brume-key-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let scene = d.join("s.gltf");
+        let medium = r#"{"BRUME_medium_vdb": {"uri": "m_####.vdb", "frameOffset": 10}}"#;
+        let json = format!(r#"{{"nodes": [{{"extensions": {medium}}}]}}"#);
+        std::fs::write(&scene, json).unwrap();
+        let hash = |own: &str, other: &str| {
+            std::fs::write(d.join("m_0011.vdb"), own).unwrap();
+            std::fs::write(d.join("m_0001.vdb"), other).unwrap();
+            scene_hash(&scene, 1).unwrap()
+        };
+        let base = hash("a", "b");
+        assert_eq!(base, hash("a", "c"), "frame 1 does not read file 1");
+        assert_ne!(base, hash("d", "b"), "frame 1 reads file 11");
+        std::fs::remove_dir_all(&d).ok();
     }
 }
