@@ -2,7 +2,7 @@
 //! `brume info` reports the shutter and the velocity, the GPU backend refuses blur with a
 //! reason, `--frames scene` renders the scene's frame range, and bad velocity and shutter
 //! input is refused naming the file and what is wrong.
-use crate::common::cli::assert_refused;
+use crate::common::cli::{assert_refused, render_to};
 use crate::common::scratch;
 use crate::common::sequence::cloud_sequence;
 
@@ -37,15 +37,7 @@ const SMALL: [&str; 8] = [
 ];
 
 fn render(scene: &Path, out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ];
-    args.extend(SMALL);
-    args.extend(extra);
-    brume(&args)
+    render_to(scene, out, &SMALL, extra)
 }
 
 /// `plume_blur.gltf` is `plume_sun.gltf` with a velocity grid beside the same density and a

@@ -1,6 +1,6 @@
 //! Frame sequences: a medium `uri` with a run of `#` read per frame, `--frame N` and
 //! `--frames A..B` with `#` in the outputs, and a missing frame refused before any rendering.
-use crate::common::cli::assert_refused;
+use crate::common::cli::{assert_refused, render_to};
 use crate::common::scratch;
 use crate::common::sequence::cloud_sequence;
 
@@ -147,15 +147,7 @@ fn an_animated_camera_renders_as_the_still_camera_at_its_pose() {
     let still = animated_cloud(&dir, "still.gltf", (9.0, 13.0), Some(11.0));
     let render = |scene: &Path, out: &str, extra: &[&str]| {
         let out = dir.join(out);
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        args.extend(SMALL);
-        args.extend(extra);
-        let o = brume(&args);
+        let o = render_to(scene, &out, &SMALL, extra);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         pixels(&out)
     };

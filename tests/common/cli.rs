@@ -26,3 +26,19 @@ pub fn temporaries(d: &Path) -> Vec<PathBuf> {
         .filter(|p| p.file_name().unwrap().to_string_lossy().contains(".tmp-"))
         .collect()
 }
+
+/// Runs `brume render SCENE -o OUT` with `fixed` then `extra` arguments.
+pub fn render_to(scene: &Path, out: &Path, fixed: &[&str], extra: &[&str]) -> Output {
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend(fixed);
+    args.extend(extra);
+    std::process::Command::new(env!("CARGO_BIN_EXE_brume"))
+        .args(&args)
+        .output()
+        .unwrap()
+}

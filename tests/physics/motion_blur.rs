@@ -423,11 +423,16 @@ fn assert_shutter_average(
     assert_eq!(violations, 0, "{label}");
 }
 
-/// A camera sliding sideways under the shutter (a glTF translation animation) against still
-/// cameras.
-#[test]
-fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
-    let d = blur::dir("camera");
+/// The blob still at the origin, with node `node` (0 the camera, 2 the medium) animated
+/// linearly: at `at_frame` on frame 1 (time 1/24 s at 24 fps), moving by `per_frame` a frame,
+/// under a one-frame shutter. Returns the fixture's folder and the scene.
+fn animated(
+    name: &str,
+    node: usize,
+    at_frame: [f32; 3],
+    per_frame: [f32; 3],
+) -> (std::path::PathBuf, brume::scene::Scene) {
+    let d = blur::dir(name);
     blur::write_medium(
         &d.join("m.vdb"),
         blob_voxels(N),
@@ -436,20 +441,27 @@ fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
         Vec::new(),
         GridClass::Unknown,
     );
-    // Frame 1 at 24 fps is time 1/24 s; the camera moves 0.8 units a frame along x and is at
-    // x = 0 on the frame.
     let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
     let mut doc = blur::scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    let key = |k: f32| [0, 1, 2].map(|a| at_frame[a] + k * per_frame[a]);
     blur::animate_translation(
         &mut doc,
         &d,
-        "camera.bin",
-        0,
-        [-0.8, 0.0, 2.2],
-        [0.8, 0.0, 2.2],
+        "keys.bin",
+        node,
+        key(-1.0),
+        key(1.0),
         2.0 / 24.0,
     );
     let moving = blur::load(&d, "moving.gltf", &doc);
+    (d, moving)
+}
+
+/// A camera sliding sideways under the shutter (a glTF translation animation) against still
+/// cameras.
+#[test]
+fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
+    let (d, moving) = animated("camera", 0, [0.0, 0.0, 2.2], [0.8, 0.0, 0.0]);
     assert!(
         moving.camera_motion.is_some(),
         "the camera moves during the shutter"
@@ -466,28 +478,7 @@ fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
 /// still renders with the node placed at each instant.
 #[test]
 fn medium_node_motion_blur_is_the_shutter_average_of_still_media() {
-    let d = blur::dir("medium_node");
-    blur::write_medium(
-        &d.join("m.vdb"),
-        blob_voxels(N),
-        origin(),
-        [0.0; 3],
-        Vec::new(),
-        GridClass::Unknown,
-    );
-    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
-    let mut doc = blur::scene("m.vdb", [0.0; 3], json!({}), render_obj);
-    // 0.6 units a frame along x and 0.3 along y; at the origin on the frame.
-    blur::animate_translation(
-        &mut doc,
-        &d,
-        "medium.bin",
-        2,
-        [-0.6, -0.3, 0.0],
-        [0.6, 0.3, 0.0],
-        2.0 / 24.0,
-    );
-    let moving = blur::load(&d, "moving.gltf", &doc);
+    let (d, moving) = animated("medium_node", 2, [0.0; 3], [0.6, 0.3, 0.0]);
     assert!(
         moving.vdb_media[0].motion.is_some(),
         "the medium moves during the shutter"
