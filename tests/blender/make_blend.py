@@ -11,9 +11,13 @@ KIND:
   ground is a rough metal with single-scattering GGX: the one Principled BSDF set-up whose
   Cycles rendering is Brume's surface model exactly, so the comparison tests the volume.
 - `sequence`: a Volume object on a VDB sequence (copies of example files named
-  seq_0001.vdb .. seq_0003.vdb in --seq-dir), scene frame 2, and a World lit by an
+  seq_0001.vdb .. seq_0003.vdb in --seq-dir) starting at frame 11, the scene's frames 12..13,
+  saved at frame 12, and a World lit by an
   equirectangular map (sky.exr in --seq-dir) rotated by a Mapping node; a Noise Texture drives
   the Principled Volume's colour (a warning: the socket's own colour is exported).
+- `sequence_extend`: the same sequence in mode Extend under frames 12..20, past its end.
+- `motion`: a plume with a velocity grid under a keyed empty, a keyed camera aimed by a Track
+  To constraint at a keyed target, 29.97 fps, motion blur on (`--position`).
 - `procedural`: a Volume object with no file (what geometry nodes produce).
 """
 import argparse
@@ -143,21 +147,27 @@ def fire_scene(vdb_dir):
     scene.cycles.samples = 64
 
 
-def sequence_scene(vdb_dir, seq_dir):
+def sequence_scene(vdb_dir, seq_dir, extend=False):
     os.makedirs(seq_dir, exist_ok=True)
     for k, src in enumerate(["cloud.vdb", "smoke.vdb", "plume.vdb"], start=1):
         shutil.copyfile(os.path.join(vdb_dir, src), os.path.join(seq_dir, f"seq_{k:04d}.vdb"))
     obj, mat = volume_object("sequence", os.path.join(seq_dir, "seq_0001.vdb"))
     vol = obj.data
     vol.is_sequence = True
-    vol.frame_start = 1
+    vol.frame_start = 11  # file k at frame 10 + k: frameOffset -10
     vol.frame_duration = 3
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 12, 13
+    if extend:
+        # Past the sequence's frames 11..13 Extend holds seq_0003.vdb: no frameOffset says that.
+        vol.sequence_mode = "EXTEND"
+        scene.frame_end = 20
     nt, pv = principled(mat)
     pv.inputs["Density"].default_value = 1.5
     # A texture on the colour, which Brume cannot express: a warning, not a refusal.
     noise = nt.nodes.new("ShaderNodeTexNoise")
     nt.links.new(noise.outputs["Color"], pv.inputs["Color"])
-    bpy.context.scene.frame_set(2)
+    scene.frame_set(12)
     # An equirectangular map through Texture Coordinate.Generated -> Mapping (rotation).
     sky = bpy.data.images.new("sky", 8, 4, float_buffer=True)
     sky.filepath_raw = os.path.join(seq_dir, "sky.exr")
@@ -178,6 +188,70 @@ def sequence_scene(vdb_dir, seq_dir):
     bpy.context.scene.world = world
 
 
+def motion_scene(vdb_dir, position):
+    """A moving shot: 29.97 fps (fps 30, base 1.001), frames 1..12, saved at frame 5, motion
+    blur on (shutter 0.5 frames, at `position`: CENTER, START, END, or OFF for no blur). The plume (plume_vel.vdb, with its staggered
+    `velocity` grid per second, Velocity Scale 8) hangs under an empty whose location and
+    rotation are keyed (Bezier); the camera's location is keyed and a Track To constraint aims
+    it at a keyed target, which only a baked (Scene mode) export reproduces."""
+    scene = bpy.context.scene
+    scene.render.fps = 30
+    scene.render.fps_base = 1.001
+    scene.frame_start, scene.frame_end = 1, 12
+    scene.render.use_motion_blur = position != "OFF"
+    scene.render.motion_blur_shutter = 0.5
+    if position != "OFF":
+        scene.render.motion_blur_position = position
+
+    rig = bpy.data.objects.new("rig", None)
+    scene.collection.objects.link(rig)
+    for frame, loc, angle in ((1, (0.0, 0.0, 1.0), 0.0), (12, (0.8, 0.3, 1.4), 40.0)):
+        rig.location = loc
+        rig.rotation_euler = Euler((0.0, 0.0, math.radians(angle)))
+        rig.keyframe_insert("location", frame=frame)
+        rig.keyframe_insert("rotation_euler", frame=frame)
+    obj, mat = volume_object("plume", os.path.join(vdb_dir, "plume_vel.vdb"))
+    obj.parent = rig
+    obj.location = (0.1, 0.0, 0.2)
+    obj.scale = (0.8, 0.8, 0.8)
+    vol = obj.data
+    vol.render.space = "WORLD"
+    vol.render.precision = "FULL"
+    vol.render.clipping = 0.0
+    vol.grids.load()  # Blender checks the name against the file's grids
+    vol.velocity_grid = "velocity"
+    vol.velocity_unit = "SECOND"
+    vol.velocity_scale = 8.0
+    nt, pv = principled(mat)
+    pv.inputs["Density"].default_value = 20.0
+    pv.inputs["Color"].default_value = (0.9, 0.9, 0.9, 1.0)
+
+    target = bpy.data.objects.new("target", None)
+    scene.collection.objects.link(target)
+    for frame, loc in ((1, (0.0, 0.0, 1.0)), (12, (0.5, 0.5, 1.5))):
+        target.location = loc
+        target.keyframe_insert("location", frame=frame)
+    cam = bpy.data.cameras.new("camera")
+    cam.lens = 40.0
+    cam_obj = bpy.data.objects.new("camera", cam)
+    scene.collection.objects.link(cam_obj)
+    for frame, loc in ((1, (0.0, -8.0, 1.5)), (12, (2.0, -7.0, 2.5))):
+        cam_obj.location = loc
+        cam_obj.keyframe_insert("location", frame=frame)
+    track = cam_obj.constraints.new("TRACK_TO")
+    track.target = target
+    track.track_axis = "TRACK_NEGATIVE_Z"
+    track.up_axis = "UP_Y"
+    scene.camera = cam_obj
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 3.0
+    sun.angle = 0.0
+    sun_obj = bpy.data.objects.new("sun", sun)
+    scene.collection.objects.link(sun_obj)
+    sun_obj.rotation_euler = Euler((math.radians(40.0), math.radians(15.0), math.radians(30.0)))
+    scene.frame_set(5)
+
+
 def procedural_scene():
     """A Volume object whose grids come from geometry nodes (a Volume Cube), no file."""
     obj, mat = volume_object("procedural", "")
@@ -193,17 +267,21 @@ def procedural_scene():
 
 def main(argv):
     p = argparse.ArgumentParser()
-    p.add_argument("kind", choices=["fire", "sequence", "procedural"])
+    p.add_argument("kind", choices=["fire", "sequence", "sequence_extend", "motion", "procedural"])
     p.add_argument("out")
     p.add_argument("--vdb-dir", required=True)
     p.add_argument("--seq-dir")
+    p.add_argument("--position", default="CENTER", choices=["CENTER", "START", "END", "OFF"],
+                   help="motion: the shutter's position on the frame, or OFF (no motion blur)")
     args = p.parse_args(argv)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     vdb_dir = os.path.abspath(args.vdb_dir)
     if args.kind == "fire":
         fire_scene(vdb_dir)
-    elif args.kind == "sequence":
-        sequence_scene(vdb_dir, os.path.abspath(args.seq_dir))
+    elif args.kind in ("sequence", "sequence_extend"):
+        sequence_scene(vdb_dir, os.path.abspath(args.seq_dir), extend=args.kind == "sequence_extend")
+    elif args.kind == "motion":
+        motion_scene(vdb_dir, args.position)
     else:
         procedural_scene()
     bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.out))

@@ -4,9 +4,13 @@
 //!   a camera, a ground plane) exported with the add-on and rendered by Brume agrees with Cycles
 //!   rendering the .blend itself: image means within 1 %, at most 1 % of the 8x8 blocks failing;
 //! - every example scene with `BRUME_medium_vdb`, turned into a .blend by brume_to_cycles.py and
-//!   exported back, gives the same medium fields and world-from-medium matrix (1e-5);
-//! - a VDB sequence exports the current frame's file, a procedural volume is refused, and an
-//!   exporter-hook exception fails the conversion with nothing written.
+//!   exported back, gives the same medium fields (velocity included) and world-from-medium
+//!   matrix (1e-5);
+//! - a VDB sequence exports as a `#` pattern with its frameOffset (and is refused where its
+//!   files stop following the frame), a procedural volume is refused, and an exporter-hook
+//!   exception fails the conversion with nothing written;
+//! - a moving shot exports its velocity grid, frame, frame rate, frame range and shutter, and
+//!   its exported animations place the camera and the medium as Blender does at each frame.
 //!
 //! Needs a Python that can `import bpy` (tools/cycles/ci.sh installs one); without it each test
 //! prints a SKIPPED line on stderr and passes. Seeds are fixed on both sides.
@@ -155,7 +159,8 @@ fn fire_blend_renders_like_cycles() {
 }
 
 /// The medium as Brume reads it, with fields that have no effect dropped: emission without
-/// strength, blackbody without intensity or grid (brume_to_cycles.py does not rebuild them).
+/// strength, blackbody without intensity or grid (brume_to_cycles.py does not rebuild them);
+/// the velocity grid, scale and unit when it has one.
 fn effective(m: &VdbMediumDesc) -> (Vec<f32>, Vec<Option<String>>, PathBuf) {
     let emits = m.emission_strength > 0.0 && m.emission_color.iter().any(|&c| c > 0.0);
     let glows = m.temperature_grid.is_some() && m.blackbody_intensity > 0.0;
@@ -175,10 +180,18 @@ fn effective(m: &VdbMediumDesc) -> (Vec<f32>, Vec<Option<String>>, PathBuf) {
         numbers.extend(m.blackbody_tint);
     }
     numbers.extend(m.world_from_medium.to_cols_array());
+    if let Some(v) = &m.velocity {
+        numbers.push(v.scale);
+        numbers.push(match v.unit {
+            brume::scene::VelocityUnit::Second => 0.0,
+            brume::scene::VelocityUnit::Frame => 1.0,
+        });
+    }
     let names = vec![
         Some(m.density_grid.clone()),
         m.emission_grid.clone().filter(|_| emits),
         m.temperature_grid.clone().filter(|_| glows),
+        m.velocity.as_ref().map(|v| v.grid_name.clone()),
     ];
     (numbers, names, m.vdb_path.canonicalize().unwrap())
 }
@@ -252,12 +265,14 @@ fn example_scenes_round_trip_through_blender() {
 #[test]
 fn sequences_procedural_volumes_and_failing_hooks() {
     let Some(cx) = Ctx::new("edge") else { return };
-    // A VDB sequence saved at frame 2 exports seq_0002.vdb, and --frame 3 seq_0003.vdb;
-    // --copy-vdb copies that one file beside the glTF.
+    // A VDB sequence starting at frame 11 (file k at frame 10 + k), saved at frame 12, exports
+    // the pattern seq_####.vdb with frameOffset -10: Brume reads seq_0002.vdb at frame 12, and
+    // seq_0003.vdb after --frame 13; --copy-vdb copies the files of the shot's frames 12..13
+    // beside the glTF.
     let blend = cx.make_blend("sequence", "sequence.blend");
     for (extra, want) in [
         (&[][..], "seq_0002.vdb"),
-        (&["--frame", "3"][..], "seq_0003.vdb"),
+        (&["--frame", "13"][..], "seq_0003.vdb"),
     ] {
         let out = cx.path("sequence.gltf");
         let o = cx.import_blend(&blend, &out, extra);
@@ -272,6 +287,22 @@ fn sequences_procedural_volumes_and_failing_hooks() {
         assert_eq!(s.vdb_media.len(), 1);
         let file = s.vdb_media[0].vdb_path.file_name().unwrap().to_owned();
         assert_eq!(file, want, "{extra:?}");
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let medium = doc["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find_map(|n| n["extensions"].get("BRUME_medium_vdb"))
+            .unwrap();
+        assert_eq!(medium["uri"], "seq/seq_####.vdb", "{medium}");
+        assert_eq!(medium["frameOffset"], -10, "{medium}");
+        let render = &doc["extensions"]["BRUME_render"];
+        assert_eq!(
+            render["frameRange"],
+            serde_json::json!([12, 13]),
+            "{render}"
+        );
     }
     let copied_dir = cx.path("copied");
     std::fs::create_dir_all(&copied_dir).unwrap();
@@ -281,8 +312,9 @@ fn sequences_procedural_volumes_and_failing_hooks() {
         "import-blend --copy-vdb",
     );
     let s = brume::scene::load(&out).unwrap();
-    assert_eq!(s.vdb_media[0].uri, "seq_0002.vdb");
-    assert!(copied_dir.join("seq_0002.vdb").is_file());
+    assert_eq!(s.vdb_media[0].uri, "seq_####.vdb");
+    assert_eq!(s.vdb_media[0].vdb_path, copied_dir.join("seq_0002.vdb"));
+    assert!(copied_dir.join("seq_0002.vdb").is_file() && copied_dir.join("seq_0003.vdb").is_file());
     assert!(!copied_dir.join("seq_0001.vdb").exists());
     // The World's map is copied too, with the Mapping node's rotation.
     assert_eq!(s.environment.map, Some(copied_dir.join("sky.exr")));
@@ -317,6 +349,26 @@ fn sequences_procedural_volumes_and_failing_hooks() {
         "blender_roundtrip: procedural volume refused: {}",
         msg.lines()
             .find(|l| l.contains("procedural volume"))
+            .unwrap()
+            .trim()
+    ));
+
+    // The same sequence in mode Extend under frames 12..20: past frame 13 Blender holds the
+    // last file, which a file number frame + frameOffset cannot say: refused, nothing written.
+    let blend = cx.make_blend("sequence_extend", "sequence_extend.blend");
+    let out = cx.path("sequence_extend.gltf");
+    let o = cx.import_blend(&blend, &out, &[]);
+    assert!(!o.status.success(), "{}", text(&o));
+    let msg = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(
+        msg.contains("Volume 'sequence' its VDB sequence covers frames 11..13 (sequence mode Extend) but the scene's frames 12..20 reach frame 14 beyond them, where Blender holds the first or last file"),
+        "{msg}"
+    );
+    assert!(!out.exists());
+    say(&format!(
+        "blender_roundtrip: sequence beyond its frames refused: {}",
+        msg.lines()
+            .find(|l| l.contains("beyond them"))
             .unwrap()
             .trim()
     ));
@@ -385,4 +437,154 @@ fn sequences_procedural_volumes_and_failing_hooks() {
     let o = cx.import_blend(&cx.path("missing.blend"), &cx.path("m.gltf"), &[]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no such .blend file"));
+}
+
+impl Ctx {
+    /// tests/blender/make_blend.py motion out.blend --position POSITION.
+    fn make_motion(&self, name: &str, position: &str) -> PathBuf {
+        let out = self.path(name);
+        let o = Command::new(&self.python)
+            .arg(root().join("tests/blender/make_blend.py"))
+            .arg("motion")
+            .arg(&out)
+            .arg("--vdb-dir")
+            .arg(root().join("scenes/vdb"))
+            .args(["--position", position])
+            .output()
+            .unwrap();
+        assert_ok(&o, "make_blend.py motion");
+        out
+    }
+}
+
+/// Blender's Z-up world matrix (rows) in glTF's Y-up world: `(x, y, z) -> (x, z, -y)` on both
+/// sides of the object's matrix, as the exporter writes nodes (the .vdb's own transform, and
+/// the camera's local axes, are the same in both worlds).
+fn y_up(rows: &serde_json::Value) -> glam::DMat4 {
+    let r = |i: usize, j: usize| rows[i][j].as_f64().unwrap();
+    let m = glam::DMat4::from_cols_array_2d(&[
+        [r(0, 0), r(1, 0), r(2, 0), r(3, 0)],
+        [r(0, 1), r(1, 1), r(2, 1), r(3, 1)],
+        [r(0, 2), r(1, 2), r(2, 2), r(3, 2)],
+        [r(0, 3), r(1, 3), r(2, 3), r(3, 3)],
+    ]);
+    let c = glam::DMat4::from_cols_array_2d(&[
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, -1.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]);
+    c * m
+}
+
+/// Largest entry of |a - b| over the entries, relative to max(|a|, 1).
+fn matrix_difference(a: glam::DMat4, b: glam::DMat4) -> f64 {
+    a.to_cols_array()
+        .iter()
+        .zip(b.to_cols_array())
+        .map(|(x, y)| (x - y).abs() / x.abs().max(1.0))
+        .fold(0.0, f64::max)
+}
+
+/// A moving shot (tests/blender/make_blend.py `motion`): the plume's velocity grid, unit and
+/// scale, the frame, 29.97 fps, the frame range and the shutter (centred, starting or ending
+/// on the frame, or none with motion blur off) reach `BRUME_render` and `BRUME_medium_vdb`;
+/// and the exported animations, sampled by Blender's exporter in Scene mode (keyed empty and
+/// camera, a Track To constraint on a keyed target), place the camera and the medium at every
+/// frame as Blender does, outside the range included (held), to 1e-5.
+#[test]
+fn motion_velocity_and_shutter_export() {
+    let Some(cx) = Ctx::new("motion") else {
+        return;
+    };
+    let fps = 30.0 / 1.001;
+    for (position, shutter) in [
+        ("CENTER", Some((-0.25, 0.25))),
+        ("START", Some((0.0, 0.5))),
+        ("END", Some((-0.5, 0.0))),
+        ("OFF", None),
+    ] {
+        let blend = cx.make_motion(&format!("motion_{position}.blend"), position);
+        let out = cx.path(&format!("motion_{position}.gltf"));
+        let o = cx.import_blend(&blend, &out, &[]);
+        assert_ok(&o, "import-blend motion");
+        let doc: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        let render = &doc["extensions"]["BRUME_render"];
+        assert_eq!(render["frame"], 5, "{render}");
+        // Blender keeps fps_base in single precision.
+        assert!(
+            (render["fps"].as_f64().unwrap() - fps).abs() < 1e-5,
+            "{render}"
+        );
+        assert_eq!(render["frameRange"], serde_json::json!([1, 12]), "{render}");
+        match shutter {
+            Some((open, close)) => {
+                assert_eq!(render["shutter"]["open"].as_f64(), Some(open), "{render}");
+                assert_eq!(render["shutter"]["close"].as_f64(), Some(close), "{render}");
+            }
+            None => assert!(render.get("shutter").is_none(), "{render}"),
+        }
+        let s = brume::scene::load(&out).unwrap();
+        let v = s.vdb_media[0].velocity.as_ref().expect("velocity");
+        assert_eq!(v.grid_name, "velocity");
+        assert_eq!(v.scale, 8.0);
+        assert_eq!(v.unit, brume::scene::VelocityUnit::Second);
+        assert_eq!(s.frame, 5);
+        assert!((s.fps as f64 - fps).abs() < 1e-4);
+        say(&format!(
+            "blender_roundtrip: motion blur {position}: shutter {} (fps {}, frame {}, velocity '{}' x {} per {})",
+            render.get("shutter").map_or("none".to_string(), |v| v.to_string()),
+            s.fps,
+            s.frame,
+            v.grid_name,
+            v.scale,
+            v.unit.name()
+        ));
+    }
+
+    // The motion, against Blender's own evaluation of the .blend at each frame.
+    let blend = cx.path("motion_CENTER.blend");
+    let gltf = cx.path("motion_CENTER.gltf");
+    let frames = [0, 1, 3, 5, 8, 12, 14];
+    let o = Command::new(&cx.python)
+        .arg(root().join("tests/blender/dump_motion.py"))
+        .arg(&blend)
+        .args(frames.map(|f| f.to_string()))
+        .output()
+        .unwrap();
+    assert_ok(&o, "dump_motion.py");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let line = stdout.lines().rev().find(|l| l.starts_with('{')).unwrap();
+    let blender: serde_json::Value = serde_json::from_str(line).unwrap();
+    let mut worst = (0f64, 0f64);
+    for f in frames {
+        let options = brume::scene::LoadOptions {
+            frame: Some(f),
+            ..Default::default()
+        };
+        let s = brume::scene::load_with(&gltf, &options).unwrap();
+        let at = &blender[f.to_string()];
+        let camera = y_up(&at["camera"]);
+        let d = matrix_difference(camera, s.camera.world_from_camera.as_dmat4());
+        assert!(
+            d < 1e-5,
+            "frame {f}: camera {:?} against Blender's {camera:?}",
+            s.camera.world_from_camera
+        );
+        worst.0 = worst.0.max(d);
+        let m = &s.vdb_media[0];
+        let want = y_up(&at["volumes"]["plume"]) * m.grids[0].vdb_world_from_index.as_dmat4();
+        let d = matrix_difference(want, m.world_from_medium.as_dmat4());
+        assert!(
+            d < 1e-5,
+            "frame {f}: medium {:?} against Blender's {want:?}",
+            m.world_from_medium
+        );
+        worst.1 = worst.1.max(d);
+    }
+    say(&format!(
+        "blender_roundtrip: exported animations against Blender at frames {frames:?}: camera within {:.1e}, medium within {:.1e}",
+        worst.0, worst.1
+    ));
 }

@@ -6,6 +6,7 @@
 mod common;
 
 mod blender_roundtrip;
+mod cycles_blur;
 mod cycles_compare;
 mod farm_slurm;
 mod mitsuba_compare;

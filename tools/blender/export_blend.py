@@ -8,6 +8,8 @@ this):
 - the add-on is enabled with `addon_utils.enable` (a bare import is not seen by the exporter);
 - `--frame N` sets the scene frame first (VDB sequences, animated transforms), otherwise the
   frame saved in the .blend is used;
+- animations are exported in the exporter's Scene mode (every animated object sampled at
+  every frame of the scene's range), which the add-on also forces;
 - `--addon DIR` enables another exporter add-on as well (a package folder or a .py module);
 - the glTF (with its .bin) or .glb is written under a temporary name in the output folder and
   renamed at the end, so a failed export leaves no output; exit status 1 with the reasons on
@@ -84,7 +86,8 @@ def main(argv):
             export_yup=True,
             export_import_convert_lighting_mode="COMPAT",
             export_current_frame=True,
-            export_animations=False,
+            export_animations=True,
+            export_animation_mode="SCENE",
             export_cameras=True,
             export_lights=True,
             export_extras=False,

@@ -32,9 +32,17 @@ The Blender scene is built as follows (docs/comparing.md has the table and the r
   Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one;
   the volume datablock named so that Cycles' name-hashed mesh offset vanishes
   (`new_unshifted_volume`);
+- a medium's `velocityGrid`, `velocityUnit`, `velocityScale` as the Volume's velocity grid,
+  unit and scale; a sequence (`uri` with a run of `#`) as the one file of the frame
+  (frame + `frameOffset`);
 - `BRUME_environment` as the world background: color * strength, times an Environment
   Texture (equirectangular, through a Mapping node with the same Euler rotation) when `uri`
   is given;
+- node animations as imported by Blender (key time t at frame t * fps, `BRUME_render.fps`),
+  every animation playing at once as in Brume; the scene at `BRUME_render.frame`;
+  `BRUME_render.shutter` as Blender's motion blur (length, and Center, Start or End on the
+  frame), with object motion blur off on everything but the camera and media with a velocity
+  grid (Brume renders the rest at the frame's instant);
 - render settings that remove avoidable differences (see `configure_render`).
 """
 import argparse
@@ -378,9 +386,26 @@ def new_unshifted_volume(name):
         bpy.data.volumes.remove(vol)
 
 
-def build_medium(name, ext, base_dir, world_from_node):
-    """A BRUME_medium_vdb node as a Volume object with a Principled Volume."""
-    path = os.path.join(base_dir, ext["uri"])
+def for_frame(uri, frame):
+    """`uri` with its last run of `#` replaced by `frame`, zero-padded to the run's length (a
+    longer number as it is; -005 for -5 on four), as Brume names a sequence's files
+    (src/scene/sequence.rs)."""
+    end = uri.rfind("#") + 1
+    if end == 0:
+        return uri
+    start = len(uri[:end].rstrip("#"))
+    return f"{uri[:start]}{frame:0{end - start}d}{uri[end:]}"
+
+
+def build_medium(name, ext, base_dir, world_from_node, frame, parent=None):
+    """A BRUME_medium_vdb node as a Volume object with a Principled Volume, reading the file
+    of `frame` for a sequence (a `uri` with a run of `#`, file = frame + frameOffset). With
+    `parent` (the importer's object of an animated node) the Volume hangs under it and follows
+    its motion; otherwise it is placed at `world_from_node`."""
+    from urllib.parse import unquote
+
+    uri = for_frame(ext["uri"], frame + int(ext.get("frameOffset", 0)))
+    path = os.path.join(base_dir, unquote(uri))
     # The datablock's name decides Cycles' mesh offset (`cycles_face_overlap_avoidance`).
     vol = new_unshifted_volume(name)
     vol.filepath = os.path.abspath(path)
@@ -390,7 +415,30 @@ def build_medium(name, ext, base_dir, world_from_node):
     vol.render.clipping = 0.0  # the default 0.001 drops low-density voxels
     obj = bpy.data.objects.new(name, vol)
     bpy.context.scene.collection.objects.link(obj)
-    obj.matrix_world = BLENDER_FROM_GLTF @ world_from_node
+    if parent is None:
+        obj.matrix_world = BLENDER_FROM_GLTF @ world_from_node
+    else:
+        # The importer's object of node W is B W B^-1 (B = BLENDER_FROM_GLTF); the Volume
+        # needs B W, which is that object times B whatever W is at the frame.
+        obj.parent = parent
+        obj.matrix_parent_inverse = Matrix.Identity(4)
+        obj.matrix_basis = BLENDER_FROM_GLTF.copy()
+    # Velocity motion blur: Blender's own settings, which Brume's fields copy. Cycles also
+    # reads a grid named `velocity` as the velocity whatever velocity_grid says, and only
+    # blurs objects whose own motion blur is on: a medium without velocityGrid has it off
+    # (Brume renders media at the frame's instant; only their velocity blurs them).
+    grid = ext.get("velocityGrid")
+    obj.cycles.use_motion_blur = grid is not None
+    if grid is not None:
+        vol.velocity_grid = grid
+        vol.velocity_unit = "FRAME" if ext.get("velocityUnit") == "frame" else "SECOND"
+        vol.velocity_scale = ext.get("velocityScale", 1.0)
+        if grid != "velocity" and any(g.name == "velocity" for g in vol.grids):
+            print(
+                f"note: {path} also has a grid named 'velocity', which Cycles reads as the velocity "
+                f"too; the two renders may differ",
+                file=sys.stderr,
+            )
 
     mat = bpy.data.materials.new(name + "_medium")
     nt, out = new_tree(mat)
@@ -457,6 +505,115 @@ def build_environment_map(nt, bg, env, base_dir):
     nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
     nt.links.new(tex.outputs["Color"], mul.inputs[0])
     nt.links.new(mul.outputs["Vector"], bg.inputs["Color"])
+
+
+def play_all_animations(gltf):
+    """Brume plays every animation of the file at once; Blender's importer makes one action
+    per glTF animation, assigns the first and stashes the others on muted NLA tracks. Each
+    animated object gets one action holding all of its channels from every animation (the
+    keys as imported: LINEAR and STEP as they are, CUBICSPLINE as Bezier with automatic
+    handles, not glTF's tangents), the NLA tracks go. Returns the names of the objects."""
+    from bpy_extras import anim_utils
+
+    animated = []
+    for obj in bpy.context.scene.objects:
+        ad = obj.animation_data
+        if ad is None:
+            continue
+        sources = [(s.action, s.action_slot) for t in ad.nla_tracks for s in t.strips if s.action is not None]
+        if ad.action is not None:
+            sources.append((ad.action, ad.action_slot))
+        curves = {}
+        for action, slot in sources:
+            bag = anim_utils.action_get_channelbag_for_slot(action, slot)
+            for fc in bag.fcurves if bag is not None else []:
+                curves[(fc.data_path, fc.array_index)] = fc
+        for track in list(ad.nla_tracks):
+            ad.nla_tracks.remove(track)
+        if not curves:
+            continue
+        merged = bpy.data.actions.new(f"{obj.name}_brume")
+        ad.action = merged
+        for (path, index), fc in sorted(curves.items()):
+            out = merged.fcurve_ensure_for_datablock(obj, path, index=index)
+            n = len(fc.keyframe_points)
+            co = [0.0] * (2 * n)
+            fc.keyframe_points.foreach_get("co", co)
+            ipo = [0] * n
+            fc.keyframe_points.foreach_get("interpolation", ipo)
+            out.keyframe_points.add(n)
+            out.keyframe_points.foreach_set("co", co)
+            out.keyframe_points.foreach_set("interpolation", ipo)
+            for k, src in zip(out.keyframe_points, fc.keyframe_points):
+                k.handle_left_type = src.handle_left_type
+                k.handle_right_type = src.handle_right_type
+            out.extrapolation = "CONSTANT"  # glTF holds the first and last keys
+            out.update()
+        animated.append(obj.name)
+    if any(s.get("interpolation") == "CUBICSPLINE" for a in gltf.get("animations", []) for s in a.get("samplers", [])):
+        print(
+            "note: CUBICSPLINE animations are imported as Bezier curves with automatic handles "
+            "(Blender's importer ignores glTF's tangents): the motion between keys differs from Brume's",
+            file=sys.stderr,
+        )
+    return animated
+
+
+def moving_nodes(gltf):
+    """Indices of the nodes that an animation moves, directly or through a parent."""
+    nodes = gltf.get("nodes", [])
+    targets = {c["target"]["node"] for a in gltf.get("animations", []) for c in a.get("channels", []) if "node" in c.get("target", {})}
+    parent = {c: i for i, n in enumerate(nodes) for c in n.get("children", [])}
+    moving = set()
+    for i in range(len(nodes)):
+        j = i
+        while j is not None:
+            if j in targets:
+                moving.add(i)
+                break
+            j = parent.get(j)
+    return moving
+
+
+def configure_motion(scene, args, render, frame):
+    """The frame and the shutter (`BRUME_render.shutter`, frames around the frame): Blender's
+    motion blur of that length, centred on the frame, starting or ending on it. Only the
+    camera and media with a velocity grid blur (Brume renders everything else at the frame's
+    instant): the other objects' own motion blur is off."""
+    scene.frame_set(frame)
+    shutter = render.get("shutter")
+    opened = shutter is not None and shutter.get("close", 0.25) > shutter.get("open", -0.25)
+    scene.render.use_motion_blur = opened
+    for obj in scene.objects:
+        if obj.type not in ("CAMERA", "VOLUME"):
+            obj.cycles.use_motion_blur = False
+    if not opened:
+        return
+    a, b = shutter.get("open", -0.25), shutter.get("close", 0.25)
+    length = b - a
+    if abs(a + b) <= 1e-6 * length:
+        position = "CENTER"
+    elif a == 0.0:
+        position = "START"
+    elif b == 0.0:
+        position = "END"
+    else:
+        sys.exit(
+            f"error: {args.scene}: /extensions/BRUME_render/shutter: {a}..{b} frames; Cycles' "
+            "shutter is centred on the frame, starts on it or ends on it"
+        )
+    scene.render.motion_blur_shutter = length
+    scene.render.motion_blur_position = position
+    if position == "END" and any(o.type == "VOLUME" and o.cycles.use_motion_blur for o in scene.objects):
+        # Cycles' volume_shader_motion_blur takes time (1 - shutter) + tau for End, tau in
+        # [0, 1]: measured on the plume, its End render matches Brume's shutter 0.25..0.75
+        # (+1.35 %) far better than -0.5..0 (+4.3 %).
+        print(
+            f"note: Cycles advects velocity-blurred volumes over frames {(1 - length) * length:g}.."
+            f"{(2 - length) * length:g} after the frame when the shutter ends on it, not over "
+            f"{-length:g}..0 as Brume does: those volumes render differently",
+            file=sys.stderr,
+        )
 
 
 def configure_render(scene, args):
@@ -539,17 +696,29 @@ def build_scene(args):
     gltf_path = os.path.abspath(args.scene)
     with open(gltf_path) as f:
         gltf = json.load(f)
+    render = gltf.get("extensions", {}).get("BRUME_render", {})
     if args.max_depth is None:
         # As `brume render`: the scene's own depth unless the command line gives one.
-        render = gltf.get("extensions", {}).get("BRUME_render", {})
         args.max_depth = int(render.get("maxDepth", DEFAULT_MAX_DEPTH))
     base_dir = os.path.dirname(gltf_path)
+    fps = float(render.get("fps", 24.0))
+    frame = int(render.get("frame", 1))
+    scene = bpy.context.scene
+    # Brume's frame f is time f / fps. The importer keys time t at frame t * fps * fps_base,
+    # and Blender's frame rate is fps / fps_base: fps_base is fps / rate while importing, then
+    # rate / fps (1 for a whole rate either way).
+    whole = min(max(round(fps), 1), 32767)
+    scene.render.fps = whole
+    scene.render.fps_base = fps / whole
     bpy.ops.import_scene.gltf(
         filepath=gltf_path,
         export_import_convert_lighting_mode="COMPAT",
         import_shading="NORMALS",
     )
     scene = bpy.context.scene
+    scene.render.fps_base = whole / fps
+    play_all_animations(gltf)
+    scene.frame_set(frame)  # everything below is placed as at Brume's frame
 
     # Lights: punctual means radius 0; Blender's defaults are soft.
     for obj in scene.objects:
@@ -608,10 +777,20 @@ def build_scene(args):
 
     # Media.
     worlds = world_matrices(gltf)
+    moving = moving_nodes(gltf)
     for i, node in enumerate(gltf.get("nodes", [])):
         ext = node.get("extensions", {}).get("BRUME_medium_vdb")
         if ext is not None and i in worlds:
-            build_medium(node.get("name", f"medium{i}"), ext, base_dir, worlds[i])
+            parent = None
+            if i in moving:
+                parent = bpy.data.objects.get(node.get("name", ""))
+                if parent is None:
+                    sys.exit(
+                        f"error: {args.scene}: /nodes/{i}: an animation moves this medium, but "
+                        "the glTF importer's object for the node cannot be found by its name "
+                        "(give the node a unique name)"
+                    )
+            build_medium(node.get("name", f"medium{i}"), ext, base_dir, worlds[i], frame, parent)
 
     # Environment.
     world = bpy.data.worlds.new("brume_environment")
@@ -627,6 +806,7 @@ def build_scene(args):
     else:
         bg.inputs["Strength"].default_value = 0.0
     configure_render(scene, args)
+    configure_motion(scene, args, render, frame)
     return scene
 
 

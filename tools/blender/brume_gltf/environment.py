@@ -124,8 +124,11 @@ def environment_fields(world):
     return fields, image, warnings
 
 
-def render_fields(scene):
-    """`BRUME_render`: the output resolution and the Cycles sample count."""
+def render_fields(scene, frame):
+    """`BRUME_render`: the output resolution, the Cycles sample count, the frame (`frame`, the
+    scene's frame when the export started), the frame rate, the shot's frame range and, with
+    motion blur on, the shutter. Returns (fields, warnings)."""
+    warnings = []
     r = scene.render
     fields = {
         "width": max(1, r.resolution_x * r.resolution_percentage // 100),
@@ -134,4 +137,32 @@ def render_fields(scene):
     cycles = getattr(scene, "cycles", None)
     if cycles is not None:
         fields["spp"] = int(cycles.samples)
-    return fields
+    fields["frame"] = int(frame)
+    fields["fps"] = r.fps / r.fps_base
+    fields["frameRange"] = [int(scene.frame_start), int(scene.frame_end)]
+    if r.use_motion_blur:
+        fields["shutter"], notes = shutter(scene)
+        warnings.extend(notes)
+    return fields, warnings
+
+
+def shutter(scene):
+    """Blender's shutter in frames around the frame: `motion_blur_shutter` long, centred on the
+    frame (Center on Frame), starting on it (Start on Frame) or ending on it (End on Frame).
+    Returns ({"open", "close"}, warnings)."""
+    r = scene.render
+    length = float(r.motion_blur_shutter)
+    position = r.motion_blur_position
+    open_ = {"START": 0.0, "END": -length}.get(position, -0.5 * length)
+    warnings = []
+    curve = r.motion_blur_shutter_curve.curves[0].points
+    heights = [p.location[1] for p in curve]
+    if max(heights) - min(heights) > 1e-6:
+        warnings.append(
+            "render: the Shutter Curve is not flat; Brume opens the shutter fully for its whole "
+            "length (the curve is ignored)"
+        )
+    rolling = getattr(getattr(scene, "cycles", None), "rolling_shutter_type", "NONE")
+    if rolling != "NONE":
+        warnings.append("render: Rolling Shutter is ignored (Brume's shutter is global)")
+    return {"open": open_, "close": open_ + length}, warnings

@@ -10,7 +10,12 @@ to one onto the extension; `tools/cycles/brume_to_cycles.py` does the reverse. F
   1 / |M (1, 1, 1) / sqrt(3)|, M the object's world matrix (`object_volume_density` in
   intern/cycles/scene/object.cpp); Brume's coefficients are per world metre, so that factor is
   folded into densityScale, emissionStrength and blackbodyTint;
-- with Blackbody Intensity 0 Cycles adds no blackbody emission at all.
+- with Blackbody Intensity 0 Cycles adds no blackbody emission at all;
+- the velocity (intern/cycles/blender/volume.cpp) is the grid named Velocity Grid or
+  `velocity`, scaled by Velocity Scale (and shutter / fps for a velocity per second), and
+  only on objects whose own motion blur is on;
+- a VDB sequence reads file number (frame - Start + 1, by the sequence mode) + Offset, the
+  number being the digits just before the file's extension (BKE_volume_sequence_frame).
 """
 import math
 import os
@@ -26,19 +31,24 @@ class Refused(Exception):
     """This object cannot be rendered by Brume as it is; the message says why and what to do."""
 
 
-def frame_file(vol, frame):
-    """The .vdb file Blender reads for `frame` (BKE_volume_sequence_frame and BLI_path_frame
-    in Blender's source), or None when a Clip sequence has no file at that frame."""
-    path = bpy.path.abspath(vol.filepath, library=vol.library)
-    if not vol.is_sequence:
-        return path
-    head, name = os.path.split(path)
-    digits = list(re.finditer(r"\d+", name))
-    if not digits:
-        return path
-    if vol.frame_duration == 0:
+def frame_digits(path):
+    """(start, end) in `path` of its file name's frame number: the digits just before the
+    extension (BLI_path_frame_get in Blender's source), or None without one."""
+    name = os.path.basename(path)
+    stem = name[: name.rfind(".")] if "." in name else name
+    m = re.search(r"\d+$", stem)
+    if m is None:
         return None
+    base = len(path) - len(name)
+    return base + m.start(), base + m.end()
+
+
+def sequence_number(vol, frame):
+    """The file number Blender reads for scene frame `frame` (BKE_volume_sequence_frame), or
+    None when the sequence has no file there (Clip outside its frames, or no frames)."""
     n = vol.frame_duration
+    if n == 0:
+        return None
     f = frame - vol.frame_start + 1
     mode = vol.sequence_mode
     if mode == "CLIP":
@@ -60,11 +70,99 @@ def frame_file(vol, frame):
                 f = 2 * n - f
         else:
             f = 1
-    f += vol.frame_offset
-    m = digits[-1]
-    width = len(m.group(0))
-    number = f"{f:0{width}d}" if f >= 0 else f"-{-f:0{width}d}"
-    return os.path.join(head, name[: m.start()] + number + name[m.end():])
+    return f + vol.frame_offset
+
+
+def numbered(path, digits, number):
+    """`path` with its frame number (`digits`, from frame_digits) replaced by `number`, padded
+    as Blender pads it (BLI_path_frame: `%.*d`, so -5 on four digits is -0005)."""
+    a, b = digits
+    width = b - a
+    text = f"{number:0{width}d}" if number >= 0 else f"-{-number:0{width}d}"
+    return path[:a] + text + path[b:]
+
+
+def frame_file(vol, frame):
+    """The .vdb file Blender reads for `frame` (BKE_volume_sequence_frame and BLI_path_frame
+    in Blender's source), or None when a Clip sequence has no file at that frame."""
+    path = bpy.path.abspath(vol.filepath, library=vol.library)
+    if not vol.is_sequence:
+        return path
+    digits = frame_digits(path)
+    if digits is None:
+        return path
+    number = sequence_number(vol, frame)
+    return None if number is None else numbered(path, digits, number)
+
+
+class Sequence:
+    """A VDB sequence as Brume reads one: `pattern` (an absolute path whose frame number is a
+    run of `#`), file = frame + `offset`; `files` maps each frame of the shot to its file."""
+
+    def __init__(self, pattern, offset, files):
+        self.pattern = pattern
+        self.offset = offset
+        self.files = files
+
+
+def shot_frames(scene, frame):
+    """The frames a render of this scene can ask for: its frame range and `frame`."""
+    return range(min(scene.frame_start, frame), max(scene.frame_end, frame) + 1)
+
+
+MODE_NAMES = {"CLIP": "Clip", "EXTEND": "Extend", "REPEAT": "Repeat", "PING_PONG": "Ping-Pong"}
+
+
+def sequence_source(vol, scene, current):
+    """Where the Volume's frames come from, as Brume can say it: a single path (not a sequence,
+    or the same file at every frame of the shot) or a `Sequence`, whose file numbers follow the
+    frame one to one (Blender's rule inside the sequence's own frames, whatever its mode).
+    Returns (source, warnings); raises Refused where Blender's files do not follow the frame
+    over the shot (Clip, Extend, Repeat or Ping-Pong outside the sequence's frames)."""
+    path = bpy.path.abspath(vol.filepath, library=vol.library)
+    digits = frame_digits(path) if vol.is_sequence else None
+    if digits is None:
+        return path, []
+    first_seq, last_seq = vol.frame_start, vol.frame_start + vol.frame_duration - 1
+    mode = MODE_NAMES.get(vol.sequence_mode, vol.sequence_mode)
+    if vol.frame_duration == 0:
+        raise Refused("its VDB sequence has no frames (Frames is 0): Blender reads no file")
+    if sequence_number(vol, current) is None:
+        raise Refused(
+            f"its VDB sequence has no file at frame {current} (sequence mode Clip, frames "
+            f"{first_seq}..{last_seq})"
+        )
+    frames = shot_frames(scene, current)
+    numbers = {f: sequence_number(vol, f) for f in frames}
+    offset = vol.frame_offset - vol.frame_start + 1
+    shot = f"the scene's frames {frames[0]}..{frames[-1]}"
+    if len(set(numbers.values())) == 1:
+        # One file for the whole shot (a one-frame shot, or Extend/Repeat of a one-file sequence).
+        return numbered(path, digits, numbers[current]), []
+    if all(n == f + offset for f, n in numbers.items()):
+        if min(numbers.values()) < 0:
+            raise Refused(
+                f"its VDB sequence reads negative file numbers over {shot} (down to "
+                f"{min(numbers.values())}): Brume pads the sign into the number's width and "
+                "Blender does not, so the file names would differ; shift the sequence (Offset)"
+            )
+        a, b = digits
+        pattern = path[:a] + "#" * (b - a) + path[b:]
+        files = {f: numbered(path, digits, n) for f, n in numbers.items()}
+        return Sequence(pattern, offset, files), []
+    outside = [f for f in frames if not first_seq <= f <= last_seq]
+    what = {
+        "CLIP": "Blender shows no volume",
+        "EXTEND": "Blender holds the first or last file",
+        "REPEAT": "Blender starts the sequence over",
+        "PING_PONG": "Blender plays the sequence backwards",
+    }.get(vol.sequence_mode, "Blender's files do not follow the frame")
+    raise Refused(
+        f"its VDB sequence covers frames {first_seq}..{last_seq} (sequence mode {mode}) but "
+        f"{shot} reach frame {outside[0]} beyond them, where {what}; Brume reads file number "
+        f"frame + frameOffset at every frame. Set the scene's frame range (Output > Frame Range) "
+        f"within {first_seq}..{last_seq}, or the sequence's Start and Frames to cover the shot"
+    )
 
 
 def object_space_factor(obj):
@@ -100,8 +198,10 @@ def principled_volume(obj):
     return mat, src.node
 
 
-def medium_fields(obj, frame, depsgraph):
-    """(fields without `uri`, absolute .vdb path, warnings) for a Volume object."""
+def medium_fields(obj, scene, frame, depsgraph):
+    """(fields without `uri`, origin, warnings) for a Volume object at scene frame `frame`:
+    `origin` is the absolute .vdb path, or a `Sequence` for a VDB sequence whose files
+    follow the frame (docs/blender.md)."""
     warnings = []
     vol = obj.data
     if vol.packed_file is not None:
@@ -118,14 +218,21 @@ def medium_fields(obj, frame, depsgraph):
             f"has modifiers {names}: Brume reads the .vdb file as it is; bake the result to a .vdb "
             "(e.g. with a simulation cache) and load that, or disable the modifiers for render"
         )
+    origin, notes = sequence_source(vol, scene, frame)
+    warnings.extend(notes)
     path = frame_file(vol, frame)
-    if path is None:
-        raise Refused(
-            f"its VDB sequence has no file at frame {frame} (sequence mode Clip, frames "
-            f"{vol.frame_start}..{vol.frame_start + vol.frame_duration - 1})"
-        )
     if not os.path.isfile(path):
         raise Refused(f"its .vdb file {path} does not exist")
+    fields = {}
+    if isinstance(origin, Sequence):
+        if origin.offset != 0:
+            fields["frameOffset"] = origin.offset
+        missing = [f for f, p in origin.files.items() if not os.path.isfile(p)]
+        if missing:
+            warnings.append(
+                f"its VDB sequence has no file at {len(missing)} of the scene's frames (frame "
+                f"{missing[0]}: {origin.files[missing[0]]}); Brume refuses to render those frames"
+            )
     vol.grids.load()  # lazily loaded otherwise: the grid list would be empty
     evaluated = obj.evaluated_get(depsgraph).data
     evaluated.grids.load()
@@ -173,7 +280,6 @@ def medium_fields(obj, frame, depsgraph):
     def own_rgb(name):
         return [min(max(float(c), 0.0), 1.0) for c in ins[name].default_value[:3]]
 
-    fields = {}
     # Density: Density socket times the Density Attribute grid. Without it there is nothing
     # to render, so what cannot be read here is a refusal.
     d = affine_of("Density")
@@ -284,6 +390,7 @@ def medium_fields(obj, frame, depsgraph):
         }
 
     fields.update(soft(blackbody, dict, "no blackbody emission exported"))
+    fields.update(velocity_fields(obj, grids, path, scene, warnings))
 
     if source(mat.node_tree.get_output_node("CYCLES").inputs["Surface"]) is not None:
         warnings.append(f"material '{mat.name}': the Surface output is ignored on a Volume object")
@@ -293,4 +400,63 @@ def medium_fields(obj, frame, depsgraph):
         for x in v if isinstance(v, list) else [v]:
             if isinstance(x, float) and not math.isfinite(x):
                 raise Refused(f"{where}: {k} is not finite ({v})")
-    return fields, path, warnings
+    return fields, origin, warnings
+
+
+# Cycles' standard name of a volume's velocity grid (`Attribute::standard_name`): a grid so
+# named is the velocity whatever `Volume.velocity_grid` says (intern/cycles/blender/volume.cpp).
+VELOCITY = "velocity"
+
+
+def velocity_fields(obj, grids, path, scene, warnings):
+    """`velocityGrid`, `velocityUnit`, `velocityScale`: the grid Cycles reads as the volume's
+    velocity (`Volume.velocity_grid`, or a grid named `velocity`), with Blender's unit and
+    scale, where Cycles would blur the object. What Brume cannot follow is left out with a
+    warning (the volume is then rendered without velocity blur)."""
+    vol = obj.data
+    blurs = scene.render.use_motion_blur
+    cycles = getattr(obj, "cycles", None)
+    if cycles is not None and not cycles.use_motion_blur:
+        # Cycles adds no velocity attribute to an object whose own motion blur is off.
+        if blurs and (vol.velocity_grid in grids or VELOCITY in grids):
+            warnings.append("Object Properties > Motion Blur is off: exported without velocity blur")
+        return {}
+    names = [n for n in (vol.velocity_grid, VELOCITY) if n and n in grids]
+    if not names:
+        split = [n for n in (vol.velocity_x_grid, vol.velocity_y_grid, vol.velocity_z_grid) if n and n in grids]
+        if split and blurs:
+            warnings.append(
+                f"its velocity is split into grids {', '.join(split)}; Brume reads one vector grid, "
+                "so no velocity blur is exported (merge them into one vector grid)"
+            )
+        return {}
+    name = names[0]
+    if len(set(names)) > 1:
+        warnings.append(
+            f"Velocity Grid is '{name}' but {path} also has a grid named '{VELOCITY}', which Cycles "
+            f"reads as the velocity too; '{name}' is exported"
+        )
+    kind = grids[name].data_type
+    if kind not in ("VECTOR_FLOAT", "VECTOR_DOUBLE"):
+        warnings.append(
+            f"velocity grid '{name}' holds {kind.lower().replace('_', ' ')} values, not float "
+            "vectors; no velocity blur exported"
+        )
+        return {}
+    scale = float(vol.velocity_scale)
+    if not (math.isfinite(scale) and scale >= 0.0):
+        warnings.append(f"Velocity Scale {scale} is not a finite number >= 0; no velocity blur exported")
+        return {}
+    if blurs and scene.render.motion_blur_position == "END":
+        length = scene.render.motion_blur_shutter
+        warnings.append(
+            f"with the shutter ending on the frame Cycles advects the density over frames "
+            f"{(1 - length) * length:g}..{(2 - length) * length:g} after it, not over the shutter "
+            f"({-length:g}..0) where it blurs moving objects; Brume blurs the velocity over the "
+            "shutter, so this volume renders differently in Cycles"
+        )
+    return {
+        "velocityGrid": name,
+        "velocityUnit": "second" if vol.velocity_unit == "SECOND" else "frame",
+        "velocityScale": scale,
+    }
