@@ -120,14 +120,17 @@ pub(super) fn next_event<F: Features>(
     let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
     let u_light = sampler.get2d(bounce_dim(bounce, DIM_LIGHT));
     let lights = &rs.lights;
-    let guided = phase
-        .and_then(|(ph, wo, a)| Some((ph, wo, lights.phase_selection(p, a, |wi| ph.p(wo, wi))?)));
+    let dt = cfg.time;
+    let guided = phase.and_then(|(ph, wo, a)| {
+        Some((ph, wo, lights.phase_selection(p, a, |wi| ph.p(wo, wi), dt)?))
+    });
     let (ls, choice) = match guided {
         Some((ph, wo, sel)) => {
-            let ls = lights.sample_selected(&sel, p, u_select, u_light, |u| {
+            let phase_sample = |u| {
                 let s = ph.sample(wo, u);
                 (s.wi, s.pdf)
-            });
+            };
+            let ls = lights.sample_selected(&sel, p, u_select, u_light, phase_sample, dt);
             let choice = EnvChoice {
                 pmf: sel.env,
                 by_phase: sel.env_by_phase,
@@ -135,7 +138,7 @@ pub(super) fn next_event<F: Features>(
             (ls, choice)
         }
         _ => (
-            lights.sample(rs.scene, p, u_select, u_light),
+            lights.sample(rs.scene, p, u_select, u_light, dt),
             EnvChoice {
                 pmf: lights.uniform_env_pmf(),
                 by_phase: false,

@@ -98,7 +98,11 @@ pub struct LightSample {
 }
 
 pub struct Lights {
+    /// The punctual lights at the frame's instant.
     pub punctual: Vec<PunctualLight>,
+    /// Each punctual light's motion across the shutter, where it moves: a sample at time
+    /// offset `dt` sees it at that pose ([`Lights::posed`]).
+    pub motion: Vec<Option<crate::scene::motion::NodeMotion>>,
     /// The environment, when it emits.
     pub environment: Option<EnvLight>,
     pub area: Option<AreaLights>,
@@ -164,6 +168,7 @@ impl Lights {
         });
         Lights {
             punctual: scene.lights.clone(),
+            motion: scene.light_motion.clone(),
             environment: EnvLight::new(&scene.environment),
             area,
             continuation_albedo: 0.0,
@@ -236,8 +241,28 @@ impl Lights {
 
     /// Direction, distance and arriving radiance (or irradiance) of punctual light `k` at `p`
     /// (`None` at the light's own position).
-    fn punctual_incident(&self, k: usize, p: Vec3) -> Option<(Vec3, f32, Vec3)> {
-        let l = &self.punctual[k];
+    /// Punctual light `k` at time offset `dt`: its position and direction at that pose.
+    #[inline]
+    pub fn posed(&self, k: usize, dt: f32) -> PunctualLight {
+        let mut l = self.punctual[k];
+        if let Some(Some(m)) = self.motion.get(k) {
+            let world = m.world_from_node(dt);
+            l.position = world.transform_point3(Vec3::ZERO).to_array();
+            let d = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+            if d != Vec3::ZERO {
+                l.direction = d.to_array();
+            }
+        }
+        l
+    }
+
+    /// Whether some punctual light moves during the shutter.
+    pub fn moving(&self) -> bool {
+        self.motion.iter().any(Option::is_some)
+    }
+
+    fn punctual_incident(&self, k: usize, p: Vec3, dt: f32) -> Option<(Vec3, f32, Vec3)> {
+        let l = &self.posed(k, dt);
         let intensity = Vec3::from(l.intensity);
         if l.kind == LIGHT_DIRECTIONAL {
             return Some((-Vec3::from(l.direction), f32::INFINITY, intensity));
@@ -259,8 +284,8 @@ impl Lights {
     }
 
     /// Punctual light `k` seen from `p`, chosen with probability `pmf`.
-    fn punctual_sample(&self, k: usize, p: Vec3, pmf: f32) -> Option<LightSample> {
-        let (wi, dist, li) = self.punctual_incident(k, p)?;
+    fn punctual_sample(&self, k: usize, p: Vec3, pmf: f32, dt: f32) -> Option<LightSample> {
+        let (wi, dist, li) = self.punctual_incident(k, p, dt)?;
         Some(LightSample {
             wi,
             dist,
@@ -273,12 +298,14 @@ impl Lights {
     /// The selection at a medium event at `p` whose phase function takes the value
     /// `phase(wi)`, leaving the share `continuation_albedo` of a constant environment to the
     /// continuation ray (see the module doc; [`Lights::continuation_albedo`] by default);
-    /// `None` when the scene is not [`Lights::guided`].
+    /// `None` when the scene is not [`Lights::guided`]. Moving lights are weighed at their pose
+    /// at time offset `dt`.
     pub fn phase_selection(
         &self,
         p: Vec3,
         continuation_albedo: f32,
         phase: impl Fn(Vec3) -> f32,
+        dt: f32,
     ) -> Option<Selection> {
         if !self.guided() {
             return None;
@@ -292,7 +319,7 @@ impl Lights {
         };
         let mut w = [0.0f32; GUIDED_MAX_PUNCTUAL + 1];
         for (k, wk) in w.iter_mut().enumerate().take(np) {
-            if let Some((wi, _, li)) = self.punctual_incident(k, p) {
+            if let Some((wi, _, li)) = self.punctual_incident(k, p, dt) {
                 *wk = luminance(li) * phase(wi);
             }
         }
@@ -331,7 +358,8 @@ impl Lights {
 
     /// Samples one light with the guided selection `sel` at medium point `p`: `u_select`
     /// picks the light, `u` its direction; a constant environment takes the direction and
-    /// its density from `phase_sample(u)`.
+    /// its density from `phase_sample(u)`; a moving light at its pose at time offset `dt`.
+    #[allow(clippy::too_many_arguments)]
     pub fn sample_selected(
         &self,
         sel: &Selection,
@@ -339,6 +367,7 @@ impl Lights {
         u_select: f32,
         u: Vec2,
         phase_sample: impl Fn(Vec2) -> (Vec3, f32),
+        dt: f32,
     ) -> Option<LightSample> {
         let np = self.punctual.len();
         // The light by the selection's CDF, "no estimate" last; its probability is the
@@ -350,7 +379,7 @@ impl Lights {
         }
         let pmf = sel.pmf[k];
         if k < np {
-            return self.punctual_sample(k, p, pmf);
+            return self.punctual_sample(k, p, pmf, dt);
         }
         let env = self.environment.as_ref()?;
         if sel.env_by_phase {
@@ -374,7 +403,14 @@ impl Lights {
     }
 
     /// Samples one light for the shading point `p` with uniforms `u_select` and `u`.
-    pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        p: Vec3,
+        u_select: f32,
+        u: Vec2,
+        dt: f32,
+    ) -> Option<LightSample> {
         let n = self.count();
         if n == 0 {
             return None;
@@ -382,7 +418,7 @@ impl Lights {
         let pmf = self.pmf();
         let mut k = ((u_select * n as f32) as usize).min(n - 1);
         if k < self.punctual.len() {
-            return self.punctual_sample(k, p, pmf);
+            return self.punctual_sample(k, p, pmf, dt);
         }
         k -= self.punctual.len();
         if let Some(env) = &self.environment {

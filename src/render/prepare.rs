@@ -145,8 +145,9 @@ pub struct RenderScene<'s> {
     /// The scene camera's primary-ray frame, derived once (`Camera::pinhole`).
     pub pinhole: Pinhole,
     /// The shutter camera samples draw their time over, where some medium is blurred
-    /// ([`VdbMedium::blur`]), a medium or the camera moves (`VdbMedium::motion`,
-    /// `Scene::camera_motion`); `None`: every sample sees the frame's instant.
+    /// ([`VdbMedium::blur`]), or a medium, the camera or a light moves (`VdbMedium::motion`,
+    /// `Scene::camera_motion`, `Scene::light_motion`); `None`: every sample sees the frame's
+    /// instant.
     pub shutter: Option<Shutter>,
 }
 
@@ -254,7 +255,8 @@ impl<'s> RenderScene<'s> {
             ..features
         };
         let moves = vdb.iter().any(|m| m.blur.is_some() || m.motion.is_some())
-            || scene.camera_motion.is_some();
+            || scene.camera_motion.is_some()
+            || scene.light_motion.iter().any(Option::is_some);
         let shutter = moves.then_some(scene.shutter);
         Ok(RenderScene {
             scene,

@@ -55,14 +55,16 @@ pub struct PunctualLight {
 }
 const _: () = assert!(std::mem::size_of::<PunctualLight>() == 64);
 
-/// Lights placed by the scene's nodes, in node order.
+/// Lights placed by the scene's nodes, in node order, with the placement (in
+/// `nodes::place_nodes`' order) of each.
 pub fn read_lights(
     ctx: &mut Ctx,
     doc: &gltf::Document,
     nodes: &[PlacedNode],
-) -> Result<Vec<PunctualLight>, SceneError> {
+) -> Result<(Vec<PunctualLight>, Vec<usize>), SceneError> {
     let mut out = Vec::new();
-    for placed in nodes {
+    let mut placements = Vec::new();
+    for (placement, placed) in nodes.iter().enumerate() {
         let node = placed.in_doc(doc);
         let Some(light) = node.light() else { continue };
         let at = |p: &str| {
@@ -126,8 +128,9 @@ pub fn read_lights(
             cos_outer,
             _pad: [0.0; 3],
         });
+        placements.push(placement);
     }
-    Ok(out)
+    Ok((out, placements))
 }
 
 /// Light arriving from infinitely far away in every direction not blocked by the scene.

@@ -128,6 +128,9 @@ pub struct Scene {
     /// The camera's poses across the shutter where an animation moves it during the shutter
     /// (transformation motion blur); `None`: the camera stands still.
     pub camera_motion: Option<motion::NodeMotion>,
+    /// Each punctual light's motion across the shutter (`lights` order), where an animation
+    /// moves it then.
+    pub light_motion: Vec<Option<motion::NodeMotion>>,
     /// Nodes the file's animations move.
     pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
@@ -163,7 +166,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let images = texture::read_images(&ctx, doc, &loaded.buffers, &loaded.base_dir, &mut textures)?;
     let default_material = (materials.len() - 1) as u32;
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
-    let lights = lights::read_lights(&mut ctx, doc, &nodes)?;
+    let (lights, light_placements) = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
     let mut vdb_media = media::read_vdb_media(
         &mut ctx,
@@ -199,6 +202,14 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
             .as_ref()
             .and_then(|s| motion::placement_motion(s, m.placement, shutter));
     }
+    let light_motion: Vec<_> = light_placements
+        .iter()
+        .map(|&p| {
+            steps
+                .as_ref()
+                .and_then(|s| motion::placement_motion(s, p, shutter))
+        })
+        .collect();
 
     let corners = geo
         .triangles
@@ -232,6 +243,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         fps,
         shutter,
         camera_motion,
+        light_motion,
         animated_nodes: pose.len(),
         warnings: ctx.warnings,
     };

@@ -125,8 +125,9 @@ fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
             Some(m) => format!("the camera moves ({} poses across it)", m.poses.len()),
             None => "the camera stands still".into(),
         };
-        let moving = s.vdb_media.iter().filter(|m| m.motion.is_some()).count();
-        let camera = format!("{camera}, {moving} medium node(s) move");
+        let media = s.vdb_media.iter().filter(|m| m.motion.is_some()).count();
+        let lights = s.light_motion.iter().filter(|m| m.is_some()).count();
+        let camera = format!("{camera}, {media} medium node(s) and {lights} light(s) move");
         writeln!(
             o,
             "shutter: {} to {} frames around the frame ({} fps); {camera}",

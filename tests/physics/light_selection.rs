@@ -32,6 +32,7 @@ fn chi_square_of_choices(lights: &Lights, sel: &Selection, wo: Vec3, ph: &Henyey
                 let s = ph.sample(wo, u);
                 (s.wi, s.pdf)
             },
+            0.0,
         );
         counts[match ls {
             None => n,
@@ -74,10 +75,10 @@ fn the_selection_is_a_distribution_that_follows_the_phase_function() {
     let a = rs.lights.continuation_albedo;
     let lights = &rs.lights;
     let toward = lights
-        .phase_selection(p, 0.0, |wi| ph.p(-sun_dir, wi))
+        .phase_selection(p, 0.0, |wi| ph.p(-sun_dir, wi), 0.0)
         .unwrap();
     let away = lights
-        .phase_selection(p, 0.0, |wi| ph.p(sun_dir, wi))
+        .phase_selection(p, 0.0, |wi| ph.p(sun_dir, wi), 0.0)
         .unwrap();
     for sel in [toward, away] {
         let sum: f32 = sel.pmf[..=n].iter().sum();
@@ -102,7 +103,9 @@ fn the_selection_is_a_distribution_that_follows_the_phase_function() {
 
     // With the fog's a, the sky keeps (1 - a) of its probability and the sun takes the rest.
     for (wo, q) in [(-sun_dir, toward), (sun_dir, away)] {
-        let sel = lights.phase_selection(p, a, |wi| ph.p(wo, wi)).unwrap();
+        let sel = lights
+            .phase_selection(p, a, |wi| ph.p(wo, wi), 0.0)
+            .unwrap();
         let sum: f32 = sel.pmf[..=n].iter().sum();
         assert!((sum - 1.0).abs() < 1e-6, "{sel:?}");
         assert!(
@@ -129,9 +132,12 @@ fn a_sky_alone_is_estimated_at_one_event_in_one_over_one_minus_albedo() {
     assert_eq!(lights.continuation_albedo, 0.9);
     let ph = HenyeyGreenstein::new(0.0);
     let sel = lights
-        .phase_selection(Vec3::ZERO, lights.continuation_albedo, |wi| {
-            ph.p(Vec3::Z, wi)
-        })
+        .phase_selection(
+            Vec3::ZERO,
+            lights.continuation_albedo,
+            |wi| ph.p(Vec3::Z, wi),
+            0.0,
+        )
         .unwrap();
     assert!(
         (sel.env - 0.1).abs() < 1e-6 && (sel.pmf[1] - 0.9).abs() < 1e-6,
