@@ -254,19 +254,24 @@ fn mix_emission(tr: ptr<function, Tracker>, p: vec3<f32>, t: f32) -> vec3<f32> {
         }
         return le;
     }
-    if ((*tr).mix == 0u) {
-        var q = p;
-// #if FEATURE_MOTION
-        q = blur_world_point(wf.blur, p, (*tr).o + t * (*tr).d, (*tr).time);
-// #endif
-        return emission_radiance(tr, q);
-    }
-    let k = (*tr).mix - 1u;
+    var e = GpuEmissionParams();
     var q = p;
 // #if FEATURE_MOTION
-    q = blur_world_point(vdb_media[k].blur, p, (*tr).o + t * (*tr).d, (*tr).time);
+    var blur = wf.blur;
 // #endif
-    return emission_radiance_of(tr, vdb_media[k].emission, q);
+    if ((*tr).mix != 0u) {
+        e = vdb_media[(*tr).mix - 1u].emission;
+// #if FEATURE_MOTION
+        blur = vdb_media[(*tr).mix - 1u].blur;
+// #endif
+    }
+// #if FEATURE_MOTION
+    q = blur_world_point(blur, p, (*tr).o + t * (*tr).d, (*tr).time);
+// #endif
+    if ((*tr).mix == 0u) {
+        return emission_radiance(tr, q);
+    }
+    return emission_radiance_of(tr, e, q);
 }
 
 // Moves stream i to its next segment.

@@ -111,20 +111,24 @@ fn copysign(x: f32, y: f32) -> f32 {
 // at the index point the lookup reads (advected where the medium is blurred, GreyView::coeffs).
 fn medium_sigma_t(tr: ptr<function, Tracker>, t: f32) -> f32 {
     var p = (*tr).o + t * (*tr).d;
+    var g = grid_info;
+// #if FEATURE_MOTION
+    var blur = wf.blur;
+// #endif
 // #if FEATURE_MIXTURE
     if ((*tr).mix != 0u) {
-        let m = (*tr).mix - 1u;
-        let g = vdb_media[m].grid;
+        g = vdb_media[(*tr).mix - 1u].grid;
 // #if FEATURE_MOTION
-        p = blur_index_point(vdb_media[m].blur, p, (*tr).time);
+        blur = vdb_media[(*tr).mix - 1u].blur;
 // #endif
-        return g.density_scale * grid_sample_trilinear_in(g, p);
     }
 // #endif
 // #if FEATURE_MOTION
-    p = blur_index_point(wf.blur, p, (*tr).time);
+    // One advection and one lookup whichever medium: every inlined copy of this function
+    // carries one of each.
+    p = blur_index_point(blur, p, (*tr).time);
 // #endif
-    return grid_info.density_scale * grid_sample_trilinear(p);
+    return g.density_scale * grid_sample_trilinear_in(g, p);
 }
 
 // tracking::lookup: one counted density lookup (the mixture: one per medium, summed).
