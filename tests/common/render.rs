@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 14] = [
+pub const EXAMPLE_SCENES: [&str; 15] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -29,6 +29,7 @@ pub const EXAMPLE_SCENES: [&str; 14] = [
     "cloud_sky.gltf",
     "fire2.gltf",
     "smoke_tank.gltf",
+    "plume_blur.gltf",
 ];
 
 pub fn load_scene(name: &str) -> Scene {

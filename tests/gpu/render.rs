@@ -23,7 +23,7 @@ fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
 }
 
 /// Renders on the GPU, prints the timings, checks the counters the CPU also checks.
-fn gpu_render(
+pub(crate) fn gpu_render(
     ctx: &brume::backend::gpu::GpuContext,
     scene: &brume::scene::Scene,
     s: &RenderSettings,
@@ -125,7 +125,7 @@ fn gpu_against_cpu(
     (g, c)
 }
 
-fn agree(
+pub(crate) fn agree(
     label: &str,
     gpu_out: &brume::backend::cpu::RenderOutput,
     cpu_out: &brume::backend::cpu::RenderOutput,
