@@ -74,19 +74,24 @@ fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams,
     return e;
 }
 
-// Medium::on_collision of the wavefront's media: the emission at the tentative collision t,
+// Medium::on_collision of the wavefront's media: the emission at the tentative collision t
+// (read at the advected world point where the medium is blurred),
 // weighted by the flight's starting throughput and the weight so far over sigma_maj
 // (grey: `beta * (w / sigma_maj) * Le`; spectral: `beta * w * Le / sigma_maj`). A mixture
 // gathers every member's emission (GreyMix / RgbMix::on_collision: each view's term, with
 // the same weight, so their sum).
 fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
 // #if FEATURE_EMISSION
-    let p = (*tr).ow + t * (*tr).dw;
+    var p = (*tr).ow + t * (*tr).dw;
     var le = vec3<f32>(0.0);
 // #if FEATURE_MIXTURE
-    le = mix_emission(tr, p);
+    le = mix_emission(tr, p, t);
 // #endif
 // #if !FEATURE_MIXTURE
+// #if FEATURE_MOTION
+    // Blur::world_point: a blurred medium emits what reaches the point at the sample's time.
+    p = blur_world_point(wf.blur, p, (*tr).o + t * (*tr).d, (*tr).time);
+// #endif
     le = emission_radiance(tr, p);
 // #endif
     if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {

@@ -149,6 +149,7 @@ fn finish_tracker(tr: Tracker, ps: ptr<function, GpuPathState>, rng: ptr<functio
 fn vdb_flight(k: u32, ps: ptr<function, GpuPathState>, rng: ptr<function, Rng>, a: f32, b: f32,
               beta: vec3<f32>) -> Flight {
     var tr = vdb_tracker(k, (*ps).o, (*ps).d, *rng, vdb_media[k].tracking.estimator);
+    tr.time = (*ps).time;
     let dda = vdb_dda(k, tr, a, b);
     tracking_sample_distance(&tr, dda, b, beta);
     finish_tracker(tr, ps, rng);
@@ -188,10 +189,15 @@ fn vdb_flights_in_turn(spans: Spans, t_end: f32, ps: ptr<function, GpuPathState>
     return Flight(EVENT_ESCAPE, 0.0, weight, 0.0);
 }
 
-// The raw density of stream i's medium at ray parameter t (GridField::at_index).
-fn mix_density(i: u32, t: f32) -> f32 {
-    let g = vdb_media[mix_streams[i].medium].grid;
-    return grid_sample_trilinear_in(g, mix_streams[i].o + t * mix_streams[i].d);
+// The raw density of stream i's medium at ray parameter t (GridField::at_index) for a sample
+// at time offset `time` (RgbView::density: advected where the medium is blurred).
+fn mix_density(i: u32, t: f32, time: f32) -> f32 {
+    let m = mix_streams[i].medium;
+    var p = mix_streams[i].o + t * mix_streams[i].d;
+// #if FEATURE_MOTION
+    p = blur_index_point(vdb_media[m].blur, p, time);
+// #endif
+    return grid_sample_trilinear_in(vdb_media[m].grid, p);
 }
 
 // The sum behind GreyMix::coeffs and RgbMix::coeffs: the homogeneous part's tracker
@@ -201,7 +207,7 @@ fn mix_coeffs_sum(tr: ptr<function, Tracker>, t: f32, rgb: bool) -> CoeffsRgb {
     var k = CoeffsRgb(mix_state.hom_sigma_a, mix_state.hom_sigma_s);
     for (var i = 0u; i < mix_state.n_vdb; i++) {
         let m = mix_streams[i].medium;
-        let dens = mix_density(i, t);
+        let dens = mix_density(i, t, (*tr).time);
         var sigma_a = vec3<f32>(vdb_media[m].grey_sigma_a);
         var sigma_s = vec3<f32>(vdb_media[m].grey_sigma_s);
         if (rgb) {
@@ -231,20 +237,41 @@ fn mix_control(sigma_c: f32) -> Coeffs {
     return Coeffs((1.0 - mix_state.alpha_max) * sigma_c, mix_state.alpha_min * sigma_c);
 }
 
-// The emission on_collision gathers (emission.wgsl): every member's for the mixture, medium
-// k's for a tracker of medium k alone.
-fn mix_emission(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
+// The emission on_collision gathers (emission.wgsl) at world point p, ray parameter t: every
+// member's for the mixture, medium k's for a tracker of medium k alone, each read at its own
+// advected point where it is blurred (each view's Blur::world_point).
+fn mix_emission(tr: ptr<function, Tracker>, p: vec3<f32>, t: f32) -> vec3<f32> {
     if ((*tr).mix == MIX_ALL) {
         var le = vec3<f32>(0.0);
         for (var i = 0u; i < mix_state.n_vdb; i++) {
-            le += emission_radiance_of(tr, vdb_media[mix_streams[i].medium].emission, p);
+            let m = mix_streams[i].medium;
+            var q = p;
+// #if FEATURE_MOTION
+            q = blur_world_point(vdb_media[m].blur, p, mix_streams[i].o + t * mix_streams[i].d,
+                                 (*tr).time);
+// #endif
+            le += emission_radiance_of(tr, vdb_media[m].emission, q);
         }
         return le;
     }
-    if ((*tr).mix == 0u) {
-        return emission_radiance(tr, p);
+    var e = GpuEmissionParams();
+    var q = p;
+// #if FEATURE_MOTION
+    var blur = wf.blur;
+// #endif
+    if ((*tr).mix != 0u) {
+        e = vdb_media[(*tr).mix - 1u].emission;
+// #if FEATURE_MOTION
+        blur = vdb_media[(*tr).mix - 1u].blur;
+// #endif
     }
-    return emission_radiance_of(tr, vdb_media[(*tr).mix - 1u].emission, p);
+// #if FEATURE_MOTION
+    q = blur_world_point(blur, p, (*tr).o + t * (*tr).d, (*tr).time);
+// #endif
+    if ((*tr).mix == 0u) {
+        return emission_radiance(tr, q);
+    }
+    return emission_radiance_of(tr, e, q);
 }
 
 // Moves stream i to its next segment.
@@ -451,7 +478,7 @@ fn mix_scatterer(tr: ptr<function, Tracker>, f: ptr<function, Flight>, h: GpuHom
     var s_view = vec3<f32>(0.0);
     for (var i = 0u; i < mix_state.n_vdb; i++) {
         let m = mix_streams[i].medium;
-        let dens = mix_density(i, t);
+        let dens = mix_density(i, t, (*tr).time);
         if (spectral) {
             s_true[i] = vdb_media[m].sigma_s * dens;
             s_view += vdb_media[m].rgb_sigma_s * dens;
@@ -522,6 +549,7 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
     tr.dw = (*ps).d;
     tr.w = vec3<f32>(1.0);
     tr.mix = MIX_ALL;
+    tr.time = (*ps).time;
     var no_walk: Dda;
     no_walk.done = true;
     tracking_sample_distance(&tr, no_walk, t1, (*ps).beta);
@@ -645,6 +673,8 @@ fn mix_transmittance(o: vec3<f32>, wi: vec3<f32>, t0: f32, t1: f32,
         let k = spans.k[i];
         let est_id = vdb_media[k].shadow_estimator;
         var tr = vdb_tracker(k, o, wi, path_rng(*ps), est_id);
+        // The shadow ray belongs to its path's camera sample, and sees its instant.
+        tr.time = (*ps).time;
         // WalkPlan::shadow (each medium's estimate is its own walk: a culled one
         // culls, unlike the merged free flights' per-leaf stand-in).
         tr.params.majorant_mode = vdb_media[k].shadow_majorant_mode;

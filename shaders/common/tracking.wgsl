@@ -74,6 +74,9 @@ struct Tracker {
     // Which medium (the mixture variant, mixture.wgsl): 0 the `grid_info` uniform's, k + 1
     // entry k of vdb_media, MIX_ALL the sum of the media of the flight in `mix`.
     mix: u32,
+    // The camera sample's time offset (TrackingConfig::time): a blurred medium's lookups are
+    // advected by it (advection.wgsl); 0 in the tracking kernels.
+    time: f32,
 }
 
 // Tracker::mix of a tracker of the sum of several media.
@@ -104,15 +107,28 @@ fn copysign(x: f32, y: f32) -> f32 {
     return bitcast<f32>((bitcast<u32>(x) & 0x7fffffffu) | (bitcast<u32>(y) & 0x80000000u));
 }
 
-// The medium's extinction at ray parameter t, before channel and albedo splits.
+// The medium's extinction at ray parameter t, before channel and albedo splits: the density
+// at the index point the lookup reads (advected where the medium is blurred, GreyView::coeffs).
 fn medium_sigma_t(tr: ptr<function, Tracker>, t: f32) -> f32 {
+    var p = (*tr).o + t * (*tr).d;
+    var g = grid_info;
+// #if FEATURE_MOTION
+    var blur = wf.blur;
+// #endif
 // #if FEATURE_MIXTURE
     if ((*tr).mix != 0u) {
-        let g = vdb_media[(*tr).mix - 1u].grid;
-        return g.density_scale * grid_sample_trilinear_in(g, (*tr).o + t * (*tr).d);
+        g = vdb_media[(*tr).mix - 1u].grid;
+// #if FEATURE_MOTION
+        blur = vdb_media[(*tr).mix - 1u].blur;
+// #endif
     }
 // #endif
-    return grid_info.density_scale * grid_sample_trilinear((*tr).o + t * (*tr).d);
+// #if FEATURE_MOTION
+    // One advection and one lookup whichever medium: every inlined copy of this function
+    // carries one of each.
+    p = blur_index_point(blur, p, (*tr).time);
+// #endif
+    return g.density_scale * grid_sample_trilinear_in(g, p);
 }
 
 // tracking::lookup: one counted density lookup (the mixture: one per medium, summed).

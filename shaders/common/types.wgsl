@@ -72,6 +72,30 @@ struct GpuTrackingStats {
     _pad2: u32,
 }
 
+// GpuVelocityBlur: a medium's velocity blur (src/gpu_types/motion.rs; VelocityBlur, Advection).
+struct GpuVelocityBlur {
+    x: GpuGridInfo,                                // the velocity's components in the grid buffers
+    y: GpuGridInfo,
+    z: GpuGridInfo,
+    velocity_from_density: array<vec4<f32>, 3>,    // rows: density index -> velocity index
+    index_from_value: array<vec4<f32>, 3>,         // rows: velocity value -> density-index displacement
+    world_from_index: array<vec4<f32>, 3>,         // rows: density index -> world (emission lookups)
+    factor: f32,                                   // displacement per frame per unit velocity (0: no blur)
+    staggered: u32,                                // 1: a staggered (MAC) velocity grid
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// GpuCameraMotion: the shutter and the camera's poses across it (NodeMotion).
+struct GpuCameraMotion {
+    open: f32,                                      // Shutter::open, frames
+    close: f32,                                     // Shutter::close, frames
+    timed: u32,                                     // 1: samples draw a time
+    moves: u32,                                     // 1: the camera moves (else wf.camera)
+    rotation: array<vec4<f32>, GPU_CAMERA_POSES>,   // quaternions (x, y, z, w), open to close
+    translation: array<vec4<f32>, GPU_CAMERA_POSES>, // positions (w unused)
+}
+
 // GpuPathState: one path of the wavefront integrator (see src/gpu_types/wavefront.rs for units).
 struct GpuPathState {
     o: vec3<f32>,       // ray origin, world, m
@@ -94,6 +118,10 @@ struct GpuPathState {
     hit_b2: f32,        // barycentric weight of corner 2
     outer: u32,         // the two media below `medium` on the stack, 16 bits each (STACK_NONE: none)
     phase_g: f32,       // g of the medium that scattered last (mixture variant)
+    time: f32,          // the camera sample's time offset, frames (0 without a shutter)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // GpuShadowRay: a pending next-event-estimation shadow ray, one slot per path.
@@ -280,6 +308,8 @@ struct GpuWavefrontParams {
     shadow_majorant_mode: u32,   // the VDB medium's shadow rays' walk (WalkPlan::shadow)
     _pad1: u32,
     _pad2: u32,
+    blur: GpuVelocityBlur,       // the VDB medium's velocity blur (factor 0: none)
+    motion: GpuCameraMotion,     // the shutter and the camera's poses
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).
@@ -305,6 +335,7 @@ struct GpuVdbMedium {
     shadow_majorant_mode: u32,   // its shadow rays' walk (WalkPlan::shadow)
     _pad1: u32,
     _pad2: u32,
+    blur: GpuVelocityBlur,       // its velocity blur (factor 0: none)
 }
 
 // PunctualLight (src/scene/lights.rs): a point, spot or directional light, 64 bytes.

@@ -1,7 +1,9 @@
 // Mirrors the sample loop of render_tile (src/integrator/tile.rs) and generate
 // (src/integrator/path.rs): Stage::Generate. For each free slot (the done queue of the
 // previous iteration; every slot in the first), take the next camera sample of the batch, open
-// its stream Rng::new(pixel, sample, seed), jitter (sampler block DIM_JITTER), Camera::generate_ray and Camera::t_min
+// its stream Rng::new(pixel, sample, seed), jitter (sampler block DIM_JITTER), draw the
+// sample's time under a shutter (block DIM_TIME, after the jitter, as `radiance` does), pose a
+// moving camera at it (Pinhole::posed), Camera::generate_ray and Camera::t_min
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
 // the escape stage when the scene has neither media nor surfaces).
 
@@ -19,17 +21,32 @@ fn generate(slot: u32) {
     let j = sampler_2d(sample_id, DIM_JITTER, &rng);
     let fx = (f32(pixel % wf.width) + j.x) / f32(wf.width);
     let fy = (f32(pixel / wf.width) + j.y) / f32(wf.height);
+    var time = 0.0;
+    var c = wf.camera;
+    var forward = wf.forward;
+// #if FEATURE_MOTION
+    if (wf.motion.timed != 0u) {
+        // Shutter::time.
+        time = wf.motion.open + sampler_1d(sample_id, DIM_TIME, &rng)
+            * (wf.motion.close - wf.motion.open);
+    }
+    if (wf.motion.moves != 0u) {
+        // Pinhole::posed: the pose at the sample's time, its view axis -z.
+        c = camera_pose(time);
+        forward = normalize(vec3<f32>(-c[0].z, -c[1].z, -c[2].z));
+    }
+// #endif
     // Camera::generate_ray: the pinhole is column 3 of world_from_camera.
     let local = vec3<f32>((2.0 * fx - 1.0) * wf.tan_half * wf.aspect,
                           (1.0 - 2.0 * fy) * wf.tan_half, -1.0);
-    let c = wf.camera;
     let d = normalize(vec3<f32>(dot(c[0].xyz, local), dot(c[1].xyz, local),
                                 dot(c[2].xyz, local)));
     var ps: GpuPathState;
     ps.o = vec3<f32>(c[0].w, c[1].w, c[2].w);
     ps.d = d;
+    ps.time = time;
     // Camera::t_min: where the near plane cuts the unit ray.
-    ps.t0 = wf.znear / max(dot(d, wf.forward), 1e-6);
+    ps.t0 = wf.znear / max(dot(d, forward), 1e-6);
     ps.prev_pdf = 0.0;
     ps.beta = vec3<f32>(1.0);
     ps.sample_id = sample_id;

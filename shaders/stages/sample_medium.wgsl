@@ -58,6 +58,7 @@ fn sample_medium(slot: u32) {
         var te = vec2<f32>(0.0);
         if (medium_interval(ps.o, ps.d, ps.t0, t_hit, &te)) {
             var tr = medium_tracker(ps.o, ps.d, rng0, wf.tracking.estimator);
+            tr.time = ps.time;
             let dda = medium_dda(tr, te.x, te.y);
             tracking_sample_distance(&tr, dda, te.y, ps.beta);
             ps.rng_state = tr.rng.state;

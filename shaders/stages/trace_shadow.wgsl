@@ -52,6 +52,8 @@ fn trace_shadow(slot: u32) {
         if (medium == NO_INDEX
             && medium_interval(sh.o, sh.wi, t0, t1, &te)) {
             var tr = medium_tracker(sh.o, sh.wi, path_rng(ps), wf.shadow_estimator);
+            // The shadow ray sees its path's instant.
+            tr.time = ps.time;
             // WalkPlan::shadow: shadow rays may walk otherwise than free flights.
             tr.params.majorant_mode = wf.shadow_majorant_mode;
             let dda = medium_dda(tr, te.x, te.y);

@@ -108,7 +108,8 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         "GpuPathState",
         [
             o, t0, d, prev_pdf, beta, sample_id, l, depth, rng_state, rng_inc, flags, collisions,
-            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, outer, phase_g
+            lookups, medium, hit_prim, hit_t, hit_b1, hit_b2, outer, phase_g, time, _pad0, _pad1,
+            _pad2
         ]
     ),
     layout!(
@@ -213,7 +214,9 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             continuation_albedo,
             shadow_majorant_mode,
             _pad1,
-            _pad2
+            _pad2,
+            blur,
+            motion
         ]
     ),
     layout!(
@@ -240,8 +243,30 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             voxel_table,
             shadow_majorant_mode,
             _pad1,
-            _pad2
+            _pad2,
+            blur
         ]
+    ),
+    layout!(
+        GpuVelocityBlur,
+        "GpuVelocityBlur",
+        [
+            x,
+            y,
+            z,
+            velocity_from_density,
+            index_from_value,
+            world_from_index,
+            factor,
+            staggered,
+            _pad0,
+            _pad1
+        ]
+    ),
+    layout!(
+        GpuCameraMotion,
+        "GpuCameraMotion",
+        [open, close, timed, moves, rotation, translation]
     ),
     layout!(
         GpuEmissionParams,

@@ -11,7 +11,8 @@
 //!
 //! One file per concern: [`grid`] (grid header, rays, segments), [`tracking`] (tracking
 //! parameters and enumerations), [`geometry`] (triangles, lights, homogeneous media, BVH
-//! nodes), [`wavefront`] (path state, queues, counters, parameters, emission) and [`layout`]
+//! nodes), [`wavefront`] (path state, queues, counters, parameters, emission), [`motion`]
+//! (velocity blur, the shutter and the camera's poses) and [`layout`]
 //! (the layout table the WGSL test checks).
 /// A `#[repr(u32)]` enumeration that the WGSL sees as `const NAME: u32 = value;` lines
 /// (`backend::gpu::shader`): each variant's value and WGSL name written once, with `ALL` (every
@@ -55,6 +56,7 @@ pub mod envmap;
 pub mod geometry;
 pub mod grid;
 pub mod layout;
+pub mod motion;
 pub mod tracking;
 pub mod wavefront;
 
@@ -63,5 +65,6 @@ pub use envmap::*;
 pub use geometry::*;
 pub use grid::*;
 pub use layout::*;
+pub use motion::*;
 pub use tracking::*;
 pub use wavefront::*;

@@ -3,7 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use std::mem::size_of;
 
-use super::{GpuGridInfo, GpuTrackingParams};
+use super::{GpuCameraMotion, GpuGridInfo, GpuTrackingParams, GpuVelocityBlur};
 
 /// The state of one path of the wavefront integrator, one slot per path in flight: what
 /// `integrator::path::radiance` keeps in local variables between loop iterations. Kept as
@@ -60,8 +60,15 @@ pub struct GpuPathState {
     /// it at every medium event: with overlapping media the phase function belongs to the
     /// medium a scattering event picked, `integrator::mixture`).
     pub phase_g: f32,
+    /// The camera sample's time offset, frames from the frame's time (`TrackingConfig::time`:
+    /// what its camera pose and every blurred lookup of the path, shadow rays included, use);
+    /// 0 without a shutter.
+    pub time: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuPathState>() == 112);
+const _: () = assert!(size_of::<GpuPathState>() == 128);
 
 /// An empty 16-bit half of [`GpuPathState::outer`] and [`GpuShadowRay::outer`].
 pub const STACK_NONE: u32 = 0xFFFF;
@@ -282,8 +289,16 @@ pub struct GpuWavefrontParams {
     pub shadow_majorant_mode: u32,
     pub _pad1: u32,
     pub _pad2: u32,
+    /// The velocity blur of the VDB medium (a scene with one; the mixture's are in
+    /// [`GpuVdbMedium::blur`]).
+    pub blur: GpuVelocityBlur,
+    /// The shutter and the camera's poses across it.
+    pub motion: GpuCameraMotion,
 }
-const _: () = assert!(size_of::<GpuWavefrontParams>() == 320);
+const _: () = assert!(
+    size_of::<GpuWavefrontParams>()
+        == 320 + size_of::<GpuVelocityBlur>() + size_of::<GpuCameraMotion>()
+);
 
 /// [`GpuWavefrontParams::flags`] bit: medium events choose lights by contribution
 /// (`Lights::guided`, `Lights::phase_selection`).
@@ -349,8 +364,11 @@ pub struct GpuVdbMedium {
     pub shadow_majorant_mode: u32,
     pub _pad1: u32,
     pub _pad2: u32,
+    /// Its velocity blur (`factor` 0: none).
+    pub blur: GpuVelocityBlur,
 }
-const _: () = assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 320 + 8 * 16);
+const _: () =
+    assert!(size_of::<GpuVdbMedium>() == 96 + 64 + 320 + 8 * 16 + size_of::<GpuVelocityBlur>());
 
 /// Volume emission of the VDB medium (`integrator::media::Emission`), one uniform of a
 /// wavefront render. The grids' headers point into the density grid's buffers

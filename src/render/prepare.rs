@@ -65,6 +65,10 @@ pub struct FeatureFlags {
     /// Closed media meshes nested in one another or around a VDB medium (the medium stack
     /// holds more than one entry).
     pub nested: bool,
+    /// Camera samples see different instants of a shutter ([`RenderScene::shutter`]): a
+    /// blurred medium or a moving camera. Not part of [`FeatureFlags::as_array`]: the CPU
+    /// tests the shutter once per sample; the GPU variants cut the time's code without it.
+    pub motion: bool,
 }
 
 impl FeatureFlags {
@@ -79,6 +83,7 @@ impl FeatureFlags {
         env_map: true,
         overlapping: true,
         nested: true,
+        motion: true,
     };
 
     /// The flags the CPU's tile renderer is specialised on (`textures` is not one).
@@ -233,6 +238,7 @@ impl<'s> RenderScene<'s> {
             nested: nesting.nested,
             textures: scene.uses_textures(),
             env_map: false,
+            motion: false,
         };
         let mut lights = Lights::new(scene);
         // Only media that scatter have medium events (a purely absorbing one, such as
@@ -250,14 +256,15 @@ impl<'s> RenderScene<'s> {
                         .filter_map(|h| albedo(h.sigma_a, h.sigma_s)),
                 ),
         );
-        let features = FeatureFlags {
-            env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
-            ..features
-        };
         let moves = vdb.iter().any(|m| m.blur.is_some() || m.motion.is_some())
             || scene.camera_motion.is_some()
             || scene.light_motion.iter().any(Option::is_some);
         let shutter = moves.then_some(scene.shutter);
+        let features = FeatureFlags {
+            env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
+            motion: shutter.is_some(),
+            ..features
+        };
         Ok(RenderScene {
             scene,
             vdb,

@@ -99,3 +99,134 @@ pub fn animate_translation(
         "samplers": [{"input": 0, "output": 1, "interpolation": "LINEAR"}]
     }]);
 }
+
+/// Voxels across the uniform-velocity and camera fixtures' blob.
+pub const N: i32 = 16;
+
+/// The blob's index origin: centred on the world origin.
+pub fn origin() -> [f64; 3] {
+    [-(N as f64) * VOXEL * 0.5 + 0.5 * VOXEL; 3]
+}
+
+/// Uniform velocity (world units per second), scale 6 at 24 fps over a shutter of one frame
+/// centred on the frame: the blob moves by `dt * 6 * v / 24` at time offset `dt`, 0.6 units
+/// (9.6 voxels) across the shutter.
+pub const V: [f32; 3] = [2.4, 0.6, 0.0];
+pub const SCALE: f64 = 6.0;
+
+/// Voxels across the vortex's blob.
+pub const NV: i32 = 48;
+
+/// A vortex about the blob's vertical axis over the blob's box, as a staggered grid
+/// (Mantaflow's layout), turning the blob's rim (24 voxels out) by 10 voxels over the shutter.
+pub fn vortex() -> Vec<([i32; 3], [f32; 3])> {
+    // Rim speed 10 voxels per frame, velocities per frame (`velocityUnit` "frame") over a
+    // one-frame shutter.
+    let omega = 10.0 / (NV as f64 * 0.5);
+    let c = (NV as f64 - 1.0) * 0.5;
+    let mut v = Vec::new();
+    for i in 0..NV {
+        for j in 0..NV {
+            for k in 0..NV {
+                // Component a of a staggered voxel sits on its lower face along a.
+                let at = |a: usize| {
+                    let mut p = [i as f64, j as f64, k as f64];
+                    p[a] -= 0.5;
+                    p
+                };
+                let (px, py) = (at(0), at(1));
+                v.push((
+                    [i, j, k],
+                    [
+                        (-omega * (px[2] - c) * VOXEL) as f32,
+                        0.0,
+                        (omega * (py[0] - c) * VOXEL) as f32,
+                    ],
+                ));
+            }
+        }
+    }
+    v
+}
+
+/// The uniform-velocity fixture under `dir(name)`: the blob of [`N`] voxels moving at [`V`]
+/// (velocity scale [`SCALE`], 24 fps, a one-frame shutter centred on the frame), and the same
+/// file loaded with the shutter closed (the still frame).
+pub fn uniform_velocity_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
+    let d = dir(name);
+    write_medium(
+        &d.join("m.vdb"),
+        super::stress::blob_voxels(N),
+        origin(),
+        V,
+        Vec::new(),
+        GridClass::Unknown,
+    );
+    let extra = json!({"velocityGrid": "vel", "velocityScale": SCALE});
+    let shutter = json!({"fps": 24, "shutter": {"open": -0.5, "close": 0.5}});
+    let blurred = load(
+        &d,
+        "blurred.gltf",
+        &scene("m.vdb", [0.0; 3], extra, shutter),
+    );
+    (blurred, closed(&d.join("blurred.gltf")))
+}
+
+/// The vortex fixture under `dir(name)`: the blob of [`NV`] voxels turned by [`vortex`]
+/// (a staggered grid, velocities per frame, a one-frame shutter), and the still frame.
+pub fn vortex_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
+    let d = dir(name);
+    write_medium(
+        &d.join("vortex.vdb"),
+        super::stress::blob_voxels(NV),
+        [-(NV as f64) * VOXEL * 0.5 + 0.5 * VOXEL; 3],
+        [0.0; 3],
+        vortex(),
+        GridClass::Staggered,
+    );
+    let extra = json!({"velocityGrid": "vel", "velocityUnit": "frame"});
+    let shutter = json!({"shutter": {"open": -0.5, "close": 0.5}});
+    let doc = scene("vortex.vdb", [0.0; 3], extra, shutter);
+    let blurred = load(&d, "vortex.gltf", &doc);
+    (blurred, closed(&d.join("vortex.gltf")))
+}
+
+/// The moving-camera fixture under `dir(name)`: the still blob of [`N`] voxels seen from a
+/// camera sliding 0.8 units a frame along x (frame 1 at 24 fps, a one-frame shutter), and the
+/// still frame.
+pub fn moving_camera_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
+    let d = dir(name);
+    write_medium(
+        &d.join("m.vdb"),
+        super::stress::blob_voxels(N),
+        origin(),
+        [0.0; 3],
+        Vec::new(),
+        GridClass::Unknown,
+    );
+    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
+    let mut doc = scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    animate_translation(
+        &mut doc,
+        &d,
+        "camera.bin",
+        0,
+        [-0.8, 0.0, 2.2],
+        [0.8, 0.0, 2.2],
+        2.0 / 24.0,
+    );
+    let moving = load(&d, "moving.gltf", &doc);
+    (moving, closed(&d.join("moving.gltf")))
+}
+
+/// The scene at `path` loaded with the shutter closed: the frame's instant.
+pub fn closed(path: &Path) -> brume::scene::Scene {
+    brume::scene::load_with(
+        path,
+        &brume::scene::LoadOptions {
+            shutter: Some(brume::scene::Shutter::CLOSED),
+            ..Default::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}

@@ -12,6 +12,7 @@ mod farm;
 mod grid;
 mod math;
 mod media_overlap;
+mod motion_blur;
 mod phase;
 mod render;
 mod rng;

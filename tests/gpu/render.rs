@@ -23,7 +23,7 @@ fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
 }
 
 /// Renders on the GPU, prints the timings, checks the counters the CPU also checks.
-fn gpu_render(
+pub(crate) fn gpu_render(
     ctx: &brume::backend::gpu::GpuContext,
     scene: &brume::scene::Scene,
     s: &RenderSettings,
@@ -125,7 +125,7 @@ fn gpu_against_cpu(
     (g, c)
 }
 
-fn agree(
+pub(crate) fn agree(
     label: &str,
     gpu_out: &brume::backend::cpu::RenderOutput,
     cpu_out: &brume::backend::cpu::RenderOutput,
@@ -323,13 +323,6 @@ fn example_scenes_are_supported_and_too_many_grids_refused() {
     for file in EXAMPLE_SCENES {
         let scene = load_scene(file);
         let rs = RenderScene::new(&scene, false).unwrap();
-        if rs.shutter.is_some() {
-            // Motion blur renders on the CPU only: refused with a one-line reason.
-            let why = gpu::supports(&rs).expect_err("motion blur is CPU-only");
-            println!("{file}: refused: {why}");
-            assert!(why.contains("motion blur") && !why.contains('\n'), "{why}");
-            continue;
-        }
         gpu::supports(&rs).unwrap_or_else(|e| panic!("{file}: {e}"));
         let variant = gpu::render::variant_name(gpu::render::gpu_features(&rs));
         println!("{file}: {} -> {variant}", rs.features.name());

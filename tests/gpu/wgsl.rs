@@ -358,7 +358,11 @@ fn reachable(module: &naga::Module, entry: &str) -> std::collections::BTreeSet<S
 fn variants_without_a_feature_hold_no_code_for_it() {
     use brume::backend::gpu::render::Stage;
     use brume::backend::gpu::Spec;
-    let features: [(&str, &[&str]); 6] = [
+    let features: [(&str, &[&str]); 7] = [
+        (
+            "FEATURE_MOTION",
+            &["advection_source", "velocity_component", "quat_slerp"],
+        ),
         ("FEATURE_TEXTURES", &["texture_sample", "wrap_index"]),
         (
             "FEATURE_MIXTURE",

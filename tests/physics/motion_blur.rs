@@ -1,7 +1,7 @@
 //! Velocity motion blur: a uniform velocity's blur against the shutter average of renders with
 //! the grid translated, a moving absorbing slab's time-averaged transmittance against its
 //! closed form, and a vortex's blur with no majorant violation in any majorant mode.
-use crate::common::blur::{self, VOXEL};
+use crate::common::blur::{self, origin, vortex, N, NV, SCALE, V, VOXEL};
 use crate::common::render::{compare_renders, moments, render};
 use crate::common::stress::blob_voxels;
 
@@ -14,19 +14,6 @@ use brume::sampling::Rng;
 use brume_ffi::GridClass;
 use glam::Vec3;
 use serde_json::json;
-
-const N: i32 = 16;
-
-/// The blob's index origin: centred on the world origin.
-fn origin() -> [f64; 3] {
-    [-(N as f64) * VOXEL * 0.5 + 0.5 * VOXEL; 3]
-}
-
-/// Uniform velocity (world units per second), scale 6 at 24 fps over a shutter of one frame
-/// centred on the frame: the blob moves by `dt * 6 * v / 24` at time offset `dt`, 0.6 units
-/// (9.6 voxels) across the shutter.
-const V: [f32; 3] = [2.4, 0.6, 0.0];
-const SCALE: f64 = 6.0;
 
 fn settings(estimator: Estimator, majorant: MajorantMode, spp: u32, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -154,41 +141,6 @@ fn uniform_velocity_blur_is_the_shutter_average_of_translated_renders() {
         apart.failing, apart.pixels, apart.worst_z
     );
     assert!(apart.failing >= 8 && apart.worst_z > 6.0, "{apart:?}");
-}
-
-/// Voxels across the vortex's blob.
-const NV: i32 = 48;
-
-/// A vortex about the blob's vertical axis over the blob's box, as a staggered grid
-/// (Mantaflow's layout), turning the blob's rim (24 voxels out) by 10 voxels over the shutter.
-fn vortex() -> Vec<([i32; 3], [f32; 3])> {
-    // Rim speed 10 voxels per frame, velocities per frame (`velocityUnit` "frame") over a
-    // one-frame shutter.
-    let omega = 10.0 / (NV as f64 * 0.5);
-    let c = (NV as f64 - 1.0) * 0.5;
-    let mut v = Vec::new();
-    for i in 0..NV {
-        for j in 0..NV {
-            for k in 0..NV {
-                // Component a of a staggered voxel sits on its lower face along a.
-                let at = |a: usize| {
-                    let mut p = [i as f64, j as f64, k as f64];
-                    p[a] -= 0.5;
-                    p
-                };
-                let (px, py) = (at(0), at(1));
-                v.push((
-                    [i, j, k],
-                    [
-                        (-omega * (px[2] - c) * VOXEL) as f32,
-                        0.0,
-                        (omega * (py[0] - c) * VOXEL) as f32,
-                    ],
-                ));
-            }
-        }
-    }
-    v
 }
 
 /// A vortex at 10 voxels of motion: no tentative collision sees a density above its majorant in

@@ -110,7 +110,7 @@ impl Stage {
 
 /// The WGSL variant name of `features`: the effects the kernels are specialised for, in
 /// `FeatureFlags` order (`surfaces`, `vdb`, `homogeneous`, `emission`, `spectral`, `textures`,
-/// `envmap`, `mixture`), e.g. `wavefront[surfaces+vdb+emission]`. `mixture` is `overlapping`
+/// `envmap`, `mixture`, `motion`), e.g. `wavefront[surfaces+vdb+emission]`. `mixture` is `overlapping`
 /// as [`gpu_features`] sets it: several VDB media, overlapping or not.
 pub fn variant_name(features: FeatureFlags) -> String {
     let f = effective(features);
@@ -123,6 +123,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
         (f.textures, "textures"),
         (f.env_map, "envmap"),
         (f.overlapping, "mixture"),
+        (f.motion, "motion"),
     ]
     .into_iter()
     .filter(|(b, _)| *b)
@@ -172,5 +173,6 @@ pub fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
         Spec::bool("FEATURE_TEXTURES", f.textures),
         Spec::bool("FEATURE_ENV_MAP", f.env_map),
         Spec::bool("FEATURE_MIXTURE", f.overlapping),
+        Spec::bool("FEATURE_MOTION", f.motion),
     ]
 }

@@ -33,7 +33,8 @@
 //! homogeneous media in closed meshes (grey and chromatic, nested up to three deep on a
 //! per-path medium stack), opaque, dielectric and null-interface surfaces over obvhs' CWBVH,
 //! punctual, environment and area lights with NEE and MIS, Russian roulette and the collision
-//! guard. [`supports`] refuses, with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB
+//! guard, velocity and camera motion blur (a time per path, advected lookups, the camera posed
+//! at each sample's time: `advection.wgsl`). [`supports`] refuses, with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB
 //! media and media meshes nested deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
@@ -56,14 +57,15 @@ use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Tex
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuWavefrontCounters, GpuWideCounter, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
+    GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES, GPU_MAX_NESTED_MEDIA,
+    GPU_MAX_VDB_MEDIA, STACK_NONE,
 };
 use crate::render::media::TrackingConfig;
 use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
 /// Path slots in flight at most: enough to fill a large GPU's resident threads (with fewer,
 /// one iteration's kernels take less time than the host's round trip), and 2^18 paths take
-/// 28 MiB of path state.
+/// 32 MiB of path state.
 pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 
 /// Camera samples per batch at most (one sample buffer entry of 16 bytes each).
@@ -138,10 +140,28 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
             rs.vdb.len()
         ));
     }
-    if rs.shutter.is_some() {
+    if let Some(m) = rs
+        .scene
+        .camera_motion
+        .as_ref()
+        .filter(|m| m.poses.len() != GPU_CAMERA_POSES)
+    {
+        return Err(format!(
+            "a camera moving through {} poses; the GPU interpolates {GPU_CAMERA_POSES}",
+            m.poses.len()
+        ));
+    }
+    if rs.vdb.iter().any(|m| m.motion.is_some()) {
         return Err(
-            "velocity motion blur (a medium with a velocityGrid under an open shutter) renders \
-             on the CPU backend only; --shutter 0,0 renders the frame without it"
+            "a medium node moving during the shutter (transformation blur of media renders on the \
+             CPU backend only)"
+                .into(),
+        );
+    }
+    if rs.lights.moving() {
+        return Err(
+            "a light moving during the shutter (transformation blur of lights renders on the CPU \
+             backend only)"
                 .into(),
         );
     }
@@ -187,10 +207,12 @@ pub fn render_with_timings(
     let cfg = TrackingConfig::from_settings(settings);
     let (w, h) = (settings.width, settings.height);
     let limit = ctx.limits.max_storage_buffer_binding_size;
-    let (grid, emission, vdb_media) = upload_grid(ctx, rs, features, &cfg)?;
+    let uploaded = upload_grid(ctx, rs, features, &cfg)?;
+    let (grid, emission, vdb_media) = (uploaded.grid, uploaded.emission, uploaded.media);
     let plan = BatchPlan::new(settings, limit)?;
     let slots = slot_count(limit, &plan);
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
+    params.blur = uploaded.blur;
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
     let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
     let env_map = env_map_upload(rs, settings, limit).map_err(GpuRenderError::Limits)?;

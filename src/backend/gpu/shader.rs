@@ -72,6 +72,8 @@ pub mod files {
     /// `integrator::mixture` and `volume::merge`: several VDB media, overlapping or inside a
     /// homogeneous one (the mixture variant).
     pub const MIXTURE: ShaderFile = shader_file!("common/mixture.wgsl");
+    /// `Advection::source` and `NodeMotion::world_from_node`: motion blur.
+    pub const ADVECTION: ShaderFile = shader_file!("common/advection.wgsl");
     /// `EnvironmentMap`: Blender's equirectangular lookup and the map's importance sampling.
     pub const ENVMAP: ShaderFile = shader_file!("common/envmap.wgsl");
     /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
@@ -231,6 +233,11 @@ pub fn shared_constants() -> String {
             crate::render::lights::GUIDED_MAX_PUNCTUAL as u32,
         ),
         ("MAX_MIX", crate::gpu_types::GPU_MAX_VDB_MEDIA as u32),
+        (
+            "GPU_CAMERA_POSES",
+            crate::gpu_types::GPU_CAMERA_POSES as u32,
+        ),
+        ("DIM_TIME", crate::sampling::sobol::DIM_TIME),
         ("TEXTURE_WRAP_REPEAT", crate::scene::texture::WRAP_REPEAT),
         ("TEXTURE_WRAP_CLAMP", crate::scene::texture::WRAP_CLAMP),
         ("TEXTURE_WRAP_MIRROR", crate::scene::texture::WRAP_MIRROR),
@@ -452,6 +459,7 @@ pub const TRANSMITTANCE_MODULE: Module = Module {
     // One grid: the mixture hooks of `tracking.wgsl` are cut.
     default_specs: &[
         Spec::bool("FEATURE_MIXTURE", false),
+        Spec::bool("FEATURE_MOTION", false),
         Spec::bool("KERNEL_DISTANCE", false),
     ],
     dispatch: Dispatch::Own,
@@ -463,6 +471,7 @@ pub const DISTANCE_MODULE: Module = Module {
     label: "distance",
     default_specs: &[
         Spec::bool("FEATURE_MIXTURE", false),
+        Spec::bool("FEATURE_MOTION", false),
         Spec::bool("KERNEL_DISTANCE", true),
     ],
     ..TRANSMITTANCE_MODULE
@@ -520,6 +529,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_ENV_MAP", true),
     // Several VDB media (overlapping, or inside a homogeneous one): `mixture.wgsl`.
     Spec::bool("FEATURE_MIXTURE", true),
+    // Samples at times across a shutter: velocity blur and camera motion (`advection.wgsl`).
+    Spec::bool("FEATURE_MOTION", true),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];
@@ -529,8 +540,8 @@ macro_rules! wavefront_module {
         pub const $name: Module = Module {
             label: $label,
             files: &[
-                TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, TRACKING, EMISSION, WAVEFRONT, BSDF,
-                TEXTURES, SURFACES, MEDIA, MIXTURE, ENVMAP, LIGHTS, $file,
+                TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, ADVECTION, TRACKING, EMISSION,
+                WAVEFRONT, BSDF, TEXTURES, SURFACES, MEDIA, MIXTURE, ENVMAP, LIGHTS, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,

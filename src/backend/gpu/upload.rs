@@ -2,16 +2,19 @@
 //! the surfaces (CWBVH, triangles, area lights, texture coordinates), the textures and the
 //! per-render parameters, each built from
 //! the CPU's `RenderScene` exactly as the CPU integrator would use it.
+use std::borrow::Cow;
+
 use bytemuck::Zeroable;
 use glam::Vec3;
 
 use super::device::{bounds_layout, byte_size, GpuContext, GpuGrid};
 use super::error::GpuRenderError;
 use crate::gpu_types::{
-    CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
-    GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv, GpuVdbMedium,
-    GpuWavefrontParams, STACK_NONE, SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE,
-    WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL, WF_FLAG_GUIDED_LIGHTS,
+    CellBounds, GpuAreaLight, GpuCameraMotion, GpuControlMode, GpuEmissionParams, GpuEstimator,
+    GpuGridInfo, GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv,
+    GpuVdbMedium, GpuVelocityBlur, GpuWavefrontParams, GPU_CAMERA_POSES, STACK_NONE,
+    SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
+    WF_FLAG_GUIDED_LIGHTS,
 };
 use crate::render::prepare::SurfaceKind;
 use crate::render::settings::Absorption;
@@ -24,6 +27,88 @@ pub(super) fn affine_rows(m: glam::Affine3A) -> [[f32; 4]; 3] {
     let (a, t) = (m.matrix3, m.translation);
     let row = |r: usize| [a.col(0)[r], a.col(1)[r], a.col(2)[r], t[r]];
     [row(0), row(1), row(2)]
+}
+
+/// [`affine_rows`] of an f64 map, rounded to f32.
+fn daffine_rows(m: crate::math::DAffine3) -> [[f32; 4]; 3] {
+    let (a, t) = (m.matrix3, m.translation);
+    let row = |r: usize| {
+        [
+            a.col(0)[r] as f32,
+            a.col(1)[r] as f32,
+            a.col(2)[r] as f32,
+            t[r] as f32,
+        ]
+    };
+    [row(0), row(1), row(2)]
+}
+
+/// The density grid as `m`'s walks index it: the grid itself, or, where the walk bounds cover
+/// a larger cell box (a blurred medium's bounds, dilated by how far its lookups are advected,
+/// `volume::motion`), the grid widened to that box with background cells, so the DDA's cells,
+/// the bounds' cells and the grid's cells are one index (`SparseGrid::widen_to` changes no
+/// value).
+fn walked_grid(m: &VdbMedium) -> Cow<'_, SparseGrid> {
+    let g = &m.density.grid.grid;
+    let b = m.bounds();
+    if b.cell_origin == g.cell_origin && b.dims == g.dims {
+        return Cow::Borrowed(g);
+    }
+    let mut wide = g.clone();
+    wide.widen_to(b.cell_origin, b.dims);
+    Cow::Owned(wide)
+}
+
+/// The velocity grids of `m`'s blur, uploaded after its density and emission grids (none
+/// without blur).
+fn velocity_components(m: &VdbMedium) -> Vec<&SparseGrid> {
+    m.blur
+        .iter()
+        .flat_map(|b| b.advection.velocity.components.iter())
+        .collect()
+}
+
+/// `GpuVelocityBlur` of `m`'s blur, with the headers of its velocity components
+/// ([`velocity_components`]) as placed in the grid buffers; zero (no blur) without one.
+fn velocity_blur(m: &VdbMedium, components: &[GpuGridInfo]) -> GpuVelocityBlur {
+    let Some(b) = &m.blur else {
+        return GpuVelocityBlur::default();
+    };
+    let adv = &b.advection;
+    GpuVelocityBlur {
+        x: components[0],
+        y: components[1],
+        z: components[2],
+        velocity_from_density: daffine_rows(adv.velocity_from_density),
+        index_from_value: daffine_rows(adv.index_from_value),
+        world_from_index: affine_rows(b.world_from_index),
+        factor: b.factor,
+        staggered: adv.velocity.staggered as u32,
+        ..Default::default()
+    }
+}
+
+/// The shutter samples draw their time over and the camera's poses across it, as
+/// `integrator::path::radiance` and `generate` use them.
+fn camera_motion(rs: &RenderScene) -> GpuCameraMotion {
+    let mut m = GpuCameraMotion::default();
+    let Some(shutter) = rs.shutter else {
+        return m;
+    };
+    m.timed = 1;
+    m.open = shutter.open;
+    m.close = shutter.close;
+    if let Some(motion) = &rs.scene.camera_motion {
+        // `supports` refuses another number of poses.
+        if motion.poses.len() == GPU_CAMERA_POSES {
+            m.moves = 1;
+            for (k, (_, r, t)) in motion.poses.iter().enumerate() {
+                m.rotation[k] = r.to_array();
+                m.translation[k] = [t.x, t.y, t.z, 0.0];
+            }
+        }
+    }
+    m
 }
 
 /// Medium `m`'s optics and tracking parameters under `cfg`, as the CPU's `sample_vdb`,
@@ -340,33 +425,55 @@ fn emission_params(
     p
 }
 
+/// What [`upload_grid`] puts on the GPU: the grid buffers, the emission uniform, the mixture's
+/// media records and the single medium's velocity blur.
+pub(super) struct UploadedMedia {
+    pub(super) grid: Option<GpuGrid>,
+    pub(super) emission: GpuEmissionParams,
+    pub(super) media: Vec<GpuVdbMedium>,
+    /// `GpuWavefrontParams::blur` (a scene with one VDB medium).
+    pub(super) blur: GpuVelocityBlur,
+}
+
 /// The VDB medium's grid on the GPU, with the medium's own world -> index map and sigma_t per
-/// unit value, its emission grids following the density in the same buffers, and the
-/// emission uniform pointing into them (`None` and zero emission without a VDB medium). The
-/// mixture variant (`features.overlapping`) uploads every medium ([`upload_media`]).
-#[allow(clippy::type_complexity)]
+/// unit value, its emission grids and then its velocity components following the density in
+/// the same buffers, and the emission uniform and velocity blur pointing into them (`None` and
+/// zero emission without a VDB medium). The mixture variant (`features.overlapping`) uploads
+/// every medium ([`upload_media`]).
 pub(super) fn upload_grid(
     ctx: &GpuContext,
     rs: &RenderScene,
     features: FeatureFlags,
     cfg: &TrackingConfig,
-) -> Result<(Option<GpuGrid>, GpuEmissionParams, Vec<GpuVdbMedium>), GpuRenderError> {
+) -> Result<UploadedMedia, GpuRenderError> {
     let m = match rs.vdb.first() {
         Some(m) if features.heterogeneous => m,
-        _ => return Ok((None, GpuEmissionParams::default(), Vec::new())),
+        _ => {
+            return Ok(UploadedMedia {
+                grid: None,
+                emission: GpuEmissionParams::default(),
+                media: Vec::new(),
+                blur: GpuVelocityBlur::default(),
+            })
+        }
     };
     if features.overlapping {
         let (g, media) = upload_media(ctx, rs, features, cfg)?;
-        let emission = media[0].emission;
-        return Ok((Some(g), emission, media));
+        return Ok(UploadedMedia {
+            grid: Some(g),
+            emission: media[0].emission,
+            media,
+            blur: GpuVelocityBlur::default(),
+        });
     }
     // `GpuGrid::upload_with` checks every buffer against the binding limit.
-    let g = &m.density.grid;
+    let grid = walked_grid(m);
     let fields = emission_fields(m, features);
-    let extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
+    let mut extra: Vec<&SparseGrid> = fields.iter().map(|f| &f.grid.grid).collect();
+    extra.extend(velocity_components(m));
     let (mut gg, mut infos) = GpuGrid::upload_with(
         ctx,
-        &g.grid,
+        &grid,
         m.bounds(),
         m.walked_hierarchy(cfg.majorant),
         m.sigma_t_bound,
@@ -380,8 +487,14 @@ pub(super) fn upload_grid(
     for (info, f) in infos.iter_mut().zip(&fields) {
         info.index_from_world = affine_rows(f.index_from_world);
     }
-    let emission = emission_params(m, features, &infos);
-    Ok((Some(gg), emission, Vec::new()))
+    let emission = emission_params(m, features, &infos[..fields.len()]);
+    let blur = velocity_blur(m, &infos[fields.len()..]);
+    Ok(UploadedMedia {
+        grid: Some(gg),
+        emission,
+        media: Vec::new(),
+        blur,
+    })
 }
 
 /// Every VDB medium of `rs` in one set of grid buffers (density grids and emission grids,
@@ -393,20 +506,26 @@ fn upload_media(
     features: FeatureFlags,
     cfg: &TrackingConfig,
 ) -> Result<(GpuGrid, Vec<GpuVdbMedium>), GpuRenderError> {
+    let grids: Vec<Cow<SparseGrid>> = rs.vdb.iter().map(walked_grid).collect();
     let mut parts: Vec<(&SparseGrid, f32, Option<Vec<CellBounds>>)> = Vec::new();
     let mut fields_of = Vec::with_capacity(rs.vdb.len());
-    for m in &rs.vdb {
-        let g = &m.density.grid;
+    for (m, g) in rs.vdb.iter().zip(&grids) {
         let adaptive = m.walked_hierarchy(cfg.majorant);
         let bounds = bounds_layout(m.bounds(), adaptive).map_err(GpuRenderError::Limits)?;
-        parts.push((&g.grid, m.sigma_t_bound, Some(bounds)));
+        parts.push((g.as_ref(), m.sigma_t_bound, Some(bounds)));
         let fields = emission_fields(m, features);
         fields_of.push(fields);
     }
-    // The emission grids after every density grid (the first density's cells start at 0).
+    // The emission grids after every density grid (the first density's cells start at 0),
+    // then every blurred medium's velocity components.
     for fields in &fields_of {
         for f in fields {
             parts.push((&f.grid.grid, 1.0, None));
+        }
+    }
+    for m in &rs.vdb {
+        for c in velocity_components(m) {
+            parts.push((c, 1.0, None));
         }
     }
     let (mut gg, placed) = GpuGrid::upload_many(ctx, &parts).map_err(GpuRenderError::Limits)?;
@@ -416,6 +535,7 @@ fn upload_media(
     gg.set_voxels(ctx, &voxels)
         .map_err(GpuRenderError::Limits)?;
     let mut next_emission = rs.vdb.len();
+    let mut next_velocity = rs.vdb.len() + fields_of.iter().map(Vec::len).sum::<usize>();
     let mut media = Vec::with_capacity(rs.vdb.len());
     for (k, m) in rs.vdb.iter().enumerate() {
         let fields = &fields_of[k];
@@ -446,6 +566,13 @@ fn upload_media(
         r.bounds_base = bounds_base;
         r.voxel_table = has_table[k] as u32;
         r.emission = emission_params(m, features, &infos);
+        let velocity: Vec<GpuGridInfo> = placed
+            [next_velocity..next_velocity + velocity_components(m).len()]
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        next_velocity += velocity.len();
+        r.blur = velocity_blur(m, &velocity);
         media.push(r);
     }
     // The uniform header is the first medium's, in world terms.
@@ -523,6 +650,7 @@ pub(super) fn wavefront_params(
     if features.heterogeneous {
         medium_params(rs, cfg, features, &mut params);
     }
+    params.motion = camera_motion(rs);
     params
 }
 
