@@ -74,25 +74,30 @@ impl From<crate::volume::MajorantSegment> for GpuMajorantSegment {
     }
 }
 
+/// The rows of the 3x4 affine map `m`, rounded to f32 (the layout of
+/// [`GpuGridInfo::index_from_world`]).
+pub fn daffine_rows(m: crate::math::DAffine3) -> [[f32; 4]; 3] {
+    let (a, t) = (m.matrix3, m.translation);
+    let row = |r: usize| {
+        [
+            a.col(0)[r] as f32,
+            a.col(1)[r] as f32,
+            a.col(2)[r] as f32,
+            t[r] as f32,
+        ]
+    };
+    [row(0), row(1), row(2)]
+}
+
 impl GpuGridInfo {
     /// The header of `grid` with `sigma_t = density_scale * value`.
     pub fn new(grid: &crate::volume::SparseGrid, density_scale: f32) -> GpuGridInfo {
-        let m = grid.index_from_world;
-        let (a, t) = (m.matrix3, m.translation);
-        let row = |r: usize| {
-            [
-                a.col(0)[r] as f32,
-                a.col(1)[r] as f32,
-                a.col(2)[r] as f32,
-                t[r] as f32,
-            ]
-        };
         GpuGridInfo {
             dims: grid.dims,
             brick_count: grid.brick_count() as u32,
             cell_origin: grid.cell_origin,
             constant_count: grid.constants.len() as u32,
-            index_from_world: [row(0), row(1), row(2)],
+            index_from_world: daffine_rows(grid.index_from_world),
             background: grid.background,
             density_scale,
             global_bounds_index: grid.cells.len() as u32,

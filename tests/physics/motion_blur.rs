@@ -1,8 +1,8 @@
 //! Velocity motion blur: a uniform velocity's blur against the shutter average of renders with
 //! the grid translated, a moving absorbing slab's time-averaged transmittance against its
 //! closed form, and a vortex's blur with no majorant violation in any majorant mode.
-use crate::common::blur::{self, origin, vortex, N, NV, SCALE, V, VOXEL};
-use crate::common::render::{compare_renders, moments, render};
+use crate::common::blur::{self, origin, N, SCALE, V, VOXEL};
+use crate::common::render::{block_moments, compare, compare_renders, moments, render, Agreement};
 use crate::common::stress::blob_voxels;
 
 use brume::integrator::features::AllFeatures;
@@ -27,27 +27,52 @@ fn settings(estimator: Estimator, majorant: MajorantMode, spp: u32, seed: u32) -
     }
 }
 
+/// The render of `moving` (512 spp with estimator `e` and majorant `mode`, seed `seed`) against
+/// the mean of `statics` (32 spp each, the next seeds): the per-pixel and 4 x 4-block
+/// comparisons at level `alpha`, and the moving render's majorant violations.
+fn against_shutter_mean(
+    moving: &brume::scene::Scene,
+    statics: &[brume::scene::Scene],
+    e: Estimator,
+    mode: MajorantMode,
+    seed: u32,
+    alpha: f64,
+) -> (Agreement, Agreement, u64) {
+    let out = render(moving, &settings(e, mode, 512, seed));
+    let violations = out
+        .records
+        .iter()
+        .map(|r| r.counters.majorant_violations)
+        .sum();
+    // The static renders' mean, and the variance of that mean.
+    let n = statics.len() as f64;
+    let mut mean = (vec![0.0; 16 * 16 * 3], vec![0.0; 16 * 16 * 3]);
+    for (k, s) in statics.iter().enumerate() {
+        let m = moments(&render(s, &settings(e, mode, 32, seed + 1 + k as u32)));
+        for (a, b) in mean.0.iter_mut().zip(&m.0) {
+            *a += b / n;
+        }
+        for (a, b) in mean.1.iter_mut().zip(&m.1) {
+            *a += b / (n * n);
+        }
+    }
+    let m = moments(&out);
+    let pixels = compare((&m.0, &m.1), (&mean.0, &mean.1), alpha);
+    let (a, b) = (
+        block_moments(&m, 16, 16, 4),
+        block_moments(&mean, 16, 16, 4),
+    );
+    let blocks = compare((&a.0, &a.1), (&b.0, &b.1), alpha);
+    (pixels, blocks, violations)
+}
+
 /// For every estimator: the blurred render agrees, pixel by pixel and on 4 x 4 blocks, with the
 /// mean of static renders at 16 instants spread over the shutter (the midpoints of 16 equal
 /// parts), the grid translated to where the velocity has moved it.
 #[test]
 fn uniform_velocity_blur_is_the_shutter_average_of_translated_renders() {
+    let (blurred, _) = blur::uniform_velocity_scenes("uniform");
     let d = blur::dir("uniform");
-    blur::write_medium(
-        &d.join("m.vdb"),
-        blob_voxels(N),
-        origin(),
-        V,
-        Vec::new(),
-        GridClass::Unknown,
-    );
-    let extra = json!({"velocityGrid": "vel", "velocityScale": SCALE});
-    let shutter = json!({"fps": 24, "shutter": {"open": -0.5, "close": 0.5}});
-    let blurred = blur::load(
-        &d,
-        "blurred.gltf",
-        &blur::scene("m.vdb", [0.0; 3], extra, shutter),
-    );
     const K: usize = 16;
     let statics: Vec<_> = (0..K)
         .map(|k| {
@@ -72,37 +97,8 @@ fn uniform_velocity_blur_is_the_shutter_average_of_translated_renders() {
         ]);
     let mut report = Vec::new();
     for (i, (e, mode)) in configs.enumerate() {
-        let seed = 100 * i as u32;
-        let out = render(&blurred, &settings(e, mode, 512, seed));
-        let violations: u64 = out
-            .records
-            .iter()
-            .map(|r| r.counters.majorant_violations)
-            .sum();
-        // The static renders' mean, and the variance of that mean.
-        let mut mean = moments(&render(&statics[0], &settings(e, mode, 32, seed + 1)));
-        for (k, s) in statics.iter().enumerate().skip(1) {
-            let m = moments(&render(s, &settings(e, mode, 32, seed + 1 + k as u32)));
-            for (a, b) in mean.0.iter_mut().zip(&m.0) {
-                *a += b;
-            }
-            for (a, b) in mean.1.iter_mut().zip(&m.1) {
-                *a += b;
-            }
-        }
-        mean.0.iter_mut().for_each(|x| *x /= K as f64);
-        mean.1.iter_mut().for_each(|x| *x /= (K * K) as f64);
-        let blurred_m = moments(&out);
-        let pixels = crate::common::render::compare(
-            (&blurred_m.0, &blurred_m.1),
-            (&mean.0, &mean.1),
-            1e-3 / 14.0,
-        );
-        let blocks = {
-            let a = crate::common::render::block_moments(&blurred_m, 16, 16, 4);
-            let b = crate::common::render::block_moments(&mean, 16, 16, 4);
-            crate::common::render::compare((&a.0, &a.1), (&b.0, &b.1), 1e-3 / 14.0)
-        };
+        let (pixels, blocks, violations) =
+            against_shutter_mean(&blurred, &statics, e, mode, 100 * i as u32, 1e-3 / 14.0);
         println!(
             "{e} {mode:?}: mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z \
              {:.2}); blocks failing {} (worst z {:.2}); violations {violations}",
@@ -148,28 +144,7 @@ fn uniform_velocity_blur_is_the_shutter_average_of_translated_renders() {
 /// most twice the still render's density lookups per real collision.
 #[test]
 fn vortex_blur_keeps_true_majorants_in_every_mode() {
-    let d = blur::dir("vortex");
-    blur::write_medium(
-        &d.join("vortex.vdb"),
-        blob_voxels(NV),
-        [-(NV as f64) * VOXEL * 0.5 + 0.5 * VOXEL; 3],
-        [0.0; 3],
-        vortex(),
-        GridClass::Staggered,
-    );
-    let extra = json!({"velocityGrid": "vel", "velocityUnit": "frame"});
-    let shutter = json!({"shutter": {"open": -0.5, "close": 0.5}});
-    let doc = blur::scene("vortex.vdb", [0.0; 3], extra, shutter);
-    let blurred = blur::load(&d, "vortex.gltf", &doc);
-    let path = d.join("vortex.gltf");
-    let still = brume::scene::load_with(
-        &path,
-        &brume::scene::LoadOptions {
-            shutter: Some(brume::scene::Shutter::CLOSED),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let (blurred, still) = blur::vortex_scenes("vortex");
     let per_real = |out: &brume::backend::cpu::RenderOutput| {
         let lookups: u64 = out.records.iter().map(|r| r.counters.density_lookups).sum();
         let real: u64 = out.records.iter().map(|r| r.counters.real_collisions).sum();
@@ -329,31 +304,10 @@ fn assert_shutter_average(
         .collect();
     let e = Estimator::Delta;
     let mode = MajorantMode::Adaptive;
+    let (pixels, blocks, violations) = against_shutter_mean(moving, &statics, e, mode, 31, 1e-3);
     let out = render(moving, &settings(e, mode, 512, 31));
-    let mut mean = moments(&render(&statics[0], &settings(e, mode, 32, 32)));
-    for (k, s) in statics.iter().enumerate().skip(1) {
-        let m = moments(&render(s, &settings(e, mode, 32, 32 + k as u32)));
-        for (a, b) in mean.0.iter_mut().zip(&m.0) {
-            *a += b;
-        }
-        for (a, b) in mean.1.iter_mut().zip(&m.1) {
-            *a += b;
-        }
-    }
-    mean.0.iter_mut().for_each(|x| *x /= K as f64);
-    mean.1.iter_mut().for_each(|x| *x /= (K * K) as f64);
-    let m = moments(&out);
-    let pixels = crate::common::render::compare((&m.0, &m.1), (&mean.0, &mean.1), 1e-3);
-    let a = crate::common::render::block_moments(&m, 16, 16, 4);
-    let b = crate::common::render::block_moments(&mean, 16, 16, 4);
-    let blocks = crate::common::render::compare((&a.0, &a.1), (&b.0, &b.1), 1e-3);
     let centre = render(&still(0.0), &settings(e, mode, 512, 33));
     let apart = compare_renders(&out, &centre, 16, 16, 1, 1e-3);
-    let violations: u64 = out
-        .records
-        .iter()
-        .map(|r| r.counters.majorant_violations)
-        .sum();
     println!(
         "{label}: mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z {:.2}); \
          blocks failing {} (worst z {:.2}); against one instant: {} pixels failing, mean z \

@@ -9,6 +9,7 @@ use glam::Vec3;
 
 use super::device::{bounds_layout, byte_size, GpuContext, GpuGrid};
 use super::error::GpuRenderError;
+use crate::gpu_types::grid::daffine_rows;
 use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuCameraMotion, GpuControlMode, GpuEmissionParams, GpuEstimator,
     GpuGridInfo, GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv,
@@ -26,20 +27,6 @@ use crate::volume::SparseGrid;
 pub(super) fn affine_rows(m: glam::Affine3A) -> [[f32; 4]; 3] {
     let (a, t) = (m.matrix3, m.translation);
     let row = |r: usize| [a.col(0)[r], a.col(1)[r], a.col(2)[r], t[r]];
-    [row(0), row(1), row(2)]
-}
-
-/// [`affine_rows`] of an f64 map, rounded to f32.
-fn daffine_rows(m: crate::math::DAffine3) -> [[f32; 4]; 3] {
-    let (a, t) = (m.matrix3, m.translation);
-    let row = |r: usize| {
-        [
-            a.col(0)[r] as f32,
-            a.col(1)[r] as f32,
-            a.col(2)[r] as f32,
-            t[r] as f32,
-        ]
-    };
     [row(0), row(1), row(2)]
 }
 
