@@ -93,18 +93,19 @@ fn differs_from_still(
     assert!(apart.failing >= min, "{label}: {apart:?}");
 }
 
-/// The uniform velocity: an analog estimator on the adaptive walk and a weighted one on the
-/// per-leaf walk, both over the blur's dilated bounds.
+/// The uniform velocity: every estimator on the adaptive walk, and weighted decomposition on
+/// the per-leaf walk, over the blur's dilated bounds.
 #[test]
 fn uniform_velocity_blur_agrees_with_the_cpu() {
     let Some(ctx) = gpu_or_skip("uniform_velocity_blur_agrees_with_the_cpu") else {
         return;
     };
     let (blurred, _) = blur::uniform_velocity_scenes("gpu_uniform");
-    let configs = [
-        (Estimator::Delta, MajorantMode::Adaptive),
-        (Estimator::WeightedDecomposition, MajorantMode::Leaf),
-    ];
+    let configs = Estimator::ALL
+        .map(|e| (e, MajorantMode::Adaptive))
+        .into_iter()
+        .chain([(Estimator::WeightedDecomposition, MajorantMode::Leaf)])
+        .collect::<Vec<_>>();
     let alpha = 1e-3 / configs.len() as f64;
     for (i, (estimator, majorant)) in configs.into_iter().enumerate() {
         let s = RenderSettings {
