@@ -4,6 +4,7 @@ pub mod blur;
 pub mod boxes;
 pub mod cli;
 pub mod culled;
+pub mod external;
 pub mod farm;
 pub mod gpu;
 pub mod grids;

@@ -15,8 +15,8 @@
 //! Needs a Python that can `import bpy` (tools/cycles/ci.sh installs one); without it each test
 //! prints a SKIPPED line on stderr and passes. Seeds are fixed on both sides.
 use crate::common;
+use crate::common::external::{bpy_python, say};
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -24,28 +24,6 @@ use brume::scene::media::VdbMediumDesc;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn bpy_python() -> Option<PathBuf> {
-    let candidates = std::env::var_os("BRUME_BPY_PYTHON")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            root().join("tools/cycles/.venv/bin/python"),
-            PathBuf::from("python3"),
-        ]);
-    candidates.into_iter().find(|p| {
-        Command::new(p)
-            .args(["-c", "import bpy"])
-            .output()
-            .is_ok_and(|o| o.status.success())
-    })
-}
-
-/// Written straight to the process's stderr: libtest's capture only hooks `eprintln!`, so a
-/// skip stays visible in a passing run.
-fn say(msg: &str) {
-    let _ = writeln!(std::io::stderr(), "{msg}");
 }
 
 struct Ctx {

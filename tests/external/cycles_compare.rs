@@ -7,37 +7,9 @@
 //! (tools/cycles/ci.sh installs one); without it the test says so on stderr and passes.
 //! Seeds are fixed on both sides, so the outcome is deterministic.
 use crate::common;
+use crate::common::external::{bpy_python, say};
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn bpy_python() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let candidates = std::env::var_os("BRUME_BPY_PYTHON")
-        .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            root.join("tools/cycles/.venv/bin/python"),
-            PathBuf::from("python3"),
-        ]);
-    for p in candidates {
-        let ok = Command::new(&p)
-            .args(["-c", "import bpy"])
-            .output()
-            .is_ok_and(|o| o.status.success());
-        if ok {
-            return Some(p);
-        }
-    }
-    None
-}
-
-/// Written straight to the process's stderr: libtest's capture only hooks `eprintln!`, so a
-/// skip stays visible in a passing run.
-fn say(msg: &str) {
-    let _ = writeln!(std::io::stderr(), "{msg}");
-}
 
 /// Renders scene `scene` (under `scenes/`, or an absolute path) with Brume and Cycles (4 runs x `cycles_spp`) at 32x24 and
 /// asserts their agreement (`common::reference::scene_agrees_with`), or says SKIPPED.

@@ -7,6 +7,7 @@
 //! the image; a 24-frame sequence (`--frames`) merges each frame to its `brume render --frames`
 //! image. Prints `SKIPPED:` and why when Slurm cannot be installed or started.
 use crate::common;
+use crate::common::external::say;
 use common::farm::assert_rounding_equal;
 
 use std::path::{Path, PathBuf};
@@ -113,13 +114,6 @@ fn job_state(cluster: &Cluster, id: &str) -> String {
         .find_map(|w| w.strip_prefix("JobState="))
         .unwrap_or("UNKNOWN")
         .to_string()
-}
-
-/// Written straight to the process's stderr, so the figures and a skip stay visible in a
-/// passing run (libtest captures `println!` and `eprintln!`).
-fn say(msg: &str) {
-    use std::io::Write;
-    let _ = writeln!(std::io::stderr(), "{msg}");
 }
 
 #[test]

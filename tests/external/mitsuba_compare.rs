@@ -5,8 +5,8 @@
 //! (tools/mitsuba/setup.sh installs one); without it each test prints a visible SKIPPED line
 //! and returns. Seeds are fixed on both sides, so the outcome is deterministic.
 use crate::common;
+use crate::common::external::say;
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -31,12 +31,6 @@ fn mitsuba_python() -> Result<PathBuf, String> {
             p.display()
         ))
     }
-}
-
-/// Written straight to the process's stderr: libtest's capture only hooks `eprintln!`, so a
-/// skip stays visible in a passing run.
-fn say(msg: &str) {
-    let _ = writeln!(std::io::stderr(), "{msg}");
 }
 
 fn temp_dir(tag: &str) -> PathBuf {
