@@ -191,10 +191,16 @@ pub fn vortex_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
     (blurred, closed(&d.join("vortex.gltf")))
 }
 
-/// The moving-camera fixture under `dir(name)`: the still blob of [`N`] voxels seen from a
-/// camera sliding 0.8 units a frame along x (frame 1 at 24 fps, a one-frame shutter), and the
-/// still frame.
-pub fn moving_camera_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
+/// The blob still at the origin, with node `node` (0 the camera, 2 the medium) animated
+/// linearly: at `at_frame` on frame 1 (time 1/24 s at 24 fps), moving by `per_frame` a frame,
+/// under a one-frame shutter. Returns the fixture's folder and the scene.
+pub fn animated(
+    name: &str,
+    node: usize,
+    at_frame: [f32; 3],
+    per_frame: [f32; 3],
+    edit: &dyn Fn(&mut serde_json::Value),
+) -> (std::path::PathBuf, brume::scene::Scene) {
     let d = dir(name);
     write_medium(
         &d.join("m.vdb"),
@@ -206,16 +212,26 @@ pub fn moving_camera_scenes(name: &str) -> (brume::scene::Scene, brume::scene::S
     );
     let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
     let mut doc = scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    edit(&mut doc);
+    let key = |k: f32| [0, 1, 2].map(|a| at_frame[a] + k * per_frame[a]);
     animate_translation(
         &mut doc,
         &d,
-        "camera.bin",
-        0,
-        [-0.8, 0.0, 2.2],
-        [0.8, 0.0, 2.2],
+        "keys.bin",
+        node,
+        key(-1.0),
+        key(1.0),
         2.0 / 24.0,
     );
     let moving = load(&d, "moving.gltf", &doc);
+    (d, moving)
+}
+
+/// The moving-camera fixture under `dir(name)`: the still blob of [`N`] voxels seen from a
+/// camera sliding 0.8 units a frame along x (frame 1 at 24 fps, a one-frame shutter), and the
+/// still frame.
+pub fn moving_camera_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
+    let (d, moving) = animated(name, 0, [0.0, 0.0, 2.2], [0.8, 0.0, 0.0], &|_| {});
     (moving, closed(&d.join("moving.gltf")))
 }
 

@@ -1,9 +1,8 @@
 //! Velocity motion blur: a uniform velocity's blur against the shutter average of renders with
 //! the grid translated, a moving absorbing slab's time-averaged transmittance against its
 //! closed form, and a vortex's blur with no majorant violation in any majorant mode.
-use crate::common::blur::{self, origin, N, SCALE, V, VOXEL};
+use crate::common::blur::{self, SCALE, V, VOXEL};
 use crate::common::render::{block_moments, compare, compare_renders, moments, render, Agreement};
-use crate::common::stress::blob_voxels;
 
 use brume::integrator::features::AllFeatures;
 use brume::integrator::media::transmittance_vdb;
@@ -29,7 +28,7 @@ fn settings(estimator: Estimator, majorant: MajorantMode, spp: u32, seed: u32) -
 
 /// The render of `moving` (512 spp with estimator `e` and majorant `mode`, seed `seed`) against
 /// the mean of `statics` (32 spp each, the next seeds): the per-pixel and 4 x 4-block
-/// comparisons at level `alpha`, and the moving render's majorant violations.
+/// comparisons at level `alpha`, the moving render's majorant violations, and the render.
 fn against_shutter_mean(
     moving: &brume::scene::Scene,
     statics: &[brume::scene::Scene],
@@ -37,7 +36,7 @@ fn against_shutter_mean(
     mode: MajorantMode,
     seed: u32,
     alpha: f64,
-) -> (Agreement, Agreement, u64) {
+) -> (Agreement, Agreement, u64, brume::backend::cpu::RenderOutput) {
     let out = render(moving, &settings(e, mode, 512, seed));
     let violations = out
         .records
@@ -63,7 +62,23 @@ fn against_shutter_mean(
         block_moments(&mean, 16, 16, 4),
     );
     let blocks = compare((&a.0, &a.1), (&b.0, &b.1), alpha);
-    (pixels, blocks, violations)
+    (pixels, blocks, violations, out)
+}
+
+/// One line of a comparison with the shutter mean: image means, failing pixels and blocks.
+fn describe(pixels: &Agreement, blocks: &Agreement) -> String {
+    format!(
+        "mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z {:.2}); blocks failing \
+         {} (worst z {:.2})",
+        pixels.mean_a,
+        pixels.mean_b,
+        pixels.mean_z,
+        pixels.failing,
+        pixels.pixels,
+        pixels.worst_z,
+        blocks.failing,
+        blocks.worst_z
+    )
 }
 
 /// For every estimator: the blurred render agrees, pixel by pixel and on 4 x 4 blocks, with the
@@ -97,19 +112,11 @@ fn uniform_velocity_blur_is_the_shutter_average_of_translated_renders() {
         ]);
     let mut report = Vec::new();
     for (i, (e, mode)) in configs.enumerate() {
-        let (pixels, blocks, violations) =
+        let (pixels, blocks, violations, _) =
             against_shutter_mean(&blurred, &statics, e, mode, 100 * i as u32, 1e-3 / 14.0);
         println!(
-            "{e} {mode:?}: mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z \
-             {:.2}); blocks failing {} (worst z {:.2}); violations {violations}",
-            pixels.mean_a,
-            pixels.mean_b,
-            pixels.mean_z,
-            pixels.failing,
-            pixels.pixels,
-            pixels.worst_z,
-            blocks.failing,
-            blocks.worst_z
+            "{e} {mode:?}: {}; violations {violations}",
+            describe(&pixels, &blocks)
         );
         report.push((e, mode, pixels, blocks, violations));
     }
@@ -304,22 +311,14 @@ fn assert_shutter_average(
         .collect();
     let e = Estimator::Delta;
     let mode = MajorantMode::Adaptive;
-    let (pixels, blocks, violations) = against_shutter_mean(moving, &statics, e, mode, 31, 1e-3);
-    let out = render(moving, &settings(e, mode, 512, 31));
+    let (pixels, blocks, violations, out) =
+        against_shutter_mean(moving, &statics, e, mode, 31, 1e-3);
     let centre = render(&still(0.0), &settings(e, mode, 512, 33));
     let apart = compare_renders(&out, &centre, 16, 16, 1, 1e-3);
     println!(
-        "{label}: mean {:.5} vs {:.5} (z {:.2}); pixels failing {} of {} (worst z {:.2}); \
-         blocks failing {} (worst z {:.2}); against one instant: {} pixels failing, mean z \
-         {:.1}; violations {violations}",
-        pixels.mean_a,
-        pixels.mean_b,
-        pixels.mean_z,
-        pixels.failing,
-        pixels.pixels,
-        pixels.worst_z,
-        blocks.failing,
-        blocks.worst_z,
+        "{label}: {}; against one instant: {} pixels failing, mean z {:.1}; violations \
+         {violations}",
+        describe(&pixels, &blocks),
         apart.failing,
         apart.mean_z
     );
@@ -335,47 +334,11 @@ fn assert_shutter_average(
     assert_eq!(violations, 0, "{label}");
 }
 
-/// The blob still at the origin, with node `node` (0 the camera, 2 the medium) animated
-/// linearly: at `at_frame` on frame 1 (time 1/24 s at 24 fps), moving by `per_frame` a frame,
-/// under a one-frame shutter. Returns the fixture's folder and the scene.
-fn animated(
-    name: &str,
-    node: usize,
-    at_frame: [f32; 3],
-    per_frame: [f32; 3],
-    edit: &dyn Fn(&mut serde_json::Value),
-) -> (std::path::PathBuf, brume::scene::Scene) {
-    let d = blur::dir(name);
-    blur::write_medium(
-        &d.join("m.vdb"),
-        blob_voxels(N),
-        origin(),
-        [0.0; 3],
-        Vec::new(),
-        GridClass::Unknown,
-    );
-    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
-    let mut doc = blur::scene("m.vdb", [0.0; 3], json!({}), render_obj);
-    edit(&mut doc);
-    let key = |k: f32| [0, 1, 2].map(|a| at_frame[a] + k * per_frame[a]);
-    blur::animate_translation(
-        &mut doc,
-        &d,
-        "keys.bin",
-        node,
-        key(-1.0),
-        key(1.0),
-        2.0 / 24.0,
-    );
-    let moving = blur::load(&d, "moving.gltf", &doc);
-    (d, moving)
-}
-
 /// A camera sliding sideways under the shutter (a glTF translation animation) against still
 /// cameras.
 #[test]
 fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
-    let (d, moving) = animated("camera", 0, [0.0, 0.0, 2.2], [0.8, 0.0, 0.0], &|_| {});
+    let (d, moving) = blur::animated("camera", 0, [0.0, 0.0, 2.2], [0.8, 0.0, 0.0], &|_| {});
     assert!(
         moving.camera_motion.is_some(),
         "the camera moves during the shutter"
@@ -392,7 +355,7 @@ fn camera_motion_blur_is_the_shutter_average_of_still_cameras() {
 /// still renders with the node placed at each instant.
 #[test]
 fn medium_node_motion_blur_is_the_shutter_average_of_still_media() {
-    let (d, moving) = animated("medium_node", 2, [0.0; 3], [0.6, 0.3, 0.0], &|_| {});
+    let (d, moving) = blur::animated("medium_node", 2, [0.0; 3], [0.6, 0.3, 0.0], &|_| {});
     assert!(
         moving.vdb_media[0].motion.is_some(),
         "the medium moves during the shutter"
@@ -413,7 +376,7 @@ fn light_motion_blur_is_the_shutter_average_of_still_lights() {
         doc["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(200.0);
         doc["extensions"]["BRUME_environment"]["strength"] = json!(0.1);
     };
-    let (d, moving) = animated("light", 1, [0.0, 1.0, 0.8], [2.0, 0.0, 0.0], &bright);
+    let (d, moving) = blur::animated("light", 1, [0.0, 1.0, 0.8], [2.0, 0.0, 0.0], &bright);
     assert!(
         moving.light_motion[0].is_some(),
         "the light moves during the shutter"
