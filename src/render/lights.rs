@@ -241,19 +241,21 @@ impl Lights {
 
     /// Direction, distance and arriving radiance (or irradiance) of punctual light `k` at `p`
     /// (`None` at the light's own position).
-    /// Punctual light `k` at time offset `dt`: its position and direction at that pose.
+    /// Punctual light `k` at time offset `dt`: its position and direction at that pose (the
+    /// light itself, borrowed, where it stands still).
     #[inline]
-    pub fn posed(&self, k: usize, dt: f32) -> PunctualLight {
+    pub fn posed(&self, k: usize, dt: f32) -> std::borrow::Cow<'_, PunctualLight> {
+        let Some(Some(m)) = self.motion.get(k) else {
+            return std::borrow::Cow::Borrowed(&self.punctual[k]);
+        };
         let mut l = self.punctual[k];
-        if let Some(Some(m)) = self.motion.get(k) {
-            let world = m.world_from_node(dt);
-            l.position = world.transform_point3(Vec3::ZERO).to_array();
-            let d = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-            if d != Vec3::ZERO {
-                l.direction = d.to_array();
-            }
+        let world = m.world_from_node(dt);
+        l.position = world.transform_point3(Vec3::ZERO).to_array();
+        let d = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
+        if d != Vec3::ZERO {
+            l.direction = d.to_array();
         }
-        l
+        std::borrow::Cow::Owned(l)
     }
 
     /// Whether some punctual light moves during the shutter.
@@ -262,7 +264,7 @@ impl Lights {
     }
 
     fn punctual_incident(&self, k: usize, p: Vec3, dt: f32) -> Option<(Vec3, f32, Vec3)> {
-        let l = &self.posed(k, dt);
+        let l = &*self.posed(k, dt);
         let intensity = Vec3::from(l.intensity);
         if l.kind == LIGHT_DIRECTIONAL {
             return Some((-Vec3::from(l.direction), f32::INFINITY, intensity));

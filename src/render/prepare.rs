@@ -377,9 +377,9 @@ fn swept_bounds(motion: &MediumMotion, bounds: Aabb) -> Aabb {
     }
     let n = crate::scene::motion::MOTION_STEPS * SWEEP_SUBSTEPS;
     let shutter = motion.node.shutter;
+    let node_from_world = motion.frame_world_from_node.inverse();
     let corners = |dt: f32| {
-        let world_from_rest =
-            motion.node.world_from_node(dt) * motion.frame_world_from_node.inverse();
+        let world_from_rest = motion.node.world_from_node(dt) * node_from_world;
         (0..8).map(move |c| {
             let pick = |a: usize, lo: f32, hi: f32| if c >> a & 1 == 0 { lo } else { hi };
             world_from_rest.transform_point3(Vec3::new(
