@@ -33,7 +33,7 @@ pub(super) fn trace_shadow<F: Features>(
     let mut t0 = 0.0f32;
     loop {
         let hit = if F::SURF {
-            rs.scene.bvh.closest_hit(ray, t0, dist)
+            rs.scene.closest_hit(ray, t0, dist, cfg.time)
         } else {
             None
         };
@@ -67,7 +67,7 @@ pub(super) fn trace_shadow<F: Features>(
             return tr;
         };
         if F::HOM {
-            let [a, b, c] = rs.scene.triangle_corners(h.triangle as usize);
+            let [a, b, c] = rs.scene.triangle_corners_at(h.triangle as usize, cfg.time);
             let entering = (b - a).cross(c - a).dot(ray.d) < 0.0;
             media.cross(rs.scene.materials[mat_index].interior_medium, entering);
         }

@@ -145,7 +145,7 @@ pub fn radiance<F: Features>(
     let mut ps = generate::<F>(rs, film, aspect, cfg.time);
     let start_collisions = collisions(&stats.media);
     loop {
-        let hit = intersect::<F>(rs, &ps);
+        let hit = intersect::<F>(rs, &ps, cfg.time);
         if F::HET || F::HOM {
             let t_hit = hit.map_or(f32::INFINITY, |h| h.t);
             let end = sample_medium::<F>(
@@ -224,11 +224,11 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
     }
 }
 
-/// The first surface along the path's ray (`Stage::Intersect`).
+/// The first surface along the path's ray at time offset `dt` (`Stage::Intersect`).
 #[inline(always)]
-fn intersect<F: Features>(rs: &RenderScene, ps: &PathState) -> Option<Hit> {
+fn intersect<F: Features>(rs: &RenderScene, ps: &PathState, dt: f32) -> Option<Hit> {
     if F::SURF {
-        rs.scene.bvh.closest_hit(&ps.ray, ps.t0, f32::INFINITY)
+        rs.scene.closest_hit(&ps.ray, ps.t0, f32::INFINITY, dt)
     } else {
         None
     }
@@ -355,7 +355,7 @@ fn shade_surface<F: Features>(
     let tri = &scene.triangles[h.triangle as usize];
     let mat_index = scene.instances[tri.instance as usize].material as usize;
     let mat = &scene.materials[mat_index];
-    let [a, b, c] = scene.triangle_corners(h.triangle as usize);
+    let [a, b, c] = scene.triangle_corners_at(h.triangle as usize, cfg.time);
     let ng = (b - a).cross(c - a).normalize_or_zero();
     let cos_o = ng.dot(wo);
     let uv = scene.material_uv(mat, h.triangle as usize, h.b1, h.b2);
@@ -412,7 +412,7 @@ fn shade_surface<F: Features>(
         return SurfaceEnd::Scatters(Scatterer::Chosen);
     }
     let n_side = if cos_o >= 0.0 { ng } else { -ng };
-    let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side);
+    let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side, cfg.time);
     let frame = Frame::from_z(ns);
     let bsdf = Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
     let wo_l = frame.to_local(wo);
@@ -518,10 +518,15 @@ fn escape(rs: &RenderScene, ps: &mut PathState) {
 
 /// Interpolated vertex normal on `side`'s hemisphere; the geometric normal when the file
 /// gave none.
-fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3) -> Vec3 {
+fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3, dt: f32) -> Vec3 {
     let v = rs.scene.triangles[t].vertices;
     let n = |i: usize| Vec3::from(rs.scene.vertices[v[i] as usize].normal);
-    let ns = (n(0) * (1.0 - b1 - b2) + n(1) * b1 + n(2) * b2).normalize_or_zero();
+    let mut ns = n(0) * (1.0 - b1 - b2) + n(1) * b1 + n(2) * b2;
+    if let Some(f) = rs.scene.triangle_motion(t, dt) {
+        // Normals map by the inverse transpose of the motion's linear part.
+        ns = (f.matrix3.inverse().transpose() * glam::Vec3A::from(ns)).into();
+    }
+    let ns = ns.normalize_or_zero();
     if ns == Vec3::ZERO {
         side
     } else if ns.dot(side) < 0.0 {

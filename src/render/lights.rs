@@ -139,7 +139,9 @@ impl Lights {
             // Weighted by the mean over its emissive texture: any positive weight where the
             // emission can be non-zero keeps the estimator unbiased; the mean keeps it efficient.
             let l = scene.mean_emission_luminance(mat);
-            if l > 0.0 {
+            // A moving emitter is found by paths alone: `pdf_area` is then 0 and its MIS
+            // weight 1, which stays unbiased where its position depends on the sample's time.
+            if l > 0.0 && !scene.instance_moves(t.instance) {
                 let [a, b, c] = scene.triangle_corners(k);
                 let area = 0.5 * (b - a).cross(c - a).length();
                 if area > 0.0 {

@@ -9,6 +9,7 @@ use glam::Vec3;
 
 use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
 use crate::math::{Aabb, Ray};
+use crate::scene::motion::FrameMotion;
 use crate::volume::phase::HenyeyGreenstein;
 use crate::volume::tracking::{ControlExtinction, TrackingStats};
 use crate::volume::{
@@ -71,26 +72,7 @@ pub struct VdbMedium {
     /// The node's motion across the shutter, where an animation moves the medium then: a
     /// sample at time offset `dt` sees it at that pose ([`Self::rest_ray`]), and
     /// `world_bounds` covers every pose.
-    pub motion: Option<Arc<MediumMotion>>,
-}
-
-/// A medium's node motion across the shutter (transformation motion blur).
-#[derive(Clone, Debug)]
-pub struct MediumMotion {
-    pub node: crate::scene::motion::NodeMotion,
-    /// The node's world matrix at the frame, where the medium's fields are placed.
-    pub frame_world_from_node: glam::Mat4,
-}
-
-impl MediumMotion {
-    /// Maps world space at time offset `dt` to world space at the frame, where the medium's
-    /// fields are placed: the frame's pose after the inverse of `dt`'s.
-    #[inline]
-    pub fn rest_from_world(&self, dt: f32) -> glam::Affine3A {
-        glam::Affine3A::from_mat4(
-            self.frame_world_from_node * self.node.world_from_node(dt).inverse(),
-        )
-    }
+    pub motion: Option<Arc<FrameMotion>>,
 }
 
 /// A medium's velocity motion blur: a lookup at density index point `p` by a sample at time

@@ -5,12 +5,13 @@ use glam::{Affine3A, Mat4, Vec3};
 
 use super::lights::Lights;
 use super::media::{
-    Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, MediumMotion,
-    VdbMedium, VelocityBlur, WalkPlan,
+    Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
+    VelocityBlur, WalkPlan,
 };
 use super::settings::RenderSettings;
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::math::Aabb;
+use crate::scene::motion::FrameMotion;
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Pinhole, Scene, Shutter, VdbMediumDesc};
 use crate::volume::phase::HenyeyGreenstein;
@@ -150,8 +151,9 @@ pub struct RenderScene<'s> {
     /// The scene camera's primary-ray frame, derived once (`Camera::pinhole`).
     pub pinhole: Pinhole,
     /// The shutter camera samples draw their time over, where some medium is blurred
-    /// ([`VdbMedium::blur`]), or a medium, the camera or a light moves (`VdbMedium::motion`,
-    /// `Scene::camera_motion`, `Scene::light_motion`); `None`: every sample sees the frame's
+    /// ([`VdbMedium::blur`]), or a medium, the camera, a mesh or a light moves
+    /// (`VdbMedium::motion`, `Scene::camera_motion`, `Scene::moving_meshes`,
+    /// `Scene::light_motion`); `None`: every sample sees the frame's
     /// instant.
     pub shutter: Option<Shutter>,
 }
@@ -258,6 +260,7 @@ impl<'s> RenderScene<'s> {
         );
         let moves = vdb.iter().any(|m| m.blur.is_some() || m.motion.is_some())
             || scene.camera_motion.is_some()
+            || scene.moving_meshes.is_some()
             || scene.light_motion.iter().any(Option::is_some);
         let shutter = moves.then_some(scene.shutter);
         let features = FeatureFlags {
@@ -353,58 +356,15 @@ fn vdb_medium(desc: &VdbMediumDesc, shutter: Shutter, fps: f32) -> Result<VdbMed
         motion: None,
     };
     if let Some(node) = &desc.motion {
-        let motion = MediumMotion {
+        let motion = FrameMotion {
             node: node.clone(),
             frame_world_from_node: world_from_node,
         };
-        medium.world_bounds = swept_bounds(&motion, medium.world_bounds);
+        medium.world_bounds = motion.swept_bounds(medium.world_bounds);
         medium.motion = Some(Arc::new(motion));
     }
     medium.plan_walks();
     Ok(medium)
-}
-
-/// Evaluations of a moving medium's pose per shutter step when bounding its sweep.
-const SWEEP_SUBSTEPS: usize = 8;
-
-/// The world box swept by `bounds` (the medium's box at the frame) over the shutter: the boxes
-/// at `SWEEP_SUBSTEPS` evaluations of the interpolated pose per step, padded by the farthest
-/// a corner moves between two evaluations (the most an interpolated pose strays from the
-/// chord of its neighbours).
-fn swept_bounds(motion: &MediumMotion, bounds: Aabb) -> Aabb {
-    if bounds.is_empty() {
-        return bounds;
-    }
-    let n = crate::scene::motion::MOTION_STEPS * SWEEP_SUBSTEPS;
-    let shutter = motion.node.shutter;
-    let node_from_world = motion.frame_world_from_node.inverse();
-    let corners = |dt: f32| {
-        let world_from_rest = motion.node.world_from_node(dt) * node_from_world;
-        (0..8).map(move |c| {
-            let pick = |a: usize, lo: f32, hi: f32| if c >> a & 1 == 0 { lo } else { hi };
-            world_from_rest.transform_point3(Vec3::new(
-                pick(0, bounds.min.x, bounds.max.x),
-                pick(1, bounds.min.y, bounds.max.y),
-                pick(2, bounds.min.z, bounds.max.z),
-            ))
-        })
-    };
-    let mut swept = Aabb::EMPTY;
-    let mut pad = 0.0f32;
-    let mut last: Option<Vec<Vec3>> = None;
-    for k in 0..=n {
-        let now: Vec<Vec3> = corners(shutter.time(k as f32 / n as f32)).collect();
-        if let Some(prev) = &last {
-            for (a, b) in prev.iter().zip(&now) {
-                pad = pad.max(a.distance(*b));
-            }
-        }
-        for p in &now {
-            swept = swept.union_point(*p);
-        }
-        last = Some(now);
-    }
-    Aabb::new(swept.min - Vec3::splat(pad), swept.max + Vec3::splat(pad))
 }
 
 /// The medium's velocity blur under `shutter` at `fps`: `None` without a velocity grid, with

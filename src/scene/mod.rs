@@ -34,6 +34,7 @@ pub mod material;
 pub mod media;
 pub mod mesh;
 pub mod motion;
+pub mod moving_meshes;
 pub mod nesting;
 mod nodes;
 pub mod render_settings;
@@ -113,8 +114,11 @@ pub struct Scene {
     pub vdb_media: Vec<VdbMediumDesc>,
     pub lights: Vec<PunctualLight>,
     pub environment: Environment,
-    /// BVH over `triangles` (same triangle order).
+    /// BVH over `triangles` (same triangle order), as the frame places them.
     pub bvh: TriangleBvh,
+    /// The mesh instances an animation moves during the shutter, `None` where none does; ray
+    /// queries then go through [`Scene::closest_hit`] at the sample's time.
+    pub moving_meshes: Option<moving_meshes::MovingMeshes>,
     /// World bounds of the triangles and the media.
     pub bounds: Aabb,
     /// Render defaults from `BRUME_render` (the command line overrides them).
@@ -220,6 +224,24 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
     let bvh = TriangleBvh::build(corners);
+    let moving_meshes = steps.as_ref().and_then(|s| {
+        let motion = geo.instances.iter().map(|inst| {
+            let placement = nodes.iter().position(|p| p.node == inst.node as usize)?;
+            Some(motion::FrameMotion {
+                node: motion::placement_motion(s, placement, shutter)?,
+                frame_world_from_node: nodes[placement].world_from_node,
+            })
+        });
+        moving_meshes::MovingMeshes::build(
+            &geo.vertices,
+            &geo.triangles,
+            &geo.instances,
+            motion.collect(),
+        )
+    });
+    if let Some(m) = &moving_meshes {
+        bounds = bounds.union(&m.swept_bounds());
+    }
     warn_open_medium_boundaries(&mut ctx, &geo, &materials);
     let scene = Scene {
         source: path.to_path_buf(),
@@ -237,6 +259,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         lights,
         environment,
         bvh,
+        moving_meshes,
         bounds,
         render,
         frame,
@@ -309,11 +332,54 @@ impl Scene {
         summary::summary(self)
     }
 
+    /// The nearest surface hit with `t` in `[t_min, t_max]` by a ray at time offset `dt`
+    /// (frames): moving meshes where they are then.
+    #[inline]
+    pub fn closest_hit(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        dt: f32,
+    ) -> Option<crate::accel::Hit> {
+        match &self.moving_meshes {
+            None => self.bvh.closest_hit(ray, t_min, t_max),
+            Some(m) => m.closest_hit(ray, t_min, t_max, dt),
+        }
+    }
+
+    /// Where triangle `t`'s instance is at time offset `dt` relative to the frame, `None` where
+    /// it stands still: positions and (by its inverse transpose) normals map through it.
+    #[inline]
+    pub fn triangle_motion(&self, t: usize, dt: f32) -> Option<glam::Affine3A> {
+        let m = self.moving_meshes.as_ref()?;
+        m.of_instance(self.triangles[t].instance)
+            .map(|f| f.world_from_rest(dt))
+    }
+
     /// Corner positions of triangle `t`.
     pub fn triangle_corners(&self, t: usize) -> [Vec3; 3] {
         self.triangles[t]
             .vertices
             .map(|i| Vec3::from(self.vertices[i as usize].position))
+    }
+
+    /// Whether an animation moves instance `k` during the shutter.
+    #[inline]
+    pub fn instance_moves(&self, k: u32) -> bool {
+        self.moving_meshes
+            .as_ref()
+            .is_some_and(|m| m.of_instance(k).is_some())
+    }
+
+    /// Corner positions of triangle `t` at time offset `dt`: where a moving mesh is then.
+    #[inline]
+    pub fn triangle_corners_at(&self, t: usize, dt: f32) -> [Vec3; 3] {
+        let c = self.triangle_corners(t);
+        match self.triangle_motion(t, dt) {
+            None => c,
+            Some(f) => c.map(|p| f.transform_point3(p)),
+        }
     }
 
     /// Whether `p` lies inside the closed surface of instance `k`, by the parity of crossings

@@ -1,7 +1,7 @@
 //! Transformation motion blur: the poses of the camera and of media nodes at evenly spaced
 //! times across the shutter, from the file's animations, for each camera sample to interpolate
 //! at its own time.
-use glam::{Mat4, Quat, Vec3};
+use glam::{Affine3A, Mat4, Quat, Vec3};
 
 use super::animation::Animations;
 use super::camera;
@@ -44,6 +44,73 @@ impl NodeMotion {
             r0.slerp(r1, f).normalize(),
             t0.lerp(t1, f),
         )
+    }
+}
+
+/// A node's motion relative to its pose at the frame, where what it carries (a medium's
+/// fields, a mesh's triangles) is placed: a query at time offset `dt` maps its ray to the
+/// frame's pose instead of moving the contents.
+#[derive(Clone, Debug)]
+pub struct FrameMotion {
+    pub node: NodeMotion,
+    /// The node's world matrix at the frame.
+    pub frame_world_from_node: Mat4,
+}
+
+/// Evaluations of the interpolated pose per shutter step when bounding a sweep.
+const SWEEP_SUBSTEPS: usize = 8;
+
+impl FrameMotion {
+    /// Maps world space at time offset `dt` to world space at the frame: the frame's pose
+    /// after the inverse of `dt`'s.
+    #[inline]
+    pub fn rest_from_world(&self, dt: f32) -> Affine3A {
+        Affine3A::from_mat4(self.frame_world_from_node * self.node.world_from_node(dt).inverse())
+    }
+
+    /// Maps world space at the frame to world space at time offset `dt`.
+    #[inline]
+    pub fn world_from_rest(&self, dt: f32) -> Affine3A {
+        Affine3A::from_mat4(self.node.world_from_node(dt) * self.frame_world_from_node.inverse())
+    }
+
+    /// The world box swept by `bounds` (a box at the frame) over the shutter: the boxes at
+    /// `SWEEP_SUBSTEPS` evaluations of the interpolated pose per step, padded by the farthest
+    /// a corner moves between two evaluations (the most an interpolated pose strays from the
+    /// chord of its neighbours).
+    pub fn swept_bounds(&self, bounds: Aabb) -> Aabb {
+        if bounds.is_empty() {
+            return bounds;
+        }
+        let n = MOTION_STEPS * SWEEP_SUBSTEPS;
+        let shutter = self.node.shutter;
+        let corners = |dt: f32| {
+            let world_from_rest = self.world_from_rest(dt);
+            (0..8).map(move |c| {
+                let pick = |a: usize, lo: f32, hi: f32| if c >> a & 1 == 0 { lo } else { hi };
+                world_from_rest.transform_point3(Vec3::new(
+                    pick(0, bounds.min.x, bounds.max.x),
+                    pick(1, bounds.min.y, bounds.max.y),
+                    pick(2, bounds.min.z, bounds.max.z),
+                ))
+            })
+        };
+        let mut swept = Aabb::EMPTY;
+        let mut pad = 0.0f32;
+        let mut last: Option<Vec<Vec3>> = None;
+        for k in 0..=n {
+            let now: Vec<Vec3> = corners(shutter.time(k as f32 / n as f32)).collect();
+            if let Some(prev) = &last {
+                for (a, b) in prev.iter().zip(&now) {
+                    pad = pad.max(a.distance(*b));
+                }
+            }
+            for p in &now {
+                swept = swept.union_point(*p);
+            }
+            last = Some(now);
+        }
+        Aabb::new(swept.min - Vec3::splat(pad), swept.max + Vec3::splat(pad))
     }
 }
 

@@ -127,7 +127,10 @@ fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
         };
         let media = s.vdb_media.iter().filter(|m| m.motion.is_some()).count();
         let lights = s.light_motion.iter().filter(|m| m.is_some()).count();
-        let camera = format!("{camera}, {media} medium node(s) and {lights} light(s) move");
+        let meshes = s.moving_meshes.as_ref().map_or(0, |m| m.meshes.len());
+        let camera = format!(
+            "{camera}, {meshes} mesh instance(s), {media} medium node(s) and {lights} light(s) move"
+        );
         writeln!(
             o,
             "shutter: {} to {} frames around the frame ({} fps); {camera}",

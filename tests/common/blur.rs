@@ -80,24 +80,75 @@ pub fn animate_translation(
     to: [f32; 3],
     t1: f32,
 ) {
-    let mut bytes = Vec::new();
-    for x in [0.0, t1].into_iter().chain(from).chain(to) {
-        bytes.extend_from_slice(&f32::to_le_bytes(x));
+    animate(doc, d, bin, node, &[("translation", &from, &to)], t1);
+}
+
+/// Appends `value` to the array `doc[key]` (made where absent); returns its index.
+fn push(doc: &mut Value, key: &str, value: Value) -> usize {
+    if doc[key].is_null() {
+        doc[key] = json!([]);
+    }
+    let a = doc[key].as_array_mut().unwrap();
+    a.push(value);
+    a.len() - 1
+}
+
+/// Adds to `doc` an animation of node `node` with one LINEAR channel per `(path, from, to)`:
+/// `from` at time 0 to `to` at `t1` seconds (a rotation's quaternions slerped, as glTF
+/// defines), its keys in the buffer file `d/bin`.
+pub fn animate(
+    doc: &mut Value,
+    d: &Path,
+    bin: &str,
+    node: usize,
+    channels: &[(&str, &[f32], &[f32])],
+    t1: f32,
+) {
+    let mut bytes: Vec<u8> = [0.0f32, t1].iter().flat_map(|x| x.to_le_bytes()).collect();
+    let mut spans = Vec::new();
+    for (_, from, to) in channels {
+        let start = bytes.len();
+        bytes.extend(from.iter().chain(*to).flat_map(|x| x.to_le_bytes()));
+        spans.push((start, bytes.len() - start, from.len()));
     }
     super::write_whole(&d.join(bin), &bytes);
-    doc["buffers"] = json!([{"uri": bin, "byteLength": bytes.len()}]);
-    doc["bufferViews"] = json!([
-        {"buffer": 0, "byteOffset": 0, "byteLength": 8},
-        {"buffer": 0, "byteOffset": 8, "byteLength": 24}
-    ]);
-    doc["accessors"] = json!([
-        {"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0.0], "max": [t1]},
-        {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC3"}
-    ]);
-    doc["animations"] = json!([{
-        "channels": [{"sampler": 0, "target": {"node": node, "path": "translation"}}],
-        "samplers": [{"input": 0, "output": 1, "interpolation": "LINEAR"}]
-    }]);
+    let buffer = push(
+        doc,
+        "buffers",
+        json!({"uri": bin, "byteLength": bytes.len()}),
+    );
+    let view = push(
+        doc,
+        "bufferViews",
+        json!({"buffer": buffer, "byteOffset": 0, "byteLength": 8}),
+    );
+    let input = push(
+        doc,
+        "accessors",
+        json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "SCALAR",
+               "min": [0.0], "max": [t1]}),
+    );
+    let (mut samplers, mut targets) = (Vec::new(), Vec::new());
+    for (k, ((path, _, _), (start, len, width))) in channels.iter().zip(spans).enumerate() {
+        let view = push(
+            doc,
+            "bufferViews",
+            json!({"buffer": buffer, "byteOffset": start, "byteLength": len}),
+        );
+        let kind = if width == 4 { "VEC4" } else { "VEC3" };
+        let output = push(
+            doc,
+            "accessors",
+            json!({"bufferView": view, "componentType": 5126, "count": 2, "type": kind}),
+        );
+        samplers.push(json!({"input": input, "output": output, "interpolation": "LINEAR"}));
+        targets.push(json!({"sampler": k, "target": {"node": node, "path": path}}));
+    }
+    push(
+        doc,
+        "animations",
+        json!({"channels": targets, "samplers": samplers}),
+    );
 }
 
 /// Voxels across the uniform-velocity and camera fixtures' blob.
@@ -245,4 +296,117 @@ pub fn closed(path: &Path) -> brume::scene::Scene {
         },
     )
     .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Where the moving-mesh fixture's parent node is at time offset `dt` (frames) from frame 1:
+/// translation and the angle (radians) of its turn about y.
+pub fn mesh_pose(dt: f32) -> ([f32; 3], f32) {
+    ([-0.1 + 0.5 * dt, 0.0, 0.7], 0.8 * dt)
+}
+
+fn turn(angle: f32) -> [f32; 4] {
+    [0.0, (0.5 * angle).sin(), 0.0, (0.5 * angle).cos()]
+}
+
+/// The still blob behind a parent node carrying two boxes, seen under a one-frame shutter at
+/// frame 1 (24 fps): an opaque diffuse box that glows (a moving emitter) and a box of scattering homogeneous medium behind
+/// null interfaces. `dt` `Some`: the parent still at [`mesh_pose`]`(dt)`; `None`: the parent
+/// animated through [`mesh_pose`] (LINEAR translation and rotation keys at frames 0 and 2).
+pub fn moving_meshes_scene(d: &Path, dt: Option<f32>) -> brume::scene::Scene {
+    if !d.join("m.vdb").exists() {
+        write_medium(
+            &d.join("m.vdb"),
+            super::stress::blob_voxels(N),
+            origin(),
+            [0.0; 3],
+            Vec::new(),
+            GridClass::Unknown,
+        );
+    }
+    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
+    let mut doc = scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    let (t, a) = mesh_pose(dt.unwrap_or(0.0));
+    doc["scenes"][0]["nodes"] = json!([0, 1, 2, 3]);
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({"translation": t, "rotation": turn(a), "children": [4, 5]}));
+    nodes.push(json!({"mesh": 0, "translation": [-0.2, 0.0, 0.0]}));
+    nodes.push(json!({"mesh": 1, "translation": [0.2, 0.0, 0.0]}));
+    let (lo, hi) = ([-0.13f32; 3], [0.13f32; 3]);
+    for k in 0..2 {
+        let b = super::boxes::box_mesh(d, &format!("box{k}.bin"), lo, hi);
+        let off = b["pos_offset"].as_u64().unwrap();
+        let buffer = push(
+            &mut doc,
+            "buffers",
+            json!({"uri": b["uri"], "byteLength": b["byteLength"]}),
+        );
+        let iv = push(
+            &mut doc,
+            "bufferViews",
+            json!({"buffer": buffer, "byteOffset": 0, "byteLength": 72}),
+        );
+        let pv = push(
+            &mut doc,
+            "bufferViews",
+            json!({"buffer": buffer, "byteOffset": off, "byteLength": 96}),
+        );
+        let ia = push(
+            &mut doc,
+            "accessors",
+            json!({"bufferView": iv, "componentType": 5123, "count": 36, "type": "SCALAR"}),
+        );
+        let pa = push(
+            &mut doc,
+            "accessors",
+            json!({"bufferView": pv, "componentType": 5126, "count": 8, "type": "VEC3",
+                   "min": lo, "max": hi}),
+        );
+        push(
+            &mut doc,
+            "meshes",
+            json!({"primitives": [{"attributes": {"POSITION": pa}, "indices": ia, "material": k}]}),
+        );
+    }
+    doc["materials"] = json!([
+        {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.4, 0.2, 1], "metallicFactor": 0,
+                                  "roughnessFactor": 0.7},
+         "emissiveFactor": [1.0, 0.6, 0.2],
+         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}},
+        {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0},
+         "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0},
+                        "KHR_materials_ior": {"ior": 1.0},
+                        "KHR_materials_volume": {"thicknessFactor": 1.0, "attenuationDistance": 0.25,
+                                                 "attenuationColor": [0.37, 0.37, 0.37]},
+                        "BRUME_materials_volume_scattering": {"albedo": [0.9, 0.9, 0.9],
+                                                              "anisotropy": 0.3}}}
+    ]);
+    for e in [
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+        "BRUME_materials_volume_scattering",
+        "KHR_materials_emissive_strength",
+    ] {
+        push(&mut doc, "extensionsUsed", json!(e));
+    }
+    let name = match dt {
+        Some(dt) => format!("still_{dt}.gltf"),
+        None => {
+            let (t0, a0) = mesh_pose(-1.0);
+            let (t1, a1) = mesh_pose(1.0);
+            animate(
+                &mut doc,
+                d,
+                "keys.bin",
+                3,
+                &[
+                    ("translation", &t0, &t1),
+                    ("rotation", &turn(a0), &turn(a1)),
+                ],
+                2.0 / 24.0,
+            );
+            "moving.gltf".into()
+        }
+    };
+    load(d, &name, &doc)
 }

@@ -178,10 +178,23 @@ fn camera_motion_blur_agrees_with_the_cpu() {
     differs_from_still(&g, &still, &s, "camera blur", 2);
 }
 
-/// What the GPU does not mirror yet, a moving light or medium node, is refused with a
+/// What the GPU does not mirror yet, a moving light, medium node or mesh, is refused with a
 /// one-line reason (the CPU backend renders it).
 #[test]
-fn moving_lights_and_media_are_refused_with_a_reason() {
+fn moving_lights_media_and_meshes_are_refused_with_a_reason() {
+    let refused = |name: &str, scene: &brume::scene::Scene| {
+        let rs = RenderScene::new(scene, false).unwrap();
+        let why = brume::backend::gpu::supports(&rs).expect_err("not mirrored on the GPU");
+        println!("moving {name}: refused: {why}");
+        assert!(
+            why.contains(name) && why.contains("CPU") && !why.contains('\n'),
+            "{why}"
+        );
+    };
+    refused(
+        "mesh",
+        &blur::moving_meshes_scene(&blur::dir("gpu_refused_mesh"), None),
+    );
     for (name, node, key) in [("light", 1, [1.5, 2.0, 1.0]), ("medium", 2, [0.0; 3])] {
         let d = blur::dir(&format!("gpu_refused_{name}"));
         blur::write_medium(
@@ -196,13 +209,6 @@ fn moving_lights_and_media_are_refused_with_a_reason() {
         let mut doc = blur::scene("m.vdb", [0.0; 3], serde_json::json!({}), render_obj);
         let to = [key[0] + 1.0, key[1], key[2]];
         blur::animate_translation(&mut doc, &d, "keys.bin", node, key, to, 2.0 / 24.0);
-        let scene = blur::load(&d, "moving.gltf", &doc);
-        let rs = RenderScene::new(&scene, false).unwrap();
-        let why = brume::backend::gpu::supports(&rs).expect_err("not mirrored on the GPU");
-        println!("moving {name}: refused: {why}");
-        assert!(
-            why.contains(name) && why.contains("CPU") && !why.contains('\n'),
-            "{why}"
-        );
+        refused(name, &blur::load(&d, "moving.gltf", &doc));
     }
 }

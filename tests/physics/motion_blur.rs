@@ -389,3 +389,17 @@ fn light_motion_blur_is_the_shutter_average_of_still_lights() {
     };
     assert_shutter_average("light blur", &moving, &still);
 }
+
+/// A parent node carrying an opaque box and a box of scattering homogeneous medium slides and
+/// turns under the shutter (glTF translation and rotation animations) against still renders
+/// with the parent posed at each instant: hits, normals, shadows and medium boundaries all at
+/// the sample's time.
+#[test]
+fn mesh_motion_blur_is_the_shutter_average_of_still_meshes() {
+    let d = blur::dir("meshes");
+    let moving = blur::moving_meshes_scene(&d, None);
+    let moves = moving.moving_meshes.as_ref().map_or(0, |m| m.meshes.len());
+    assert_eq!(moves, 2, "both boxes move during the shutter");
+    let still = |dt: f64| blur::moving_meshes_scene(&d, Some(dt as f32));
+    assert_shutter_average("mesh blur", &moving, &still);
+}

@@ -158,6 +158,13 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
                 .into(),
         );
     }
+    if rs.scene.moving_meshes.is_some() {
+        return Err(
+            "a mesh moving during the shutter (transformation blur of meshes renders on the CPU \
+             backend only)"
+                .into(),
+        );
+    }
     if rs.lights.moving() {
         return Err(
             "a light moving during the shutter (transformation blur of lights renders on the CPU \
