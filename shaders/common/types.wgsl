@@ -96,6 +96,16 @@ struct GpuCameraMotion {
     translation: array<vec4<f32>, GPU_CAMERA_POSES>, // positions (w unused)
 }
 
+// GpuSample: a finished camera sample (entry of the batch's sample buffer).
+struct GpuSample {
+    l: vec3<f32>,       // radiance, RGB
+    lookups: u32,       // density and emission lookups of the path
+    alpha: f32,         // coverage: 1 - transmittance to the background
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
 // GpuPathState: one path of the wavefront integrator (see src/gpu_types/wavefront.rs for units).
 struct GpuPathState {
     o: vec3<f32>,       // ray origin, world, m

@@ -1,15 +1,21 @@
 // Mirrors TileBuffer::add_sample's caller in render_tile (src/integrator/tile.rs) and the end
-// of radiance (PathStats::depth): Stage::Accumulate. A finished path writes its radiance and
-// lookup count to its camera sample's entry of the batch's sample buffer (the host adds the
-// entries to the f64 Film in pixel and sample order, so no float atomics are needed and the
-// film's per-pixel variance is that of the individual samples); its slot is then free.
+// of radiance (PathStats::depth, CameraSample): Stage::Accumulate. A finished path writes its
+// radiance, coverage and lookup count to its camera sample's entry of the batch's sample
+// buffer (the host adds the entries to the f64 Film in pixel and sample order, so no float
+// atomics are needed and the film's per-pixel variance is that of the individual samples);
+// its slot is then free.
 
-@group(1) @binding(6) var<storage, read_write> samples: array<vec4<f32>>;
+@group(1) @binding(6) var<storage, read_write> samples: array<GpuSample>;
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn accumulate(slot: u32) {
     let ps = paths[slot];
-    samples[ps.sample_id] = vec4<f32>(ps.l, bitcast<f32>(ps.lookups));
+    // escape's `background`: the throughput of a camera ray that escaped unscattered.
+    var background = 0.0;
+    if ((ps.flags & PATH_FLAG_ESCAPED) != 0u && ps.depth == 0u) {
+        background = (ps.beta.x + ps.beta.y + ps.beta.z) / 3.0;
+    }
+    samples[ps.sample_id] = GpuSample(ps.l, ps.lookups, 1.0 - background, 0u, 0u, 0u);
     add_wide(WIDE_DEPTH_SUM, ps.depth);
     atomicSub(&counters.live, 1u);
 }

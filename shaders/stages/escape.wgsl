@@ -1,13 +1,18 @@
 // Mirrors escape (src/integrator/path.rs): Stage::Escape. A ray that
 // leaves the scene gathers the environment, MIS-weighted against light sampling
 // (Lights::pdf_environment, or the guided selection's: escape_mis) unless its direction came
-// from a delta distribution; the path ends.
+// from a delta distribution; the path ends, marked PATH_FLAG_ESCAPED (accumulate takes a
+// camera ray's coverage from it). A camera ray escaping unscattered on a transparent film
+// (WF_FLAG_FILM_TRANSPARENT) gathers nothing.
 // With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn escape(slot: u32) {
-    if (wf.has_env != 0u) {
-        var ps = paths[slot];
+    var ps = paths[slot];
+    ps.flags |= PATH_FLAG_ESCAPED;
+    paths[slot] = ps;
+    let unscattered = ps.depth == 0u;
+    if (wf.has_env != 0u && !(unscattered && (wf.flags & WF_FLAG_FILM_TRANSPARENT) != 0u)) {
         var w = 1.0;
 // #if FEATURE_ENV_MAP
         // The map: radiance and light-sampling density depend on the direction.

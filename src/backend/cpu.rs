@@ -240,6 +240,7 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             continuation_albedo: settings
                 .light_selection
                 .continuation_albedo(rs.lights.continuation_albedo),
+            film_transparent: settings.film_transparent,
         },
         width: settings.width,
         height: settings.height,

@@ -40,6 +40,12 @@ pub struct RenderArgs {
     /// 0,0 renders without motion blur.
     #[arg(long, value_name = "OPEN,CLOSE", value_parser = scene::Shutter::parse, allow_hyphen_values = true)]
     pub shutter: Option<scene::Shutter>,
+    /// opaque (the environment seen straight through is in the colour, alpha 1) or
+    /// transparent (it is left out and alpha is the pixel's coverage: a premultiplied RGBA
+    /// to lay over a plate; the environment still lights the scene). Default: the scene's
+    /// BRUME_render filmTransparent, else opaque.
+    #[arg(long, value_enum)]
+    pub film: Option<FilmMode>,
     /// Samples per pixel (default 16, or unlimited with --time).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -175,6 +181,13 @@ pub enum Backend {
     Cpu,
 }
 
+/// What the film does with the environment the camera sees straight through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FilmMode {
+    Opaque,
+    Transparent,
+}
+
 impl RenderArgs {
     /// Brume's defaults, then the scene's `BRUME_render` values, then the command line.
     pub fn settings(&self, scene: &SceneRenderSettings) -> Result<RenderSettings> {
@@ -210,6 +223,10 @@ impl RenderArgs {
         s.env_sampling = self.env_sampling;
         s.light_selection = self.light_selection;
         s.tile_size = self.tile_size;
+        s.film_transparent = match self.film {
+            Some(f) => f == FilmMode::Transparent,
+            None => scene.film_transparent.unwrap_or(false),
+        };
         if let Some((start, end)) = self.samples {
             if start == end {
                 return Err(anyhow!(

@@ -80,6 +80,15 @@ impl PartContext {
             "brume:sampler",
             AttrValue::Text(settings.sampler.name().into()),
         );
+        let film = if settings.film_transparent {
+            crate::film::exr_io::FILM_TRANSPARENT
+        } else {
+            "opaque"
+        };
+        meta.set(
+            crate::film::exr_io::FILM_ATTRIBUTE,
+            AttrValue::Text(film.into()),
+        );
         if let Some(v) = gpu_variant {
             // The WGSL variant the wavefront kernels were specialised for.
             meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));

@@ -10,10 +10,15 @@ use crate::scene::sequence;
 /// The image-shaping settings as `key=value` words (everything but the sample range, region,
 /// tile size, time limit and thread count, which do not change a pixel's samples).
 pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> String {
+    let film = if s.film_transparent {
+        " film=transparent"
+    } else {
+        ""
+    };
     format!(
         "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
          sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
-         max_collisions={} env_sampling={} light_selection={} camera={}",
+         max_collisions={} env_sampling={} light_selection={} camera={}{film}",
         s.estimator,
         s.b,
         s.m_or_default()

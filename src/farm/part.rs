@@ -23,8 +23,9 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use super::coverage::{coverage_text, parse_coverage, parse_range, Coverage};
+use crate::film::accum::CHANNELS;
 use crate::film::exr_io::{collect_attributes, read_exr_verified};
-use crate::film::state::STATE_CHANNELS;
+use crate::film::state::{m2_channel, mean_channel, STATE_CHANNELS};
 use crate::film::{AttrValue, Film, FilmError, Metadata, PixelStats};
 
 /// Why a part cannot be read, resumed or merged. Every message names the file.
@@ -230,9 +231,10 @@ pub fn read_part(path: &Path) -> Result<Part, PartError> {
             count: channels[0][i],
             ..Default::default()
         };
-        for c in 0..3 {
-            p.mean[c] = bits(channels[1 + 2 * c], channels[2 + 2 * c], i);
-            p.m2[c] = bits(channels[7 + 2 * c], channels[8 + 2 * c], i);
+        for c in 0..CHANNELS {
+            let (m, m2) = (mean_channel(c), m2_channel(c));
+            p.mean[c] = bits(channels[m], channels[m + 1], i);
+            p.m2[c] = bits(channels[m2], channels[m2 + 1], i);
         }
         let (x, y) = ((i % image.width) as u32, (i / image.width) as u32);
         if !(p.mean.iter().chain(&p.m2).all(|v| v.is_finite())

@@ -13,30 +13,40 @@
 //! bit-identical images.
 use super::tiles::TileRect;
 
-/// Running statistics of the samples that landed in one pixel, per RGB channel.
+/// Channels a pixel keeps statistics of: radiance R, G, B and the coverage A (1 minus the
+/// camera path's transmittance to the background).
+pub const CHANNELS: usize = 4;
+
+/// Running statistics of the samples that landed in one pixel, per channel (R, G, B, A).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PixelStats {
     /// Number of samples.
     pub count: u32,
     /// Mean of the samples so far.
-    pub mean: [f64; 3],
+    pub mean: [f64; CHANNELS],
     /// Sum of squared deviations from the mean (Welford's `M2`); `m2 / (count - 1)` is the
     /// unbiased sample variance.
-    pub m2: [f64; 3],
+    pub m2: [f64; CHANNELS],
+}
+
+/// The R, G, B part of per-channel values.
+#[inline]
+pub fn rgb<T: Copy>(v: [T; CHANNELS]) -> [T; 3] {
+    [v[0], v[1], v[2]]
 }
 
 impl PixelStats {
-    /// Adds one radiance sample (Welford's update).
+    /// Adds one sample, radiance and coverage (Welford's update).
     ///
     /// Non-finite samples are not filtered: a NaN or infinity poisons the pixel so that the
     /// fault shows in the image instead of silently biasing it.
     // Indexing three parallel arrays by channel reads more plainly than a triple zip.
     #[allow(clippy::needless_range_loop)]
-    pub fn add(&mut self, rgb: [f32; 3]) {
+    pub fn add(&mut self, rgba: [f32; CHANNELS]) {
         self.count += 1;
         let n = self.count as f64;
-        for c in 0..3 {
-            let x = rgb[c] as f64;
+        for c in 0..CHANNELS {
+            let x = rgba[c] as f64;
             let delta = x - self.mean[c];
             self.mean[c] += delta / n;
             // Uses the updated mean: delta * (x - new mean) is Welford's M2 increment.
@@ -56,7 +66,7 @@ impl PixelStats {
         }
         let (na, nb) = (self.count as f64, other.count as f64);
         let n = na + nb;
-        for c in 0..3 {
+        for c in 0..CHANNELS {
             let delta = other.mean[c] - self.mean[c];
             self.mean[c] += delta * (nb / n);
             self.m2[c] += other.m2[c] + delta * delta * (na * nb / n);
@@ -66,9 +76,9 @@ impl PixelStats {
 
     /// Unbiased sample variance of the samples (denominator `count - 1`); 0 with fewer than two
     /// samples, where it is unknown rather than zero (the sample count tells the two apart).
-    pub fn sample_variance(&self) -> [f64; 3] {
+    pub fn sample_variance(&self) -> [f64; CHANNELS] {
         if self.count < 2 {
-            return [0.0; 3];
+            return [0.0; CHANNELS];
         }
         let dof = (self.count - 1) as f64;
         // Rounding can leave M2 a hair below 0 after merges; a variance is never negative.
@@ -77,7 +87,7 @@ impl PixelStats {
 
     /// Variance of the pixel mean as an estimate of the pixel's expected value: the sample
     /// variance divided by the sample count.
-    pub fn variance_of_mean(&self) -> [f64; 3] {
+    pub fn variance_of_mean(&self) -> [f64; CHANNELS] {
         let n = self.count as f64;
         self.sample_variance()
             .map(|v| if v > 0.0 { v / n } else { 0.0 })
@@ -119,14 +129,14 @@ impl TileBuffer {
         self.pass
     }
 
-    /// Adds a radiance sample to pixel `(x, y)`, given in image coordinates.
+    /// Adds a sample (radiance and coverage) to pixel `(x, y)`, given in image coordinates.
     ///
     /// # Panics
     /// If `(x, y)` is outside the tile: a sample landing in another tile's pixel would be a
     /// bug in the caller's pixel loop.
-    pub fn add_sample(&mut self, x: u32, y: u32, rgb: [f32; 3]) {
+    pub fn add_sample(&mut self, x: u32, y: u32, rgba: [f32; CHANNELS]) {
         let i = self.local_index(x, y);
-        self.pixels[i].add(rgb);
+        self.pixels[i].add(rgba);
     }
 
     /// Statistics of pixel `(x, y)` in image coordinates.
@@ -199,9 +209,9 @@ impl Film {
 
     /// Adds one sample straight to the film; for single-threaded code and tests. Renderers
     /// use a [`TileBuffer`] per thread instead.
-    pub fn add_sample(&mut self, x: u32, y: u32, rgb: [f32; 3]) {
+    pub fn add_sample(&mut self, x: u32, y: u32, rgba: [f32; CHANNELS]) {
         let i = self.index(x, y);
-        self.pixels[i].add(rgb);
+        self.pixels[i].add(rgba);
     }
 
     /// Folds a finished tile into the film.
@@ -276,13 +286,18 @@ impl Film {
 
     /// Pixel mean (the radiance estimate); black with no samples.
     pub fn mean(&self, x: u32, y: u32) -> [f32; 3] {
-        self.pixel(x, y).mean.map(|m| m as f32)
+        rgb(self.pixel(x, y).mean).map(|m| m as f32)
     }
 
-    /// Variance of the pixel mean (sample variance over the sample count); 0 with fewer than
-    /// two samples.
+    /// The pixel's coverage estimate (alpha); 0 with no samples.
+    pub fn alpha(&self, x: u32, y: u32) -> f32 {
+        self.pixel(x, y).mean[3] as f32
+    }
+
+    /// Variance of the pixel mean (sample variance over the sample count) per R, G, B; 0
+    /// with fewer than two samples.
     pub fn variance_of_mean(&self, x: u32, y: u32) -> [f32; 3] {
-        self.pixel(x, y).variance_of_mean().map(|v| v as f32)
+        rgb(self.pixel(x, y).variance_of_mean()).map(|v| v as f32)
     }
 
     /// Number of samples in pixel `(x, y)`.

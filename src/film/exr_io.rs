@@ -16,7 +16,7 @@
 //! Files are written through [`write_atomically`], so a crash never leaves a truncated image.
 //! Header attributes come back from [`read_exr`] sorted by name: the `exr` crate keeps them in a
 //! hash map, so their order in the file is not fixed (the pixel data is).
-use super::accum::Film;
+use super::accum::{rgb, Film};
 use super::atomic::write_atomically;
 use super::checksum::{checksum, to_text, CHECKSUM_ATTRIBUTE};
 use super::error::FilmError;
@@ -49,20 +49,37 @@ pub struct Image {
     pub attributes: Metadata,
 }
 
+/// Header attribute saying whether the film is transparent: [`FILM_TRANSPARENT`] or
+/// `"opaque"`.
+pub const FILM_ATTRIBUTE: &str = "brume:film";
+/// [`FILM_ATTRIBUTE`]'s value for a transparent film.
+pub const FILM_TRANSPARENT: &str = "transparent";
+
 impl Image {
     /// The film's beauty, variance and sample count as an image with `metadata`; this is
-    /// exactly what [`write_exr`] writes.
+    /// exactly what [`write_exr`] writes. Its alpha is the pixels' coverage where `metadata`
+    /// says the film is transparent ([`FILM_ATTRIBUTE`]), so the RGBA is premultiplied; an
+    /// opaque film's image is opaque (alpha 1), as its colour includes the background.
     pub fn from_film(film: &Film, metadata: &Metadata) -> Self {
         let pixels = film.pixels();
+        let transparent = metadata.text(FILM_ATTRIBUTE) == Some(FILM_TRANSPARENT);
         Image {
             width: film.width() as usize,
             height: film.height() as usize,
-            rgb: pixels.iter().map(|p| p.mean.map(|m| m as f32)).collect(),
-            alpha: Some(vec![1.0; pixels.len()]),
+            rgb: pixels
+                .iter()
+                .map(|p| rgb(p.mean).map(|m| m as f32))
+                .collect(),
+            alpha: Some(
+                pixels
+                    .iter()
+                    .map(|p| if transparent { p.mean[3] as f32 } else { 1.0 })
+                    .collect(),
+            ),
             variance: Some(
                 pixels
                     .iter()
-                    .map(|p| p.variance_of_mean().map(|v| v as f32))
+                    .map(|p| rgb(p.variance_of_mean()).map(|v| v as f32))
                     .collect(),
             ),
             samples: Some(pixels.iter().map(|p| p.count as f32).collect()),

@@ -1,11 +1,11 @@
 //! The film's exact accumulator state as `u32` EXR channels: per pixel the sample count and
 //! the f64 bits of Welford's mean and `M2` per channel, so that a resume or a merge starts from
 //! the very values the renderer held, not from their f32 roundings.
-use super::accum::Film;
+use super::accum::{Film, CHANNELS};
 
-/// The `u32` channels holding the accumulator state: count, then per channel the high and low
-/// 32 bits of the f64 mean and of the f64 `M2`.
-pub const STATE_CHANNELS: [&str; 13] = [
+/// The `u32` channels holding the accumulator state: count, then per channel (R, G, B, A) the
+/// high and low 32 bits of the f64 mean, then the same of the f64 `M2`.
+pub const STATE_CHANNELS: [&str; 1 + 4 * CHANNELS] = [
     "accum.count",
     "accum.mean_hi.R",
     "accum.mean_lo.R",
@@ -13,13 +13,27 @@ pub const STATE_CHANNELS: [&str; 13] = [
     "accum.mean_lo.G",
     "accum.mean_hi.B",
     "accum.mean_lo.B",
+    "accum.mean_hi.A",
+    "accum.mean_lo.A",
     "accum.m2_hi.R",
     "accum.m2_lo.R",
     "accum.m2_hi.G",
     "accum.m2_lo.G",
     "accum.m2_hi.B",
     "accum.m2_lo.B",
+    "accum.m2_hi.A",
+    "accum.m2_lo.A",
 ];
+
+/// Index in [`STATE_CHANNELS`] of the high half of channel `c`'s mean (the low half follows).
+pub const fn mean_channel(c: usize) -> usize {
+    1 + 2 * c
+}
+
+/// Index in [`STATE_CHANNELS`] of the high half of channel `c`'s `M2` (the low half follows).
+pub const fn m2_channel(c: usize) -> usize {
+    1 + 2 * CHANNELS + 2 * c
+}
 
 /// The state channels of `film`, named as in [`STATE_CHANNELS`].
 pub fn state_channels(film: &Film) -> Vec<(String, Vec<u32>)> {
@@ -30,12 +44,12 @@ pub fn state_channels(film: &Film) -> Vec<(String, Vec<u32>)> {
         .collect();
     for p in px {
         out[0].1.push(p.count);
-        for c in 0..3 {
+        for c in 0..CHANNELS {
             let (m, m2) = (p.mean[c].to_bits(), p.m2[c].to_bits());
-            out[1 + 2 * c].1.push((m >> 32) as u32);
-            out[2 + 2 * c].1.push(m as u32);
-            out[7 + 2 * c].1.push((m2 >> 32) as u32);
-            out[8 + 2 * c].1.push(m2 as u32);
+            out[mean_channel(c)].1.push((m >> 32) as u32);
+            out[mean_channel(c) + 1].1.push(m as u32);
+            out[m2_channel(c)].1.push((m2 >> 32) as u32);
+            out[m2_channel(c) + 1].1.push(m2 as u32);
         }
     }
     out

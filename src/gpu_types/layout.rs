@@ -290,6 +290,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         ]
     ),
     layout!(
+        GpuSample,
+        "GpuSample",
+        [l, lookups, alpha, _pad0, _pad1, _pad2]
+    ),
+    layout!(
         crate::scene::PunctualLight,
         "PunctualLight",
         [position, kind, direction, range, intensity, cos_inner, cos_outer, _pad]

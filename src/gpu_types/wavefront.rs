@@ -90,6 +90,26 @@ pub const PATH_FLAG_FLIGHT_STARTED: u32 = 4;
 /// environment selection probability (the power heuristic is invariant to scaling both
 /// densities, so the escape weighs it against the bare environment density).
 pub const PATH_FLAG_ENV_BY_PHASE: u32 = 8;
+/// [`GpuPathState::flags`] bit: the path ended by escaping the scene (`escape`); with depth 0
+/// its throughput is the camera ray's transmittance to the background.
+pub const PATH_FLAG_ESCAPED: u32 = 16;
+
+/// What one finished camera sample brings its pixel (`CameraSample`): an entry of the batch's
+/// sample buffer, which the host adds to the film in pixel and sample order.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSample {
+    /// Radiance, W m^-2 sr^-1 per RGB channel.
+    pub l: [f32; 3],
+    /// Density and emission lookups of the path (its pixel's cost-map entry).
+    pub lookups: u32,
+    /// Coverage: 1 minus the camera ray's transmittance to the background.
+    pub alpha: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+const _: () = assert!(size_of::<GpuSample>() == 32);
 
 /// A shadow ray of next-event estimation, one slot per path (a path has at most one pending).
 #[repr(C)]
@@ -308,6 +328,9 @@ pub const WF_FLAG_GUIDED_LIGHTS: u32 = 4;
 pub const WF_FLAG_ABSORPTION: u32 = 1;
 /// [`GpuWavefrontParams::flags`] bit: spectral tracking forced on grey media.
 pub const WF_FLAG_FORCE_SPECTRAL: u32 = 2;
+/// [`GpuWavefrontParams::flags`] bit: a transparent film (`PathLimits::film_transparent`):
+/// the environment a camera ray sees unscattered is left out of its radiance.
+pub const WF_FLAG_FILM_TRANSPARENT: u32 = 8;
 /// VDB media the GPU binds at most (the mixture variant walks up to this many majorant
 /// streams per ray at once).
 pub const GPU_MAX_VDB_MEDIA: usize = 8;

@@ -34,6 +34,9 @@ pub struct PathLimits {
     /// The share of a constant sky left to the continuation ray there
     /// (`LightSelection::continuation_albedo`).
     pub continuation_albedo: f32,
+    /// A transparent film: the environment seen straight through by the camera path is left
+    /// out of its radiance (`RenderSettings::film_transparent`).
+    pub film_transparent: bool,
 }
 
 /// What one path cost and did.
@@ -77,6 +80,26 @@ struct PathState {
     prev_pdf: f32,
     /// How the last event chose the environment (the escape's MIS weight).
     prev_env: EnvChoice,
+    /// The camera path's transmittance to the background, the mean of `beta`'s channels where
+    /// it escapes before any scattering event, else 0: the sample's coverage is 1 minus it.
+    background: f32,
+}
+
+/// What one camera sample brings its pixel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSample {
+    /// Radiance, W m^-2 sr^-1 per RGB channel.
+    pub l: Vec3,
+    /// Coverage: 1 minus the path's transmittance to the background (Cycles' alpha, from the
+    /// throughput's channel mean where the camera ray escapes unscattered).
+    pub alpha: f32,
+}
+
+impl CameraSample {
+    /// Radiance and coverage as the film's channels (R, G, B, A).
+    pub fn rgba(&self) -> [f32; 4] {
+        [self.l.x, self.l.y, self.l.z, self.alpha]
+    }
 }
 
 /// How a path scatters after shading, for [`sample_phase`] to draw the next direction.
@@ -132,7 +155,7 @@ pub fn radiance<F: Features>(
     aspect: f32,
     sampler: &mut Sampler,
     stats: &mut PathStats,
-) -> Vec3 {
+) -> CameraSample {
     // A blurred scene's sample sees one instant of the shutter, drawn from its own dimension.
     let timed;
     let cfg = match rs.shutter {
@@ -175,7 +198,7 @@ pub fn radiance<F: Features>(
             }
         }
         let Some(h) = hit else {
-            escape(rs, &mut ps);
+            escape(rs, limits, &mut ps);
             break;
         };
         match shade_surface::<F>(rs, cfg, limits, &mut ps, h, sampler, stats) {
@@ -189,7 +212,10 @@ pub fn radiance<F: Features>(
         }
     }
     stats.depth += ps.depth as u64;
-    ps.l
+    CameraSample {
+        l: ps.l,
+        alpha: 1.0 - ps.background,
+    }
 }
 
 /// The camera ray through `film` at time offset `time` and the path's starting state
@@ -221,6 +247,7 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
             pmf: rs.lights.uniform_env_pmf(),
             by_phase: false,
         },
+        background: 0.0,
     }
 }
 
@@ -499,9 +526,17 @@ fn sample_phase(
 }
 
 /// The environment's light for a ray that leaves the scene, MIS-weighted against how the last
-/// event chose its light (`Stage::Escape`).
+/// event chose its light (`Stage::Escape`). A camera ray escaping unscattered records its
+/// transmittance to the background (the coverage) and, on a transparent film, gathers nothing.
 #[inline(always)]
-fn escape(rs: &RenderScene, ps: &mut PathState) {
+fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
+    if ps.depth == 0 {
+        // Seen straight through: the background, which a transparent film leaves out.
+        ps.background = ps.beta.element_sum() / 3.0;
+        if limits.film_transparent {
+            return;
+        }
+    }
     if let Some(env) = &rs.lights.environment {
         let w = if ps.specular {
             1.0

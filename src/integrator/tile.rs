@@ -63,7 +63,7 @@ pub fn render_tile<F: Features>(
                     (x as f32 + jitter.x) / ctx.width as f32,
                     (y as f32 + jitter.y) / ctx.height as f32,
                 );
-                let l = radiance::<F>(
+                let sample = radiance::<F>(
                     ctx.rs,
                     &ctx.cfg,
                     &ctx.limits,
@@ -72,7 +72,7 @@ pub fn render_tile<F: Features>(
                     &mut sampler,
                     &mut total,
                 );
-                buffer.add_sample(x, y, l.to_array());
+                buffer.add_sample(x, y, sample.rgba());
             }
             let i = ((y - rect.y0) * rect.width() + (x - rect.x0)) as usize;
             lookups[i] = total.media.tracking.lookups + total.media.emission_lookups - before;

@@ -261,6 +261,10 @@ pub struct RenderSettings {
     pub env_sampling: super::envmap::EnvSampling,
     /// How next-event estimation chooses its light at medium events.
     pub light_selection: LightSelection,
+    /// A transparent film: the environment the camera sees straight through is left out of
+    /// the colour (it still lights the scene), so the colour and the coverage alpha are a
+    /// premultiplied RGBA to lay over a plate.
+    pub film_transparent: bool,
 }
 
 impl Default for RenderSettings {
@@ -290,6 +294,7 @@ impl Default for RenderSettings {
             max_collisions_per_path: 1 << 22,
             env_sampling: super::envmap::EnvSampling::Importance,
             light_selection: LightSelection::Guided,
+            film_transparent: false,
         }
     }
 }

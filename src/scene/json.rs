@@ -46,6 +46,15 @@ impl<'a> Obj<'a> {
         }
     }
 
+    /// Optional boolean.
+    pub fn boolean(&self, ctx: &Ctx, key: &str) -> Result<Option<bool>, SceneError> {
+        match self.map.get(key) {
+            None => Ok(None),
+            Some(Value::Bool(b)) => Ok(Some(*b)),
+            Some(_) => Err(ctx.invalid(self.at(key), "expected true or false")),
+        }
+    }
+
     /// Optional non-negative integer (an index into a top-level glTF array).
     pub fn index(&self, ctx: &Ctx, key: &str) -> Result<Option<usize>, SceneError> {
         match self.map.get(key) {

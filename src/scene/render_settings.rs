@@ -39,6 +39,8 @@ pub struct SceneRenderSettings {
     pub frame_range: Option<(i32, i32)>,
     /// The shutter, `{ "open": -0.25, "close": 0.25 }` in frames around the frame's time.
     pub shutter: Option<super::velocity::Shutter>,
+    /// `filmTransparent`: leave the environment seen straight through out of the colour.
+    pub film_transparent: Option<bool>,
 }
 
 const ESTIMATORS: [&str; 4] = [
@@ -73,6 +75,7 @@ pub fn read_render_settings(
             "fps",
             "shutter",
             "frameRange",
+            "filmTransparent",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -117,6 +120,7 @@ pub fn read_render_settings(
         fps: number(ctx, "fps", 0.0, 1e6, true)?,
         shutter: read_shutter(ctx, &obj)?,
         frame_range: read_frame_range(ctx, &obj)?,
+        film_transparent: obj.boolean(ctx, "filmTransparent")?,
     })
 }
 

@@ -222,7 +222,12 @@ pub fn run_config(
     let stop = AtomicBool::new(false);
     cpu::render_observed(rs, &settings, &stop, &|_, _, _| {}, &mut |view| {
         means.clear();
-        means.extend(view.film.pixels().iter().map(|p| p.mean.map(|m| m as f32)));
+        means.extend(
+            view.film
+                .pixels()
+                .iter()
+                .map(|p| crate::film::accum::rgb(p.mean).map(|m| m as f32)),
+        );
         let (mse, relmse) = mse_relmse(&means, &reference.rgb);
         let t = totals(view.records);
         points.push(Checkpoint {

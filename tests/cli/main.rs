@@ -12,6 +12,7 @@ mod cli_faults;
 mod docs;
 mod farm_cli;
 mod farm_parts;
+mod film;
 mod frames;
 mod render_cli;
 mod study_compare;

@@ -39,7 +39,8 @@ pub fn assert_rounding_equal(merged: &Film, single: &Film, what: &str) {
     );
     for (i, (a, b)) in merged.pixels().iter().zip(single.pixels()).enumerate() {
         assert_eq!(a.count, b.count, "{what}: pixel {i} sample count");
-        for c in 0..3 {
+        // R, G, B and the coverage A.
+        for c in 0..4 {
             let scale = a.mean[c].abs().max(b.mean[c].abs());
             assert!(
                 (a.mean[c] - b.mean[c]).abs() <= tol * scale,

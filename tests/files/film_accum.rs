@@ -2,6 +2,11 @@
 //! determinism across thread counts.
 use brume::film::{tiles, Film, PixelStats, TileBuffer, TileRect};
 
+/// An RGB sample with full coverage.
+fn opaque(s: [f32; 3]) -> [f32; 4] {
+    [s[0], s[1], s[2], 1.0]
+}
+
 /// SplitMix64 (Steele et al. 2014): a tiny, fixed-seed source of test samples.
 struct Rng(u64);
 impl Rng {
@@ -62,7 +67,7 @@ fn mean_and_variance_match_a_direct_computation() {
     for samples in cases {
         let mut film = Film::new(1, 1);
         for s in &samples {
-            film.add_sample(0, 0, *s);
+            film.add_sample(0, 0, opaque(*s));
         }
         let (mean, var) = direct(&samples);
         let n = samples.len() as f64;
@@ -91,7 +96,7 @@ fn mean_and_variance_match_a_direct_computation() {
 fn constant_samples_have_exactly_zero_variance() {
     let mut film = Film::new(1, 1);
     for _ in 0..1000 {
-        film.add_sample(0, 0, [0.1, 3.7, 1e6]);
+        film.add_sample(0, 0, [0.1, 3.7, 1e6, 1.0]);
     }
     assert_eq!(film.variance_of_mean(0, 0), [0.0; 3]);
     assert_eq!(film.mean(0, 0), [0.1, 3.7, 1e6]);
@@ -103,7 +108,7 @@ fn empty_and_single_sample_pixels() {
     assert_eq!(film.mean(0, 0), [0.0; 3]);
     assert_eq!(film.variance_of_mean(0, 0), [0.0; 3]);
     assert_eq!(film.sample_count(0, 0), 0);
-    film.add_sample(1, 0, [2.0, 3.0, 4.0]);
+    film.add_sample(1, 0, [2.0, 3.0, 4.0, 1.0]);
     assert_eq!(film.mean(1, 0), [2.0, 3.0, 4.0]);
     assert_eq!(film.variance_of_mean(1, 0), [0.0; 3]);
     assert_eq!(film.sample_count(1, 0), 1);
@@ -120,7 +125,7 @@ fn merging_splits_matches_the_direct_computation() {
     let mut merged = PixelStats::default();
     for chunk in samples.chunks(131) {
         let mut part = PixelStats::default();
-        chunk.iter().for_each(|s| part.add(*s));
+        chunk.iter().for_each(|s| part.add(opaque(*s)));
         merged.merge(&part);
     }
     merged.merge(&PixelStats::default());
@@ -166,7 +171,12 @@ fn render_tile(rect: TileRect, pass: u32) -> TileBuffer {
                 buf.add_sample(
                     x,
                     y,
-                    [(1.0 / (u + 0.01)) as f32, u as f32, (x as f64 * u) as f32],
+                    [
+                        (1.0 / (u + 0.01)) as f32,
+                        u as f32,
+                        (x as f64 * u) as f32,
+                        u as f32,
+                    ],
                 );
             }
         }
@@ -244,5 +254,5 @@ fn merge_is_bit_identical_whatever_the_thread_count() {
 #[should_panic(expected = "outside tile")]
 fn a_sample_outside_its_tile_is_a_bug() {
     let rect = tiles(16, 16, 8)[0];
-    TileBuffer::new(rect).add_sample(8, 0, [1.0; 3]);
+    TileBuffer::new(rect).add_sample(8, 0, [1.0; 4]);
 }

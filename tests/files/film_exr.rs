@@ -43,7 +43,7 @@ fn noisy_film() -> Film {
                 _ => 2 + (x * y) % 9,
             };
             for _ in 0..n {
-                film.add_sample(x, y, [next() * 10.0, next(), 1.0 / (next() + 1e-3)]);
+                film.add_sample(x, y, [next() * 10.0, next(), 1.0 / (next() + 1e-3), next()]);
             }
         }
     }

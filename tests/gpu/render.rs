@@ -698,3 +698,55 @@ fn guided_light_selection_agrees_with_the_cpu() {
         print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
     }
 }
+
+/// A transparent film on the GPU: the colour without the sky seen straight through and the
+/// coverage alpha agree with the CPU's (z-tests), and replay the CPU's with the same seed.
+#[test]
+fn transparent_film_colour_and_alpha_agree_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("transparent_film_colour_and_alpha_agree_with_the_cpu") else {
+        return;
+    };
+    for file in ["cloud_sky.gltf", "glass_volume.gltf"] {
+        let scene = load_scene(file);
+        let s = RenderSettings {
+            film_transparent: true,
+            ..settings(20, 15, 64, 21)
+        };
+        let label = format!("{file} transparent");
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, 1e-3);
+        let alpha = |o: &brume::backend::cpu::RenderOutput| -> (Vec<f64>, Vec<f64>) {
+            o.film
+                .pixels()
+                .iter()
+                .map(|p| (p.mean[3], p.variance_of_mean()[3]))
+                .unzip()
+        };
+        let ((ga, gv), (ca, cv)) = (alpha(&g), alpha(&c));
+        let threshold = sidak_z(1e-3, ga.len());
+        let worst = (0..ga.len())
+            .map(|i| (ga[i] - ca[i]).abs() / (gv[i] + cv[i]).sqrt().max(1e-9))
+            .fold(0f64, f64::max);
+        let same = render(&scene, &s);
+        let replayed = (0..ga.len())
+            .filter(|&i| (ga[i] - same.film.pixels()[i].mean[3]).abs() <= 1e-4)
+            .count();
+        let (gm, cm) = (
+            ga.iter().sum::<f64>() / ga.len() as f64,
+            ca.iter().sum::<f64>() / ca.len() as f64,
+        );
+        println!(
+            "{label}: alpha mean GPU {gm:.4} CPU {cm:.4}; worst pixel z {worst:.2} (threshold \
+             {threshold:.2}); same seed: {replayed} of {} alphas equal to 1e-4",
+            ga.len()
+        );
+        assert!(worst < threshold, "{label}: alpha");
+        assert!(
+            gm > 0.05 && gm < 0.95,
+            "{label}: the alpha test sees coverage"
+        );
+        assert!(
+            !parity_asserted(&ctx) || replayed * 100 >= ga.len() * 97,
+            "{label}: same-seed alpha"
+        );
+    }
+}

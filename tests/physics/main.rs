@@ -9,6 +9,7 @@ mod common;
 
 mod emission_support;
 mod envmap;
+mod film_alpha;
 mod light_selection;
 mod media_nested;
 mod media_overlap;

@@ -497,6 +497,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             continuation_albedo: s
                 .light_selection
                 .continuation_albedo(rs.lights.continuation_albedo),
+            film_transparent: false,
         };
         let (mut sum, mut sum2, mut max_beta, mut max_l) = (0f64, 0f64, 0f32, 0f32);
         for i in 0..n {
@@ -507,7 +508,8 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             let mut st = PathStats::default();
             let l = radiance::<Variant<{ bit::HET | bit::ABS }>>(
                 &rs, &cfg, &limits, film, 1.0, &mut rng, &mut st,
-            );
+            )
+            .l;
             assert!(l.is_finite() && l.min_element() >= 0.0, "{l}");
             let y = l.element_sum() as f64 / 3.0;
             sum += y;

@@ -13,6 +13,9 @@ use crate::gpu_types::{
 };
 use crate::render::{blackbody, RenderScene};
 
+/// Bytes of one sample buffer entry.
+const SAMPLE_BYTES: u64 = std::mem::size_of::<crate::gpu_types::GpuSample>() as u64;
+
 /// Wavefront iterations submitted together between two reads of the counters. Each read is
 /// a host round trip (submit, map, wait: on a large GPU longer than an iteration's
 /// kernels at 2^16 slots); a batch overshoots its end by fewer than this many empty
@@ -159,8 +162,8 @@ impl Buffers {
                 slots as u64 * std::mem::size_of::<GpuShadowRay>() as u64,
             ),
             lights: storage_at_least_one(ctx, "lights", &rs.lights.punctual),
-            samples: ctx.storage_buffer_zeroed("samples", samples * 16),
-            samples_readback: ctx.read_back_buffer("samples read-back", samples * 16),
+            samples: ctx.storage_buffer_zeroed("samples", samples * SAMPLE_BYTES),
+            samples_readback: ctx.read_back_buffer("samples read-back", samples * SAMPLE_BYTES),
             emission: ctx.uniform_buffer("emission", emission),
             bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
             bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),

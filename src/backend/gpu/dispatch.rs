@@ -8,7 +8,7 @@ use super::buffers::{Buffers, Kernel, ITERATIONS_PER_SYNC};
 use super::device::GpuContext;
 use super::error::GpuRenderError;
 use super::graph::Stage;
-use crate::gpu_types::{GpuQueue, GpuWavefrontCounters, GpuWavefrontParams};
+use crate::gpu_types::{GpuQueue, GpuSample, GpuWavefrontCounters, GpuWavefrontParams};
 
 /// The scheduler: the kernels of one render and the loop over iterations.
 pub(super) struct Wavefront<'a> {
@@ -27,7 +27,7 @@ pub(super) type BatchResult = (
     GpuWavefrontCounters,
     u32,
     [u64; Stage::COUNT],
-    Vec<[f32; 4]>,
+    Vec<GpuSample>,
     (u64, u64),
 );
 
@@ -99,10 +99,10 @@ impl Wavefront<'_> {
         let loop_ns = loop_start.elapsed().as_nanos() as u64;
         let readback_start = Instant::now();
         // Only the batch's own entries: the buffer is sized for the largest batch.
-        let samples: Vec<[f32; 4]> = ctx.read_buffer_prefix(
+        let samples: Vec<GpuSample> = ctx.read_buffer_prefix(
             &self.bufs.samples,
             &self.bufs.samples_readback,
-            params.total_samples as u64 * 16,
+            params.total_samples as u64 * size_of::<GpuSample>() as u64,
         );
         let readback_ns = readback_start.elapsed().as_nanos() as u64;
         Ok(Some((

@@ -57,7 +57,7 @@ use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Tex
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES, GPU_MAX_NESTED_MEDIA,
+    GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES, GPU_MAX_NESTED_MEDIA,
     GPU_MAX_VDB_MEDIA, STACK_NONE,
 };
 use crate::render::media::TrackingConfig;
@@ -68,7 +68,7 @@ use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 /// 32 MiB of path state.
 pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 
-/// Camera samples per batch at most (one sample buffer entry of 16 bytes each).
+/// Camera samples per batch at most (one [`crate::gpu_types::GpuSample`] of 32 bytes each).
 pub const MAX_BATCH_SAMPLES: u64 = 1 << 22;
 
 /// How [`GpuTimings`] were measured.
@@ -338,7 +338,7 @@ type PendingBatch = (
     TileRecord,
     u32,
     [u64; Stage::COUNT],
-    Vec<[f32; 4]>,
+    Vec<GpuSample>,
     (u64, u64),
 );
 
@@ -445,7 +445,7 @@ fn batch_record(pass: u32, rect: &TileRect, counters: &GpuWavefrontCounters) -> 
     r
 }
 
-/// Adds a batch's samples (RGB and the lookup count's bits, `n` per pixel in row order over
+/// Adds a batch's samples (radiance, coverage and lookup count, `n` per pixel in row order over
 /// the record's rows) to the film and the per-pixel lookup counts. Pixels are independent and
 /// each takes its samples in order, so the rows run in parallel and the film is the same bit
 /// for bit as a sequential merge.
@@ -455,7 +455,7 @@ fn merge_batch(
     w: u32,
     r: &TileRecord,
     n: u32,
-    samples: &[[f32; 4]],
+    samples: &[GpuSample],
 ) {
     use rayon::prelude::*;
     let (w, n) = (w as usize, n as usize);
@@ -471,8 +471,8 @@ fn merge_batch(
         .zip(samples.par_chunks(n))
         .for_each(|((pixel, count), s)| {
             for s in s {
-                pixel.add([s[0], s[1], s[2]]);
-                *count += s[3].to_bits() as u64;
+                pixel.add([s.l[0], s.l[1], s.l[2], s.alpha]);
+                *count += s.lookups as u64;
             }
         });
 }
@@ -493,10 +493,15 @@ mod tests {
             ..TileRecord::default()
         };
         let mut rng = Rng::new(3, 0, 11);
-        let samples: Vec<[f32; 4]> = (0..(record.y1 - record.y0) * w * n)
+        let samples: Vec<GpuSample> = (0..(record.y1 - record.y0) * w * n)
             .map(|k| {
                 let v = rng.uniform_f32() * 10.0;
-                [v, v * v, -v, f32::from_bits(k)]
+                GpuSample {
+                    l: [v, v * v, -v],
+                    lookups: k,
+                    alpha: v / 10.0,
+                    ..Default::default()
+                }
             })
             .collect();
         let mut film = Film::new(w, h);
@@ -509,7 +514,7 @@ mod tests {
             for x in 0..w {
                 for _ in 0..n {
                     let s = samples[k];
-                    expected.add_sample(x, y, [s[0], s[1], s[2]]);
+                    expected.add_sample(x, y, [s.l[0], s.l[1], s.l[2], s.alpha]);
                     expected_lookups[(y * w + x) as usize] += k as u64;
                     k += 1;
                 }

@@ -211,6 +211,11 @@ pub fn shared_constants() -> String {
         ("PATH_FLAG_SPECULAR", PATH_FLAG_SPECULAR),
         ("PATH_FLAG_SURFACE", PATH_FLAG_SURFACE),
         ("PATH_FLAG_FLIGHT_STARTED", PATH_FLAG_FLIGHT_STARTED),
+        ("PATH_FLAG_ESCAPED", crate::gpu_types::PATH_FLAG_ESCAPED),
+        (
+            "WF_FLAG_FILM_TRANSPARENT",
+            crate::gpu_types::WF_FLAG_FILM_TRANSPARENT,
+        ),
         ("SURFACE_OPAQUE", SURFACE_OPAQUE),
         ("SURFACE_DIELECTRIC", SURFACE_DIELECTRIC),
         ("SURFACE_NULL", SURFACE_NULL),

@@ -634,6 +634,9 @@ pub(super) fn wavefront_params(
     if rs.lights.guided() && settings.light_selection.guided() {
         params.flags |= WF_FLAG_GUIDED_LIGHTS;
     }
+    if settings.film_transparent {
+        params.flags |= crate::gpu_types::WF_FLAG_FILM_TRANSPARENT;
+    }
     if features.heterogeneous {
         medium_params(rs, cfg, features, &mut params);
     }

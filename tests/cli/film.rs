@@ -1,0 +1,132 @@
+//! The transparent film end to end: `--film transparent` and `BRUME_render.filmTransparent`
+//! write the coverage as alpha, and `oiiotool --over` lays the render over a plate as the
+//! opaque render with that plate as its sky.
+use std::path::Path;
+use std::process::Command;
+
+use crate::common::boxes::boxes_scene;
+use crate::common::cli::render_to;
+use crate::common::scratch;
+use brume::film::read_exr;
+
+const FIXED: [&str; 6] = ["--width", "16", "--height", "16", "--spp", "256"];
+
+fn run(cmd: &mut Command) {
+    let o = cmd.output().unwrap();
+    assert!(
+        o.status.success(),
+        "{cmd:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// A grey box of medium under a white sky (strength 1), filling about half of the view.
+fn scene(d: &Path) -> std::path::PathBuf {
+    boxes_scene(
+        d,
+        &[([-0.6, -0.6, -0.5], [0.6, 0.6, 0.5], 2.0, 0.8)],
+        false,
+        0.6,
+    )
+}
+
+#[test]
+fn a_transparent_render_over_a_plate_is_the_opaque_render_with_that_sky() {
+    if Command::new("oiiotool").arg("--version").output().is_err() {
+        println!("SKIPPED: oiiotool is not on PATH (apt-get install openimageio-tools)");
+        return;
+    }
+    let d = scratch::dir("film_over");
+    let gltf = scene(&d);
+    let (t, o) = (d.join("transparent.exr"), d.join("opaque.exr"));
+    let out = render_to(&gltf, &t, &FIXED, &["--film", "transparent", "--seed", "1"]);
+    assert!(out.status.success(), "{out:?}");
+    let out = render_to(&gltf, &o, &FIXED, &["--seed", "2"]);
+    assert!(out.status.success(), "{out:?}");
+    let (plate, comp) = (d.join("plate.exr"), d.join("over.exr"));
+    run(Command::new("oiiotool")
+        .args([
+            "--pattern",
+            "constant:color=1,1,1,1",
+            "16x16",
+            "4",
+            "-d",
+            "float",
+            "-o",
+        ])
+        .arg(&plate));
+    run(Command::new("oiiotool")
+        .arg(&t)
+        .args(["--ch", "R,G,B,A"])
+        .arg(&plate)
+        .args(["--over", "-o"])
+        .arg(&comp));
+    let (t, o, comp) = (
+        read_exr(&t).unwrap(),
+        read_exr(&o).unwrap(),
+        read_exr(&comp).unwrap(),
+    );
+    assert!(
+        o.alpha.as_ref().unwrap().iter().all(|&a| a == 1.0),
+        "an opaque film's alpha is 1"
+    );
+    let alpha = t.alpha.as_ref().unwrap();
+    let (t_var, o_var) = (t.variance.as_ref().unwrap(), o.variance.as_ref().unwrap());
+    let n = alpha.len();
+    let threshold = crate::common::render::sidak_z(1e-3, 3 * n);
+    let (mut failing, mut worst) = (0, 0f64);
+    for i in 0..n {
+        let a = alpha[i] as f64;
+        // Alpha samples lie in [0, 1]: the variance of their mean is at most a (1 - a) / n.
+        let sd_alpha = (a * (1.0 - a) / 256.0).sqrt();
+        for c in 0..3 {
+            let sd = (t_var[i][c] as f64).sqrt() + sd_alpha;
+            let v = sd * sd + o_var[i][c] as f64;
+            let z = (comp.rgb[i][c] as f64 - o.rgb[i][c] as f64).abs() / v.sqrt();
+            worst = worst.max(z);
+            failing += (z > threshold) as usize;
+        }
+    }
+    let covered = alpha.iter().filter(|&&a| a > 0.05).count();
+    println!(
+        "oiiotool --over a white plate: {covered} of {n} pixels covered; {failing} of {} values \
+         differ from the opaque render (worst z {worst:.2}, threshold {threshold:.2})",
+        3 * n
+    );
+    assert!(covered > n / 4 && covered < n, "{covered} pixels covered");
+    assert_eq!(failing, 0);
+}
+
+#[test]
+fn the_scene_asks_for_a_transparent_film_and_the_command_line_overrides_it() {
+    let d = scratch::dir("film_scene");
+    let gltf = scene(&d);
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    doc["extensions"]["BRUME_render"] = serde_json::json!({"filmTransparent": true});
+    doc["extensionsUsed"]
+        .as_array_mut()
+        .unwrap()
+        .push("BRUME_render".into());
+    let asks = d.join("transparent.gltf");
+    std::fs::write(&asks, doc.to_string()).unwrap();
+    let alpha_min = |extra: &[&str], name: &str| {
+        let out = d.join(name);
+        let o = render_to(
+            &asks,
+            &out,
+            &["--width", "8", "--height", "8", "--spp", "4"],
+            extra,
+        );
+        assert!(o.status.success(), "{o:?}");
+        let image = read_exr(&out).unwrap();
+        image.alpha.unwrap().into_iter().fold(1.0f32, f32::min)
+    };
+    let (scene_film, opaque) = (
+        alpha_min(&[], "a.exr"),
+        alpha_min(&["--film", "opaque"], "b.exr"),
+    );
+    println!("filmTransparent: least alpha {scene_film}; with --film opaque {opaque}");
+    assert!(scene_film < 0.5);
+    assert_eq!(opaque, 1.0);
+}
