@@ -35,6 +35,21 @@ pub fn scene_agrees_with_args(
     dir: &Path,
     extra: &[&str],
 ) -> String {
+    scene_agrees_at(name, peer, ("256", peer_spp), python_env, dir, extra)
+}
+
+/// As [`scene_agrees_with_args`], Brume rendering `spp.0` samples per pixel and the peer
+/// `spp.1` per run. Where the images have an alpha below 1 (a transparent film), the alphas
+/// must agree as the colours do.
+pub fn scene_agrees_at(
+    name: &str,
+    peer: &str,
+    spp: (&str, &str),
+    python_env: (&str, &Path),
+    dir: &Path,
+    extra: &[&str],
+) -> String {
+    let (brume_spp, peer_spp) = spp;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = root.join("scenes").join(name);
     let (brume_exr, peer_exr) = (dir.join("brume.exr"), dir.join(format!("{peer}.exr")));
@@ -46,7 +61,7 @@ pub fn scene_agrees_with_args(
         .arg(&scene)
         .arg("-o")
         .arg(&brume_exr)
-        .args(["--spp", "256", "--seed", "7"])
+        .args(["--spp", brume_spp, "--seed", "7"])
         .args(size)
         .args(extra)
         .output()
@@ -88,6 +103,14 @@ pub fn scene_agrees_with_args(
     let max_z: f64 = field("max_block_z").parse().unwrap();
     assert!(rel.abs() < 0.01, "image means differ by {rel}");
     assert_blocks(bad, total, max_z, &stdout);
+    if stdout.contains("alpha_mean_rel_diff") {
+        let rel: f64 = field("alpha_mean_rel_diff").parse().unwrap();
+        let failed = field("alpha_blocks_failed");
+        let (bad, total) = failed.split_once('/').unwrap();
+        let max_z: f64 = field("alpha_max_block_z").parse().unwrap();
+        assert!(rel.abs() < 0.01, "alpha means differ by {rel}");
+        assert_blocks(bad.parse().unwrap(), total.parse().unwrap(), max_z, &stdout);
+    }
     stdout.trim().to_string()
 }
 

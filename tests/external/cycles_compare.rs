@@ -42,6 +42,32 @@ fn cloud_agrees_with_cycles() {
     agrees_with_cycles("cloud", "cloud.gltf", "32");
 }
 
+/// The cloud on a transparent film (Cycles' Film > Transparent): the colour without the sky
+/// seen straight through, and the alpha. Without the sky the image mean is the cloud's alone,
+/// a fifth of the opaque image's, so Brume renders 4096 spp to hold it to 1 %.
+#[test]
+fn transparent_cloud_and_its_alpha_agree_with_cycles() {
+    let Some(python) = bpy_python() else {
+        say("SKIPPED cycles_compare: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)");
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("brume-cycles-alpha-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let summary = common::reference::scene_agrees_at(
+        "cloud.gltf",
+        "cycles",
+        ("4096", "256"),
+        ("BRUME_BPY_PYTHON", &python),
+        &dir,
+        &["--film", "transparent"],
+    );
+    assert!(summary.contains("alpha_mean_rel_diff"), "{summary}");
+    say(&format!(
+        "cycles_compare: transparent cloud 32x24: {summary}"
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Base-colour and emissive textures: bilinear and nearest, clamped and repeated, with
 /// KHR_texture_transform (docs/scene-format.md: textures).
 #[test]

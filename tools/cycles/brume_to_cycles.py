@@ -659,7 +659,8 @@ def configure_render(scene, args):
     scene.render.resolution_percentage = 100
     scene.render.pixel_aspect_x = 1
     scene.render.pixel_aspect_y = 1
-    scene.render.film_transparent = False
+    # Film > Transparent: the sky seen straight through is left out and alpha is coverage.
+    scene.render.film_transparent = args.film == "transparent"
     scene.render.use_compositing = False
     scene.render.use_sequencer = False
     scene.render.threads_mode = "FIXED" if args.threads else "AUTO"
@@ -685,6 +686,8 @@ def open_blend(args):
         sys.exit(f"error: {args.scene}: the scene has no active camera")
     if args.max_depth is None:
         args.max_depth = DEFAULT_MAX_DEPTH
+    if args.film is None:
+        args.film = "transparent" if scene.render.film_transparent else "opaque"
     configure_render(scene, args)
     return scene
 
@@ -700,6 +703,8 @@ def build_scene(args):
     if args.max_depth is None:
         # As `brume render`: the scene's own depth unless the command line gives one.
         args.max_depth = int(render.get("maxDepth", DEFAULT_MAX_DEPTH))
+    if args.film is None:
+        args.film = "transparent" if render.get("filmTransparent", False) else "opaque"
     base_dir = os.path.dirname(gltf_path)
     fps = float(render.get("fps", 24.0))
     frame = int(render.get("frame", 1))
@@ -825,6 +830,12 @@ def main(argv):
         type=int,
         default=None,
         help="Brume's depth (default: the glTF's BRUME_render maxDepth, else 256, as Brume)",
+    )
+    p.add_argument(
+        "--film",
+        choices=["opaque", "transparent"],
+        default=None,
+        help="Brume's film (default: the glTF's BRUME_render filmTransparent, else opaque)",
     )
     p.add_argument("--save-blend", help="also save the built scene as a .blend")
     p.add_argument("--no-render", action="store_true", help="build (and save) the scene only")

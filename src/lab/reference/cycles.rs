@@ -36,6 +36,10 @@ pub struct CyclesArgs {
     /// Also save the Blender scene built from the glTF (.blend), for inspection.
     #[arg(long)]
     pub save_blend: Option<PathBuf>,
+    /// opaque or transparent, as `brume render --film` (Cycles' Film > Transparent; default:
+    /// the scene's BRUME_render filmTransparent, else opaque).
+    #[arg(long, value_parser = ["opaque", "transparent"])]
+    pub film: Option<String>,
 }
 
 /// Cycles through Blender's Python module.
@@ -72,6 +76,9 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
     }
     if let Some(t) = args.run.threads {
         cmd.args(["--threads", &t.to_string()]);
+    }
+    if let Some(f) = &args.film {
+        cmd.args(["--film", f]);
     }
     if let Some(b) = &args.save_blend {
         cmd.arg("--save-blend").arg(b);

@@ -328,11 +328,21 @@ pub fn merge_runs(images: &[Image], spp: u32, attributes: Metadata) -> Result<Im
             };
         }
     }
+    // Alpha: the runs' mean (1 where a run has none).
+    let alpha = (0..n)
+        .map(|p| {
+            let sum: f64 = images
+                .iter()
+                .map(|i| i.alpha.as_ref().map_or(1.0, |a| a[p] as f64))
+                .sum();
+            (sum / k) as f32
+        })
+        .collect();
     Ok(Image {
         width: w,
         height: h,
         rgb,
-        alpha: Some(vec![1.0; n]),
+        alpha: Some(alpha),
         variance: (k > 1.0).then_some(var),
         samples: Some(vec![spp as f32 * k as f32; n]),
         attributes,
@@ -349,6 +359,18 @@ pub struct Agreement {
     pub blocks: usize,
     pub failed_blocks: usize,
     /// Largest |z| of any block and channel.
+    pub max_block_z: f64,
+    /// The alphas' agreement, where either image has an alpha below 1 (a transparent film).
+    pub alpha: Option<AlphaAgreement>,
+}
+
+/// Agreement of two renders' alpha (coverage).
+#[derive(Debug, Clone)]
+pub struct AlphaAgreement {
+    /// (mean(b) - mean(a)) / mean(a) of the alpha over all pixels.
+    pub mean_rel_diff: f64,
+    pub failed_blocks: usize,
+    /// Largest |z| of any block.
     pub max_block_z: f64,
 }
 
@@ -368,8 +390,68 @@ impl std::fmt::Display for Agreement {
             self.blocks,
             100.0 * self.failed_blocks as f64 / self.blocks.max(1) as f64,
             self.max_block_z
-        )
+        )?;
+        if let Some(a) = &self.alpha {
+            write!(
+                f,
+                " alpha_mean_rel_diff {:+.4} alpha_blocks_failed {}/{} alpha_max_block_z {:.2}",
+                a.mean_rel_diff, a.failed_blocks, self.blocks, a.max_block_z
+            )?;
+        }
+        Ok(())
     }
+}
+
+/// The alphas of `a` and `b` compared as [`compare`] compares colours, per `block`x`block`
+/// block at level `level`; `None` where both are opaque. Neither renderer writes the alpha's
+/// variance, so each pixel's is bounded by `A (1 - A) / n` (alpha samples lie in [0, 1], `n`
+/// the pixel's samples): a conservative test.
+fn compare_alpha(a: &Image, b: &Image, block: usize, level: f64) -> Option<AlphaAgreement> {
+    let (aa, ab) = (a.alpha.as_ref()?, b.alpha.as_ref()?);
+    if aa.iter().chain(ab).all(|&x| x == 1.0) {
+        return None;
+    }
+    let var = |img: &Image, al: &[f32], p: usize| {
+        let n = img.samples.as_ref().map_or(1.0, |s| s[p].max(1.0) as f64);
+        let x = (al[p] as f64).clamp(0.0, 1.0);
+        x * (1.0 - x) / n
+    };
+    let (sa, sb): (f64, f64) = (
+        aa.iter().map(|&x| x as f64).sum(),
+        ab.iter().map(|&x| x as f64).sum(),
+    );
+    let z_crit = normal_quantile(1.0 - level / 2.0);
+    let (bw, bh) = (a.width / block, a.height / block);
+    let (mut failed, mut max_z) = (0, 0f64);
+    for by in 0..bh {
+        for bx in 0..bw {
+            let (mut d, mut v, mut s) = (0f64, 0f64, 0f64);
+            for y in by * block..(by + 1) * block {
+                for x in bx * block..(bx + 1) * block {
+                    let p = y * a.width + x;
+                    d += ab[p] as f64 - aa[p] as f64;
+                    v += var(a, aa, p) + var(b, ab, p);
+                    s += aa[p] as f64;
+                }
+            }
+            // As for colours: float rounding of a deterministic value must not count.
+            let v = v + (1e-6 * (2.0 * s.abs() + d.abs())).powi(2);
+            let z = if v > 0.0 {
+                d.abs() / v.sqrt()
+            } else if d == 0.0 {
+                0.0
+            } else {
+                f64::INFINITY
+            };
+            max_z = max_z.max(z);
+            failed += (z > z_crit) as usize;
+        }
+    }
+    Some(AlphaAgreement {
+        mean_rel_diff: (sb - sa) / sa,
+        failed_blocks: failed,
+        max_block_z: max_z,
+    })
 }
 
 /// Image mean relative difference of `b` against `a`, and a z-test per `block`x`block` block
@@ -449,6 +531,7 @@ pub fn compare(a: &Image, b: &Image, block: usize, alpha: f64) -> Result<Agreeme
         blocks: bw * bh,
         failed_blocks: failed,
         max_block_z: max_z,
+        alpha: compare_alpha(a, b, block, alpha),
     })
 }
 

@@ -126,8 +126,9 @@ def environment_fields(world):
 
 def render_fields(scene, frame):
     """`BRUME_render`: the output resolution, the Cycles sample count, the frame (`frame`, the
-    scene's frame when the export started), the frame rate, the shot's frame range and, with
-    motion blur on, the shutter. Returns (fields, warnings)."""
+    scene's frame when the export started), the frame rate, the shot's frame range, a
+    transparent film (Film > Transparent) and, with motion blur on, the shutter. Returns
+    (fields, warnings)."""
     warnings = []
     r = scene.render
     fields = {
@@ -140,6 +141,8 @@ def render_fields(scene, frame):
     fields["frame"] = int(frame)
     fields["fps"] = r.fps / r.fps_base
     fields["frameRange"] = [int(scene.frame_start), int(scene.frame_end)]
+    if r.film_transparent:
+        fields["filmTransparent"] = True
     if r.use_motion_blur:
         fields["shutter"], notes = shutter(scene)
         warnings.extend(notes)
