@@ -9,6 +9,7 @@ mod bench_majorants;
 mod bench_peers;
 mod blur;
 mod cli_faults;
+mod display;
 mod docs;
 mod farm_cli;
 mod farm_parts;
