@@ -284,11 +284,12 @@ impl Shared {
             self.lock().done += 1;
             self.changed.notify_all();
         }
-        let hung_up = hang_up(&mut stream);
-        self.lock().ended = true;
-        self.changed.notify_all();
-        if let Err(e) = hung_up {
-            self.report_once(self.lock(), &format!("connection lost ({})", describe(&e)));
+        match hang_up(&mut stream) {
+            Ok(()) => {
+                self.lock().ended = true;
+                self.changed.notify_all();
+            }
+            Err(e) => self.give_up(&format!("connection lost ({})", describe(&e))),
         }
     }
 
