@@ -1,7 +1,8 @@
 //! `brume render --display-server`: a tev viewer stood in for by a TCP server in the test that
 //! decodes tev's packets. The viewer gets an image named after the output, with its size and
 //! channels, updated more than once as the render converges and ending on the EXR's pixels bit
-//! for bit; a viewer that hangs up or is not there costs one warning line and no bits.
+//! for bit (the GPU backend: its final image); a viewer that hangs up or is not there costs one
+//! warning line and no bits.
 use crate::common::cli::render_to;
 use crate::common::scratch;
 use crate::common::sequence::cloud_sequence;
@@ -365,6 +366,34 @@ fn each_frame_is_an_image_of_its_own() {
         let image = &shown[&frame.display().to_string()];
         assert_eq!(bits(&image.pixels), exr_bits(frame), "{}", frame.display());
     }
+}
+
+/// The GPU backend has no per-pass hook: the viewer gets its final image, the EXR's bits.
+#[test]
+fn the_gpu_backend_shows_its_final_image() {
+    let out = scratch::file("display_gpu.exr");
+    let (address, serve) = viewer(None);
+    let args = ["--backend", "gpu", "--display-server", &address];
+    let few = ["--spp", "4", "--width", "24", "--height", "18"];
+    let o = render_to(&cloud(), &out, &few, &args);
+    if !o.status.success() && stderr(&o).contains("--backend gpu:") {
+        let why = stderr(&o).lines().last().unwrap_or("").to_string();
+        println!("SKIPPED: no GPU backend here ({why})");
+        // The render failed before its first image; the viewer still saw a connection.
+        drop(serve.join());
+        return;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (packets, _) = serve.join().unwrap();
+    let shown = replay(&packets);
+    let image = &shown[&out.display().to_string()];
+    assert!(image.images >= 1.0, "the final image");
+    assert_eq!(
+        bits(&image.pixels),
+        exr_bits(&out),
+        "the last image is the EXR"
+    );
+    println!("{} packets, {} whole images", packets.len(), image.images);
 }
 
 #[test]
