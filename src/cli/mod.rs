@@ -3,3 +3,4 @@ pub mod info;
 pub mod merge;
 pub mod render;
 pub mod study;
+pub mod viewer;

@@ -15,6 +15,8 @@ use brume::render::{
 };
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
+use super::viewer::{self, Viewer};
+
 #[derive(Args, Clone, Debug)]
 pub struct RenderArgs {
     /// The scene (.gltf or .glb), or a bare .vdb (rendered in a scene made for it).
@@ -149,6 +151,13 @@ pub struct RenderArgs {
     /// and supports the scene, else the CPU with a one-line reason.
     #[arg(long, default_value = "auto")]
     pub backend: Backend,
+    /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its
+    /// default is 127.0.0.1:14158) as the render converges: the mean after a pass, at most
+    /// every half second, and the final image, one tev image per output file (CPU backend;
+    /// the GPU backend sends the final image only). The render never waits for the viewer:
+    /// if it cannot be reached or goes away, one warning line says so and the render goes on.
+    #[arg(long, value_name = "HOST:PORT", value_parser = brume::film::display::parse_address)]
+    pub display_server: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -279,22 +288,34 @@ fn parse_opt<T: std::str::FromStr<Err = String>>(v: &Option<String>) -> Result<O
 type Rendered = (RenderOutput, String, Option<String>);
 
 pub fn run(args: &RenderArgs) -> Result<()> {
+    let display = args.display_server.as_deref().map(viewer::connect);
+    let rendered = render_all(args, display.as_ref());
+    if let Some(display) = display {
+        display.close(viewer::FLUSH);
+    }
+    rendered
+}
+
+/// Renders the scene, or each frame of `--frames`, showing each in `display` where given.
+fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Result<()> {
     if let Some(made) =
         scene::bare_vdb::prepare(&args.scene, args.save_scene.as_deref()).map_err(|e| anyhow!(e))?
     {
         let scene = made.path().to_path_buf();
-        return run(&RenderArgs {
+        let args = RenderArgs {
             scene,
             save_scene: None,
             ..args.clone()
-        });
+        };
+        return render_all(&args, display);
     }
     if let Some(frames) = args.frames {
         let (a, b) = frames.resolve(&args.scene)?;
-        return render_frames(args, a, b);
+        return render_frames(args, a, b, display);
     }
     let scene = load_scene(args)?;
     let args = &args.for_frame(scene.frame);
+    let viewer = display.map(|d| Viewer::new(d, &args.output));
     let settings = args
         .settings(&scene.render)
         .with_context(|| format!("{}: BRUME_render", args.scene.display()))?;
@@ -363,6 +384,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 features,
                 earlier,
                 stop: &stop,
+                viewer: viewer.as_ref(),
             };
             let resume = resume.map(|(_, r)| r);
             let out = pool.install(|| run.render(resume, &backend, &progress))?;
@@ -370,12 +392,24 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
     };
     out.seconds += earlier;
-    write_outputs(args, &part, &settings, &out, &backend, variant.as_deref())
+    if let Some(v) = &viewer {
+        v.last(&out.film);
+    }
+    let written = write_outputs(args, &part, &settings, &out, &backend, variant.as_deref());
+    if let Some(v) = &viewer {
+        v.flush();
+    }
+    written
 }
 
 /// Renders frames `a..=b` one after another as `--frame` would, once every frame's files are
 /// known to exist; several frames need a run of `#` in each output's file name.
-fn render_frames(args: &RenderArgs, a: i32, b: i32) -> Result<()> {
+fn render_frames(
+    args: &RenderArgs,
+    a: i32,
+    b: i32,
+    display: Option<&brume::film::Display>,
+) -> Result<()> {
     if b > a {
         for p in args.outputs() {
             let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default();
@@ -392,11 +426,12 @@ fn render_frames(args: &RenderArgs, a: i32, b: i32) -> Result<()> {
     scene::sequence::check_files(&args.scene, a, b)?;
     for frame in a..=b {
         eprintln!("frame {frame}");
-        run(&RenderArgs {
+        let args = RenderArgs {
             frame: Some(frame),
             frames: None,
             ..args.clone()
-        })?;
+        };
+        render_all(&args, display)?;
     }
     Ok(())
 }
@@ -597,7 +632,7 @@ fn render_on_gpu(
     }
 }
 
-/// A render on the CPU backend and what its checkpoints need.
+/// A render on the CPU backend and what its checkpoints and the viewer need.
 struct CpuRun<'a> {
     args: &'a RenderArgs,
     rs: &'a RenderScene<'a>,
@@ -607,6 +642,8 @@ struct CpuRun<'a> {
     /// Render seconds of the checkpoint resumed from.
     earlier: f64,
     stop: &'a AtomicBool,
+    /// Where each pass's image is shown (`--display-server`).
+    viewer: Option<&'a Viewer<'a>>,
 }
 
 impl CpuRun<'_> {
@@ -624,6 +661,9 @@ impl CpuRun<'_> {
         let mut last = std::time::Instant::now();
         let mut checkpoint_error = None;
         let mut observer = |view: &cpu::PassView| {
+            if let Some(v) = self.viewer {
+                v.pass(view.film);
+            }
             let Some(every) = args.checkpoint else { return };
             if last.elapsed().as_secs_f64() < every || checkpoint_error.is_some() {
                 return;

@@ -10,10 +10,13 @@
 //! - [`tile_log`] records per-tile work counters as JSON lines; [`cost_map`] turns them into a
 //!   per-pixel heat map.
 //! - [`atomic`] is the one way this module puts a file on disk: temporary file, fsync, rename.
+//! - [`display`] streams the image, with any named channels, to the tev viewer while a render
+//!   converges, never holding the render up.
 pub mod accum;
 pub mod atomic;
 pub mod checksum;
 pub mod cost_map;
+pub mod display;
 pub mod error;
 pub mod exr_io;
 pub mod metadata;
@@ -24,6 +27,7 @@ pub mod tiles;
 pub use accum::{Film, PixelStats, TileBuffer};
 pub use atomic::{check_writable, write_atomically, AtomicFile};
 pub use cost_map::{cost_map_from_tiles, per_sample, write_cost_map, CostMetric};
+pub use display::{Display, DisplayImage};
 pub use error::FilmError;
 pub use exr_io::{
     read_exr, read_exr_verified, read_exr_with_state, write_exr, write_exr_single,

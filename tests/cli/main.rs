@@ -1,5 +1,6 @@
-//! The command line end to end: renders, checkpoints and resumes, outputs under faults, farm parts
-//! and merges, the study and the benches, and the documentation against the program.
+//! The command line end to end: renders, checkpoints and resumes, outputs under faults, the tev
+//! display, farm parts and merges, the study and the benches, and the documentation against
+//! the program.
 //!
 //! One module per concern; `cargo test --release --test cli MODULE::` runs one of them.
 #[path = "../common/mod.rs"]
@@ -9,6 +10,7 @@ mod bench_majorants;
 mod bench_peers;
 mod blur;
 mod cli_faults;
+mod display;
 mod docs;
 mod farm_cli;
 mod farm_parts;

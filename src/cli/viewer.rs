@@ -1,0 +1,61 @@
+//! `brume render --display-server`: which images of a render go to the tev viewer, and when.
+use std::path::Path;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use brume::film::{Display, DisplayImage, Film};
+
+/// The shortest time between two intermediate images: often enough to watch the noise clear,
+/// rarely enough that copying the film costs the render nothing noticeable.
+const EVERY: Duration = Duration::from_millis(500);
+
+/// How long a finished render waits for its final image to reach the viewer.
+pub const FLUSH: Duration = Duration::from_secs(2);
+
+/// Starts the connection to tev at `address`; its one possible warning goes to stderr.
+pub fn connect(address: &str) -> Display {
+    Display::connect(address, |line| eprintln!("warning: {line}"))
+}
+
+/// One output file's image in the viewer, named after the file.
+pub struct Viewer<'a> {
+    display: &'a Display,
+    name: String,
+    /// When the last intermediate image was handed over.
+    shown: Mutex<Option<Instant>>,
+}
+
+impl<'a> Viewer<'a> {
+    pub fn new(display: &'a Display, output: &Path) -> Self {
+        Viewer {
+            display,
+            name: output.display().to_string(),
+            shown: Mutex::new(None),
+        }
+    }
+
+    /// After a pass: the film's mean, unless an image went out less than [`EVERY`] ago.
+    pub fn pass(&self, film: &Film) {
+        let mut shown = self.shown.lock().unwrap_or_else(|e| e.into_inner());
+        if shown.is_some_and(|t| t.elapsed() < EVERY) || !self.display.is_live() {
+            return;
+        }
+        *shown = Some(Instant::now());
+        self.display
+            .update(DisplayImage::from_film(&self.name, film));
+    }
+
+    /// The render's final film, whatever the time since the last image.
+    pub fn last(&self, film: &Film) {
+        if self.display.is_live() {
+            self.display
+                .update(DisplayImage::from_film(&self.name, film));
+        }
+    }
+
+    /// Waits up to [`FLUSH`] for the final image to go out, so that the next frame's images
+    /// cannot replace it and the process does not exit before it is sent.
+    pub fn flush(&self) {
+        self.display.flush(FLUSH);
+    }
+}
