@@ -315,10 +315,10 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     }
     let scene = load_scene(args)?;
     let args = &args.for_frame(scene.frame);
-    let viewer = display.map(|d| Viewer::new(d, &args.output));
     let settings = args
         .settings(&scene.render)
         .with_context(|| format!("{}: BRUME_render", args.scene.display()))?;
+    let viewer = display.map(|d| Viewer::new(d, &args.output, settings.film_transparent));
     settings
         .validate()
         .map_err(|e| anyhow!("invalid settings: {e}"))?;

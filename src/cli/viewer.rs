@@ -21,15 +21,18 @@ pub fn connect(address: &str) -> Display {
 pub struct Viewer<'a> {
     display: &'a Display,
     name: String,
+    /// A transparent film: the image carries its alpha, as the EXR does.
+    transparent: bool,
     /// When the last intermediate image was handed over.
     shown: Mutex<Option<Instant>>,
 }
 
 impl<'a> Viewer<'a> {
-    pub fn new(display: &'a Display, output: &Path) -> Self {
+    pub fn new(display: &'a Display, output: &Path, transparent: bool) -> Self {
         Viewer {
             display,
             name: output.display().to_string(),
+            transparent,
             shown: Mutex::new(None),
         }
     }
@@ -41,15 +44,23 @@ impl<'a> Viewer<'a> {
             return;
         }
         *shown = Some(Instant::now());
-        self.display
-            .update(DisplayImage::from_film(&self.name, film));
+        self.display.update(self.image(film));
+    }
+
+    /// The film's colour, and its coverage as `A` on a transparent film.
+    fn image(&self, film: &Film) -> DisplayImage {
+        let image = DisplayImage::from_film(&self.name, film);
+        if !self.transparent {
+            return image;
+        }
+        let alpha = film.pixels().iter().map(|p| p.mean[3] as f32).collect();
+        image.with_channel("A", alpha)
     }
 
     /// The render's final film, whatever the time since the last image.
     pub fn last(&self, film: &Film) {
         if self.display.is_live() {
-            self.display
-                .update(DisplayImage::from_film(&self.name, film));
+            self.display.update(self.image(film));
         }
     }
 
