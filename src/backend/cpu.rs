@@ -176,7 +176,7 @@ pub fn render_resumed(
     let (mut film, first) = match resume {
         Some(r) => (r.film, r.reached),
         None => (
-            Film::new(settings.width, settings.height),
+            Film::with_passes(settings.width, settings.height, &settings.pass_names()),
             settings.sample_start,
         ),
     };
@@ -241,7 +241,9 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
                 .light_selection
                 .continuation_albedo(rs.lights.continuation_albedo),
             film_transparent: settings.film_transparent,
+            light_passes: settings.light_passes,
         },
+        passes: settings.pass_names(),
         width: settings.width,
         height: settings.height,
         seed: settings.seed,

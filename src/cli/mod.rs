@@ -1,6 +1,7 @@
 pub mod compare;
 pub mod info;
 pub mod merge;
+pub mod passes;
 pub mod render;
 pub mod study;
 pub mod viewer;

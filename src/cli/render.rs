@@ -48,6 +48,11 @@ pub struct RenderArgs {
     /// BRUME_render filmTransparent, else opaque.
     #[arg(long, value_enum)]
     pub film: Option<FilmMode>,
+    /// What the EXR holds beside the beauty: a comma-separated list of beauty (the default)
+    /// and light (the light passes: emission, background, volume.direct, volume.indirect,
+    /// surface.direct, surface.indirect, which add up to the beauty; CPU backend).
+    #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
+    pub passes: Option<super::passes::PassChoice>,
     /// Samples per pixel (default 16, or unlimited with --time).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -232,6 +237,7 @@ impl RenderArgs {
         s.env_sampling = self.env_sampling;
         s.light_selection = self.light_selection;
         s.tile_size = self.tile_size;
+        s.light_passes = self.passes.is_some_and(|p| p.light);
         s.film_transparent = match self.film {
             Some(f) => f == FilmMode::Transparent,
             None => scene.film_transparent.unwrap_or(false),
@@ -322,10 +328,14 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     settings
         .validate()
         .map_err(|e| anyhow!("invalid settings: {e}"))?;
-    let cpu_only = args.checkpoint.is_some() || args.resume.is_some() || args.region.is_some();
+    let cpu_only = args.checkpoint.is_some()
+        || args.resume.is_some()
+        || args.region.is_some()
+        || settings.light_passes;
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
+            "--backend gpu: --checkpoint, --resume, --region and --passes light run on the CPU \
+             backend only"
         ));
     }
     check_outputs(args)?;

@@ -15,10 +15,11 @@ pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> 
     } else {
         ""
     };
+    let passes = if s.light_passes { " passes=light" } else { "" };
     format!(
         "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
          sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
-         max_collisions={} env_sampling={} light_selection={} camera={}{film}",
+         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}",
         s.estimator,
         s.b,
         s.m_or_default()

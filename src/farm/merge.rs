@@ -91,7 +91,9 @@ pub fn merge_files(paths: &[PathBuf]) -> Result<(Film, Metadata), PartError> {
             .map(|(p, i, _)| (p.clone(), i.clone()))
             .collect::<Vec<_>>(),
     )?;
-    let mut film = Film::new(heads[0].1.width, heads[0].1.height);
+    // Every part keeps the same passes: they are part of the settings key.
+    let names = super::part::pass_names(&heads[0].2);
+    let mut film = Film::with_passes(heads[0].1.width, heads[0].1.height, &names);
     // Decoding dominates: read a few parts at once (rayon), fold them in sample order. At most
     // MAX_PARTS_IN_FLIGHT films are held besides the sum.
     const MAX_PARTS_IN_FLIGHT: usize = 8;

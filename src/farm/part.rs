@@ -25,6 +25,7 @@ use thiserror::Error;
 use super::coverage::{coverage_text, parse_coverage, parse_range, Coverage};
 use crate::film::accum::CHANNELS;
 use crate::film::exr_io::{collect_attributes, read_exr_verified};
+use crate::film::passes::PassLayers;
 use crate::film::state::{m2_channel, mean_channel, STATE_CHANNELS};
 use crate::film::{AttrValue, Film, FilmError, Metadata, PixelStats};
 
@@ -267,12 +268,63 @@ pub fn read_part(path: &Path) -> Result<Part, PartError> {
         }
         pixels.push(p);
     }
-    let film = Film::from_pixels(info.width, info.height, pixels)
+    let mut film = Film::from_pixels(info.width, info.height, pixels)
         .expect("the pixel count was checked against the size");
+    let names = pass_names(&image.attributes);
+    if !names.is_empty() {
+        film.set_passes(read_pass_state(path, &raw, &names, n)?);
+    }
     Ok(Part {
         path: path.to_path_buf(),
         info,
         film,
         metadata: image.attributes,
     })
+}
+
+/// The light passes a file's header lists ([`crate::film::exr_io::PASSES_ATTRIBUTE`]), in layer
+/// order; none without the attribute.
+pub fn pass_names(meta: &Metadata) -> Vec<String> {
+    meta.text(crate::film::exr_io::PASSES_ATTRIBUTE)
+        .map_or_else(Vec::new, |t| {
+            t.split_whitespace().map(str::to_string).collect()
+        })
+}
+
+/// The exact state of light passes `names` from a part's `u32` channels.
+fn read_pass_state(
+    path: &Path,
+    raw: &std::collections::BTreeMap<String, Vec<u32>>,
+    names: &[String],
+    n: usize,
+) -> Result<PassLayers, PartError> {
+    let mut passes = PassLayers::new(names, n);
+    for (k, name) in names.iter().enumerate() {
+        let chans: Vec<&Vec<u32>> = crate::film::state::pass_state_channels(name)
+            .iter()
+            .map(|c| {
+                raw.get(c).filter(|v| v.len() == n).ok_or_else(|| {
+                    refused(
+                        path,
+                        format!("the header lists pass {name} but {c} is missing"),
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let bits = |hi: &Vec<u32>, lo: &Vec<u32>, i: usize| {
+            f64::from_bits(((hi[i] as u64) << 32) | lo[i] as u64)
+        };
+        for i in 0..n {
+            let mean = [0, 1, 2].map(|c| bits(chans[2 * c], chans[2 * c + 1], i));
+            let m2 = [0, 1, 2].map(|c| bits(chans[6 + 2 * c], chans[7 + 2 * c], i));
+            if !mean.iter().chain(&m2).all(|v| v.is_finite()) {
+                return Err(refused(
+                    path,
+                    format!("pass {name} is not finite at pixel {i}: a NaN would poison the merge"),
+                ));
+            }
+            passes.set(i, k, mean, m2);
+        }
+    }
+    Ok(passes)
 }

@@ -11,6 +11,7 @@
 //! tile order ([`TileRect::index`], then pass). [`Film::merge_tiles_in_order`] does the sort,
 //! so collecting tile buffers from any number of threads and merging them with it gives
 //! bit-identical images.
+use super::passes::PassLayers;
 use super::tiles::TileRect;
 
 /// Channels a pixel keeps statistics of: radiance R, G, B and the coverage A (1 minus the
@@ -101,6 +102,8 @@ pub struct TileBuffer {
     rect: TileRect,
     pass: u32,
     pixels: Vec<PixelStats>,
+    /// The light passes asked for, `None` without.
+    passes: Option<PassLayers>,
 }
 
 impl TileBuffer {
@@ -116,7 +119,17 @@ impl TileBuffer {
             rect,
             pass,
             pixels: vec![PixelStats::default(); rect.pixel_count()],
+            passes: None,
         }
+    }
+
+    /// [`Self::for_pass`] keeping the light passes `names` too (none: as `for_pass`).
+    pub fn with_passes(rect: TileRect, pass: u32, names: &[String]) -> Self {
+        let mut t = Self::for_pass(rect, pass);
+        if !names.is_empty() {
+            t.passes = Some(PassLayers::new(names, rect.pixel_count()));
+        }
+        t
     }
 
     /// The rectangle this buffer covers.
@@ -137,6 +150,22 @@ impl TileBuffer {
     pub fn add_sample(&mut self, x: u32, y: u32, rgba: [f32; CHANNELS]) {
         let i = self.local_index(x, y);
         self.pixels[i].add(rgba);
+    }
+
+    /// [`Self::add_sample`] with the sample's light passes (one RGB per pass kept; ignored
+    /// where the buffer keeps none).
+    pub fn add_sample_passes(
+        &mut self,
+        x: u32,
+        y: u32,
+        rgba: [f32; CHANNELS],
+        passes: &[[f32; 3]],
+    ) {
+        let i = self.local_index(x, y);
+        self.pixels[i].add(rgba);
+        if let Some(p) = &mut self.passes {
+            p.add(i, self.pixels[i].count, passes);
+        }
     }
 
     /// Statistics of pixel `(x, y)` in image coordinates.
@@ -169,6 +198,8 @@ pub struct Film {
     height: u32,
     /// Row-major, row 0 at the top.
     pixels: Vec<PixelStats>,
+    /// The light passes asked for, `None` without.
+    passes: Option<PassLayers>,
 }
 
 impl Film {
@@ -178,7 +209,35 @@ impl Film {
             width,
             height,
             pixels: vec![PixelStats::default(); width as usize * height as usize],
+            passes: None,
         }
+    }
+
+    /// An empty film keeping the light passes `names` too (none: as [`Film::new`]).
+    pub fn with_passes(width: u32, height: u32, names: &[String]) -> Self {
+        let mut f = Self::new(width, height);
+        if !names.is_empty() {
+            f.passes = Some(PassLayers::new(names, f.pixels.len()));
+        }
+        f
+    }
+
+    /// The light passes' statistics, `None` where none were asked for.
+    pub fn passes(&self) -> Option<&PassLayers> {
+        self.passes.as_ref()
+    }
+
+    /// Gives the film light passes' statistics (a state read back from a file).
+    ///
+    /// # Panics
+    /// If they do not cover the film's pixels.
+    pub fn set_passes(&mut self, passes: PassLayers) {
+        assert_eq!(
+            passes.names().len() * 3 * self.pixels.len(),
+            passes.len(),
+            "passes for another film size"
+        );
+        self.passes = Some(passes);
     }
 
     /// Width in pixels.
@@ -232,8 +291,13 @@ impl Film {
         let w = r.width() as usize;
         for (row, stats) in tile.pixels.chunks_exact(w.max(1)).enumerate() {
             let start = self.index(r.x0, r.y0 + row as u32);
-            for (dst, src) in self.pixels[start..start + w].iter_mut().zip(stats) {
-                dst.merge(src);
+            for (k, src) in stats.iter().enumerate() {
+                let i = start + k;
+                // Passes first: their merge takes both counts before the beauty's changes.
+                if let (Some(dst), Some(from)) = (&mut self.passes, &tile.passes) {
+                    dst.merge(i, self.pixels[i].count, from, row * w + k, src.count);
+                }
+                self.pixels[i].merge(src);
             }
         }
     }
@@ -254,6 +318,7 @@ impl Film {
             width,
             height,
             pixels,
+            passes: None,
         })
     }
 
@@ -269,8 +334,11 @@ impl Film {
             (other.width, other.height),
             "films of different sizes"
         );
-        for (dst, src) in self.pixels.iter_mut().zip(&other.pixels) {
-            dst.merge(src);
+        for (i, src) in other.pixels.iter().enumerate() {
+            if let (Some(dst), Some(from)) = (&mut self.passes, &other.passes) {
+                dst.merge(i, self.pixels[i].count, from, i, src.count);
+            }
+            self.pixels[i].merge(src);
         }
     }
 

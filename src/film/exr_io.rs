@@ -100,7 +100,42 @@ pub fn write_exr(
     film: &Film,
     metadata: &Metadata,
 ) -> Result<(), FilmError> {
-    write_image(path, &Image::from_film(film, metadata))
+    write_film(path.as_ref(), film, metadata, false)
+}
+
+/// Header attribute listing the light passes an image holds, space-separated in layer order.
+pub const PASSES_ATTRIBUTE: &str = "brume:passes";
+
+/// The film's beauty, variance, sample count and light passes (`<pass>.R/G/B`, the means),
+/// with its exact accumulator state where `state`, and `metadata` (plus [`PASSES_ATTRIBUTE`]
+/// where it has passes).
+fn write_film(path: &Path, film: &Film, metadata: &Metadata, state: bool) -> Result<(), FilmError> {
+    let mut metadata = metadata.clone();
+    if let Some(p) = film.passes() {
+        metadata.set(PASSES_ATTRIBUTE, AttrValue::Text(p.names().join(" ")));
+    }
+    let image = Image::from_film(film, &metadata);
+    let mut list: Vec<(String, FlatSamples)> = image_channels(path, &image)?
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), FlatSamples::F32(v)))
+        .collect();
+    if let Some(p) = film.passes() {
+        let pixels = film.pixels().len();
+        for (k, name) in p.names().iter().enumerate() {
+            for (c, ch) in ["R", "G", "B"].into_iter().enumerate() {
+                let values = (0..pixels).map(|i| p.mean(i, k)[c] as f32).collect();
+                list.push((format!("{name}.{ch}"), FlatSamples::F32(values)));
+            }
+        }
+    }
+    if state {
+        list.extend(
+            super::state::state_channels(film)
+                .into_iter()
+                .map(|(n, v)| (n, FlatSamples::U32(v))),
+        );
+    }
+    encode_any(path, image.width, image.height, list, &metadata)
 }
 
 /// Writes an [`Image`] as an EXR, atomically: channels `R G B`, and `A`, `variance.*`,
@@ -150,18 +185,7 @@ pub fn write_exr_with_state(
     film: &Film,
     metadata: &Metadata,
 ) -> Result<(), FilmError> {
-    let path = path.as_ref();
-    let image = Image::from_film(film, metadata);
-    let mut list: Vec<(String, FlatSamples)> = image_channels(path, &image)?
-        .into_iter()
-        .map(|(n, v)| (n.to_string(), FlatSamples::F32(v)))
-        .collect();
-    list.extend(
-        super::state::state_channels(film)
-            .into_iter()
-            .map(|(n, v)| (n, FlatSamples::U32(v))),
-    );
-    encode_any(path, image.width, image.height, list, metadata)
+    write_film(path.as_ref(), film, metadata, true)
 }
 
 /// Writes one map as an EXR, atomically: `values` of length `width * height` become channel

@@ -20,6 +20,7 @@ pub mod display;
 pub mod error;
 pub mod exr_io;
 pub mod metadata;
+pub mod passes;
 pub mod state;
 pub mod tile_log;
 pub mod tiles;

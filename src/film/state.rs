@@ -52,5 +52,37 @@ pub fn state_channels(film: &Film) -> Vec<(String, Vec<u32>)> {
             out[m2_channel(c) + 1].1.push(m2 as u32);
         }
     }
+    if let Some(p) = film.passes() {
+        for (k, name) in p.names().iter().enumerate() {
+            let mut chans: Vec<(String, Vec<u32>)> = pass_state_channels(name)
+                .into_iter()
+                .map(|n| (n, Vec::with_capacity(px.len())))
+                .collect();
+            for i in 0..px.len() {
+                let (m, m2) = (p.mean(i, k), p.m2(i, k));
+                for c in 0..3 {
+                    let (m, m2) = (m[c].to_bits(), m2[c].to_bits());
+                    chans[2 * c].1.push((m >> 32) as u32);
+                    chans[2 * c + 1].1.push(m as u32);
+                    chans[6 + 2 * c].1.push((m2 >> 32) as u32);
+                    chans[6 + 2 * c + 1].1.push(m2 as u32);
+                }
+            }
+            out.extend(chans);
+        }
+    }
     out
+}
+
+/// The `u32` state channels of light pass `name`: per R, G, B the high and low halves of the
+/// f64 mean, then the same of the f64 `M2` (the pixel's count is the beauty's).
+pub fn pass_state_channels(name: &str) -> Vec<String> {
+    let mut v = Vec::with_capacity(12);
+    for what in ["mean", "m2"] {
+        for ch in ["R", "G", "B"] {
+            v.push(format!("accum.{name}.{what}_hi.{ch}"));
+            v.push(format!("accum.{name}.{what}_lo.{ch}"));
+        }
+    }
+    v
 }

@@ -37,6 +37,8 @@ pub struct PathLimits {
     /// A transparent film: the environment seen straight through by the camera path is left
     /// out of its radiance (`RenderSettings::film_transparent`).
     pub film_transparent: bool,
+    /// Split the radiance into the light passes (`film::passes::LIGHT_PASSES`) as well.
+    pub light_passes: bool,
 }
 
 /// What one path cost and did.
@@ -83,6 +85,44 @@ struct PathState {
     /// The camera path's transmittance to the background, the mean of `beta`'s channels where
     /// it escapes before any scattering event, else 0: the sample's coverage is 1 minus it.
     background: f32,
+    /// The radiance split into the light passes (`PathLimits::light_passes`), and whether the
+    /// path's first scattering event was in a medium (else at a surface).
+    passes: [Vec3; LIGHT_PASS_COUNT],
+    first_in_medium: bool,
+}
+
+/// Number of light passes, and each one's index (`film::passes::LIGHT_PASSES` order).
+pub const LIGHT_PASS_COUNT: usize = 6;
+const EMISSION: usize = 0;
+const BACKGROUND: usize = 1;
+const VOLUME_DIRECT: usize = 2;
+const SURFACE_DIRECT: usize = 4;
+
+impl PathState {
+    /// Adds `x` to the radiance and, where asked, to its light pass: `seen` (emission or
+    /// background) before any scattering event; after it, the first event's kind, direct at
+    /// that event (its next-event estimate and what the ray leaving it meets), indirect later.
+    #[inline(always)]
+    fn gather(&mut self, limits: &PathLimits, x: Vec3, seen: usize) {
+        self.l += x;
+        if limits.light_passes {
+            self.passes[self.pass_of(seen)] += x;
+        }
+    }
+
+    #[inline(always)]
+    fn pass_of(&self, seen: usize) -> usize {
+        let first = if self.first_in_medium {
+            VOLUME_DIRECT
+        } else {
+            SURFACE_DIRECT
+        };
+        match self.depth {
+            0 => seen,
+            1 => first,
+            _ => first + 1,
+        }
+    }
 }
 
 /// What one camera sample brings its pixel.
@@ -93,6 +133,9 @@ pub struct CameraSample {
     /// Coverage: 1 minus the path's transmittance to the background (Cycles' alpha, from the
     /// throughput's channel mean where the camera ray escapes unscattered).
     pub alpha: f32,
+    /// The radiance by light pass (`film::passes::LIGHT_PASSES` order), where
+    /// `PathLimits::light_passes` asks for them; they add up to `l` to the float rounding.
+    pub passes: [Vec3; LIGHT_PASS_COUNT],
 }
 
 impl CameraSample {
@@ -215,6 +258,7 @@ pub fn radiance<F: Features>(
     CameraSample {
         l: ps.l,
         alpha: 1.0 - ps.background,
+        passes: ps.passes,
     }
 }
 
@@ -248,6 +292,8 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
             by_phase: false,
         },
         background: 0.0,
+        passes: [Vec3::ZERO; LIGHT_PASS_COUNT],
+        first_in_medium: false,
     }
 }
 
@@ -281,6 +327,7 @@ fn sample_medium<F: Features>(
         sampler.queue_on_stream(bounce_dim(ps.depth, DIM_DISTANCE));
         ps.flight_started = true;
     }
+    let before = ps.l;
     let (ev, phase) = media_flight::<F>(
         rs,
         &ps.ray,
@@ -295,6 +342,11 @@ fn sample_medium<F: Features>(
             l: &mut ps.l,
         },
     );
+    if limits.light_passes {
+        // The flight's emission, as the radiance took it (to the float rounding).
+        let k = ps.pass_of(EMISSION);
+        ps.passes[k] += ps.l - before;
+    }
     sampler.rng.clear_queue();
     if collisions(&stats.media) - start_collisions > limits.max_collisions {
         stats.guard_fired += 1;
@@ -338,6 +390,9 @@ fn scatter_medium<F: Features>(
     if ps.depth > limits.max_depth {
         return None;
     }
+    if ps.depth == 1 {
+        ps.first_in_medium = true;
+    }
     let p = ps.ray.at(t);
     let wo = -ps.ray.d;
     let guided = limits
@@ -359,7 +414,7 @@ fn scatter_medium<F: Features>(
             (Vec3::splat(f), f)
         },
     );
-    ps.l += ps.beta * ld;
+    ps.gather(limits, ps.beta * ld, EMISSION);
     ps.prev_env = choice;
     Some(Scatterer::Phase { phase, p, wo })
 }
@@ -397,7 +452,7 @@ fn shade_surface<F: Features>(
                     rs.lights.pdf_area(scene, h.triangle, h.t, cos_o),
                 )
             };
-            ps.l += ps.beta * le * w;
+            ps.gather(limits, ps.beta * le * w, EMISSION);
         }
     }
     let kind = rs.kinds[mat_index];
@@ -463,7 +518,7 @@ fn shade_surface<F: Features>(
             (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
         },
     );
-    ps.l += ps.beta * ld;
+    ps.gather(limits, ps.beta * ld, EMISSION);
     ps.prev_env = choice;
     SurfaceEnd::Scatters(Scatterer::Bsdf {
         bsdf,
@@ -547,7 +602,7 @@ fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
         } else {
             power_heuristic(ps.prev_pdf, ps.prev_env.pmf * env.pdf(ps.ray.d))
         };
-        ps.l += ps.beta * env.le(ps.ray.d) * w;
+        ps.gather(limits, ps.beta * env.le(ps.ray.d) * w, BACKGROUND);
     }
 }
 

@@ -20,7 +20,11 @@ pub struct TileContext<'a> {
     pub height: u32,
     pub seed: u32,
     pub sampler: SamplerKind,
+    /// The passes kept beside the beauty (`RenderSettings::pass_names`).
+    pub passes: Vec<String>,
 }
+
+const _: () = assert!(super::path::LIGHT_PASS_COUNT == crate::film::passes::LIGHT_PASSES.len());
 
 /// A rendered tile: its samples, its log record and per-pixel density lookups (for the cost
 /// map, in the tile's row-major order).
@@ -44,7 +48,7 @@ pub fn render_tile<F: Features>(
     n: u32,
 ) -> TileOutput {
     let start = Instant::now();
-    let mut buffer = TileBuffer::for_pass(*rect, pass);
+    let mut buffer = TileBuffer::with_passes(*rect, pass, &ctx.passes);
     let mut record = TileRecord::new(pass, rect);
     let mut lookups = vec![0u64; rect.pixel_count()];
     let mut total = PathStats::default();
@@ -72,7 +76,12 @@ pub fn render_tile<F: Features>(
                     &mut sampler,
                     &mut total,
                 );
-                buffer.add_sample(x, y, sample.rgba());
+                if ctx.limits.light_passes {
+                    let passes = sample.passes.map(|p| p.to_array());
+                    buffer.add_sample_passes(x, y, sample.rgba(), &passes);
+                } else {
+                    buffer.add_sample(x, y, sample.rgba());
+                }
             }
             let i = ((y - rect.y0) * rect.width() + (x - rect.x0)) as usize;
             lookups[i] = total.media.tracking.lookups + total.media.emission_lookups - before;

@@ -265,6 +265,8 @@ pub struct RenderSettings {
     /// the colour (it still lights the scene), so the colour and the coverage alpha are a
     /// premultiplied RGBA to lay over a plate.
     pub film_transparent: bool,
+    /// Keep the light passes (`film::passes::LIGHT_PASSES`) beside the beauty.
+    pub light_passes: bool,
 }
 
 impl Default for RenderSettings {
@@ -295,11 +297,24 @@ impl Default for RenderSettings {
             env_sampling: super::envmap::EnvSampling::Importance,
             light_selection: LightSelection::Guided,
             film_transparent: false,
+            light_passes: false,
         }
     }
 }
 
 impl RenderSettings {
+    /// The passes kept beside the beauty, in layer order (none by default).
+    pub fn pass_names(&self) -> Vec<String> {
+        if self.light_passes {
+            crate::film::passes::LIGHT_PASSES
+                .iter()
+                .map(|s| s.to_string())
+                .collect()
+        } else {
+            Vec::new()
+        }
+    }
+
     /// One past the last sample index to render: `spp`, or without end (`u32::MAX`) when
     /// `spp` is 0 and a time limit ends the render; spp 0 without one is the empty range.
     pub fn sample_end(&self) -> u32 {

@@ -27,6 +27,8 @@ fn settings(sampler: SamplerKind) -> RenderSettings {
         // Small passes, so a range of a few samples crosses several of them.
         max_pass_spp: 4,
         seed: 7,
+        // The light passes travel with the beauty: kept in the Sobol renders.
+        light_passes: sampler == SamplerKind::Sobol,
         ..RenderSettings::default()
     }
 }

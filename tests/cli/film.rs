@@ -130,3 +130,32 @@ fn the_scene_asks_for_a_transparent_film_and_the_command_line_overrides_it() {
     assert!(scene_film < 0.5);
     assert_eq!(opaque, 1.0);
 }
+
+#[test]
+fn light_passes_are_layers_of_the_exr_and_what_is_not_there_is_refused() {
+    let d = scratch::dir("film_passes");
+    let gltf = scene(&d);
+    let out = d.join("passes.exr");
+    let small = ["--width", "8", "--height", "8", "--spp", "4"];
+    let o = render_to(&gltf, &out, &small, &["--passes", "beauty,light"]);
+    assert!(o.status.success(), "{o:?}");
+    let image = read_exr(&out).unwrap();
+    assert_eq!(
+        image.attributes.text("brume:passes"),
+        Some("emission background volume.direct volume.indirect surface.direct surface.indirect")
+    );
+    for (pass, why) in [
+        ("data", "not available"),
+        ("lights", "not available"),
+        ("volume", "not a pass list entry"),
+    ] {
+        let o = render_to(&gltf, &d.join("no.exr"), &small, &["--passes", pass]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        println!("--passes {pass}: {}", err.lines().next().unwrap_or(""));
+        assert!(!o.status.success() && err.contains(why), "{err}");
+        assert!(!d.join("no.exr").exists());
+    }
+    let o = render_to(&gltf, &d.join("no.exr"), &small, &["--passes", "light", "--backend", "gpu"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("CPU backend only"), "{err}");
+}

@@ -60,4 +60,31 @@ pub fn assert_rounding_equal(merged: &Film, single: &Film, what: &str) {
             assert!(f32_ulps(va as f32, vb as f32) <= 1, "{what}: {va} vs {vb}");
         }
     }
+    match (merged.passes(), single.passes()) {
+        (None, None) => {}
+        (Some(a), Some(b)) => {
+            assert_eq!(a.names(), b.names(), "{what}: passes");
+            for i in 0..merged.pixels().len() {
+                for k in 0..a.names().len() {
+                    for (x, y) in [(a.mean(i, k), b.mean(i, k)), (a.m2(i, k), b.m2(i, k))] {
+                        for c in 0..3 {
+                            let scale = x[c].abs().max(y[c].abs());
+                            assert!(
+                                (x[c] - y[c]).abs() <= tol * scale,
+                                "{what}: pixel {i} pass {} {} vs {}",
+                                a.names()[k],
+                                x[c],
+                                y[c]
+                            );
+                        }
+                    }
+                    let (ma, mb) = (a.mean(i, k), b.mean(i, k));
+                    for c in 0..3 {
+                        assert!(f32_ulps(ma[c] as f32, mb[c] as f32) <= 1, "{what}");
+                    }
+                }
+            }
+        }
+        _ => panic!("{what}: one film keeps passes, the other not"),
+    }
 }

@@ -10,6 +10,7 @@ mod common;
 mod emission_support;
 mod envmap;
 mod film_alpha;
+mod light_passes;
 mod light_selection;
 mod media_nested;
 mod media_overlap;

@@ -313,6 +313,11 @@ pub fn render_with_timings(
 fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), GpuRenderError> {
     supports(rs).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
+    if settings.light_passes {
+        return Err(GpuRenderError::Unsupported(
+            "light passes render on the CPU backend only".into(),
+        ));
+    }
     if settings.region.is_some() {
         // Batches are whole rows of the image; a region split is a CPU feature.
         return Err(GpuRenderError::Unsupported(

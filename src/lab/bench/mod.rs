@@ -3,6 +3,7 @@ pub mod blur;
 pub mod env;
 pub mod gpu;
 pub mod majorants;
+pub mod passes;
 pub mod peers;
 pub mod walk;
 
@@ -106,6 +107,21 @@ pub enum Which {
         #[arg(long, default_value_t = 3)]
         runs: usize,
     },
+    /// What the light passes cost: the scene rendered with `--passes light` against the beauty
+    /// alone (time per sample).
+    Passes {
+        #[arg(default_value = "scenes/cornell_smoke.gltf")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 160)]
+        width: u32,
+        #[arg(long, default_value_t = 120)]
+        height: u32,
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Rounds (each renders both); the best time of each is reported.
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
     /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
     /// not installed): render time, per-pixel variance from two seeds, efficiency
     /// 1 / (time x variance), the ratios, and the image mean against Mitsuba's with its z-score.
@@ -170,6 +186,13 @@ pub fn run(which: Which) -> Result<()> {
             spp,
             runs,
         } => blur::run(&scene, width, height, spp, runs),
+        Which::Passes {
+            scene,
+            width,
+            height,
+            spp,
+            runs,
+        } => passes::run(&scene, width, height, spp, runs),
         Which::Peers(args) => peers::run(&args),
     }
 }
