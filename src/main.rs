@@ -29,7 +29,7 @@ enum Command {
         no_layout: bool,
     },
     /// Render a scene to an EXR (GPU or CPU backend).
-    Render(cli::render::RenderArgs),
+    Render(Box<cli::render::RenderArgs>),
     /// Merge partial renders of one image (sample ranges, regions, farm tasks) into one EXR.
     Merge(cli::merge::MergeArgs),
     /// Render one image on a cluster: `brume farm slurm` writes/submits a job array + merge.

@@ -171,7 +171,7 @@ pub fn render_resumed(
         rs.features
     };
     let tile_fn = specialised(features);
-    let ctx = tile_context(rs, settings);
+    let mut ctx = tile_context(rs, settings);
     let rects = region_tiles(settings);
     let (mut film, first) = match resume {
         Some(r) => (r.film, r.reached),
@@ -193,6 +193,17 @@ pub fn render_resumed(
         if settings.must_stop(stop, start) {
             interrupted = true;
             break;
+        }
+        if let Some(e) = settings.noise_threshold.filter(|_| s0 >= settings.min_spp) {
+            // Decided from the film at this pass boundary alone: the same on a resume.
+            let noisy = crate::film::adaptive::noisy_pixels(&film, e as f64, settings.min_spp);
+            let any = rects.iter().any(|r| {
+                (r.y0..r.y1).any(|y| (r.x0..r.x1).any(|x| noisy[(y * settings.width + x) as usize]))
+            });
+            if !any {
+                break;
+            }
+            ctx.noisy = Some(noisy);
         }
         let Some(outputs) = render_pass(&ctx, tile_fn, &rects, &mut tile_ns, (pass, s0, n), stop)
         else {
@@ -244,6 +255,7 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             light_passes: settings.light_passes,
         },
         passes: settings.pass_names(),
+        noisy: None,
         width: settings.width,
         height: settings.height,
         seed: settings.seed,

@@ -53,6 +53,15 @@ pub struct RenderArgs {
     /// surface.direct, surface.indirect, which add up to the beauty; CPU backend).
     #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
     pub passes: Option<super::passes::PassChoice>,
+    /// Adaptive sampling: a pixel stops taking samples once the standard error of its mean is
+    /// below E times the mean (such as 0.01), decided at pass boundaries, so a render is the
+    /// same from its seed and on a resume; --spp is then the most a pixel takes (CPU backend;
+    /// split on a farm by region, not by samples).
+    #[arg(long, value_name = "E")]
+    pub noise_threshold: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling may stop it (default 16).
+    #[arg(long, value_name = "N", requires = "noise_threshold")]
+    pub min_spp: Option<u32>,
     /// Samples per pixel (default 16, or unlimited with --time).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -238,6 +247,8 @@ impl RenderArgs {
         s.light_selection = self.light_selection;
         s.tile_size = self.tile_size;
         s.light_passes = self.passes.is_some_and(|p| p.light);
+        s.noise_threshold = self.noise_threshold;
+        s.min_spp = self.min_spp.unwrap_or(s.min_spp);
         s.film_transparent = match self.film {
             Some(f) => f == FilmMode::Transparent,
             None => scene.film_transparent.unwrap_or(false),
@@ -331,11 +342,12 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     let cpu_only = args.checkpoint.is_some()
         || args.resume.is_some()
         || args.region.is_some()
-        || settings.light_passes;
+        || settings.light_passes
+        || settings.noise_threshold.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region and --passes light run on the CPU \
-             backend only"
+            "--backend gpu: --checkpoint, --resume, --region, --passes light and \
+             --noise-threshold run on the CPU backend only"
         ));
     }
     check_outputs(args)?;
@@ -345,7 +357,7 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     } else {
         rs.features
     };
-    report_plan(&scene, &rs, &settings, features);
+    super::render_report::report_plan(&scene, &rs, &settings, features);
     let stop = stop_on_signal();
     let (threads, threads_from) = thread_count(args.threads);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -495,51 +507,6 @@ fn check_outputs(args: &RenderArgs) -> Result<()> {
         brume::film::check_writable(p)?;
     }
     Ok(())
-}
-
-/// What the render will simulate and how: the scene's effects, the CPU path's variant and
-/// estimator, and the walk each VDB medium's flights take under the majorant mode
-/// (`WalkPlan::of`): what "majorant adaptive" chose for this scene, named as `--majorant`
-/// names them. Overlapping media merge their free flights' segments (`WalkPlan::merged`);
-/// shadow rays stay per medium.
-fn report_plan(
-    scene: &brume::scene::Scene,
-    rs: &RenderScene,
-    settings: &RenderSettings,
-    features: brume::render::FeatureFlags,
-) {
-    eprintln!("scene effects: {}", scene.effects().names().join(", "));
-    eprintln!(
-        "cpu path: {} ({}), estimator {}, majorant {}, b {}, m {}",
-        features.name(),
-        if settings.generic {
-            "generic, forced"
-        } else if features.overlapping {
-            // tile::specialised: the mixture is compiled into the generic variant only.
-            "generic: the mixture of overlapping media runs in the generic variant"
-        } else {
-            "specialised"
-        },
-        settings.estimator,
-        settings.majorant.name(),
-        settings.b,
-        settings
-            .m_or_default()
-            .map_or("per-leaf minorant".to_string(), |m| m.to_string()),
-    );
-    for (k, m) in rs.vdb.iter().enumerate() {
-        let plan = m.walk(settings.majorant);
-        let free = if rs.features.overlapping {
-            plan.merged
-        } else {
-            plan.free
-        };
-        eprintln!(
-            "medium {k} walks: free flights {}, shadow rays {}",
-            free.name(),
-            plan.shadow.name()
-        );
-    }
 }
 
 /// The flag a render polls between tiles: set by Ctrl-C and by SIGTERM (what Slurm and farm
@@ -752,57 +719,6 @@ fn write_outputs(
             &meta,
         )?;
     }
-    let samples = t.counters.samples.max(1) as f64;
-    // Passes of this run (a part's pass indices start where its range does).
-    let passes = out
-        .records
-        .iter()
-        .map(|r| r.pass)
-        .collect::<std::collections::BTreeSet<_>>()
-        .len();
-    println!(
-        "{}: {} spp in {:.2} s ({:.0} samples/s{}), {} tiles x {} passes",
-        args.output.display(),
-        out.spp,
-        out.seconds,
-        t.counters.samples as f64 / out.seconds.max(1e-9),
-        if out.interrupted {
-            ", stopped early"
-        } else {
-            ""
-        },
-        out.records.len() / passes.max(1),
-        passes,
-    );
-    println!(
-        "totals: samples {} density_lookups {} null_collisions {} real_collisions {} shadow_lookups {} emission_lookups {} majorant_segments {} shadow_segments {} path_length_sum {} guard_fired {} majorant_violations {}",
-        t.counters.samples, t.counters.density_lookups, t.counters.null_collisions, t.counters.real_collisions, t.counters.shadow_lookups, t.counters.emission_lookups, t.counters.majorant_segments, t.counters.shadow_segments, t.counters.path_length_sum, t.counters.guard_fired, t.counters.majorant_violations
-    );
-    println!(
-        "per sample: {:.2} lookups, {:.2} null / {:.2} real collisions, path length {:.2}",
-        t.counters.density_lookups as f64 / samples,
-        t.counters.null_collisions as f64 / samples,
-        t.counters.real_collisions as f64 / samples,
-        t.counters.path_length_sum as f64 / samples
-    );
-    println!(
-        "walk per sample: primary {:.2} segments / {:.2} lookups, shadow {:.2} segments / {:.2} lookups",
-        (t.counters.majorant_segments - t.counters.shadow_segments) as f64 / samples,
-        (t.counters.density_lookups - t.counters.shadow_lookups) as f64 / samples,
-        t.counters.shadow_segments as f64 / samples,
-        t.counters.shadow_lookups as f64 / samples,
-    );
-    if t.counters.majorant_violations > 0 {
-        eprintln!(
-            "warning: {} density lookups exceeded their majorant: this {} image is BIASED (use weighted-delta, or b >= 1)",
-            t.counters.majorant_violations, settings.estimator
-        );
-    }
-    if t.counters.guard_fired > 0 {
-        eprintln!(
-            "warning: the collision guard ended {} paths early (see guard_fired in the tile log)",
-            t.counters.guard_fired
-        );
-    }
+    super::render_report::report_totals(&args.output, settings, out, &t);
     Ok(())
 }

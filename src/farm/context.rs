@@ -9,6 +9,10 @@ use crate::farm::{self, Coverage, PartInfo};
 use crate::film::{AttrValue, Metadata, RenderInfo};
 use crate::render::RenderSettings;
 
+/// Header attribute of an adaptively sampled render: its noise threshold (a pixel may then
+/// hold fewer samples than its coverage).
+pub const NOISE_THRESHOLD_ATTRIBUTE: &str = "brume:noise_threshold";
+
 /// What the header of a part needs that the settings do not hold: the scene's content hash,
 /// the camera, the Brume version.
 pub struct PartContext {
@@ -89,6 +93,10 @@ impl PartContext {
             crate::film::exr_io::FILM_ATTRIBUTE,
             AttrValue::Text(film.into()),
         );
+        if let Some(e) = settings.noise_threshold {
+            meta.set(NOISE_THRESHOLD_ATTRIBUTE, AttrValue::Float(e));
+            meta.set("brume:min_spp", AttrValue::Int(settings.min_spp as i32));
+        }
         if let Some(v) = gpu_variant {
             // The WGSL variant the wavefront kernels were specialised for.
             meta.set("brume:gpu_variant", AttrValue::Text(v.to_string()));

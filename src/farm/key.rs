@@ -16,10 +16,13 @@ pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> 
         ""
     };
     let passes = if s.light_passes { " passes=light" } else { "" };
+    let adaptive = s.noise_threshold.map_or(String::new(), |e| {
+        format!(" noise_threshold={e} min_spp={}", s.min_spp)
+    });
     format!(
         "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
          sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
-         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}",
+         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}{adaptive}",
         s.estimator,
         s.b,
         s.m_or_default()

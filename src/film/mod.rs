@@ -13,6 +13,7 @@
 //! - [`display`] streams the image, with any named channels, to the tev viewer while a render
 //!   converges, never holding the render up.
 pub mod accum;
+pub mod adaptive;
 pub mod atomic;
 pub mod checksum;
 pub mod cost_map;

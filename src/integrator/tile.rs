@@ -22,6 +22,9 @@ pub struct TileContext<'a> {
     pub sampler: SamplerKind,
     /// The passes kept beside the beauty (`RenderSettings::pass_names`).
     pub passes: Vec<String>,
+    /// Under adaptive sampling, the pixels (row-major over the image) that still take
+    /// samples this pass; `None`: all of them.
+    pub noisy: Option<Vec<bool>>,
 }
 
 const _: () = assert!(super::path::LIGHT_PASS_COUNT == crate::film::passes::LIGHT_PASSES.len());
@@ -55,9 +58,18 @@ pub fn render_tile<F: Features>(
     let aspect = ctx.width as f32 / ctx.height as f32;
     // One sampler for the tile, moved from pixel to pixel.
     let mut sampler = Sampler::for_pixel(ctx.sampler, 0, ctx.seed);
+    let mut samples = 0u64;
     for y in rect.y0..rect.y1 {
         for x in rect.x0..rect.x1 {
             let pixel = y * ctx.width + x;
+            if ctx
+                .noisy
+                .as_ref()
+                .is_some_and(|noisy| !noisy[pixel as usize])
+            {
+                continue;
+            }
+            samples += n as u64;
             let before = total.media.tracking.lookups + total.media.emission_lookups;
             sampler.set_pixel(pixel);
             for s in s0..s0 + n {
@@ -88,7 +100,7 @@ pub fn render_tile<F: Features>(
         }
     }
     let t = &total.media.tracking;
-    record.counters.samples = rect.pixel_count() as u64 * n as u64;
+    record.counters.samples = samples;
     record.counters.wall_ns = start.elapsed().as_nanos() as u64;
     record.counters.density_lookups = t.lookups;
     record.counters.null_collisions = t.null_collisions;

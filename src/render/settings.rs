@@ -267,6 +267,11 @@ pub struct RenderSettings {
     pub film_transparent: bool,
     /// Keep the light passes (`film::passes::LIGHT_PASSES`) beside the beauty.
     pub light_passes: bool,
+    /// Adaptive sampling: a pixel stops once the relative standard error of its mean is below
+    /// this (`film::adaptive`), decided at pass boundaries; `None`: every pixel takes `spp`.
+    pub noise_threshold: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling may stop it.
+    pub min_spp: u32,
 }
 
 impl Default for RenderSettings {
@@ -298,6 +303,8 @@ impl Default for RenderSettings {
             light_selection: LightSelection::Guided,
             film_transparent: false,
             light_passes: false,
+            noise_threshold: None,
+            min_spp: 16,
         }
     }
 }
@@ -367,6 +374,19 @@ impl RenderSettings {
                 return Err(format!(
                     "region {x0},{y0},{x1},{y1} is empty or not inside the {}x{} image",
                     self.width, self.height
+                ));
+            }
+        }
+        if let Some(e) = self.noise_threshold {
+            if !(e > 0.0 && e.is_finite()) {
+                return Err(format!("noise threshold {e} must be in (0, inf)"));
+            }
+            if self.sample_start != 0 {
+                return Err(format!(
+                    "a noise threshold with samples {}..{}: a part starting after sample 0 \
+                     cannot know which pixels the samples before it stopped; split by region \
+                     instead",
+                    self.sample_start, self.spp
                 ));
             }
         }

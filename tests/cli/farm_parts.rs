@@ -220,3 +220,86 @@ fn merging_merges_is_associative() {
     let img = read_exr(&bc).unwrap();
     assert!(img.samples.unwrap().iter().all(|&n| n == 11.0));
 }
+
+/// Writes an adaptive render's part: [`write_part`] with the noise threshold in the header, as
+/// `brume render --noise-threshold` writes it (its pixels may hold fewer samples than the
+/// coverage).
+fn write_adaptive_part(
+    path: &Path,
+    base: &RenderSettings,
+    out: &RenderOutput,
+    range: (u32, u32),
+    region: Option<[u32; 4]>,
+) {
+    let mut meta = Metadata::new();
+    PartInfo {
+        scene_hash: "test".into(),
+        settings: farm::settings_key(base, None),
+        seed: base.seed.to_string(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        width: W,
+        height: H,
+        coverage: vec![Coverage {
+            start: range.0,
+            end: range.0 + out.spp,
+            region: region.unwrap_or([0, 0, W, H]),
+        }],
+        target: Some(range),
+        seconds: out.seconds,
+        parts: 1,
+    }
+    .write_into(&mut meta);
+    meta.set(
+        brume::farm::context::NOISE_THRESHOLD_ATTRIBUTE,
+        brume::film::AttrValue::Float(base.noise_threshold.unwrap()),
+    );
+    write_exr_with_state(path, &out.film, &meta).unwrap();
+}
+
+/// Adaptive sampling decides from each pixel's own statistics at pass boundaries: the same
+/// render again, a resumed checkpoint and a merge of region parts all equal the single render.
+#[test]
+fn adaptive_renders_repeat_resume_and_merge_by_region_exactly() {
+    let scene = load_scene("cloud.gltf");
+    let rs = RenderScene::new(&scene, false).unwrap();
+    let base = RenderSettings {
+        noise_threshold: Some(0.05),
+        min_spp: 8,
+        ..settings(SamplerKind::Sobol)
+    };
+    let n = 96;
+    let single = render_range(&rs, &base, (0, n), None, None);
+    let counts: Vec<u32> = single.film.pixels().iter().map(|p| p.count).collect();
+    let stopped = counts.iter().filter(|&&c| c < n).count();
+    println!(
+        "adaptive: {stopped} of {} pixels stopped before {n} spp, fewest samples {}",
+        counts.len(),
+        counts.iter().min().unwrap()
+    );
+    assert!(counts.iter().all(|&c| c >= 8) && stopped > 0 && stopped < counts.len());
+    assert!(render_range(&rs, &base, (0, n), None, None).film == single.film);
+    // A checkpoint at the pass boundary 24, resumed.
+    let ckpt = render_range(&rs, &base, (0, 24), None, None);
+    let p = common::scratch::file("adaptive-ckpt.exr");
+    write_adaptive_part(&p, &base, &ckpt, (0, n), None);
+    let back = farm::read_part(&p).unwrap();
+    let resume = Resume {
+        film: back.film,
+        reached: 24,
+    };
+    let resumed = render_range(&rs, &base, (0, n), None, Some(resume));
+    assert!(resumed.film == single.film, "resumed: not bit for bit");
+    // Two region parts, merged.
+    let paths: Vec<PathBuf> = [[0, 0, W, 5], [0, 5, W, H]]
+        .into_iter()
+        .enumerate()
+        .map(|(k, region)| {
+            let out = render_range(&rs, &base, (0, n), Some(region), None);
+            let p = common::scratch::file(&format!("adaptive-region-{k}.exr"));
+            write_adaptive_part(&p, &base, &out, (0, n), Some(region));
+            p
+        })
+        .collect();
+    let (film, _) = farm::merge_files(&paths).unwrap();
+    assert_rounding_equal(&film, &single.film, "adaptive regions");
+}

@@ -155,7 +155,51 @@ fn light_passes_are_layers_of_the_exr_and_what_is_not_there_is_refused() {
         assert!(!o.status.success() && err.contains(why), "{err}");
         assert!(!d.join("no.exr").exists());
     }
-    let o = render_to(&gltf, &d.join("no.exr"), &small, &["--passes", "light", "--backend", "gpu"]);
+    let o = render_to(
+        &gltf,
+        &d.join("no.exr"),
+        &small,
+        &["--passes", "light", "--backend", "gpu"],
+    );
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("CPU backend only"), "{err}");
+    assert!(
+        !o.status.success() && err.contains("CPU backend only"),
+        "{err}"
+    );
+}
+
+#[test]
+fn adaptive_sampling_refuses_a_sample_range_part_and_reports_what_it_saved() {
+    let d = scratch::dir("film_adaptive");
+    let gltf = scene(&d);
+    let small = ["--width", "8", "--height", "8"];
+    let o = render_to(
+        &gltf,
+        &d.join("part.exr"),
+        &small,
+        &["--noise-threshold", "0.05", "--samples", "16..64"],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    println!("--samples 16..64: {}", err.lines().last().unwrap_or(""));
+    assert!(
+        !o.status.success() && err.contains("split by region"),
+        "{err}"
+    );
+    assert!(!d.join("part.exr").exists());
+    let o = render_to(
+        &gltf,
+        &d.join("a.exr"),
+        &small,
+        &["--noise-threshold", "0.05", "--spp", "128"],
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("adaptive:"))
+        .unwrap_or("");
+    println!("{line}");
+    assert!(
+        o.status.success() && line.contains("pixels stopped before 128 spp"),
+        "{out}"
+    );
 }

@@ -7,6 +7,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod adaptive;
 mod emission_support;
 mod envmap;
 mod film_alpha;

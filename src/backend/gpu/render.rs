@@ -313,6 +313,11 @@ pub fn render_with_timings(
 fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), GpuRenderError> {
     supports(rs).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
+    if settings.noise_threshold.is_some() {
+        return Err(GpuRenderError::Unsupported(
+            "adaptive sampling renders on the CPU backend only".into(),
+        ));
+    }
     if settings.light_passes {
         return Err(GpuRenderError::Unsupported(
             "light passes render on the CPU backend only".into(),

@@ -1,4 +1,5 @@
 //! `brume bench`: figures for the speed targets. Benchmarks print; they never assert.
+pub mod adaptive;
 pub mod blur;
 pub mod env;
 pub mod gpu;
@@ -122,6 +123,25 @@ pub enum Which {
         #[arg(long, default_value_t = 3)]
         runs: usize,
     },
+    /// What adaptive sampling saves: the time fixed sample counts take to reach the RMSE of an
+    /// adaptive render (`--noise-threshold`), against a reference render.
+    Adaptive {
+        #[arg(default_value = "scenes/cloud.gltf")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 96)]
+        width: u32,
+        #[arg(long, default_value_t = 72)]
+        height: u32,
+        /// The noise threshold of the adaptive render.
+        #[arg(long, default_value_t = 0.02)]
+        threshold: f32,
+        /// The most samples a pixel takes (the fixed renders double from 16 up to it).
+        #[arg(long, default_value_t = 1024)]
+        spp: u32,
+        /// Samples per pixel of the reference.
+        #[arg(long, default_value_t = 8192)]
+        reference_spp: u32,
+    },
     /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
     /// not installed): render time, per-pixel variance from two seeds, efficiency
     /// 1 / (time x variance), the ratios, and the image mean against Mitsuba's with its z-score.
@@ -193,6 +213,14 @@ pub fn run(which: Which) -> Result<()> {
             spp,
             runs,
         } => passes::run(&scene, width, height, spp, runs),
+        Which::Adaptive {
+            scene,
+            width,
+            height,
+            threshold,
+            spp,
+            reference_spp,
+        } => adaptive::run(&scene, (width, height), threshold, spp, reference_spp),
         Which::Peers(args) => peers::run(&args),
     }
 }
