@@ -136,6 +136,18 @@ impl<'a> Plan<'a> {
         if args.cpus_per_task == 0 {
             bail!("--cpus-per-task must be at least 1");
         }
+        let adaptive = args
+            .render_args
+            .iter()
+            .any(|a| a == "--noise-threshold" || a.starts_with("--noise-threshold="));
+        if adaptive && args.tasks > 1 {
+            bail!(
+                "--noise-threshold with --tasks {}: the tasks split the samples, and a task \
+                 starting after sample 0 cannot know which pixels the samples before it stopped; \
+                 use --tasks 1 (one task a frame)",
+                args.tasks
+            );
+        }
         if !(args.checkpoint > 0.0 && args.checkpoint.is_finite()) {
             bail!("--checkpoint must be a positive number of seconds");
         }

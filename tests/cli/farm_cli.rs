@@ -449,6 +449,8 @@ fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_
         ["--checkpoint", "5"],
         ["--region", "0,0,8,8"],
         ["--resume", "nowhere.exr"],
+        ["--noise-threshold", "0.05"],
+        ["--passes", "light"],
     ] {
         let sc = scene("cloud");
         let mut args = vec!["render", "--backend", "gpu"];
@@ -463,6 +465,24 @@ fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("is empty"));
     assert!(!out.exists());
+    // Farm tasks split the samples: adaptive sampling cannot be split so.
+    let sc = scene("cloud");
+    let o = brume(&[
+        "farm",
+        "slurm",
+        &sc,
+        "-o",
+        out.to_str().unwrap(),
+        "--spp",
+        "64",
+        "--tasks",
+        "4",
+        "--",
+        "--noise-threshold",
+        "0.05",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--tasks 1"), "{err}");
 }
 
 #[test]
