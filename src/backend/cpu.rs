@@ -253,6 +253,7 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
                 .continuation_albedo(rs.lights.continuation_albedo),
             film_transparent: settings.film_transparent,
             light_passes: settings.light_passes,
+            data_passes: settings.data_passes,
         },
         passes: settings.pass_names(),
         noisy: None,

@@ -5,25 +5,33 @@
 pub struct PassChoice {
     /// The light passes (`film::passes::LIGHT_PASSES`).
     pub light: bool,
+    /// The data passes (`film::passes::DATA_PASSES`).
+    pub data: bool,
 }
 
-/// Parses a comma-separated list of `beauty` and `light`.
+/// Parses a comma-separated list of `beauty`, `light`, `data` and `all` (light and data).
 pub fn parse(s: &str) -> Result<PassChoice, String> {
     let mut choice = PassChoice::default();
     for word in s.split(',').map(str::trim) {
         match word {
             "beauty" => {}
             "light" => choice.light = true,
-            "data" | "lights" | "all" => {
-                return Err(format!(
-                    "'{word}': the data passes and per-light groups are not available; the \
-                     passes are beauty and light"
-                ))
+            "data" => choice.data = true,
+            "all" => {
+                choice.light = true;
+                choice.data = true;
+            }
+            "lights" => {
+                return Err(
+                    "'lights': per-light groups are not available; the passes are beauty, light, \
+                     data and all"
+                        .into(),
+                )
             }
             other => {
                 return Err(format!(
-                    "'{other}' is not a pass list entry; expected beauty or light, separated by \
-                     commas"
+                    "'{other}' is not a pass list entry; expected beauty, light, data or all, \
+                     separated by commas"
                 ))
             }
         }

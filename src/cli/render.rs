@@ -48,9 +48,10 @@ pub struct RenderArgs {
     /// BRUME_render filmTransparent, else opaque.
     #[arg(long, value_enum)]
     pub film: Option<FilmMode>,
-    /// What the EXR holds beside the beauty: a comma-separated list of beauty (the default)
-    /// and light (the light passes: emission, background, volume.direct, volume.indirect,
-    /// surface.direct, surface.indirect, which add up to the beauty; CPU backend).
+    /// What the EXR holds beside the beauty: a comma-separated list of beauty (the default),
+    /// light (the light passes: emission, background, volume.direct, volume.indirect,
+    /// surface.direct, surface.indirect, which add up to the beauty), data (the denoiser's
+    /// albedo and normal, and depth, with Cycles' conventions) and all (both); CPU backend.
     #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
     pub passes: Option<super::passes::PassChoice>,
     /// Adaptive sampling: a pixel stops taking samples once the standard error of its mean is
@@ -247,6 +248,7 @@ impl RenderArgs {
         s.light_selection = self.light_selection;
         s.tile_size = self.tile_size;
         s.light_passes = self.passes.is_some_and(|p| p.light);
+        s.data_passes = self.passes.is_some_and(|p| p.data);
         s.noise_threshold = self.noise_threshold;
         s.min_spp = self.min_spp.unwrap_or(s.min_spp);
         s.film_transparent = match self.film {
@@ -343,11 +345,12 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         || args.resume.is_some()
         || args.region.is_some()
         || settings.light_passes
+        || settings.data_passes
         || settings.noise_threshold.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region, --passes light and \
-             --noise-threshold run on the CPU backend only"
+            "--backend gpu: --checkpoint, --resume, --region, --passes and --noise-threshold \
+             run on the CPU backend only"
         ));
     }
     check_outputs(args)?;

@@ -47,14 +47,24 @@ impl<'a> Viewer<'a> {
         self.display.update(self.image(film));
     }
 
-    /// The film's colour, and its coverage as `A` on a transparent film.
+    /// The film's colour, its coverage as `A` on a transparent film, and its passes named as
+    /// in the EXR.
     fn image(&self, film: &Film) -> DisplayImage {
-        let image = DisplayImage::from_film(&self.name, film);
-        if !self.transparent {
-            return image;
+        let mut image = DisplayImage::from_film(&self.name, film);
+        if self.transparent {
+            let alpha = film.pixels().iter().map(|p| p.mean[3] as f32).collect();
+            image = image.with_channel("A", alpha);
         }
-        let alpha = film.pixels().iter().map(|p| p.mean[3] as f32).collect();
-        image.with_channel("A", alpha)
+        if let Some(p) = film.passes() {
+            let pixels = film.pixels().len();
+            for (k, name) in p.names().iter().enumerate() {
+                for (channel, c) in brume::film::passes::exr_channels(name) {
+                    let values = (0..pixels).map(|i| p.mean(i, k)[c] as f32).collect();
+                    image = image.with_channel(channel, values);
+                }
+            }
+        }
+        image
     }
 
     /// The render's final film, whatever the time since the last image.

@@ -15,7 +15,10 @@ pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> 
     } else {
         ""
     };
-    let passes = if s.light_passes { " passes=light" } else { "" };
+    let passes = match s.pass_names().is_empty() {
+        true => String::new(),
+        false => format!(" passes={}", s.pass_names().join(",")),
+    };
     let adaptive = s.noise_threshold.map_or(String::new(), |e| {
         format!(" noise_threshold={e} min_spp={}", s.min_spp)
     });

@@ -122,9 +122,9 @@ fn write_film(path: &Path, film: &Film, metadata: &Metadata, state: bool) -> Res
     if let Some(p) = film.passes() {
         let pixels = film.pixels().len();
         for (k, name) in p.names().iter().enumerate() {
-            for (c, ch) in ["R", "G", "B"].into_iter().enumerate() {
+            for (channel, c) in super::passes::exr_channels(name) {
                 let values = (0..pixels).map(|i| p.mean(i, k)[c] as f32).collect();
-                list.push((format!("{name}.{ch}"), FlatSamples::F32(values)));
+                list.push((channel, FlatSamples::F32(values)));
             }
         }
     }

@@ -19,6 +19,31 @@ pub const LIGHT_PASSES: [&str; 6] = [
     "surface.indirect",
 ];
 
+/// The data passes a denoiser takes, with Cycles' conventions: `albedo` (the throughput times
+/// the base colour at the first surface that is not a smooth dielectric, the throughput past
+/// the albedo at a first medium event, the sky where the path escapes), `normal` (the shading
+/// normal there, in world space; the view direction in a medium) and `depth` (the camera-space
+/// Z of the camera ray's first surface; 1e10 where it escapes, 0 where it scatters first).
+pub const DATA_PASSES: [&str; 3] = ["albedo", "normal", "depth"];
+
+/// The EXR channels of pass `name`: `normal.X/Y/Z`, `depth.Z` (its first value), else
+/// `name.R/G/B`; `(channel, index of the value)`.
+pub fn exr_channels(name: &str) -> Vec<(String, usize)> {
+    match name {
+        "normal" => ["X", "Y", "Z"]
+            .iter()
+            .enumerate()
+            .map(|(c, ch)| (format!("normal.{ch}"), c))
+            .collect(),
+        "depth" => vec![("depth.Z".to_string(), 0)],
+        _ => ["R", "G", "B"]
+            .iter()
+            .enumerate()
+            .map(|(c, ch)| (format!("{name}.{ch}"), c))
+            .collect(),
+    }
+}
+
 /// Per-pixel statistics of some passes, three channels each.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassLayers {

@@ -39,6 +39,8 @@ pub struct PathLimits {
     pub film_transparent: bool,
     /// Split the radiance into the light passes (`film::passes::LIGHT_PASSES`) as well.
     pub light_passes: bool,
+    /// Record the data passes (`film::passes::DATA_PASSES`) as well.
+    pub data_passes: bool,
 }
 
 /// What one path cost and did.
@@ -89,7 +91,21 @@ struct PathState {
     /// path's first scattering event was in a medium (else at a surface).
     passes: [Vec3; LIGHT_PASS_COUNT],
     first_in_medium: bool,
+    /// The data passes (`PathLimits::data_passes`): albedo and normal, once recorded at the
+    /// first event that is not a smooth dielectric; depth, once the camera ray meets a surface,
+    /// scatters or escapes.
+    data: [Vec3; DATA_PASS_COUNT],
+    albedo_seen: bool,
+    depth_seen: bool,
 }
+
+/// Number of data passes, and each one's index (`film::passes::DATA_PASSES` order).
+pub const DATA_PASS_COUNT: usize = 3;
+const ALBEDO: usize = 0;
+const NORMAL: usize = 1;
+const DEPTH: usize = 2;
+/// The depth pass of a camera ray that escapes (Cycles' Z of the background).
+pub const BACKGROUND_DEPTH: f32 = 1e10;
 
 /// Number of light passes, and each one's index (`film::passes::LIGHT_PASSES` order).
 pub const LIGHT_PASS_COUNT: usize = 6;
@@ -136,6 +152,9 @@ pub struct CameraSample {
     /// The radiance by light pass (`film::passes::LIGHT_PASSES` order), where
     /// `PathLimits::light_passes` asks for them; they add up to `l` to the float rounding.
     pub passes: [Vec3; LIGHT_PASS_COUNT],
+    /// Albedo, normal and depth (`film::passes::DATA_PASSES` order), where
+    /// `PathLimits::data_passes` asks for them.
+    pub data: [Vec3; DATA_PASS_COUNT],
 }
 
 impl CameraSample {
@@ -259,6 +278,7 @@ pub fn radiance<F: Features>(
         l: ps.l,
         alpha: 1.0 - ps.background,
         passes: ps.passes,
+        data: ps.data,
     }
 }
 
@@ -294,6 +314,9 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
         background: 0.0,
         passes: [Vec3::ZERO; LIGHT_PASS_COUNT],
         first_in_medium: false,
+        data: [Vec3::ZERO; DATA_PASS_COUNT],
+        albedo_seen: false,
+        depth_seen: false,
     }
 }
 
@@ -393,6 +416,14 @@ fn scatter_medium<F: Features>(
     if ps.depth == 1 {
         ps.first_in_medium = true;
     }
+    if limits.data_passes && !ps.albedo_seen {
+        // Cycles' volume features: the throughput past the event's albedo, and the view
+        // direction as normal; a camera ray that scatters first sees no surface (depth 0).
+        ps.data[ALBEDO] = ps.beta;
+        ps.data[NORMAL] = -ps.ray.d;
+        ps.albedo_seen = true;
+        ps.depth_seen = true;
+    }
     let p = ps.ray.at(t);
     let wo = -ps.ray.d;
     let guided = limits
@@ -463,6 +494,11 @@ fn shade_surface<F: Features>(
         ps.t0 = h.t + 1e-4 * (1.0 + h.t);
         return SurfaceEnd::Crossed;
     }
+    if limits.data_passes && !ps.depth_seen {
+        // The camera ray's first surface: its camera-space Z (Cycles' Z pass).
+        ps.data[DEPTH] = Vec3::splat((p - rs.pinhole.position).dot(rs.pinhole.forward));
+        ps.depth_seen = true;
+    }
     ps.depth += 1;
     ps.flight_started = false;
     if ps.depth > limits.max_depth {
@@ -496,7 +532,13 @@ fn shade_surface<F: Features>(
     let n_side = if cos_o >= 0.0 { ng } else { -ng };
     let ns = shading_normal(rs, h.triangle as usize, h.b1, h.b2, n_side, cfg.time);
     let frame = Frame::from_z(ns);
-    let bsdf = Principled::new(scene.base_color_at(mat, uv), mat.metallic, mat.roughness);
+    let base_color = scene.base_color_at(mat, uv);
+    if limits.data_passes && !ps.albedo_seen {
+        ps.data[ALBEDO] = ps.beta * base_color;
+        ps.data[NORMAL] = ns;
+        ps.albedo_seen = true;
+    }
+    let bsdf = Principled::new(base_color, mat.metallic, mat.roughness);
     let wo_l = frame.to_local(wo);
     let p_off = offset(p, n_side, n_side);
     let (ld, choice) = next_event::<F>(
@@ -585,6 +627,18 @@ fn sample_phase(
 /// transmittance to the background (the coverage) and, on a transparent film, gathers nothing.
 #[inline(always)]
 fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
+    if limits.data_passes && !ps.depth_seen {
+        ps.data[DEPTH] = Vec3::splat(BACKGROUND_DEPTH);
+        ps.depth_seen = true;
+    }
+    if limits.data_passes && !ps.albedo_seen && !(limits.film_transparent && ps.depth == 0) {
+        // The sky seen (through smooth dielectrics at most) is its own albedo, as Cycles
+        // gives it to the denoiser.
+        if let Some(env) = &rs.lights.environment {
+            ps.data[ALBEDO] = ps.beta * env.le(ps.ray.d);
+        }
+        ps.albedo_seen = true;
+    }
     if ps.depth == 0 {
         // Seen straight through: the background, which a transparent film leaves out.
         ps.background = ps.beta.element_sum() / 3.0;

@@ -5,6 +5,7 @@ use glam::Vec2;
 
 use super::features::{AllFeatures, Features, Variant};
 use super::path::{radiance, PathLimits, PathStats};
+use super::path::{DATA_PASS_COUNT, LIGHT_PASS_COUNT};
 use crate::film::{TileBuffer, TileRecord, TileRect};
 use crate::render::media::TrackingConfig;
 use crate::render::prepare::{FeatureFlags, RenderScene};
@@ -27,7 +28,8 @@ pub struct TileContext<'a> {
     pub noisy: Option<Vec<bool>>,
 }
 
-const _: () = assert!(super::path::LIGHT_PASS_COUNT == crate::film::passes::LIGHT_PASSES.len());
+const _: () = assert!(LIGHT_PASS_COUNT == crate::film::passes::LIGHT_PASSES.len());
+const _: () = assert!(DATA_PASS_COUNT == crate::film::passes::DATA_PASSES.len());
 
 /// A rendered tile: its samples, its log record and per-pixel density lookups (for the cost
 /// map, in the tile's row-major order).
@@ -88,9 +90,17 @@ pub fn render_tile<F: Features>(
                     &mut sampler,
                     &mut total,
                 );
-                if ctx.limits.light_passes {
-                    let passes = sample.passes.map(|p| p.to_array());
-                    buffer.add_sample_passes(x, y, sample.rgba(), &passes);
+                if ctx.limits.light_passes || ctx.limits.data_passes {
+                    // Light passes, then data passes: `RenderSettings::pass_names`' order.
+                    let light = sample.passes.iter().filter(|_| ctx.limits.light_passes);
+                    let data = sample.data.iter().filter(|_| ctx.limits.data_passes);
+                    let mut values = [[0f32; 3]; LIGHT_PASS_COUNT + DATA_PASS_COUNT];
+                    let mut k = 0;
+                    for v in light.chain(data) {
+                        values[k] = v.to_array();
+                        k += 1;
+                    }
+                    buffer.add_sample_passes(x, y, sample.rgba(), &values[..k]);
                 } else {
                     buffer.add_sample(x, y, sample.rgba());
                 }

@@ -267,6 +267,8 @@ pub struct RenderSettings {
     pub film_transparent: bool,
     /// Keep the light passes (`film::passes::LIGHT_PASSES`) beside the beauty.
     pub light_passes: bool,
+    /// Keep the data passes (`film::passes::DATA_PASSES`) beside the beauty.
+    pub data_passes: bool,
     /// Adaptive sampling: a pixel stops once the relative standard error of its mean is below
     /// this (`film::adaptive`), decided at pass boundaries; `None`: every pixel takes `spp`.
     pub noise_threshold: Option<f32>,
@@ -303,6 +305,7 @@ impl Default for RenderSettings {
             light_selection: LightSelection::Guided,
             film_transparent: false,
             light_passes: false,
+            data_passes: false,
             noise_threshold: None,
             min_spp: 16,
         }
@@ -312,14 +315,10 @@ impl Default for RenderSettings {
 impl RenderSettings {
     /// The passes kept beside the beauty, in layer order (none by default).
     pub fn pass_names(&self) -> Vec<String> {
-        if self.light_passes {
-            crate::film::passes::LIGHT_PASSES
-                .iter()
-                .map(|s| s.to_string())
-                .collect()
-        } else {
-            Vec::new()
-        }
+        use crate::film::passes::{DATA_PASSES, LIGHT_PASSES};
+        let light = LIGHT_PASSES.iter().filter(|_| self.light_passes);
+        let data = DATA_PASSES.iter().filter(|_| self.data_passes);
+        light.chain(data).map(|s| s.to_string()).collect()
     }
 
     /// One past the last sample index to render: `spp`, or without end (`u32::MAX`) when

@@ -411,3 +411,40 @@ fn a_bad_address_is_refused_saying_what_is_expected() {
         assert!(!out.exists(), "nothing rendered");
     }
 }
+
+#[test]
+fn the_viewer_shows_the_alpha_and_every_pass_asked_for() {
+    let out = scratch::file("display_passes.exr");
+    let (address, serve) = viewer(None);
+    let extra = [
+        "--display-server",
+        &address,
+        "--passes",
+        "all",
+        "--film",
+        "transparent",
+    ];
+    let o = render_to(&cloud(), &out, &SMALL, &extra);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (packets, _) = serve.join().expect("the viewer decodes every packet");
+    let shown = replay(&packets);
+    let image = &shown[&out.display().to_string()];
+    let mut expected: Vec<String> = ["R", "G", "B", "A"].map(String::from).to_vec();
+    for pass in brume::film::passes::LIGHT_PASSES
+        .iter()
+        .chain(&brume::film::passes::DATA_PASSES)
+    {
+        expected.extend(
+            brume::film::passes::exr_channels(pass)
+                .into_iter()
+                .map(|(c, _)| c),
+        );
+    }
+    println!("channels shown: {}", image.channels.join(" "));
+    assert_eq!(image.channels, expected);
+    assert_eq!(
+        bits(&image.pixels[..3]),
+        exr_bits(&out),
+        "the colour is the EXR's"
+    );
+}

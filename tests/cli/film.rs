@@ -144,8 +144,14 @@ fn light_passes_are_layers_of_the_exr_and_what_is_not_there_is_refused() {
         image.attributes.text("brume:passes"),
         Some("emission background volume.direct volume.indirect surface.direct surface.indirect")
     );
+    let o = render_to(&gltf, &out, &small, &["--passes", "data"]);
+    assert!(o.status.success(), "{o:?}");
+    let image = read_exr(&out).unwrap();
+    assert_eq!(
+        image.attributes.text("brume:passes"),
+        Some("albedo normal depth")
+    );
     for (pass, why) in [
-        ("data", "not available"),
         ("lights", "not available"),
         ("volume", "not a pass list entry"),
     ] {

@@ -8,6 +8,7 @@
 mod common;
 
 mod adaptive;
+mod data_passes;
 mod emission_support;
 mod envmap;
 mod film_alpha;

@@ -323,6 +323,11 @@ fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), Gp
             "light passes render on the CPU backend only".into(),
         ));
     }
+    if settings.data_passes {
+        return Err(GpuRenderError::Unsupported(
+            "data passes render on the CPU backend only".into(),
+        ));
+    }
     if settings.region.is_some() {
         // Batches are whole rows of the image; a region split is a CPU feature.
         return Err(GpuRenderError::Unsupported(
