@@ -328,14 +328,10 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     settings
         .validate()
         .map_err(|e| anyhow!("invalid settings: {e}"))?;
-    let cpu_only = args.checkpoint.is_some()
-        || args.resume.is_some()
-        || args.region.is_some()
-        || settings.light_passes;
+    let cpu_only = args.checkpoint.is_some() || args.resume.is_some() || args.region.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region and --passes light run on the CPU \
-             backend only"
+            "--backend gpu: --checkpoint, --resume and --region run on the CPU backend only"
         ));
     }
     check_outputs(args)?;
