@@ -13,6 +13,40 @@
 // One pending shadow ray per path slot (written by the scatter and surface stages).
 @group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
 
+// #if FEATURE_LIGHT_PASSES
+// The radiance split into the light passes (PathState::passes): LIGHT_PASSES RGB accumulators
+// (w unused) per path slot, slot * LIGHT_PASSES + pass, apart from the path state so that it
+// stays small and the variant without passes binds nothing more.
+@group(1) @binding(19) var<storage, read_write> path_passes: array<vec4<f32>>;
+
+// PathState::pass_of: `seen` (PASS_EMISSION or PASS_BACKGROUND) before any scattering event;
+// after it, the first event's kind (PATH_FLAG_FIRST_IN_MEDIUM), direct at depth 1, indirect
+// deeper.
+fn pass_of(ps: GpuPathState, seen: u32) -> u32 {
+    if (ps.depth == 0u) {
+        return seen;
+    }
+    var first = PASS_SURFACE_DIRECT;
+    if ((ps.flags & PATH_FLAG_FIRST_IN_MEDIUM) != 0u) {
+        first = PASS_VOLUME_DIRECT;
+    }
+    return select(first + 1u, first, ps.depth == 1u);
+}
+
+// PathState::gather's pass half: what a stage adds to ps.l, added to the pass pass_of names.
+fn gather_pass(slot: u32, ps: GpuPathState, x: vec3<f32>, seen: u32) {
+    let i = slot * LIGHT_PASSES + pass_of(ps, seen);
+    path_passes[i] = vec4<f32>(path_passes[i].xyz + x, 0.0);
+}
+
+// A new path's passes: all zero (generate's PathState).
+fn clear_passes(slot: u32) {
+    for (var k = 0u; k < LIGHT_PASSES; k++) {
+        path_passes[slot * LIGHT_PASSES + k] = vec4<f32>(0.0);
+    }
+}
+// #endif
+
 // Every stage runs 64 invocations a workgroup; the indirect arguments divide by it.
 const WORKGROUP: u32 = 64u;
 

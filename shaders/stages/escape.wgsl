@@ -4,7 +4,8 @@
 // from a delta distribution; the path ends, marked PATH_FLAG_ESCAPED (accumulate takes a
 // camera ray's coverage from it). A camera ray escaping unscattered on a transparent film
 // (WF_FLAG_FILM_TRANSPARENT) gathers nothing.
-// With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl).
+// With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl). The light
+// goes to the background pass as PathState::gather routes it (gather_pass).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn escape(slot: u32) {
@@ -32,7 +33,11 @@ fn escape(slot: u32) {
             }
         }
 // #endif
-        ps.l += ps.beta * le * w;
+        let x = ps.beta * le * w;
+        ps.l += x;
+// #if FEATURE_LIGHT_PASSES
+        gather_pass(slot, ps, x, PASS_BACKGROUND);
+// #endif
         paths[slot] = ps;
     }
     queue_push(queue_done_out(), slot);

@@ -5,7 +5,8 @@
 // sample's time under a shutter (block DIM_TIME, after the jitter, as `radiance` does), pose a
 // moving camera at it (Pinhole::posed), Camera::generate_ray and Camera::t_min
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
-// the escape stage when the scene has neither media nor surfaces).
+// the escape stage when the scene has neither media nor surfaces). With the light passes
+// (FEATURE_LIGHT_PASSES) the slot's pass accumulators start at zero, as PathState::passes does.
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn generate(slot: u32) {
@@ -61,6 +62,9 @@ fn generate(slot: u32) {
     ps.outer = wf.camera_outer;
     ps.hit_prim = NO_INDEX;
     paths[slot] = ps;
+// #if FEATURE_LIGHT_PASSES
+    clear_passes(slot);
+// #endif
     if (FEATURE_HETEROGENEOUS || FEATURE_HOMOGENEOUS || FEATURE_SURFACES) {
         queue_push(queue_medium_in(), slot);
     } else {

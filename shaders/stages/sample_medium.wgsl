@@ -7,7 +7,8 @@
 // gathering the medium's emission (emission.wgsl); then the collision guard. Scatter ->
 // scatter stage; escape -> the throughput takes the flight's weight and the path goes to the
 // surface stage when its ray hits one, else to the escape stage; absorption or the guard ->
-// done.
+// done. With the light passes, the flight's emission goes to the pass PathState::pass_of
+// names.
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn sample_medium(slot: u32) {
@@ -28,6 +29,9 @@ fn sample_medium(slot: u32) {
         sampler_queue_on_stream(ps.sample_id, bounce_dim(ps.depth, DIM_DISTANCE), &rng0);
         ps.flags |= PATH_FLAG_FLIGHT_STARTED;
     }
+// #if FEATURE_LIGHT_PASSES
+    let l_before = ps.l;
+// #endif
 // #if FEATURE_MIXTURE
 // #if FEATURE_HETEROGENEOUS
     // Several VDB media (mixture.wgsl): the homogeneous medium, each VDB medium in turn, or
@@ -87,6 +91,10 @@ fn sample_medium(slot: u32) {
         }
     }
 // #endif
+// #endif
+// #if FEATURE_LIGHT_PASSES
+    // The flight's emission, as the radiance took it (sample_medium's `ps.l - before`).
+    gather_pass(slot, ps, ps.l - l_before, PASS_EMISSION);
 // #endif
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {

@@ -22,6 +22,13 @@ fn scatter_medium(slot: u32) {
         queue_push(queue_done_out(), slot);
         return;
     }
+// #if FEATURE_LIGHT_PASSES
+    // PathState::first_in_medium: the light the path gathers from here on goes to the volume
+    // passes.
+    if (ps.depth == 1u) {
+        ps.flags |= PATH_FLAG_FIRST_IN_MEDIUM;
+    }
+// #endif
     var rng = path_rng(ps);
     let p = ps.o;
     let wo = -ps.d;

@@ -9,6 +9,8 @@
 //   uniforms here, its transmittance in the shadow stage) and hand the path to the
 //   direction stage, which samples the BSDF after the shadow ray has drawn its numbers (the
 //   CPU's order).
+// With the light passes, the emission goes to its pass as PathState::gather routes it
+// (gather_pass); the next-event estimate does in the shadow stage.
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn shade_surface(slot: u32) {
@@ -27,7 +29,11 @@ fn shade_surface(slot: u32) {
             if ((ps.flags & PATH_FLAG_SPECULAR) == 0u) {
                 w = power_heuristic(ps.prev_pdf, pdf_area(tri, ps.hit_t, cos_o));
             }
-            ps.l += ps.beta * le * w;
+            let x = ps.beta * le * w;
+            ps.l += x;
+// #if FEATURE_LIGHT_PASSES
+            gather_pass(slot, ps, x, PASS_EMISSION);
+// #endif
         }
     }
     if (tri.kind == SURFACE_NULL) {

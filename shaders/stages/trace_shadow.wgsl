@@ -7,7 +7,8 @@
 // estimator for a chromatic one, drawn from the path's stream; a null interface changes the
 // medium and the walk goes on, any other surface blocks the ray (tested before the media up
 // to it are tracked, as on the CPU). The path's radiance gains
-// the NEE contribution times the transmittance.
+// the NEE contribution times the transmittance (and, with the light passes, so does the pass
+// PathState::gather routes it to).
 
 // Surfaces a shadow ray crosses at most: a bound for malformed geometry only (the CPU walk
 // ends because t0 grows; so does this one, long before the bound for any real scene).
@@ -87,6 +88,11 @@ fn trace_shadow(slot: u32) {
             break;
         }
     }
-    ps.l += sh.contribution * t;
+    let x = sh.contribution * t;
+    ps.l += x;
+// #if FEATURE_LIGHT_PASSES
+    // The estimate of the event that queued the ray (the path's depth is still that event's).
+    gather_pass(slot, ps, x, PASS_EMISSION);
+// #endif
     paths[slot] = ps;
 }

@@ -93,6 +93,25 @@ pub const PATH_FLAG_ENV_BY_PHASE: u32 = 8;
 /// [`GpuPathState::flags`] bit: the path ended by escaping the scene (`escape`); with depth 0
 /// its throughput is the camera ray's transmittance to the background.
 pub const PATH_FLAG_ESCAPED: u32 = 16;
+/// [`GpuPathState::flags`] bit: the path's first scattering event was in a medium, else at a
+/// surface (`PathState::first_in_medium`): the light it gathers from then on goes to the
+/// volume passes, else to the surface ones. Set only by the light-pass variant.
+pub const PATH_FLAG_FIRST_IN_MEDIUM: u32 = 32;
+
+/// Light passes a path fills (`film::passes::LIGHT_PASSES`, `integrator::path::LIGHT_PASS_COUNT`):
+/// the light-pass variant keeps one RGB accumulator per pass and path slot, and one per pass
+/// and camera sample, each a `vec4` (w unused) at `index * GPU_LIGHT_PASSES + pass`.
+pub const GPU_LIGHT_PASSES: u32 = 6;
+const _: () = assert!(GPU_LIGHT_PASSES as usize == crate::integrator::path::LIGHT_PASS_COUNT);
+/// Bytes of one path slot's or camera sample's light passes.
+pub const GPU_LIGHT_PASS_BYTES: u64 = GPU_LIGHT_PASSES as u64 * 16;
+/// The passes `PathState::pass_of` routes to by name, as indices into `LIGHT_PASSES`: what the
+/// camera sees before any event (emission, background), and the first direct pass of each
+/// first-event kind (its indirect pass follows it).
+pub const PASS_EMISSION: u32 = 0;
+pub const PASS_BACKGROUND: u32 = 1;
+pub const PASS_VOLUME_DIRECT: u32 = 2;
+pub const PASS_SURFACE_DIRECT: u32 = 4;
 
 /// What one finished camera sample brings its pixel (`CameraSample`): an entry of the batch's
 /// sample buffer, which the host adds to the film in pixel and sample order.

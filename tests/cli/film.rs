@@ -165,7 +165,7 @@ fn light_passes_are_layers_of_the_exr_and_what_is_not_there_is_refused() {
         &gltf,
         &d.join("no.exr"),
         &small,
-        &["--passes", "light", "--backend", "gpu"],
+        &["--passes", "data", "--backend", "gpu"],
     );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(

@@ -99,7 +99,7 @@ fn print_parity(
 /// rest of that path: on such a GPU up to a fifth of a render's values may differ from the CPU's
 /// while the images agree statistically. There the figure is printed, and the z-tests carry
 /// the correctness.
-fn parity_asserted(ctx: &brume::backend::gpu::GpuContext) -> bool {
+pub(crate) fn parity_asserted(ctx: &brume::backend::gpu::GpuContext) -> bool {
     ctx.adapter_info.device_type == wgpu::DeviceType::Cpu
 }
 

@@ -358,7 +358,7 @@ fn reachable(module: &naga::Module, entry: &str) -> std::collections::BTreeSet<S
 fn variants_without_a_feature_hold_no_code_for_it() {
     use brume::backend::gpu::render::Stage;
     use brume::backend::gpu::Spec;
-    let features: [(&str, &[&str]); 7] = [
+    let features: [(&str, &[&str]); 8] = [
         (
             "FEATURE_MOTION",
             &["advection_source", "velocity_component", "quat_slerp"],
@@ -392,6 +392,10 @@ fn variants_without_a_feature_hold_no_code_for_it() {
         (
             "FEATURE_EMISSION",
             &["emission_radiance", "blackbody_emission"],
+        ),
+        (
+            "FEATURE_LIGHT_PASSES",
+            &["gather_pass", "pass_of", "clear_passes"],
         ),
     ];
     for (feature, functions) in features {

@@ -9,7 +9,7 @@ use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
     GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
-    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
+    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams, GPU_LIGHT_PASS_BYTES,
 };
 use crate::render::{blackbody, RenderScene};
 
@@ -39,6 +39,11 @@ pub(super) struct Buffers {
     pub(super) samples: wgpu::Buffer,
     /// Where each batch's samples are copied for the host, kept for the whole render.
     pub(super) samples_readback: wgpu::Buffer,
+    /// The light passes (`FEATURE_LIGHT_PASSES`): each path slot's accumulators and each
+    /// camera sample's, with the latter's read-back; 16-byte stand-ins, never bound, without.
+    pub(super) path_passes: wgpu::Buffer,
+    pub(super) sample_passes: wgpu::Buffer,
+    pub(super) sample_passes_readback: wgpu::Buffer,
     pub(super) args: wgpu::Buffer,
     /// `GpuEmissionParams` (zero when the medium does not emit).
     pub(super) emission: wgpu::Buffer,
@@ -125,7 +130,8 @@ fn stage_timestamps(ctx: &GpuContext, n: u32) -> (wgpu::QuerySet, wgpu::Buffer) 
 
 impl Buffers {
     /// Allocates every buffer of a render of `rs` with `slots` path slots and a sample buffer
-    /// of `samples` entries, uploading what is known before the first batch.
+    /// of `samples` entries (and their light passes' where `light_passes`), uploading what is
+    /// known before the first batch.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         ctx: &GpuContext,
@@ -133,6 +139,7 @@ impl Buffers {
         params: &GpuWavefrontParams,
         slots: u32,
         samples: u64,
+        light_passes: bool,
         emission: &GpuEmissionParams,
         geometry: &Geometry,
         textures: &Textures,
@@ -143,6 +150,11 @@ impl Buffers {
         // The counters, then two timestamps per stage and iteration of one submission.
         let queries = 2 * Stage::COUNT as u32 * ITERATIONS_PER_SYNC;
         let readback_size = std::mem::size_of::<GpuWavefrontCounters>() as u64 + 8 * queries as u64;
+        let pass_bytes = if light_passes {
+            GPU_LIGHT_PASS_BYTES
+        } else {
+            0
+        };
         Buffers {
             params: [
                 ctx.uniform_buffer("wavefront params 0", params),
@@ -164,6 +176,12 @@ impl Buffers {
             lights: storage_at_least_one(ctx, "lights", &rs.lights.punctual),
             samples: ctx.storage_buffer_zeroed("samples", samples * SAMPLE_BYTES),
             samples_readback: ctx.read_back_buffer("samples read-back", samples * SAMPLE_BYTES),
+            path_passes: ctx.storage_buffer_zeroed("path light passes", slots as u64 * pass_bytes),
+            sample_passes: ctx.storage_buffer_zeroed("sample light passes", samples * pass_bytes),
+            sample_passes_readback: ctx.read_back_buffer(
+                "sample light passes read-back",
+                (samples * pass_bytes).max(16),
+            ),
             emission: ctx.uniform_buffer("emission", emission),
             bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
             bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),
@@ -245,6 +263,8 @@ impl Buffers {
             (1, 16) => &self.env_map,
             (1, 17) => &self.env_data,
             (1, 18) => &self.vdb_media,
+            (1, 19) => &self.path_passes,
+            (1, 20) => &self.sample_passes,
             _ => return None,
         })
     }

@@ -8,7 +8,9 @@ use super::buffers::{Buffers, Kernel, ITERATIONS_PER_SYNC};
 use super::device::GpuContext;
 use super::error::GpuRenderError;
 use super::graph::Stage;
-use crate::gpu_types::{GpuQueue, GpuSample, GpuWavefrontCounters, GpuWavefrontParams};
+use crate::gpu_types::{
+    GpuQueue, GpuSample, GpuWavefrontCounters, GpuWavefrontParams, GPU_LIGHT_PASS_BYTES,
+};
 
 /// The scheduler: the kernels of one render and the loop over iterations.
 pub(super) struct Wavefront<'a> {
@@ -19,6 +21,16 @@ pub(super) struct Wavefront<'a> {
     pub(super) args: Kernel,
     pub(super) slots: u32,
     pub(super) period_ns: f64,
+    /// Whether the kernels keep the light passes (`FEATURE_LIGHT_PASSES`): a batch then reads
+    /// its samples' passes back too.
+    pub(super) light_passes: bool,
+}
+
+/// A finished batch's camera samples, in batch entry order, and where the light passes are
+/// kept their `GPU_LIGHT_PASSES` RGB values each (w unused), entry by entry; empty without.
+pub(super) struct BatchSamples {
+    pub(super) samples: Vec<GpuSample>,
+    pub(super) passes: Vec<[f32; 4]>,
 }
 
 /// The counters after the batch, its iterations, the stages' times, its samples, and the host
@@ -27,7 +39,7 @@ pub(super) type BatchResult = (
     GpuWavefrontCounters,
     u32,
     [u64; Stage::COUNT],
-    Vec<GpuSample>,
+    BatchSamples,
     (u64, u64),
 );
 
@@ -104,12 +116,21 @@ impl Wavefront<'_> {
             &self.bufs.samples_readback,
             params.total_samples as u64 * size_of::<GpuSample>() as u64,
         );
+        let passes: Vec<[f32; 4]> = if self.light_passes {
+            ctx.read_buffer_prefix(
+                &self.bufs.sample_passes,
+                &self.bufs.sample_passes_readback,
+                params.total_samples as u64 * GPU_LIGHT_PASS_BYTES,
+            )
+        } else {
+            Vec::new()
+        };
         let readback_ns = readback_start.elapsed().as_nanos() as u64;
         Ok(Some((
             counters,
             iteration,
             stage_ns,
-            samples,
+            BatchSamples { samples, passes },
             (loop_ns, readback_ns),
         )))
     }

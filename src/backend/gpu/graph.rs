@@ -136,6 +136,19 @@ pub fn variant_name(features: FeatureFlags) -> String {
     }
 }
 
+/// [`variant_name`] with `passes` among the effects where the light passes are kept (the
+/// `FEATURE_LIGHT_PASSES` specialisation), e.g. `wavefront[vdb+passes]`.
+pub fn variant_name_with_passes(features: FeatureFlags, light_passes: bool) -> String {
+    let name = variant_name(features);
+    if !light_passes {
+        return name;
+    }
+    match name.strip_suffix(']') {
+        Some("wavefront[empty") | None => "wavefront[passes]".into(),
+        Some(effects) => format!("{effects}+passes]"),
+    }
+}
+
 /// The flags the GPU variant of `rs` is built from: the scene's, with `overlapping` also set
 /// for several VDB media that do not overlap (one grid binding holds them all only in the
 /// mixture variant, `shaders/common/mixture.wgsl`).
@@ -160,8 +173,10 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
     }
 }
 
-/// The specialisation constants of the variant for `features` and `sampler`.
-pub fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
+/// The specialisation constants of the variant for `features` and `sampler`, keeping the
+/// light passes where `light_passes` asks for them (without, the kernels are today's: no
+/// pass buffer is bound and no code routes light to a pass).
+pub fn specs(features: FeatureFlags, sampler: SamplerKind, light_passes: bool) -> Vec<Spec> {
     let f = effective(features);
     vec![
         Spec::bool("SAMPLER_SOBOL", sampler == SamplerKind::Sobol),
@@ -174,5 +189,6 @@ pub fn specs(features: FeatureFlags, sampler: SamplerKind) -> Vec<Spec> {
         Spec::bool("FEATURE_ENV_MAP", f.env_map),
         Spec::bool("FEATURE_MIXTURE", f.overlapping),
         Spec::bool("FEATURE_MOTION", f.motion),
+        Spec::bool("FEATURE_LIGHT_PASSES", light_passes),
     ]
 }

@@ -34,7 +34,10 @@
 //! per-path medium stack), opaque, dielectric and null-interface surfaces over obvhs' CWBVH,
 //! punctual, environment and area lights with NEE and MIS, Russian roulette and the collision
 //! guard, velocity and camera motion blur (a time per path, advected lookups, the camera posed
-//! at each sample's time: `advection.wgsl`). [`supports`] refuses, with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB
+//! at each sample's time: `advection.wgsl`), and the light passes (`RenderSettings::light_passes`:
+//! the `FEATURE_LIGHT_PASSES` variant routes every contribution to its pass as
+//! `PathState::gather` does, into per-slot accumulators beside the path state, read back per
+//! camera sample with the batch). [`supports`] refuses, with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB
 //! media and media meshes nested deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
@@ -48,17 +51,18 @@ use std::time::Instant;
 
 use super::buffers::{kernel, Buffers};
 use super::device::{byte_size, GpuContext};
-use super::dispatch::Wavefront;
+use super::dispatch::{BatchSamples, Wavefront};
 pub use super::error::GpuRenderError;
 use super::graph::specs;
-pub use super::graph::{gpu_features, variant_name, Stage};
+pub use super::graph::{gpu_features, variant_name, variant_name_with_passes, Stage};
 use super::shader;
 use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
+use crate::film::passes::PassLayers;
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES, GPU_MAX_NESTED_MEDIA,
-    GPU_MAX_VDB_MEDIA, STACK_NONE,
+    GpuPathState, GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES,
+    GPU_LIGHT_PASSES, GPU_LIGHT_PASS_BYTES, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
 };
 use crate::render::media::TrackingConfig;
 use crate::render::{FeatureFlags, RenderScene, RenderSettings};
@@ -68,7 +72,8 @@ use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 /// 32 MiB of path state.
 pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 
-/// Camera samples per batch at most (one [`crate::gpu_types::GpuSample`] of 32 bytes each).
+/// Camera samples per batch at most (one [`crate::gpu_types::GpuSample`] of 32 bytes each, and
+/// with the light passes [`GPU_LIGHT_PASS_BYTES`] more).
 pub const MAX_BATCH_SAMPLES: u64 = 1 << 22;
 
 /// How [`GpuTimings`] were measured.
@@ -217,7 +222,7 @@ pub fn render_with_timings(
     let uploaded = upload_grid(ctx, rs, features, &cfg)?;
     let (grid, emission, vdb_media) = (uploaded.grid, uploaded.emission, uploaded.media);
     let plan = BatchPlan::new(settings, limit)?;
-    let slots = slot_count(limit, &plan);
+    let slots = slot_count(limit, &plan, settings.light_passes);
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     params.blur = uploaded.blur;
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
@@ -231,13 +236,14 @@ pub fn render_with_timings(
         &params,
         slots,
         plan.largest,
+        settings.light_passes,
         &emission,
         &geometry,
         &textures,
         &env_map,
         &vdb_media,
     );
-    let sp = specs(features, settings.sampler);
+    let sp = specs(features, settings.sampler, settings.light_passes);
     let g = grid.as_ref();
     let mut kernels = Vec::new();
     for s in Stage::for_features(features) {
@@ -251,8 +257,15 @@ pub fn render_with_timings(
         args: kernel(ctx, &shader::QUEUE_ARGS_MODULE, &sp, &bufs, g)?,
         slots,
         period_ns: ctx.queue.get_timestamp_period() as f64,
+        light_passes: settings.light_passes,
     };
-    let mut film = Film::new(w, h);
+    let names = settings.pass_names();
+    let mut film = Film::with_passes(w, h, &names);
+    // The film's light passes while batches merge into them (the film hands out no mutable
+    // view of its own); they become the film's when the render ends.
+    let mut layers = settings
+        .light_passes
+        .then(|| PassLayers::new(&names, (w * h) as usize));
     let mut records = Vec::new();
     let mut batches = Vec::new();
     let mut lookups = vec![0u64; (w * h) as usize];
@@ -273,7 +286,11 @@ pub fn render_with_timings(
         // The pass is complete: merge it (an interrupted pass is dropped, as on the CPU).
         for (r, iterations, stage_ns, samples, (loop_ns, readback_ns)) in pending {
             let merge_start = Instant::now();
-            merge_batch(&mut film, &mut lookups, w, &r, n, &samples);
+            if let Some(layers) = &mut layers {
+                // Before the beauty's counts change: the merge takes the counts before it.
+                merge_batch_passes(layers, &film, &names, &r, n, &samples.passes);
+            }
+            merge_batch(&mut film, &mut lookups, w, &r, n, &samples.samples);
             batches.push(BatchTimings {
                 record: records.len(),
                 iterations,
@@ -286,6 +303,9 @@ pub fn render_with_timings(
         }
         spp += n;
         progress(spp, settings.spp, start.elapsed().as_secs_f64());
+    }
+    if let Some(layers) = layers {
+        film.set_passes(layers);
     }
     let out = RenderOutput {
         film,
@@ -303,7 +323,7 @@ pub fn render_with_timings(
             TimingSource::WallClock
         },
         batches,
-        variant: variant_name(features),
+        variant: variant_name_with_passes(features, settings.light_passes),
         adapter: ctx.adapter_name().to_string(),
     };
     Ok((out, timings))
@@ -316,11 +336,6 @@ fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), Gp
     if settings.noise_threshold.is_some() {
         return Err(GpuRenderError::Unsupported(
             "adaptive sampling renders on the CPU backend only".into(),
-        ));
-    }
-    if settings.light_passes {
-        return Err(GpuRenderError::Unsupported(
-            "light passes render on the CPU backend only".into(),
         ));
     }
     if settings.data_passes {
@@ -337,12 +352,17 @@ fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), Gp
     Ok(())
 }
 
-/// Wavefront slots: the path state is the largest per-slot binding, so a device that binds
-/// less than `limit` bytes gets fewer slots (a power of two, so whole workgroups), never a
-/// binding error.
-fn slot_count(limit: u64, plan: &BatchPlan) -> u32 {
-    let path_bytes = std::mem::size_of::<crate::gpu_types::GpuPathState>() as u64;
-    let fit = (limit / path_bytes).max(64);
+/// Wavefront slots: the path state is the largest per-slot binding (the light passes' are
+/// smaller), so a device that binds less than `limit` bytes gets fewer slots (a power of two,
+/// so whole workgroups), never a binding error.
+fn slot_count(limit: u64, plan: &BatchPlan, light_passes: bool) -> u32 {
+    let path_bytes = std::mem::size_of::<GpuPathState>() as u64;
+    let pass_bytes = if light_passes {
+        GPU_LIGHT_PASS_BYTES
+    } else {
+        0
+    };
+    let fit = (limit / path_bytes.max(pass_bytes)).max(64);
     (WAVEFRONT_SIZE as u64)
         .min(1 << fit.ilog2())
         .min(plan.largest) as u32
@@ -353,7 +373,7 @@ type PendingBatch = (
     TileRecord,
     u32,
     [u64; Stage::COUNT],
-    Vec<GpuSample>,
+    BatchSamples,
     (u64, u64),
 );
 
@@ -398,7 +418,8 @@ fn run_pass(
 }
 
 /// How a render's passes are cut into batches: whole rows, at most [`MAX_BATCH_SAMPLES`]
-/// samples and one storage binding of 16-byte sample entries.
+/// samples, and each per-sample buffer (the samples, and the light passes where kept) within
+/// one storage binding.
 struct BatchPlan {
     /// Samples per pixel to render (`u32::MAX` for "until stopped").
     target: u32,
@@ -412,9 +433,16 @@ impl BatchPlan {
     fn new(settings: &RenderSettings, limit: u64) -> Result<BatchPlan, GpuRenderError> {
         let (w, h) = (settings.width, settings.height);
         let target = settings.sample_end();
+        // The largest per-sample binding: the sample entries, or the light passes beside them.
+        let entry = std::mem::size_of::<GpuSample>() as u64;
+        let entry = if settings.light_passes {
+            entry.max(GPU_LIGHT_PASS_BYTES)
+        } else {
+            entry
+        };
         let mut plan = BatchPlan {
             target,
-            max_batch: MAX_BATCH_SAMPLES.min(limit / 16).max(1),
+            max_batch: MAX_BATCH_SAMPLES.min(limit / entry).max(1),
             largest: 1,
         };
         plan.largest = pass_schedule(
@@ -425,11 +453,11 @@ impl BatchPlan {
         .map(|(_, _, n)| plan.max_samples(w, h, n))
         .max()
         .unwrap_or(1);
-        if plan.largest * 16 > limit {
+        if plan.largest * entry > limit {
             return Err(GpuRenderError::Limits(format!(
                 "one row of {w} pixels at {} samples per pass needs {} of sample buffer; the device binds {}",
                 settings.max_pass_spp,
-                byte_size(plan.largest * 16),
+                byte_size(plan.largest * entry),
                 byte_size(limit)
             )));
         }
@@ -492,6 +520,48 @@ fn merge_batch(
         });
 }
 
+/// Adds a batch's light passes (`GPU_LIGHT_PASSES` entries a sample, in the samples' order)
+/// to the render's `layers`, as the CPU does a tile's: each row's `n` samples a pixel into
+/// fresh statistics in sample order (`TileBuffer::add_sample_passes`), then merged with the
+/// pixel's earlier samples (`Film::merge_tile`, the counts taken from `film` before the
+/// batch's beauty is added). The rows run in parallel; the merge is sequential and cheap.
+fn merge_batch_passes(
+    layers: &mut PassLayers,
+    film: &Film,
+    names: &[String],
+    r: &TileRecord,
+    n: u32,
+    passes: &[[f32; 4]],
+) {
+    use rayon::prelude::*;
+    let (w, k) = (film.width() as usize, GPU_LIGHT_PASSES as usize);
+    debug_assert_eq!(
+        passes.len(),
+        (r.y1 - r.y0) as usize * w * n as usize * k,
+        "a batch holds n samples a pixel, each with its passes"
+    );
+    let rows: Vec<PassLayers> = passes
+        .par_chunks(w * n as usize * k)
+        .map(|row| {
+            let mut stats = PassLayers::new(names, w);
+            for (x, pixel) in row.chunks(n as usize * k).enumerate() {
+                for (j, sample) in pixel.chunks(k).enumerate() {
+                    let rgb: [[f32; 3]; GPU_LIGHT_PASSES as usize] =
+                        std::array::from_fn(|p| [sample[p][0], sample[p][1], sample[p][2]]);
+                    stats.add(x, j as u32 + 1, &rgb);
+                }
+            }
+            stats
+        })
+        .collect();
+    for (y, row) in (r.y0 as usize..).zip(&rows) {
+        for x in 0..w {
+            let i = y * w + x;
+            layers.merge(i, film.pixels()[i].count, row, x, n);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -541,5 +611,75 @@ mod tests {
                 assert_eq!(film.pixel(x, y), expected.pixel(x, y), "pixel ({x}, {y})");
             }
         }
+    }
+
+    /// A batch's light passes merge into the render's as the CPU merges a tile's: the same
+    /// statistics, bit for bit, as `TileBuffer::add_sample_passes` then `Film::merge_tile`,
+    /// over two passes of the same rows.
+    #[test]
+    fn a_batchs_passes_merge_as_the_cpus_tile() {
+        use crate::film::TileBuffer;
+        let (w, h, n) = (5u32, 4u32, 3u32);
+        let names: Vec<String> = crate::film::passes::LIGHT_PASSES
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let k = GPU_LIGHT_PASSES as usize;
+        let rect = TileRect {
+            x0: 0,
+            y0: 1,
+            x1: w,
+            y1: 3,
+            index: 0,
+        };
+        let record = TileRecord {
+            y0: rect.y0,
+            y1: rect.y1,
+            ..TileRecord::default()
+        };
+        let mut rng = Rng::new(5, 0, 17);
+        let mut film = Film::new(w, h);
+        let mut layers = PassLayers::new(&names, (w * h) as usize);
+        let mut expected = Film::with_passes(w, h, &names);
+        for pass in 0..2 {
+            let count = (rect.y1 - rect.y0) * w * n;
+            let passes: Vec<[f32; 4]> = (0..count as usize * k)
+                .map(|_| {
+                    [
+                        rng.uniform_f32(),
+                        rng.uniform_f32(),
+                        -rng.uniform_f32(),
+                        0.0,
+                    ]
+                })
+                .collect();
+            let samples: Vec<GpuSample> = passes
+                .chunks(k)
+                .map(|p| GpuSample {
+                    l: std::array::from_fn(|c| p.iter().map(|v| v[c]).sum()),
+                    ..Default::default()
+                })
+                .collect();
+            merge_batch_passes(&mut layers, &film, &names, &record, n, &passes);
+            let mut lookups = vec![0u64; (w * h) as usize];
+            merge_batch(&mut film, &mut lookups, w, &record, n, &samples);
+            let mut tile = TileBuffer::with_passes(rect, pass, &names);
+            let mut s = 0;
+            for y in rect.y0..rect.y1 {
+                for x in 0..w {
+                    for _ in 0..n {
+                        let rgb: Vec<[f32; 3]> = passes[s * k..(s + 1) * k]
+                            .iter()
+                            .map(|v| [v[0], v[1], v[2]])
+                            .collect();
+                        let l = samples[s].l;
+                        tile.add_sample_passes(x, y, [l[0], l[1], l[2], 0.0], &rgb);
+                        s += 1;
+                    }
+                }
+            }
+            expected.merge_tile(&tile);
+        }
+        assert_eq!(Some(&layers), expected.passes());
     }
 }

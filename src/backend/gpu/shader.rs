@@ -213,6 +213,15 @@ pub fn shared_constants() -> String {
         ("PATH_FLAG_FLIGHT_STARTED", PATH_FLAG_FLIGHT_STARTED),
         ("PATH_FLAG_ESCAPED", crate::gpu_types::PATH_FLAG_ESCAPED),
         (
+            "PATH_FLAG_FIRST_IN_MEDIUM",
+            crate::gpu_types::PATH_FLAG_FIRST_IN_MEDIUM,
+        ),
+        ("LIGHT_PASSES", crate::gpu_types::GPU_LIGHT_PASSES),
+        ("PASS_EMISSION", crate::gpu_types::PASS_EMISSION),
+        ("PASS_BACKGROUND", crate::gpu_types::PASS_BACKGROUND),
+        ("PASS_VOLUME_DIRECT", crate::gpu_types::PASS_VOLUME_DIRECT),
+        ("PASS_SURFACE_DIRECT", crate::gpu_types::PASS_SURFACE_DIRECT),
+        (
             "WF_FLAG_FILM_TRANSPARENT",
             crate::gpu_types::WF_FLAG_FILM_TRANSPARENT,
         ),
@@ -536,6 +545,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_MIXTURE", true),
     // Samples at times across a shutter: velocity blur and camera motion (`advection.wgsl`).
     Spec::bool("FEATURE_MOTION", true),
+    // The radiance split into the light passes as well (`PathLimits::light_passes`).
+    Spec::bool("FEATURE_LIGHT_PASSES", true),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];
