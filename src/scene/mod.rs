@@ -224,21 +224,9 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
     let bvh = TriangleBvh::build(corners);
-    let moving_meshes = steps.as_ref().and_then(|s| {
-        let motion = geo.instances.iter().map(|inst| {
-            let placement = nodes.iter().position(|p| p.node == inst.node as usize)?;
-            Some(motion::FrameMotion {
-                node: motion::placement_motion(s, placement, shutter)?,
-                frame_world_from_node: nodes[placement].world_from_node,
-            })
-        });
-        moving_meshes::MovingMeshes::build(
-            &geo.vertices,
-            &geo.triangles,
-            &geo.instances,
-            motion.collect(),
-        )
-    });
+    let moving_meshes = steps
+        .as_ref()
+        .and_then(|s| moving_meshes::MovingMeshes::of_steps(s, &nodes, &geo, shutter));
     if let Some(m) = &moving_meshes {
         bounds = bounds.union(&m.swept_bounds());
     }

@@ -4,8 +4,10 @@
 //! motion-blurred instances). Still triangles share one BVH.
 use glam::{Affine3A, Vec3, Vec3A};
 
-use super::mesh::{Instance, Triangle, Vertex};
+use super::mesh::{Geometry, Instance, Triangle, Vertex};
 use super::motion::FrameMotion;
+use super::nodes::PlacedNode;
+use super::velocity::Shutter;
 use crate::accel::{Hit, TriangleBvh};
 use crate::math::{Aabb, Ray};
 
@@ -88,6 +90,29 @@ impl MovingMeshes {
             still_triangles,
             by_instance,
         })
+    }
+
+    /// The instances of `geo` that move across the shutter's `steps` (`motion::placements`;
+    /// `nodes`: the placements at the frame), `None` where none does.
+    pub fn of_steps(
+        steps: &[Vec<PlacedNode>],
+        nodes: &[PlacedNode],
+        geo: &Geometry,
+        shutter: Shutter,
+    ) -> Option<MovingMeshes> {
+        let motion = geo.instances.iter().map(|inst| {
+            let placement = nodes.iter().position(|p| p.node == inst.node as usize)?;
+            Some(FrameMotion {
+                node: super::motion::placement_motion(steps, placement, shutter)?,
+                frame_world_from_node: nodes[placement].world_from_node,
+            })
+        });
+        Self::build(
+            &geo.vertices,
+            &geo.triangles,
+            &geo.instances,
+            motion.collect(),
+        )
     }
 
     /// The motion of instance `k`, `None` where it stands still.

@@ -50,7 +50,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use super::buffers::{kernel, Buffers};
-use super::device::{byte_size, GpuContext};
+use super::device::{byte_size, GpuContext, GpuGrid};
 use super::dispatch::{BatchSamples, Wavefront};
 pub use super::error::GpuRenderError;
 use super::graph::specs;
@@ -243,22 +243,7 @@ pub fn render_with_timings(
         &env_map,
         &vdb_media,
     );
-    let sp = specs(features, settings.sampler, settings.light_passes);
-    let g = grid.as_ref();
-    let mut kernels = Vec::new();
-    for s in Stage::for_features(features) {
-        kernels.push((s, kernel(ctx, &s.module(), &sp, &bufs, g)?));
-    }
-    let mut wave = Wavefront {
-        ctx,
-        bufs: &bufs,
-        kernels,
-        reset: kernel(ctx, &shader::QUEUE_RESET_MODULE, &sp, &bufs, g)?,
-        args: kernel(ctx, &shader::QUEUE_ARGS_MODULE, &sp, &bufs, g)?,
-        slots,
-        period_ns: ctx.queue.get_timestamp_period() as f64,
-        light_passes: settings.light_passes,
-    };
+    let mut wave = wavefront(ctx, &bufs, grid.as_ref(), features, settings, slots)?;
     let names = settings.pass_names();
     let mut film = Film::with_passes(w, h, &names);
     // The film's light passes while batches merge into them (the film hands out no mutable
@@ -327,6 +312,33 @@ pub fn render_with_timings(
         adapter: ctx.adapter_name().to_string(),
     };
     Ok((out, timings))
+}
+
+/// The stages' kernels for `features`, compiled for `settings`' sampler and passes, over
+/// `bufs`, `slots` path slots wide.
+fn wavefront<'a>(
+    ctx: &'a GpuContext,
+    bufs: &'a Buffers,
+    grid: Option<&GpuGrid>,
+    features: FeatureFlags,
+    settings: &RenderSettings,
+    slots: u32,
+) -> Result<Wavefront<'a>, GpuRenderError> {
+    let sp = specs(features, settings.sampler, settings.light_passes);
+    let mut kernels = Vec::new();
+    for s in Stage::for_features(features) {
+        kernels.push((s, kernel(ctx, &s.module(), &sp, bufs, grid)?));
+    }
+    Ok(Wavefront {
+        ctx,
+        bufs,
+        kernels,
+        reset: kernel(ctx, &shader::QUEUE_RESET_MODULE, &sp, bufs, grid)?,
+        args: kernel(ctx, &shader::QUEUE_ARGS_MODULE, &sp, bufs, grid)?,
+        slots,
+        period_ns: ctx.queue.get_timestamp_period() as f64,
+        light_passes: settings.light_passes,
+    })
 }
 
 /// Refuses what the GPU integrator does not render as the CPU would, before any upload.
