@@ -56,14 +56,13 @@ fn render_range(
     )
 }
 
-/// Writes a part as `brume render` does: state channels plus the part header.
-fn write_part(
-    path: &Path,
+/// The header `brume render` gives a part of samples `range` (and `region`) rendered as `out`.
+fn part_meta(
     base: &RenderSettings,
     out: &RenderOutput,
     range: (u32, u32),
     region: Option<[u32; 4]>,
-) {
+) -> Metadata {
     let mut meta = Metadata::new();
     PartInfo {
         scene_hash: "test".into(),
@@ -82,7 +81,18 @@ fn write_part(
         parts: 1,
     }
     .write_into(&mut meta);
-    write_exr_with_state(path, &out.film, &meta).unwrap();
+    meta
+}
+
+/// Writes a part as `brume render` does: state channels plus the part header.
+fn write_part(
+    path: &Path,
+    base: &RenderSettings,
+    out: &RenderOutput,
+    range: (u32, u32),
+    region: Option<[u32; 4]>,
+) {
+    write_exr_with_state(path, &out.film, &part_meta(base, out, range, region)).unwrap();
 }
 
 /// Cuts `[0, n)` at the sorted `cuts` (duplicates give empty ranges).
@@ -231,24 +241,7 @@ fn write_adaptive_part(
     range: (u32, u32),
     region: Option<[u32; 4]>,
 ) {
-    let mut meta = Metadata::new();
-    PartInfo {
-        scene_hash: "test".into(),
-        settings: farm::settings_key(base, None),
-        seed: base.seed.to_string(),
-        version: env!("CARGO_PKG_VERSION").into(),
-        width: W,
-        height: H,
-        coverage: vec![Coverage {
-            start: range.0,
-            end: range.0 + out.spp,
-            region: region.unwrap_or([0, 0, W, H]),
-        }],
-        target: Some(range),
-        seconds: out.seconds,
-        parts: 1,
-    }
-    .write_into(&mut meta);
+    let mut meta = part_meta(base, out, range, region);
     meta.set(
         brume::farm::context::NOISE_THRESHOLD_ATTRIBUTE,
         brume::film::AttrValue::Float(base.noise_threshold.unwrap()),

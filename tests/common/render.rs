@@ -196,3 +196,23 @@ pub fn compare_renders(
         compare((&ma.0, &ma.1), (&mb.0, &mb.1), alpha)
     }
 }
+
+/// The mean of `f` over the camera rays through a 16 x 16 grid of points of pixel `(x, y)`
+/// of a square `w` x `w` image: a pixel's expected value where `f` varies smoothly across it.
+pub fn footprint_mean(
+    rs: &RenderScene,
+    w: u32,
+    (x, y): (u32, u32),
+    f: impl Fn(&brume::math::Ray) -> f64,
+) -> f64 {
+    const Q: u32 = 16;
+    let mut sum = 0.0;
+    for j in 0..Q {
+        for i in 0..Q {
+            let fx = (x as f32 + (i as f32 + 0.5) / Q as f32) / w as f32;
+            let fy = (y as f32 + (j as f32 + 0.5) / Q as f32) / w as f32;
+            sum += f(&rs.pinhole.primary_ray(fx, fy, 1.0).0);
+        }
+    }
+    sum / (Q * Q) as f64
+}

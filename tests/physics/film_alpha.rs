@@ -2,7 +2,7 @@
 //! `1 - exp(-sigma_t L)` over each pixel's footprint, and a transparent render laid over a
 //! constant plate against the opaque render whose sky is that plate.
 use crate::common::boxes::boxes_scene;
-use crate::common::render::{render, sidak_z};
+use crate::common::render::{footprint_mean, render, sidak_z};
 use crate::common::scratch::dir as scratch;
 
 use brume::render::{RenderScene, RenderSettings};
@@ -35,23 +35,10 @@ fn chord(o: Vec3, d: Vec3) -> f32 {
 /// points of its footprint (L varies smoothly across it, so the grid's error is far below the
 /// render's noise).
 fn expected_alpha(rs: &RenderScene) -> Vec<f64> {
-    const Q: u32 = 16;
-    let mut out = Vec::new();
-    for y in 0..W {
-        for x in 0..W {
-            let mut sum = 0.0f64;
-            for j in 0..Q {
-                for i in 0..Q {
-                    let fx = (x as f32 + (i as f32 + 0.5) / Q as f32) / W as f32;
-                    let fy = (y as f32 + (j as f32 + 0.5) / Q as f32) / W as f32;
-                    let (ray, _) = rs.pinhole.primary_ray(fx, fy, 1.0);
-                    sum += 1.0 - (-(SIGMA_T * chord(ray.o, ray.d)) as f64).exp();
-                }
-            }
-            out.push(sum / (Q * Q) as f64);
-        }
-    }
-    out
+    let coverage = |ray: &brume::math::Ray| 1.0 - (-(SIGMA_T * chord(ray.o, ray.d)) as f64).exp();
+    (0..W * W)
+        .map(|k| footprint_mean(rs, W, (k % W, k / W), coverage))
+        .collect()
 }
 
 /// Alpha of a scattering homogeneous slab seen through: each pixel's mean against its
