@@ -216,3 +216,15 @@ pub fn footprint_mean(
     }
     sum / (Q * Q) as f64
 }
+
+/// Asserts that two films hold the same beauty and coverage, bit for bit (what keeping passes
+/// must leave alone).
+pub fn assert_same_beauty(a: &brume::film::Film, b: &brume::film::Film, label: &str) {
+    for (i, (p, q)) in a.pixels().iter().zip(b.pixels()).enumerate() {
+        assert_eq!(
+            (p.count, p.mean, p.m2),
+            (q.count, q.mean, q.m2),
+            "{label}: keeping the passes changed the beauty at pixel {i}"
+        );
+    }
+}

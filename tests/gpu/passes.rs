@@ -164,19 +164,7 @@ fn light_passes_agree_with_the_cpu() {
         // (d) Keeping the passes leaves the beauty as it is, bit for bit.
         let without = gpu_render(&ctx, &scene, &settings(false, seed), file);
         assert!(without.film.passes().is_none(), "{file}");
-        for (i, (p, q)) in g
-            .film
-            .pixels()
-            .iter()
-            .zip(without.film.pixels())
-            .enumerate()
-        {
-            assert_eq!(
-                (p.count, p.mean, p.m2),
-                (q.count, q.mean, q.m2),
-                "{file}: keeping the passes changed the GPU beauty at pixel {i}"
-            );
-        }
+        assert_same_beauty(&g.film, &without.film, &format!("{file} on the GPU"));
         println!("{file}: GPU beauty with passes == without, bit for bit");
     }
 }

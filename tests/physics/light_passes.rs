@@ -1,6 +1,6 @@
 //! Light passes: on every example scene they add up to the beauty, which keeping them leaves
 //! bit for bit as it is, and each scene fills the passes its light calls for.
-use crate::common::render::{load_scene, render, EXAMPLE_SCENES};
+use crate::common::render::{assert_same_beauty, load_scene, render, EXAMPLE_SCENES};
 
 use brume::film::passes::LIGHT_PASSES;
 use brume::render::RenderSettings;
@@ -25,18 +25,8 @@ fn light_passes_add_up_to_the_beauty_on_every_example_scene() {
         let without = render(&scene, &settings(false));
         let passes = with.film.passes().expect("light passes kept");
         let mut totals = [0f64; LIGHT_PASSES.len()];
-        for (i, (p, q)) in with
-            .film
-            .pixels()
-            .iter()
-            .zip(without.film.pixels())
-            .enumerate()
-        {
-            assert_eq!(
-                (p.count, p.mean, p.m2),
-                (q.count, q.mean, q.m2),
-                "{name}: keeping the passes changed the beauty at pixel {i}"
-            );
+        assert_same_beauty(&with.film, &without.film, name);
+        for (i, p) in with.film.pixels().iter().enumerate() {
             for c in 0..3 {
                 let sum: f64 = (0..LIGHT_PASSES.len()).map(|k| passes.mean(i, k)[c]).sum();
                 // The passes take the same f32 terms as the beauty; only their sums round
