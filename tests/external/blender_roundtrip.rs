@@ -15,40 +15,14 @@
 //! Needs a Python that can `import bpy` (tools/cycles/ci.sh installs one); without it each test
 //! prints a SKIPPED line on stderr and passes. Seeds are fixed on both sides.
 use crate::common;
-use crate::common::external::{bpy_python, say};
+use crate::common::external::{assert_ok, root, say, text, BpyRun};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use brume::scene::media::VdbMediumDesc;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-struct Ctx {
-    python: PathBuf,
-    dir: PathBuf,
-}
-
-impl Ctx {
-    fn new(test: &str) -> Option<Ctx> {
-        let Some(python) = bpy_python() else {
-            say(&format!(
-                "SKIPPED blender_roundtrip::{test}: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)"
-            ));
-            return None;
-        };
-        let dir = std::env::temp_dir().join(format!("brume-blender-{test}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Some(Ctx { python, dir })
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.dir.join(name)
-    }
-
+impl BpyRun {
     /// tests/blender/make_blend.py KIND out.blend.
     fn make_blend(&self, kind: &str, name: &str) -> PathBuf {
         let out = self.path(name);
@@ -66,15 +40,6 @@ impl Ctx {
         out
     }
 
-    /// `brume <args>` with this Python.
-    fn brume(&self, args: &[&std::ffi::OsStr]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_brume"))
-            .args(args)
-            .env("BRUME_BPY_PYTHON", &self.python)
-            .output()
-            .unwrap()
-    }
-
     fn import_blend(&self, blend: &Path, out: &Path, extra: &[&str]) -> Output {
         let mut args = vec![
             "import-blend".as_ref(),
@@ -87,29 +52,11 @@ impl Ctx {
     }
 }
 
-impl Drop for Ctx {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.dir);
-        }
-    }
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn assert_ok(o: &Output, what: &str) {
-    assert!(o.status.success(), "{what} failed:\n{}", text(o));
-}
-
 #[test]
 fn fire_blend_renders_like_cycles() {
-    let Some(cx) = Ctx::new("fire") else { return };
+    let Some(cx) = BpyRun::new("blender_roundtrip", "fire") else {
+        return;
+    };
     let blend = cx.make_blend("fire", "fire.blend");
     let gltf = cx.path("fire.gltf");
     let o = cx.import_blend(&blend, &gltf, &[]);
@@ -176,7 +123,7 @@ fn effective(m: &VdbMediumDesc) -> (Vec<f32>, Vec<Option<String>>, PathBuf) {
 
 #[test]
 fn example_scenes_round_trip_through_blender() {
-    let Some(cx) = Ctx::new("reverse") else {
+    let Some(cx) = BpyRun::new("blender_roundtrip", "reverse") else {
         return;
     };
     let mut checked = Vec::new();
@@ -242,7 +189,9 @@ fn example_scenes_round_trip_through_blender() {
 
 #[test]
 fn sequences_procedural_volumes_and_failing_hooks() {
-    let Some(cx) = Ctx::new("edge") else { return };
+    let Some(cx) = BpyRun::new("blender_roundtrip", "edge") else {
+        return;
+    };
     // A VDB sequence starting at frame 11 (file k at frame 10 + k), saved at frame 12, exports
     // the pattern seq_####.vdb with frameOffset -10: Brume reads seq_0002.vdb at frame 12, and
     // seq_0003.vdb after --frame 13; --copy-vdb copies the files of the shot's frames 12..13
@@ -417,7 +366,7 @@ fn sequences_procedural_volumes_and_failing_hooks() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("no such .blend file"));
 }
 
-impl Ctx {
+impl BpyRun {
     /// tests/blender/make_blend.py motion out.blend --position POSITION.
     fn make_motion(&self, name: &str, position: &str) -> PathBuf {
         let out = self.path(name);
@@ -472,7 +421,7 @@ fn matrix_difference(a: glam::DMat4, b: glam::DMat4) -> f64 {
 /// frame as Blender does, outside the range included (held), to 1e-5.
 #[test]
 fn motion_velocity_and_shutter_export() {
-    let Some(cx) = Ctx::new("motion") else {
+    let Some(cx) = BpyRun::new("blender_roundtrip", "motion") else {
         return;
     };
     let fps = 30.0 / 1.001;

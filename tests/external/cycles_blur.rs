@@ -12,59 +12,12 @@
 //! (tools/cycles/ci.sh installs one); without it each test prints a SKIPPED line on stderr and
 //! passes. Seeds are fixed on both sides.
 use crate::common;
-use crate::common::external::{bpy_python, say};
+use crate::common::external::{assert_ok, root, say, text, BpyRun};
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn assert_ok(o: &Output, what: &str) {
-    assert!(o.status.success(), "{what} failed:\n{}", text(o));
-}
-
-struct Ctx {
-    python: PathBuf,
-    dir: PathBuf,
-}
-
-impl Ctx {
-    fn new(test: &str) -> Option<Ctx> {
-        let Some(python) = bpy_python() else {
-            say(&format!(
-                "SKIPPED cycles_blur::{test}: no Python with bpy (run tools/cycles/ci.sh to install bpy 5.0.1)"
-            ));
-            return None;
-        };
-        let dir = std::env::temp_dir().join(format!("brume-blur-{test}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Some(Ctx { python, dir })
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.dir.join(name)
-    }
-
-    /// `brume ARGS` with this Python.
-    fn brume<S: AsRef<std::ffi::OsStr>>(&self, args: &[S]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_brume"))
-            .args(args)
-            .env("BRUME_BPY_PYTHON", &self.python)
-            .output()
-            .unwrap()
-    }
-
+impl BpyRun {
     /// Renders `scene` with Brume at 32x24, 256 spp, into `out` (`extra` appended).
     fn render(&self, scene: &Path, out: &Path, extra: &[&str]) {
         let mut args: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), scene.as_os_str()];
@@ -120,14 +73,6 @@ impl Ctx {
     }
 }
 
-impl Drop for Ctx {
-    fn drop(&mut self) {
-        if !std::thread::panicking() {
-            let _ = std::fs::remove_dir_all(&self.dir);
-        }
-    }
-}
-
 /// A Mantaflow smoke (24 cells across a 2 m domain, 16 frames, risen by buoyancy) rendered at
 /// its last frame with its own velocity grid (staggered, per second) at Velocity Scale 2 under
 /// a half-frame shutter centred on the frame: Cycles on the .blend and Brume on the add-on's
@@ -136,7 +81,7 @@ impl Drop for Ctx {
 /// settings. Larger scales part the two renderers (docs/comparing.md, known differences).
 #[test]
 fn mantaflow_velocity_blur_agrees_with_cycles() {
-    let Some(cx) = Ctx::new("mantaflow") else {
+    let Some(cx) = BpyRun::new("cycles_blur", "mantaflow") else {
         return;
     };
     let started = std::time::Instant::now();
@@ -325,7 +270,7 @@ fn panning_cloud(dir: &Path) -> PathBuf {
 /// Blender's camera motion blur. They agree, and the smear shows against the closed shutter.
 #[test]
 fn camera_blur_agrees_with_cycles() {
-    let Some(cx) = Ctx::new("camera") else {
+    let Some(cx) = BpyRun::new("cycles_blur", "camera") else {
         return;
     };
     let started = std::time::Instant::now();
