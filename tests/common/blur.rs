@@ -242,6 +242,23 @@ pub fn vortex_scenes(name: &str) -> (brume::scene::Scene, brume::scene::Scene) {
     (blurred, closed(&d.join("vortex.gltf")))
 }
 
+/// The still blob of [`N`] voxels (`d/m.vdb`, written once) at the origin in [`scene`], at
+/// frame 1 of 24 fps under a one-frame shutter centred on it.
+fn still_blob_shot(d: &Path) -> Value {
+    if !d.join("m.vdb").exists() {
+        write_medium(
+            &d.join("m.vdb"),
+            super::stress::blob_voxels(N),
+            origin(),
+            [0.0; 3],
+            Vec::new(),
+            GridClass::Unknown,
+        );
+    }
+    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
+    scene("m.vdb", [0.0; 3], json!({}), render_obj)
+}
+
 /// The blob still at the origin, with node `node` (0 the camera, 2 the medium) animated
 /// linearly: at `at_frame` on frame 1 (time 1/24 s at 24 fps), moving by `per_frame` a frame,
 /// under a one-frame shutter. Returns the fixture's folder and the scene.
@@ -253,16 +270,7 @@ pub fn animated(
     edit: &dyn Fn(&mut serde_json::Value),
 ) -> (std::path::PathBuf, brume::scene::Scene) {
     let d = dir(name);
-    write_medium(
-        &d.join("m.vdb"),
-        super::stress::blob_voxels(N),
-        origin(),
-        [0.0; 3],
-        Vec::new(),
-        GridClass::Unknown,
-    );
-    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
-    let mut doc = scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    let mut doc = still_blob_shot(&d);
     edit(&mut doc);
     let key = |k: f32| [0, 1, 2].map(|a| at_frame[a] + k * per_frame[a]);
     animate_translation(
@@ -309,22 +317,11 @@ fn turn(angle: f32) -> [f32; 4] {
 }
 
 /// The still blob behind a parent node carrying two boxes, seen under a one-frame shutter at
-/// frame 1 (24 fps): an opaque diffuse box that glows (a moving emitter) and a box of scattering homogeneous medium behind
-/// null interfaces. `dt` `Some`: the parent still at [`mesh_pose`]`(dt)`; `None`: the parent
+/// frame 1 (24 fps): an opaque diffuse box that glows (a moving emitter) and a box of
+/// scattering homogeneous medium behind null interfaces. `dt` `Some`: the parent still at [`mesh_pose`]`(dt)`; `None`: the parent
 /// animated through [`mesh_pose`] (LINEAR translation and rotation keys at frames 0 and 2).
 pub fn moving_meshes_scene(d: &Path, dt: Option<f32>) -> brume::scene::Scene {
-    if !d.join("m.vdb").exists() {
-        write_medium(
-            &d.join("m.vdb"),
-            super::stress::blob_voxels(N),
-            origin(),
-            [0.0; 3],
-            Vec::new(),
-            GridClass::Unknown,
-        );
-    }
-    let render_obj = json!({"fps": 24, "frame": 1, "shutter": {"open": -0.5, "close": 0.5}});
-    let mut doc = scene("m.vdb", [0.0; 3], json!({}), render_obj);
+    let mut doc = still_blob_shot(d);
     let (t, a) = mesh_pose(dt.unwrap_or(0.0));
     doc["scenes"][0]["nodes"] = json!([0, 1, 2, 3]);
     let nodes = doc["nodes"].as_array_mut().unwrap();
