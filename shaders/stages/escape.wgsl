@@ -11,7 +11,6 @@
 fn escape(slot: u32) {
     var ps = paths[slot];
     ps.flags |= PATH_FLAG_ESCAPED;
-    paths[slot] = ps;
     let unscattered = ps.depth == 0u;
     if (wf.has_env != 0u && !(unscattered && (wf.flags & WF_FLAG_FILM_TRANSPARENT) != 0u)) {
         var w = 1.0;
@@ -38,7 +37,8 @@ fn escape(slot: u32) {
 // #if FEATURE_LIGHT_PASSES
         gather_pass(slot, ps, x, PASS_BACKGROUND);
 // #endif
-        paths[slot] = ps;
     }
+    // One write of the path state: the flag, and the radiance where the sky was gathered.
+    paths[slot] = ps;
     queue_push(queue_done_out(), slot);
 }
