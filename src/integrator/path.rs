@@ -627,37 +627,40 @@ fn sample_phase(
 /// transmittance to the background (the coverage) and, on a transparent film, gathers nothing.
 #[inline(always)]
 fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
+    // Seen straight through, the sky is the background, which a transparent film leaves out.
+    let seen_straight = ps.depth == 0;
+    let gathers = !(seen_straight && limits.film_transparent);
+    // One lookup of the sky's radiance, for the radiance and the albedo pass alike.
+    let env = rs.lights.environment.as_ref().filter(|_| gathers);
+    let le = env.map(|e| e.le(ps.ray.d));
     if limits.data_passes && !ps.depth_seen {
         ps.data[DEPTH] = Vec3::splat(BACKGROUND_DEPTH);
         ps.depth_seen = true;
     }
-    if limits.data_passes && !ps.albedo_seen && !(limits.film_transparent && ps.depth == 0) {
+    if limits.data_passes && !ps.albedo_seen && gathers {
         // The sky seen (through smooth dielectrics at most) is its own albedo, as Cycles
         // gives it to the denoiser.
-        if let Some(env) = &rs.lights.environment {
-            ps.data[ALBEDO] = ps.beta * env.le(ps.ray.d);
+        if let Some(le) = le {
+            ps.data[ALBEDO] = ps.beta * le;
         }
         ps.albedo_seen = true;
     }
-    if ps.depth == 0 {
-        // Seen straight through: the background, which a transparent film leaves out.
+    if seen_straight {
         ps.background = ps.beta.element_sum() / 3.0;
-        if limits.film_transparent {
-            return;
-        }
     }
-    if let Some(env) = &rs.lights.environment {
-        let w = if ps.specular {
-            1.0
-        } else if ps.prev_env.by_phase {
-            // Both strategies drew this direction from the phase function: the light pdf is
-            // P_env times the continuation's.
-            power_heuristic(1.0, ps.prev_env.pmf)
-        } else {
-            power_heuristic(ps.prev_pdf, ps.prev_env.pmf * env.pdf(ps.ray.d))
-        };
-        ps.gather(limits, ps.beta * env.le(ps.ray.d) * w, BACKGROUND);
-    }
+    let (Some(env), Some(le)) = (env, le) else {
+        return;
+    };
+    let w = if ps.specular {
+        1.0
+    } else if ps.prev_env.by_phase {
+        // Both strategies drew this direction from the phase function: the light pdf is
+        // P_env times the continuation's.
+        power_heuristic(1.0, ps.prev_env.pmf)
+    } else {
+        power_heuristic(ps.prev_pdf, ps.prev_env.pmf * env.pdf(ps.ray.d))
+    };
+    ps.gather(limits, ps.beta * le * w, BACKGROUND);
 }
 
 /// Interpolated vertex normal on `side`'s hemisphere; the geometric normal when the file
