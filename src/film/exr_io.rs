@@ -141,9 +141,27 @@ fn write_film(path: &Path, film: &Film, metadata: &Metadata, state: bool) -> Res
 /// Writes an [`Image`] as an EXR, atomically: channels `R G B`, and `A`, `variance.*`,
 /// `samples.Y` where present.
 pub fn write_image(path: impl AsRef<Path>, image: &Image) -> Result<(), FilmError> {
+    write_image_with(path, image, Vec::new())
+}
+
+/// [`write_image`] with `extra` float channels after the image's own (named layers such as a
+/// reference render's light passes, `volume.direct.R`).
+pub fn write_image_with(
+    path: impl AsRef<Path>,
+    image: &Image,
+    extra: Vec<(String, Vec<f32>)>,
+) -> Result<(), FilmError> {
     let path = path.as_ref();
-    let channels = image_channels(path, image)?;
-    encode(path, image.width, image.height, channels, &image.attributes)
+    let n = image.width * image.height;
+    let mut channels: Vec<(String, FlatSamples)> = image_channels(path, image)?
+        .into_iter()
+        .map(|(name, v)| (name.to_string(), FlatSamples::F32(v)))
+        .collect();
+    for (name, v) in extra {
+        check_len(path, &name, v.len(), n)?;
+        channels.push((name, FlatSamples::F32(v)));
+    }
+    encode_any(path, image.width, image.height, channels, &image.attributes)
 }
 
 /// The f32 channels [`write_image`] writes for `image`, checked against its size.
@@ -375,12 +393,9 @@ fn read_exr_checked(
     } else {
         0
     };
-    let rgb = match (
-        by_name.get("R"),
-        by_name.get("G"),
-        by_name.get("B"),
-        by_name.get("Y"),
-    ) {
+    let beauty = beauty_prefix(by_name);
+    let get = |c: &str| by_name.get(&format!("{beauty}{c}"));
+    let rgb = match (get("R"), get("G"), get("B"), get("Y")) {
         (Some(r), Some(g), Some(b), _) => zip3(r, g, b),
         (None, None, None, Some(y)) => y.iter().map(|&v| [v; 3]).collect(),
         (r, g, b, _) => {
@@ -415,7 +430,7 @@ fn read_exr_checked(
             width,
             height,
             rgb,
-            alpha: by_name.get("A").cloned(),
+            alpha: get("A").cloned(),
             variance,
             samples,
             attributes: channels.attributes.sorted(),
@@ -423,6 +438,44 @@ fn read_exr_checked(
         channels.raw_u32,
         computed,
     ))
+}
+
+/// Where the beauty's channels are: unprefixed, or in a Blender multilayer file's one
+/// `<view layer>.Combined` layer (its passes are other layers beside it).
+fn beauty_prefix(by_name: &BTreeMap<String, Vec<f32>>) -> String {
+    if by_name.contains_key("R") || by_name.contains_key("Y") {
+        return String::new();
+    }
+    let mut combined = by_name
+        .keys()
+        .filter_map(|k| k.strip_suffix("Combined.R"))
+        .filter(|p| p.is_empty() || p.ends_with('.'));
+    match (combined.next(), combined.next()) {
+        (Some(p), None) => format!("{p}Combined."),
+        _ => String::new(),
+    }
+}
+
+/// Every float channel of an EXR by name (a part's layer name prefixed), with the size.
+#[derive(Debug, Clone)]
+pub struct ExrChannels {
+    pub width: usize,
+    pub height: usize,
+    pub by_name: BTreeMap<String, Vec<f32>>,
+}
+
+/// Reads every channel of every part of the EXR at `path` as floats: for layers [`read_exr`]
+/// does not interpret, such as a reference renderer's passes.
+pub fn read_exr_channels(path: impl AsRef<Path>) -> Result<ExrChannels, FilmError> {
+    let path = path.as_ref();
+    let decoded = decode(path)?;
+    let channels = Channels::of(path, &decoded)?;
+    let (width, height) = channels.size.unwrap_or((0, 0));
+    Ok(ExrChannels {
+        width,
+        height,
+        by_name: channels.by_name,
+    })
 }
 
 /// Decodes every part of the file at `path`; a directory, an unreadable file or bytes the
@@ -504,7 +557,13 @@ impl<'a> Channels<'a> {
                 .map(|t| format!("{}.", String::from_utf8_lossy(t.bytes())))
                 .unwrap_or_default();
             for channel in &layer.channel_data.list {
-                let name = format!("{prefix}{}", String::from_utf8_lossy(channel.name.bytes()));
+                let own = String::from_utf8_lossy(channel.name.bytes());
+                // Blender's multi-part files name each channel in full already.
+                let name = if own.starts_with(&prefix) {
+                    own.into_owned()
+                } else {
+                    format!("{prefix}{own}")
+                };
                 c.read.push((name.clone(), &channel.sample_data));
                 if let FlatSamples::U32(v) = &channel.sample_data {
                     c.raw_u32.insert(name.clone(), v.clone());

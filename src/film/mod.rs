@@ -32,8 +32,8 @@ pub use cost_map::{cost_map_from_tiles, per_sample, write_cost_map, CostMetric};
 pub use display::{Display, DisplayImage};
 pub use error::FilmError;
 pub use exr_io::{
-    read_exr, read_exr_verified, read_exr_with_state, write_exr, write_exr_single,
-    write_exr_with_state, write_image, Image,
+    read_exr, read_exr_channels, read_exr_verified, read_exr_with_state, write_exr,
+    write_exr_single, write_exr_with_state, write_image, write_image_with, ExrChannels, Image,
 };
 pub use metadata::{AttrValue, Metadata, RenderInfo};
 pub use tile_log::{read_tile_log, totals, TileCounters, TileLogWriter, TileRecord, TileTotals};

@@ -153,3 +153,26 @@ pub fn assert_agreement(stdout: &str) -> String {
     assert_blocks(bad, total, max_z, stdout);
     stdout.trim().to_string()
 }
+
+/// The agreement `brume cycles --passes light --against` printed for light pass `name`:
+/// `(mean_rel_diff, mean_z, blocks failed, max_block_z)`, or `None` where the pass is zero in
+/// both renders.
+pub fn pass_agreement(stdout: &str, name: &str) -> Option<(f64, f64, usize, f64)> {
+    let prefix = format!("pass {name} ");
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with(&prefix))
+        .unwrap_or_else(|| panic!("no line for pass {name}:\n{stdout}"));
+    if line.ends_with("zero in both") {
+        return None;
+    }
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let field = |f: &str| words[words.iter().position(|w| *w == f).expect(f) + 1];
+    let failed = field("blocks_failed").split_once('/').unwrap().0;
+    Some((
+        field("mean_rel_diff").parse().unwrap(),
+        field("mean_z").parse().unwrap(),
+        failed.parse().unwrap(),
+        field("max_block_z").parse().unwrap(),
+    ))
+}

@@ -671,10 +671,30 @@ def configure_render(scene, args):
     scene.view_settings.exposure = 0.0
     scene.view_settings.gamma = 1.0
     img = scene.render.image_settings
-    img.file_format = "OPEN_EXR"
+    if args.passes == "light":
+        enable_light_passes(scene.view_layers[0])
+        # Passes need a multilayer file: one part per pass, `ViewLayer.<pass>.R/G/B`.
+        img.media_type = "MULTI_LAYER_IMAGE"
+        img.file_format = "OPEN_EXR_MULTILAYER"
+    else:
+        img.file_format = "OPEN_EXR"
     img.color_mode = "RGBA"
     img.color_depth = "32"
     img.exr_codec = "ZIP"
+
+
+def enable_light_passes(view_layer):
+    """Cycles' light passes that Brume's `--passes light` splits the beauty into: Emission,
+    Environment, Volume Direct/Indirect, and the surfaces' Diffuse, Glossy and Transmission
+    Direct/Indirect with their Color passes (Cycles divides a surface's light passes by its
+    colour; Brume's surface passes are the products, summed)."""
+    view_layer.use_pass_emit = True
+    view_layer.use_pass_environment = True
+    view_layer.cycles.use_pass_volume_direct = True
+    view_layer.cycles.use_pass_volume_indirect = True
+    for kind in ("diffuse", "glossy", "transmission"):
+        for part in ("direct", "indirect", "color"):
+            setattr(view_layer, f"use_pass_{kind}_{part}", True)
 
 
 def open_blend(args):
@@ -836,6 +856,12 @@ def main(argv):
         choices=["opaque", "transparent"],
         default=None,
         help="Brume's film (default: the glTF's BRUME_render filmTransparent, else opaque)",
+    )
+    p.add_argument(
+        "--passes",
+        choices=["beauty", "light"],
+        default="beauty",
+        help="light: also write Cycles' light passes (a multilayer EXR)",
     )
     p.add_argument("--save-blend", help="also save the built scene as a .blend")
     p.add_argument("--no-render", action="store_true", help="build (and save) the scene only")

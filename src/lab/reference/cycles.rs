@@ -15,7 +15,7 @@ use clap::Args;
 
 use crate::film::{AttrValue, Metadata};
 
-use super::{seconds_list, Driver, PythonTool, ReferenceRun};
+use super::{passes, seconds_list, Driver, PythonTool, ReferenceRun};
 
 /// A Python with bpy: `BRUME_BPY_PYTHON`, then `tools/cycles/.venv` (next to the working
 /// directory or the source tree), then `python3` on the PATH.
@@ -40,6 +40,11 @@ pub struct CyclesArgs {
     /// the scene's BRUME_render filmTransparent, else opaque).
     #[arg(long, value_parser = ["opaque", "transparent"])]
     pub film: Option<String>,
+    /// light: also render Cycles' light passes, written as Brume's (`emission`, `background`,
+    /// `volume.direct`, ...; docs/comparing.md) with their variance; `--against` then compares
+    /// each with the Brume render's (`brume render --passes light`).
+    #[arg(long, value_parser = ["beauty", "light"], default_value = "beauty")]
+    pub passes: String,
 }
 
 /// Cycles through Blender's Python module.
@@ -80,6 +85,9 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
     if let Some(f) = &args.film {
         cmd.args(["--film", f]);
     }
+    if args.passes == "light" {
+        cmd.args(["--passes", "light"]);
+    }
     if let Some(b) = &args.save_blend {
         cmd.arg("--save-blend").arg(b);
     }
@@ -118,7 +126,18 @@ fn render_in(args: &CyclesArgs, python: &Path, script: &Path, tmp: &Path) -> Res
         seconds_list(&r.seconds),
         started.elapsed().as_secs_f64()
     );
-    args.run.finish(&r.images, meta, &summary)
+    let passes = if args.passes == "light" {
+        let runs = r
+            .paths
+            .iter()
+            .map(|p| passes::cycles_light_passes(p))
+            .collect::<Result<Vec<_>>>()?;
+        let size = (args.run.width as usize, args.run.height as usize);
+        passes::merge_pass_runs(&runs, size, args.run.spp)?
+    } else {
+        Vec::new()
+    };
+    args.run.finish(&r.images, &passes, meta, &summary)
 }
 
 /// The timings Cycles writes into each render's EXR (`cycles.<view layer>.total_time`,

@@ -133,7 +133,7 @@ fn translate_and_render(
         build_seconds,
         started.elapsed().as_secs_f64()
     );
-    args.run.finish(&r.images, meta, &summary)
+    args.run.finish(&r.images, &[], meta, &summary)
 }
 
 /// Row-major 4x4 rows of a glam (column-major) matrix, as Mitsuba's `ScalarTransform4f`

@@ -6,6 +6,7 @@
 pub mod cycles;
 pub mod import_blend;
 pub mod mitsuba;
+pub mod passes;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -13,7 +14,8 @@ use std::process::Command;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
-use crate::film::{read_exr, write_image, AttrValue, Image, Metadata};
+use crate::film::exr_io::PASSES_ATTRIBUTE;
+use crate::film::{read_exr, write_image_with, AttrValue, Image, Metadata};
 use crate::study::stats::erfc;
 
 /// One finished run reported by a translation script: a line
@@ -21,6 +23,8 @@ use crate::study::stats::erfc;
 pub struct RunReport {
     pub seconds: f64,
     pub image: Image,
+    /// The run's EXR, for layers beyond the beauty (a reference's passes).
+    pub path: PathBuf,
 }
 
 /// The options every reference-renderer command (`brume cycles`, `brume mitsuba`) takes.
@@ -77,10 +81,7 @@ impl ReferenceRun {
             .against
             .as_ref()
             .expect("clap: --reuse requires --against");
-        println!(
-            "{}",
-            compare(&read_exr(against)?, &read_exr(&self.output)?, 8, 0.001)?
-        );
+        print_agreement(against, &self.output)?;
         Ok(true)
     }
 }
@@ -143,6 +144,8 @@ pub struct Driver {
 /// reference EXR carries.
 pub struct Rendered {
     pub images: Vec<Image>,
+    /// The runs' EXRs, in order.
+    pub paths: Vec<PathBuf>,
     pub seconds: Vec<f64>,
     /// The sum of `seconds`.
     pub total: f64,
@@ -189,6 +192,7 @@ impl Driver {
         }
         let runs = read_runs(&String::from_utf8_lossy(&out.stdout), run.runs, renderer)?;
         let seconds: Vec<f64> = runs.iter().map(|r| r.seconds).collect();
+        let paths: Vec<PathBuf> = runs.iter().map(|r| r.path.clone()).collect();
         let images: Vec<Image> = runs.into_iter().map(|r| r.image).collect();
         let total: f64 = seconds.iter().sum();
         let key = renderer.to_lowercase();
@@ -202,6 +206,7 @@ impl Driver {
             );
         let rendered = Rendered {
             images,
+            paths,
             seconds,
             total,
             meta,
@@ -211,18 +216,40 @@ impl Driver {
 }
 
 impl ReferenceRun {
-    /// Merges the runs into `--output`, prints `summary` and, with `--against`, the agreement
-    /// with that Brume image.
-    pub fn finish(&self, images: &[Image], meta: Metadata, summary: &str) -> Result<()> {
+    /// Merges the runs into `--output` with their merged `passes` as layers, prints `summary`
+    /// and, with `--against`, the agreement with that Brume image.
+    pub fn finish(
+        &self,
+        images: &[Image],
+        passes: &[passes::PassImage],
+        mut meta: Metadata,
+        summary: &str,
+    ) -> Result<()> {
+        let (extra, names) = passes::pass_channels(passes);
+        if !passes.is_empty() {
+            meta.set(PASSES_ATTRIBUTE, AttrValue::Text(names));
+        }
         let merged = merge_runs(images, self.spp, meta)?;
-        write_image(&self.output, &merged)?;
+        write_image_with(&self.output, &merged, extra)?;
         eprintln!("{summary}");
         if let Some(brume_path) = &self.against {
-            let brume = read_exr(brume_path)?;
-            println!("{}", compare(&brume, &merged, 8, 0.001)?);
+            print_agreement(brume_path, &self.output)?;
         }
         Ok(())
     }
+}
+
+/// Prints the agreement of reference `output` with Brume render `against`: the beauty's, then
+/// each light pass both hold ([`passes::compare_passes`]).
+fn print_agreement(against: &Path, output: &Path) -> Result<()> {
+    let (brume, reference) = (read_exr(against)?, read_exr(output)?);
+    println!("{}", compare(&brume, &reference, 8, 0.001)?);
+    let brume_passes = passes::read_passes(against, &brume.attributes)?;
+    let reference_passes = passes::read_passes(output, &reference.attributes)?;
+    for line in passes::compare_passes(&brume_passes, &reference_passes)? {
+        println!("{line}");
+    }
+    Ok(())
 }
 
 /// Runs `work` in a scratch folder: `keep`, or `brume-NAME-PID` in the temporary folder, which
@@ -272,6 +299,7 @@ pub fn read_runs(stdout: &str, runs: u32, renderer: &str) -> Result<Vec<RunRepor
             out.push(RunReport {
                 seconds: f[2].parse::<f64>().unwrap_or(f64::NAN),
                 image,
+                path,
             });
         }
     }
