@@ -254,6 +254,7 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             film_transparent: settings.film_transparent,
             light_passes: settings.light_passes,
             data_passes: settings.data_passes,
+            light_groups: !settings.light_groups.is_empty(),
         },
         passes: settings.pass_names(),
         noisy: None,

@@ -7,9 +7,12 @@ pub struct PassChoice {
     pub light: bool,
     /// The data passes (`film::passes::DATA_PASSES`).
     pub data: bool,
+    /// The light groups (`render::light_groups`).
+    pub lights: bool,
 }
 
-/// Parses a comma-separated list of `beauty`, `light`, `data` and `all` (light and data).
+/// Parses a comma-separated list of `beauty`, `light`, `data`, `lights` and `all` (every
+/// one).
 pub fn parse(s: &str) -> Result<PassChoice, String> {
     let mut choice = PassChoice::default();
     for word in s.split(',').map(str::trim) {
@@ -17,21 +20,16 @@ pub fn parse(s: &str) -> Result<PassChoice, String> {
             "beauty" => {}
             "light" => choice.light = true,
             "data" => choice.data = true,
+            "lights" => choice.lights = true,
             "all" => {
                 choice.light = true;
                 choice.data = true;
-            }
-            "lights" => {
-                return Err(
-                    "'lights': per-light groups are not available; the passes are beauty, light, \
-                     data and all"
-                        .into(),
-                )
+                choice.lights = true;
             }
             other => {
                 return Err(format!(
-                    "'{other}' is not a pass list entry; expected beauty, light, data or all, \
-                     separated by commas"
+                    "'{other}' is not a pass list entry; expected beauty, light, data, lights \
+                     or all, separated by commas"
                 ))
             }
         }

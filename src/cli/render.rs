@@ -10,6 +10,7 @@ use clap::Args;
 use brume::backend::cpu::{self, RenderOutput};
 use brume::farm::context::PartContext;
 use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, TileLogWriter};
+use brume::render::light_groups::LightGroups;
 use brume::render::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
 };
@@ -51,7 +52,9 @@ pub struct RenderArgs {
     /// What the EXR holds beside the beauty: a comma-separated list of beauty (the default),
     /// light (the light passes: emission, background, volume.direct, volume.indirect,
     /// surface.direct, surface.indirect, which add up to the beauty), data (the denoiser's
-    /// albedo and normal, and depth, with Cycles' conventions; CPU backend) and all (both).
+    /// albedo and normal, and depth, with Cycles' conventions; CPU backend), lights (a light
+    /// group per glTF light, the environment, the emissive surfaces and each emitting medium,
+    /// which add up to the beauty; CPU backend) and all (every one).
     #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
     pub passes: Option<super::passes::PassChoice>,
     /// Adaptive sampling: a pixel stops taking samples once the standard error of its mean is
@@ -334,9 +337,12 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     }
     let scene = load_scene(args)?;
     let args = &args.for_frame(scene.frame);
-    let settings = args
+    let mut settings = args
         .settings(&scene.render)
         .with_context(|| format!("{}: BRUME_render", args.scene.display()))?;
+    if args.passes.is_some_and(|p| p.lights) {
+        settings.light_groups = LightGroups::of(&scene).map_err(|e| anyhow!(e))?.names;
+    }
     let viewer = display.map(|d| Viewer::new(d, &args.output, settings.film_transparent));
     settings
         .validate()
@@ -345,10 +351,11 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         || args.resume.is_some()
         || args.region.is_some()
         || settings.data_passes
+        || !settings.light_groups.is_empty()
         || settings.noise_threshold.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region, --passes data and \
+            "--backend gpu: --checkpoint, --resume, --region, --passes data, --passes lights and \
              --noise-threshold run on the CPU backend only"
         ));
     }

@@ -12,6 +12,7 @@ use glam::Vec3;
 use super::features::{Features, NoFeatures};
 use super::views::{GreyView, RgbView};
 use crate::math::Ray;
+use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::media::{MediaStats, TrackingConfig, VdbMedium};
 use crate::render::settings::{Absorption, Estimator, MajorantMode};
 use crate::sampling::Rng;
@@ -164,7 +165,35 @@ pub struct Flight<'f> {
     pub cfg: &'f TrackingConfig,
     pub rng: &'f mut Rng,
     pub stats: &'f mut MediaStats,
+    pub l: Emitted<'f>,
+}
+
+/// Where the emission a flight meets goes: the path's radiance and, where light groups are
+/// kept, the emitting medium's group.
+pub struct Emitted<'f> {
     pub l: &'f mut Vec3,
+    pub groups: Option<&'f mut [Vec3; MAX_LIGHT_GROUPS]>,
+}
+
+impl Emitted<'_> {
+    /// Adds emission `e` (already weighted by `beta`) of a medium in light group `group`.
+    #[inline(always)]
+    pub fn add(&mut self, group: u8, e: Vec3) {
+        *self.l += e;
+        if let Some(g) = self.groups.as_deref_mut() {
+            if group != NO_GROUP {
+                g[group as usize] += e;
+            }
+        }
+    }
+
+    #[inline]
+    fn reborrow(&mut self) -> Emitted<'_> {
+        Emitted {
+            l: &mut *self.l,
+            groups: self.groups.as_deref_mut(),
+        }
+    }
 }
 
 impl Flight<'_> {
@@ -175,7 +204,7 @@ impl Flight<'_> {
             cfg: self.cfg,
             rng: &mut *self.rng,
             stats: &mut *self.stats,
-            l: &mut *self.l,
+            l: self.l.reborrow(),
         }
     }
 }
@@ -193,7 +222,9 @@ pub fn sample_vdb<F: Features>(
 ) -> MediumEvent {
     let cfg = f.cfg;
     if F::CHROM && (!m.grey || cfg.force_spectral) {
-        let Flight { rng, stats, l, .. } = f;
+        let Flight {
+            rng, stats, mut l, ..
+        } = f;
         let view = RgbView::<F>::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta);
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let spectral = Spectral {
@@ -203,7 +234,7 @@ pub fn sample_vdb<F: Features>(
             };
             tracking::sample_distance(&spectral, segs, t1, &view, rng, &mut stats.tracking)
         });
-        *l += view.emitted.get();
+        l.add(m.light_group, view.emitted.get());
         stats.emission_lookups += view.emission_lookups.get();
         return match e {
             Event::Scatter { t, weight } => MediumEvent::Scatter {
@@ -263,12 +294,17 @@ fn sample_grey<F: Features, const ABS: bool>(
     t1: f32,
     f: Flight,
 ) -> MediumEvent {
-    let Flight { cfg, rng, stats, l } = f;
+    let Flight {
+        cfg,
+        rng,
+        stats,
+        mut l,
+    } = f;
     let e = with_walk!(view.m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
         grey_free_flight(cfg, segs, t1, &view, rng, &mut stats.tracking)
     });
     if F::EMIT {
-        *l += view.emitted.get();
+        l.add(view.m.light_group, view.emitted.get());
         stats.emission_lookups += view.emission_lookups.get();
     }
     from_grey(e, view.scatter_albedo())

@@ -218,7 +218,12 @@ fn sample_grey<F: Features, const ABS: bool>(
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
-    let Flight { cfg, rng, stats, l } = f;
+    let Flight {
+        cfg,
+        rng,
+        stats,
+        mut l,
+    } = f;
     let views: Vec<GreyView<F, ABS>> = media
         .vdb
         .iter()
@@ -252,7 +257,7 @@ fn sample_grey<F: Features, const ABS: bool>(
     let e = super::media::grey_free_flight(cfg, segs, t1, &mix, rng, &mut stats.tracking);
     if F::EMIT {
         for v in &mix.views {
-            *l += v.emitted.get();
+            l.add(v.m.light_group, v.emitted.get());
             stats.emission_lookups += v.emission_lookups.get();
         }
     }
@@ -330,7 +335,12 @@ fn sample_rgb<F: Features>(
     f: Flight,
 ) -> (MediumEvent, HenyeyGreenstein) {
     let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
-    let Flight { cfg, rng, stats, l } = f;
+    let Flight {
+        cfg,
+        rng,
+        stats,
+        mut l,
+    } = f;
     let views: Vec<RgbView<F>> = media
         .vdb
         .iter()
@@ -381,7 +391,7 @@ fn sample_rgb<F: Features>(
     );
     if F::EMIT {
         for v in &mix.views {
-            *l += v.emitted.get();
+            l.add(v.m.light_group, v.emitted.get());
             stats.emission_lookups += v.emission_lookups.get();
         }
     }

@@ -8,7 +8,7 @@ use super::flight::vdb_intervals;
 use super::homogeneous::transmittance_homogeneous;
 use super::media::transmittance_vdb;
 use crate::math::Ray;
-use crate::render::lights::power_heuristic;
+use crate::render::lights::{power_heuristic, LightSource};
 use crate::render::media::{MediaStats, TrackingConfig};
 use crate::render::prepare::{RenderScene, SurfaceKind};
 use crate::render::stack::MediumStack;
@@ -105,7 +105,7 @@ pub(super) struct Vertex<'a> {
 /// factor (phase value, or BSDF times cosine) and its sampling pdf. `bounce` picks the
 /// sampler's light-selection and light-sample blocks. At a medium event (`v.phase`) the light
 /// is chosen by the guided selection of [`Lights::phase_selection`] (uniformly elsewhere).
-/// Returns the estimate and how the environment was chosen.
+/// Returns the estimate, how the environment was chosen and, where a light was sampled, which.
 pub(super) fn next_event<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
@@ -114,7 +114,7 @@ pub(super) fn next_event<F: Features>(
     bounce: u32,
     stats: &mut MediaStats,
     scatter: impl Fn(Vec3) -> (Vec3, f32),
-) -> (Vec3, EnvChoice) {
+) -> (Vec3, EnvChoice, Option<LightSource>) {
     let Vertex { p, media, phase } = v;
     // Selection before position: the independent sampler draws in this order.
     let u_select = sampler.get1d(bounce_dim(bounce, DIM_LIGHT_SELECT));
@@ -146,11 +146,11 @@ pub(super) fn next_event<F: Features>(
         ),
     };
     let Some(ls) = ls else {
-        return (Vec3::ZERO, choice);
+        return (Vec3::ZERO, choice, None);
     };
     let (f, pdf_scatter) = scatter(ls.wi);
     if f == Vec3::ZERO || !(ls.pdf > 0.0) {
-        return (Vec3::ZERO, choice);
+        return (Vec3::ZERO, choice, None);
     }
     // Stop short of an area light's own triangle.
     let dist = if ls.dist.is_finite() {
@@ -172,5 +172,5 @@ pub(super) fn next_event<F: Features>(
     } else {
         power_heuristic(ls.pdf, pdf_scatter)
     };
-    (tr * ls.li * f * (w / ls.pdf), choice)
+    (tr * ls.li * f * (w / ls.pdf), choice, Some(ls.source))
 }

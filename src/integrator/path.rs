@@ -8,11 +8,12 @@ use glam::{Vec2, Vec3};
 use super::bsdf::{fresnel_dielectric, refract, Principled};
 use super::features::Features;
 use super::flight::media_flight;
-use super::media::{Flight, MediumEvent};
+use super::media::{Emitted, Flight, MediumEvent};
 use super::next_event::{next_event, EnvChoice, Vertex};
 use crate::accel::Hit;
 use crate::math::Ray;
-use crate::render::lights::{emitted, power_heuristic};
+use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
+use crate::render::lights::{emitted, power_heuristic, LightSource};
 use crate::render::media::{MediaStats, TrackingConfig};
 use crate::render::prepare::{RenderScene, SurfaceKind};
 use crate::render::stack::MediumStack;
@@ -41,6 +42,8 @@ pub struct PathLimits {
     pub light_passes: bool,
     /// Record the data passes (`film::passes::DATA_PASSES`) as well.
     pub data_passes: bool,
+    /// Split the radiance into the light groups (`RenderScene::groups`) as well.
+    pub light_groups: bool,
 }
 
 /// What one path cost and did.
@@ -97,6 +100,8 @@ struct PathState {
     data: [Vec3; DATA_PASS_COUNT],
     albedo_seen: bool,
     depth_seen: bool,
+    /// The radiance by light group (`PathLimits::light_groups`).
+    groups: [Vec3; MAX_LIGHT_GROUPS],
 }
 
 /// Number of data passes, and each one's index (`film::passes::DATA_PASSES` order).
@@ -117,12 +122,16 @@ const SURFACE_DIRECT: usize = 4;
 impl PathState {
     /// Adds `x` to the radiance and, where asked, to its light pass: `seen` (emission or
     /// background) before any scattering event; after it, the first event's kind, direct at
-    /// that event (its next-event estimate and what the ray leaving it meets), indirect later.
+    /// that event (its next-event estimate and what the ray leaving it meets), indirect later;
+    /// and to light group `group`, the source's.
     #[inline(always)]
-    fn gather(&mut self, limits: &PathLimits, x: Vec3, seen: usize) {
+    fn gather(&mut self, limits: &PathLimits, x: Vec3, seen: usize, group: u8) {
         self.l += x;
         if limits.light_passes {
             self.passes[self.pass_of(seen)] += x;
+        }
+        if limits.light_groups && group != NO_GROUP {
+            self.groups[group as usize] += x;
         }
     }
 
@@ -141,6 +150,15 @@ impl PathState {
     }
 }
 
+/// The light group of a light `source` (none without one, or without groups kept).
+#[inline(always)]
+fn group_of(rs: &RenderScene, source: Option<LightSource>) -> u8 {
+    match (&rs.groups, source) {
+        (Some(g), Some(s)) => g.of_source(s),
+        _ => NO_GROUP,
+    }
+}
+
 /// What one camera sample brings its pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraSample {
@@ -155,6 +173,9 @@ pub struct CameraSample {
     /// Albedo, normal and depth (`film::passes::DATA_PASSES` order), where
     /// `PathLimits::data_passes` asks for them.
     pub data: [Vec3; DATA_PASS_COUNT],
+    /// The radiance by light group (`RenderScene::groups` order), where
+    /// `PathLimits::light_groups` asks for them; they add up to `l` to the float rounding.
+    pub groups: [Vec3; MAX_LIGHT_GROUPS],
 }
 
 impl CameraSample {
@@ -279,6 +300,7 @@ pub fn radiance<F: Features>(
         alpha: 1.0 - ps.background,
         passes: ps.passes,
         data: ps.data,
+        groups: ps.groups,
     }
 }
 
@@ -317,6 +339,7 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
         data: [Vec3::ZERO; DATA_PASS_COUNT],
         albedo_seen: false,
         depth_seen: false,
+        groups: [Vec3::ZERO; MAX_LIGHT_GROUPS],
     }
 }
 
@@ -362,7 +385,10 @@ fn sample_medium<F: Features>(
             cfg,
             rng: &mut sampler.rng,
             stats: &mut stats.media,
-            l: &mut ps.l,
+            l: Emitted {
+                l: &mut ps.l,
+                groups: limits.light_groups.then_some(&mut ps.groups),
+            },
         },
     );
     if limits.light_passes {
@@ -429,7 +455,7 @@ fn scatter_medium<F: Features>(
     let guided = limits
         .guided_lights
         .then_some((&phase, wo, limits.continuation_albedo));
-    let (ld, choice) = next_event::<F>(
+    let (ld, choice, source) = next_event::<F>(
         rs,
         cfg,
         Vertex {
@@ -445,7 +471,7 @@ fn scatter_medium<F: Features>(
             (Vec3::splat(f), f)
         },
     );
-    ps.gather(limits, ps.beta * ld, EMISSION);
+    ps.gather(limits, ps.beta * ld, EMISSION, group_of(rs, source));
     ps.prev_env = choice;
     Some(Scatterer::Phase { phase, p, wo })
 }
@@ -483,7 +509,12 @@ fn shade_surface<F: Features>(
                     rs.lights.pdf_area(scene, h.triangle, h.t, cos_o),
                 )
             };
-            ps.gather(limits, ps.beta * le * w, EMISSION);
+            ps.gather(
+                limits,
+                ps.beta * le * w,
+                EMISSION,
+                group_of(rs, Some(LightSource::Area)),
+            );
         }
     }
     let kind = rs.kinds[mat_index];
@@ -541,7 +572,7 @@ fn shade_surface<F: Features>(
     let bsdf = Principled::new(base_color, mat.metallic, mat.roughness);
     let wo_l = frame.to_local(wo);
     let p_off = offset(p, n_side, n_side);
-    let (ld, choice) = next_event::<F>(
+    let (ld, choice, source) = next_event::<F>(
         rs,
         cfg,
         Vertex {
@@ -560,7 +591,7 @@ fn shade_surface<F: Features>(
             (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
         },
     );
-    ps.gather(limits, ps.beta * ld, EMISSION);
+    ps.gather(limits, ps.beta * ld, EMISSION, group_of(rs, source));
     ps.prev_env = choice;
     SurfaceEnd::Scatters(Scatterer::Bsdf {
         bsdf,
@@ -660,7 +691,8 @@ fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
     } else {
         power_heuristic(ps.prev_pdf, ps.prev_env.pmf * env.pdf(ps.ray.d))
     };
-    ps.gather(limits, ps.beta * le * w, BACKGROUND);
+    let group = group_of(rs, Some(LightSource::Environment));
+    ps.gather(limits, ps.beta * le * w, BACKGROUND, group);
 }
 
 /// Interpolated vertex normal on `side`'s hemisphere; the geometric normal when the file

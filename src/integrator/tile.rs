@@ -7,6 +7,7 @@ use super::features::{AllFeatures, Features, Variant};
 use super::path::{radiance, PathLimits, PathStats};
 use super::path::{DATA_PASS_COUNT, LIGHT_PASS_COUNT};
 use crate::film::{TileBuffer, TileRecord, TileRect};
+use crate::render::light_groups::MAX_LIGHT_GROUPS;
 use crate::render::media::TrackingConfig;
 use crate::render::prepare::{FeatureFlags, RenderScene};
 use crate::sampling::sobol::DIM_JITTER;
@@ -90,13 +91,17 @@ pub fn render_tile<F: Features>(
                     &mut sampler,
                     &mut total,
                 );
-                if ctx.limits.light_passes || ctx.limits.data_passes {
-                    // Light passes, then data passes: `RenderSettings::pass_names`' order.
-                    let light = sample.passes.iter().filter(|_| ctx.limits.light_passes);
-                    let data = sample.data.iter().filter(|_| ctx.limits.data_passes);
-                    let mut values = [[0f32; 3]; LIGHT_PASS_COUNT + DATA_PASS_COUNT];
+                let limits = &ctx.limits;
+                if limits.light_passes || limits.data_passes || limits.light_groups {
+                    // Light passes, data passes, then light groups: `RenderSettings::pass_names`'
+                    // order.
+                    let light = sample.passes.iter().filter(|_| limits.light_passes);
+                    let data = sample.data.iter().filter(|_| limits.data_passes);
+                    let groups = &sample.groups[..ctx.rs.groups.as_ref().map_or(0, |g| g.len())];
+                    let mut values =
+                        [[0f32; 3]; LIGHT_PASS_COUNT + DATA_PASS_COUNT + MAX_LIGHT_GROUPS];
                     let mut k = 0;
-                    for v in light.chain(data) {
+                    for v in light.chain(data).chain(groups) {
                         values[k] = v.to_array();
                         k += 1;
                     }

@@ -95,6 +95,18 @@ pub struct LightSample {
     /// the selection probability alone.
     pub pdf: f32,
     pub is_delta: bool,
+    /// Which light was sampled (for its light group).
+    pub source: LightSource,
+}
+
+/// The light a sample came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSource {
+    /// Punctual light `k` (`Lights::punctual` order).
+    Punctual(u32),
+    Environment,
+    /// An emissive triangle.
+    Area,
 }
 
 pub struct Lights {
@@ -296,6 +308,7 @@ impl Lights {
             li,
             pdf: pmf,
             is_delta: true,
+            source: LightSource::Punctual(k as u32),
         })
     }
 
@@ -394,6 +407,7 @@ impl Lights {
                 li: env.radiance,
                 pdf: pmf * pdf,
                 is_delta: false,
+                source: LightSource::Environment,
             });
         }
         let s = env.sample(u)?;
@@ -403,6 +417,7 @@ impl Lights {
             li: s.le,
             pdf: pmf * s.pdf,
             is_delta: false,
+            source: LightSource::Environment,
         })
     }
 
@@ -434,6 +449,7 @@ impl Lights {
                     li: s.le,
                     pdf: pmf * s.pdf,
                     is_delta: false,
+                    source: LightSource::Environment,
                 });
             }
         }
@@ -473,6 +489,7 @@ impl Lights {
             li,
             pdf,
             is_delta: false,
+            source: LightSource::Area,
         })
     }
 

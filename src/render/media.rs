@@ -35,6 +35,9 @@ impl HomogeneousMedium {
 /// A heterogeneous medium from `BRUME_medium_vdb`, ready to track.
 #[derive(Clone)]
 pub struct VdbMedium {
+    /// The light group its emission gathers into (`render::light_groups`; `NO_GROUP` where
+    /// none is kept).
+    pub light_group: u8,
     pub density: GridField,
     /// World bounds of the density's support.
     pub world_bounds: Aabb,

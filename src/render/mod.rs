@@ -8,6 +8,7 @@ pub mod blackbody;
 pub mod emission;
 pub mod emission_bounds;
 pub mod envmap;
+pub mod light_groups;
 pub mod lights;
 pub mod media;
 pub mod prepare;

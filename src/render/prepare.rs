@@ -3,6 +3,7 @@
 //! the specialised code.
 use glam::{Affine3A, Mat4, Vec3};
 
+use super::light_groups::{LightGroups, NO_GROUP};
 use super::lights::Lights;
 use super::media::{
     Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
@@ -156,6 +157,9 @@ pub struct RenderScene<'s> {
     /// `Scene::light_motion`); `None`: every sample sees the frame's
     /// instant.
     pub shutter: Option<Shutter>,
+    /// The light groups the render keeps (`RenderSettings::light_groups`), if any; each
+    /// medium's group is also on it (`VdbMedium::light_group`).
+    pub groups: Option<LightGroups>,
 }
 
 fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
@@ -179,6 +183,21 @@ impl<'s> RenderScene<'s> {
     pub fn prepare(scene: &'s Scene, settings: &RenderSettings) -> Result<Self, String> {
         let mut rs = RenderScene::new(scene, settings.force_spectral)?;
         rs.lights.set_env_sampling(settings.env_sampling);
+        if !settings.light_groups.is_empty() {
+            let groups = LightGroups::of(scene)?;
+            if groups.names != settings.light_groups {
+                return Err(format!(
+                    "{}: the light groups asked for ({}) are not the scene's ({})",
+                    scene.source.display(),
+                    settings.light_groups.join(", "),
+                    groups.names.join(", ")
+                ));
+            }
+            for (m, &g) in rs.vdb.iter_mut().zip(&groups.media) {
+                m.light_group = g;
+            }
+            rs.groups = Some(groups);
+        }
         Ok(rs)
     }
 
@@ -280,6 +299,7 @@ impl<'s> RenderScene<'s> {
             features,
             pinhole: scene.camera.pinhole(),
             shutter,
+            groups: None,
         })
     }
 }
@@ -354,6 +374,7 @@ fn vdb_medium(desc: &VdbMediumDesc, shutter: Shutter, fps: f32) -> Result<VdbMed
         walks: [WalkPlan::UNPLANNED; 4],
         blur: blur.map(Arc::new),
         motion: None,
+        light_group: NO_GROUP,
     };
     if let Some(node) = &desc.motion {
         let motion = FrameMotion {

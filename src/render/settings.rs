@@ -269,6 +269,9 @@ pub struct RenderSettings {
     pub light_passes: bool,
     /// Keep the data passes (`film::passes::DATA_PASSES`) beside the beauty.
     pub data_passes: bool,
+    /// Keep these light groups beside the beauty (`render::light_groups`: the scene's
+    /// `LightGroups::names`; empty: none).
+    pub light_groups: Vec<String>,
     /// Adaptive sampling: a pixel stops once the relative standard error of its mean is below
     /// this (`film::adaptive`), decided at pass boundaries; `None`: every pixel takes `spp`.
     pub noise_threshold: Option<f32>,
@@ -306,6 +309,7 @@ impl Default for RenderSettings {
             film_transparent: false,
             light_passes: false,
             data_passes: false,
+            light_groups: Vec::new(),
             noise_threshold: None,
             min_spp: 16,
         }
@@ -318,7 +322,8 @@ impl RenderSettings {
         use crate::film::passes::{DATA_PASSES, LIGHT_PASSES};
         let light = LIGHT_PASSES.iter().filter(|_| self.light_passes);
         let data = DATA_PASSES.iter().filter(|_| self.data_passes);
-        light.chain(data).map(|s| s.to_string()).collect()
+        let names = light.chain(data).map(|s| s.to_string());
+        names.chain(self.light_groups.iter().cloned()).collect()
     }
 
     /// One past the last sample index to render: `spp`, or without end (`u32::MAX`) when

@@ -61,9 +61,10 @@ pub fn read_lights(
     ctx: &mut Ctx,
     doc: &gltf::Document,
     nodes: &[PlacedNode],
-) -> Result<(Vec<PunctualLight>, Vec<usize>), SceneError> {
+) -> Result<ReadLights, SceneError> {
     let mut out = Vec::new();
     let mut placements = Vec::new();
+    let mut names = Vec::new();
     for (placement, placed) in nodes.iter().enumerate() {
         let node = placed.in_doc(doc);
         let Some(light) = node.light() else { continue };
@@ -129,8 +130,21 @@ pub fn read_lights(
             _pad: [0.0; 3],
         });
         placements.push(placement);
+        names.push(light.name().or(node.name()).map(str::to_owned));
     }
-    Ok((out, placements))
+    Ok(ReadLights {
+        lights: out,
+        placements,
+        names,
+    })
+}
+
+/// The punctual lights of a document, with each one's placement (index into the placed
+/// nodes) and name (the light's, else its node's).
+pub struct ReadLights {
+    pub lights: Vec<PunctualLight>,
+    pub placements: Vec<usize>,
+    pub names: Vec<Option<String>>,
 }
 
 /// Light arriving from infinitely far away in every direction not blocked by the scene.

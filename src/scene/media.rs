@@ -135,6 +135,8 @@ pub struct VdbMediumDesc {
     pub grids: Vec<LoadedGrid>,
     /// glTF node index carrying the extension.
     pub node: usize,
+    /// That node's name, for the medium's light group.
+    pub name: Option<String>,
     /// JSON pointer of the extension object, for later errors.
     pub pointer: String,
     /// The velocity grid and its scaling (`velocityGrid`), for velocity motion blur.
@@ -305,6 +307,7 @@ pub fn read_vdb_media(
             bounds_source: BoundsSource::Grid,
             grids: Vec::new(),
             node: placed.node,
+            name: node.name().map(str::to_owned),
             pointer: obj.pointer.clone(),
             velocity: None,
             placement,

@@ -113,6 +113,8 @@ pub struct Scene {
     /// `BRUME_medium_vdb` media.
     pub vdb_media: Vec<VdbMediumDesc>,
     pub lights: Vec<PunctualLight>,
+    /// Each punctual light's name (the glTF light's, else its node's), for its light group.
+    pub light_names: Vec<Option<String>>,
     pub environment: Environment,
     /// BVH over `triangles` (same triangle order), as the frame places them.
     pub bvh: TriangleBvh,
@@ -170,7 +172,11 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let images = texture::read_images(&ctx, doc, &loaded.buffers, &loaded.base_dir, &mut textures)?;
     let default_material = (materials.len() - 1) as u32;
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
-    let (lights, light_placements) = lights::read_lights(&mut ctx, doc, &nodes)?;
+    let lights::ReadLights {
+        lights,
+        placements: light_placements,
+        names: light_names,
+    } = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
     let mut vdb_media = media::read_vdb_media(
         &mut ctx,
@@ -245,6 +251,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         homogeneous_media,
         vdb_media,
         lights,
+        light_names,
         environment,
         bvh,
         moving_meshes,

@@ -12,6 +12,7 @@ mod data_passes;
 mod emission_support;
 mod envmap;
 mod film_alpha;
+mod light_groups;
 mod light_passes;
 mod light_selection;
 mod media_nested;

@@ -13,7 +13,7 @@ use common::render::{load_scene, sidak_z};
 
 use brume::integrator::features::{bit, Features, Variant};
 use brume::integrator::mixture::{sample_mixture, RayMedia, VdbSpan};
-use brume::integrator::{media::Flight, media::MediumEvent};
+use brume::integrator::{media::Emitted, media::Flight, media::MediumEvent};
 use brume::integrator::{nested::nested_applies, nested::sample_nested};
 use brume::math::Ray;
 use brume::render::{media::HomogeneousMedium, media::MediaStats, media::TrackingConfig};
@@ -111,7 +111,10 @@ fn tally<F: Features>(
             cfg,
             rng: &mut rng,
             stats: &mut stats,
-            l: &mut l,
+            l: Emitted {
+                l: &mut l,
+                groups: None,
+            },
         };
         let (event, phase): (MediumEvent, HenyeyGreenstein) = if nested {
             sample_nested::<F>(media, Vec3::ONE, f)

@@ -500,6 +500,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             film_transparent: false,
             light_passes: false,
             data_passes: false,
+            light_groups: false,
         };
         let (mut sum, mut sum2, mut max_beta, mut max_l) = (0f64, 0f64, 0f32, 0f32);
         for i in 0..n {
