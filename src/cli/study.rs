@@ -42,12 +42,16 @@ pub struct StudyArgs {
     /// Image height (default 96, or the reference's).
     #[arg(long)]
     pub height: Option<u32>,
-    /// A configuration, ESTIMATOR[:b=B][:m=M][:global|local] (repeatable). Default: the seed
-    /// paper's sweep (weighted delta b = 0.25..1, weighted decomposition m = 0.01..0.05,
-    /// delta; global and per-leaf majorants).
+    /// A configuration, ESTIMATOR[:b=B][:m=M][:global|local][:noise=E[:min-spp=N]]
+    /// (repeatable); noise=E samples adaptively as `brume render --noise-threshold E
+    /// --min-spp N` (N default 16), and beside the same configuration without it the report
+    /// gives the ratio of their times to the target RMSE. Default: the seed paper's sweep
+    /// (weighted delta b = 0.25..1, weighted decomposition m = 0.01..0.05, delta; global and
+    /// per-leaf majorants).
     #[arg(long = "config")]
     pub configs: Vec<String>,
-    /// Target RMSE of the time-to-target column (default: the median final RMSE).
+    /// Target RMSE of the time-to-target column (default: twice the lowest mean RMSE at the
+    /// budget, or the highest RMSE an adaptive render ended at where that is higher).
     #[arg(long)]
     pub target_rmse: Option<f64>,
     /// First seed; render i of repeat r uses seed + 1000 r + i.
@@ -205,12 +209,16 @@ fn run_sweep(
             let p =
                 pool.install(|| run_config(rs, base, cfg, args.budget, repeat, seed, reference));
             if let Some(last) = p.last() {
+                let spp = if cfg.adaptive_sampling.is_some() {
+                    format!("{:.1} spp a pixel (at most {})", last.mean_spp, last.spp)
+                } else {
+                    format!("{} spp", last.spp)
+                };
                 eprintln!(
-                    "  [{}/{}] {} (repeat {repeat}, seed {seed}): {} spp in {:.2} s, RMSE {}",
+                    "  [{}/{}] {} (repeat {repeat}, seed {seed}): {spp} in {:.2} s, RMSE {}",
                     repeat as usize * configs.len() + i + 1,
                     total,
                     cfg.label,
-                    last.spp,
                     last.seconds,
                     sig(last.rmse)
                 );
@@ -337,13 +345,13 @@ fn load_or_render_reference(
 }
 
 /// Colour index per configuration: configurations that differ only in majorant mode share a
-/// colour (their labels end in " global"/" local").
-fn colours(labels: &[String]) -> Vec<usize> {
-    let mut keys: Vec<&str> = Vec::new();
-    labels
+/// colour ([`StudyConfig::family`]).
+fn colours(configs: &[StudyConfig]) -> Vec<usize> {
+    let mut keys: Vec<String> = Vec::new();
+    configs
         .iter()
-        .map(|l| {
-            let key = l.rsplit_once(' ').map_or(l.as_str(), |(k, _)| k);
+        .map(|c| {
+            let key = c.family();
             match keys.iter().position(|k| *k == key) {
                 Some(i) => i,
                 None => {
@@ -360,12 +368,8 @@ fn write_plots(
     summary: &report::StudySummary,
     points: &[Checkpoint],
 ) -> Result<Vec<PathBuf>> {
-    let labels: Vec<String> = summary
-        .configs
-        .iter()
-        .map(|c| c.config.label.clone())
-        .collect();
-    let col = colours(&labels);
+    let configs: Vec<StudyConfig> = summary.configs.iter().map(|c| c.config.clone()).collect();
+    let col = colours(&configs);
     let curves: Vec<Curve> = summary
         .configs
         .iter()

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::run::{Checkpoint, StudyConfig};
+use super::run::{AdaptiveSampling, Checkpoint, StudyConfig};
 use super::stats::{fit_line, mean_std};
 use crate::film::{write_atomically, FilmError};
 
@@ -22,7 +22,8 @@ pub struct ConfigSummary {
     pub repeats: usize,
     /// Mean rendering time at the final checkpoint, seconds.
     pub seconds: f64,
-    /// Mean samples per pixel reached.
+    /// Mean samples per pixel reached (over the image's pixels: fewer than the passes'
+    /// count where adaptive sampling stopped pixels).
     pub spp: f64,
     /// RMSE at the final checkpoint: mean and sample std over repeats.
     pub rmse_mean: f64,
@@ -70,6 +71,47 @@ pub struct StudySummary {
     pub reference_noise_rmse: Option<f64>,
     pub threads: usize,
     pub configs: Vec<ConfigSummary>,
+    /// Each adaptive configuration against the same one with fixed sampling, where the study
+    /// has both.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub adaptive_gains: Vec<AdaptiveGain>,
+}
+
+/// Fixed against adaptive sampling of one configuration at the target RMSE: the time each
+/// takes to reach it and their ratio.
+#[derive(Clone, Debug, Serialize)]
+pub struct AdaptiveGain {
+    /// Label of the fixed-sampling row.
+    pub fixed: String,
+    /// Label of the adaptive row.
+    pub adaptive: String,
+    /// Mean time to the target RMSE, `None` unless every repeat reached it.
+    pub fixed_seconds: Option<f64>,
+    pub adaptive_seconds: Option<f64>,
+    /// `fixed_seconds / adaptive_seconds`: above 1 where adaptive sampling saves time.
+    pub ratio: Option<f64>,
+}
+
+/// Pairs every adaptive row of `configs` with the fixed-sampling row of the same
+/// configuration, when the study has it.
+pub fn adaptive_gains(configs: &[ConfigSummary]) -> Vec<AdaptiveGain> {
+    let every = |c: &ConfigSummary| c.time_to_target.filter(|_| c.reached_target == c.repeats);
+    configs
+        .iter()
+        .filter(|a| a.config.adaptive_sampling.is_some())
+        .filter_map(|a| {
+            let fixed = a.config.fixed();
+            let f = configs.iter().find(|c| c.config == fixed)?;
+            let (tf, ta) = (every(f), every(a));
+            Some(AdaptiveGain {
+                fixed: f.config.label.clone(),
+                adaptive: a.config.label.clone(),
+                fixed_seconds: tf,
+                adaptive_seconds: ta,
+                ratio: tf.zip(ta).map(|(f, a)| f / a.max(1e-12)),
+            })
+        })
+        .collect()
 }
 
 /// Checkpoints of one configuration, grouped by repeat (in checkpoint order).
@@ -115,8 +157,46 @@ pub fn loglog_slope(curves: &[Vec<&Checkpoint>], skip: usize) -> Option<f64> {
     fit_line(&x, &y).map(|(s, _)| s)
 }
 
+/// The default target RMSE and how it was chosen: twice the lowest mean RMSE at the budget,
+/// or the highest RMSE an adaptive render ended at when that is above it (an adaptive render
+/// that ended once every pixel stopped reaches no lower RMSE).
+fn default_target(finals: &[(StudyConfig, Vec<Vec<&Checkpoint>>)]) -> (f64, String) {
+    let best = finals
+        .iter()
+        .map(|(_, curves)| {
+            let v: Vec<f64> = curves
+                .iter()
+                .filter_map(|c| c.last().map(|p| p.rmse))
+                .collect();
+            mean_std(&v).0
+        })
+        .filter(|x| x.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let adaptive_end = finals
+        .iter()
+        .filter(|(c, _)| c.adaptive_sampling.is_some())
+        .flat_map(|(_, curves)| curves.iter().filter_map(|c| c.last().map(|p| p.rmse)))
+        .filter(|x| x.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if adaptive_end > 2.0 * best {
+        (
+            adaptive_end,
+            "the highest RMSE an adaptive render ended at (above twice the lowest mean RMSE at \
+             the budget): every adaptive render reaches it"
+                .to_string(),
+        )
+    } else {
+        (
+            2.0 * best,
+            "twice the lowest mean RMSE at the budget: an estimator as efficient as the best \
+             gets there in about a quarter of the budget"
+                .to_string(),
+        )
+    }
+}
+
 /// Summarises `points` per configuration, in `configs` order. `target`: the RMSE for the
-/// time-to-target column; by default twice the lowest mean RMSE at the budget.
+/// time-to-target column; by default [`default_target`]'s.
 #[allow(clippy::too_many_arguments)]
 pub fn summarize(
     points: &[Checkpoint],
@@ -135,30 +215,11 @@ pub fn summarize(
         .iter()
         .map(|c| (c.clone(), by_repeat(points, &c.label)))
         .collect();
-    let final_rmse = |curves: &Vec<Vec<&Checkpoint>>| {
-        let v: Vec<f64> = curves
-            .iter()
-            .filter_map(|c| c.last().map(|p| p.rmse))
-            .collect();
-        mean_std(&v).0
-    };
     let (target_rmse, target_rule) = match target {
         Some(t) => (t, "given with --target-rmse".to_string()),
-        None => {
-            let best = finals
-                .iter()
-                .map(|(_, c)| final_rmse(c))
-                .filter(|x| x.is_finite())
-                .fold(f64::INFINITY, f64::min);
-            (
-                2.0 * best,
-                "twice the lowest mean RMSE at the budget: an estimator as efficient as the \
-                 best gets there in about a quarter of the budget"
-                    .to_string(),
-            )
-        }
+        None => default_target(&finals),
     };
-    let summaries = finals
+    let summaries: Vec<ConfigSummary> = finals
         .iter()
         .map(|(cfg, curves)| {
             let last: Vec<&Checkpoint> = curves.iter().filter_map(|c| c.last().copied()).collect();
@@ -179,7 +240,7 @@ pub fn summarize(
                 config: cfg.clone(),
                 repeats: last.len(),
                 seconds: mean_std(&get(&|p| p.seconds)).0,
-                spp: mean_std(&get(&|p| p.spp as f64)).0,
+                spp: mean_std(&get(&|p| p.mean_spp)).0,
                 rmse_mean,
                 rmse_std,
                 relmse_mean: mean_std(&get(&|p| p.relmse)).0,
@@ -207,30 +268,38 @@ pub fn summarize(
         reference: reference.to_string(),
         reference_noise_rmse,
         threads,
+        adaptive_gains: adaptive_gains(&summaries),
         configs: summaries,
     }
 }
 
-/// Reads a `checkpoints.csv` written by [`write_csv`].
+/// Reads a `checkpoints.csv` written by [`write_csv`]. A file without the `mean_spp` column
+/// holds fixed-sampling rows, where it equals `spp`.
 pub fn read_csv(path: &Path) -> Result<Vec<Checkpoint>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate().skip(1) {
         let bad = |what: &str| format!("{}:{}: bad {what}: {line:?}", path.display(), i + 1);
         let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 9 {
-            return Err(bad("row (expected 9 fields)"));
+        if !(9..=10).contains(&f.len()) {
+            return Err(bad("row (expected 10 fields)"));
         }
+        let spp: u32 = f[3].parse().map_err(|_| bad("spp"))?;
+        let mean_spp = match f.get(9) {
+            Some(v) => v.parse().map_err(|_| bad("mean_spp"))?,
+            None => spp as f64,
+        };
         out.push(Checkpoint {
             config: f[0].to_string(),
             repeat: f[1].parse().map_err(|_| bad("repeat"))?,
             seed: f[2].parse().map_err(|_| bad("seed"))?,
-            spp: f[3].parse().map_err(|_| bad("spp"))?,
+            spp,
             seconds: f[4].parse().map_err(|_| bad("seconds"))?,
             rmse: f[5].parse().map_err(|_| bad("rmse"))?,
             relmse: f[6].parse().map_err(|_| bad("relmse"))?,
             lookups: f[7].parse().map_err(|_| bad("lookups"))?,
             samples: f[8].parse().map_err(|_| bad("samples"))?,
+            mean_spp,
         });
     }
     Ok(out)
@@ -238,12 +307,22 @@ pub fn read_csv(path: &Path) -> Result<Vec<Checkpoint>, String> {
 
 /// `checkpoints.csv`: one row per pass of every render.
 pub fn write_csv(path: &Path, points: &[Checkpoint]) -> Result<(), FilmError> {
-    let mut s = String::from("config,repeat,seed,spp,seconds,rmse,relmse,lookups,samples\n");
+    let mut s =
+        String::from("config,repeat,seed,spp,seconds,rmse,relmse,lookups,samples,mean_spp\n");
     for p in points {
         let _ = writeln!(
             s,
-            "{},{},{},{},{:.6},{:.8e},{:.8e},{},{}",
-            p.config, p.repeat, p.seed, p.spp, p.seconds, p.rmse, p.relmse, p.lookups, p.samples
+            "{},{},{},{},{:.6},{:.8e},{:.8e},{},{},{:.6}",
+            p.config,
+            p.repeat,
+            p.seed,
+            p.spp,
+            p.seconds,
+            p.rmse,
+            p.relmse,
+            p.lookups,
+            p.samples,
+            p.mean_spp
         );
     }
     write_text(path, &s)
@@ -336,6 +415,7 @@ pub fn markdown(summary: &StudySummary) -> String {
             c.loglog_slope.map_or("-".into(), |v| format!("{v:.2}")),
         );
     }
+    s += &adaptive_lines(summary);
     let _ = write!(
         s,
         "\nNotes:\n\
@@ -357,5 +437,49 @@ nearing the reference's own noise (or a bias).\n",
         summary.target_rule,
         SLOPE_SKIP_PASSES
     );
+    if summary
+        .configs
+        .iter()
+        .any(|c| c.config.adaptive_sampling.is_some())
+    {
+        let _ = writeln!(
+            s,
+            "- `noise=E` rows sample adaptively (`brume render --noise-threshold E --min-spp N`, \
+N {} unless the label says): a pixel stops at a pass boundary once the standard error of its \
+mean is below E times the mean. Their spp is the mean over pixels, their samples/s counts the \
+samples taken, and their RMSE is over the whole image, stopped pixels included. Such a render \
+ends before the budget once every pixel has stopped.",
+            AdaptiveSampling::new(1.0).min_spp
+        );
+    }
+    s
+}
+
+/// The lines comparing fixed and adaptive sampling at the target RMSE (empty when the study
+/// has no adaptive row with its fixed-sampling twin).
+pub fn adaptive_lines(summary: &StudySummary) -> String {
+    let mut s = String::new();
+    if summary.adaptive_gains.is_empty() {
+        return s;
+    }
+    let _ = writeln!(
+        s,
+        "\nTime to RMSE {}, fixed against adaptive sampling:\n",
+        sig(summary.target_rmse)
+    );
+    let time = |t: Option<f64>| t.map_or("not reached in every repeat".into(), |t| sig(t) + " s");
+    for g in &summary.adaptive_gains {
+        let ratio = g.ratio.map_or("no ratio".into(), |r| {
+            format!("fixed / adaptive time = {}", sig(r))
+        });
+        let _ = writeln!(
+            s,
+            "- `{}` {}, `{}` {}: {ratio}",
+            g.fixed,
+            time(g.fixed_seconds),
+            g.adaptive,
+            time(g.adaptive_seconds)
+        );
+    }
     s
 }

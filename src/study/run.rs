@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::compare::mse_relmse;
 use crate::backend::cpu;
-use crate::film::{totals, AttrValue, Image, Metadata};
+use crate::film::{totals, AttrValue, Film, Image, Metadata};
 use crate::render::{Estimator, MajorantMode, RenderScene, RenderSettings};
 
 /// One estimator setting of the study.
@@ -29,6 +29,38 @@ pub struct StudyConfig {
     pub m: Option<f32>,
     #[serde(serialize_with = "ser_majorant")]
     pub majorant: MajorantMode,
+    /// Adaptive sampling (`brume render --noise-threshold`); `None`: every pixel takes every
+    /// pass.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive_sampling: Option<AdaptiveSampling>,
+}
+
+/// Adaptive sampling of a study configuration: pixels stop at pass boundaries once their
+/// relative standard error is below `noise_threshold` (`film::adaptive`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct AdaptiveSampling {
+    pub noise_threshold: f32,
+    /// Samples every pixel takes before it may stop (`brume render --min-spp`).
+    pub min_spp: u32,
+}
+
+impl AdaptiveSampling {
+    /// Threshold `noise_threshold` with `brume render`'s default minimum sample count.
+    pub fn new(noise_threshold: f32) -> Self {
+        Self {
+            noise_threshold,
+            min_spp: RenderSettings::default().min_spp,
+        }
+    }
+
+    /// The label's suffix: ` noise=E`, and ` min-spp=N` when N is not the default.
+    fn label(&self) -> String {
+        let mut s = format!(" noise={}", self.noise_threshold);
+        if self.min_spp != Self::new(self.noise_threshold).min_spp {
+            s += &format!(" min-spp={}", self.min_spp);
+        }
+        s
+    }
 }
 
 fn ser_name<S: serde::Serializer>(e: &Estimator, s: S) -> Result<S::Ok, S::Error> {
@@ -77,15 +109,30 @@ impl StudyConfig {
             b,
             m,
             majorant,
+            adaptive_sampling: None,
         }
     }
 
-    /// Parses `ESTIMATOR[:b=B][:m=M][:global|local]` (majorant default: global), e.g.
-    /// `weighted-delta:b=0.75:local` or `weighted-decomposition:m=0.03`.
+    /// This configuration with adaptive sampling `a` (or without, for `None`); the label
+    /// says so.
+    pub fn with_adaptive_sampling(self, a: Option<AdaptiveSampling>) -> Self {
+        let mut c = Self::new(self.estimator, self.b, self.m, self.majorant);
+        if let Some(a) = a {
+            c.label += &a.label();
+        }
+        c.adaptive_sampling = a;
+        c
+    }
+
+    /// Parses `ESTIMATOR[:b=B][:m=M][:global|local][:noise=E[:min-spp=N]]` (majorant default:
+    /// global; `noise=E` samples adaptively, with `min-spp` default 16 as in `brume render`),
+    /// e.g. `weighted-delta:b=0.75:local`, `weighted-decomposition:m=0.03` or
+    /// `delta:leaf:noise=0.01`.
     pub fn parse(s: &str) -> Result<Self, String> {
         let mut parts = s.split(':');
         let estimator: Estimator = parts.next().unwrap_or("").trim().parse()?;
         let (mut b, mut m, mut majorant) = (1.0f32, None, MajorantMode::Global);
+        let (mut noise, mut min_spp) = (None, None);
         for p in parts {
             let p = p.trim();
             let num = |v: &str, what: &str| {
@@ -101,15 +148,33 @@ impl StudyConfig {
                 }
             } else if let Some(v) = p.strip_prefix("m=") {
                 m = Some(num(v, "m")?);
+            } else if let Some(v) = p.strip_prefix("noise=") {
+                noise = Some(num(v, "noise")?).filter(|&e| e > 0.0);
+                if noise.is_none() {
+                    return Err(format!("config {s:?}: noise must be > 0"));
+                }
+            } else if let Some(v) = p.strip_prefix("min-spp=") {
+                min_spp = Some(v.parse::<u32>().ok().filter(|&n| n > 0).ok_or_else(|| {
+                    format!("config {s:?}: min-spp = {v:?} is not a whole number >= 1")
+                })?);
             } else {
                 majorant = p.parse().map_err(|e| {
                     format!(
-                        "config {s:?}: {e} (parts are b=B, m=M, global, leaf, culled or adaptive)"
+                        "config {s:?}: {e} (parts are b=B, m=M, global, leaf, culled, adaptive, \
+                         noise=E and min-spp=N)"
                     )
                 })?;
             }
         }
-        Ok(Self::new(estimator, b, m, majorant))
+        let sampling = match (noise, min_spp) {
+            (Some(e), n) => Some(AdaptiveSampling {
+                min_spp: n.unwrap_or(AdaptiveSampling::new(e).min_spp),
+                ..AdaptiveSampling::new(e)
+            }),
+            (None, Some(_)) => return Err(format!("config {s:?}: min-spp needs noise=E")),
+            (None, None) => None,
+        };
+        Ok(Self::new(estimator, b, m, majorant).with_adaptive_sampling(sampling))
     }
 
     /// Parses a label made by [`StudyConfig::new`] (e.g. `weighted-delta b=0.75 local`), to
@@ -120,6 +185,8 @@ impl StudyConfig {
             if i == 0
                 || t.starts_with("b=")
                 || t.starts_with("m=")
+                || t.starts_with("noise=")
+                || t.starts_with("min-spp=")
                 || matches!(t, "global" | "leaf" | "adaptive" | "local")
             {
                 spec.push(t.to_string());
@@ -134,15 +201,30 @@ impl StudyConfig {
         Ok(c)
     }
 
-    /// `base` with this configuration's estimator and parameters.
+    /// `base` with this configuration's estimator, parameters and adaptive sampling.
     pub fn settings(&self, base: &RenderSettings) -> RenderSettings {
         RenderSettings {
             estimator: self.estimator,
             b: self.b,
             m: self.m,
             majorant: self.majorant,
+            noise_threshold: self.adaptive_sampling.map(|a| a.noise_threshold),
+            min_spp: self.adaptive_sampling.map_or(base.min_spp, |a| a.min_spp),
             ..base.clone()
         }
+    }
+
+    /// The label without the majorant mode: configurations that differ only in it share a
+    /// plot colour.
+    pub fn family(&self) -> String {
+        let mode = self.majorant.name();
+        let words: Vec<&str> = self.label.split(' ').filter(|w| *w != mode).collect();
+        words.join(" ")
+    }
+
+    /// The same configuration with fixed sampling (itself when it has none).
+    pub fn fixed(&self) -> Self {
+        self.clone().with_adaptive_sampling(None)
     }
 }
 
@@ -186,7 +268,8 @@ pub struct Checkpoint {
     pub config: String,
     pub repeat: u32,
     pub seed: u32,
-    /// Samples per pixel so far.
+    /// Samples per pixel so far of the pixels still sampling (every pixel without adaptive
+    /// sampling).
     pub spp: u32,
     /// Wall-clock seconds of rendering so far (scene preparation excluded).
     pub seconds: f64,
@@ -198,10 +281,14 @@ pub struct Checkpoint {
     pub lookups: u64,
     /// Camera samples so far.
     pub samples: u64,
+    /// Samples the image's pixels hold so far, on average: `spp` without adaptive sampling,
+    /// less once pixels stop.
+    pub mean_spp: f64,
 }
 
 /// Renders `cfg` for `budget` seconds (no new pass starts after it) and scores every pass
-/// against `reference`.
+/// against `reference`, over the whole image: pixels that adaptive sampling stopped count
+/// with the mean they hold. An adaptive render ends early once every pixel has stopped.
 pub fn run_config(
     rs: &RenderScene,
     base: &RenderSettings,
@@ -211,6 +298,19 @@ pub fn run_config(
     seed: u32,
     reference: &Image,
 ) -> Vec<Checkpoint> {
+    render_config(rs, base, cfg, budget, repeat, seed, reference).0
+}
+
+/// [`run_config`], also returning the film of the last pass (to check the image itself).
+pub fn render_config(
+    rs: &RenderScene,
+    base: &RenderSettings,
+    cfg: &StudyConfig,
+    budget: f64,
+    repeat: u32,
+    seed: u32,
+    reference: &Image,
+) -> (Vec<Checkpoint>, Film) {
     let settings = RenderSettings {
         spp: 0,
         time_limit: Some(budget),
@@ -220,7 +320,7 @@ pub fn run_config(
     let mut points = Vec::new();
     let mut means = Vec::with_capacity(reference.rgb.len());
     let stop = AtomicBool::new(false);
-    cpu::render_observed(rs, &settings, &stop, &|_, _, _| {}, &mut |view| {
+    let out = cpu::render_observed(rs, &settings, &stop, &|_, _, _| {}, &mut |view| {
         means.clear();
         means.extend(
             view.film
@@ -230,6 +330,7 @@ pub fn run_config(
         );
         let (mse, relmse) = mse_relmse(&means, &reference.rgb);
         let t = totals(view.records);
+        let held: u64 = view.film.pixels().iter().map(|p| p.count as u64).sum();
         points.push(Checkpoint {
             config: cfg.label.clone(),
             repeat,
@@ -240,9 +341,10 @@ pub fn run_config(
             relmse,
             lookups: t.counters.density_lookups,
             samples: t.counters.samples,
+            mean_spp: held as f64 / means.len().max(1) as f64,
         });
     });
-    points
+    (points, out.film)
 }
 
 /// Seed of configuration `index` in repeat `repeat`: distinct for every render of a study and
