@@ -51,7 +51,7 @@ pub struct RenderArgs {
     /// What the EXR holds beside the beauty: a comma-separated list of beauty (the default),
     /// light (the light passes: emission, background, volume.direct, volume.indirect,
     /// surface.direct, surface.indirect, which add up to the beauty), data (the denoiser's
-    /// albedo and normal, and depth, with Cycles' conventions; CPU backend) and all (both).
+    /// albedo and normal, and depth, with Cycles' conventions) and all (both).
     #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
     pub passes: Option<super::passes::PassChoice>,
     /// Adaptive sampling: a pixel stops taking samples once the standard error of its mean is
@@ -344,12 +344,11 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     let cpu_only = args.checkpoint.is_some()
         || args.resume.is_some()
         || args.region.is_some()
-        || settings.data_passes
         || settings.noise_threshold.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region, --passes data and \
-             --noise-threshold run on the CPU backend only"
+            "--backend gpu: --checkpoint, --resume, --region and --noise-threshold run on the \
+             CPU backend only"
         ));
     }
     check_outputs(args)?;
