@@ -106,6 +106,14 @@ struct GpuSample {
     _pad2: u32,
 }
 
+// GpuDataPasses: one path's or camera sample's data passes (PathState::data).
+struct GpuDataPasses {
+    albedo: vec3<f32>,  // throughput times the base colour, past the albedo, or times the sky
+    depth: f32,         // camera-space Z of the camera ray's first surface, m
+    normal: vec3<f32>,  // shading normal there, world (view direction in a medium)
+    _pad0: u32,
+}
+
 // GpuPathState: one path of the wavefront integrator (see src/gpu_types/wavefront.rs for units).
 struct GpuPathState {
     o: vec3<f32>,       // ray origin, world, m

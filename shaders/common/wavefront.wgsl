@@ -47,6 +47,40 @@ fn clear_passes(slot: u32) {
 }
 // #endif
 
+// #if FEATURE_DATA_PASSES
+// The data passes (PathState::data): one GpuDataPasses per path slot, apart from the path
+// state as the light passes are; whether each has been recorded is in the path's flags
+// (PATH_FLAG_ALBEDO_SEEN, PATH_FLAG_DEPTH_SEEN).
+@group(1) @binding(21) var<storage, read_write> path_data: array<GpuDataPasses>;
+
+// The albedo and normal of the path's first event that is not a smooth dielectric (or the
+// sky's albedo), recorded once.
+fn record_albedo(slot: u32, ps: ptr<function, GpuPathState>, albedo: vec3<f32>,
+                 normal: vec3<f32>) {
+    if (((*ps).flags & PATH_FLAG_ALBEDO_SEEN) != 0u) {
+        return;
+    }
+    path_data[slot].albedo = albedo;
+    path_data[slot].normal = normal;
+    (*ps).flags |= PATH_FLAG_ALBEDO_SEEN;
+}
+
+// The camera ray's depth (the camera-space Z of its first surface, or BACKGROUND_DEPTH),
+// recorded once.
+fn record_depth(slot: u32, ps: ptr<function, GpuPathState>, depth: f32) {
+    if (((*ps).flags & PATH_FLAG_DEPTH_SEEN) != 0u) {
+        return;
+    }
+    path_data[slot].depth = depth;
+    (*ps).flags |= PATH_FLAG_DEPTH_SEEN;
+}
+
+// A new path's data passes: all zero (generate's PathState).
+fn clear_data(slot: u32) {
+    path_data[slot] = GpuDataPasses(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0u);
+}
+// #endif
+
 // Every stage runs 64 invocations a workgroup; the indirect arguments divide by it.
 const WORKGROUP: u32 = 64u;
 

@@ -3,14 +3,19 @@
 // radiance, coverage and lookup count to its camera sample's entry of the batch's sample
 // buffer (the host adds the entries to the f64 Film in pixel and sample order, so no float
 // atomics are needed and the film's per-pixel variance is that of the individual samples),
-// and with the light passes its CameraSample::passes to the entries beside it; its slot is
-// then free.
+// and with the light passes its CameraSample::passes to the entries beside it, with the data
+// passes its CameraSample::data to the entry beside it; its slot is then free.
 
 @group(1) @binding(6) var<storage, read_write> samples: array<GpuSample>;
 // #if FEATURE_LIGHT_PASSES
 // CameraSample::passes: the path's light passes beside its sample entry,
 // sample_id * LIGHT_PASSES + pass (read back with the batch's samples).
 @group(1) @binding(20) var<storage, read_write> sample_passes: array<vec4<f32>>;
+// #endif
+// #if FEATURE_DATA_PASSES
+// CameraSample::data: the path's data passes beside its sample entry (read back with the
+// batch's samples).
+@group(1) @binding(22) var<storage, read_write> sample_data: array<GpuDataPasses>;
 // #endif
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
@@ -26,6 +31,9 @@ fn accumulate(slot: u32) {
     for (var k = 0u; k < LIGHT_PASSES; k++) {
         sample_passes[ps.sample_id * LIGHT_PASSES + k] = path_passes[slot * LIGHT_PASSES + k];
     }
+// #endif
+// #if FEATURE_DATA_PASSES
+    sample_data[ps.sample_id] = path_data[slot];
 // #endif
     add_wide(WIDE_DEPTH_SUM, ps.depth);
     atomicSub(&counters.live, 1u);

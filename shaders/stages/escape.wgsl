@@ -5,14 +5,21 @@
 // camera ray's coverage from it). A camera ray escaping unscattered on a transparent film
 // (WF_FLAG_FILM_TRANSPARENT) gathers nothing.
 // With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl). The light
-// goes to the background pass as PathState::gather routes it (gather_pass).
+// goes to the background pass as PathState::gather routes it (gather_pass); with the data
+// passes, a camera ray that meets no surface records the background's depth, and the sky is
+// the albedo of a path that meets no opaque surface or medium event first (record_albedo).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn escape(slot: u32) {
     var ps = paths[slot];
     ps.flags |= PATH_FLAG_ESCAPED;
+    // Seen straight through, the sky is the background, which a transparent film leaves out.
     let unscattered = ps.depth == 0u;
-    if (wf.has_env != 0u && !(unscattered && (wf.flags & WF_FLAG_FILM_TRANSPARENT) != 0u)) {
+    let gathers = !(unscattered && (wf.flags & WF_FLAG_FILM_TRANSPARENT) != 0u);
+// #if FEATURE_DATA_PASSES
+    record_depth(slot, &ps, BACKGROUND_DEPTH);
+// #endif
+    if (wf.has_env != 0u && gathers) {
         var w = 1.0;
 // #if FEATURE_ENV_MAP
         // The map: radiance and light-sampling density depend on the direction.
@@ -31,6 +38,11 @@ fn escape(slot: u32) {
                 w = power_heuristic(ps.prev_pdf, wf.env_pdf);
             }
         }
+// #endif
+// #if FEATURE_DATA_PASSES
+        // The sky seen (through smooth dielectrics at most) is its own albedo, as Cycles
+        // gives it to the denoiser.
+        record_albedo(slot, &ps, ps.beta * le, vec3<f32>(0.0));
 // #endif
         let x = ps.beta * le * w;
         ps.l += x;

@@ -6,7 +6,8 @@
 // moving camera at it (Pinhole::posed), Camera::generate_ray and Camera::t_min
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
 // the escape stage when the scene has neither media nor surfaces). With the light passes
-// (FEATURE_LIGHT_PASSES) the slot's pass accumulators start at zero, as PathState::passes does.
+// (FEATURE_LIGHT_PASSES) the slot's pass accumulators start at zero, as PathState::passes does,
+// and with the data passes (FEATURE_DATA_PASSES) its GpuDataPasses, as PathState::data does.
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn generate(slot: u32) {
@@ -64,6 +65,9 @@ fn generate(slot: u32) {
     paths[slot] = ps;
 // #if FEATURE_LIGHT_PASSES
     clear_passes(slot);
+// #endif
+// #if FEATURE_DATA_PASSES
+    clear_data(slot);
 // #endif
     if (FEATURE_HETEROGENEOUS || FEATURE_HOMOGENEOUS || FEATURE_SURFACES) {
         queue_push(queue_medium_in(), slot);

@@ -5,7 +5,8 @@
 // function's value and the MIS weight (power heuristic unless the light is a delta). The
 // unoccluded contribution goes to the shadow stage, which multiplies it by the transmittance
 // with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
-// then goes on to the phase stage.
+// then goes on to the phase stage. With the data passes, a medium event before any opaque
+// surface records the throughput and the view direction (record_albedo).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn scatter_medium(slot: u32) {
@@ -27,6 +28,14 @@ fn scatter_medium(slot: u32) {
     // passes.
     if (ps.depth == 1u) {
         ps.flags |= PATH_FLAG_FIRST_IN_MEDIUM;
+    }
+// #endif
+// #if FEATURE_DATA_PASSES
+    if ((ps.flags & PATH_FLAG_ALBEDO_SEEN) == 0u) {
+        // Cycles' volume features: the throughput past the event's albedo, and the view
+        // direction as normal; a camera ray that scatters first sees no surface (depth 0).
+        record_albedo(slot, &ps, ps.beta, -ps.d);
+        ps.flags |= PATH_FLAG_DEPTH_SEEN;
     }
 // #endif
     var rng = path_rng(ps);

@@ -10,7 +10,9 @@
 //   direction stage, which samples the BSDF after the shadow ray has drawn its numbers (the
 //   CPU's order).
 // With the light passes, the emission goes to its pass as PathState::gather routes it
-// (gather_pass); the next-event estimate does in the shadow stage.
+// (gather_pass); the next-event estimate does in the shadow stage. With the data passes, the
+// camera ray's first surface that is not a null interface records its depth, and the first
+// opaque one the albedo and shading normal (record_depth, record_albedo).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn shade_surface(slot: u32) {
@@ -48,6 +50,11 @@ fn shade_surface(slot: u32) {
         queue_push(queue_medium_out(), slot);
         return;
     }
+// #if FEATURE_DATA_PASSES
+    // The camera ray's first surface: its camera-space Z (Cycles' Z pass).
+    let eye = vec3<f32>(wf.camera[0].w, wf.camera[1].w, wf.camera[2].w);
+    record_depth(slot, &ps, dot(p - eye, wf.forward));
+// #endif
     ps.depth += 1u;
     ps.flags &= ~PATH_FLAG_FLIGHT_STARTED;
     if (ps.depth > wf.max_depth) {
@@ -87,7 +94,11 @@ fn shade_surface(slot: u32) {
     let n_side = select(-ng, ng, cos_o >= 0.0);
     let ns = shading_normal(tri, ps.hit_b1, ps.hit_b2, n_side);
     let frame = frame_from_z(ns);
-    let bsdf = principled_new(base_color_at(mat, uv), mat.metallic, mat.roughness);
+    let base_color = base_color_at(mat, uv);
+// #if FEATURE_DATA_PASSES
+    record_albedo(slot, &ps, ps.beta * base_color, ns);
+// #endif
+    let bsdf = principled_new(base_color, mat.metallic, mat.roughness);
     let wo_l = frame_to_local(frame, wo);
     let p_off = offset_origin(p, n_side, n_side);
     let bounce = ps.depth - 1u;

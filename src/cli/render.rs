@@ -52,9 +52,9 @@ pub struct RenderArgs {
     /// What the EXR holds beside the beauty: a comma-separated list of beauty (the default),
     /// light (the light passes: emission, background, volume.direct, volume.indirect,
     /// surface.direct, surface.indirect, which add up to the beauty), data (the denoiser's
-    /// albedo and normal, and depth, with Cycles' conventions; CPU backend), lights (a light
-    /// group per glTF light, the environment, the emissive surfaces and each emitting medium,
-    /// which add up to the beauty; CPU backend) and all (every one).
+    /// albedo and normal, and depth, with Cycles' conventions), lights (a light group per glTF
+    /// light, the environment, the emissive surfaces and each emitting medium, which add up to
+    /// the beauty; CPU backend) and all (every one).
     #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
     pub passes: Option<super::passes::PassChoice>,
     /// Adaptive sampling: a pixel stops taking samples once the standard error of its mean is
@@ -350,12 +350,11 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     let cpu_only = args.checkpoint.is_some()
         || args.resume.is_some()
         || args.region.is_some()
-        || settings.data_passes
         || !settings.light_groups.is_empty()
         || settings.noise_threshold.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region, --passes data, --passes lights and \
+            "--backend gpu: --checkpoint, --resume, --region, --passes lights and \
              --noise-threshold run on the CPU backend only"
         ));
     }

@@ -295,6 +295,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
         [l, lookups, alpha, _pad0, _pad1, _pad2]
     ),
     layout!(
+        GpuDataPasses,
+        "GpuDataPasses",
+        [albedo, depth, normal, _pad0]
+    ),
+    layout!(
         crate::scene::PunctualLight,
         "PunctualLight",
         [position, kind, direction, range, intensity, cos_inner, cos_outer, _pad]

@@ -98,6 +98,14 @@ pub const PATH_FLAG_ESCAPED: u32 = 16;
 /// volume passes, else to the surface ones. Set only by the light-pass variant.
 pub const PATH_FLAG_FIRST_IN_MEDIUM: u32 = 32;
 
+/// [`GpuPathState::flags`] bit: the path has recorded its data passes' albedo and normal
+/// (`PathState::albedo_seen`). Set only by the data-pass variant.
+pub const PATH_FLAG_ALBEDO_SEEN: u32 = 64;
+/// [`GpuPathState::flags`] bit: the path has recorded its depth pass, or its camera ray
+/// scattered before meeting a surface (`PathState::depth_seen`). Set only by the data-pass
+/// variant.
+pub const PATH_FLAG_DEPTH_SEEN: u32 = 128;
+
 /// Light passes a path fills (`film::passes::LIGHT_PASSES`, `integrator::path::LIGHT_PASS_COUNT`):
 /// the light-pass variant keeps one RGB accumulator per pass and path slot, and one per pass
 /// and camera sample, each a `vec4` (w unused) at `index * GPU_LIGHT_PASSES + pass`.
@@ -112,6 +120,36 @@ pub const PASS_EMISSION: u32 = 0;
 pub const PASS_BACKGROUND: u32 = 1;
 pub const PASS_VOLUME_DIRECT: u32 = 2;
 pub const PASS_SURFACE_DIRECT: u32 = 4;
+
+/// The data passes of one path (`PathState::data`, `film::passes::DATA_PASSES`): the
+/// data-pass variant keeps one per path slot, beside the path state, and one per camera sample
+/// of the batch, which the host reads back with the samples.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDataPasses {
+    /// The throughput times the base colour at the first surface that is not a smooth
+    /// dielectric, past the albedo at a first medium event, or times the sky where the path
+    /// escapes (per RGB channel).
+    pub albedo: [f32; 3],
+    /// The camera-space Z of the camera ray's first surface, metres (`BACKGROUND_DEPTH` where
+    /// it escapes, 0 where it scatters first).
+    pub depth: f32,
+    /// The shading normal where the albedo was taken, world space (the view direction in a
+    /// medium, zero for the sky).
+    pub normal: [f32; 3],
+    pub _pad0: u32,
+}
+const _: () = assert!(size_of::<GpuDataPasses>() == 32);
+/// Bytes of one path slot's or camera sample's data passes.
+pub const GPU_DATA_PASS_BYTES: u64 = size_of::<GpuDataPasses>() as u64;
+
+impl GpuDataPasses {
+    /// The passes in `DATA_PASSES` order, three values each, as the CPU's `CameraSample::data`
+    /// holds them (the depth in every channel).
+    pub fn values(&self) -> [[f32; 3]; crate::integrator::path::DATA_PASS_COUNT] {
+        [self.albedo, self.normal, [self.depth; 3]]
+    }
+}
 
 /// What one finished camera sample brings its pixel (`CameraSample`): an entry of the batch's
 /// sample buffer, which the host adds to the film in pixel and sample order.

@@ -450,7 +450,6 @@ fn cpu_only_part_options_are_refused_on_the_gpu_backend_and_empty_ranges_on_the_
         ["--region", "0,0,8,8"],
         ["--resume", "nowhere.exr"],
         ["--noise-threshold", "0.05"],
-        ["--passes", "data"],
     ] {
         let sc = scene("cloud");
         let mut args = vec!["render", "--backend", "gpu"];

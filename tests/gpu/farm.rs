@@ -1,8 +1,9 @@
 //! A GPU part merges with CPU parts: samples [16, 64) rendered by the wavefront integrator
 //! (lavapipe in CI) merged with samples [0, 16) from the CPU agree with an independent CPU
 //! render of [0, 64) by the GPU tests' parity bounds (per-pixel z-test, Sidak-corrected at
-//! 99.9 %, and the image means). The GPU part replays the CPU's random streams at the same
-//! sample indices: printed as a parity figure against the same-seed CPU part.
+//! 99.9 %, and the image means), in the beauty and in each data pass kept beside it. The GPU
+//! part replays the CPU's random streams at the same sample indices: printed as a parity
+//! figure against the same-seed CPU part.
 use crate::common;
 use common::gpu::gpu_or_skip;
 use common::render::*;
@@ -12,6 +13,7 @@ use std::sync::atomic::AtomicBool;
 use brume::backend::cpu::{self, RenderOutput};
 use brume::backend::gpu::render::render as gpu_render;
 use brume::farm::{self, Coverage, PartInfo};
+use brume::film::passes::DATA_PASSES;
 use brume::film::{write_exr_with_state, Metadata};
 use brume::render::{RenderScene, RenderSettings};
 
@@ -51,6 +53,7 @@ fn a_gpu_part_merges_with_a_cpu_part() {
         height: 12,
         spp: 64,
         seed: 7,
+        data_passes: true,
         ..RenderSettings::default()
     };
     let cpu_part = RenderSettings {
@@ -104,8 +107,35 @@ fn a_gpu_part_merges_with_a_cpu_part() {
     assert_eq!(a.failing, 0, "{a:?}");
     assert!(a.mean_z < sidak_z(alpha, 3), "{a:?}");
     assert!(a.mean_b > 1e-3);
+
+    // The data passes merge with the beauty's counts, as the CPU's parts do.
+    assert_eq!(
+        merged.film.passes().unwrap().names(),
+        DATA_PASSES.map(String::from)
+    );
+    for (k, pass) in DATA_PASSES.into_iter().enumerate() {
+        let ((mm, mv), (im, iv)) = (pass_moments(&merged, k), pass_moments(&independent, k));
+        let pass_alpha = alpha / DATA_PASSES.len() as f64;
+        let a = compare((&mm, &mv), (&im, &iv), pass_alpha);
+        println!(
+            "{pass} merged: worst pixel z {:.2} (threshold {:.2}), {} of {} values fail; \
+             image-mean z {:.2}",
+            a.worst_z, a.z_threshold, a.failing, a.pixels, a.mean_z
+        );
+        assert_eq!(a.failing, 0, "{pass}: {a:?}");
+        assert!(a.mean_z < sidak_z(pass_alpha, 3), "{pass}: {a:?}");
+    }
 }
 
 fn render_cpu_seed(scene: &brume::scene::Scene, s: &RenderSettings, seed: u32) -> RenderOutput {
     render(scene, &RenderSettings { seed, ..s.clone() })
+}
+
+/// Pass `k`'s per-pixel means and variances of the mean, flattened (pixel, channel).
+fn pass_moments(out: &RenderOutput, k: usize) -> (Vec<f64>, Vec<f64>) {
+    let p = out.film.passes().expect("passes kept");
+    let pixels = out.film.pixels().iter().enumerate();
+    let mean = pixels.clone().flat_map(|(i, _)| p.mean(i, k)).collect();
+    let var = pixels.flat_map(|(i, q)| p.variance_of_mean(i, k, q.count));
+    (mean, var.collect())
 }

@@ -1,14 +1,18 @@
-//! Light passes on the GPU (`FEATURE_LIGHT_PASSES`) against the CPU's: on scenes that fill
-//! different passes, each pass agrees with the CPU's by per-pixel z-tests (another seed), the
-//! same seed replays the CPU's passes, the passes add up to the GPU beauty, and keeping them
-//! leaves that beauty as it is, bit for bit.
+//! Passes on the GPU against the CPU's. The light passes (`FEATURE_LIGHT_PASSES`): on scenes
+//! that fill different passes, each pass agrees with the CPU's by per-pixel z-tests (another
+//! seed), the same seed replays the CPU's passes, the passes add up to the GPU beauty, and
+//! keeping them leaves that beauty as it is, bit for bit. The data passes
+//! (`FEATURE_DATA_PASSES`): on scenes with media and surfaces, each agrees with the CPU's by
+//! per-pixel z-tests, the same seed replays them (the depth of a deterministic first surface
+//! to rounding on any adapter), and with the light passes beside them (`--passes light,data`) each
+//! kind is what it is alone, the beauty unchanged.
 use crate::common;
 use crate::render::{gpu_render, parity_asserted};
 use common::gpu::gpu_or_skip;
 use common::render::*;
 
 use brume::backend::cpu::RenderOutput;
-use brume::film::passes::LIGHT_PASSES;
+use brume::film::passes::{DATA_PASSES, LIGHT_PASSES};
 use brume::gpu_types::{
     GPU_LIGHT_PASSES, PASS_BACKGROUND, PASS_EMISSION, PASS_SURFACE_DIRECT, PASS_VOLUME_DIRECT,
 };
@@ -22,6 +26,13 @@ fn settings(light_passes: bool, seed: u32) -> RenderSettings {
         seed,
         light_passes,
         ..RenderSettings::default()
+    }
+}
+
+fn data_settings(light_passes: bool, seed: u32) -> RenderSettings {
+    RenderSettings {
+        data_passes: true,
+        ..settings(light_passes, seed)
     }
 }
 
@@ -44,16 +55,26 @@ const SCENES: [(&str, &[&str]); 3] = [
     ("fire.gltf", &["emission"]),
 ];
 
-/// Every pass's per-pixel means and variances of the mean, flattened (pass, pixel, channel),
-/// as [`moments`] has the beauty's.
+/// Pass `k`'s per-pixel means and variances of the mean, flattened (pixel, channel), as
+/// [`moments`] has the beauty's.
+fn one_pass_moments(out: &RenderOutput, k: usize) -> (Vec<f64>, Vec<f64>) {
+    let passes = out.film.passes().expect("passes kept");
+    let (mut mean, mut var) = (Vec::new(), Vec::new());
+    for (i, p) in out.film.pixels().iter().enumerate() {
+        mean.extend(passes.mean(i, k));
+        var.extend(passes.variance_of_mean(i, k, p.count));
+    }
+    (mean, var)
+}
+
+/// Every light pass's per-pixel means and variances of the mean, flattened (pass, pixel,
+/// channel).
 fn pass_moments(out: &RenderOutput) -> (Vec<f64>, Vec<f64>) {
-    let passes = out.film.passes().expect("light passes kept");
     let (mut mean, mut var) = (Vec::new(), Vec::new());
     for k in 0..LIGHT_PASSES.len() {
-        for (i, p) in out.film.pixels().iter().enumerate() {
-            mean.extend(passes.mean(i, k));
-            var.extend(passes.variance_of_mean(i, k, p.count));
-        }
+        let (m, v) = one_pass_moments(out, k);
+        mean.extend(m);
+        var.extend(v);
     }
     (mean, var)
 }
@@ -167,4 +188,168 @@ fn light_passes_agree_with_the_cpu() {
         assert_same_beauty(&g.film, &without.film, &format!("{file} on the GPU"));
         println!("{file}: GPU beauty with passes == without, bit for bit");
     }
+}
+
+/// The scenes of the data passes, each with the passes its camera rays make a function of the
+/// jitter alone (the same seed then gives the CPU's to rounding on any adapter): smoke between
+/// walls lit by a lamp (a camera ray may scatter before any surface: the throughput as albedo,
+/// the view direction as normal, depth 0); smoke in a glass tank on a floor under a sky (the
+/// depth of the glass, the albedo past it, the floor's, the sky's; the first surface is fixed
+/// by the jitter, what lies past the glass is not); opaque textured surfaces under a sky.
+const DATA_SCENES: [(&str, &[&str]); 3] = [
+    ("cornell_smoke.gltf", &[]),
+    ("smoke_tank.gltf", &["depth"]),
+    ("textured_backdrop.gltf", &["albedo", "normal", "depth"]),
+];
+
+/// How many values of `a` equal those of `b` to `rel` (relative, at least 1 absolute), and
+/// the largest relative difference.
+fn close_values(a: &[f64], b: &[f64], rel: f64) -> (usize, f64) {
+    let mut worst = 0f64;
+    let mut close = 0;
+    for (x, y) in a.iter().zip(b) {
+        let d = (x - y).abs() / (1.0 + y.abs());
+        worst = worst.max(d);
+        close += (d <= rel) as usize;
+    }
+    (close, worst)
+}
+
+/// The depth pass's values of the pixels none of whose samples escaped in either render (a
+/// mean below 1e6 m; one escape in 16 samples puts `BACKGROUND_DEPTH / 16` into it): there the
+/// depth is that of surfaces and of media scattering first, which the escapes' 1e10 would
+/// drown in the test. Both renders' samples are independent, so conditioning each pixel on no
+/// escape in either leaves them equally distributed.
+fn surface_depths(
+    (gm, gv): &(Vec<f64>, Vec<f64>),
+    (cm, cv): &(Vec<f64>, Vec<f64>),
+) -> [Vec<f64>; 4] {
+    let keep: Vec<usize> = (0..gm.len())
+        .filter(|&i| gm[i] < 1e6 && cm[i] < 1e6)
+        .collect();
+    [gm, gv, cm, cv].map(|v| keep.iter().map(|&i| v[i]).collect())
+}
+
+#[test]
+fn data_passes_agree_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("data_passes_agree_with_the_cpu") else {
+        return;
+    };
+    // Every pass of every scene is one family of per-pixel tests, the depth of surfaces one
+    // more.
+    let alpha = 1e-3 / (DATA_SCENES.len() * (DATA_PASSES.len() + 1)) as f64;
+    for (n, (file, deterministic)) in DATA_SCENES.into_iter().enumerate() {
+        let scene = load_scene(file);
+        let seed = 60 + n as u32;
+        let s = data_settings(false, seed);
+        let g = gpu_render(&ctx, &scene, &s, file);
+        let names = g.film.passes().expect("data passes kept").names();
+        assert_eq!(names, DATA_PASSES.map(String::from), "{file}");
+        let c = render(&scene, &data_settings(false, seed + 1000));
+        let same = render(&scene, &s);
+        for (k, pass) in DATA_PASSES.into_iter().enumerate() {
+            // (a) Against the CPU's with another seed: per-pixel z-tests over every pixel and
+            // channel, Sidak-corrected (`compare`), and the image means.
+            let (gp, cp) = (one_pass_moments(&g, k), one_pass_moments(&c, k));
+            assert!(
+                gp.0.iter().all(|v| v.is_finite()),
+                "{file}: non-finite {pass}"
+            );
+            let a = compare((&gp.0, &gp.1), (&cp.0, &cp.1), alpha);
+            println!(
+                "{file}: {pass}: worst pixel z {:.2} (threshold {:.2}), {} of {} values fail; \
+                 image-mean z {:.2} (GPU {:.4}, CPU {:.4})",
+                a.worst_z, a.z_threshold, a.failing, a.pixels, a.mean_z, a.mean_a, a.mean_b
+            );
+            assert_eq!(a.failing, 0, "{file}: {pass}: {a:?}");
+            assert!(a.mean_z < sidak_z(alpha, 3), "{file}: {pass}: {a:?}");
+            assert!(
+                a.mean_a != 0.0 && a.mean_b != 0.0,
+                "{file}: {pass} is empty"
+            );
+            if pass == "depth" {
+                let [gm, gv, cm, cv] = surface_depths(&gp, &cp);
+                let a = compare((&gm, &gv), (&cm, &cv), alpha);
+                println!(
+                    "{file}: depth of surfaces: worst pixel z {:.2} (threshold {:.2}), {} of {} \
+                     values fail; image-mean z {:.2} (GPU {:.4} m, CPU {:.4} m)",
+                    a.worst_z, a.z_threshold, a.failing, a.pixels, a.mean_z, a.mean_a, a.mean_b
+                );
+                assert!(a.pixels > 0, "{file}: every pixel sees the background");
+                assert_eq!(a.failing, 0, "{file}: depth of surfaces: {a:?}");
+            }
+
+            // (b) With the same seed the GPU replays the CPU's passes; those its camera rays
+            // make a function of the jitter alone on any adapter (a rare silhouette may flip).
+            let (sm, _) = one_pass_moments(&same, k);
+            let (close, worst) = close_values(&gp.0, &sm, 1e-5);
+            let fixed = deterministic.contains(&pass);
+            println!(
+                "{file}: {pass}: same seed: {close} of {} values equal to 1e-5 (relative), \
+                 largest difference {worst:.1e}{}",
+                gp.0.len(),
+                if fixed { " (fixed by the jitter)" } else { "" }
+            );
+            if fixed {
+                assert!(
+                    close * 100 >= gp.0.len() * 99,
+                    "{file}: {pass}: same seed: {close}"
+                );
+            } else {
+                assert!(
+                    !parity_asserted(&ctx) || close * 100 >= gp.0.len() * 97,
+                    "{file}: {pass}: same seed: {close} of {}",
+                    gp.0.len()
+                );
+            }
+        }
+    }
+}
+
+/// `--passes light,data` on the GPU: the light and the data passes kept together are each what they
+/// are alone, bit for bit, in `RenderSettings::pass_names`' order, and the beauty is the one
+/// rendered without passes.
+#[test]
+fn light_and_data_passes_together_are_each_as_alone() {
+    let Some(ctx) = gpu_or_skip("light_and_data_passes_together_are_each_as_alone") else {
+        return;
+    };
+    let file = "smoke_tank.gltf";
+    let scene = load_scene(file);
+    let seed = 70;
+    let all = gpu_render(&ctx, &scene, &data_settings(true, seed), file);
+    let light = gpu_render(&ctx, &scene, &settings(true, seed), file);
+    let data = gpu_render(&ctx, &scene, &data_settings(false, seed), file);
+    let none = gpu_render(&ctx, &scene, &settings(false, seed), file);
+    let passes = all.film.passes().expect("passes kept");
+    let names: Vec<&str> = LIGHT_PASSES.iter().chain(&DATA_PASSES).copied().collect();
+    assert_eq!(passes.names(), names);
+    let (light, data) = (light.film.passes().unwrap(), data.film.passes().unwrap());
+    let alone = |k: usize| {
+        if k < LIGHT_PASSES.len() {
+            (light, k)
+        } else {
+            (data, k - LIGHT_PASSES.len())
+        }
+    };
+    for (k, name) in names.iter().enumerate() {
+        let (other, j) = alone(k);
+        for i in 0..all.film.pixels().len() {
+            assert_eq!(
+                (passes.mean(i, k), passes.m2(i, k)),
+                (other.mean(i, j), other.m2(i, j)),
+                "{name} at pixel {i}"
+            );
+        }
+    }
+    println!(
+        "{file}: the {} passes kept together == each kind alone, bit for bit",
+        names.len()
+    );
+    assert_same_beauty(
+        &all.film,
+        &none.film,
+        &format!("{file}: all passes on the GPU"),
+    );
+    println!("{file}: GPU beauty with all passes == without, bit for bit");
 }

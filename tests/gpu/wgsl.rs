@@ -358,7 +358,7 @@ fn reachable(module: &naga::Module, entry: &str) -> std::collections::BTreeSet<S
 fn variants_without_a_feature_hold_no_code_for_it() {
     use brume::backend::gpu::render::Stage;
     use brume::backend::gpu::Spec;
-    let features: [(&str, &[&str]); 8] = [
+    let features: [(&str, &[&str]); 9] = [
         (
             "FEATURE_MOTION",
             &["advection_source", "velocity_component", "quat_slerp"],
@@ -396,6 +396,10 @@ fn variants_without_a_feature_hold_no_code_for_it() {
         (
             "FEATURE_LIGHT_PASSES",
             &["gather_pass", "pass_of", "clear_passes"],
+        ),
+        (
+            "FEATURE_DATA_PASSES",
+            &["record_albedo", "record_depth", "clear_data"],
         ),
     ];
     for (feature, functions) in features {

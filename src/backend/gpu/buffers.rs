@@ -4,12 +4,13 @@
 
 use super::device::{GpuContext, GpuGrid};
 use super::error::GpuRenderError;
-use super::graph::Stage;
+use super::graph::{Passes, Stage};
 use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
     GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
-    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams, GPU_LIGHT_PASS_BYTES,
+    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams, GPU_DATA_PASS_BYTES,
+    GPU_LIGHT_PASS_BYTES,
 };
 use crate::render::{blackbody, RenderScene};
 
@@ -44,6 +45,11 @@ pub(super) struct Buffers {
     pub(super) path_passes: wgpu::Buffer,
     pub(super) sample_passes: wgpu::Buffer,
     pub(super) sample_passes_readback: wgpu::Buffer,
+    /// The data passes (`FEATURE_DATA_PASSES`): each path slot's `GpuDataPasses` and each
+    /// camera sample's, with the latter's read-back; 16-byte stand-ins, never bound, without.
+    pub(super) path_data: wgpu::Buffer,
+    pub(super) sample_data: wgpu::Buffer,
+    pub(super) sample_data_readback: wgpu::Buffer,
     pub(super) args: wgpu::Buffer,
     /// `GpuEmissionParams` (zero when the medium does not emit).
     pub(super) emission: wgpu::Buffer,
@@ -130,8 +136,8 @@ fn stage_timestamps(ctx: &GpuContext, n: u32) -> (wgpu::QuerySet, wgpu::Buffer) 
 
 impl Buffers {
     /// Allocates every buffer of a render of `rs` with `slots` path slots and a sample buffer
-    /// of `samples` entries (and their light passes' where `light_passes`), uploading what is
-    /// known before the first batch.
+    /// of `samples` entries (and their `passes`' beside them), uploading what is known before
+    /// the first batch.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         ctx: &GpuContext,
@@ -139,7 +145,7 @@ impl Buffers {
         params: &GpuWavefrontParams,
         slots: u32,
         samples: u64,
-        light_passes: bool,
+        passes: Passes,
         emission: &GpuEmissionParams,
         geometry: &Geometry,
         textures: &Textures,
@@ -150,11 +156,12 @@ impl Buffers {
         // The counters, then two timestamps per stage and iteration of one submission.
         let queries = 2 * Stage::COUNT as u32 * ITERATIONS_PER_SYNC;
         let readback_size = std::mem::size_of::<GpuWavefrontCounters>() as u64 + 8 * queries as u64;
-        let pass_bytes = if light_passes {
+        let pass_bytes = if passes.light {
             GPU_LIGHT_PASS_BYTES
         } else {
             0
         };
+        let data_bytes = if passes.data { GPU_DATA_PASS_BYTES } else { 0 };
         Buffers {
             params: [
                 ctx.uniform_buffer("wavefront params 0", params),
@@ -181,6 +188,12 @@ impl Buffers {
             sample_passes_readback: ctx.read_back_buffer(
                 "sample light passes read-back",
                 (samples * pass_bytes).max(16),
+            ),
+            path_data: ctx.storage_buffer_zeroed("path data passes", slots as u64 * data_bytes),
+            sample_data: ctx.storage_buffer_zeroed("sample data passes", samples * data_bytes),
+            sample_data_readback: ctx.read_back_buffer(
+                "sample data passes read-back",
+                (samples * data_bytes).max(16),
             ),
             emission: ctx.uniform_buffer("emission", emission),
             bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
@@ -265,6 +278,8 @@ impl Buffers {
             (1, 18) => &self.vdb_media,
             (1, 19) => &self.path_passes,
             (1, 20) => &self.sample_passes,
+            (1, 21) => &self.path_data,
+            (1, 22) => &self.sample_data,
             _ => return None,
         })
     }

@@ -71,8 +71,8 @@ impl GpuContext {
         defaults.check_limits_with_fail_fn(&supported, false, |name, want, have| {
             limits_below_default.push(format!("{name} {have} < {want}"));
         });
-        // The wavefront stages with surfaces and media bind up to 13 storage buffers; WebGPU's
-        // default is 8, Vulkan drivers (lavapipe included) offer far more.
+        // The wavefront stages with surfaces, media and passes bind up to 15 storage buffers;
+        // WebGPU's default is 8, Vulkan drivers (lavapipe included) offer far more.
         let limits = wgpu::Limits {
             max_storage_buffer_binding_size: supported.max_storage_buffer_binding_size,
             max_buffer_size: supported.max_buffer_size,

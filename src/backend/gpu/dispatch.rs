@@ -7,9 +7,10 @@ use std::time::Instant;
 use super::buffers::{Buffers, Kernel, ITERATIONS_PER_SYNC};
 use super::device::GpuContext;
 use super::error::GpuRenderError;
-use super::graph::Stage;
+use super::graph::{Passes, Stage};
 use crate::gpu_types::{
-    GpuQueue, GpuSample, GpuWavefrontCounters, GpuWavefrontParams, GPU_LIGHT_PASS_BYTES,
+    GpuDataPasses, GpuQueue, GpuSample, GpuWavefrontCounters, GpuWavefrontParams,
+    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASS_BYTES,
 };
 
 /// The scheduler: the kernels of one render and the loop over iterations.
@@ -21,16 +22,18 @@ pub(super) struct Wavefront<'a> {
     pub(super) args: Kernel,
     pub(super) slots: u32,
     pub(super) period_ns: f64,
-    /// Whether the kernels keep the light passes (`FEATURE_LIGHT_PASSES`): a batch then reads
-    /// its samples' passes back too.
-    pub(super) light_passes: bool,
+    /// The passes the kernels keep (`FEATURE_LIGHT_PASSES`, `FEATURE_DATA_PASSES`): a batch
+    /// then reads its samples' passes back too.
+    pub(super) passes: Passes,
 }
 
-/// A finished batch's camera samples, in batch entry order, and where the light passes are
-/// kept their `GPU_LIGHT_PASSES` RGB values each (w unused), entry by entry; empty without.
+/// A finished batch's camera samples, in batch entry order; where the light passes are kept
+/// their `GPU_LIGHT_PASSES` RGB values each (w unused), entry by entry, and where the data
+/// passes are, one `GpuDataPasses` each; empty without.
 pub(super) struct BatchSamples {
     pub(super) samples: Vec<GpuSample>,
     pub(super) passes: Vec<[f32; 4]>,
+    pub(super) data: Vec<GpuDataPasses>,
 }
 
 /// The counters after the batch, its iterations, the stages' times, its samples, and the host
@@ -116,11 +119,20 @@ impl Wavefront<'_> {
             &self.bufs.samples_readback,
             params.total_samples as u64 * size_of::<GpuSample>() as u64,
         );
-        let passes: Vec<[f32; 4]> = if self.light_passes {
+        let passes: Vec<[f32; 4]> = if self.passes.light {
             ctx.read_buffer_prefix(
                 &self.bufs.sample_passes,
                 &self.bufs.sample_passes_readback,
                 params.total_samples as u64 * GPU_LIGHT_PASS_BYTES,
+            )
+        } else {
+            Vec::new()
+        };
+        let data: Vec<GpuDataPasses> = if self.passes.data {
+            ctx.read_buffer_prefix(
+                &self.bufs.sample_data,
+                &self.bufs.sample_data_readback,
+                params.total_samples as u64 * GPU_DATA_PASS_BYTES,
             )
         } else {
             Vec::new()
@@ -130,7 +142,11 @@ impl Wavefront<'_> {
             counters,
             iteration,
             stage_ns,
-            BatchSamples { samples, passes },
+            BatchSamples {
+                samples,
+                passes,
+                data,
+            },
             (loop_ns, readback_ns),
         )))
     }

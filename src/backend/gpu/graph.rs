@@ -3,7 +3,7 @@
 //! of absent features at assembly ([`variant_name`], [`specs`]).
 use super::shader::{self, Module, Spec};
 use crate::gpu_types::GpuQueue;
-use crate::render::{FeatureFlags, SamplerKind};
+use crate::render::{FeatureFlags, RenderSettings, SamplerKind};
 
 /// The wavefront stages, in the order an iteration runs them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -136,16 +136,45 @@ pub fn variant_name(features: FeatureFlags) -> String {
     }
 }
 
-/// [`variant_name`] with `passes` among the effects where the light passes are kept (the
-/// `FEATURE_LIGHT_PASSES` specialisation), e.g. `wavefront[vdb+passes]`.
-pub fn variant_name_with_passes(features: FeatureFlags, light_passes: bool) -> String {
+/// The passes a render keeps beside the beauty, as the kernels are specialised for them: the
+/// light passes (`FEATURE_LIGHT_PASSES`) and the data passes (`FEATURE_DATA_PASSES`). Without
+/// either the kernels bind no pass buffer and hold no pass code.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Passes {
+    pub light: bool,
+    pub data: bool,
+}
+
+impl Passes {
+    /// The passes `settings` asks for.
+    pub fn of(settings: &RenderSettings) -> Passes {
+        Passes {
+            light: settings.light_passes,
+            data: settings.data_passes,
+        }
+    }
+
+    /// Whether any pass is kept.
+    pub fn any(self) -> bool {
+        self.light || self.data
+    }
+}
+
+/// [`variant_name`] with the passes kept among the effects: `passes` for the light passes,
+/// `data` for the data passes, e.g. `wavefront[vdb+passes+data]`.
+pub fn variant_name_with_passes(features: FeatureFlags, passes: Passes) -> String {
     let name = variant_name(features);
-    if !light_passes {
+    let kept: Vec<&str> = [(passes.light, "passes"), (passes.data, "data")]
+        .into_iter()
+        .filter(|(on, _)| *on)
+        .map(|(_, n)| n)
+        .collect();
+    if kept.is_empty() {
         return name;
     }
     match name.strip_suffix(']') {
-        Some("wavefront[empty") | None => "wavefront[passes]".into(),
-        Some(effects) => format!("{effects}+passes]"),
+        Some("wavefront[empty") | None => format!("wavefront[{}]", kept.join("+")),
+        Some(effects) => format!("{effects}+{}]", kept.join("+")),
     }
 }
 
@@ -174,9 +203,8 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
 }
 
 /// The specialisation constants of the variant for `features` and `sampler`, keeping the
-/// light passes where `light_passes` asks for them (without, the kernels are today's: no
-/// pass buffer is bound and no code routes light to a pass).
-pub fn specs(features: FeatureFlags, sampler: SamplerKind, light_passes: bool) -> Vec<Spec> {
+/// `passes` asked for (without them, no pass buffer is bound and no code records a pass).
+pub fn specs(features: FeatureFlags, sampler: SamplerKind, passes: Passes) -> Vec<Spec> {
     let f = effective(features);
     vec![
         Spec::bool("SAMPLER_SOBOL", sampler == SamplerKind::Sobol),
@@ -189,6 +217,7 @@ pub fn specs(features: FeatureFlags, sampler: SamplerKind, light_passes: bool) -
         Spec::bool("FEATURE_ENV_MAP", f.env_map),
         Spec::bool("FEATURE_MIXTURE", f.overlapping),
         Spec::bool("FEATURE_MOTION", f.motion),
-        Spec::bool("FEATURE_LIGHT_PASSES", light_passes),
+        Spec::bool("FEATURE_LIGHT_PASSES", passes.light),
+        Spec::bool("FEATURE_DATA_PASSES", passes.data),
     ]
 }

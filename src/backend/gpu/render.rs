@@ -34,11 +34,14 @@
 //! per-path medium stack), opaque, dielectric and null-interface surfaces over obvhs' CWBVH,
 //! punctual, environment and area lights with NEE and MIS, Russian roulette and the collision
 //! guard, velocity and camera motion blur (a time per path, advected lookups, the camera posed
-//! at each sample's time: `advection.wgsl`), and the light passes (`RenderSettings::light_passes`:
+//! at each sample's time: `advection.wgsl`), the light passes (`RenderSettings::light_passes`:
 //! the `FEATURE_LIGHT_PASSES` variant routes every contribution to its pass as
 //! `PathState::gather` does, into per-slot accumulators beside the path state, read back per
-//! camera sample with the batch). [`supports`] refuses, with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB
-//! media and media meshes nested deeper than three.
+//! camera sample with the batch) and the data passes (`RenderSettings::data_passes`: the
+//! `FEATURE_DATA_PASSES` variant records albedo, normal and depth where `PathState::data`
+//! takes them, in a `GpuDataPasses` per slot read back the same way). [`supports`] refuses,
+//! with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB media and media meshes nested
+//! deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!
@@ -54,16 +57,18 @@ use super::device::{byte_size, GpuContext, GpuGrid};
 use super::dispatch::{BatchSamples, Wavefront};
 pub use super::error::GpuRenderError;
 use super::graph::specs;
-pub use super::graph::{gpu_features, variant_name, variant_name_with_passes, Stage};
+pub use super::graph::{gpu_features, variant_name, variant_name_with_passes, Passes, Stage};
 use super::shader;
 use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::passes::PassLayers;
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuPathState, GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES,
-    GPU_LIGHT_PASSES, GPU_LIGHT_PASS_BYTES, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
+    GpuDataPasses, GpuPathState, GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES,
+    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASSES, GPU_LIGHT_PASS_BYTES, GPU_MAX_NESTED_MEDIA,
+    GPU_MAX_VDB_MEDIA, STACK_NONE,
 };
+use crate::integrator::path::DATA_PASS_COUNT;
 use crate::render::media::TrackingConfig;
 use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
@@ -73,7 +78,7 @@ use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 
 /// Camera samples per batch at most (one [`crate::gpu_types::GpuSample`] of 32 bytes each, and
-/// with the light passes [`GPU_LIGHT_PASS_BYTES`] more).
+/// with the passes [`GPU_LIGHT_PASS_BYTES`] and [`GPU_DATA_PASS_BYTES`] more).
 pub const MAX_BATCH_SAMPLES: u64 = 1 << 22;
 
 /// How [`GpuTimings`] were measured.
@@ -221,8 +226,9 @@ pub fn render_with_timings(
     let limit = ctx.limits.max_storage_buffer_binding_size;
     let uploaded = upload_grid(ctx, rs, features, &cfg)?;
     let (grid, emission, vdb_media) = (uploaded.grid, uploaded.emission, uploaded.media);
+    let passes = Passes::of(settings);
     let plan = BatchPlan::new(settings, limit)?;
-    let slots = slot_count(limit, &plan, settings.light_passes);
+    let slots = slot_count(limit, &plan, passes);
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     params.blur = uploaded.blur;
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
@@ -236,7 +242,7 @@ pub fn render_with_timings(
         &params,
         slots,
         plan.largest,
-        settings.light_passes,
+        passes,
         &emission,
         &geometry,
         &textures,
@@ -246,10 +252,10 @@ pub fn render_with_timings(
     let mut wave = wavefront(ctx, &bufs, grid.as_ref(), features, settings, slots)?;
     let names = settings.pass_names();
     let mut film = Film::with_passes(w, h, &names);
-    // The film's light passes while batches merge into them (the film hands out no mutable
-    // view of its own); they become the film's when the render ends.
-    let mut layers = settings
-        .light_passes
+    // The film's passes while batches merge into them (the film hands out no mutable view of
+    // its own); they become the film's when the render ends.
+    let mut layers = passes
+        .any()
         .then(|| PassLayers::new(&names, (w * h) as usize));
     let mut records = Vec::new();
     let mut batches = Vec::new();
@@ -273,7 +279,7 @@ pub fn render_with_timings(
             let merge_start = Instant::now();
             if let Some(layers) = &mut layers {
                 // Before the beauty's counts change: the merge takes the counts before it.
-                merge_batch_passes(layers, &film, &names, &r, n, &samples.passes);
+                merge_batch_passes(layers, &film, &r, n, &samples);
             }
             merge_batch(&mut film, &mut lookups, w, &r, n, &samples.samples);
             batches.push(BatchTimings {
@@ -308,7 +314,7 @@ pub fn render_with_timings(
             TimingSource::WallClock
         },
         batches,
-        variant: variant_name_with_passes(features, settings.light_passes),
+        variant: variant_name_with_passes(features, passes),
         adapter: ctx.adapter_name().to_string(),
     };
     Ok((out, timings))
@@ -324,7 +330,8 @@ fn wavefront<'a>(
     settings: &RenderSettings,
     slots: u32,
 ) -> Result<Wavefront<'a>, GpuRenderError> {
-    let sp = specs(features, settings.sampler, settings.light_passes);
+    let passes = Passes::of(settings);
+    let sp = specs(features, settings.sampler, passes);
     let mut kernels = Vec::new();
     for s in Stage::for_features(features) {
         kernels.push((s, kernel(ctx, &s.module(), &sp, bufs, grid)?));
@@ -337,7 +344,7 @@ fn wavefront<'a>(
         args: kernel(ctx, &shader::QUEUE_ARGS_MODULE, &sp, bufs, grid)?,
         slots,
         period_ns: ctx.queue.get_timestamp_period() as f64,
-        light_passes: settings.light_passes,
+        passes,
     })
 }
 
@@ -350,11 +357,6 @@ fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), Gp
             "adaptive sampling renders on the CPU backend only".into(),
         ));
     }
-    if settings.data_passes {
-        return Err(GpuRenderError::Unsupported(
-            "data passes render on the CPU backend only".into(),
-        ));
-    }
     if settings.region.is_some() {
         // Batches are whole rows of the image; a region split is a CPU feature.
         return Err(GpuRenderError::Unsupported(
@@ -364,17 +366,24 @@ fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), Gp
     Ok(())
 }
 
-/// Wavefront slots: the path state is the largest per-slot binding (the light passes' are
-/// smaller), so a device that binds less than `limit` bytes gets fewer slots (a power of two,
-/// so whole workgroups), never a binding error.
-fn slot_count(limit: u64, plan: &BatchPlan, light_passes: bool) -> u32 {
-    let path_bytes = std::mem::size_of::<GpuPathState>() as u64;
-    let pass_bytes = if light_passes {
+/// Bytes of the largest pass binding entry, a path slot's or a camera sample's: the light
+/// passes' or the data passes' where kept (each has a buffer of its own), else 0.
+fn pass_entry_bytes(passes: Passes) -> u64 {
+    let light = if passes.light {
         GPU_LIGHT_PASS_BYTES
     } else {
         0
     };
-    let fit = (limit / path_bytes.max(pass_bytes)).max(64);
+    let data = if passes.data { GPU_DATA_PASS_BYTES } else { 0 };
+    light.max(data)
+}
+
+/// Wavefront slots: the path state is the largest per-slot binding (the passes' are smaller),
+/// so a device that binds less than `limit` bytes gets fewer slots (a power of two, so whole
+/// workgroups), never a binding error.
+fn slot_count(limit: u64, plan: &BatchPlan, passes: Passes) -> u32 {
+    let path_bytes = std::mem::size_of::<GpuPathState>() as u64;
+    let fit = (limit / path_bytes.max(pass_entry_bytes(passes))).max(64);
     (WAVEFRONT_SIZE as u64)
         .min(1 << fit.ilog2())
         .min(plan.largest) as u32
@@ -445,13 +454,9 @@ impl BatchPlan {
     fn new(settings: &RenderSettings, limit: u64) -> Result<BatchPlan, GpuRenderError> {
         let (w, h) = (settings.width, settings.height);
         let target = settings.sample_end();
-        // The largest per-sample binding: the sample entries, or the light passes beside them.
-        let entry = std::mem::size_of::<GpuSample>() as u64;
-        let entry = if settings.light_passes {
-            entry.max(GPU_LIGHT_PASS_BYTES)
-        } else {
-            entry
-        };
+        // The largest per-sample binding: the sample entries, or the passes beside them.
+        let entry =
+            (std::mem::size_of::<GpuSample>() as u64).max(pass_entry_bytes(Passes::of(settings)));
         let mut plan = BatchPlan {
             target,
             max_batch: MAX_BATCH_SAMPLES.min(limit / entry).max(1),
@@ -532,35 +537,48 @@ fn merge_batch(
         });
 }
 
-/// Adds a batch's light passes (`GPU_LIGHT_PASSES` entries a sample, in the samples' order)
-/// to the render's `layers`, as the CPU does a tile's: each row's `n` samples a pixel into
-/// fresh statistics in sample order (`TileBuffer::add_sample_passes`), then merged with the
-/// pixel's earlier samples (`Film::merge_tile`, the counts taken from `film` before the
-/// batch's beauty is added). The rows run in parallel; the merge is sequential and cheap.
+/// Adds a batch's passes to the render's `layers`, as the CPU does a tile's: each sample's
+/// light passes (`GPU_LIGHT_PASSES` entries a sample, where kept), then its data passes (one
+/// `GpuDataPasses`, where kept), the order of `RenderSettings::pass_names`; each row's `n`
+/// samples a pixel into fresh statistics in sample order (`TileBuffer::add_sample_passes`),
+/// then merged with the pixel's earlier samples (`Film::merge_tile`, the counts taken from
+/// `film` before the batch's beauty is added). The rows run in parallel; the merge is
+/// sequential and cheap.
 fn merge_batch_passes(
     layers: &mut PassLayers,
     film: &Film,
-    names: &[String],
     r: &TileRecord,
     n: u32,
-    passes: &[[f32; 4]],
+    batch: &BatchSamples,
 ) {
     use rayon::prelude::*;
-    let (w, k) = (film.width() as usize, GPU_LIGHT_PASSES as usize);
-    debug_assert_eq!(
-        passes.len(),
-        (r.y1 - r.y0) as usize * w * n as usize * k,
+    let (w, n) = (film.width() as usize, n as usize);
+    let count = (r.y1 - r.y0) as usize * w * n;
+    let k = GPU_LIGHT_PASSES as usize;
+    let (light, data) = (&batch.passes, &batch.data);
+    debug_assert!(
+        light.len() == (!light.is_empty()) as usize * count * k
+            && data.len() == (!data.is_empty()) as usize * count,
         "a batch holds n samples a pixel, each with its passes"
     );
-    let rows: Vec<PassLayers> = passes
-        .par_chunks(w * n as usize * k)
+    let per_sample =
+        (!light.is_empty()) as usize * k + (!data.is_empty()) as usize * DATA_PASS_COUNT;
+    debug_assert_eq!(per_sample, layers.names().len());
+    let rows: Vec<PassLayers> = (0..(r.y1 - r.y0) as usize)
+        .into_par_iter()
         .map(|row| {
-            let mut stats = PassLayers::new(names, w);
-            for (x, pixel) in row.chunks(n as usize * k).enumerate() {
-                for (j, sample) in pixel.chunks(k).enumerate() {
-                    let rgb: [[f32; 3]; GPU_LIGHT_PASSES as usize] =
-                        std::array::from_fn(|p| [sample[p][0], sample[p][1], sample[p][2]]);
-                    stats.add(x, j as u32 + 1, &rgb);
+            let mut stats = PassLayers::new(layers.names(), w);
+            let mut values = [[0f32; 3]; GPU_LIGHT_PASSES as usize + DATA_PASS_COUNT];
+            for x in 0..w {
+                for j in 0..n {
+                    let s = (row * w + x) * n + j;
+                    let light = light.get(s * k..(s + 1) * k).unwrap_or(&[]);
+                    let data = data.get(s).map(GpuDataPasses::values);
+                    let rgb = light.iter().map(|v| [v[0], v[1], v[2]]);
+                    for (slot, v) in values.iter_mut().zip(rgb.chain(data.into_iter().flatten())) {
+                        *slot = v;
+                    }
+                    stats.add(x, j as u32 + 1, &values[..per_sample]);
                 }
             }
             stats
@@ -569,7 +587,7 @@ fn merge_batch_passes(
     for (y, row) in (r.y0 as usize..).zip(&rows) {
         for x in 0..w {
             let i = y * w + x;
-            layers.merge(i, film.pixels()[i].count, row, x, n);
+            layers.merge(i, film.pixels()[i].count, row, x, n as u32);
         }
     }
 }
@@ -625,15 +643,24 @@ mod tests {
         }
     }
 
-    /// A batch's light passes merge into the render's as the CPU merges a tile's: the same
+    /// A batch's passes merge into the render's as the CPU merges a tile's: the same
     /// statistics, bit for bit, as `TileBuffer::add_sample_passes` then `Film::merge_tile`,
-    /// over two passes of the same rows.
+    /// over two passes of the same rows, with the light passes, the data passes and both.
     #[test]
     fn a_batchs_passes_merge_as_the_cpus_tile() {
+        for (light, data) in [(true, false), (false, true), (true, true)] {
+            batch_passes_merge_as_the_cpus_tile(Passes { light, data });
+        }
+    }
+
+    fn batch_passes_merge_as_the_cpus_tile(kept: Passes) {
+        use crate::film::passes::{DATA_PASSES, LIGHT_PASSES};
         use crate::film::TileBuffer;
         let (w, h, n) = (5u32, 4u32, 3u32);
-        let names: Vec<String> = crate::film::passes::LIGHT_PASSES
-            .iter()
+        let light_names = LIGHT_PASSES.iter().filter(|_| kept.light);
+        let data_names = DATA_PASSES.iter().filter(|_| kept.data);
+        let names: Vec<String> = light_names
+            .chain(data_names)
             .map(|s| s.to_string())
             .collect();
         let k = GPU_LIGHT_PASSES as usize;
@@ -650,41 +677,54 @@ mod tests {
             ..TileRecord::default()
         };
         let mut rng = Rng::new(5, 0, 17);
+        let mut u = || rng.uniform_f32();
         let mut film = Film::new(w, h);
         let mut layers = PassLayers::new(&names, (w * h) as usize);
         let mut expected = Film::with_passes(w, h, &names);
         for pass in 0..2 {
-            let count = (rect.y1 - rect.y0) * w * n;
-            let passes: Vec<[f32; 4]> = (0..count as usize * k)
-                .map(|_| {
-                    [
-                        rng.uniform_f32(),
-                        rng.uniform_f32(),
-                        -rng.uniform_f32(),
-                        0.0,
-                    ]
+            let count = ((rect.y1 - rect.y0) * w * n) as usize;
+            let passes: Vec<[f32; 4]> = (0..count * k * kept.light as usize)
+                .map(|_| [u(), u(), -u(), 0.0])
+                .collect();
+            let data: Vec<GpuDataPasses> = (0..count * kept.data as usize)
+                .map(|_| GpuDataPasses {
+                    albedo: [u(), u(), u()],
+                    depth: 10.0 * u(),
+                    normal: [u(), -u(), u()],
+                    _pad0: 0,
                 })
                 .collect();
-            let samples: Vec<GpuSample> = passes
-                .chunks(k)
-                .map(|p| GpuSample {
-                    l: std::array::from_fn(|c| p.iter().map(|v| v[c]).sum()),
+            let samples: Vec<GpuSample> = (0..count)
+                .map(|_| GpuSample {
+                    l: [u(), u(), u()],
                     ..Default::default()
                 })
                 .collect();
-            merge_batch_passes(&mut layers, &film, &names, &record, n, &passes);
+            let batch = BatchSamples {
+                samples,
+                passes,
+                data,
+            };
+            merge_batch_passes(&mut layers, &film, &record, n, &batch);
             let mut lookups = vec![0u64; (w * h) as usize];
-            merge_batch(&mut film, &mut lookups, w, &record, n, &samples);
+            merge_batch(&mut film, &mut lookups, w, &record, n, &batch.samples);
             let mut tile = TileBuffer::with_passes(rect, pass, &names);
             let mut s = 0;
             for y in rect.y0..rect.y1 {
                 for x in 0..w {
                     for _ in 0..n {
-                        let rgb: Vec<[f32; 3]> = passes[s * k..(s + 1) * k]
+                        // Light passes, then data passes, as `render_tile` lists them.
+                        let mut rgb: Vec<[f32; 3]> = batch
+                            .passes
+                            .get(s * k..(s + 1) * k)
+                            .unwrap_or(&[])
                             .iter()
                             .map(|v| [v[0], v[1], v[2]])
                             .collect();
-                        let l = samples[s].l;
+                        if let Some(d) = batch.data.get(s) {
+                            rgb.extend([d.albedo, d.normal, [d.depth; 3]]);
+                        }
+                        let l = batch.samples[s].l;
                         tile.add_sample_passes(x, y, [l[0], l[1], l[2], 0.0], &rgb);
                         s += 1;
                     }
@@ -692,6 +732,6 @@ mod tests {
             }
             expected.merge_tile(&tile);
         }
-        assert_eq!(Some(&layers), expected.passes());
+        assert_eq!(Some(&layers), expected.passes(), "{kept:?}");
     }
 }

@@ -216,6 +216,14 @@ pub fn shared_constants() -> String {
             "PATH_FLAG_FIRST_IN_MEDIUM",
             crate::gpu_types::PATH_FLAG_FIRST_IN_MEDIUM,
         ),
+        (
+            "PATH_FLAG_ALBEDO_SEEN",
+            crate::gpu_types::PATH_FLAG_ALBEDO_SEEN,
+        ),
+        (
+            "PATH_FLAG_DEPTH_SEEN",
+            crate::gpu_types::PATH_FLAG_DEPTH_SEEN,
+        ),
         ("LIGHT_PASSES", crate::gpu_types::GPU_LIGHT_PASSES),
         ("PASS_EMISSION", crate::gpu_types::PASS_EMISSION),
         ("PASS_BACKGROUND", crate::gpu_types::PASS_BACKGROUND),
@@ -278,6 +286,10 @@ pub fn shared_constants() -> String {
         ("BLACKBODY_T_MAX", blackbody::T_MAX),
         ("BLACKBODY_STEP", blackbody::TABLE_STEP),
         ("STEFAN_BOLTZMANN_SCALE", blackbody::STEFAN_BOLTZMANN_SCALE),
+        (
+            "BACKGROUND_DEPTH",
+            crate::integrator::path::BACKGROUND_DEPTH,
+        ),
     ] {
         writeln!(s, "const {name}: f32 = {v:?}f;").unwrap();
     }
@@ -547,6 +559,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_MOTION", true),
     // The radiance split into the light passes as well (`PathLimits::light_passes`).
     Spec::bool("FEATURE_LIGHT_PASSES", true),
+    // The data passes a denoiser takes as well (`PathLimits::data_passes`).
+    Spec::bool("FEATURE_DATA_PASSES", true),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];
