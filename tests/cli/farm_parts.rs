@@ -12,6 +12,7 @@ use std::sync::atomic::AtomicBool;
 use brume::backend::cpu::{self, RenderOutput, Resume};
 use brume::farm::{self, Coverage, PartInfo};
 use brume::film::{read_exr, write_exr_with_state, Metadata};
+use brume::render::light_groups::LightGroups;
 use brume::render::{RenderScene, RenderSettings, SamplerKind};
 use proptest::prelude::*;
 
@@ -27,8 +28,12 @@ fn settings(sampler: SamplerKind) -> RenderSettings {
         // Small passes, so a range of a few samples crosses several of them.
         max_pass_spp: 4,
         seed: 7,
-        // The light passes travel with the beauty: kept in the Sobol renders.
+        // The light passes and light groups travel with the beauty: kept in the Sobol renders.
         light_passes: sampler == SamplerKind::Sobol,
+        light_groups: match sampler {
+            SamplerKind::Sobol => LightGroups::of(&load_scene("cloud.gltf")).unwrap().names,
+            _ => Vec::new(),
+        },
         ..RenderSettings::default()
     }
 }
