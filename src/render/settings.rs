@@ -385,6 +385,12 @@ impl RenderSettings {
             if !(e > 0.0 && e.is_finite()) {
                 return Err(format!("noise threshold {e} must be in (0, inf)"));
             }
+            if self.min_spp == 0 {
+                // A pixel without samples has no error to judge: it would stop at once.
+                return Err("min spp 0 with a noise threshold: every pixel needs at least one \
+                            sample before it may stop"
+                    .into());
+            }
             if self.sample_start != 0 {
                 return Err(format!(
                     "a noise threshold with samples {}..{}: a part starting after sample 0 \

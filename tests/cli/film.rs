@@ -217,6 +217,15 @@ fn adaptive_sampling_refuses_a_sample_range_part_and_reports_what_it_saved() {
     assert!(!d.join("part.exr").exists());
     let o = render_to(
         &gltf,
+        &d.join("none.exr"),
+        &small,
+        &["--noise-threshold", "0.05", "--min-spp", "0"],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("min spp 0"), "{err}");
+    assert!(!d.join("none.exr").exists());
+    let o = render_to(
+        &gltf,
         &d.join("a.exr"),
         &small,
         &["--noise-threshold", "0.05", "--spp", "128"],
