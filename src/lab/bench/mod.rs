@@ -108,8 +108,8 @@ pub enum Which {
         #[arg(long, default_value_t = 3)]
         runs: usize,
     },
-    /// What the light passes cost: the scene rendered with `--passes light` against the beauty
-    /// alone (time per sample).
+    /// What each kind of pass costs: the scene rendered with `--passes light`, `data` and
+    /// `lights` against the beauty alone (time per sample).
     Passes {
         #[arg(default_value = "scenes/cornell_smoke.gltf")]
         scene: PathBuf,

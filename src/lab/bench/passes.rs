@@ -1,42 +1,68 @@
-//! `brume bench passes`: what the light passes cost, the same scene rendered with and without
-//! them, side by side.
+//! `brume bench passes`: what each kind of pass costs, the same scene rendered with the light
+//! passes, the data passes, the light groups and none of them, side by side.
 use std::path::Path;
 
 use anyhow::{anyhow, Result};
 
 use crate::lab::render_cpu;
+use crate::render::light_groups::LightGroups;
 use crate::render::RenderSettings;
 
-/// Renders `path` `runs` times with the light passes and without, alternating, and prints the
-/// best time per sample of each and their ratio.
+/// Renders `path` `runs` times with each kind of pass and without, in turn, and prints the best
+/// time per sample of each and its ratio to the beauty alone.
 pub fn run(path: &Path, width: u32, height: u32, spp: u32, runs: usize) -> Result<()> {
     let scene = crate::scene::load(path).map_err(|e| anyhow!("{e}"))?;
+    let groups = LightGroups::of(&scene).map_err(|e| anyhow!(e))?.names;
     println!(
-        "{}: {width} x {height}, {spp} spp, best of {runs}",
-        path.display()
+        "{}: {width} x {height}, {spp} spp, best of {runs} ({} light groups)",
+        path.display(),
+        groups.len()
     );
-    println!("{:<8} {:>12}", "passes", "ns/sample");
-    let mut best = [f64::INFINITY; 2];
+    let base = RenderSettings {
+        width,
+        height,
+        spp,
+        ..RenderSettings::default()
+    };
+    let kinds: [(&str, RenderSettings); 4] = [
+        (
+            "light",
+            RenderSettings {
+                light_passes: true,
+                ..base.clone()
+            },
+        ),
+        (
+            "data",
+            RenderSettings {
+                data_passes: true,
+                ..base.clone()
+            },
+        ),
+        (
+            "lights",
+            RenderSettings {
+                light_groups: groups,
+                ..base.clone()
+            },
+        ),
+        ("beauty", base.clone()),
+    ];
+    println!("{:<8} {:>12} {:>8}", "passes", "ns/sample", "ratio");
+    let mut best = [f64::INFINITY; 4];
     for _ in 0..runs.max(1) {
-        for (i, light_passes) in [true, false].into_iter().enumerate() {
-            let settings = RenderSettings {
-                width,
-                height,
-                spp,
-                light_passes,
-                ..RenderSettings::default()
-            };
-            let out = render_cpu(&scene, &settings)?;
+        for (i, (_, settings)) in kinds.iter().enumerate() {
+            let out = render_cpu(&scene, settings)?;
             let samples = (width as u64 * height as u64 * spp as u64).max(1) as f64;
             best[i] = best[i].min(out.seconds * 1e9 / samples);
         }
     }
-    for (i, name) in ["light", "beauty"].into_iter().enumerate() {
-        println!("{name:<8} {:>12.1}", best[i]);
+    for (i, (name, _)) in kinds.iter().enumerate() {
+        println!("{name:<8} {:>12.1} {:>7.3}x", best[i], best[i] / best[3]);
     }
     println!(
         "time per sample with the light passes over without: {:.3}x",
-        best[0] / best[1]
+        best[0] / best[3]
     );
     Ok(())
 }
