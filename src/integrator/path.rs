@@ -153,10 +153,7 @@ impl PathState {
 /// The light group of a light `source` (none without one, or without groups kept).
 #[inline(always)]
 fn group_of(rs: &RenderScene, source: Option<LightSource>) -> u8 {
-    match (&rs.groups, source) {
-        (Some(g), Some(s)) => g.of_source(s),
-        _ => NO_GROUP,
-    }
+    source.map_or(NO_GROUP, |s| rs.light_group(s))
 }
 
 /// What one camera sample brings its pixel.
@@ -509,12 +506,8 @@ fn shade_surface<F: Features>(
                     rs.lights.pdf_area(scene, h.triangle, h.t, cos_o),
                 )
             };
-            ps.gather(
-                limits,
-                ps.beta * le * w,
-                EMISSION,
-                group_of(rs, Some(LightSource::Area)),
-            );
+            let group = rs.light_group(LightSource::Area);
+            ps.gather(limits, ps.beta * le * w, EMISSION, group);
         }
     }
     let kind = rs.kinds[mat_index];
@@ -691,7 +684,7 @@ fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
     } else {
         power_heuristic(ps.prev_pdf, ps.prev_env.pmf * env.pdf(ps.ray.d))
     };
-    let group = group_of(rs, Some(LightSource::Environment));
+    let group = rs.light_group(LightSource::Environment);
     ps.gather(limits, ps.beta * le * w, BACKGROUND, group);
 }
 

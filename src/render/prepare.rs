@@ -162,6 +162,16 @@ pub struct RenderScene<'s> {
     pub groups: Option<LightGroups>,
 }
 
+impl RenderScene<'_> {
+    /// The light group a light `source` gathers into ([`NO_GROUP`] where none are kept).
+    #[inline(always)]
+    pub fn light_group(&self, source: super::lights::LightSource) -> u8 {
+        self.groups
+            .as_ref()
+            .map_or(NO_GROUP, |g| g.of_source(source))
+    }
+}
+
 fn field(grid: &crate::scene::LoadedGrid, world_from_node: Mat4) -> GridField {
     let world_from_index = world_from_node * grid.vdb_world_from_index;
     GridField {

@@ -387,9 +387,11 @@ impl RenderSettings {
             }
             if self.min_spp == 0 {
                 // A pixel without samples has no error to judge: it would stop at once.
-                return Err("min spp 0 with a noise threshold: every pixel needs at least one \
+                return Err(
+                    "min spp 0 with a noise threshold: every pixel needs at least one \
                             sample before it may stop"
-                    .into());
+                        .into(),
+                );
             }
             if self.sample_start != 0 {
                 return Err(format!(

@@ -134,8 +134,8 @@ pub fn read_lights(
     }
     Ok(ReadLights {
         lights: out,
-        placements,
-        names,
+        light_placements: placements,
+        light_names: names,
     })
 }
 
@@ -143,8 +143,8 @@ pub fn read_lights(
 /// nodes) and name (the light's, else its node's).
 pub struct ReadLights {
     pub lights: Vec<PunctualLight>,
-    pub placements: Vec<usize>,
-    pub names: Vec<Option<String>>,
+    pub light_placements: Vec<usize>,
+    pub light_names: Vec<Option<String>>,
 }
 
 /// Light arriving from infinitely far away in every direction not blocked by the scene.

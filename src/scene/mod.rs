@@ -172,11 +172,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     let images = texture::read_images(&ctx, doc, &loaded.buffers, &loaded.base_dir, &mut textures)?;
     let default_material = (materials.len() - 1) as u32;
     let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
-    let lights::ReadLights {
-        lights,
-        placements: light_placements,
-        names: light_names,
-    } = lights::read_lights(&mut ctx, doc, &nodes)?;
+    let read_lights = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
     let mut vdb_media = media::read_vdb_media(
         &mut ctx,
@@ -212,7 +208,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
             .as_ref()
             .and_then(|s| motion::placement_motion(s, m.placement, shutter));
     }
-    let light_motion: Vec<_> = light_placements
+    let light_motion: Vec<_> = read_lights
+        .light_placements
         .iter()
         .map(|&p| {
             steps
@@ -250,8 +247,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         images,
         homogeneous_media,
         vdb_media,
-        lights,
-        light_names,
+        lights: read_lights.lights,
+        light_names: read_lights.light_names,
         environment,
         bvh,
         moving_meshes,

@@ -163,14 +163,18 @@ fn passes_are_layers_of_the_exr_on_both_backends_and_what_is_not_there_is_refuse
         &["--passes", "lights", "--backend", "gpu"],
     );
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("--passes lights"), "{err}");
-    for (pass, why) in [("volume", "not a pass list entry")] {
-        let o = render_to(&gltf, &d.join("no.exr"), &small, &["--passes", pass]);
-        let err = String::from_utf8_lossy(&o.stderr);
-        println!("--passes {pass}: {}", err.lines().next().unwrap_or(""));
-        assert!(!o.status.success() && err.contains(why), "{err}");
-        assert!(!d.join("no.exr").exists());
-    }
+    assert!(
+        !o.status.success() && err.contains("--passes lights"),
+        "{err}"
+    );
+    let o = render_to(&gltf, &d.join("no.exr"), &small, &["--passes", "volume"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    println!("--passes volume: {}", err.lines().next().unwrap_or(""));
+    assert!(
+        !o.status.success() && err.contains("not a pass list entry"),
+        "{err}"
+    );
+    assert!(!d.join("no.exr").exists());
     // The GPU keeps them all too where a Vulkan adapter exists (lavapipe included); where
     // none does it says so and writes nothing.
     let gpu = d.join("gpu.exr");

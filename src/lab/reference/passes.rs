@@ -9,7 +9,8 @@ use crate::film::exr_io::PASSES_ATTRIBUTE;
 use crate::film::passes::LIGHT_PASSES;
 use crate::film::{read_exr_channels, ExrChannels, Image, Metadata};
 
-use super::{compare, merge_runs};
+use super::agreement::compare;
+use super::merge::merge_runs;
 
 /// One pass of a render: its name and its image (mean, variance of the mean, samples).
 pub type PassImage = (String, Image);
