@@ -9,7 +9,8 @@ use clap::Args;
 
 use brume::backend::cpu::{self, RenderOutput};
 use brume::farm::context::PartContext;
-use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, TileLogWriter};
+use brume::film::passes::PassLayers;
+use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, Film, TileLogWriter};
 use brume::render::light_groups::LightGroups;
 use brume::render::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
@@ -171,8 +172,8 @@ pub struct RenderArgs {
     pub backend: Backend,
     /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its
     /// default is 127.0.0.1:14158) as the render converges: the mean after a pass, at most
-    /// every half second, and the final image, one tev image per output file (CPU backend;
-    /// the GPU backend sends the final image only). The render never waits for the viewer:
+    /// every half second, and the final image, one tev image per output file, with the passes
+    /// the render keeps. The render never waits for the viewer:
     /// if it cannot be reached or goes away, one warning line says so and the render goes on.
     #[arg(long, value_name = "HOST:PORT", value_parser = brume::film::display::parse_address)]
     pub display_server: Option<String>,
@@ -399,7 +400,15 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     };
     let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
     let on_gpu = match choose_gpu(args, cpu_only, &rs)? {
-        Some(ctx) => render_on_gpu(args, &ctx, &rs, &settings, &stop, &progress)?,
+        Some(ctx) => render_on_gpu(
+            args,
+            &ctx,
+            &rs,
+            &settings,
+            &stop,
+            &progress,
+            viewer.as_ref(),
+        )?,
         None => None,
     };
     let (mut out, backend, variant) = match on_gpu {
@@ -596,9 +605,17 @@ fn render_on_gpu(
     settings: &RenderSettings,
     stop: &AtomicBool,
     progress: &(dyn Fn(u32, u32, f64) + Sync),
+    viewer: Option<&Viewer>,
 ) -> Result<Option<Rendered>> {
     eprintln!("backend: gpu ({})", ctx.describe());
-    match brume::backend::gpu::render::render_with_timings(ctx, rs, settings, stop, progress) {
+    let mut show = |film: &Film, passes: Option<&PassLayers>| {
+        if let Some(v) = viewer {
+            v.pass_with(film, passes);
+        }
+    };
+    let rendered =
+        brume::backend::gpu::render::render_observed(ctx, rs, settings, stop, progress, &mut show);
+    match rendered {
         Ok((out, timings)) => {
             eprintln!("gpu variant: {}", timings.variant);
             Ok(Some((

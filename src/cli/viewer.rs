@@ -3,6 +3,7 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use brume::film::passes::PassLayers;
 use brume::film::{Display, DisplayImage, Film};
 
 /// The shortest time between two intermediate images: often enough to watch the noise clear,
@@ -39,23 +40,28 @@ impl<'a> Viewer<'a> {
 
     /// After a pass: the film's mean, unless an image went out less than [`EVERY`] ago.
     pub fn pass(&self, film: &Film) {
+        self.pass_with(film, film.passes());
+    }
+
+    /// [`Viewer::pass`] for a film whose passes are kept apart while it renders (the GPU's).
+    pub fn pass_with(&self, film: &Film, passes: Option<&PassLayers>) {
         let mut shown = self.shown.lock().unwrap_or_else(|e| e.into_inner());
         if shown.is_some_and(|t| t.elapsed() < EVERY) || !self.display.is_live() {
             return;
         }
         *shown = Some(Instant::now());
-        self.display.update(self.image(film));
+        self.display.update(self.image(film, passes));
     }
 
     /// The film's colour, its coverage as `A` on a transparent film, and its passes named as
     /// in the EXR.
-    fn image(&self, film: &Film) -> DisplayImage {
+    fn image(&self, film: &Film, passes: Option<&PassLayers>) -> DisplayImage {
         let mut image = DisplayImage::from_film(&self.name, film);
         if self.transparent {
             let alpha = film.pixels().iter().map(|p| p.mean[3] as f32).collect();
             image = image.with_channel("A", alpha);
         }
-        if let Some(p) = film.passes() {
+        if let Some(p) = passes {
             let pixels = film.pixels().len();
             for (k, name) in p.names().iter().enumerate() {
                 for (channel, c) in brume::film::passes::exr_channels(name) {
@@ -70,7 +76,7 @@ impl<'a> Viewer<'a> {
     /// The render's final film, whatever the time since the last image.
     pub fn last(&self, film: &Film) {
         if self.display.is_live() {
-            self.display.update(self.image(film));
+            self.display.update(self.image(film, film.passes()));
         }
     }
 

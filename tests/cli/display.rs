@@ -291,6 +291,44 @@ fn the_viewer_watches_the_render_converge_to_the_exr() {
     );
 }
 
+/// On the GPU backend the viewer sees the passes converge too: an image after a pass and the
+/// final one, with the light passes as channels (where no Vulkan adapter exists the render
+/// says so and the test is SKIPPED).
+#[test]
+fn the_gpu_render_streams_its_passes_as_it_converges() {
+    let out = scratch::file("display_gpu.exr");
+    let (address, serve) = viewer(None);
+    let args = [
+        "--display-server",
+        &address,
+        "--backend",
+        "gpu",
+        "--passes",
+        "light",
+    ];
+    let o = render_to(&cloud(), &out, &SMALL[..6], &args);
+    if !o.status.success() {
+        assert!(stderr(&o).contains("adapter"), "{}", stderr(&o));
+        println!("SKIPPED: no Vulkan adapter: {}", stderr(&o).trim());
+        return;
+    }
+    let (packets, _) = serve.join().expect("the viewer decodes every packet");
+    let shown = replay(&packets);
+    let image = &shown[&out.display().to_string()];
+    assert!(
+        image.channels.iter().any(|c| c == "volume.direct.R"),
+        "{:?}",
+        image.channels
+    );
+    assert!(image.images >= 2.0, "{} images sent", image.images);
+    let rgb: Vec<Vec<f32>> = image.pixels[..3].to_vec();
+    assert_eq!(bits(&rgb), exr_bits(&out), "the last image is the EXR");
+    println!(
+        "GPU: {} whole images, channels {:?}",
+        image.images, image.channels
+    );
+}
+
 /// The render without a viewer, to compare bits with.
 fn reference(name: &str) -> Vec<Vec<u32>> {
     let out = scratch::file(name);
@@ -439,6 +477,11 @@ fn the_viewer_shows_the_alpha_and_every_pass_asked_for() {
                 .into_iter()
                 .map(|(c, _)| c),
         );
+    }
+    let scene = brume::scene::load(&cloud()).unwrap();
+    let groups = brume::render::light_groups::LightGroups::of(&scene).unwrap();
+    for group in &groups.names {
+        expected.extend(["R", "G", "B"].map(|c| format!("{group}.{c}")));
     }
     println!("channels shown: {}", image.channels.join(" "));
     assert_eq!(image.channels, expected);

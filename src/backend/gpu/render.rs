@@ -212,6 +212,22 @@ pub fn render_with_timings(
     stop: &AtomicBool,
     progress: Progress,
 ) -> Result<(RenderOutput, GpuTimings), GpuRenderError> {
+    render_observed(ctx, rs, settings, stop, progress, &mut |_, _| {})
+}
+
+/// What a render shows of itself after each pass: the film and, where it keeps passes, their
+/// statistics so far (a viewer's image).
+pub type PassObserver<'a> = &'a mut dyn FnMut(&Film, Option<&PassLayers>);
+
+/// [`render_with_timings`], handing the film to `observer` after every pass.
+pub fn render_observed(
+    ctx: &GpuContext,
+    rs: &RenderScene,
+    settings: &RenderSettings,
+    stop: &AtomicBool,
+    progress: Progress,
+    observer: PassObserver,
+) -> Result<(RenderOutput, GpuTimings), GpuRenderError> {
     let start = Instant::now();
     check_supported(rs, settings)?;
     // As on the CPU: the generic variant has every feature on. The variant's flags also
@@ -294,6 +310,7 @@ pub fn render_with_timings(
         }
         spp += n;
         progress(spp, settings.spp, start.elapsed().as_secs_f64());
+        observer(&film, layers.as_ref());
     }
     if let Some(layers) = layers {
         film.set_passes(layers);
