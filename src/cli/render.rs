@@ -13,7 +13,8 @@ use brume::film::passes::PassLayers;
 use brume::film::{totals, write_cost_map, write_exr_with_state, CostMetric, Film, TileLogWriter};
 use brume::render::light_groups::LightGroups;
 use brume::render::{
-    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, ShadowEstimator,
+    Absorption, BlackbodyModel, Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind,
+    ShadowEstimator,
 };
 use brume::scene::{self, LoadOptions, SceneRenderSettings};
 
@@ -106,6 +107,12 @@ pub struct RenderArgs {
     /// paper's estimators: absorption ends the path).
     #[arg(long, default_value = "weight")]
     pub absorption: Absorption,
+    /// A temperature grid's blackbody between voxels: temperature (the blackbody of the
+    /// interpolated temperature, the continuous field) or voxels (each voxel's blackbody,
+    /// blended: Cycles' model, for comparing with it). Default: the scene's BRUME_render
+    /// blackbody, else temperature.
+    #[arg(long)]
+    pub blackbody: Option<BlackbodyModel>,
     /// Light choice of next-event estimation at medium events: guided (by each light's
     /// unoccluded contribution through the phase function, a constant sky mostly left to the
     /// continuation ray; default), guided-full-sky (the same, the sky estimated at every
@@ -240,6 +247,10 @@ impl RenderArgs {
         s.shadow = self.shadow;
         s.force_spectral = self.spectral;
         s.absorption = self.absorption;
+        s.blackbody = self
+            .blackbody
+            .or(parse_opt::<BlackbodyModel>(&scene.blackbody)?)
+            .unwrap_or(s.blackbody);
         s.rr_throughput = self.rr_throughput.unwrap_or(s.rr_throughput);
         s.generic = self.generic;
         s.seed = self.seed.or(scene.seed).unwrap_or(s.seed);

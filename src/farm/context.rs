@@ -93,6 +93,10 @@ impl PartContext {
             crate::film::exr_io::FILM_ATTRIBUTE,
             AttrValue::Text(film.into()),
         );
+        if settings.blackbody != crate::render::BlackbodyModel::Temperature {
+            let model = settings.blackbody.name().into();
+            meta.set("brume:blackbody", AttrValue::Text(model));
+        }
         if let Some(e) = settings.noise_threshold {
             meta.set(NOISE_THRESHOLD_ATTRIBUTE, AttrValue::Float(e));
             meta.set("brume:min_spp", AttrValue::Int(settings.min_spp as i32));

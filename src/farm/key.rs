@@ -19,13 +19,17 @@ pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> 
         true => String::new(),
         false => format!(" passes={}", s.pass_names().join(",")),
     };
+    let blackbody = match s.blackbody {
+        crate::render::settings::BlackbodyModel::Temperature => "",
+        crate::render::settings::BlackbodyModel::Voxels => " blackbody=voxels",
+    };
     let adaptive = s.noise_threshold.map_or(String::new(), |e| {
         format!(" noise_threshold={e} min_spp={}", s.min_spp)
     });
     format!(
         "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
          sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
-         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}{adaptive}",
+         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}{adaptive}{blackbody}",
         s.estimator,
         s.b,
         s.m_or_default()

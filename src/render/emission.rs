@@ -29,6 +29,15 @@ impl GridField {
     pub fn at_world(&self, p: Vec3) -> f32 {
         self.at_index(self.index_from_world.transform_point3(p))
     }
+
+    /// The trilinear blend of `f` of the voxels around world point `p`
+    /// (`SparseGrid::sample_trilinear_of`).
+    #[inline]
+    pub fn of_voxels_at_world(&self, p: Vec3, f: impl Fn(f32) -> Vec3) -> Vec3 {
+        let q = self.index_from_world.transform_point3(p);
+        let q = DVec3::new(q.x as f64, q.y as f64, q.z as f64);
+        self.grid.grid.sample_trilinear_of(q, f)
+    }
 }
 
 /// Blender Principled Volume emission (radiance per metre, not multiplied by density).
@@ -77,6 +86,9 @@ pub struct Blackbody {
     pub offset: f32,
     pub intensity: f32,
     pub tint: Vec3,
+    /// The blackbody of each voxel's temperature, blended trilinearly (Cycles' model), instead
+    /// of the blackbody of the blended temperature (`BlackbodyModel`).
+    pub of_voxels: bool,
 }
 
 impl Emission {
@@ -99,8 +111,12 @@ impl Emission {
         }
         if let Some(bb) = &self.blackbody {
             lookups.set(lookups.get() + 1);
-            let t = bb.scale * bb.temperature.at_world(p) + bb.offset;
-            e += bb.tint * blackbody_emission(t, bb.intensity);
+            let of = |v: f32| blackbody_emission(bb.scale * v + bb.offset, bb.intensity);
+            e += bb.tint
+                * match bb.of_voxels {
+                    false => of(bb.temperature.at_world(p)),
+                    true => bb.temperature.of_voxels_at_world(p, of),
+                };
         }
         e
     }

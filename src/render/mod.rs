@@ -17,6 +17,6 @@ pub mod stack;
 
 pub use prepare::{FeatureFlags, RenderScene};
 pub use settings::{
-    Absorption, Estimator, LightSelection, MajorantMode, RenderSettings, SamplerKind,
-    ShadowEstimator,
+    Absorption, BlackbodyModel, Estimator, LightSelection, MajorantMode, RenderSettings,
+    SamplerKind, ShadowEstimator,
 };

@@ -9,7 +9,7 @@ use super::media::{
     Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
     VelocityBlur, WalkPlan,
 };
-use super::settings::RenderSettings;
+use super::settings::{BlackbodyModel, RenderSettings};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::math::Aabb;
 use crate::scene::motion::FrameMotion;
@@ -207,6 +207,12 @@ impl<'s> RenderScene<'s> {
                 m.light_group = g;
             }
             rs.groups = Some(groups);
+        }
+        if settings.blackbody == BlackbodyModel::Voxels {
+            let emissions = rs.vdb.iter_mut().filter_map(|m| m.emission.as_mut());
+            for b in emissions.filter_map(|e| e.blackbody.as_mut()) {
+                b.of_voxels = true;
+            }
         }
         Ok(rs)
     }
@@ -471,6 +477,7 @@ fn emission(
             offset: desc.temperature_offset,
             intensity: desc.blackbody_intensity,
             tint: Vec3::from(desc.blackbody_tint),
+            of_voxels: false,
         });
     (strength_color != Vec3::ZERO || blackbody.is_some()).then(|| Emission {
         strength_color,

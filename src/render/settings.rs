@@ -106,6 +106,39 @@ impl Absorption {
     }
 }
 
+/// How the blackbody of a temperature grid is taken between its voxels. `Temperature`
+/// (default): the blackbody of the trilinearly interpolated temperature, the continuous
+/// field's. `Voxels`: the trilinear blend of each voxel's blackbody, what Cycles' stochastic
+/// voxel lookups average to; the two differ where the temperature changes from voxel to voxel,
+/// since the blackbody grows as `T^4`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlackbodyModel {
+    Temperature,
+    Voxels,
+}
+
+impl BlackbodyModel {
+    pub fn name(self) -> &'static str {
+        match self {
+            BlackbodyModel::Temperature => "temperature",
+            BlackbodyModel::Voxels => "voxels",
+        }
+    }
+}
+
+impl std::str::FromStr for BlackbodyModel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "temperature" => Ok(BlackbodyModel::Temperature),
+            "voxels" => Ok(BlackbodyModel::Voxels),
+            other => Err(format!(
+                "'{other}' is not a blackbody model: temperature or voxels"
+            )),
+        }
+    }
+}
+
 /// How next-event estimation chooses its light at a medium scattering event.
 ///
 /// `Guided` (default) weighs each light by its unoccluded contribution through the phase
@@ -269,6 +302,8 @@ pub struct RenderSettings {
     pub light_passes: bool,
     /// Keep the data passes (`film::passes::DATA_PASSES`) beside the beauty.
     pub data_passes: bool,
+    /// How a temperature grid's blackbody is taken between voxels.
+    pub blackbody: BlackbodyModel,
     /// Keep these light groups beside the beauty (`render::light_groups`: the scene's
     /// `LightGroups::names`; empty: none).
     pub light_groups: Vec<String>,
@@ -310,6 +345,7 @@ impl Default for RenderSettings {
             light_passes: false,
             data_passes: false,
             light_groups: Vec::new(),
+            blackbody: BlackbodyModel::Temperature,
             noise_threshold: None,
             min_spp: 16,
         }

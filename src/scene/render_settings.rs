@@ -41,6 +41,8 @@ pub struct SceneRenderSettings {
     pub shutter: Option<super::velocity::Shutter>,
     /// `filmTransparent`: leave the environment seen straight through out of the colour.
     pub film_transparent: Option<bool>,
+    /// `blackbody`: "temperature" or "voxels" (`render::settings::BlackbodyModel`).
+    pub blackbody: Option<String>,
 }
 
 const ESTIMATORS: [&str; 4] = [
@@ -76,6 +78,7 @@ pub fn read_render_settings(
             "shutter",
             "frameRange",
             "filmTransparent",
+            "blackbody",
         ],
     );
     let choice = |ctx: &Ctx, key: &str, allowed: &[&str]| -> Result<Option<String>, SceneError> {
@@ -121,6 +124,7 @@ pub fn read_render_settings(
         shutter: read_shutter(ctx, &obj)?,
         frame_range: read_frame_range(ctx, &obj)?,
         film_transparent: obj.boolean(ctx, "filmTransparent")?,
+        blackbody: choice(ctx, "blackbody", &["temperature", "voxels"])?,
     })
 }
 

@@ -314,6 +314,27 @@ impl SparseGrid {
         trilinear_vdb(&v, f)
     }
 
+    /// The trilinear blend of `f` of the eight voxels around index point `p` (the voxels and
+    /// weights [`sample_trilinear`](Self::sample_trilinear) blends): what a renderer that
+    /// reads one voxel at random with the trilinear weights, as Cycles does, averages to.
+    /// Outside the cell box, and at NaN coordinates, `f` of the background.
+    pub fn sample_trilinear_of(&self, p: DVec3, f: impl Fn(f32) -> glam::Vec3) -> glam::Vec3 {
+        if self.all_background_near(p) {
+            return f(self.background);
+        }
+        let (i, j, k) = (floor_i64(p.x), floor_i64(p.y), floor_i64(p.z));
+        let w = p - DVec3::new(i as f64, j as f64, k as f64);
+        let mut sum = glam::DVec3::ZERO;
+        for (dx, dy, dz) in (0..8).map(|c| (c & 1, (c >> 1) & 1, c >> 2)) {
+            let weight = |d: i64, f: f64| if d == 1 { f } else { 1.0 - f };
+            let wt = weight(dx, w.x) * weight(dy, w.y) * weight(dz, w.z);
+            if wt > 0.0 {
+                sum += f(self.voxel_i64(i + dx, j + dy, k + dz)).as_dvec3() * wt;
+            }
+        }
+        sum.as_vec3()
+    }
+
     /// [`sample_trilinear`](Self::sample_trilinear) over a batch (for benchmarks and bulk
     /// comparisons). `out` must be as long as `points`.
     pub fn sample_trilinear_batch(&self, points: &[[f64; 3]], out: &mut [f32]) {
@@ -357,6 +378,38 @@ impl SparseGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The blend of `f` of the voxels is `sample_trilinear` for a linear `f`, and for a
+    /// nonlinear one the weights' blend of the voxels' values, not `f` of the blend.
+    #[test]
+    fn the_voxels_blend_of_a_function_takes_the_trilinear_weights() {
+        let dims = [5usize, 4, 6];
+        let values: Vec<f32> = (0..dims.iter().product::<usize>())
+            .map(|i| ((i * 7919) % 23) as f32 * 0.25)
+            .collect();
+        let (grid, _) = SparseGrid::from_dense(dims, [-2, 1, 3], &values, 0.0).unwrap();
+        let linear = |v: f32| glam::Vec3::new(v, 2.0 * v, -v);
+        for p in [
+            DVec3::new(-1.3, 2.6, 4.1),
+            DVec3::new(0.5, 1.5, 5.5),
+            DVec3::new(1.99, 3.01, 7.5),
+            DVec3::new(40.0, 0.0, 0.0),
+        ] {
+            let (blend, lin) = (
+                grid.sample_trilinear_of(p, linear),
+                grid.sample_trilinear(p),
+            );
+            assert!((blend - linear(lin)).abs().max_element() < 1e-5 * (1.0 + lin.abs()));
+        }
+        // Halfway between two voxels along x, on their y and z: the mean of the fourth powers.
+        let p = DVec3::new(0.5, 2.0, 4.0);
+        let (a, b) = (grid.voxel(0, 2, 4), grid.voxel(1, 2, 4));
+        let quartic = |v: f32| glam::Vec3::splat(v.powi(4));
+        let expected = 0.5 * (a.powi(4) + b.powi(4));
+        assert!(
+            (grid.sample_trilinear_of(p, quartic).x - expected).abs() < 1e-4 * expected.max(1.0)
+        );
+    }
 
     #[test]
     fn widening_the_cell_box_changes_no_value() {

@@ -191,7 +191,7 @@ fn oiiotool_reads_the_metadata() {
 fn scene_render_settings_are_defaults_the_command_line_overrides() {
     let src = std::fs::read_to_string(scene("cloud")).unwrap();
     let mut doc: serde_json::Value = serde_json::from_str(&src).unwrap();
-    doc["extensions"]["BRUME_render"] = serde_json::json!({"estimator": "weighted-delta", "b": 0.8, "spp": 2, "width": 20, "height": 10, "majorant": "global"});
+    doc["extensions"]["BRUME_render"] = serde_json::json!({"estimator": "weighted-delta", "b": 0.8, "spp": 2, "width": 20, "height": 10, "majorant": "global", "blackbody": "voxels"});
     let dir = scratch::file("settings");
     std::fs::create_dir_all(&dir).unwrap();
     let gltf = dir.join("cloud.gltf");
@@ -216,6 +216,7 @@ fn scene_render_settings_are_defaults_the_command_line_overrides() {
         Some("weighted-delta")
     );
     assert_eq!(img.attributes.text("brume:majorant_mode"), Some("global"));
+    assert_eq!(img.attributes.text("brume:blackbody"), Some("voxels"));
     let o = brume(&[
         "render",
         gltf.to_str().unwrap(),
@@ -227,11 +228,14 @@ fn scene_render_settings_are_defaults_the_command_line_overrides() {
         "delta",
         "--width",
         "8",
+        "--blackbody",
+        "temperature",
     ]);
     assert!(o.status.success());
     let img = read_exr(&exr).unwrap();
     assert_eq!((img.width, img.height), (8, 10));
     assert_eq!(img.attributes.text("brume:estimator"), Some("delta"));
+    assert_eq!(img.attributes.text("brume:blackbody"), None);
     // A bad value in the scene's settings names the file and the JSON location.
     doc["extensions"]["BRUME_render"]["estimator"] = serde_json::json!("fast");
     std::fs::write(&gltf, serde_json::to_string(&doc).unwrap()).unwrap();

@@ -143,6 +143,34 @@ fn fire_light_passes_agree_with_cycles() {
     );
 }
 
+/// The fire with `BRUME_render` blackbody "voxels" (each voxel's blackbody blended, Cycles'
+/// model): its emission then agrees block by block too.
+#[test]
+fn fire_with_the_voxels_blackbody_agrees_pass_by_pass_with_cycles() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("scenes/fire.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let vdb = root.join("scenes/vdb/fire.vdb");
+    doc["nodes"][1]["extensions"]["BRUME_medium_vdb"]["uri"] = vdb.to_str().unwrap().into();
+    doc["extensions"]["BRUME_render"] = serde_json::json!({"blackbody": "voxels"});
+    doc["extensionsUsed"]
+        .as_array_mut()
+        .unwrap()
+        .push("BRUME_render".into());
+    let dir = std::env::temp_dir().join(format!("brume-cycles-bb-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("fire_voxels.gltf");
+    std::fs::write(&scene, serde_json::to_string(&doc).unwrap()).unwrap();
+    light_passes_agree(
+        "fire_voxels",
+        scene.to_str().unwrap(),
+        ("4096", "256"),
+        &["emission"],
+        &[],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Base-colour and emissive textures: bilinear and nearest, clamped and repeated, with
 /// KHR_texture_transform (docs/scene-format.md: textures).
 #[test]

@@ -175,6 +175,16 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
                 .into(),
         );
     }
+    let of_voxels = |m: &crate::render::media::VdbMedium| {
+        let blackbody = m.emission.as_ref().and_then(|e| e.blackbody.as_ref());
+        blackbody.is_some_and(|b| b.of_voxels)
+    };
+    if rs.vdb.iter().any(of_voxels) {
+        return Err(
+            "the blackbody of each voxel (--blackbody voxels) renders on the CPU backend only"
+                .into(),
+        );
+    }
     if rs.lights.moving() {
         return Err(
             "a light moving during the shutter (transformation blur of lights renders on the CPU \
