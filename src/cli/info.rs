@@ -210,6 +210,11 @@ fn print_voxel_bounds(label: &str, grid: &brume::volume::SparseGrid, bounds: &Le
 
 /// The adaptive hierarchy's shape, model costs, build time and memory.
 fn print_adaptive(label: &str, a: &AdaptiveMajorants, scale: f32, index_per_t: f32) {
+    if a.nodes.is_empty() {
+        // A grid of background only (an empty frame of a simulation): nothing to bound.
+        println!("{label} adaptive majorants: none (the grid holds no voxels)");
+        return;
+    }
     let s = a.stats(scale, index_per_t, a.cost);
     let levels: Vec<String> = s
         .nodes_per_level

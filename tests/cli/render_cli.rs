@@ -375,6 +375,29 @@ fn brume_info_prints_each_scenes_effects() {
     }
 }
 
+/// A grid of background only (a simulation's frame before the smoke, Mantaflow's `shadow`)
+/// beside a density: `brume info` describes both, and says the empty one has no majorants.
+#[test]
+fn brume_info_describes_an_empty_grid() {
+    use brume_ffi::{write_float_grids, GridSpec};
+    let path = scratch::dir("info-empty").join("frame.vdb");
+    let mut density = GridSpec::fog("density", 0.1, [0.0; 3]);
+    density.voxels = vec![([1, 2, 3], 0.5), ([2, 2, 3], 1.0)];
+    let empty = GridSpec::fog("shadow", 0.1, [0.0; 3]);
+    write_float_grids(&path, &[density, empty]).unwrap();
+    let o = brume(&["info", path.to_str().unwrap()]);
+    let (stdout, stderr) = text(&o);
+    assert!(
+        o.status.success() && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    assert!(stdout.contains("grid 'shadow'"), "{stdout}");
+    assert!(
+        stdout.contains("none (the grid holds no voxels)"),
+        "{stdout}"
+    );
+}
+
 #[test]
 fn brume_info_shows_vec3_grids_with_class_and_speed() {
     use brume_ffi::{write_float_grids, GridClass, GridSpec};
