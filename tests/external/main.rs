@@ -8,5 +8,6 @@ mod common;
 mod blender_roundtrip;
 mod cycles_blur;
 mod cycles_compare;
+mod cycles_fire;
 mod farm_slurm;
 mod mitsuba_compare;

@@ -1,9 +1,9 @@
-"""Bakes a small Mantaflow smoke simulation headless and saves a .blend that renders its last
-frame as a Volume object with velocity motion blur (tests/external/cycles_blur.rs compares
+"""Bakes a small Mantaflow smoke (or fire) simulation headless and saves a .blend that renders
+its last frame as a Volume object with velocity motion blur (tests/external/cycles_blur.rs compares
 Cycles' render of it with Brume's render of its export).
 
     python mantaflow_smoke.py OUT_DIR [--resolution 24] [--frames 16] [--velocity-scale 2]
-        [--push X,Y,Z]
+        [--push X,Y,Z] [--fire]
 
 - the bake: a gas domain (a 2 m cube, `--resolution` cells along it) with a smoke inflow
   sphere whose smoke rises by buoyancy (`--push` gives it an initial velocity as well),
@@ -16,6 +16,9 @@ Cycles' render of it with Brume's render of its export).
   motion blur on (shutter 0.5 frames, centred on the frame), 24 fps, the scene at the last
   frame; a camera, a sun and a dim constant world; 32 x 24 pixels. The simulation itself is
   removed from the .blend: only the cache is rendered.
+- `--fire`: the inflow sphere, at the bottom of the domain, emits fuel that burns (flow type
+  Fire + Smoke), so each file also holds `flame` and `temperature` (Mantaflow's heat, about
+  0..3); only the cache is written (tests/external/cycles_compare.rs builds a glTF over it).
 
 Blender as a Python module (bpy 5.0.1) registers Mantaflow's Python classes before their base
 classes are linked, so its solver script fails at once ('LevelsetGrid' object has no attribute
@@ -51,7 +54,7 @@ def relink_mantaflow():
     bpy.data.objects.remove(obj)
 
 
-def bake(cache, resolution, frames, push):
+def bake(cache, resolution, frames, push, fire=False):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_cube_add(size=2.0, location=(0.0, 0.0, 1.0))
@@ -67,12 +70,13 @@ def bake(cache, resolution, frames, push):
     d.cache_directory = cache
     d.cache_frame_start = 1
     d.cache_frame_end = frames
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.25, location=(-0.4, 0.0, 0.4))
+    where = (0.0, 0.0, 0.3) if fire else (-0.4, 0.0, 0.4)
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.25, location=where)
     source = bpy.context.active_object
     flow = source.modifiers.new("fluid", "FLUID")
     flow.fluid_type = "FLOW"
     f = flow.flow_settings
-    f.flow_type = "SMOKE"
+    f.flow_type = "BOTH" if fire else "SMOKE"
     f.flow_behavior = "INFLOW"
     f.use_initial_velocity = any(push)
     f.velocity_coord = push
@@ -170,14 +174,16 @@ def main(argv):
     p.add_argument("--frames", type=int, default=16)
     p.add_argument("--velocity-scale", type=float, default=2.0)
     p.add_argument("--push", default="0,0,0", help="the inflow's initial velocity x,y,z (m/s)")
+    p.add_argument("--fire", action="store_true", help="a burning inflow; the cache only")
     args = p.parse_args(argv)
     out_dir = os.path.abspath(args.out_dir)
     os.makedirs(out_dir, exist_ok=True)
     cache = os.path.join(out_dir, "cache")
     relink_mantaflow()
     push = tuple(float(c) for c in args.push.split(","))
-    corner = bake(cache, args.resolution, args.frames, push)
-    render_scene(out_dir, cache, args.frames, corner, args.velocity_scale)
+    corner = bake(cache, args.resolution, args.frames, push, args.fire)
+    if not args.fire:
+        render_scene(out_dir, cache, args.frames, corner, args.velocity_scale)
 
 
 if __name__ == "__main__":
