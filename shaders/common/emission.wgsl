@@ -16,6 +16,22 @@
 // pipeline (tools/lavapipe_ubo/; MAX_UNIFORM_BLOCKS_PER_GROUP in src/backend/gpu/shader.rs).
 @group(0) @binding(6) var<storage, read> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
 
+// #if FEATURE_LIGHT_GROUPS
+// The emission of the invocation's flights by light group (each view's `emitted`, which
+// Emitted::add hands its medium's group): on_collision sets the collision's weight, every
+// medium's radiance there adds its share to its group (emission_radiance_of), and
+// sample_medium gathers them into the path's groups (gather_flight_groups). Private memory
+// starts at zero, and each invocation runs one sample_medium.
+var<private> collision_weight: vec3<f32>;
+var<private> flight_groups: array<vec3<f32>, LIGHT_GROUPS>;
+
+fn emit_to_group(group: u32, le: vec3<f32>) {
+    if (group < LIGHT_GROUPS) {
+        flight_groups[group] += collision_weight * le;
+    }
+}
+// #endif
+
 // blackbody_rgb: linear interpolation in the table, temperatures clamped to its range.
 fn blackbody_rgb(t: f32) -> vec3<f32> {
     let x = max((clamp(t, BLACKBODY_T_MIN, BLACKBODY_T_MAX) - BLACKBODY_T_MIN) / BLACKBODY_STEP, 0.0);
@@ -71,6 +87,9 @@ fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams,
             + emission.temperature_offset;
         e += emission.tint * blackbody_emission(t, emission.intensity);
     }
+// #if FEATURE_LIGHT_GROUPS
+    emit_to_group(emission.light_group, e);
+// #endif
     return e;
 }
 
@@ -82,6 +101,14 @@ fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams,
 // the same weight, so their sum).
 fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
 // #if FEATURE_EMISSION
+// #if FEATURE_LIGHT_GROUPS
+    // The weight below, set before the media's radiance adds each medium's to its group.
+    if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
+        collision_weight = (*tr).beta * (*tr).w / sigma_maj;
+    } else {
+        collision_weight = (*tr).beta * ((*tr).w.x / sigma_maj);
+    }
+// #endif
     var p = (*tr).ow + t * (*tr).dw;
     var le = vec3<f32>(0.0);
 // #if FEATURE_MIXTURE

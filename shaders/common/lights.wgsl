@@ -25,6 +25,9 @@ struct LightSample {
     pdf: f32,
     is_delta: bool,
     valid: bool,  // false where the CPU returns None
+    // LightSample::source: the light's index among the punctual lights, the environment and
+    // the area lights (light_count() order; light_group_of takes it to its group).
+    source: u32,
 }
 
 // power_heuristic (beta = 2).
@@ -69,8 +72,10 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
     if (k < wf.light_count) {
         ls = punctual_incident(k, p);
         ls.pdf = pmf;
+        ls.source = k;
         return ls;
     }
+    ls.source = k;
     if (wf.has_env != 0u && k == wf.light_count) {
 // #if FEATURE_ENV_MAP
         let es = env_sample(u);
@@ -308,8 +313,10 @@ fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_
     if (k < np) {
         ls = punctual_incident(k, p);
         ls.pdf = pmf;
+        ls.source = k;
         return ls;
     }
+    ls.source = k;
     if (wf.has_env == 0u) {
         return ls;
     }

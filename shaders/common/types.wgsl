@@ -137,7 +137,7 @@ struct GpuPathState {
     outer: u32,         // the two media below `medium` on the stack, 16 bits each (STACK_NONE: none)
     phase_g: f32,       // g of the medium that scattered last (mixture variant)
     time: f32,          // the camera sample's time offset, frames (0 without a shutter)
-    _pad0: u32,
+    shadow_group: u32,  // light group of the pending shadow ray's light (light-group variant)
     _pad1: u32,
     _pad2: u32,
 }
@@ -274,7 +274,7 @@ struct GpuEmissionParams {
     temperature_scale: f32,     // kelvin = scale * value + offset
     temperature_offset: f32,
     intensity: f32,             // blackbodyIntensity
-    _pad0: u32,
+    light_group: u32,           // VdbMedium::light_group (NO_GROUP: none kept)
     region_from_world: array<vec4<f32>, 3>, // density index_from_world rows (EmissionRegion)
     region_min: vec3<f32>,      // the region's box, half-open; no emission outside
     has_region: u32,
@@ -324,8 +324,9 @@ struct GpuWavefrontParams {
     mix_estimator: u32,          // grey free-flight estimator of a mixture
     continuation_albedo: f32,    // Lights::continuation_albedo
     shadow_majorant_mode: u32,   // the VDB medium's shadow rays' walk (WalkPlan::shadow)
-    _pad1: u32,
-    _pad2: u32,
+    environment_group: u32,      // LightGroups::environment (NO_GROUP: none)
+    surfaces_group: u32,         // LightGroups::surfaces (NO_GROUP: none)
+    punctual_groups: vec4<u32>,  // LightGroups::punctual, a byte each: light k in word k / 4
     blur: GpuVelocityBlur,       // the VDB medium's velocity blur (factor 0: none)
     motion: GpuCameraMotion,     // the shutter and the camera's poses
 }

@@ -13,11 +13,16 @@
 // One pending shadow ray per path slot (written by the scatter and surface stages).
 @group(1) @binding(4) var<storage, read_write> shadows: array<GpuShadowRay>;
 
-// #if FEATURE_LIGHT_PASSES
-// The radiance split into the light passes (PathState::passes): LIGHT_PASSES RGB accumulators
-// (w unused) per path slot, slot * LIGHT_PASSES + pass, apart from the path state so that it
-// stays small and the variant without passes binds nothing more.
+// The radiance split by light pass and by light group (PathState::passes, PathState::groups):
+// LIGHT_ENTRIES RGB accumulators (w unused) per path slot from slot * LIGHT_ENTRIES, the light
+// passes first where kept, then the light groups where kept. Apart from the path state so that
+// it stays small; one buffer for both so that the groups bind nothing more (trace_shadow is
+// one binding short of a stage's 16); only the variants that keep either bind it.
 @group(1) @binding(19) var<storage, read_write> path_passes: array<vec4<f32>>;
+const PASS_ENTRIES: u32 = LIGHT_PASSES * u32(FEATURE_LIGHT_PASSES);
+const LIGHT_ENTRIES: u32 = PASS_ENTRIES + LIGHT_GROUPS * u32(FEATURE_LIGHT_GROUPS);
+
+// #if FEATURE_LIGHT_PASSES
 
 // PathState::pass_of: `seen` (PASS_EMISSION or PASS_BACKGROUND) before any scattering event;
 // after it, the first event's kind (PATH_FLAG_FIRST_IN_MEDIUM), direct at depth 1, indirect
@@ -35,14 +40,54 @@ fn pass_of(ps: GpuPathState, seen: u32) -> u32 {
 
 // PathState::gather's pass half: what a stage adds to ps.l, added to the pass pass_of names.
 fn gather_pass(slot: u32, ps: GpuPathState, x: vec3<f32>, seen: u32) {
-    let i = slot * LIGHT_PASSES + pass_of(ps, seen);
+    let i = slot * LIGHT_ENTRIES + pass_of(ps, seen);
     path_passes[i] = vec4<f32>(path_passes[i].xyz + x, 0.0);
 }
 
 // A new path's passes: all zero (generate's PathState).
 fn clear_passes(slot: u32) {
     for (var k = 0u; k < LIGHT_PASSES; k++) {
-        path_passes[slot * LIGHT_PASSES + k] = vec4<f32>(0.0);
+        path_passes[slot * LIGHT_ENTRIES + k] = vec4<f32>(0.0);
+    }
+}
+// #endif
+
+// #if FEATURE_LIGHT_GROUPS
+// PathState::gather's group half: x added to light group `group` (NO_GROUP, past the groups,
+// gathers nothing).
+fn gather_group(slot: u32, group: u32, x: vec3<f32>) {
+    if (group < LIGHT_GROUPS) {
+        let i = slot * LIGHT_ENTRIES + PASS_ENTRIES + group;
+        path_passes[i] = vec4<f32>(path_passes[i].xyz + x, 0.0);
+    }
+}
+
+// A new path's groups: all zero (generate's PathState).
+fn clear_groups(slot: u32) {
+    for (var k = 0u; k < LIGHT_GROUPS; k++) {
+        path_passes[slot * LIGHT_ENTRIES + PASS_ENTRIES + k] = vec4<f32>(0.0);
+    }
+}
+
+// LightGroups::of_source: the group of the light a LightSample's `source` names (its index
+// among the punctual lights, the environment and the area lights, light_count() order).
+fn light_group_of(source: u32) -> u32 {
+    if (source < wf.light_count) {
+        return (wf.punctual_groups[source / 4u] >> (8u * (source % 4u))) & 0xFFu;
+    }
+    if (wf.has_env != 0u && source == wf.light_count) {
+        return wf.environment_group;
+    }
+    return wf.surfaces_group;
+}
+
+// Emitted::add's group half for a flight: each medium's emission (on_collision, emission.wgsl)
+// gathered into its group's entry of flight_groups, added to the path's groups.
+fn gather_flight_groups(slot: u32) {
+    for (var g = 0u; g < LIGHT_GROUPS; g++) {
+        if (any(flight_groups[g] != vec3<f32>(0.0))) {
+            gather_group(slot, g, flight_groups[g]);
+        }
     }
 }
 // #endif

@@ -3,15 +3,15 @@
 // radiance, coverage and lookup count to its camera sample's entry of the batch's sample
 // buffer (the host adds the entries to the f64 Film in pixel and sample order, so no float
 // atomics are needed and the film's per-pixel variance is that of the individual samples),
-// and with the light passes its CameraSample::passes to the entries beside it, with the data
-// passes its CameraSample::data to the entry beside it; its slot is then free.
+// and with the light passes its CameraSample::passes to the entries beside it, with the light
+// groups its CameraSample::groups to the entries after those, with the data passes its
+// CameraSample::data to the entry beside it; its slot is then free.
 
 @group(1) @binding(6) var<storage, read_write> samples: array<GpuSample>;
-// #if FEATURE_LIGHT_PASSES
-// CameraSample::passes: the path's light passes beside its sample entry,
-// sample_id * LIGHT_PASSES + pass (read back with the batch's samples).
+// CameraSample::passes and CameraSample::groups: the path's LIGHT_ENTRIES light accumulators
+// (path_passes) beside its sample entry, from sample_id * LIGHT_ENTRIES (read back with the
+// batch's samples); bound only by the variants that keep either.
 @group(1) @binding(20) var<storage, read_write> sample_passes: array<vec4<f32>>;
-// #endif
 // #if FEATURE_DATA_PASSES
 // CameraSample::data: the path's data passes beside its sample entry (read back with the
 // batch's samples).
@@ -29,7 +29,12 @@ fn accumulate(slot: u32) {
     samples[ps.sample_id] = GpuSample(ps.l, ps.lookups, 1.0 - background, 0u, 0u, 0u);
 // #if FEATURE_LIGHT_PASSES
     for (var k = 0u; k < LIGHT_PASSES; k++) {
-        sample_passes[ps.sample_id * LIGHT_PASSES + k] = path_passes[slot * LIGHT_PASSES + k];
+        sample_passes[ps.sample_id * LIGHT_ENTRIES + k] = path_passes[slot * LIGHT_ENTRIES + k];
+    }
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+    for (var k = PASS_ENTRIES; k < LIGHT_ENTRIES; k++) {
+        sample_passes[ps.sample_id * LIGHT_ENTRIES + k] = path_passes[slot * LIGHT_ENTRIES + k];
     }
 // #endif
 // #if FEATURE_DATA_PASSES

@@ -5,7 +5,8 @@
 // camera ray's coverage from it). A camera ray escaping unscattered on a transparent film
 // (WF_FLAG_FILM_TRANSPARENT) gathers nothing.
 // With FEATURE_ENV_MAP the radiance and the pdf come from the map (envmap.wgsl). The light
-// goes to the background pass as PathState::gather routes it (gather_pass); with the data
+// goes to the background pass as PathState::gather routes it (gather_pass), and to the
+// environment's light group (gather_group); with the data
 // passes, a camera ray that meets no surface records the background's depth, and the sky is
 // the albedo of a path that meets no opaque surface or medium event first (record_albedo).
 
@@ -48,6 +49,9 @@ fn escape(slot: u32) {
         ps.l += x;
 // #if FEATURE_LIGHT_PASSES
         gather_pass(slot, ps, x, PASS_BACKGROUND);
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+        gather_group(slot, wf.environment_group, x);
 // #endif
     }
     // One write of the path state: the flag, and the radiance where the sky was gathered.

@@ -7,7 +7,9 @@
 // (src/scene/camera.rs), and send the path to the intersect and medium stages (or straight to
 // the escape stage when the scene has neither media nor surfaces). With the light passes
 // (FEATURE_LIGHT_PASSES) the slot's pass accumulators start at zero, as PathState::passes does,
-// and with the data passes (FEATURE_DATA_PASSES) its GpuDataPasses, as PathState::data does.
+// with the light groups (FEATURE_LIGHT_GROUPS) its group accumulators, as PathState::groups
+// does, and with the data passes (FEATURE_DATA_PASSES) its GpuDataPasses, as PathState::data
+// does.
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn generate(slot: u32) {
@@ -65,6 +67,9 @@ fn generate(slot: u32) {
     paths[slot] = ps;
 // #if FEATURE_LIGHT_PASSES
     clear_passes(slot);
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+    clear_groups(slot);
 // #endif
 // #if FEATURE_DATA_PASSES
     clear_data(slot);

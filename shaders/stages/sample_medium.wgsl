@@ -8,7 +8,7 @@
 // scatter stage; escape -> the throughput takes the flight's weight and the path goes to the
 // surface stage when its ray hits one, else to the escape stage; absorption or the guard ->
 // done. With the light passes, the flight's emission goes to the pass PathState::pass_of
-// names.
+// names; with the light groups, each medium's to its group (Emitted::add).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn sample_medium(slot: u32) {
@@ -95,6 +95,11 @@ fn sample_medium(slot: u32) {
 // #if FEATURE_LIGHT_PASSES
     // The flight's emission, as the radiance took it (sample_medium's `ps.l - before`).
     gather_pass(slot, ps, ps.l - l_before, PASS_EMISSION);
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+// #if FEATURE_EMISSION
+    gather_flight_groups(slot);
+// #endif
 // #endif
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {

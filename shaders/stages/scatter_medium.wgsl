@@ -5,8 +5,10 @@
 // function's value and the MIS weight (power heuristic unless the light is a delta). The
 // unoccluded contribution goes to the shadow stage, which multiplies it by the transmittance
 // with the path's own stream, so the random numbers are drawn in the CPU's order. Every path
-// then goes on to the phase stage. With the data passes, a medium event before any opaque
-// surface records the throughput and the view direction (record_albedo).
+// then goes on to the phase stage. With the light groups the shadow ray's estimate goes to the
+// group of the light sampled (GpuPathState::shadow_group). With the data passes, a medium
+// event before any opaque surface records the throughput and the view direction
+// (record_albedo).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn scatter_medium(slot: u32) {
@@ -59,6 +61,9 @@ fn scatter_medium(slot: u32) {
                 w = power_heuristic(ls.pdf, f);
             }
             push_shadow_ray(slot, p, ls.wi, ls.dist, ps.medium, ps.outer, ps.beta * ls.li * (f * w / ls.pdf));
+// #if FEATURE_LIGHT_GROUPS
+            ps.shadow_group = light_group_of(ls.source);
+// #endif
         }
     }
     ps.rng_state = rng.state;

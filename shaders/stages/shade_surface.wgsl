@@ -10,7 +10,8 @@
 //   direction stage, which samples the BSDF after the shadow ray has drawn its numbers (the
 //   CPU's order).
 // With the light passes, the emission goes to its pass as PathState::gather routes it
-// (gather_pass); the next-event estimate does in the shadow stage. With the data passes, the
+// (gather_pass), and with the light groups to the surfaces' group; the next-event estimate
+// does in the shadow stage, to the group of the light sampled (GpuPathState::shadow_group). With the data passes, the
 // camera ray's first surface that is not a null interface records its depth, and the first
 // opaque one the albedo and shading normal (record_depth, record_albedo).
 
@@ -35,6 +36,9 @@ fn shade_surface(slot: u32) {
             ps.l += x;
 // #if FEATURE_LIGHT_PASSES
             gather_pass(slot, ps, x, PASS_EMISSION);
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+            gather_group(slot, wf.surfaces_group, x);
 // #endif
         }
     }
@@ -115,6 +119,9 @@ fn shade_surface(slot: u32) {
                 w = power_heuristic(ls.pdf, pdf_bsdf);
             }
             push_shadow_ray(slot, p_off, ls.wi, ls.dist, ps.medium, ps.outer, ps.beta * ls.li * f * (w / ls.pdf));
+// #if FEATURE_LIGHT_GROUPS
+            ps.shadow_group = light_group_of(ls.source);
+// #endif
         }
     }
     ps.rng_state = rng.state;

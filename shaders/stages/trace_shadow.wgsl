@@ -8,7 +8,7 @@
 // medium and the walk goes on, any other surface blocks the ray (tested before the media up
 // to it are tracked, as on the CPU). The path's radiance gains
 // the NEE contribution times the transmittance (and, with the light passes, so does the pass
-// PathState::gather routes it to).
+// PathState::gather routes it to; with the light groups, the group of the light sampled).
 
 // Surfaces a shadow ray crosses at most: a bound for malformed geometry only (the CPU walk
 // ends because t0 grows; so does this one, long before the bound for any real scene).
@@ -93,6 +93,9 @@ fn trace_shadow(slot: u32) {
 // #if FEATURE_LIGHT_PASSES
     // The estimate of the event that queued the ray (the path's depth is still that event's).
     gather_pass(slot, ps, x, PASS_EMISSION);
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+    gather_group(slot, ps.shadow_group, x);
 // #endif
     paths[slot] = ps;
 }

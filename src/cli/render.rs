@@ -56,7 +56,7 @@ pub struct RenderArgs {
     /// surface.direct, surface.indirect, which add up to the beauty), data (the denoiser's
     /// albedo and normal, and depth, with Cycles' conventions), lights (a light group per glTF
     /// light, the environment, the emissive surfaces and each emitting medium, which add up to
-    /// the beauty; CPU backend) and all (every one).
+    /// the beauty) and all (every one).
     #[arg(long, value_name = "LIST", value_parser = super::passes::parse)]
     pub passes: Option<super::passes::PassChoice>,
     /// Adaptive sampling: a pixel stops taking samples once the standard error of its mean is
@@ -362,12 +362,11 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     let cpu_only = args.checkpoint.is_some()
         || args.resume.is_some()
         || args.region.is_some()
-        || !settings.light_groups.is_empty()
         || settings.noise_threshold.is_some();
     if cpu_only && args.backend == Backend::Gpu {
         return Err(anyhow!(
-            "--backend gpu: --checkpoint, --resume, --region, --passes lights and \
-             --noise-threshold run on the CPU backend only"
+            "--backend gpu: --checkpoint, --resume, --region and --noise-threshold run on \
+             the CPU backend only"
         ));
     }
     check_outputs(args)?;

@@ -64,7 +64,10 @@ pub struct GpuPathState {
     /// what its camera pose and every blurred lookup of the path, shadow rays included, use);
     /// 0 without a shutter.
     pub time: f32,
-    pub _pad0: u32,
+    /// The light group of the pending shadow ray's light (`LightSample::source`, through
+    /// `LightGroups::of_source`): where the shadow stage gathers its estimate. Set only by the
+    /// light-group variant.
+    pub shadow_group: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -111,7 +114,8 @@ pub const PATH_FLAG_DEPTH_SEEN: u32 = 128;
 /// and camera sample, each a `vec4` (w unused) at `index * GPU_LIGHT_PASSES + pass`.
 pub const GPU_LIGHT_PASSES: u32 = 6;
 const _: () = assert!(GPU_LIGHT_PASSES as usize == crate::integrator::path::LIGHT_PASS_COUNT);
-/// Bytes of one path slot's or camera sample's light passes.
+/// Bytes of one path slot's or camera sample's light passes (each light group, beside them in
+/// the same buffer, takes one such `vec4` more).
 pub const GPU_LIGHT_PASS_BYTES: u64 = GPU_LIGHT_PASSES as u64 * 16;
 /// The passes `PathState::pass_of` routes to by name, as indices into `LIGHT_PASSES`: what the
 /// camera sees before any event (emission, background), and the first direct pass of each
@@ -364,8 +368,15 @@ pub struct GpuWavefrontParams {
     /// The [`GpuMajorantMode`] of the VDB medium's shadow rays (`WalkPlan::shadow`;
     /// `tracking.majorant_mode` is its free flights').
     pub shadow_majorant_mode: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// The light groups (`LightGroups::environment`, `LightGroups::surfaces`): the
+    /// environment's and the emissive surfaces' group, `NO_GROUP` where none (the light-group
+    /// variant reads them).
+    pub environment_group: u32,
+    pub surfaces_group: u32,
+    /// The group of each punctual light (`LightGroups::punctual`), one byte each: light `k` in
+    /// byte `k % 4` of word `k / 4` (a render keeps at most `MAX_LIGHT_GROUPS` groups, so at
+    /// most 16 punctual lights).
+    pub punctual_groups: [u32; 4],
     /// The velocity blur of the VDB medium (a scene with one; the mixture's are in
     /// [`GpuVdbMedium::blur`]).
     pub blur: GpuVelocityBlur,
@@ -374,7 +385,7 @@ pub struct GpuWavefrontParams {
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 320 + size_of::<GpuVelocityBlur>() + size_of::<GpuCameraMotion>()
+        == 336 + size_of::<GpuVelocityBlur>() + size_of::<GpuCameraMotion>()
 );
 
 /// [`GpuWavefrontParams::flags`] bit: medium events choose lights by contribution
@@ -476,8 +487,9 @@ pub struct GpuEmissionParams {
     pub temperature_offset: f32,
     /// `blackbodyIntensity` `I`: radiance `(sigma_SB 1e-6 / pi) ((1 - I) + I T^4) C(T)`.
     pub intensity: f32,
-    /// Padding to a 16-byte row.
-    pub _pad0: u32,
+    /// The medium's light group (`VdbMedium::light_group`; `NO_GROUP` where none is kept):
+    /// where the light-group variant gathers this emission.
+    pub light_group: u32,
     /// Rows of the density grid's world -> index map, the space of the emission region
     /// (`integrator::media::EmissionRegion`).
     pub region_from_world: [[f32; 4]; 3],

@@ -5,7 +5,10 @@
 //! (`FEATURE_DATA_PASSES`): on scenes with media and surfaces, each agrees with the CPU's by
 //! per-pixel z-tests, the same seed replays them (the depth of a deterministic first surface
 //! to rounding on any adapter), and with the light passes beside them (`--passes light,data`) each
-//! kind is what it is alone, the beauty unchanged.
+//! kind is what it is alone, the beauty unchanged. The light groups (`FEATURE_LIGHT_GROUPS`):
+//! on scenes with several sources of light, each group agrees with the CPU's by per-pixel
+//! z-tests (another seed), the same seed replays the CPU's groups, the groups add up to the GPU
+//! beauty, and keeping them leaves that beauty as it is, bit for bit.
 use crate::common;
 use crate::render::{gpu_render, parity_asserted};
 use common::gpu::gpu_or_skip;
@@ -16,6 +19,7 @@ use brume::film::passes::{DATA_PASSES, LIGHT_PASSES};
 use brume::gpu_types::{
     GPU_LIGHT_PASSES, PASS_BACKGROUND, PASS_EMISSION, PASS_SURFACE_DIRECT, PASS_VOLUME_DIRECT,
 };
+use brume::render::light_groups::LightGroups;
 use brume::render::RenderSettings;
 
 fn settings(light_passes: bool, seed: u32) -> RenderSettings {
@@ -352,4 +356,130 @@ fn light_and_data_passes_together_are_each_as_alone() {
         &format!("{file}: all passes on the GPU"),
     );
     println!("{file}: GPU beauty with all passes == without, bit for bit");
+}
+
+/// The scenes of the light groups, each with the groups its sources must fill: a lamp in smoke
+/// between walls under an emissive ceiling; a flame's medium beside smoke under a sky (two
+/// grids: the mixture variant); a sun and a sky lighting a cloud.
+const GROUP_SCENES: [(&str, &[&str]); 3] = [
+    ("cornell_smoke.gltf", &["light.bulb", "surfaces"]),
+    ("fire2.gltf", &["environment", "medium.flame"]),
+    ("cloud.gltf", &["light.sun", "environment"]),
+];
+
+fn group_settings(scene: &brume::scene::Scene, groups: bool, seed: u32) -> RenderSettings {
+    RenderSettings {
+        light_groups: match groups {
+            true => LightGroups::of(scene).expect("light groups").names,
+            false => Vec::new(),
+        },
+        ..settings(false, seed)
+    }
+}
+
+/// Every group's per-pixel means and variances of the mean, flattened (group, pixel,
+/// channel), and each group's sum over the image.
+fn group_moments(out: &RenderOutput) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let groups = out.film.passes().expect("light groups kept").names().len();
+    let (mut mean, mut var, mut totals) = (Vec::new(), Vec::new(), Vec::new());
+    for k in 0..groups {
+        let (m, v) = one_pass_moments(out, k);
+        totals.push(m.iter().sum());
+        mean.extend(m);
+        var.extend(v);
+    }
+    (mean, var, totals)
+}
+
+/// The largest difference of the groups' sum from the beauty, relative to the beauty (at
+/// least 1e-3).
+fn largest_group_sum_difference(out: &RenderOutput) -> f64 {
+    let groups = out.film.passes().expect("light groups kept");
+    let n = groups.names().len();
+    let mut worst = 0f64;
+    for (i, p) in out.film.pixels().iter().enumerate() {
+        for c in 0..3 {
+            let sum: f64 = (0..n).map(|k| groups.mean(i, k)[c]).sum();
+            worst = worst.max((sum - p.mean[c]).abs() / p.mean[c].abs().max(1e-3));
+        }
+    }
+    worst
+}
+
+#[test]
+fn light_groups_agree_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("light_groups_agree_with_the_cpu") else {
+        return;
+    };
+    let alpha = 1e-3 / GROUP_SCENES.len() as f64;
+    for (n, (file, filled)) in GROUP_SCENES.into_iter().enumerate() {
+        let scene = load_scene(file);
+        let names = LightGroups::of(&scene).expect("light groups").names;
+        let seed = 80 + n as u32;
+        let s = group_settings(&scene, true, seed);
+        let g = gpu_render(&ctx, &scene, &s, file);
+        assert_eq!(
+            g.film.passes().expect("groups kept").names(),
+            names.as_slice()
+        );
+
+        // (a) Each group against the CPU's with another seed: per-pixel z-tests over every
+        // group, pixel and channel, Sidak-corrected (`compare`).
+        let c = render(&scene, &group_settings(&scene, true, seed + 1000));
+        let (gm, gv, gt) = group_moments(&g);
+        let (cm, cv, ct) = group_moments(&c);
+        assert!(
+            gm.iter().all(|v| v.is_finite()),
+            "{file}: non-finite groups"
+        );
+        let a = compare((&gm, &gv), (&cm, &cv), alpha);
+        println!(
+            "{file}: light groups: worst pixel z {:.2} (threshold {:.2}), {} of {} values fail; \
+             image-mean z {:.2}",
+            a.worst_z, a.z_threshold, a.failing, a.pixels, a.mean_z
+        );
+        assert_eq!(a.failing, 0, "{file}: {a:?}");
+        assert!(a.mean_z < sidak_z(alpha, 3), "{file}: {a:?}");
+        let shares: Vec<String> = names
+            .iter()
+            .zip(gt.iter().zip(&ct))
+            .map(|(name, (g, c))| format!("{name} {g:.3}/{c:.3}"))
+            .collect();
+        println!("{file}: group totals GPU/CPU: {}", shares.join(", "));
+        for group in filled {
+            let k = names
+                .iter()
+                .position(|p| p == group)
+                .expect("the scene's group");
+            assert!(gt[k] > 0.0 && ct[k] > 0.0, "{file}: {group} is empty");
+        }
+
+        // (b) With the same seed the GPU replays the CPU's groups.
+        let (sm, _, _) = group_moments(&render(&scene, &s));
+        let (close, worst) = close_values(&gm, &sm, 1e-4);
+        println!(
+            "{file}: same seed: {close} of {} group values equal to 1e-4 (relative), largest \
+             difference {worst:.1e}",
+            gm.len()
+        );
+        assert!(
+            !parity_asserted(&ctx) || close * 100 >= gm.len() * 97,
+            "{file}: same seed: {close} of {}",
+            gm.len()
+        );
+
+        // (c) The groups add up to the beauty: they take the same f32 terms, summed apart.
+        let worst = largest_group_sum_difference(&g);
+        println!(
+            "{file}: largest difference of the GPU groups' sum from the beauty: {worst:.2e} \
+             (relative)"
+        );
+        assert!(worst < 1e-5, "{file}: {worst}");
+
+        // (d) Keeping the groups leaves the beauty as it is, bit for bit.
+        let without = gpu_render(&ctx, &scene, &group_settings(&scene, false, seed), file);
+        assert!(without.film.passes().is_none(), "{file}");
+        assert_same_beauty(&g.film, &without.film, &format!("{file} on the GPU"));
+        println!("{file}: GPU beauty with light groups == without, bit for bit");
+    }
 }

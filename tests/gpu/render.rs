@@ -29,7 +29,7 @@ pub(crate) fn gpu_render(
     s: &RenderSettings,
     label: &str,
 ) -> brume::backend::cpu::RenderOutput {
-    let rs = RenderScene::new(scene, s.force_spectral).unwrap();
+    let rs = RenderScene::prepare(scene, s).unwrap();
     let (out, t) = render_with_timings(ctx, &rs, s, &AtomicBool::new(false), &|_, _, _| {})
         .unwrap_or_else(|e| panic!("{label}: {e}"));
     let iters: u32 = t.batches.iter().map(|b| b.iterations).sum();

@@ -358,7 +358,7 @@ fn reachable(module: &naga::Module, entry: &str) -> std::collections::BTreeSet<S
 fn variants_without_a_feature_hold_no_code_for_it() {
     use brume::backend::gpu::render::Stage;
     use brume::backend::gpu::Spec;
-    let features: [(&str, &[&str]); 9] = [
+    let features: [(&str, &[&str]); 10] = [
         (
             "FEATURE_MOTION",
             &["advection_source", "velocity_component", "quat_slerp"],
@@ -400,6 +400,16 @@ fn variants_without_a_feature_hold_no_code_for_it() {
         (
             "FEATURE_DATA_PASSES",
             &["record_albedo", "record_depth", "clear_data"],
+        ),
+        (
+            "FEATURE_LIGHT_GROUPS",
+            &[
+                "gather_group",
+                "clear_groups",
+                "light_group_of",
+                "gather_flight_groups",
+                "emit_to_group",
+            ],
         ),
     ];
     for (feature, functions) in features {
@@ -508,5 +518,22 @@ fn mirrored_constants_match_rust() {
             .unwrap_or_else(|| panic!("no WGSL constant {name}"));
         assert_eq!(found, value, "WGSL {name} is not the Rust value");
         println!("{name:<26} {value:?}: ok");
+    }
+}
+
+/// With every feature and pass on (each module's defaults), no stage binds more storage
+/// buffers than the 16 a stage may (`max_storage_buffers_per_shader_stage`, as the device
+/// asks for it).
+#[test]
+fn no_stage_binds_more_storage_buffers_than_a_stage_takes() {
+    use brume::backend::gpu::render::Stage;
+    for stage in Stage::ALL {
+        let m = stage.module();
+        let bindings = m
+            .bindings(&[])
+            .unwrap_or_else(|e| panic!("{}: {e}", m.label));
+        let storage = bindings.iter().filter(|b| !b.uniform).count();
+        println!("{:<14} {storage} storage buffers", m.label);
+        assert!(storage <= 16, "{}: {storage} storage buffers", m.label);
     }
 }

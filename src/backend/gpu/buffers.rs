@@ -10,7 +10,6 @@ use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
     GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
     GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams, GPU_DATA_PASS_BYTES,
-    GPU_LIGHT_PASS_BYTES,
 };
 use crate::render::{blackbody, RenderScene};
 
@@ -40,8 +39,10 @@ pub(super) struct Buffers {
     pub(super) samples: wgpu::Buffer,
     /// Where each batch's samples are copied for the host, kept for the whole render.
     pub(super) samples_readback: wgpu::Buffer,
-    /// The light passes (`FEATURE_LIGHT_PASSES`): each path slot's accumulators and each
-    /// camera sample's, with the latter's read-back; 16-byte stand-ins, never bound, without.
+    /// The light passes (`FEATURE_LIGHT_PASSES`) and the light groups (`FEATURE_LIGHT_GROUPS`)
+    /// in one buffer: each path slot's accumulators and each camera sample's
+    /// (`Passes::light_entries` each), with the latter's read-back; 16-byte stand-ins, never
+    /// bound, without.
     pub(super) path_passes: wgpu::Buffer,
     pub(super) sample_passes: wgpu::Buffer,
     pub(super) sample_passes_readback: wgpu::Buffer,
@@ -156,11 +157,7 @@ impl Buffers {
         // The counters, then two timestamps per stage and iteration of one submission.
         let queries = 2 * Stage::COUNT as u32 * ITERATIONS_PER_SYNC;
         let readback_size = std::mem::size_of::<GpuWavefrontCounters>() as u64 + 8 * queries as u64;
-        let pass_bytes = if passes.light {
-            GPU_LIGHT_PASS_BYTES
-        } else {
-            0
-        };
+        let pass_bytes = passes.light_entries() as u64 * 16;
         let data_bytes = if passes.data { GPU_DATA_PASS_BYTES } else { 0 };
         Buffers {
             params: [

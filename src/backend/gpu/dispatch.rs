@@ -10,7 +10,7 @@ use super::error::GpuRenderError;
 use super::graph::{Passes, Stage};
 use crate::gpu_types::{
     GpuDataPasses, GpuQueue, GpuSample, GpuWavefrontCounters, GpuWavefrontParams,
-    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASS_BYTES,
+    GPU_DATA_PASS_BYTES,
 };
 
 /// The scheduler: the kernels of one render and the loop over iterations.
@@ -22,14 +22,15 @@ pub(super) struct Wavefront<'a> {
     pub(super) args: Kernel,
     pub(super) slots: u32,
     pub(super) period_ns: f64,
-    /// The passes the kernels keep (`FEATURE_LIGHT_PASSES`, `FEATURE_DATA_PASSES`): a batch
-    /// then reads its samples' passes back too.
+    /// The passes the kernels keep (`FEATURE_LIGHT_PASSES`, `FEATURE_DATA_PASSES`,
+    /// `FEATURE_LIGHT_GROUPS`): a batch then reads its samples' passes back too.
     pub(super) passes: Passes,
 }
 
-/// A finished batch's camera samples, in batch entry order; where the light passes are kept
-/// their `GPU_LIGHT_PASSES` RGB values each (w unused), entry by entry, and where the data
-/// passes are, one `GpuDataPasses` each; empty without.
+/// A finished batch's camera samples, in batch entry order; where the light passes or the
+/// light groups are kept their `Passes::light_entries` RGB values each (w unused: the light
+/// passes, then the groups), entry by entry, and where the data passes are, one
+/// `GpuDataPasses` each; empty without.
 pub(super) struct BatchSamples {
     pub(super) samples: Vec<GpuSample>,
     pub(super) passes: Vec<[f32; 4]>,
@@ -119,11 +120,12 @@ impl Wavefront<'_> {
             &self.bufs.samples_readback,
             params.total_samples as u64 * size_of::<GpuSample>() as u64,
         );
-        let passes: Vec<[f32; 4]> = if self.passes.light {
+        let entries = self.passes.light_entries() as u64;
+        let passes: Vec<[f32; 4]> = if entries > 0 {
             ctx.read_buffer_prefix(
                 &self.bufs.sample_passes,
                 &self.bufs.sample_passes_readback,
-                params.total_samples as u64 * GPU_LIGHT_PASS_BYTES,
+                params.total_samples as u64 * entries * 16,
             )
         } else {
             Vec::new()

@@ -2,7 +2,7 @@
 //! of them a scene's [`FeatureFlags`] need, and the specialisation constants that cut the code
 //! of absent features at assembly ([`variant_name`], [`specs`]).
 use super::shader::{self, Module, Spec};
-use crate::gpu_types::GpuQueue;
+use crate::gpu_types::{GpuQueue, GPU_LIGHT_PASSES};
 use crate::render::{FeatureFlags, RenderSettings, SamplerKind};
 
 /// The wavefront stages, in the order an iteration runs them.
@@ -137,12 +137,14 @@ pub fn variant_name(features: FeatureFlags) -> String {
 }
 
 /// The passes a render keeps beside the beauty, as the kernels are specialised for them: the
-/// light passes (`FEATURE_LIGHT_PASSES`) and the data passes (`FEATURE_DATA_PASSES`). Without
-/// either the kernels bind no pass buffer and hold no pass code.
+/// light passes (`FEATURE_LIGHT_PASSES`), the data passes (`FEATURE_DATA_PASSES`) and the
+/// light groups (`FEATURE_LIGHT_GROUPS`, `groups` of them). Without any the kernels bind no
+/// pass buffer and hold no pass code.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Passes {
     pub light: bool,
     pub data: bool,
+    pub groups: u32,
 }
 
 impl Passes {
@@ -151,24 +153,36 @@ impl Passes {
         Passes {
             light: settings.light_passes,
             data: settings.data_passes,
+            groups: settings.light_groups.len() as u32,
         }
     }
 
     /// Whether any pass is kept.
     pub fn any(self) -> bool {
-        self.light || self.data
+        self.light || self.data || self.groups > 0
+    }
+
+    /// RGB entries (a `vec4` each) of a path slot's or camera sample's light accumulators: the
+    /// light passes where kept, then the light groups (`LIGHT_ENTRIES` in `wavefront.wgsl`).
+    pub fn light_entries(self) -> u32 {
+        self.light as u32 * GPU_LIGHT_PASSES + self.groups
     }
 }
 
 /// [`variant_name`] with the passes kept among the effects: `passes` for the light passes,
-/// `data` for the data passes, e.g. `wavefront[vdb+passes+data]`.
+/// `data` for the data passes, `groups` for the light groups, e.g.
+/// `wavefront[vdb+passes+data]`.
 pub fn variant_name_with_passes(features: FeatureFlags, passes: Passes) -> String {
     let name = variant_name(features);
-    let kept: Vec<&str> = [(passes.light, "passes"), (passes.data, "data")]
-        .into_iter()
-        .filter(|(on, _)| *on)
-        .map(|(_, n)| n)
-        .collect();
+    let kept: Vec<&str> = [
+        (passes.light, "passes"),
+        (passes.data, "data"),
+        (passes.groups > 0, "groups"),
+    ]
+    .into_iter()
+    .filter(|(on, _)| *on)
+    .map(|(_, n)| n)
+    .collect();
     if kept.is_empty() {
         return name;
     }
@@ -219,5 +233,7 @@ pub fn specs(features: FeatureFlags, sampler: SamplerKind, passes: Passes) -> Ve
         Spec::bool("FEATURE_MOTION", f.motion),
         Spec::bool("FEATURE_LIGHT_PASSES", passes.light),
         Spec::bool("FEATURE_DATA_PASSES", passes.data),
+        Spec::bool("FEATURE_LIGHT_GROUPS", passes.groups > 0),
+        Spec::u32("LIGHT_GROUPS", passes.groups),
     ]
 }

@@ -39,7 +39,10 @@
 //! `PathState::gather` does, into per-slot accumulators beside the path state, read back per
 //! camera sample with the batch) and the data passes (`RenderSettings::data_passes`: the
 //! `FEATURE_DATA_PASSES` variant records albedo, normal and depth where `PathState::data`
-//! takes them, in a `GpuDataPasses` per slot read back the same way). [`supports`] refuses,
+//! takes them, in a `GpuDataPasses` per slot read back the same way) and the light groups
+//! (`RenderSettings::light_groups`: the `FEATURE_LIGHT_GROUPS` variant gathers each
+//! contribution into its source's group, after the light passes in the same per-slot
+//! accumulators, read back with them). [`supports`] refuses,
 //! with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB media and media meshes nested
 //! deeper than three.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
@@ -65,10 +68,10 @@ use crate::film::passes::PassLayers;
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
     GpuDataPasses, GpuPathState, GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES,
-    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASSES, GPU_LIGHT_PASS_BYTES, GPU_MAX_NESTED_MEDIA,
-    GPU_MAX_VDB_MEDIA, STACK_NONE,
+    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASSES, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
 };
 use crate::integrator::path::DATA_PASS_COUNT;
+use crate::render::light_groups::MAX_LIGHT_GROUPS;
 use crate::render::media::TrackingConfig;
 use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
@@ -78,7 +81,7 @@ use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 pub const WAVEFRONT_SIZE: u32 = 1 << 18;
 
 /// Camera samples per batch at most (one [`crate::gpu_types::GpuSample`] of 32 bytes each, and
-/// with the passes [`GPU_LIGHT_PASS_BYTES`] and [`GPU_DATA_PASS_BYTES`] more).
+/// with the passes `16 * Passes::light_entries` and [`GPU_DATA_PASS_BYTES`] more).
 pub const MAX_BATCH_SAMPLES: u64 = 1 << 22;
 
 /// How [`GpuTimings`] were measured.
@@ -305,7 +308,7 @@ pub fn render_observed(
             let merge_start = Instant::now();
             if let Some(layers) = &mut layers {
                 // Before the beauty's counts change: the merge takes the counts before it.
-                merge_batch_passes(layers, &film, &r, n, &samples);
+                merge_batch_passes(layers, &film, &r, (n, passes), &samples);
             }
             merge_batch(&mut film, &mut lookups, w, &r, n, &samples.samples);
             batches.push(BatchTimings {
@@ -379,6 +382,15 @@ fn wavefront<'a>(
 fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), GpuRenderError> {
     supports(rs).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
+    let groups = rs.groups.as_ref().map_or(&[][..], |g| &g.names[..]);
+    if groups != settings.light_groups.as_slice() {
+        // The kernels take each source's group from the render scene (`RenderScene::prepare`).
+        return Err(GpuRenderError::Unsupported(format!(
+            "the light groups asked for ({}) are not the render scene's ({})",
+            settings.light_groups.join(", "),
+            groups.join(", ")
+        )));
+    }
     if settings.noise_threshold.is_some() {
         return Err(GpuRenderError::Unsupported(
             "adaptive sampling renders on the CPU backend only".into(),
@@ -394,13 +406,9 @@ fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), Gp
 }
 
 /// Bytes of the largest pass binding entry, a path slot's or a camera sample's: the light
-/// passes' or the data passes' where kept (each has a buffer of its own), else 0.
+/// passes' and groups' (one buffer) or the data passes' where kept, else 0.
 fn pass_entry_bytes(passes: Passes) -> u64 {
-    let light = if passes.light {
-        GPU_LIGHT_PASS_BYTES
-    } else {
-        0
-    };
+    let light = passes.light_entries() as u64 * 16;
     let data = if passes.data { GPU_DATA_PASS_BYTES } else { 0 };
     light.max(data)
 }
@@ -566,43 +574,48 @@ fn merge_batch(
 
 /// Adds a batch's passes to the render's `layers`, as the CPU does a tile's: each sample's
 /// light passes (`GPU_LIGHT_PASSES` entries a sample, where kept), then its data passes (one
-/// `GpuDataPasses`, where kept), the order of `RenderSettings::pass_names`; each row's `n`
-/// samples a pixel into fresh statistics in sample order (`TileBuffer::add_sample_passes`),
-/// then merged with the pixel's earlier samples (`Film::merge_tile`, the counts taken from
-/// `film` before the batch's beauty is added). The rows run in parallel; the merge is
-/// sequential and cheap.
+/// `GpuDataPasses`, where kept), then its light groups (`kept.groups` entries after its light
+/// passes), the order of `RenderSettings::pass_names`; each row's `n` samples a pixel into
+/// fresh statistics in sample order (`TileBuffer::add_sample_passes`), then merged with the
+/// pixel's earlier samples (`Film::merge_tile`, the counts taken from `film` before the
+/// batch's beauty is added). The rows run in parallel; the merge is sequential and cheap.
 fn merge_batch_passes(
     layers: &mut PassLayers,
     film: &Film,
     r: &TileRecord,
-    n: u32,
+    (n, kept): (u32, Passes),
     batch: &BatchSamples,
 ) {
     use rayon::prelude::*;
     let (w, n) = (film.width() as usize, n as usize);
     let count = (r.y1 - r.y0) as usize * w * n;
-    let k = GPU_LIGHT_PASSES as usize;
+    let k = kept.light_entries() as usize;
+    let p = kept.light as usize * GPU_LIGHT_PASSES as usize;
     let (light, data) = (&batch.passes, &batch.data);
     debug_assert!(
-        light.len() == (!light.is_empty()) as usize * count * k
-            && data.len() == (!data.is_empty()) as usize * count,
+        light.len() == count * k && data.len() == kept.data as usize * count,
         "a batch holds n samples a pixel, each with its passes"
     );
-    let per_sample =
-        (!light.is_empty()) as usize * k + (!data.is_empty()) as usize * DATA_PASS_COUNT;
+    let per_sample = k + kept.data as usize * DATA_PASS_COUNT;
     debug_assert_eq!(per_sample, layers.names().len());
     let rows: Vec<PassLayers> = (0..(r.y1 - r.y0) as usize)
         .into_par_iter()
         .map(|row| {
             let mut stats = PassLayers::new(layers.names(), w);
-            let mut values = [[0f32; 3]; GPU_LIGHT_PASSES as usize + DATA_PASS_COUNT];
+            let mut values =
+                [[0f32; 3]; GPU_LIGHT_PASSES as usize + DATA_PASS_COUNT + MAX_LIGHT_GROUPS];
             for x in 0..w {
                 for j in 0..n {
                     let s = (row * w + x) * n + j;
-                    let light = light.get(s * k..(s + 1) * k).unwrap_or(&[]);
+                    let (passes, groups) = light[s * k..(s + 1) * k].split_at(p);
                     let data = data.get(s).map(GpuDataPasses::values);
-                    let rgb = light.iter().map(|v| [v[0], v[1], v[2]]);
-                    for (slot, v) in values.iter_mut().zip(rgb.chain(data.into_iter().flatten())) {
+                    let rgb = |v: &[f32; 4]| [v[0], v[1], v[2]];
+                    let all = passes
+                        .iter()
+                        .map(rgb)
+                        .chain(data.into_iter().flatten())
+                        .chain(groups.iter().map(rgb));
+                    for (slot, v) in values.iter_mut().zip(all) {
                         *slot = v;
                     }
                     stats.add(x, j as u32 + 1, &values[..per_sample]);
@@ -672,11 +685,22 @@ mod tests {
 
     /// A batch's passes merge into the render's as the CPU merges a tile's: the same
     /// statistics, bit for bit, as `TileBuffer::add_sample_passes` then `Film::merge_tile`,
-    /// over two passes of the same rows, with the light passes, the data passes and both.
+    /// over two passes of the same rows, with the light passes, the data passes, the light
+    /// groups, and each with the others.
     #[test]
     fn a_batchs_passes_merge_as_the_cpus_tile() {
-        for (light, data) in [(true, false), (false, true), (true, true)] {
-            batch_passes_merge_as_the_cpus_tile(Passes { light, data });
+        let kinds = [
+            (true, false, 0),
+            (false, true, 0),
+            (true, true, 0),
+            (false, false, 3),
+        ];
+        for (light, data, groups) in kinds.into_iter().chain([(true, true, 2), (false, true, 1)]) {
+            batch_passes_merge_as_the_cpus_tile(Passes {
+                light,
+                data,
+                groups,
+            });
         }
     }
 
@@ -686,11 +710,14 @@ mod tests {
         let (w, h, n) = (5u32, 4u32, 3u32);
         let light_names = LIGHT_PASSES.iter().filter(|_| kept.light);
         let data_names = DATA_PASSES.iter().filter(|_| kept.data);
+        let group_names = (0..kept.groups).map(|g| format!("light.l{g}"));
         let names: Vec<String> = light_names
             .chain(data_names)
             .map(|s| s.to_string())
+            .chain(group_names)
             .collect();
-        let k = GPU_LIGHT_PASSES as usize;
+        let k = kept.light_entries() as usize;
+        let p = kept.light as usize * GPU_LIGHT_PASSES as usize;
         let rect = TileRect {
             x0: 0,
             y0: 1,
@@ -710,9 +737,7 @@ mod tests {
         let mut expected = Film::with_passes(w, h, &names);
         for pass in 0..2 {
             let count = ((rect.y1 - rect.y0) * w * n) as usize;
-            let passes: Vec<[f32; 4]> = (0..count * k * kept.light as usize)
-                .map(|_| [u(), u(), -u(), 0.0])
-                .collect();
+            let passes: Vec<[f32; 4]> = (0..count * k).map(|_| [u(), u(), -u(), 0.0]).collect();
             let data: Vec<GpuDataPasses> = (0..count * kept.data as usize)
                 .map(|_| GpuDataPasses {
                     albedo: [u(), u(), u()],
@@ -732,7 +757,7 @@ mod tests {
                 passes,
                 data,
             };
-            merge_batch_passes(&mut layers, &film, &record, n, &batch);
+            merge_batch_passes(&mut layers, &film, &record, (n, kept), &batch);
             let mut lookups = vec![0u64; (w * h) as usize];
             merge_batch(&mut film, &mut lookups, w, &record, n, &batch.samples);
             let mut tile = TileBuffer::with_passes(rect, pass, &names);
@@ -740,17 +765,17 @@ mod tests {
             for y in rect.y0..rect.y1 {
                 for x in 0..w {
                     for _ in 0..n {
-                        // Light passes, then data passes, as `render_tile` lists them.
-                        let mut rgb: Vec<[f32; 3]> = batch
-                            .passes
-                            .get(s * k..(s + 1) * k)
-                            .unwrap_or(&[])
+                        // Light passes, data passes, then light groups, as `render_tile`
+                        // lists them.
+                        let entries: Vec<[f32; 3]> = batch.passes[s * k..(s + 1) * k]
                             .iter()
                             .map(|v| [v[0], v[1], v[2]])
                             .collect();
+                        let mut rgb = entries[..p].to_vec();
                         if let Some(d) = batch.data.get(s) {
                             rgb.extend([d.albedo, d.normal, [d.depth; 3]]);
                         }
+                        rgb.extend(&entries[p..]);
                         let l = batch.samples[s].l;
                         tile.add_sample_passes(x, y, [l[0], l[1], l[2], 0.0], &rgb);
                         s += 1;

@@ -561,6 +561,13 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_LIGHT_PASSES", true),
     // The data passes a denoiser takes as well (`PathLimits::data_passes`).
     Spec::bool("FEATURE_DATA_PASSES", true),
+    // The radiance split into the light groups as well (`PathLimits::light_groups`), and how
+    // many the scene has (`LightGroups::len`; 0 without them).
+    Spec::bool("FEATURE_LIGHT_GROUPS", true),
+    Spec::u32(
+        "LIGHT_GROUPS",
+        crate::render::light_groups::MAX_LIGHT_GROUPS as u32,
+    ),
     // The path's fixed-layout decisions from Sobol points (else from its PCG stream).
     Spec::bool("SAMPLER_SOBOL", true),
 ];

@@ -17,6 +17,7 @@ use crate::gpu_types::{
     SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
     WF_FLAG_GUIDED_LIGHTS,
 };
+use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::prepare::SurfaceKind;
 use crate::render::settings::Absorption;
 use crate::render::{media::GridField, media::TrackingConfig, media::VdbMedium};
@@ -375,7 +376,10 @@ fn emission_params(
     features: FeatureFlags,
     infos: &[GpuGridInfo],
 ) -> GpuEmissionParams {
-    let mut p = GpuEmissionParams::default();
+    let mut p = GpuEmissionParams {
+        light_group: u32::from(m.light_group),
+        ..Default::default()
+    };
     let Some(e) = m.emission.as_ref().filter(|_| features.emission) else {
         return p;
     };
@@ -641,7 +645,23 @@ pub(super) fn wavefront_params(
         medium_params(rs, cfg, features, &mut params);
     }
     params.motion = camera_motion(rs);
+    light_group_params(rs, &mut params);
     params
+}
+
+/// The light groups' fields of `params` (`RenderScene::groups`): the environment's, the
+/// emissive surfaces' and each punctual light's group (`NO_GROUP` where none are kept).
+fn light_group_params(rs: &RenderScene, params: &mut GpuWavefrontParams) {
+    let Some(g) = &rs.groups else {
+        params.environment_group = u32::from(NO_GROUP);
+        params.surfaces_group = u32::from(NO_GROUP);
+        return;
+    };
+    params.environment_group = u32::from(g.environment);
+    params.surfaces_group = u32::from(g.surfaces);
+    for (k, &group) in g.punctual.iter().enumerate().take(MAX_LIGHT_GROUPS) {
+        params.punctual_groups[k / 4] |= u32::from(group) << (8 * (k % 4));
+    }
 }
 
 /// The scene's textures as the GPU reads them: one `GpuTexture` per texture use and every
