@@ -16,6 +16,7 @@ pub mod grid;
 pub mod merge;
 pub mod motion;
 pub mod phase;
+pub mod phases;
 pub mod reference;
 pub mod segment;
 pub mod speed_bounds;

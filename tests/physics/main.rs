@@ -18,6 +18,7 @@ mod light_selection;
 mod media_nested;
 mod media_overlap;
 mod motion_blur;
+mod phase_models;
 mod render_agreement;
 mod render_furnace;
 mod sampling_phase;
