@@ -10,7 +10,7 @@ use super::mixture::{sample_mixture, RayMedia, VdbSpan};
 use super::nested::{nested_applies, sample_nested};
 use crate::math::Ray;
 use crate::render::prepare::RenderScene;
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 
 /// VDB media along one ray kept without allocating. Small on purpose: the spans are built,
 /// zeroed and moved for every flight and shadow ray (with 16 that was 256 bytes a time, a few
@@ -94,7 +94,7 @@ pub(super) fn media_flight<F: Features>(
     medium: Option<u32>,
     beta: Vec3,
     f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
+) -> (MediumEvent, Phase) {
     let cfg = f.cfg;
     // The VDB spans, found once: the mixture test's are the flights' in turn below.
     let mut spans = None;
@@ -135,8 +135,5 @@ pub(super) fn media_flight<F: Features>(
         let spans = spans.unwrap_or_else(|| vdb_intervals(rs, ray, t0, t1));
         return sample_vdb_in_turn::<F>(spans.iter().copied(), t1, ray, beta, f);
     }
-    (
-        MediumEvent::Escape { weight: Vec3::ONE },
-        HenyeyGreenstein::new(0.0),
-    )
+    (MediumEvent::Escape { weight: Vec3::ONE }, Phase::hg(0.0))
 }

@@ -16,7 +16,7 @@ use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::media::{MediaStats, TrackingConfig, VdbMedium};
 use crate::render::settings::{Absorption, Estimator, MajorantMode};
 use crate::sampling::Rng;
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 use crate::volume::tracking::{
     self, Decomposition, Delta, Event, Medium, Ratio, ResidualRatio, Spectral,
     SpectralProbabilities, TrackingStats, WeightedDecomposition, WeightedDelta,
@@ -322,7 +322,7 @@ pub fn sample_vdb_in_turn<'a, F: Features>(
     ray: &Ray,
     beta: Vec3,
     mut f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
+) -> (MediumEvent, Phase) {
     let mut weight = Vec3::ONE;
     for (m, a, b) in spans {
         if !(a < t_end) {
@@ -343,7 +343,7 @@ pub fn sample_vdb_in_turn<'a, F: Features>(
             MediumEvent::Absorb => return (MediumEvent::Absorb, m.phase),
         }
     }
-    (MediumEvent::Escape { weight }, HenyeyGreenstein::new(0.0))
+    (MediumEvent::Escape { weight }, Phase::hg(0.0))
 }
 
 /// Transmittance of VDB medium `m` along world `ray` over `[t0, t1]`: ratio or residual ratio

@@ -66,7 +66,7 @@ use crate::render::media::{HomogeneousMedium, VdbMedium};
 use crate::render::settings::Absorption;
 use crate::sampling::{sample_discrete, DiscreteSample};
 use crate::volume::merge::MergedSegments;
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 use crate::volume::tracking::{
     self, Coeffs, CoeffsRgb, ControlExtinction, Event, Medium, MediumRgb, Spectral,
     SpectralProbabilities,
@@ -90,11 +90,7 @@ pub struct RayMedia<'a> {
 /// Free flight through the sum of `media`. Returns the event and, for a scattering event, the
 /// phase function of the medium that scattered. Emission met on the way is added to `l`
 /// (already weighted by `beta`).
-pub fn sample_mixture<F: Features>(
-    media: RayMedia,
-    beta: Vec3,
-    f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
+pub fn sample_mixture<F: Features>(media: RayMedia, beta: Vec3, f: Flight) -> (MediumEvent, Phase) {
     let (vdb, hom) = (media.vdb, media.hom);
     let cfg = f.cfg;
     let chromatic_hom = hom.is_some_and(|h| {
@@ -144,7 +140,7 @@ struct HomGrey {
     sigma_s: f32,
     /// RGB factor of a scattering event: `sigma_s / grey sigma_s`.
     albedo: Vec3,
-    phase: HenyeyGreenstein,
+    phase: Phase,
 }
 
 impl HomGrey {
@@ -216,7 +212,7 @@ fn sample_grey<F: Features, const ABS: bool>(
     media: RayMedia,
     beta: Vec3,
     f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
+) -> (MediumEvent, Phase) {
     let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
     let Flight {
         cfg,
@@ -261,7 +257,7 @@ fn sample_grey<F: Features, const ABS: bool>(
             stats.emission_lookups += v.emission_lookups.get();
         }
     }
-    let mut phase = HenyeyGreenstein::new(0.0);
+    let mut phase = Phase::hg(0.0);
     let e = match e {
         Event::Scatter { t, weight } => {
             // Which medium scattered: in proportion to its grey sigma_s at t.
@@ -329,11 +325,7 @@ impl<F: Features> MediumRgb for RgbMix<'_, F> {
     }
 }
 
-fn sample_rgb<F: Features>(
-    media: RayMedia,
-    beta: Vec3,
-    f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
+fn sample_rgb<F: Features>(media: RayMedia, beta: Vec3, f: Flight) -> (MediumEvent, Phase) {
     let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
     let Flight {
         cfg,
@@ -395,7 +387,7 @@ fn sample_rgb<F: Features>(
             stats.emission_lookups += v.emission_lookups.get();
         }
     }
-    let mut phase = HenyeyGreenstein::new(0.0);
+    let mut phase = Phase::hg(0.0);
     let e = match e {
         Event::Scatter { t, weight } => {
             // Per part at t: the true sigma_s (RGB) and the tracker's sigma_s (the same, or

@@ -34,7 +34,7 @@ use super::media::{sample_vdb_in_turn, Flight, MediumEvent};
 use super::mixture::{RayMedia, VdbSpan};
 use crate::render::media::HomogeneousMedium;
 use crate::render::settings::Absorption;
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 
 /// Whether [`sample_nested`] takes the flight through `vdb` (sorted, non-overlapping spans)
 /// inside `hom` under `absorption` (see the module doc for what it leaves to the mixture).
@@ -65,11 +65,7 @@ fn transmittance_over_survival<F: Features>(h: &HomogeneousMedium, t: f32) -> Ve
 /// The free flight through `media`: VDB media (sorted, non-overlapping) inside a homogeneous
 /// one (see the module doc). Emission met on the way is added to `l` (weighted by `beta`).
 /// Call only where [`nested_applies`].
-pub fn sample_nested<F: Features>(
-    media: RayMedia,
-    beta: Vec3,
-    f: Flight,
-) -> (MediumEvent, HenyeyGreenstein) {
+pub fn sample_nested<F: Features>(media: RayMedia, beta: Vec3, f: Flight) -> (MediumEvent, Phase) {
     let (vdb, ray, t0, t1) = (media.vdb, media.ray, media.t0, media.t1);
     let Some(hom) = media.hom else {
         // Nothing around them: the VDB media in turn.

@@ -14,7 +14,7 @@ use crate::render::prepare::{RenderScene, SurfaceKind};
 use crate::render::stack::MediumStack;
 use crate::sampling::sobol::{bounce_dim, DIM_LIGHT, DIM_LIGHT_SELECT};
 use crate::sampling::{Rng, Sampler};
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 
 /// Transmittance along the shadow ray `ray` (unit direction) over distance `dist`, through
 /// media and null interfaces; 0 when an opaque or refracting surface blocks. Overlapping media
@@ -97,7 +97,7 @@ pub(super) struct Vertex<'a> {
     pub(super) media: MediumStack,
     /// At a medium event: its phase function, `wo` and the continuation albedo, for the guided
     /// light selection; `None` at a surface.
-    pub(super) phase: Option<(&'a HenyeyGreenstein, Vec3, f32)>,
+    pub(super) phase: Option<(&'a Phase, Vec3, f32)>,
 }
 
 /// Next-event estimation from `v`: one light sample, its visibility and transmittance, weighted
@@ -126,8 +126,11 @@ pub(super) fn next_event<F: Features>(
     });
     let (ls, choice) = match guided {
         Some((ph, wo, sel)) => {
+            let rng = &mut sampler.rng;
             let phase_sample = |u| {
-                let s = ph.sample(wo, u);
+                // A rejection-sampled phase (Draine) draws its further points from the path's
+                // own random stream.
+                let s = ph.sample(wo, u, &mut || rng.uniform_vec2());
                 (s.wi, s.pdf)
             };
             let ls = lights.sample_selected(&sel, p, u_select, u_light, phase_sample, dt);

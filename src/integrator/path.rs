@@ -20,7 +20,7 @@ use crate::render::stack::MediumStack;
 use crate::sampling::sobol::{bounce_dim, DIM_DISTANCE, DIM_LOBE, DIM_RR, DIM_SCATTER, DIM_TIME};
 use crate::sampling::warp::Frame;
 use crate::sampling::{Decision, Sampler};
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 
 /// Limits of one path.
 #[derive(Clone, Copy, Debug)]
@@ -185,11 +185,7 @@ impl CameraSample {
 /// How a path scatters after shading, for [`sample_phase`] to draw the next direction.
 enum Scatterer {
     /// At a medium event at `p`: the phase function and `wo`.
-    Phase {
-        phase: HenyeyGreenstein,
-        p: Vec3,
-        wo: Vec3,
-    },
+    Phase { phase: Phase, p: Vec3, wo: Vec3 },
     /// At an opaque surface: its BSDF in the shading frame, `wo` there, the offset origin and
     /// the side's normal (a direction below it ends the path).
     Bsdf {
@@ -208,7 +204,7 @@ enum FlightEnd {
     /// No real collision before the surface (or the escape): shade it.
     Passed,
     /// A real scattering event at `t` with the medium's phase function.
-    Scattered { t: f32, phase: HenyeyGreenstein },
+    Scattered { t: f32, phase: Phase },
     /// Absorbed, zero throughput, or stopped by the collision guard.
     Ended,
 }
@@ -427,7 +423,7 @@ fn scatter_medium<F: Features>(
     limits: &PathLimits,
     ps: &mut PathState,
     t: f32,
-    phase: HenyeyGreenstein,
+    phase: Phase,
     sampler: &mut Sampler,
     stats: &mut PathStats,
 ) -> Option<Scatterer> {
@@ -607,7 +603,8 @@ fn sample_phase(
 ) -> bool {
     match scatterer {
         Scatterer::Phase { phase, p, wo } => {
-            let s = phase.sample(wo, sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER)));
+            let u = sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER));
+            let s = phase.sample(wo, u, &mut || sampler.rng.uniform_vec2());
             ps.beta *= s.weight;
             ps.ray = Ray::new(p, s.wi);
             ps.t0 = 0.0;

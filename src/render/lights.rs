@@ -383,7 +383,7 @@ impl Lights {
         p: Vec3,
         u_select: f32,
         u: Vec2,
-        phase_sample: impl Fn(Vec2) -> (Vec3, f32),
+        mut phase_sample: impl FnMut(Vec2) -> (Vec3, f32),
         dt: f32,
     ) -> Option<LightSample> {
         let np = self.punctual.len();

@@ -10,7 +10,7 @@ use glam::Vec3;
 use super::settings::{Absorption, Estimator, MajorantMode, RenderSettings, ShadowEstimator};
 use crate::math::{Aabb, Ray};
 use crate::scene::motion::FrameMotion;
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 use crate::volume::tracking::{ControlExtinction, TrackingStats};
 use crate::volume::{
     AdaptiveMajorants, AdaptiveShape, Advection, LeafBounds, LeafCulling, VoxelCulling,
@@ -23,7 +23,7 @@ pub use super::emission::{Blackbody, Emission, EmissionRegion, GridField};
 pub struct HomogeneousMedium {
     pub sigma_a: Vec3,
     pub sigma_s: Vec3,
-    pub phase: HenyeyGreenstein,
+    pub phase: Phase,
 }
 
 impl HomogeneousMedium {
@@ -51,7 +51,7 @@ pub struct VdbMedium {
     pub adaptive: Arc<AdaptiveMajorants>,
     /// `sigma_t` equal in every channel (grey tracking suffices).
     pub grey: bool,
-    pub phase: HenyeyGreenstein,
+    pub phase: Phase,
     pub emission: Option<Emission>,
     /// The bounds its walks take where they differ from the density's own: an emitting
     /// medium's, raised wherever it may emit ([`super::emission_bounds`]). `None`: the

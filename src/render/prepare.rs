@@ -15,7 +15,7 @@ use crate::math::Aabb;
 use crate::scene::motion::FrameMotion;
 use crate::scene::nesting::Nesting;
 use crate::scene::{Material, Pinhole, Scene, Shutter, VdbMediumDesc};
-use crate::volume::phase::HenyeyGreenstein;
+use crate::volume::phases::Phase;
 use crate::volume::{AdaptiveMajorants, Advection, CostModel};
 use std::sync::Arc;
 
@@ -234,7 +234,7 @@ impl<'s> RenderScene<'s> {
             .map(|h| HomogeneousMedium {
                 sigma_a: Vec3::from(h.sigma_a),
                 sigma_s: Vec3::from(h.sigma_s),
-                phase: HenyeyGreenstein::new(h.g),
+                phase: Phase::hg(h.g),
             })
             .collect();
         let kinds: Vec<SurfaceKind> = scene.materials.iter().map(surface_kind).collect();
@@ -384,7 +384,7 @@ fn vdb_medium(desc: &VdbMediumDesc, shutter: Shutter, fps: f32) -> Result<VdbMed
         sigma_t_bound,
         adaptive,
         grey: sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z,
-        phase: HenyeyGreenstein::new(desc.anisotropy),
+        phase: desc.phase.unwrap_or(Phase::hg(desc.anisotropy)),
         emission,
         walk_bounds,
         walks: [WalkPlan::UNPLANNED; 4],

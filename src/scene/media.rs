@@ -108,6 +108,8 @@ pub struct VdbMediumDesc {
     pub absorption_color: [f32; 3],
     /// Henyey-Greenstein g in (-1, 1).
     pub anisotropy: f32,
+    /// The `phase` object, where given (it replaces `anisotropy`).
+    pub phase: Option<crate::volume::phases::Phase>,
     /// Emission grid name, if any.
     pub emission_grid: Option<String>,
     /// Emission strength, >= 0 (default 0).
@@ -225,6 +227,7 @@ pub const FIELDS: &[&str] = &[
     "color",
     "absorptionColor",
     "anisotropy",
+    "phase",
     "emissionGrid",
     "emissionStrength",
     "emissionColor",
@@ -291,6 +294,7 @@ pub fn read_vdb_media(
             color: obj.rgb(ctx, "color", [0.5; 3], 0.0, 1.0)?,
             absorption_color: obj.rgb(ctx, "absorptionColor", [0.0; 3], 0.0, 1.0)?,
             anisotropy: obj.number(ctx, "anisotropy", 0.0, -1.0, 1.0, true)?,
+            phase: super::phase::read_phase(ctx, &obj)?,
             emission_grid: obj.string(ctx, "emissionGrid")?,
             emission_strength: obj.number(ctx, "emissionStrength", 0.0, 0.0, max, false)?,
             emission_color: obj.rgb(ctx, "emissionColor", [1.0; 3], 0.0, 1.0)?,

@@ -37,6 +37,7 @@ pub mod motion;
 pub mod moving_meshes;
 pub mod nesting;
 mod nodes;
+pub mod phase;
 pub mod render_settings;
 pub mod sequence;
 mod summary;

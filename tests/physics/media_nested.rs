@@ -21,7 +21,7 @@ use brume::render::{
     Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, ShadowEstimator,
 };
 use brume::sampling::Rng;
-use brume::volume::phase::HenyeyGreenstein;
+use brume::volume::phases::Phase;
 use glam::Vec3;
 
 /// Stretches of each ray the scattered weight is binned into.
@@ -116,7 +116,7 @@ fn tally<F: Features>(
                 groups: None,
             },
         };
-        let (event, phase): (MediumEvent, HenyeyGreenstein) = if nested {
+        let (event, phase): (MediumEvent, Phase) = if nested {
             sample_nested::<F>(media, Vec3::ONE, f)
         } else {
             sample_mixture::<F>(media, Vec3::ONE, f)
@@ -124,7 +124,7 @@ fn tally<F: Features>(
         match event {
             MediumEvent::Scatter { t: ts, weight } => {
                 let bin = ((ts / t1 * BINS as f32) as usize).min(BINS - 1);
-                let medium = usize::from(phase.g != vdb_g);
+                let medium = usize::from(phase.henyey_greenstein_g() != Some(vdb_g));
                 t.add(Some(2 * bin + medium), weight, l);
             }
             MediumEvent::Escape { weight } => t.add(Some(2 * BINS), weight, l),
@@ -179,7 +179,7 @@ fn check<Grey: Features, Chromatic: Features>(
             sigma_a: sigma_a / size,
             sigma_s: sigma_s / size,
             // Unlike the VDB medium's, so the scatter event names its medium.
-            phase: HenyeyGreenstein::new(-0.45),
+            phase: Phase::hg(-0.45),
         };
         let chromatic = sigma_a + sigma_s != Vec3::splat((sigma_a + sigma_s).x);
         for (c_index, &(estimator, majorant, spectral)) in configs.iter().enumerate() {
@@ -193,9 +193,27 @@ fn check<Grey: Features, Chromatic: Features>(
                 let seed = (1000 * h_index + 100 * c_index + r) as u32;
                 let run = |nested: bool, seed: u32| {
                     if chromatic {
-                        tally::<Chromatic>(nested, span, &hom, m.phase.g, &ray, t1, &cfg, seed)
+                        tally::<Chromatic>(
+                            nested,
+                            span,
+                            &hom,
+                            m.phase.henyey_greenstein_g().unwrap(),
+                            &ray,
+                            t1,
+                            &cfg,
+                            seed,
+                        )
                     } else {
-                        tally::<Grey>(nested, span, &hom, m.phase.g, &ray, t1, &cfg, seed)
+                        tally::<Grey>(
+                            nested,
+                            span,
+                            &hom,
+                            m.phase.henyey_greenstein_g().unwrap(),
+                            &ray,
+                            t1,
+                            &cfg,
+                            seed,
+                        )
                     }
                 };
                 let (a, b) = (run(true, 2 * seed), run(false, 2 * seed + 1));
@@ -273,7 +291,7 @@ fn an_emitting_medium_inside_a_grey_one_gathers_the_same_emission() {
     let hom = HomogeneousMedium {
         sigma_a: Vec3::new(0.1, 0.2, 0.3),
         sigma_s: Vec3::splat(0.5),
-        phase: HenyeyGreenstein::new(0.0),
+        phase: Phase::hg(0.0),
     };
     assert!(!nested_applies(&[(m, 0.0, 1.0)], &hom, Absorption::Weight));
     // So do absorption events (the homogeneous absorption carries no distance to cut at).

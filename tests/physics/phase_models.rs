@@ -146,3 +146,34 @@ fn the_mie_fit_is_a_cloud_phase_across_its_ranges() {
     assert!(Phase::mie(0.0).is_none() && Phase::mie(60.0).is_none());
     let _ = Vec2::ZERO;
 }
+
+/// `BRUME_medium_vdb.phase` as a scene writes it reaches the medium.
+#[test]
+fn a_scene_names_its_phase_function() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("scenes/furnace.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let ext = &mut doc["nodes"][1]["extensions"]["BRUME_medium_vdb"];
+    let uri = root.join("scenes").join(ext["uri"].as_str().unwrap());
+    ext["uri"] = uri.to_str().unwrap().into();
+    let dir = std::env::temp_dir().join(format!("brume-phase-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (json, expected) in [
+        (
+            serde_json::json!({"type": "mie", "diameter": 20.0}),
+            Phase::mie(20.0).unwrap(),
+        ),
+        (serde_json::json!({"type": "rayleigh"}), Phase::Rayleigh),
+        (
+            serde_json::json!({"type": "draine", "g": 0.2, "alpha": 0.5}),
+            Phase::Draine(Draine::new(0.2, 0.5)),
+        ),
+    ] {
+        doc["nodes"][1]["extensions"]["BRUME_medium_vdb"]["phase"] = json;
+        let path = dir.join("furnace.gltf");
+        std::fs::write(&path, doc.to_string()).unwrap();
+        let scene = brume::scene::load(&path).unwrap();
+        assert_eq!(scene.vdb_media[0].phase, Some(expected));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

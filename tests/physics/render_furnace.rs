@@ -178,3 +178,46 @@ fn furnace_renders_one_under_a_constant_map() {
         assert!(se < 0.02, "{label}: standard error {se} too large");
     }
 }
+
+/// The furnace with every phase function a medium can have (`BRUME_medium_vdb.phase`): the
+/// guided light choice, the sky sampled by the phase, and the rejection sampling of Draine's
+/// lobe must all leave each pixel at 1.
+#[test]
+fn furnace_renders_one_for_every_phase_function() {
+    use brume::volume::phase::HenyeyGreenstein as Hg;
+    use brume::volume::phases::{Draine, Phase};
+    let phases = [
+        Phase::TwoLobe {
+            a: Hg::new(0.85),
+            b: Hg::new(-0.4),
+            w: 0.8,
+        },
+        Phase::Draine(Draine::new(0.5, 2.0)),
+        Phase::mie(20.0).unwrap(),
+        Phase::mie(1.0).unwrap(),
+        Phase::Rayleigh,
+    ];
+    let alpha = 1e-3 / phases.len() as f64;
+    for (i, phase) in phases.into_iter().enumerate() {
+        let mut scene = load_scene("furnace.gltf");
+        scene.vdb_media[0].phase = Some(phase);
+        let settings = RenderSettings {
+            width: 24,
+            height: 18,
+            spp: 128,
+            seed: 300 + i as u32,
+            ..RenderSettings::default()
+        };
+        let out = render(&scene, &settings);
+        let (mean, var) = moments(&out);
+        let (ones, zeros) = (vec![1.0; mean.len()], vec![0.0; mean.len()]);
+        let a = compare((&mean, &var), (&ones, &zeros), alpha);
+        println!(
+            "{}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
+            phase.name(), a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
+        );
+        assert!(mean.iter().all(|v| v.is_finite()), "{}", phase.name());
+        assert_eq!(a.failing, 0, "{}: {a:?}", phase.name());
+        assert!(a.mean_z < 3.3, "{}: {a:?}", phase.name());
+    }
+}

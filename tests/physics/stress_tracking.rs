@@ -685,11 +685,11 @@ fn a_clear_channel_transmits_over_an_infinite_distance() {
     use brume::render::media::HomogeneousMedium;
     use brume::render::Absorption;
     use brume::sampling::Rng;
-    use brume::volume::phase::HenyeyGreenstein;
+    use brume::volume::phases::Phase;
     let h = HomogeneousMedium {
         sigma_a: Vec3::new(0.0, 0.5, 1.0),
         sigma_s: Vec3::new(0.0, 0.5, 0.0),
-        phase: HenyeyGreenstein::new(0.0),
+        phase: Phase::hg(0.0),
     };
     let tr = transmittance_homogeneous(&h, f32::INFINITY);
     assert_eq!(tr, Vec3::new(1.0, 0.0, 0.0));

@@ -208,7 +208,7 @@ impl Buffers {
                     .iter()
                     .map(|m| GpuHomogeneousMedium {
                         sigma_a: m.sigma_a.to_array(),
-                        g: m.phase.g,
+                        g: m.phase.henyey_greenstein_g().unwrap_or(0.0),
                         sigma_s: m.sigma_s.to_array(),
                         _pad0: 0.0,
                     })

@@ -164,7 +164,7 @@ pub(super) fn medium_record(
     Some(GpuVdbMedium {
         lo: m.world_bounds.min.to_array(),
         hi: m.world_bounds.max.to_array(),
-        phase_g: m.phase.g,
+        phase_g: m.phase.henyey_greenstein_g().unwrap_or(0.0),
         spectral: spectral as u32,
         scatter_albedo,
         albedo_rgb,

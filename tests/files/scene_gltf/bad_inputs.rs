@@ -167,6 +167,34 @@ fn out_of_range_medium_parameters() {
             format!("{ext}/emissionStrength"),
         ),
         (json!("not an object"), ext.to_string()),
+        (
+            json!({"uri": "grids/x.vdb", "phase": {"type": "cornette-shanks"}}),
+            format!("{ext}/phase/type"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "phase": {"g": 0.3}}),
+            format!("{ext}/phase/type"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "phase": {"type": "mie"}}),
+            format!("{ext}/phase/diameter"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "phase": {"type": "mie", "diameter": 80}}),
+            format!("{ext}/phase/diameter"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "phase": {"type": "two-lobe", "g1": 1.0}}),
+            format!("{ext}/phase/g1"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "phase": {"type": "draine", "alpha": -2}}),
+            format!("{ext}/phase/alpha"),
+        ),
+        (
+            json!({"uri": "grids/x.vdb", "phase": [0.3]}),
+            format!("{ext}/phase"),
+        ),
     ];
     for (k, (medium, pointer)) in cases.into_iter().enumerate() {
         load_err(
