@@ -176,3 +176,26 @@ pub fn pass_agreement(stdout: &str, name: &str) -> Option<(f64, f64, usize, f64)
         field("max_block_z").parse().unwrap(),
     ))
 }
+
+/// `scenes/cloud.gltf` with its medium's `phase` set to `phase` (a `BRUME_medium_vdb.phase`
+/// object), written into `dir` with the grid's path made absolute; returns its path.
+pub fn cloud_with_phase(dir: &Path, label: &str, phase: serde_json::Value) -> std::path::PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("scenes/cloud.gltf")).unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let node = doc["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|n| n["extensions"]["BRUME_medium_vdb"].is_object())
+        .expect("the cloud's medium");
+    let ext = &mut node["extensions"]["BRUME_medium_vdb"];
+    let uri = root.join("scenes").join(ext["uri"].as_str().unwrap());
+    ext["uri"] = uri.to_str().unwrap().into();
+    ext.as_object_mut().unwrap().remove("anisotropy");
+    ext["phase"] = phase;
+    std::fs::create_dir_all(dir).unwrap();
+    let path = dir.join(format!("cloud_{label}.gltf"));
+    std::fs::write(&path, doc.to_string()).unwrap();
+    path
+}

@@ -171,6 +171,29 @@ fn fire_with_the_voxels_blackbody_agrees_pass_by_pass_with_cycles() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The cloud with every phase function a medium can name, against Cycles' Volume Scatter with
+/// that phase (two Henyey-Greenstein nodes for the two-lobe blend).
+#[test]
+fn phase_functions_agree_with_cycles() {
+    let dir = std::env::temp_dir().join(format!("brume-cycles-phase-{}", std::process::id()));
+    for (label, phase) in [
+        ("mie", serde_json::json!({"type": "mie", "diameter": 20.0})),
+        ("rayleigh", serde_json::json!({"type": "rayleigh"})),
+        (
+            "draine",
+            serde_json::json!({"type": "draine", "g": 0.5, "alpha": 2.0}),
+        ),
+        (
+            "two_lobe",
+            serde_json::json!({"type": "two-lobe", "g1": 0.85, "g2": -0.3, "weight": 0.8}),
+        ),
+    ] {
+        let scene = common::reference::cloud_with_phase(&dir, label, phase);
+        agrees_with_cycles(&format!("phase_{label}"), scene.to_str().unwrap(), "64");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Base-colour and emissive textures: bilinear and nearest, clamped and repeated, with
 /// KHR_texture_transform (docs/scene-format.md: textures).
 #[test]

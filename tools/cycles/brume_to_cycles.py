@@ -29,7 +29,9 @@ The Blender scene is built as follows (docs/comparing.md has the table and the r
   Absorption with sigma_s = albedo * sigma_t, sigma_a = (1 - albedo) * sigma_t;
 - each `BRUME_medium_vdb` node as a Volume object reading the .vdb, placed at
   (Y-up to Z-up) * (node world matrix); the grid's own transform is applied by Blender as by
-  Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one;
+  Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one
+  (with a `phase` object, Volume Scatter nodes of that phase do the scattering:
+  `phase_scattering`);
   the volume datablock named so that Cycles' name-hashed mesh offset vanishes
   (`new_unshifted_volume`);
 - a medium's `velocityGrid`, `velocityUnit`, `velocityScale` as the Volume's velocity grid,
@@ -478,9 +480,73 @@ def build_medium(name, ext, base_dir, world_from_node, frame, parent=None):
         ma.inputs[2].default_value = ext.get("temperatureOffset", 0.0)
         nt.links.new(attr.outputs["Fac"], ma.inputs[0])
         nt.links.new(ma.outputs[0], pv.inputs["Temperature"])
-    nt.links.new(pv.outputs[0], out.inputs["Volume"])
+    volume = pv.outputs[0]
+    if "phase" in ext:
+        volume = phase_scattering(nt, pv, ext)
+    nt.links.new(volume, out.inputs["Volume"])
     vol.materials.append(mat)
     return obj
+
+
+# Brume's phase types as Cycles' Volume Scatter phases.
+CYCLES_PHASES = {
+    "henyey-greenstein": "HENYEY_GREENSTEIN",
+    "draine": "DRAINE",
+    "mie": "MIE",
+    "rayleigh": "RAYLEIGH",
+}
+
+
+def phase_scattering(nt, pv, ext):
+    """A medium with a `phase` object: the Principled Volume keeps its absorption and emission
+    but no scattering (Color black, Absorption Color chosen so that its sigma_a stays
+    `max(1 - color, 0) * (1 - sqrt(absorptionColor))` per unit density), and Volume Scatter
+    nodes with that phase scatter `color * density`; a two-lobe phase is two Henyey-Greenstein
+    Volume Scatter nodes splitting `color` by the weight. Returns the summed volume output."""
+    color = list(ext.get("color", [0.5, 0.5, 0.5]))
+    absorption = list(ext.get("absorptionColor", [0, 0, 0]))
+    kept = [max(1.0 - c, 0.0) * max(1.0 - math.sqrt(a), 0.0) for c, a in zip(color, absorption)]
+    pv.inputs["Color"].default_value = [0.0, 0.0, 0.0, 1.0]
+    pv.inputs["Absorption Color"].default_value = [(1.0 - k) ** 2 for k in kept] + [1.0]
+    # The scattering density: densityScale times the density grid.
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = "GEOMETRY"
+    attr.attribute_name = ext.get("densityGrid", "density")
+    density = nt.nodes.new("ShaderNodeMath")
+    density.operation = "MULTIPLY"
+    density.inputs[1].default_value = ext.get("densityScale", 1.0)
+    nt.links.new(attr.outputs["Fac"], density.inputs[0])
+    phase = ext["phase"]
+    kind = phase.get("type")
+
+    def scatter(cycles_phase, share):
+        sc = nt.nodes.new("ShaderNodeVolumeScatter")
+        sc.phase = cycles_phase
+        sc.inputs["Color"].default_value = [c * share for c in color] + [1.0]
+        nt.links.new(density.outputs[0], sc.inputs["Density"])
+        return sc
+
+    if kind == "two-lobe":
+        w = phase.get("weight", 0.5)
+        a, b = scatter("HENYEY_GREENSTEIN", w), scatter("HENYEY_GREENSTEIN", 1.0 - w)
+        a.inputs["Anisotropy"].default_value = phase.get("g1", 0.0)
+        b.inputs["Anisotropy"].default_value = phase.get("g2", 0.0)
+        lobes = [a.outputs[0], b.outputs[0]]
+    elif kind in CYCLES_PHASES:
+        sc = scatter(CYCLES_PHASES[kind], 1.0)
+        # Each phase shows only its own sockets.
+        values = {
+            "henyey-greenstein": {"Anisotropy": phase.get("g", 0.0)},
+            "draine": {"Anisotropy": phase.get("g", 0.0), "Alpha": phase.get("alpha", 1.0)},
+            "mie": {"Diameter": phase.get("diameter", 20.0)},
+            "rayleigh": {},
+        }[kind]
+        for socket, value in values.items():
+            sc.inputs[socket].default_value = value
+        lobes = [sc.outputs[0]]
+    else:
+        sys.exit(f"error: phase type {kind!r} has no Cycles counterpart")
+    return add_shaders(nt, [pv.outputs[0]] + lobes)
 
 
 def build_environment_map(nt, bg, env, base_dir):

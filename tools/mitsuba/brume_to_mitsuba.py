@@ -306,7 +306,7 @@ def build(desc):
             "sigma_t": extinction_texture(m),
             "albedo": {"type": "constvolume", "value": rgb(m["albedo"])},
             "scale": 1.0,
-            "phase": {"type": "hg", "g": float(m["g"])},
+            "phase": m.get("phase", {"type": "hg", "g": float(m["g"])}),
         }
         centre = [(a + b) / 2 for a, b in zip(lo, hi)]
         half = [(b - a) / 2 for a, b in zip(lo, hi)]

@@ -287,7 +287,31 @@ fn describe_vdb_medium(scene: &Scene, i: usize, m: &VdbMediumDesc, dir: &Path) -
         "box_max": vol.bbox_max,
         "albedo": albedo(sigma_s, sigma_t),
         "g": m.anisotropy,
+        "phase": mitsuba_phase(m.phase, m.anisotropy, &at)?,
     }))
+}
+
+/// A medium's phase function as Mitsuba 3 plugins: `hg`, `blendphase` of two `hg` lobes,
+/// `rayleigh`. Mitsuba has no Draine or Mie phase: those media are refused, naming the medium.
+fn mitsuba_phase(
+    phase: Option<crate::volume::phases::Phase>,
+    anisotropy: f32,
+    at: &str,
+) -> Result<serde_json::Value> {
+    use crate::volume::phases::Phase;
+    let hg = |g: f32| json!({"type": "hg", "g": g});
+    Ok(match phase.unwrap_or(Phase::hg(anisotropy)) {
+        Phase::HenyeyGreenstein(h) => hg(h.g),
+        // Mitsuba's blendphase is (1 - weight) phase1 + weight phase2.
+        Phase::TwoLobe { a, b, w } => {
+            json!({"type": "blendphase", "weight": 1.0 - w, "phase1": hg(a.g), "phase2": hg(b.g)})
+        }
+        Phase::Rayleigh => json!({"type": "rayleigh"}),
+        other => bail!(
+            "{at}: Mitsuba 3 has no {} phase function (compare it with brume cycles)",
+            other.name()
+        ),
+    })
 }
 
 /// Mesh instance `k` with its material: writes `mesh{k}.ply` into `dir` and returns its entry
