@@ -191,29 +191,12 @@ fn check<Grey: Features, Chromatic: Features>(
                 let span: VdbSpan = (m, a, b);
                 assert!(nested_applies(&[span], &hom, cfg.absorption));
                 let seed = (1000 * h_index + 100 * c_index + r) as u32;
+                let g = m.phase.henyey_greenstein_g().unwrap();
                 let run = |nested: bool, seed: u32| {
                     if chromatic {
-                        tally::<Chromatic>(
-                            nested,
-                            span,
-                            &hom,
-                            m.phase.henyey_greenstein_g().unwrap(),
-                            &ray,
-                            t1,
-                            &cfg,
-                            seed,
-                        )
+                        tally::<Chromatic>(nested, span, &hom, g, &ray, t1, &cfg, seed)
                     } else {
-                        tally::<Grey>(
-                            nested,
-                            span,
-                            &hom,
-                            m.phase.henyey_greenstein_g().unwrap(),
-                            &ray,
-                            t1,
-                            &cfg,
-                            seed,
-                        )
+                        tally::<Grey>(nested, span, &hom, g, &ray, t1, &cfg, seed)
                     }
                 };
                 let (a, b) = (run(true, 2 * seed), run(false, 2 * seed + 1));
