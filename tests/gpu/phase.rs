@@ -142,7 +142,7 @@ fn wgsl_phases_match_cpu() {
     // NVIDIA's land within 2e-5 in direction and 1e-5 in pdf. The bounds for a GPU sit below
     // WGSL's own, and far below what a wrong formula gives (errors of order 1).
     let cpu_adapter = ctx.adapter_info.device_type == wgpu::DeviceType::Cpu;
-    let (dir_tol, pdf_tol) = if cpu_adapter {
+    let (dir_tol, pdf_tol): (f32, f32) = if cpu_adapter {
         (4e-6, 4e-6)
     } else {
         (1e-4, 1e-4)
