@@ -1,7 +1,9 @@
 //! The WGSL phase functions (shaders/common/phase.wgsl) against `Phase`: for every kind the
 //! sampled directions, pdfs and evaluations agree to rounding (WGSL's sin/cos/sqrt/pow are not
 //! the CPU's libm, so not bit for bit; on a GPU, to the precision of its built-ins), and
-//! Draine's rejection, fed the same random stream, takes the same candidates.
+//! Draine's rejection, fed the same random stream, takes the same candidates. Rendered, each
+//! kind keeps the furnace at 1 and renders the cloud as the CPU does (per-pixel z-tests
+//! against the CPU with another seed, and the CPU's image with the same seed replayed).
 use crate::common;
 
 use brume::backend::gpu::shader::TEST_PHASE_MODULE;
@@ -180,5 +182,76 @@ fn wgsl_phases_match_cpu() {
             "{name}: p(wo, wi) differs by {} relative",
             a.p_rel
         );
+    }
+}
+
+/// The phases the renders take: one of each kind but Henyey-Greenstein (the other render
+/// tests' media).
+fn render_phases() -> Vec<Phase> {
+    vec![
+        Phase::TwoLobe {
+            a: brume::volume::phase::HenyeyGreenstein::new(0.8),
+            b: brume::volume::phase::HenyeyGreenstein::new(-0.3),
+            w: 0.7,
+        },
+        Phase::Draine(Draine::new(0.5, 1.0)),
+        Phase::mie(20.0).unwrap(),
+        Phase::Rayleigh,
+    ]
+}
+
+#[test]
+fn furnace_renders_one_with_every_phase_on_the_gpu() {
+    use common::render::{compare, load_scene, moments, sidak_z};
+    let Some(ctx) = common::gpu::gpu_or_skip("furnace_renders_one_with_every_phase") else {
+        return;
+    };
+    let phases = render_phases();
+    let alpha = 1e-3 / phases.len() as f64;
+    for (i, phase) in phases.into_iter().enumerate() {
+        let mut scene = load_scene("furnace.gltf");
+        scene.vdb_media[0].phase = Some(phase);
+        let s = brume::render::RenderSettings {
+            width: 16,
+            height: 12,
+            spp: 64,
+            seed: 500 + i as u32,
+            ..Default::default()
+        };
+        let label = format!("furnace {}", phase.name());
+        let out = crate::render::gpu_render(&ctx, &scene, &s, &label);
+        let (mean, var) = moments(&out);
+        let ones = vec![1.0; mean.len()];
+        let zeros = vec![0.0; mean.len()];
+        let a = compare((&mean, &var), (&ones, &zeros), alpha);
+        println!(
+            "{label}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
+            a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
+        );
+        assert_eq!(a.failing, 0, "{label}: {a:?}");
+        assert!(a.mean_z < sidak_z(alpha, 3), "{label}: {a:?}");
+    }
+}
+
+#[test]
+fn every_phase_renders_the_cloud_as_the_cpu_does() {
+    let Some(ctx) = common::gpu::gpu_or_skip("every_phase_renders_the_cloud") else {
+        return;
+    };
+    let phases = render_phases();
+    let alpha = 1e-3 / phases.len() as f64;
+    for (i, phase) in phases.into_iter().enumerate() {
+        let mut scene = common::render::load_scene("cloud.gltf");
+        scene.vdb_media[0].phase = Some(phase);
+        let s = brume::render::RenderSettings {
+            width: 24,
+            height: 18,
+            spp: 32,
+            seed: 600 + i as u32,
+            ..Default::default()
+        };
+        let label = format!("cloud {}", phase.name());
+        let (g, c) = crate::render::gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
+        crate::render::print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
     }
 }
