@@ -236,15 +236,8 @@ pub(super) fn medium_params(
     p.phases = GpuPhase::table(rs.vdb.iter().map(|m| &m.phase));
     if features.overlapping {
         p.vdb_count = rs.vdb.len() as u32;
-        p.flags |= if features.absorption {
-            WF_FLAG_ABSORPTION
-        } else {
-            0
-        } | if cfg.force_spectral {
-            WF_FLAG_FORCE_SPECTRAL
-        } else {
-            0
-        };
+        p.flags |= (features.absorption as u32 * WF_FLAG_ABSORPTION)
+            | (cfg.force_spectral as u32 * WF_FLAG_FORCE_SPECTRAL);
         p.mix_estimator = grey_estimator(cfg) as u32;
     }
     let Some(r) = rs.vdb.first().and_then(|m| medium_record(m, cfg, features)) else {
