@@ -216,9 +216,9 @@ struct Selection {
     env_by_phase: bool,
 }
 
-// Lights::phase_selection at a medium event at p with HG asymmetry g and outgoing wo (called
-// only when lights_guided()).
-fn phase_selection(p: vec3<f32>, g: f32, wo: vec3<f32>) -> Selection {
+// Lights::phase_selection at a medium event at p with phase function ph and outgoing wo
+// (called only when lights_guided()).
+fn phase_selection(p: vec3<f32>, ph: GpuPhase, wo: vec3<f32>) -> Selection {
     var sel: Selection;
     let n = light_count();
     let np = min(wf.light_count, GUIDED_MAX_PUNCTUAL);
@@ -227,7 +227,7 @@ fn phase_selection(p: vec3<f32>, g: f32, wo: vec3<f32>) -> Selection {
         let ls = punctual_incident(k, p);
         w[k] = 0.0;
         if (ls.valid) {
-            w[k] = luminance(ls.li) * hg_p(g, wo, ls.wi);
+            w[k] = luminance(ls.li) * phase_p(ph, wo, ls.wi);
         }
     }
     w[np] = env_weight();
@@ -274,9 +274,9 @@ fn phase_selection(p: vec3<f32>, g: f32, wo: vec3<f32>) -> Selection {
 }
 
 // Lights::sample_selected: the light by the selection's CDF, a constant environment's
-// direction from the phase function.
-fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_select: f32,
-                         u: vec2<f32>) -> LightSample {
+// direction from the phase function (a rejection's further points from rng, the path's stream).
+fn light_sample_selected(sel: Selection, p: vec3<f32>, ph: GpuPhase, wo: vec3<f32>, u_select: f32,
+                         u: vec2<f32>, rng: ptr<function, Rng>) -> LightSample {
     let n = light_count();
     let np = wf.light_count;
     // sampling::sample_discrete over the selection and "no estimate" (entry n; u scaled by
@@ -323,7 +323,7 @@ fn light_sample_selected(sel: Selection, p: vec3<f32>, g: f32, wo: vec3<f32>, u_
     ls.dist = f32_inf();
     ls.is_delta = false;
     if (sel.env_by_phase) {
-        let s = hg_sample(g, wo, u);
+        let s = phase_sample(ph, wo, u, rng);
         ls.wi = s.wi;
         ls.li = wf.env;
         ls.pdf = pmf * s.pdf;

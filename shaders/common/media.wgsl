@@ -138,16 +138,25 @@ fn stack_cross(top: u32, outer: u32, interior: u32, entering: bool) -> vec2<u32>
     return vec2<u32>(new_top, b1 | (b2 << 16u));
 }
 
-// The phase function's g at the path's scattering event: its homogeneous medium's, else the
-// VDB medium's; in the mixture variant, that of the medium the event picked (recorded by the
-// medium stage in GpuPathState::phase_g, as sample_media returns it with the event).
-fn path_phase_g(ps: GpuPathState) -> f32 {
-    var g = wf.phase_g;
+// The phase function at the path's scattering event: its homogeneous medium's
+// Henyey-Greenstein, else the VDB medium's; in the mixture variant, that of the medium the
+// event picked (recorded by the medium stage in GpuPathState::phase_medium and phase_g, as
+// sample_media returns them with the event).
+fn path_phase(ps: GpuPathState) -> GpuPhase {
+    var ph = phase_hg(wf.phase_g);
+// #if FEATURE_PHASES
+    ph = wf.phases[0];
+// #endif
     if (FEATURE_HOMOGENEOUS && ps.medium != NO_INDEX) {
-        g = homogeneous[ps.medium].g;
+        ph = phase_hg(homogeneous[ps.medium].g);
     }
 // #if FEATURE_MIXTURE
-    g = ps.phase_g;
+    ph = phase_hg(ps.phase_g);
+// #if FEATURE_PHASES
+    if (ps.phase_medium != NO_INDEX) {
+        ph = wf.phases[ps.phase_medium];
+    }
 // #endif
-    return g;
+// #endif
+    return ph;
 }

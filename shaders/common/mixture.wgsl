@@ -131,6 +131,7 @@ struct Flight {
     t: f32,            // world ray parameter of a scattering event
     weight: vec3<f32>, // multiplies the throughput (scatter, escape)
     g: f32,
+    phase_medium: u32, // the VDB medium whose phase applies (NO_INDEX: g's Henyey-Greenstein)
 }
 
 // Folds a flight's tracker into the path: random stream, counters, gathered emission.
@@ -153,7 +154,7 @@ fn vdb_flight(k: u32, ps: ptr<function, GpuPathState>, rng: ptr<function, Rng>, 
     let dda = vdb_dda(k, tr, a, b);
     tracking_sample_distance(&tr, dda, b, beta);
     finish_tracker(tr, ps, rng);
-    var f = Flight(tr.event, tr.t_event, vec3<f32>(tr.w.x), vdb_media[k].phase_g);
+    var f = Flight(tr.event, tr.t_event, vec3<f32>(tr.w.x), vdb_media[k].phase_g, k);
     let albedo = vdb_media[k].scatter_albedo;
     if (FEATURE_CHROMATIC && vdb_media[k].spectral != 0u) {
         f.weight = tr.w;
@@ -186,7 +187,7 @@ fn vdb_flights_in_turn(spans: Spans, t_end: f32, ps: ptr<function, GpuPathState>
         f.weight = weight * fi.weight;
         return f;
     }
-    return Flight(EVENT_ESCAPE, 0.0, weight, 0.0);
+    return Flight(EVENT_ESCAPE, 0.0, weight, 0.0, NO_INDEX);
 }
 
 // The raw density of stream i's medium at ray parameter t (GridField::at_index) for a sample
@@ -507,8 +508,10 @@ fn mix_scatterer(tr: ptr<function, Tracker>, f: ptr<function, Flight>, h: GpuHom
     let hom_k = pk.k >= mix_state.n_vdb;
     if (hom_k) {
         (*f).g = h.g;
+        (*f).phase_medium = NO_INDEX;
     } else {
         (*f).g = vdb_media[mix_streams[pk.k].medium].phase_g;
+        (*f).phase_medium = mix_streams[pk.k].medium;
     }
     if (spectral) {
         let den = s_view * pk.p;
@@ -553,7 +556,7 @@ fn mix_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>, rng: ptr<
     var no_walk: Dda;
     no_walk.done = true;
     tracking_sample_distance(&tr, no_walk, t1, (*ps).beta);
-    var f = Flight(tr.event, tr.t_event, vec3<f32>(tr.w.x), 0.0);
+    var f = Flight(tr.event, tr.t_event, vec3<f32>(tr.w.x), 0.0, NO_INDEX);
     if (spectral) {
         f.weight = tr.w;
     }
@@ -619,9 +622,9 @@ fn nested_flight(spans: Spans, hom: u32, ps: ptr<function, GpuPathState>,
     }
     let weight = f.weight;
     if (ev.event == EVENT_SCATTER) {
-        return Flight(EVENT_SCATTER, t_h, weight * ev.weight, h.g);
+        return Flight(EVENT_SCATTER, t_h, weight * ev.weight, h.g, NO_INDEX);
     }
-    return Flight(EVENT_ESCAPE, 0.0, weight * ev.weight, h.g);
+    return Flight(EVENT_ESCAPE, 0.0, weight * ev.weight, h.g, NO_INDEX);
 }
 
 // path.rs sample_media with MIX: the sum where media overlap along the flight, VDB media side
@@ -635,7 +638,7 @@ fn sample_media_mix(ps: ptr<function, GpuPathState>, rng0: Rng, t_hit: f32) -> F
 // #if FEATURE_HOMOGENEOUS
     hom = (*ps).medium;
 // #endif
-    var f = Flight(EVENT_ESCAPE, 0.0, vec3<f32>(1.0), 0.0);
+    var f = Flight(EVENT_ESCAPE, 0.0, vec3<f32>(1.0), 0.0, NO_INDEX);
     let overlap = spans_overlap(spans);
     var nested = false;
 // #if FEATURE_HOMOGENEOUS
@@ -652,7 +655,7 @@ fn sample_media_mix(ps: ptr<function, GpuPathState>, rng0: Rng, t_hit: f32) -> F
 // #if FEATURE_HOMOGENEOUS
         let h = homogeneous[hom];
         let ev = sample_homogeneous(h, t_hit - t0, wf.absorption_weight != 0u, &rng);
-        f = Flight(ev.event, t0 + ev.t, ev.weight, h.g);
+        f = Flight(ev.event, t0 + ev.t, ev.weight, h.g, NO_INDEX);
 // #endif
     } else {
         f = vdb_flights_in_turn(spans, t_hit, ps, &rng);

@@ -1,5 +1,5 @@
 // Mirrors src/sampling/rng.rs (`pcg_hash`, `Rng::new`, `Rng::next_u32`, `Rng::uniform_f32`,
-// `Rng::queue_uniforms`, `Rng::push_front`):
+// `Rng::uniform_vec2`, `Rng::queue_uniforms`, `Rng::push_front`):
 // PCG-RXS-M-XS-32 with u32-only wrapping arithmetic, which is exactly WGSL's u32 semantics, so
 // the streams equal the CPU's bit for bit (tests/gpu/rng.rs). Keep the two in lockstep.
 
@@ -50,6 +50,13 @@ fn rng_uniform(rng: ptr<function, Rng>) -> f32 {
         v = rng_next_u32(rng) >> 8u;
     }
     return f32(v) * (1.0 / 16777216.0);
+}
+
+// Rng::uniform_vec2: two uniforms, x first.
+fn rng_uniform_vec2(rng: ptr<function, Rng>) -> vec2<f32> {
+    let x = rng_uniform(rng);
+    let y = rng_uniform(rng);
+    return vec2<f32>(x, y);
 }
 
 // Rng::queue_uniforms: the next two rng_uniform calls return a then b (top 24 bits).

@@ -72,6 +72,18 @@ struct GpuTrackingStats {
     _pad2: u32,
 }
 
+// GpuPhase: a VDB medium's phase function (PHASE_* kind, unused parameters zero).
+struct GpuPhase {
+    kind: u32,
+    g_a: f32,   // HG lobe's g (Mie: the HG part's; Draine: its own)
+    g_b: f32,   // second lobe's g (two-lobe: b; Mie: the Draine part's)
+    w: f32,     // first lobe's weight (two-lobe: w; Mie: w_d)
+    alpha: f32, // Draine's alpha (Draine, Mie)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
 // GpuVelocityBlur: a medium's velocity blur (src/gpu_types/motion.rs; VelocityBlur, Advection).
 struct GpuVelocityBlur {
     x: GpuGridInfo,                                // the velocity's components in the grid buffers
@@ -138,7 +150,7 @@ struct GpuPathState {
     phase_g: f32,       // g of the medium that scattered last (mixture variant)
     time: f32,          // the camera sample's time offset, frames (0 without a shutter)
     shadow_group: u32,  // light group of the pending shadow ray's light (light-group variant)
-    _pad1: u32,
+    phase_medium: u32,  // VDB medium whose phase applies (wf.phases; NO_INDEX: phase_g's HG)
     _pad2: u32,
 }
 
@@ -329,6 +341,7 @@ struct GpuWavefrontParams {
     punctual_groups: vec4<u32>,  // LightGroups::punctual, a byte each: light k in word k / 4
     blur: GpuVelocityBlur,       // the VDB medium's velocity blur (factor 0: none)
     motion: GpuCameraMotion,     // the shutter and the camera's poses
+    phases: array<GpuPhase, 8>,  // each VDB medium's phase function (FEATURE_PHASES)
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).

@@ -42,6 +42,7 @@ fn sample_medium(slot: u32) {
     t_event = f.t;
     weight = f.weight;
     ps.phase_g = f.g;
+    ps.phase_medium = f.phase_medium;
 // #endif
 // #endif
 // #if !FEATURE_MIXTURE

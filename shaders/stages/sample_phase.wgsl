@@ -1,6 +1,6 @@
 // Mirrors sample_phase (src/integrator/path.rs) and russian_roulette: Stage::SamplePhase, the
-// next direction once the shadow stage has drawn its numbers from the same stream. In a medium: HenyeyGreenstein::sample with the g of the
-// medium the path is in. At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
+// next direction once the shadow stage has drawn its numbers from the same stream. In a medium:
+// Phase::sample with the phase function of the medium that scattered. At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
 // shading frame of the hit, the path ending when it fails or points below the surface. Then
 // Russian roulette on the throughput after rr_depth events; survivors go back to the
 // intersect and medium stages next iteration.
@@ -47,16 +47,16 @@ fn sample_phase(slot: u32) {
 // #endif
     if (!at_surface) {
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
-        let g = path_phase_g(ps);
+        let ph = path_phase(ps);
         let wo = -ps.d;
-        let s = hg_sample(g, wo, u_dir);
+        let s = phase_sample(ph, wo, u_dir, &rng);
         ps.beta *= s.weight;
         ps.d = s.wi;
         // The scatter stage's selection, recomputed (a function of the event alone).
         var env_pmf = 0.0;
         var by_phase = false;
         if (lights_guided() && wf.has_env != 0u) {
-            let sel = phase_selection(ps.o, g, wo);
+            let sel = phase_selection(ps.o, ph, wo);
             env_pmf = sel.env;
             by_phase = sel.env_by_phase;
         }

@@ -46,15 +46,15 @@ fn scatter_medium(slot: u32) {
     let bounce = ps.depth - 1u;
     let u_select = sampler_1d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT_SELECT), &rng);
     let u_light = sampler_2d(ps.sample_id, bounce_dim(bounce, DIM_LIGHT), &rng);
-    let g = path_phase_g(ps);
+    let ph = path_phase(ps);
     var ls: LightSample;
     if (lights_guided()) {
-        ls = light_sample_selected(phase_selection(p, g, wo), p, g, wo, u_select, u_light);
+        ls = light_sample_selected(phase_selection(p, ph, wo), p, ph, wo, u_select, u_light, &rng);
     } else {
         ls = light_sample(p, u_select, u_light);
     }
     if (ls.valid) {
-        let f = hg_p(g, wo, ls.wi);
+        let f = phase_p(ph, wo, ls.wi);
         if (f > 0.0 && ls.pdf > 0.0) {
             var w = 1.0;
             if (!ls.is_delta) {

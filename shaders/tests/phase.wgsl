@@ -1,20 +1,24 @@
-// Test kernel for HenyeyGreenstein::sample and HenyeyGreenstein::p (src/volume/phase.rs);
+// Test kernel for Phase::sample and Phase::p (src/volume/phases.rs), every kind;
 // tests/gpu/phase.rs compares with the CPU within a few ulps.
 
-// Per sample two rows: (g, u.x, u.y, -) and (wo, -).
+// Per sample three rows: (kind bits, g_a, g_b, w), (alpha, u.x, u.y, seed bits) and
+// (wo, -). A rejection's further points come from the stream Rng::new(i, 0, seed).
 @group(0) @binding(0) var<storage, read> inputs: array<vec4<f32>>;
 // Per sample two rows: (wi, pdf) and (p(wo, wi), -, -, -).
 @group(0) @binding(1) var<storage, read_write> outputs: array<vec4<f32>>;
 
 // The items: the generated entry point `phase_samples` runs test_phase on each (`Dispatch::Items`).
 fn test_phase_count() -> u32 {
-    return arrayLength(&inputs) / 2u;
+    return arrayLength(&inputs) / 3u;
 }
 
 fn test_phase(i: u32) {
-    let a = inputs[2u * i];
-    let wo = inputs[2u * i + 1u].xyz;
-    let s = hg_sample(a.x, wo, a.yz);
+    let a = inputs[3u * i];
+    let b = inputs[3u * i + 1u];
+    let wo = inputs[3u * i + 2u].xyz;
+    let ph = GpuPhase(bitcast<u32>(a.x), a.y, a.z, a.w, b.x, 0u, 0u, 0u);
+    var rng = rng_new(i, 0u, bitcast<u32>(b.w));
+    let s = phase_sample(ph, wo, b.yz, &rng);
     outputs[2u * i] = vec4<f32>(s.wi, s.pdf);
-    outputs[2u * i + 1u] = vec4<f32>(hg_p(a.x, wo, s.wi), 0.0, 0.0, 0.0);
+    outputs[2u * i + 1u] = vec4<f32>(phase_p(ph, wo, s.wi), 0.0, 0.0, 0.0);
 }

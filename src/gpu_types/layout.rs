@@ -25,6 +25,11 @@ macro_rules! layout {
 /// and member names; `tests/gpu/wgsl.rs` checks them with naga's layouter.
 pub const SHARED_STRUCTS: &[StructLayout] = &[
     layout!(
+        GpuPhase,
+        "GpuPhase",
+        [kind, g_a, g_b, w, alpha, _pad0, _pad1, _pad2]
+    ),
+    layout!(
         GpuEnvMap,
         "GpuEnvMap",
         [
@@ -129,7 +134,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             phase_g,
             time,
             shadow_group,
-            _pad1,
+            phase_medium,
             _pad2
         ]
     ),
@@ -238,7 +243,8 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             surfaces_group,
             punctual_groups,
             blur,
-            motion
+            motion,
+            phases
         ]
     ),
     layout!(

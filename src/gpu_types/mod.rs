@@ -12,7 +12,8 @@
 //! One file per concern: [`grid`] (grid header, rays, segments), [`tracking`] (tracking
 //! parameters and enumerations), [`geometry`] (triangles, lights, homogeneous media, BVH
 //! nodes), [`wavefront`] (path state, queues, counters, parameters, emission), [`motion`]
-//! (velocity blur, the shutter and the camera's poses) and [`layout`]
+//! (velocity blur, the shutter and the camera's poses), [`phase`] (a medium's phase function)
+//! and [`layout`]
 //! (the layout table the WGSL test checks).
 /// A `#[repr(u32)]` enumeration that the WGSL sees as `const NAME: u32 = value;` lines
 /// (`backend::gpu::shader`): each variant's value and WGSL name written once, with `ALL` (every
@@ -57,6 +58,7 @@ pub mod geometry;
 pub mod grid;
 pub mod layout;
 pub mod motion;
+pub mod phase;
 pub mod tracking;
 pub mod wavefront;
 
@@ -66,5 +68,6 @@ pub use geometry::*;
 pub use grid::*;
 pub use layout::*;
 pub use motion::*;
+pub use phase::*;
 pub use tracking::*;
 pub use wavefront::*;

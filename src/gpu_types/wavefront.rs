@@ -3,7 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use std::mem::size_of;
 
-use super::{GpuCameraMotion, GpuGridInfo, GpuTrackingParams, GpuVelocityBlur};
+use super::{GpuCameraMotion, GpuGridInfo, GpuPhase, GpuTrackingParams, GpuVelocityBlur};
 
 /// The state of one path of the wavefront integrator, one slot per path in flight: what
 /// `integrator::path::radiance` keeps in local variables between loop iterations. Kept as
@@ -68,7 +68,10 @@ pub struct GpuPathState {
     /// `LightGroups::of_source`): where the shadow stage gathers its estimate. Set only by the
     /// light-group variant.
     pub shadow_group: u32,
-    pub _pad1: u32,
+    /// The VDB medium whose phase function applies at the path's scattering event
+    /// ([`GpuWavefrontParams::phases`]), `NO_INDEX` where it is a homogeneous medium's
+    /// Henyey-Greenstein `phase_g` (set by the mixture variant, as `phase_g` is).
+    pub phase_medium: u32,
     pub _pad2: u32,
 }
 const _: () = assert!(size_of::<GpuPathState>() == 128);
@@ -382,10 +385,16 @@ pub struct GpuWavefrontParams {
     pub blur: GpuVelocityBlur,
     /// The shutter and the camera's poses across it.
     pub motion: GpuCameraMotion,
+    /// The phase function of each VDB medium, in `vdb_media` order (the variant with
+    /// `FEATURE_PHASES` reads them; the others the Henyey-Greenstein `phase_g`).
+    pub phases: [GpuPhase; GPU_MAX_VDB_MEDIA],
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 336 + size_of::<GpuVelocityBlur>() + size_of::<GpuCameraMotion>()
+        == 336
+            + size_of::<GpuVelocityBlur>()
+            + size_of::<GpuCameraMotion>()
+            + GPU_MAX_VDB_MEDIA * size_of::<GpuPhase>()
 );
 
 /// [`GpuWavefrontParams::flags`] bit: medium events choose lights by contribution

@@ -71,6 +71,10 @@ pub struct FeatureFlags {
     /// blurred medium or a moving camera. Not part of [`FeatureFlags::as_array`]: the CPU
     /// tests the shutter once per sample; the GPU variants cut the time's code without it.
     pub motion: bool,
+    /// Some VDB medium's phase function is not Henyey-Greenstein. Not part of
+    /// [`FeatureFlags::as_array`]: the CPU matches on the phase per event; the GPU variants
+    /// keep only Henyey-Greenstein's code without it.
+    pub phases: bool,
 }
 
 impl FeatureFlags {
@@ -86,6 +90,7 @@ impl FeatureFlags {
         overlapping: true,
         nested: true,
         motion: true,
+        phases: true,
     };
 
     /// The flags the CPU's tile renderer is specialised on (`textures` is not one).
@@ -276,6 +281,7 @@ impl<'s> RenderScene<'s> {
             textures: scene.uses_textures(),
             env_map: false,
             motion: false,
+            phases: vdb.iter().any(|v| v.phase.henyey_greenstein_g().is_none()),
         };
         let mut lights = Lights::new(scene);
         // Only media that scatter have medium events (a purely absorbing one, such as

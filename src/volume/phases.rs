@@ -191,7 +191,8 @@ impl Phase {
         exact(wi, self.p(wo, wi))
     }
 
-    /// The Henyey-Greenstein `g` where the phase function is one (what the GPU renders).
+    /// The Henyey-Greenstein `g` where the phase function is one (the GPU variants without
+    /// `FEATURE_PHASES` render only those).
     pub fn henyey_greenstein_g(&self) -> Option<f32> {
         match self {
             Phase::HenyeyGreenstein(hg) => Some(hg.g),

@@ -61,7 +61,7 @@ pub(crate) fn gpu_render(
 /// the same seed, rendered here) and both renders' work per sample (`c`: the CPU image with
 /// another seed); returns both renders' totals. With `parity_on`, asserts the replay where
 /// [`parity_asserted`].
-fn print_parity(
+pub(crate) fn print_parity(
     parity_on: Option<&brume::backend::gpu::GpuContext>,
     label: &str,
     scene: &brume::scene::Scene,
@@ -105,7 +105,7 @@ pub(crate) fn parity_asserted(ctx: &brume::backend::gpu::GpuContext) -> bool {
 
 /// Renders `s` on the GPU and, with another seed (independent samples), on the CPU, and
 /// asserts that they [`agree`].
-fn gpu_against_cpu(
+pub(crate) fn gpu_against_cpu(
     ctx: &brume::backend::gpu::GpuContext,
     scene: &brume::scene::Scene,
     s: &RenderSettings,

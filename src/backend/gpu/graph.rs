@@ -124,6 +124,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
         (f.env_map, "envmap"),
         (f.overlapping, "mixture"),
         (f.motion, "motion"),
+        (f.phases, "phases"),
     ]
     .into_iter()
     .filter(|(b, _)| *b)
@@ -212,6 +213,7 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
         chromatic: features.chromatic && media,
         absorption: features.absorption && media,
         textures: features.textures && features.surfaces,
+        phases: features.phases && features.heterogeneous,
         ..features
     }
 }
@@ -231,6 +233,7 @@ pub fn specs(features: FeatureFlags, sampler: SamplerKind, passes: Passes) -> Ve
         Spec::bool("FEATURE_ENV_MAP", f.env_map),
         Spec::bool("FEATURE_MIXTURE", f.overlapping),
         Spec::bool("FEATURE_MOTION", f.motion),
+        Spec::bool("FEATURE_PHASES", f.phases),
         Spec::bool("FEATURE_LIGHT_PASSES", passes.light),
         Spec::bool("FEATURE_DATA_PASSES", passes.data),
         Spec::bool("FEATURE_LIGHT_GROUPS", passes.groups > 0),

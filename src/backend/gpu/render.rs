@@ -182,16 +182,6 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
         let blackbody = m.emission.as_ref().and_then(|e| e.blackbody.as_ref());
         blackbody.is_some_and(|b| b.of_voxels)
     };
-    if let Some(m) = rs
-        .vdb
-        .iter()
-        .find(|m| m.phase.henyey_greenstein_g().is_none())
-    {
-        return Err(format!(
-            "a {} phase function (the GPU renders Henyey-Greenstein media only)",
-            m.phase.name()
-        ));
-    }
     if rs.vdb.iter().any(of_voxels) {
         return Err(
             "the blackbody of each voxel (--blackbody voxels) renders on the CPU backend only"

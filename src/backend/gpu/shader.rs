@@ -13,7 +13,7 @@
 //! can be traced back. [`MODULES`] lists every module Brume builds; `tests/gpu/wgsl.rs`
 //! validates each with naga.
 use crate::gpu_types::{
-    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuQueue, GpuWideCounter,
+    GpuControlMode, GpuEstimator, GpuMajorantMode, GpuPhaseKind, GpuQueue, GpuWideCounter,
     PATH_FLAG_FLIGHT_STARTED, PATH_FLAG_SPECULAR, PATH_FLAG_SURFACE, SURFACE_DIELECTRIC,
     SURFACE_NULL, SURFACE_OPAQUE,
 };
@@ -199,6 +199,7 @@ pub fn shared_constants() -> String {
         GpuControlMode::wgsl_constants(),
         GpuQueue::wgsl_constants(),
         GpuWideCounter::wgsl_constants(),
+        GpuPhaseKind::wgsl_constants(),
     ] {
         s.push_str(&enumeration);
     }
@@ -536,9 +537,14 @@ pub const TEST_DDA_MODULE: Module = Module {
     dispatch: Dispatch::Items,
 };
 
-/// Henyey-Greenstein sampling and evaluation (test).
-pub const TEST_PHASE_MODULE: Module =
-    Module::per_item("test_phase", &[TYPES, PHASE, TEST_PHASE], "phase_samples");
+/// Phase-function sampling and evaluation, every kind (test).
+pub const TEST_PHASE_MODULE: Module = Module {
+    label: "test_phase",
+    files: &[TYPES, RNG, PHASE, TEST_PHASE],
+    entry_point: "phase_samples",
+    default_specs: &[Spec::bool("FEATURE_PHASES", true)],
+    dispatch: Dispatch::Items,
+};
 
 /// WGSL's `log` and `ln_f32` against `f32::ln` (test).
 pub const TEST_MATH_MODULE: Module =
@@ -557,6 +563,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_MIXTURE", true),
     // Samples at times across a shutter: velocity blur and camera motion (`advection.wgsl`).
     Spec::bool("FEATURE_MOTION", true),
+    // Phase functions other than Henyey-Greenstein (`phase.wgsl`'s `phase_p`, `phase_sample`).
+    Spec::bool("FEATURE_PHASES", true),
     // The radiance split into the light passes as well (`PathLimits::light_passes`).
     Spec::bool("FEATURE_LIGHT_PASSES", true),
     // The data passes a denoiser takes as well (`PathLimits::data_passes`).

@@ -12,8 +12,8 @@ use super::error::GpuRenderError;
 use crate::gpu_types::grid::daffine_rows;
 use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuCameraMotion, GpuControlMode, GpuEmissionParams, GpuEstimator,
-    GpuGridInfo, GpuMajorantMode, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv,
-    GpuVdbMedium, GpuVelocityBlur, GpuWavefrontParams, GPU_CAMERA_POSES, STACK_NONE,
+    GpuGridInfo, GpuMajorantMode, GpuPhase, GpuTexture, GpuTrackingParams, GpuTriangle,
+    GpuTriangleUv, GpuVdbMedium, GpuVelocityBlur, GpuWavefrontParams, GPU_CAMERA_POSES, STACK_NONE,
     SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
     WF_FLAG_GUIDED_LIGHTS,
 };
@@ -233,17 +233,11 @@ pub(super) fn medium_params(
     features: FeatureFlags,
     p: &mut GpuWavefrontParams,
 ) {
+    p.phases = GpuPhase::table(rs.vdb.iter().map(|m| &m.phase));
     if features.overlapping {
         p.vdb_count = rs.vdb.len() as u32;
-        p.flags |= if features.absorption {
-            WF_FLAG_ABSORPTION
-        } else {
-            0
-        } | if cfg.force_spectral {
-            WF_FLAG_FORCE_SPECTRAL
-        } else {
-            0
-        };
+        p.flags |= (features.absorption as u32 * WF_FLAG_ABSORPTION)
+            | (cfg.force_spectral as u32 * WF_FLAG_FORCE_SPECTRAL);
         p.mix_estimator = grey_estimator(cfg) as u32;
     }
     let Some(r) = rs.vdb.first().and_then(|m| medium_record(m, cfg, features)) else {
