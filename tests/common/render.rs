@@ -228,3 +228,20 @@ pub fn assert_same_beauty(a: &brume::film::Film, b: &brume::film::Film, label: &
         );
     }
 }
+
+/// A furnace render against 1 in every pixel ([`compare`] at level `alpha`), printed as one
+/// line under `label`; returns the agreement and the render's [`moments`].
+pub fn against_one(
+    out: &RenderOutput,
+    alpha: f64,
+    label: &str,
+) -> (Agreement, (Vec<f64>, Vec<f64>)) {
+    let (mean, var) = moments(out);
+    let (ones, zeros) = (vec![1.0; mean.len()], vec![0.0; mean.len()]);
+    let a = compare((&mean, &var), (&ones, &zeros), alpha);
+    println!(
+        "{label}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
+        a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
+    );
+    (a, (mean, var))
+}

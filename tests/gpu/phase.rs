@@ -202,7 +202,7 @@ fn render_phases() -> Vec<Phase> {
 
 #[test]
 fn furnace_renders_one_with_every_phase_on_the_gpu() {
-    use common::render::{compare, load_scene, moments, sidak_z};
+    use common::render::{against_one, load_scene, sidak_z};
     let Some(ctx) = common::gpu::gpu_or_skip("furnace_renders_one_with_every_phase") else {
         return;
     };
@@ -220,14 +220,7 @@ fn furnace_renders_one_with_every_phase_on_the_gpu() {
         };
         let label = format!("furnace {}", phase.name());
         let out = crate::render::gpu_render(&ctx, &scene, &s, &label);
-        let (mean, var) = moments(&out);
-        let ones = vec![1.0; mean.len()];
-        let zeros = vec![0.0; mean.len()];
-        let a = compare((&mean, &var), (&ones, &zeros), alpha);
-        println!(
-            "{label}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
-            a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
-        );
+        let (a, _) = against_one(&out, alpha, &label);
         assert_eq!(a.failing, 0, "{label}: {a:?}");
         assert!(a.mean_z < sidak_z(alpha, 3), "{label}: {a:?}");
     }

@@ -77,15 +77,8 @@ fn furnace_renders_one_for_every_estimator() {
             ..RenderSettings::default()
         };
         let out = render(&scene, &settings);
-        let (mean, var) = moments(&out);
-        let ones = vec![1.0; mean.len()];
-        let zeros = vec![0.0; mean.len()];
-        let a = compare((&mean, &var), (&ones, &zeros), alpha);
         let label = format!("{estimator} {majorant:?} b={b:?} m={m:?} spectral={spectral}");
-        println!(
-            "{label}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
-            a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
-        );
+        let (a, (mean, var)) = against_one(&out, alpha, &label);
         assert!(
             mean.iter().all(|v| v.is_finite()),
             "{label}: non-finite pixels"
@@ -160,14 +153,7 @@ fn furnace_renders_one_under_a_constant_map() {
         }
         let out =
             brume::backend::cpu::render(&rs, &settings, &AtomicBool::new(false), &|_, _, _| {});
-        let (mean, var) = moments(&out);
-        let ones = vec![1.0; mean.len()];
-        let zeros = vec![0.0; mean.len()];
-        let a = compare((&mean, &var), (&ones, &zeros), alpha);
-        println!(
-            "constant map ({label}): image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
-            a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
-        );
+        let (a, (mean, var)) = against_one(&out, alpha, &format!("constant map ({label})"));
         assert_eq!(a.failing, 0, "{label}: {a:?}");
         assert!(
             a.mean_z < 3.3,
@@ -209,13 +195,7 @@ fn furnace_renders_one_for_every_phase_function() {
             ..RenderSettings::default()
         };
         let out = render(&scene, &settings);
-        let (mean, var) = moments(&out);
-        let (ones, zeros) = (vec![1.0; mean.len()], vec![0.0; mean.len()]);
-        let a = compare((&mean, &var), (&ones, &zeros), alpha);
-        println!(
-            "{}: image mean {:.5} (z {:.2}), worst pixel z {:.2} (threshold {:.2}), {} of {} values fail",
-            phase.name(), a.mean_a, a.mean_z, a.worst_z, a.z_threshold, a.failing, a.pixels
-        );
+        let (a, (mean, _)) = against_one(&out, alpha, phase.name());
         assert!(mean.iter().all(|v| v.is_finite()), "{}", phase.name());
         assert_eq!(a.failing, 0, "{}: {a:?}", phase.name());
         assert!(a.mean_z < 3.3, "{}: {a:?}", phase.name());
