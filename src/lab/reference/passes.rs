@@ -64,15 +64,7 @@ pub fn cycles_light_passes(path: &Path) -> Result<RunPasses> {
         })?
         .to_string();
     let n = exr.width * exr.height;
-    let rgb = |pass: &str| -> Result<Vec<[f32; 3]>> {
-        let c = |ch: &str| {
-            exr.by_name
-                .get(&format!("{layer}{pass}.{ch}"))
-                .ok_or_else(|| anyhow!("{}: no {layer}{pass}.{ch} channel", path.display()))
-        };
-        let (r, g, b) = (c("R")?, c("G")?, c("B")?);
-        Ok((0..n).map(|i| [r[i], g[i], b[i]]).collect())
-    };
+    let rgb = |pass: &str| rgb_layer(path, &exr, &format!("{layer}{pass}"));
     debug_assert_eq!(CYCLES_LIGHT_PASSES.map(|p| p.0), LIGHT_PASSES);
     let mut out = Vec::new();
     for (name, terms) in CYCLES_LIGHT_PASSES {
@@ -189,17 +181,20 @@ pub fn read_passes(path: &Path, meta: &Metadata) -> Result<Vec<PassImage>> {
     Ok(out)
 }
 
+/// Layer `prefix`'s `R`, `G` and `B` channels of `exr` (read from `path`), per pixel.
+fn rgb_layer(path: &Path, exr: &ExrChannels, prefix: &str) -> Result<Vec<[f32; 3]>> {
+    let c = |ch: &str| {
+        exr.by_name
+            .get(&format!("{prefix}.{ch}"))
+            .ok_or_else(|| anyhow!("{}: no {prefix}.{ch} channel", path.display()))
+    };
+    let (r, g, b) = (c("R")?, c("G")?, c("B")?);
+    Ok((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
+}
+
 /// Pass `name` read from its mean and variance layers.
 fn pass_from_channels(path: &Path, exr: &ExrChannels, name: &str) -> Result<Image> {
-    let triple = |prefix: &str| -> Result<Vec<[f32; 3]>> {
-        let c = |ch: &str| {
-            exr.by_name
-                .get(&format!("{prefix}.{ch}"))
-                .ok_or_else(|| anyhow!("{}: no {prefix}.{ch} channel", path.display()))
-        };
-        let (r, g, b) = (c("R")?, c("G")?, c("B")?);
-        Ok((0..r.len()).map(|i| [r[i], g[i], b[i]]).collect())
-    };
+    let triple = |prefix: &str| rgb_layer(path, exr, prefix);
     Ok(Image {
         width: exr.width,
         height: exr.height,
