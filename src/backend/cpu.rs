@@ -9,7 +9,7 @@ use crate::film::{tiles, Film, TileRecord, TileRect};
 use crate::integrator::path::PathLimits;
 use crate::integrator::tile::{specialised, TileContext, TileFn, TileOutput};
 use crate::render::media::TrackingConfig;
-use crate::render::{FeatureFlags, RenderScene, RenderSettings};
+use crate::render::{FeatureFlags, RenderScene, RenderSettings, VolumeSampling};
 
 /// What a render produced.
 pub struct RenderOutput {
@@ -255,6 +255,11 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             light_passes: settings.light_passes,
             data_passes: settings.data_passes,
             light_groups: !settings.light_groups.is_empty(),
+            volume_sampling: if rs.lights.positional.is_empty() {
+                VolumeSampling::Distance
+            } else {
+                settings.volume_sampling
+            },
         },
         passes: settings.pass_names(),
         noisy: None,

@@ -119,6 +119,11 @@ pub struct RenderArgs {
     /// event) or uniform.
     #[arg(long, default_value = "guided")]
     pub light_selection: brume::render::LightSelection,
+    /// Scattering distances towards point and spot lights in media: mis (free flight and
+    /// equiangular sampling weighed by multiple importance sampling; default), distance (free
+    /// flight alone) or equiangular. Scenes without such lights render by free flight.
+    #[arg(long, default_value = "mis")]
+    pub volume_sampling: brume::render::VolumeSampling,
     /// Russian roulette also before the 8th bounce once the throughput's largest channel is
     /// below this (0 disables; default 0.5).
     #[arg(long)]
@@ -261,6 +266,7 @@ impl RenderArgs {
         s.max_depth = self.max_depth.or(scene.max_depth).unwrap_or(s.max_depth);
         s.env_sampling = self.env_sampling;
         s.light_selection = self.light_selection;
+        s.volume_sampling = self.volume_sampling;
         s.tile_size = self.tile_size;
         s.light_passes = self.passes.is_some_and(|p| p.light);
         s.data_passes = self.passes.is_some_and(|p| p.data);

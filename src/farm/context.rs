@@ -97,6 +97,8 @@ impl PartContext {
             let model = settings.blackbody.name().into();
             meta.set("brume:blackbody", AttrValue::Text(model));
         }
+        let sampling = settings.volume_sampling.name().into();
+        meta.set("brume:volume_sampling", AttrValue::Text(sampling));
         if let Some(e) = settings.noise_threshold {
             meta.set(NOISE_THRESHOLD_ATTRIBUTE, AttrValue::Float(e));
             meta.set("brume:min_spp", AttrValue::Int(settings.min_spp as i32));

@@ -1,9 +1,11 @@
 //! The CPU path tracer, the reference every backend is checked against: one path per camera
 //! sample ([`path::radiance`]) over the tiles of the image ([`tile`]), its free flights through
-//! the media ([`media`], [`homogeneous`], [`mixture`], [`nested`], [`views`]) and its BSDFs
+//! the media ([`media`], [`homogeneous`], [`mixture`], [`nested`], [`views`]), the scattering
+//! distances it samples towards point lights ([`equiangular`]) and its BSDFs
 //! ([`bsdf`]), each compiled for the scene's [`features`]. What it renders, the prepared scene
 //! and settings, is `crate::render`.
 pub mod bsdf;
+pub mod equiangular;
 pub mod features;
 pub mod flight;
 pub mod homogeneous;

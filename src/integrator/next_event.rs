@@ -49,19 +49,9 @@ pub(super) fn trace_shadow<F: Features>(
             return Vec3::ZERO;
         }
         let t1 = hit.map_or(dist, |h| h.t);
-        let medium = media.top();
-        if F::HOM {
-            if let Some(h) = medium {
-                tr *= transmittance_homogeneous(&rs.homogeneous[h as usize], t1 - t0);
-            }
-        }
-        if F::HET && (F::MIX || medium.is_none()) {
-            for &(m, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
-                tr *= transmittance_vdb::<F>(m, ray, a, b, cfg, rng, stats);
-                if tr == Vec3::ZERO {
-                    return tr;
-                }
-            }
+        tr *= media_transmittance::<F>(rs, cfg, ray, t0, t1, media.top(), rng, stats);
+        if tr == Vec3::ZERO {
+            return tr;
         }
         let (Some(h), Some(mat_index)) = (hit, mat_index) else {
             return tr;
@@ -76,6 +66,37 @@ pub(super) fn trace_shadow<F: Features>(
             return tr;
         }
     }
+}
+
+/// Transmittance along `ray` over `[t0, t1]` through the media there and no surface: the
+/// homogeneous medium `medium` the ray is in and the VDB media it crosses (those inside the
+/// homogeneous one with `F::MIX`), each estimated on its own.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn media_transmittance<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    medium: Option<u32>,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+) -> Vec3 {
+    let mut tr = Vec3::ONE;
+    if F::HOM {
+        if let Some(h) = medium {
+            tr *= transmittance_homogeneous(&rs.homogeneous[h as usize], t1 - t0);
+        }
+    }
+    if F::HET && (F::MIX || medium.is_none()) {
+        for &(m, a, b) in vdb_intervals(rs, ray, t0, t1).iter() {
+            tr *= transmittance_vdb::<F>(m, ray, a, b, cfg, rng, stats);
+            if tr == Vec3::ZERO {
+                return tr;
+            }
+        }
+    }
+    tr
 }
 
 /// How the last event chose its light for next-event estimation: what the escape of the ray

@@ -6,6 +6,7 @@
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
+use super::equiangular::{distance_weight, equiangular_estimate, media_extent, Segment};
 use super::features::Features;
 use super::flight::media_flight;
 use super::media::{Emitted, Flight, MediumEvent};
@@ -16,6 +17,7 @@ use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::lights::{emitted, power_heuristic, LightSource};
 use crate::render::media::{MediaStats, TrackingConfig};
 use crate::render::prepare::{RenderScene, SurfaceKind};
+use crate::render::settings::VolumeSampling;
 use crate::render::stack::MediumStack;
 use crate::sampling::sobol::{bounce_dim, DIM_DISTANCE, DIM_LOBE, DIM_RR, DIM_SCATTER, DIM_TIME};
 use crate::sampling::warp::Frame;
@@ -44,6 +46,9 @@ pub struct PathLimits {
     pub data_passes: bool,
     /// Split the radiance into the light groups (`RenderScene::groups`) as well.
     pub light_groups: bool,
+    /// How scattering distances towards point and spot lights are sampled
+    /// (`integrator::equiangular`); `Distance` where the scene has no such light.
+    pub volume_sampling: VolumeSampling,
 }
 
 /// What one path cost and did.
@@ -102,6 +107,9 @@ struct PathState {
     depth_seen: bool,
     /// The radiance by light group (`PathLimits::light_groups`).
     groups: [Vec3; MAX_LIGHT_GROUPS],
+    /// The last flight's segment where equiangular sampling weighed it (the MIS weight of a
+    /// scattering event's next-event estimate there).
+    segment: Option<Segment>,
 }
 
 /// Number of data passes, and each one's index (`film::passes::DATA_PASSES` order).
@@ -133,6 +141,18 @@ impl PathState {
         if limits.light_groups && group != NO_GROUP {
             self.groups[group as usize] += x;
         }
+    }
+
+    /// Adds `x`, a next-event estimate at a scattering event of the flight that follows
+    /// (depth `depth + 1`), as [`Self::gather`] would there.
+    #[inline(always)]
+    fn gather_next(&mut self, limits: &PathLimits, x: Vec3, group: u8) {
+        self.depth += 1;
+        if self.depth == 1 {
+            self.first_in_medium = true;
+        }
+        self.gather(limits, x, EMISSION, group);
+        self.depth -= 1;
     }
 
     #[inline(always)]
@@ -333,6 +353,7 @@ fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -
         albedo_seen: false,
         depth_seen: false,
         groups: [Vec3::ZERO; MAX_LIGHT_GROUPS],
+        segment: None,
     }
 }
 
@@ -390,6 +411,10 @@ fn sample_medium<F: Features>(
         ps.passes[k] += ps.l - before;
     }
     sampler.rng.clear_queue();
+    ps.segment = None;
+    if limits.volume_sampling != VolumeSampling::Distance && ps.depth < limits.max_depth {
+        equiangular::<F>(rs, cfg, limits, ps, t_hit, sampler, stats);
+    }
     if collisions(&stats.media) - start_collisions > limits.max_collisions {
         stats.guard_fired += 1;
         return FlightEnd::Ended;
@@ -409,6 +434,33 @@ fn sample_medium<F: Features>(
             } else {
                 FlightEnd::Scattered { t, phase }
             }
+        }
+    }
+}
+
+/// The equiangular strategy's estimate over the flight up to `t_hit` (`integrator::equiangular`),
+/// gathered as the next event's, with the path's throughput before the flight.
+#[inline(never)]
+fn equiangular<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    limits: &PathLimits,
+    ps: &mut PathState,
+    t_hit: f32,
+    sampler: &mut Sampler,
+    stats: &mut PathStats,
+) {
+    ps.segment = media_extent::<F>(rs, &ps.ray, ps.t0, t_hit, ps.media);
+    let Some(seg) = &ps.segment else {
+        return;
+    };
+    let mode = limits.volume_sampling;
+    let rng = &mut sampler.rng;
+    if let Some((l, source)) = equiangular_estimate::<F>(rs, cfg, mode, seg, rng, &mut stats.media)
+    {
+        if l != Vec3::ZERO {
+            let group = group_of(rs, Some(source));
+            ps.gather_next(limits, ps.beta * l, group);
         }
     }
 }
@@ -448,7 +500,7 @@ fn scatter_medium<F: Features>(
     let guided = limits
         .guided_lights
         .then_some((&phase, wo, limits.continuation_albedo));
-    let (ld, choice, source) = next_event::<F>(
+    let (mut ld, choice, source) = next_event::<F>(
         rs,
         cfg,
         Vertex {
@@ -464,6 +516,9 @@ fn scatter_medium<F: Features>(
             (Vec3::splat(f), f)
         },
     );
+    if let Some(seg) = &ps.segment {
+        ld *= distance_weight::<F>(rs, cfg, limits.volume_sampling, seg, t, source);
+    }
     ps.gather(limits, ps.beta * ld, EMISSION, group_of(rs, source));
     ps.prev_env = choice;
     Some(Scatterer::Phase { phase, p, wo })

@@ -111,6 +111,13 @@ impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
         }
     }
 
+    /// The density the trackers read at `ray(t)` (the medium's motion and blur included).
+    pub(super) fn density_at(&self, t: f32) -> f32 {
+        self.m
+            .density
+            .at_index(self.blur.index_point(&self.ray_i, t))
+    }
+
     /// RGB factor of a scattering event chosen with the grey `sigma_s`.
     pub(super) fn scatter_albedo(&self) -> Vec3 {
         if self.sigma_s > 0.0 {

@@ -115,6 +115,9 @@ pub struct Lights {
     /// Each punctual light's motion across the shutter, where it moves: a sample at time
     /// offset `dt` sees it at that pose ([`Lights::posed`]).
     pub motion: Vec<Option<crate::scene::motion::NodeMotion>>,
+    /// The point and spot lights (indices into `punctual`): those equiangular sampling aims at
+    /// (`integrator::equiangular`).
+    pub positional: Vec<u32>,
     /// The environment, when it emits.
     pub environment: Option<EnvLight>,
     pub area: Option<AreaLights>,
@@ -180,7 +183,12 @@ impl Lights {
                 lum,
             }
         });
+        let positional = (scene.lights.iter().enumerate())
+            .filter(|(_, l)| l.kind == LIGHT_POINT || l.kind == LIGHT_SPOT)
+            .map(|(k, _)| k as u32)
+            .collect();
         Lights {
+            positional,
             punctual: scene.lights.clone(),
             motion: scene.light_motion.clone(),
             environment: EnvLight::new(&scene.environment),
@@ -219,6 +227,11 @@ impl Lights {
         1.0 / self.count() as f32
     }
 
+    /// The probability of each light under uniform selection.
+    pub fn uniform_pmf(&self) -> f32 {
+        self.pmf()
+    }
+
     /// Whether medium events select lights by contribution ([`Lights::phase_selection`]):
     /// no area lights, at most [`GUIDED_MAX_PUNCTUAL`] punctual lights, and at least two
     /// choices or a constant environment (which may be left to the continuation ray).
@@ -253,8 +266,6 @@ impl Lights {
         }
     }
 
-    /// Direction, distance and arriving radiance (or irradiance) of punctual light `k` at `p`
-    /// (`None` at the light's own position).
     /// Punctual light `k` at time offset `dt`: its position and direction at that pose (the
     /// light itself, borrowed, where it stands still).
     #[inline]
@@ -277,7 +288,9 @@ impl Lights {
         self.motion.iter().any(Option::is_some)
     }
 
-    fn punctual_incident(&self, k: usize, p: Vec3, dt: f32) -> Option<(Vec3, f32, Vec3)> {
+    /// Direction, distance and arriving radiant intensity / r^2 (or irradiance) of punctual
+    /// light `k` at `p` at time offset `dt` (`None` at the light's own position).
+    pub fn punctual_incident(&self, k: usize, p: Vec3, dt: f32) -> Option<(Vec3, f32, Vec3)> {
         let l = &*self.posed(k, dt);
         let intensity = Vec3::from(l.intensity);
         if l.kind == LIGHT_DIRECTIONAL {

@@ -18,5 +18,5 @@ pub mod stack;
 pub use prepare::{FeatureFlags, RenderScene};
 pub use settings::{
     Absorption, BlackbodyModel, Estimator, LightSelection, MajorantMode, RenderSettings,
-    SamplerKind, ShadowEstimator,
+    SamplerKind, ShadowEstimator, VolumeSampling,
 };

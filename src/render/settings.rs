@@ -180,6 +180,30 @@ impl LightSelection {
     }
 }
 
+/// How the distance of a medium scattering event lit by a point or spot light is chosen.
+///
+/// `Distance` samples it by free flight alone (pbrt-v4, Mitsuba 3); `Equiangular` samples it
+/// along each flight segment equiangularly towards one of the point and spot lights (Kulla and
+/// Fajardo 2012) and leaves those lights out of the free-flight events' next-event estimates;
+/// `Mis` (default) does both and weighs them by the power heuristic (Cycles' default). Scenes
+/// without point or spot lights, or without media, render by free flight whatever the choice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VolumeSampling {
+    Distance,
+    Equiangular,
+    Mis,
+}
+
+impl VolumeSampling {
+    pub fn name(self) -> &'static str {
+        match self {
+            VolumeSampling::Distance => "distance",
+            VolumeSampling::Equiangular => "equiangular",
+            VolumeSampling::Mis => "mis",
+        }
+    }
+}
+
 /// Transmittance estimator for shadow rays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadowEstimator {
@@ -210,6 +234,7 @@ parse_names!(Estimator, "estimator", [
     "weighted-decomposition" => Estimator::WeightedDecomposition,
 ]);
 parse_names!(Absorption, "absorption mode", ["event" => Absorption::Event, "weight" => Absorption::Weight]);
+parse_names!(VolumeSampling, "volume sampling", ["distance" => VolumeSampling::Distance, "equiangular" => VolumeSampling::Equiangular, "mis" => VolumeSampling::Mis]);
 parse_names!(LightSelection, "light selection", ["guided" => LightSelection::Guided, "guided-full-sky" => LightSelection::GuidedFullSky, "uniform" => LightSelection::Uniform]);
 // "local" is the default's alias (it named the per-leaf bounds before the adaptive hierarchy).
 parse_names!(MajorantMode, "majorant mode", [
@@ -294,6 +319,8 @@ pub struct RenderSettings {
     pub env_sampling: super::envmap::EnvSampling,
     /// How next-event estimation chooses its light at medium events.
     pub light_selection: LightSelection,
+    /// How scattering distances lit by point and spot lights are sampled in media.
+    pub volume_sampling: VolumeSampling,
     /// A transparent film: the environment the camera sees straight through is left out of
     /// the colour (it still lights the scene), so the colour and the coverage alpha are a
     /// premultiplied RGBA to lay over a plate.
@@ -341,6 +368,7 @@ impl Default for RenderSettings {
             max_collisions_per_path: 1 << 22,
             env_sampling: super::envmap::EnvSampling::Importance,
             light_selection: LightSelection::Guided,
+            volume_sampling: VolumeSampling::Mis,
             film_transparent: false,
             light_passes: false,
             data_passes: false,

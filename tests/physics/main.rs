@@ -11,6 +11,7 @@ mod adaptive;
 mod data_passes;
 mod emission_support;
 mod envmap;
+mod equiangular;
 mod film_alpha;
 mod light_groups;
 mod light_passes;

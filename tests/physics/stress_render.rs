@@ -501,6 +501,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             light_passes: false,
             data_passes: false,
             light_groups: false,
+            volume_sampling: brume::render::VolumeSampling::Distance,
         };
         let (mut sum, mut sum2, mut max_beta, mut max_l) = (0f64, 0f64, 0f32, 0f32);
         for i in 0..n {

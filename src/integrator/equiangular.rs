@@ -1,0 +1,270 @@
+//! Equiangular sampling of scattering distances towards point and spot lights (Kulla and
+//! Fajardo 2012, "Importance Sampling Techniques for Path Tracing in Participating Media"),
+//! combined with free-flight sampling by multiple importance sampling.
+//!
+//! Along a flight segment `x(t) = o + t d` (unit `d`), over `[a, b]` where its media are, the
+//! light that point or spot light `k` (at `c`, intensity `I_k`) scatters once towards `-d` is
+//!
+//! ```text
+//! L_k = int_a^b T(a, t) S(x) T(x, c) I_k / |c - x|^2 dt,    S(x) = sum_m sigma_s,m(x) p_m(wo, wi)
+//! ```
+//!
+//! Free flight draws `t` with a density of about `T sigma_t`, which lacks the `1 / r^2` peak
+//! around the light: a bulb inside smoke gives it infinite variance. The equiangular density
+//!
+//! ```text
+//! p_e(t) = D / ((theta_b - theta_a) (D^2 + (t - t_c)^2)),    t = t_c + D tan(theta)
+//! ```
+//!
+//! (`t_c` the ray parameter nearest `c`, `D` the distance from `c` to the ray, `theta` uniform
+//! between the angles `theta_a`, `theta_b` under which `c` sees the segment's ends) cancels it.
+//! One estimate per flight segment, the light drawn uniformly among the point and spot lights
+//! (`q_k = 1 / n`):
+//!
+//! ```text
+//! <L>_e = w_e(t, k) T^(a, t) S(x) T^(x, c) I_k / |c - x|^2 / (q_k p_e(t))
+//! ```
+//!
+//! with ratio-tracked transmittances `T^` (unbiased, and independent of each other, so their
+//! product is too). A free-flight event's next-event estimate of light `k` is multiplied by
+//! `w_d(t, k) = 1 - w_e(t, k)`. Null-collision trackers have no closed-form distance density,
+//! but the weights only need to sum to one at every `(t, k)` and be computed alike by both
+//! strategies, not to use the true densities (the freedom Miller, Georgiev and Jarosz 2019
+//! build on). The free-flight density is taken as a homogeneous medium's with the extinction
+//! found at `x`,
+//!
+//! ```text
+//! p_d(t) = sigma_t(x) exp(-sigma_t(x) (t - a))
+//! w_e    = (q_k p_e)^2 / ((q_k p_e)^2 + (P_k p_d)^2)     (power heuristic, P_k = 1 / lights)
+//! ```
+//!
+//! exact in a homogeneous medium, a local approximation in a heterogeneous one.
+use glam::Vec3;
+
+use super::features::{Features, NoFeatures};
+use super::flight::vdb_intervals;
+use super::next_event::{media_transmittance, trace_shadow};
+use super::views::GreyView;
+use crate::math::Ray;
+use crate::render::lights::{power_heuristic, LightSource};
+use crate::render::media::{MediaStats, TrackingConfig};
+use crate::render::prepare::RenderScene;
+use crate::render::settings::VolumeSampling;
+use crate::render::stack::MediumStack;
+use crate::sampling::Rng;
+
+/// The equiangular density of one segment `[a, b]` of a ray towards a light.
+#[derive(Clone, Copy, Debug)]
+pub struct Equiangular {
+    t_c: f32,
+    d: f32,
+    theta_a: f32,
+    theta_b: f32,
+}
+
+impl Equiangular {
+    /// The density along `ray` (unit direction) over `[a, b]` (`b` may be infinite) towards
+    /// `light`; `None` where the light lies on the ray's line (a density of no width).
+    pub fn new(ray: &Ray, light: Vec3, a: f32, b: f32) -> Option<Equiangular> {
+        let t_c = (light - ray.o).dot(ray.d);
+        let d = (ray.at(t_c) - light).length();
+        let scale = 1.0 + light.abs().max_element();
+        if !(d > 1e-6 * scale) || !(b > a) {
+            return None;
+        }
+        let theta_a = (a - t_c).atan2(d);
+        let theta_b = (b - t_c).atan2(d);
+        (theta_b > theta_a).then_some(Equiangular {
+            t_c,
+            d,
+            theta_a,
+            theta_b,
+        })
+    }
+
+    /// The distance for uniform `u`.
+    pub fn sample(&self, u: f32) -> f32 {
+        let theta = self.theta_a + u * (self.theta_b - self.theta_a);
+        self.t_c + self.d * theta.tan()
+    }
+
+    /// The density of `t` (in `[a, b]`).
+    pub fn pdf(&self, t: f32) -> f32 {
+        let s = t - self.t_c;
+        self.d / ((self.theta_b - self.theta_a) * (self.d * self.d + s * s))
+    }
+}
+
+/// One flight segment as both strategies weigh it: the ray, the part `[a, b]` of the flight
+/// where its media are, and the media the ray is in.
+#[derive(Clone, Copy)]
+pub(super) struct Segment {
+    pub(super) ray: Ray,
+    pub(super) a: f32,
+    pub(super) b: f32,
+    pub(super) media: MediumStack,
+}
+
+/// The part of the flight `[t0, t1]` along `ray` where it crosses media: all of it inside a
+/// homogeneous medium, else from the first VDB medium's entry to the last one's exit.
+pub(super) fn media_extent<F: Features>(
+    rs: &RenderScene,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+    media: MediumStack,
+) -> Option<Segment> {
+    let seg = |a, b| Segment {
+        ray: *ray,
+        a,
+        b,
+        media,
+    };
+    if F::HOM && media.top().is_some() {
+        return Some(seg(t0, t1));
+    }
+    if !F::HET {
+        return None;
+    }
+    let spans = vdb_intervals(rs, ray, t0, t1);
+    let a = spans.first()?.1;
+    let b = spans.iter().fold(a, |b, s| b.max(s.2));
+    Some(seg(a, b))
+}
+
+/// Sums `each(sigma_s, sigma_t, phase)` over the media at `ray.at(t)`: the homogeneous medium
+/// the segment is in and the VDB media whose bounds hold the point, with their coefficients
+/// there as the trackers read them (motion and blur at `cfg.time`).
+fn media_at<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    seg: &Segment,
+    t: f32,
+    mut each: impl FnMut(Vec3, Vec3, &crate::volume::phases::Phase),
+) {
+    if F::HOM {
+        if let Some(h) = seg.media.top() {
+            let h = &rs.homogeneous[h as usize];
+            each(h.sigma_s, h.sigma_t(), &h.phase);
+            if !F::MIX {
+                return;
+            }
+        }
+    }
+    if F::HET {
+        let x = seg.ray.at(t);
+        for m in rs.vdb.iter() {
+            let b = &m.world_bounds;
+            if x.cmpge(b.min).all() && x.cmple(b.max).all() {
+                let view = GreyView::<NoFeatures, false>::new(m, &seg.ray, cfg, Vec3::ONE);
+                let d = view.density_at(t);
+                if d > 0.0 {
+                    each(m.sigma_s * d, (m.sigma_s + m.sigma_a) * d, &m.phase);
+                }
+            }
+        }
+    }
+}
+
+/// The free-flight density that MIS weighs against the equiangular one at `t` (module doc).
+fn distance_pdf<F: Features>(rs: &RenderScene, cfg: &TrackingConfig, seg: &Segment, t: f32) -> f32 {
+    let mut sigma_t = 0.0;
+    media_at::<F>(rs, cfg, seg, t, |_, st, _| {
+        sigma_t += st.element_sum() / 3.0
+    });
+    sigma_t * (-sigma_t * (t - seg.a).max(0.0)).exp()
+}
+
+/// The equiangular strategy's weight at `(t, k)` (1 without MIS); `eq` is light `k`'s density
+/// and `q` its selection probability among the point and spot lights.
+fn equiangular_weight<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    mode: VolumeSampling,
+    seg: &Segment,
+    t: f32,
+    eq_pdf: f32,
+) -> f32 {
+    match mode {
+        VolumeSampling::Mis => {
+            let p_d = rs.lights.uniform_pmf() * distance_pdf::<F>(rs, cfg, seg, t);
+            power_heuristic(eq_pdf, p_d)
+        }
+        _ => 1.0,
+    }
+}
+
+/// The weight of a free-flight event's next-event estimate of light `source` at `t` in the
+/// segment `seg`: 1 for lights the equiangular strategy does not sample, `1 - w_e` for those
+/// it does.
+pub(super) fn distance_weight<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    mode: VolumeSampling,
+    seg: &Segment,
+    t: f32,
+    source: Option<LightSource>,
+) -> f32 {
+    let Some(LightSource::Punctual(k)) = source else {
+        return 1.0;
+    };
+    let positional = &rs.lights.positional;
+    if mode == VolumeSampling::Distance || !positional.contains(&k) {
+        return 1.0;
+    }
+    let c = Vec3::from(rs.lights.posed(k as usize, cfg.time).position);
+    let Some(eq) = Equiangular::new(&seg.ray, c, seg.a, seg.b) else {
+        return 1.0;
+    };
+    let q = 1.0 / positional.len() as f32;
+    1.0 - equiangular_weight::<F>(rs, cfg, mode, seg, t, q * eq.pdf(t))
+}
+
+/// The equiangular strategy's estimate over `seg` (module doc), before the path's throughput,
+/// and the light it sampled; `None` without point or spot lights or where the light lies on
+/// the ray's line.
+pub(super) fn equiangular_estimate<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    mode: VolumeSampling,
+    seg: &Segment,
+    rng: &mut Rng,
+    stats: &mut MediaStats,
+) -> Option<(Vec3, LightSource)> {
+    let positional = &rs.lights.positional;
+    let n = positional.len();
+    let u_select = rng.uniform_f32();
+    let u_t = rng.uniform_f32();
+    let k = *positional.get(((u_select * n as f32) as usize).min(n.checked_sub(1)?))?;
+    let source = LightSource::Punctual(k);
+    let c = Vec3::from(rs.lights.posed(k as usize, cfg.time).position);
+    let eq = Equiangular::new(&seg.ray, c, seg.a, seg.b)?;
+    let t = eq.sample(u_t).clamp(seg.a, seg.b);
+    let x = seg.ray.at(t);
+    let zero = Some((Vec3::ZERO, source));
+    let Some((wi, dist, li)) = rs.lights.punctual_incident(k as usize, x, cfg.time) else {
+        return zero;
+    };
+    let wo = -seg.ray.d;
+    let mut s = Vec3::ZERO;
+    media_at::<F>(rs, cfg, seg, t, |sigma_s, _, phase| {
+        s += sigma_s * phase.p(wo, wi)
+    });
+    let pdf = eq.pdf(t) / n as f32;
+    if s == Vec3::ZERO || li == Vec3::ZERO || !(pdf > 0.0) {
+        return zero;
+    }
+    let w = equiangular_weight::<F>(rs, cfg, mode, seg, t, pdf);
+    if !(w > 0.0) {
+        return zero;
+    }
+    let ray_a = Ray::new(seg.ray.at(seg.a), seg.ray.d);
+    let tr_a =
+        media_transmittance::<F>(rs, cfg, &ray_a, 0.0, t - seg.a, seg.media.top(), rng, stats);
+    if tr_a == Vec3::ZERO {
+        return zero;
+    }
+    let shadow = Ray::new(x, wi);
+    let tr_c = trace_shadow::<F>(rs, cfg, &shadow, dist * (1.0 - 1e-4), seg.media, rng, stats);
+    Some((tr_a * s * tr_c * li * (w / pdf), source))
+}

@@ -1,0 +1,188 @@
+//! Equiangular sampling towards point lights (`integrator::equiangular`), alone and weighed
+//! against free flight by MIS:
+//! - single scattering (max depth 1) of a point light inside a homogeneous slab, each pixel
+//!   against the 1-D integral along its rays by quadrature, for every `--volume-sampling`;
+//! - a point light inside a heterogeneous blob, all orders of scattering: MIS and equiangular
+//!   sampling against free flight alone at four times the samples (per-pixel z-tests).
+use crate::common::boxes::boxes_scene;
+use crate::common::overlap::{dir, medium, write_grid, write_scene, N};
+use crate::common::render::{compare, compare_renders, footprint_mean, moments, render};
+use crate::common::scratch::dir as scratch;
+use crate::common::stress::blob_voxels;
+
+use brume::math::Ray;
+use brume::render::{RenderScene, RenderSettings, VolumeSampling};
+use glam::Vec3;
+use serde_json::json;
+
+const W: u32 = 16;
+/// The light, inside the slab and outside the view (every camera ray passes it at a distance:
+/// the quadrature's integrand is smooth over each pixel).
+const LIGHT: [f32; 3] = [0.8, 0.1, 0.0];
+const LO: [f32; 3] = [-2.0, -2.0, -0.5];
+const HI: [f32; 3] = [2.0, 2.0, 0.5];
+
+fn settings(spp: u32, seed: u32, sampling: VolumeSampling, max_depth: u32) -> RenderSettings {
+    RenderSettings {
+        width: W,
+        height: W,
+        spp,
+        seed,
+        max_depth,
+        volume_sampling: sampling,
+        ..RenderSettings::default()
+    }
+}
+
+/// The slab of `boxes_scene` (sigma_t 1.5, albedo 0.8, HG g 0.3) in the dark, lit by a point
+/// light at [`LIGHT`].
+fn slab_scene() -> brume::scene::Scene {
+    let d = scratch("equiangular_slab");
+    let path = boxes_scene(&d, &[(LO, HI, 1.5, 0.8)], false, 0.3);
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.8, 0.6], "intensity": 3.0}]}});
+    doc["extensionsUsed"] = json!([
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+        "KHR_lights_punctual"
+    ]);
+    let n = doc["nodes"].as_array().unwrap().len();
+    doc["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"translation": LIGHT, "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(n));
+    let p = write_scene(&d, "lit_slab.gltf", &doc);
+    brume::scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The single-scattered radiance along `ray` (one channel, intensity `i`): the integral over
+/// the slab's chord of `exp(-sigma_t s) sigma_s p_HG(cos) I exp(-sigma_t r) / r^2`, taken in
+/// the equiangular variable `theta` (`t = t_c + D tan theta`), where the `1 / r^2` becomes
+/// the constant `1 / D` and the integrand is smooth: 512 midpoints.
+fn single_scattering(rs: &RenderScene, ray: &Ray, i: f32) -> f64 {
+    let h = &rs.homogeneous[0];
+    let (sigma_t, sigma_s) = (h.sigma_t().x as f64, h.sigma_s.x as f64);
+    let g = 0.3f64;
+    let (o, d) = (ray.o.as_dvec3(), ray.d.as_dvec3().normalize());
+    let c = Vec3::from(LIGHT).as_dvec3();
+    let t_in = (HI[2] as f64 - o.z) / d.z;
+    let t_out = (LO[2] as f64 - o.z) / d.z;
+    let t_c = (c - o).dot(d);
+    let dist = (o + t_c * d - c).length();
+    let (ta, tb) = ((t_in - t_c).atan2(dist), (t_out - t_c).atan2(dist));
+    const Q: usize = 512;
+    let mut sum = 0.0;
+    for k in 0..Q {
+        let theta = ta + (k as f64 + 0.5) / Q as f64 * (tb - ta);
+        let t = t_c + dist * theta.tan();
+        let x = o + t * d;
+        let r = (c - x).length();
+        let cos = d.dot((c - x) / r);
+        let p =
+            (1.0 - g * g) / (4.0 * std::f64::consts::PI * (1.0 + g * g - 2.0 * g * cos).powf(1.5));
+        sum += (-sigma_t * (t - t_in)).exp() * sigma_s * p * (-sigma_t * r).exp() / dist;
+    }
+    sum * (tb - ta) / Q as f64 * i as f64
+}
+
+/// Single scattering from a point light in a homogeneous medium, per pixel and channel
+/// against the quadrature, for free flight, equiangular sampling and their MIS.
+#[test]
+fn single_scattering_from_a_point_light_matches_quadrature() {
+    let scene = slab_scene();
+    let s = settings(512, 3, VolumeSampling::Mis, 1);
+    let rs = RenderScene::prepare(&scene, &s).unwrap();
+    let intensity = Vec3::from(rs.lights.punctual[0].intensity);
+    let mut expected = Vec::new();
+    for k in 0..W * W {
+        for c in 0..3 {
+            let f = |ray: &Ray| single_scattering(&rs, ray, intensity[c]);
+            expected.push(footprint_mean(&rs, W, (k % W, k / W), f));
+        }
+    }
+    let zero = vec![0.0; expected.len()];
+    for sampling in [
+        VolumeSampling::Mis,
+        VolumeSampling::Equiangular,
+        VolumeSampling::Distance,
+    ] {
+        let out = render(&scene, &settings(512, 3, sampling, 1));
+        let (m, v) = moments(&out);
+        let a = compare((&m, &v), (&expected, &zero), 1e-3);
+        println!(
+            "{}: image mean {:.5} against {:.5} (z {:.2}); {} of {} values failing (worst z \
+             {:.2}, threshold {:.2})",
+            sampling.name(),
+            a.mean_a,
+            a.mean_b,
+            a.mean_z,
+            a.failing,
+            a.pixels,
+            a.worst_z,
+            a.z_threshold
+        );
+        assert_eq!(a.failing, 0, "{}", sampling.name());
+        assert!(
+            a.mean_z < 4.0,
+            "{}: image mean z {}",
+            sampling.name(),
+            a.mean_z
+        );
+    }
+}
+
+/// A point light inside a heterogeneous blob (out of view, so free flight's variance is
+/// finite), every order of scattering: MIS and equiangular sampling against free flight.
+#[test]
+fn heterogeneous_medium_with_a_point_light_matches_free_flight() {
+    let d = dir("equiangular_blob");
+    write_grid(&d.join("blob.vdb"), blob_voxels(N));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2]}],
+        "nodes": [
+            {"camera": 0, "translation": [0.0, 0.0, 3.0]},
+            {"translation": [0.3, -0.05, 0.05], "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"extensions": {"BRUME_medium_vdb": medium("blob.vdb", false)}}
+        ],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.12, "znear": 0.01}}],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"type": "point", "color": [1, 1, 1], "intensity": 2.0}]}},
+        "extensionsUsed": ["BRUME_medium_vdb", "KHR_lights_punctual"],
+    });
+    let p = write_scene(&d, "blob_bulb.gltf", &doc);
+    let scene = brume::scene::load(&p).unwrap_or_else(|e| panic!("{e}"));
+    let depth = brume::render::settings::DEFAULT_MAX_DEPTH;
+    let reference = render(&scene, &settings(4096, 11, VolumeSampling::Distance, depth));
+    for sampling in [VolumeSampling::Mis, VolumeSampling::Equiangular] {
+        let out = render(&scene, &settings(1024, 12, sampling, depth));
+        let a = compare_renders(&out, &reference, W as usize, W as usize, 1, 1e-3);
+        println!(
+            "{} against distance: image mean {:.5} against {:.5} (z {:.2}); {} of {} values \
+             failing (worst z {:.2}, threshold {:.2})",
+            sampling.name(),
+            a.mean_a,
+            a.mean_b,
+            a.mean_z,
+            a.failing,
+            a.pixels,
+            a.worst_z,
+            a.z_threshold
+        );
+        assert_eq!(a.failing, 0, "{}", sampling.name());
+        assert!(
+            a.mean_z < 4.0,
+            "{}: image mean z {}",
+            sampling.name(),
+            a.mean_z
+        );
+    }
+}
