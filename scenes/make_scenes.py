@@ -10,7 +10,9 @@
   depth across it of order 1-3) with albedo 0.9 (color 0.9, absorptionColor 0, so
   sigma_s = 0.9 d and sigma_a = 0.1 d), lit by a sun over a black background, or by a
   constant sky alone. plume_blur.gltf: plume_sun with the plume's velocity grid
-  (scenes/vdb/plume_vel.vdb) and a half-frame shutter: velocity motion blur.
+  (scenes/vdb/plume_vel.vdb) and a half-frame shutter: velocity motion blur. plume_bulb.gltf:
+  the plume in the dark, lit only by a point light inside its dense lower part (a lamp in the
+  smoke: what equiangular sampling is for).
 - textured_backdrop.gltf: the cloud in front of a textured backdrop (base-colour texture,
   clamped), on a textured ground (repeat, KHR_texture_transform scale and rotation, nearest
   filter) beside an emissive sign (emissive texture), under a sun and a sky: textures/*.png
@@ -120,7 +122,7 @@ def chromatic_smoke():
 SUN_ROTATION = [-0.3303661, 0.2432103, 0.0885213, 0.9076734]  # as cloud.gltf
 
 
-def plume(name, sun, sky, blur=False):
+def plume(name, sun, sky, blur=False, bulb=False):
     """The plume grid spans about [-1, 1]^3 (height along y); scale 2 makes it 4 m tall. Its
     column integral across the axis is 0.060 grid units at most and 0.039 at the median height
     (printed by make_grids), so with the node's scale 2 densityScale 20 gives optical depths
@@ -149,6 +151,10 @@ def plume(name, sun, sky, blur=False):
     if sky:
         ext["BRUME_environment"] = {"color": [0.55, 0.7, 1.0], "strength": 1.0}
         used.append("BRUME_environment")
+    if bulb:
+        nodes.append({"name": "bulb", "translation": PLUME_BULB, "extensions": {"KHR_lights_punctual": {"light": 0}}})
+        ext["KHR_lights_punctual"] = {"lights": [{"name": "bulb", "type": "point", "color": [1.0, 0.8, 0.55], "intensity": 4.0}]}
+        used.append("KHR_lights_punctual")
     doc = {
         "asset": {"version": "2.0", "generator": "brume scenes/make_scenes.py"},
         "scene": 0,
@@ -406,6 +412,8 @@ def smoke_tank():
 
 
 PLUME_DENSITY_SCALE = 20.0
+# Inside the plume's lower part, where it is densest (world metres; the plume is 4 m tall).
+PLUME_BULB = [0.0, -1.2, 0.0]
 DENSE_FOG_SCALE = 7.0
 
 
@@ -415,6 +423,7 @@ if __name__ == "__main__":
     plume("plume_sun.gltf", sun=True, sky=False)
     plume("plume_sky.gltf", sun=False, sky=True)
     plume("plume_blur.gltf", sun=True, sky=False, blur=True)
+    plume("plume_bulb.gltf", sun=False, sky=False, bulb=True)
     dense_fog()
     textured_backdrop()
     fire2()

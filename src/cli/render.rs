@@ -124,6 +124,11 @@ pub struct RenderArgs {
     /// flight alone) or equiangular. Scenes without such lights render by free flight.
     #[arg(long, default_value = "mis")]
     pub volume_sampling: brume::render::VolumeSampling,
+    /// Emitting media as lights: on (next-event estimation towards points of the emitting
+    /// media, weighed against the emission paths meet by MIS; default) or off (only paths
+    /// that meet the emission find it).
+    #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    pub media_lights: bool,
     /// Russian roulette also before the 8th bounce once the throughput's largest channel is
     /// below this (0 disables; default 0.5).
     #[arg(long)]
@@ -267,6 +272,7 @@ impl RenderArgs {
         s.env_sampling = self.env_sampling;
         s.light_selection = self.light_selection;
         s.volume_sampling = self.volume_sampling;
+        s.media_lights = self.media_lights;
         s.tile_size = self.tile_size;
         s.light_passes = self.passes.is_some_and(|p| p.light);
         s.data_passes = self.passes.is_some_and(|p| p.data);
@@ -762,4 +768,13 @@ fn write_outputs(
     }
     super::render_report::report_totals(&args.output, settings, out, &t);
     Ok(())
+}
+
+/// `on` or `off`.
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        other => Err(format!("'{other}' is not on or off")),
+    }
 }

@@ -27,13 +27,14 @@ pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> 
         crate::render::VolumeSampling::Mis => String::new(),
         other => format!(" volume_sampling={}", other.name()),
     };
+    let media_lights = if s.media_lights { "" } else { " media_lights=off" };
     let adaptive = s.noise_threshold.map_or(String::new(), |e| {
         format!(" noise_threshold={e} min_spp={}", s.min_spp)
     });
     format!(
         "estimator={} b={} m={} majorant={} shadow={:?} spectral={} absorption={} generic={} \
          sampler={} max_depth={} rr_depth={} rr_throughput={} max_pass_spp={} \
-         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}{adaptive}{blackbody}{volume_sampling}",
+         max_collisions={} env_sampling={} light_selection={} camera={}{film}{passes}{adaptive}{blackbody}{volume_sampling}{media_lights}",
         s.estimator,
         s.b,
         s.m_or_default()

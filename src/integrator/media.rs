@@ -14,6 +14,7 @@ use super::views::{GreyView, RgbView};
 use crate::math::Ray;
 use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::media::{MediaStats, TrackingConfig, VdbMedium};
+use crate::render::media_lights::MediaLights;
 use crate::render::settings::{Absorption, Estimator, MajorantMode};
 use crate::sampling::Rng;
 use crate::volume::phases::Phase;
@@ -169,10 +170,21 @@ pub struct Flight<'f> {
 }
 
 /// Where the emission a flight meets goes: the path's radiance and, where light groups are
-/// kept, the emitting medium's group.
+/// kept, the emitting medium's group; and, where emitting media are sampled as lights, what
+/// its MIS weight needs.
 pub struct Emitted<'f> {
     pub l: &'f mut Vec3,
     pub groups: Option<&'f mut [Vec3; MAX_LIGHT_GROUPS]>,
+    pub mis: Option<EmissionMis<'f>>,
+}
+
+/// What the MIS weight of a flight's emission against the media lights needs
+/// (`render::media_lights`): the lights, and the pdf of the direction the ray left its last
+/// scattering event by (the ray's origin).
+#[derive(Clone, Copy)]
+pub struct EmissionMis<'f> {
+    pub lights: &'f MediaLights,
+    pub pdf_dir: f32,
 }
 
 impl Emitted<'_> {
@@ -192,6 +204,7 @@ impl Emitted<'_> {
         Emitted {
             l: &mut *self.l,
             groups: self.groups.as_deref_mut(),
+            mis: self.mis,
         }
     }
 }
@@ -225,7 +238,8 @@ pub fn sample_vdb<F: Features>(
         let Flight {
             rng, stats, mut l, ..
         } = f;
-        let view = RgbView::<F>::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta);
+        let mut view = RgbView::<F>::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta);
+        view.mis = l.mis;
         let e = with_walk!(m, &view.ray_i, t0, t1, cfg.majorant, |segs| {
             let spectral = Spectral {
                 b: cfg.b(),
@@ -249,9 +263,13 @@ pub fn sample_vdb<F: Features>(
     // ABS = false view compiles it out of the lookups.
     match (F::ABS, cfg.absorption) {
         (true, Absorption::Event) => {
-            sample_grey(GreyView::<F, true>::new(m, ray, cfg, beta), t0, t1, f)
+            let view = GreyView::<F, true>::new(m, ray, cfg, beta).with_mis(f.l.mis);
+            sample_grey(view, t0, t1, f)
         }
-        _ => sample_grey(GreyView::<F, false>::new(m, ray, cfg, beta), t0, t1, f),
+        _ => {
+            let view = GreyView::<F, false>::new(m, ray, cfg, beta).with_mis(f.l.mis);
+            sample_grey(view, t0, t1, f)
+        }
     }
 }
 

@@ -223,7 +223,7 @@ fn sample_grey<F: Features, const ABS: bool>(
     let views: Vec<GreyView<F, ABS>> = media
         .vdb
         .iter()
-        .map(|(m, _, _)| GreyView::new(m, ray, cfg, beta))
+        .map(|(m, _, _)| GreyView::new(m, ray, cfg, beta).with_mis(l.mis))
         .collect();
     let hom = media.hom.map(|h| HomGrey::new(h, cfg.absorption, ABS));
     let albedos = views.iter().map(|v| v.control_albedo).chain(
@@ -336,7 +336,11 @@ fn sample_rgb<F: Features>(media: RayMedia, beta: Vec3, f: Flight) -> (MediumEve
     let views: Vec<RgbView<F>> = media
         .vdb
         .iter()
-        .map(|(m, _, _)| RgbView::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta))
+        .map(|(m, _, _)| {
+            let mut view = RgbView::new(m, ray, cfg.absorption, cfg.majorant, cfg.time, beta);
+            view.mis = l.mis;
+            view
+        })
         .collect();
     let hom = media.hom.map(|h| {
         let (sigma_a, sigma_s) = match cfg.absorption {

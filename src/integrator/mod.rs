@@ -1,10 +1,12 @@
 //! The CPU path tracer, the reference every backend is checked against: one path per camera
 //! sample ([`path::radiance`]) over the tiles of the image ([`tile`]), its free flights through
 //! the media ([`media`], [`homogeneous`], [`mixture`], [`nested`], [`views`]), the scattering
-//! distances it samples towards point lights ([`equiangular`]) and its BSDFs
+//! distances it samples towards point lights ([`equiangular`]), its light samples on emitting
+//! media ([`emitters`]) and its BSDFs
 //! ([`bsdf`]), each compiled for the scene's [`features`]. What it renders, the prepared scene
 //! and settings, is `crate::render`.
 pub mod bsdf;
+pub mod emitters;
 pub mod equiangular;
 pub mod features;
 pub mod flight;

@@ -9,7 +9,8 @@ use super::bsdf::{fresnel_dielectric, refract, Principled};
 use super::equiangular::{distance_weight, equiangular_estimate, media_extent, Segment};
 use super::features::Features;
 use super::flight::media_flight;
-use super::media::{Emitted, Flight, MediumEvent};
+use super::emitters::emitter_event;
+use super::media::{EmissionMis, Emitted, Flight, MediumEvent};
 use super::next_event::{next_event, EnvChoice, Vertex};
 use crate::accel::Hit;
 use crate::math::Ray;
@@ -402,6 +403,13 @@ fn sample_medium<F: Features>(
             l: Emitted {
                 l: &mut ps.l,
                 groups: limits.light_groups.then_some(&mut ps.groups),
+                // After a scattering event, emission is weighed against the media lights.
+                mis: rs.media_lights.as_ref().filter(|_| !ps.specular).map(|lights| {
+                    EmissionMis {
+                        lights,
+                        pdf_dir: ps.prev_pdf,
+                    }
+                }),
             },
         },
     );
@@ -465,6 +473,28 @@ fn equiangular<F: Features>(
     }
 }
 
+/// Next-event estimation towards the emitting media from the event at `p`
+/// (`integrator::emitters`), gathered as the event's.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn emitters<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    limits: &PathLimits,
+    ps: &mut PathState,
+    p: Vec3,
+    sampler: &mut Sampler,
+    stats: &mut PathStats,
+    scatter: impl Fn(Vec3) -> (Vec3, f32),
+) {
+    let rng = &mut sampler.rng;
+    if let Some((l, source)) =
+        emitter_event::<F>(rs, cfg, p, ps.media, rng, &mut stats.media, scatter)
+    {
+        ps.gather(limits, ps.beta * l, EMISSION, group_of(rs, Some(source)));
+    }
+}
+
 /// The depth limit and next-event estimation with the phase function at a medium scattering
 /// event at `t` (`Stage::ScatterMedium`). `None` ends the path.
 #[allow(clippy::too_many_arguments)]
@@ -500,6 +530,10 @@ fn scatter_medium<F: Features>(
     let guided = limits
         .guided_lights
         .then_some((&phase, wo, limits.continuation_albedo));
+    let scatter = |wi| {
+        let f = phase.p(wo, wi);
+        (Vec3::splat(f), f)
+    };
     let (mut ld, choice, source) = next_event::<F>(
         rs,
         cfg,
@@ -511,16 +545,16 @@ fn scatter_medium<F: Features>(
         sampler,
         ps.depth - 1,
         &mut stats.media,
-        |wi| {
-            let f = phase.p(wo, wi);
-            (Vec3::splat(f), f)
-        },
+        scatter,
     );
     if let Some(seg) = &ps.segment {
         ld *= distance_weight::<F>(rs, cfg, limits.volume_sampling, seg, t, source);
     }
     ps.gather(limits, ps.beta * ld, EMISSION, group_of(rs, source));
     ps.prev_env = choice;
+    if F::EMIT {
+        emitters::<F>(rs, cfg, limits, ps, p, sampler, stats, scatter);
+    }
     Some(Scatterer::Phase { phase, p, wo })
 }
 
@@ -616,6 +650,13 @@ fn shade_surface<F: Features>(
     let bsdf = Principled::new(base_color, mat.metallic, mat.roughness);
     let wo_l = frame.to_local(wo);
     let p_off = offset(p, n_side, n_side);
+    let scatter = |wi: Vec3| {
+        if n_side.dot(wi) <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let wi_l = frame.to_local(wi);
+        (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
+    };
     let (ld, choice, source) = next_event::<F>(
         rs,
         cfg,
@@ -627,16 +668,13 @@ fn shade_surface<F: Features>(
         sampler,
         ps.depth - 1,
         &mut stats.media,
-        |wi| {
-            if n_side.dot(wi) <= 0.0 {
-                return (Vec3::ZERO, 0.0);
-            }
-            let wi_l = frame.to_local(wi);
-            (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
-        },
+        scatter,
     );
     ps.gather(limits, ps.beta * ld, EMISSION, group_of(rs, source));
     ps.prev_env = choice;
+    if F::EMIT {
+        emitters::<F>(rs, cfg, limits, ps, p_off, sampler, stats, scatter);
+    }
     SurfaceEnd::Scatters(Scatterer::Bsdf {
         bsdf,
         frame,

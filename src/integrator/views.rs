@@ -10,6 +10,7 @@ use std::marker::PhantomData;
 use glam::Vec3;
 
 use super::features::Features;
+use super::media::EmissionMis;
 use crate::math::{per_channel_ratio, Ray};
 use crate::render::media::{TrackingConfig, VdbMedium, VelocityBlur};
 use crate::render::settings::{Absorption, MajorantMode};
@@ -38,6 +39,8 @@ pub(super) struct GreyView<'a, F: Features, const ABS: bool> {
     /// The per-voxel culling of the walk's kept collisions ([`VdbMedium::voxel_culling`]).
     pub(super) voxel: Option<VoxelCulling<'a>>,
     pub(super) blur: Blur<'a>,
+    /// The MIS weight of its emission against the media lights, after a scattering event.
+    pub(super) mis: Option<EmissionMis<'a>>,
     features: PhantomData<F>,
 }
 
@@ -107,8 +110,15 @@ impl<'a, F: Features, const ABS: bool> GreyView<'a, F, ABS> {
             culling: m.culling(cfg.majorant),
             voxel: m.voxel_culling(cfg.majorant),
             blur: Blur::of(m, cfg.time),
+            mis: None,
             features: PhantomData,
         }
+    }
+
+    /// The view with its emission weighed by `mis` (`render::media_lights`).
+    pub(super) fn with_mis(mut self, mis: Option<EmissionMis<'a>>) -> Self {
+        self.mis = mis;
+        self
     }
 
     /// The density the trackers read at `ray(t)` (the medium's motion and blur included).
@@ -162,10 +172,26 @@ impl<F: Features, const ABS: bool> Medium for GreyView<'_, F, ABS> {
             if let Some(e) = &self.m.emission {
                 let p = self.blur.world_point(&self.ray_w, &self.ray_i, t);
                 let le = e.radiance(p, &self.emission_lookups);
+                let w = w * emission_weight(self.m, self.mis, &self.ray_i, t, le);
                 self.emitted
                     .set(self.emitted.get() + self.beta * (w / sigma_maj) * le);
             }
         }
+    }
+}
+
+/// The MIS weight of emission `le` met at `ray_i(t)` in medium `m` against the media lights
+/// (`MediaLights::collision_weight`; the ray leaves its last event at `t = 0`, and `m` is
+/// sampled as a light only where it stands still, so `t` is the distance from it): 1 without
+/// MIS or where `m` is not sampled.
+#[inline(always)]
+fn emission_weight(m: &VdbMedium, mis: Option<EmissionMis>, ray_i: &Ray, t: f32, le: Vec3) -> f32 {
+    match (mis, m.emitter) {
+        (Some(mis), Some(slot)) if le != Vec3::ZERO => {
+            mis.lights
+                .collision_weight(slot, ray_i.at(t), t, mis.pdf_dir)
+        }
+        _ => 1.0,
     }
 }
 
@@ -225,6 +251,8 @@ pub(super) struct RgbView<'a, F: Features> {
     /// As [`GreyView::culling`].
     pub(super) culling: Option<LeafCulling<'a>>,
     pub(super) blur: Blur<'a>,
+    /// The MIS weight of its emission against the media lights, after a scattering event.
+    pub(super) mis: Option<EmissionMis<'a>>,
     features: PhantomData<F>,
 }
 
@@ -260,6 +288,7 @@ impl<'a, F: Features> RgbView<'a, F> {
             emission_lookups: Cell::new(0),
             culling: m.culling(majorant),
             blur: Blur::of(m, time),
+            mis: None,
             features: PhantomData,
         }
     }
@@ -296,6 +325,7 @@ impl<F: Features> MediumRgb for RgbView<'_, F> {
             if let Some(e) = &self.m.emission {
                 let p = self.blur.world_point(&self.ray_w, &self.ray_i, t);
                 let le = e.radiance(p, &self.emission_lookups);
+                let w = w * emission_weight(self.m, self.mis, &self.ray_i, t, le);
                 self.emitted
                     .set(self.emitted.get() + self.beta * w * le / sigma_maj);
             }

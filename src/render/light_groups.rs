@@ -84,6 +84,7 @@ impl LightGroups {
             LightSource::Punctual(k) => self.punctual[k as usize],
             LightSource::Environment => self.environment,
             LightSource::Area => self.surfaces,
+            LightSource::Medium(k) => self.media[k as usize],
         }
     }
 

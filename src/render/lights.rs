@@ -107,6 +107,8 @@ pub enum LightSource {
     Environment,
     /// An emissive triangle.
     Area,
+    /// A point of emitting medium `k` (`RenderScene::vdb` order).
+    Medium(u32),
 }
 
 pub struct Lights {

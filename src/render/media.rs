@@ -38,6 +38,8 @@ pub struct VdbMedium {
     /// The light group its emission gathers into (`render::light_groups`; `NO_GROUP` where
     /// none is kept).
     pub light_group: u8,
+    /// Its slot in `RenderScene::media_lights`, where it emits and is sampled as a light.
+    pub emitter: Option<u32>,
     pub density: GridField,
     /// World bounds of the density's support.
     pub world_bounds: Aabb,

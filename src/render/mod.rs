@@ -11,6 +11,7 @@ pub mod envmap;
 pub mod light_groups;
 pub mod lights;
 pub mod media;
+pub mod media_lights;
 pub mod prepare;
 pub mod settings;
 pub mod stack;

@@ -9,6 +9,7 @@ use super::media::{
     Blackbody, CullingSound, Emission, EmissionRegion, GridField, HomogeneousMedium, VdbMedium,
     VelocityBlur, WalkPlan,
 };
+use super::media_lights::MediaLights;
 use super::settings::{BlackbodyModel, RenderSettings};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::math::Aabb;
@@ -165,6 +166,9 @@ pub struct RenderScene<'s> {
     /// The light groups the render keeps (`RenderSettings::light_groups`), if any; each
     /// medium's group is also on it (`VdbMedium::light_group`).
     pub groups: Option<LightGroups>,
+    /// The emitting media sampled as lights (`RenderSettings::media_lights`), where some
+    /// medium emits.
+    pub media_lights: Option<MediaLights>,
 }
 
 impl RenderScene<'_> {
@@ -218,6 +222,9 @@ impl<'s> RenderScene<'s> {
             for b in emissions.filter_map(|e| e.blackbody.as_mut()) {
                 b.of_voxels = true;
             }
+        }
+        if settings.media_lights {
+            rs.media_lights = MediaLights::build(&mut rs.vdb);
         }
         Ok(rs)
     }
@@ -322,6 +329,7 @@ impl<'s> RenderScene<'s> {
             pinhole: scene.camera.pinhole(),
             shutter,
             groups: None,
+            media_lights: None,
         })
     }
 }
@@ -397,6 +405,7 @@ fn vdb_medium(desc: &VdbMediumDesc, shutter: Shutter, fps: f32) -> Result<VdbMed
         blur: blur.map(Arc::new),
         motion: None,
         light_group: NO_GROUP,
+        emitter: None,
     };
     if let Some(node) = &desc.motion {
         let motion = FrameMotion {

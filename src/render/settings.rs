@@ -321,6 +321,10 @@ pub struct RenderSettings {
     pub light_selection: LightSelection,
     /// How scattering distances lit by point and spot lights are sampled in media.
     pub volume_sampling: VolumeSampling,
+    /// Emitting media are sampled as lights by next-event estimation
+    /// (`render::media_lights`), weighed against the flights' own emission by MIS; off, only
+    /// the flights find them (the ablation).
+    pub media_lights: bool,
     /// A transparent film: the environment the camera sees straight through is left out of
     /// the colour (it still lights the scene), so the colour and the coverage alpha are a
     /// premultiplied RGBA to lay over a plate.
@@ -369,6 +373,7 @@ impl Default for RenderSettings {
             env_sampling: super::envmap::EnvSampling::Importance,
             light_selection: LightSelection::Guided,
             volume_sampling: VolumeSampling::Mis,
+            media_lights: true,
             film_transparent: false,
             light_passes: false,
             data_passes: false,

@@ -16,6 +16,7 @@ mod film_alpha;
 mod light_groups;
 mod light_passes;
 mod light_selection;
+mod media_lights;
 mod media_nested;
 mod media_overlap;
 mod motion_blur;

@@ -112,6 +112,7 @@ fn tally<F: Features>(
             rng: &mut rng,
             stats: &mut stats,
             l: Emitted {
+                mis: None,
                 l: &mut l,
                 groups: None,
             },

@@ -25,7 +25,7 @@ use clap::Args;
 use crate::film::{read_exr, write_image, AttrValue, Image, Metadata};
 use crate::study::stats::{self, ImageMean};
 
-const RENDERERS: [&str; 13] = [
+const RENDERERS: [&str; 15] = [
     "brume",
     "brume-baseline",
     "brume-event",
@@ -37,6 +37,8 @@ const RENDERERS: [&str; 13] = [
     "brume-decomposition",
     "brume-uniform-lights",
     "brume-sky-every-event",
+    "brume-distance",
+    "brume-collisions",
     "mitsuba",
     "cycles",
 ];
@@ -68,6 +70,8 @@ fn brume_variant(name: &str, s: &mut crate::render::RenderSettings) -> bool {
         "brume-sky-every-event" => {
             s.light_selection = crate::render::LightSelection::GuidedFullSky;
         }
+        "brume-distance" => s.volume_sampling = crate::render::VolumeSampling::Distance,
+        "brume-collisions" => s.media_lights = false,
         _ => return false,
     }
     true
@@ -103,10 +107,29 @@ pub struct PeersArgs {
     /// per-leaf majorants, independent sampler, no early roulette, uniform light selection;
     /// brume-event, brume-no-rr-guard, brume-leaf,
     /// brume-global, brume-independent, brume-spectral, brume-decomposition,
-    /// brume-uniform-lights, brume-sky-every-event: one default changed each), mitsuba, cycles
-    /// (default: brume, mitsuba, cycles).
+    /// brume-uniform-lights, brume-sky-every-event, brume-distance (free-flight distances
+    /// only, no equiangular sampling), brume-collisions (emitting media found by paths only,
+    /// not sampled as lights): one default changed each), mitsuba, cycles (default: brume,
+    /// mitsuba, cycles).
     #[arg(long, value_delimiter = ',', default_value = "brume,mitsuba,cycles")]
     pub renderers: Vec<String>,
+    /// Measure variance and means over the pixels `[X0, X1) x [Y0, Y1)` only (e.g. the ground
+    /// under a fire); every renderer still renders the whole image.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_window)]
+    pub window: Option<[u32; 4]>,
+}
+
+/// `X0,Y0,X1,Y1`.
+fn parse_window(s: &str) -> Result<[u32; 4], String> {
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<u32>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("'{s}': {e}"))?;
+    match v[..] {
+        [x0, y0, x1, y1] if x0 < x1 && y0 < y1 => Ok([x0, y0, x1, y1]),
+        _ => Err(format!("'{s}' is not X0,Y0,X1,Y1 with X0 < X1 and Y0 < Y1")),
+    }
 }
 
 /// One renderer's renders of one scene.
@@ -143,6 +166,11 @@ pub fn run(args: &PeersArgs) -> Result<()> {
     }
     if args.spp == 0 || args.width == 0 || args.height == 0 || args.threads == 0 {
         bail!("--spp, --width, --height and --threads must be at least 1");
+    }
+    if let Some([_, _, x1, y1]) = args.window {
+        if x1 > args.width || y1 > args.height {
+            bail!("--window ends outside the {}x{} image", args.width, args.height);
+        }
     }
     for r in &args.renderers {
         if !RENDERERS.contains(&r.as_str()) {
@@ -195,8 +223,11 @@ pub fn run(args: &PeersArgs) -> Result<()> {
         }
         table.add(&name, &rows);
     }
+    let window = args.window.map_or(String::new(), |[x0, y0, x1, y1]| {
+        format!(", statistics over pixels [{x0}, {x1}) x [{y0}, {y1})")
+    });
     let header = format!(
-        "{}x{}, {} spp, {} threads, seeds 0..{} per renderer and scene",
+        "{}x{}, {} spp, {} threads, seeds 0..{} per renderer and scene{window}",
         args.width,
         args.height,
         args.spp,
@@ -340,7 +371,7 @@ fn brume_renders(
         seconds.push(out.seconds);
         images.push(image);
     }
-    Ok(Outcome::Done(row(name, &images, &seconds, None, args.spp)?))
+    Ok(Outcome::Done(row(name, &images, &seconds, None, args)?))
 }
 
 /// Mitsuba or Cycles through `brume mitsuba` / `brume cycles` (this executable), one process
@@ -402,9 +433,7 @@ fn peer_renders(
         images.push(image);
     }
     let setup = (setups.len() == seconds.len()).then(|| stats::mean_std(&setups).0);
-    Ok(Outcome::Done(row(
-        which, &images, &seconds, setup, args.spp,
-    )?))
+    Ok(Outcome::Done(row(which, &images, &seconds, setup, args)?))
 }
 
 /// The seconds a peer reports, and the set-up part of them when it says so. Cycles:
@@ -455,14 +484,27 @@ fn sig3(x: f64) -> String {
     }
 }
 
+/// The pixels of `image` inside `window` (all of them without one), row by row.
+fn windowed(image: &Image, window: Option<[u32; 4]>) -> Vec<[f32; 3]> {
+    let Some([x0, y0, x1, y1]) = window.map(|w| w.map(|v| v as usize)) else {
+        return image.rgb.clone();
+    };
+    (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+        .map(|(x, y)| image.rgb[y * image.width + x])
+        .collect()
+}
+
 fn row(
     renderer: &'static str,
     images: &[Image],
     seconds: &[f64],
     setup: Option<f64>,
-    spp: u32,
+    args: &PeersArgs,
 ) -> Result<Row> {
-    let rgb: Vec<&[[f32; 3]]> = images.iter().map(|i| i.rgb.as_slice()).collect();
+    let spp = args.spp;
+    let pixels: Vec<Vec<[f32; 3]>> = images.iter().map(|i| windowed(i, args.window)).collect();
+    let rgb: Vec<&[[f32; 3]]> = pixels.iter().map(|p| p.as_slice()).collect();
     let variance = stats::seed_variance_profile(&rgb, stats::TOP_FRACTION)
         .map_err(|e| anyhow!("{renderer}: {e}"))?;
     let mean = stats::image_mean(&rgb).map_err(|e| anyhow!("{renderer}: {e}"))?;
