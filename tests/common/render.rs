@@ -249,7 +249,11 @@ pub fn against_one(
 /// `furnace.gltf` with its index-matched box filled by a white homogeneous medium of
 /// scattering coefficient `sigma_s` (m^-1, no absorption) and phase function `phase`, around
 /// the cloud where `cloud` (the media then add up) or alone: every pixel still estimates 1.
-pub fn homogeneous_furnace(phase: brume::volume::phases::Phase, sigma_s: f32, cloud: bool) -> Scene {
+pub fn homogeneous_furnace(
+    phase: brume::volume::phases::Phase,
+    sigma_s: f32,
+    cloud: bool,
+) -> Scene {
     let mut scene = load_scene("furnace.gltf");
     if !cloud {
         scene.vdb_media.clear();

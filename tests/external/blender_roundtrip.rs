@@ -576,9 +576,10 @@ fn volume_scatter_phases_export() {
         let rgb = |v: &serde_json::Value| -> [f32; 3] {
             std::array::from_fn(|k| v[k].as_f64().unwrap() as f32)
         };
-        let d = rgb_difference(m.sigma_s_per_density(), rgb(&want["sigma_s"])).max(
-            rgb_difference(m.sigma_a_per_density(), rgb(&want["sigma_a"])),
-        );
+        let d = rgb_difference(m.sigma_s_per_density(), rgb(&want["sigma_s"])).max(rgb_difference(
+            m.sigma_a_per_density(),
+            rgb(&want["sigma_a"]),
+        ));
         assert!(d < 1e-5, "{name}: coefficients differ by {d}");
         worst = worst.max(d);
     }
@@ -606,10 +607,9 @@ fn volume_scatter_phases_export() {
     // brume_to_cycles.py's set-up for a medium with a phase (a Principled Volume that absorbs
     // plus Volume Scatter nodes: `phase_scattering`) exports the phase it was built from.
     std::os::unix::fs::symlink(root().join("scenes/vdb"), cx.path("vdb")).unwrap();
-    let cloud: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(root().join("scenes/cloud.gltf")).unwrap(),
-    )
-    .unwrap();
+    let cloud: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root().join("scenes/cloud.gltf")).unwrap())
+            .unwrap();
     let phases = [
         serde_json::json!({"type": "henyey-greenstein", "g": -0.3}),
         serde_json::json!({"type": "two-lobe", "g1": 0.85, "g2": -0.3, "weight": 0.9}),

@@ -8,8 +8,9 @@ use super::graph::{Passes, Stage};
 use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
-    GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuPhase, GpuQueue,
-    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams, GPU_DATA_PASS_BYTES,
+    GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuPhase,
+    GpuQueue, GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
+    GPU_DATA_PASS_BYTES,
 };
 use crate::render::{blackbody, RenderScene};
 
