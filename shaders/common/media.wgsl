@@ -138,10 +138,10 @@ fn stack_cross(top: u32, outer: u32, interior: u32, entering: bool) -> vec2<u32>
     return vec2<u32>(new_top, b1 | (b2 << 16u));
 }
 
-// The phase function at the path's scattering event: its homogeneous medium's
-// Henyey-Greenstein, else the VDB medium's; in the mixture variant, that of the medium the
-// event picked (recorded by the medium stage in GpuPathState::phase_medium and phase_g, as
-// sample_media returns them with the event).
+// The phase function at the path's scattering event: its homogeneous medium's, else the VDB
+// medium's; in the mixture variant, that of the VDB medium the event picked where it picked
+// one (recorded by the medium stage in GpuPathState::phase_medium and phase_g, as sample_media
+// returns them with the event), else the homogeneous medium's the path is in.
 fn path_phase(ps: GpuPathState) -> GpuPhase {
     var ph = phase_hg(wf.phase_g);
 // #if FEATURE_PHASES
@@ -149,14 +149,17 @@ fn path_phase(ps: GpuPathState) -> GpuPhase {
 // #endif
     if (FEATURE_HOMOGENEOUS && ps.medium != NO_INDEX) {
         ph = phase_hg(homogeneous[ps.medium].g);
+// #if FEATURE_PHASES
+        ph = homogeneous[ps.medium].phase;
+// #endif
     }
 // #if FEATURE_MIXTURE
-    ph = phase_hg(ps.phase_g);
-// #if FEATURE_PHASES
     if (ps.phase_medium != NO_INDEX) {
+        ph = phase_hg(ps.phase_g);
+// #if FEATURE_PHASES
         ph = wf.phases[ps.phase_medium];
-    }
 // #endif
+    }
 // #endif
     return ph;
 }

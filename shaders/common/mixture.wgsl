@@ -131,7 +131,7 @@ struct Flight {
     t: f32,            // world ray parameter of a scattering event
     weight: vec3<f32>, // multiplies the throughput (scatter, escape)
     g: f32,
-    phase_medium: u32, // the VDB medium whose phase applies (NO_INDEX: g's Henyey-Greenstein)
+    phase_medium: u32, // the VDB medium whose phase applies (NO_INDEX: the homogeneous medium's)
 }
 
 // Folds a flight's tracker into the path: random stream, counters, gathered emission.

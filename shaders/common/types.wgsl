@@ -72,7 +72,7 @@ struct GpuTrackingStats {
     _pad2: u32,
 }
 
-// GpuPhase: a VDB medium's phase function (PHASE_* kind, unused parameters zero).
+// GpuPhase: a medium's phase function (PHASE_* kind, unused parameters zero).
 struct GpuPhase {
     kind: u32,
     g_a: f32,   // HG lobe's g (Mie: the HG part's; Draine: its own)
@@ -150,7 +150,7 @@ struct GpuPathState {
     phase_g: f32,       // g of the medium that scattered last (mixture variant)
     time: f32,          // the camera sample's time offset, frames (0 without a shutter)
     shadow_group: u32,  // light group of the pending shadow ray's light (light-group variant)
-    phase_medium: u32,  // VDB medium whose phase applies (wf.phases; NO_INDEX: phase_g's HG)
+    phase_medium: u32,  // VDB medium whose phase applies (wf.phases; NO_INDEX: the homogeneous one's)
     _pad2: u32,
 }
 
@@ -225,9 +225,10 @@ struct GpuAreaLight {
 // GpuHomogeneousMedium: KHR_materials_volume medium, m^-1.
 struct GpuHomogeneousMedium {
     sigma_a: vec3<f32>,
-    g: f32,             // Henyey-Greenstein g
+    g: f32,             // Henyey-Greenstein g (the phase of the variants without FEATURE_PHASES)
     sigma_s: vec3<f32>,
     _pad0: f32,
+    phase: GpuPhase,    // its phase function (FEATURE_PHASES)
 }
 
 // obvhs' CwBvhNode (Ylitie et al. 2017), 80 bytes: byte fields read as words.

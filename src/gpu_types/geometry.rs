@@ -3,7 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use std::mem::{offset_of, size_of};
 
-use super::StructLayout;
+use super::{GpuPhase, StructLayout};
 
 /// One triangle as the GPU's ray queries and shading read it, in the BVH's primitive order
 /// (`CwBvh::primitive_indices`): entry `k` is scene triangle `triangle`. Positions and normals
@@ -51,20 +51,23 @@ pub struct GpuAreaLight {
 }
 const _: () = assert!(size_of::<GpuAreaLight>() == 8);
 
-/// A homogeneous medium (`integrator::media::HomogeneousMedium`), coefficients in m^-1.
+/// A homogeneous medium (`render::media::HomogeneousMedium`), coefficients in m^-1.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuHomogeneousMedium {
     /// Absorption coefficient per RGB channel, m^-1.
     pub sigma_a: [f32; 3],
-    /// Henyey-Greenstein `g`.
+    /// Henyey-Greenstein `g`: the phase function of the variants without `FEATURE_PHASES`
+    /// (0 where it is another one; those variants are not built for such a medium).
     pub g: f32,
     /// Scattering coefficient per RGB channel, m^-1.
     pub sigma_s: [f32; 3],
     /// Padding to a 16-byte row.
     pub _pad0: f32,
+    /// Its phase function, which the `FEATURE_PHASES` variants read.
+    pub phase: GpuPhase,
 }
-const _: () = assert!(size_of::<GpuHomogeneousMedium>() == 32);
+const _: () = assert!(size_of::<GpuHomogeneousMedium>() == 64);
 
 /// The texture coordinates (TEXCOORD_0) of a [`GpuTriangle`]'s corners, same slot.
 #[repr(C)]

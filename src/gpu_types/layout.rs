@@ -158,7 +158,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
     layout!(
         GpuHomogeneousMedium,
         "GpuHomogeneousMedium",
-        [sigma_a, g, sigma_s, _pad0]
+        [sigma_a, g, sigma_s, _pad0, phase]
     ),
     CWBVH_NODE_LAYOUT,
     layout!(

@@ -69,8 +69,8 @@ pub struct GpuPathState {
     /// light-group variant.
     pub shadow_group: u32,
     /// The VDB medium whose phase function applies at the path's scattering event
-    /// ([`GpuWavefrontParams::phases`]), `NO_INDEX` where it is a homogeneous medium's
-    /// Henyey-Greenstein `phase_g` (set by the mixture variant, as `phase_g` is).
+    /// ([`GpuWavefrontParams::phases`]), `NO_INDEX` where it is the homogeneous medium's the
+    /// path is in (set by the mixture variant, as `phase_g` is).
     pub phase_medium: u32,
     pub _pad2: u32,
 }

@@ -72,7 +72,7 @@ pub struct FeatureFlags {
     /// blurred medium or a moving camera. Not part of [`FeatureFlags::as_array`]: the CPU
     /// tests the shutter once per sample; the GPU variants cut the time's code without it.
     pub motion: bool,
-    /// Some VDB medium's phase function is not Henyey-Greenstein. Not part of
+    /// Some medium's phase function is not Henyey-Greenstein. Not part of
     /// [`FeatureFlags::as_array`]: the CPU matches on the phase per event; the GPU variants
     /// keep only Henyey-Greenstein's code without it.
     pub phases: bool,
@@ -246,7 +246,7 @@ impl<'s> RenderScene<'s> {
             .map(|h| HomogeneousMedium {
                 sigma_a: Vec3::from(h.sigma_a),
                 sigma_s: Vec3::from(h.sigma_s),
-                phase: Phase::hg(h.g),
+                phase: h.phase,
             })
             .collect();
         let kinds: Vec<SurfaceKind> = scene.materials.iter().map(surface_kind).collect();
@@ -288,7 +288,11 @@ impl<'s> RenderScene<'s> {
             textures: scene.uses_textures(),
             env_map: false,
             motion: false,
-            phases: vdb.iter().any(|v| v.phase.henyey_greenstein_g().is_none()),
+            phases: vdb
+                .iter()
+                .map(|v| &v.phase)
+                .chain(homogeneous.iter().map(|h| &h.phase))
+                .any(|p| p.henyey_greenstein_g().is_none()),
         };
         let mut lights = Lights::new(scene);
         // Only media that scatter have medium events (a purely absorbing one, such as

@@ -27,7 +27,8 @@ pub struct Effects {
     pub media_emission: bool,
     /// Some medium's sigma_t differs across RGB channels (needs spectral MIS / hero channel).
     pub chromatic_extinction: bool,
-    /// Some scattering medium has a Henyey-Greenstein g != 0.
+    /// Some scattering medium's phase function is not isotropic: Henyey-Greenstein with g != 0,
+    /// or another phase function.
     pub anisotropic_phase: bool,
     /// Any point, spot or directional light.
     pub punctual_lights: bool,
@@ -80,7 +81,8 @@ impl Effects {
                 .instances
                 .iter()
                 .any(|i| scene.materials[i.material as usize].interior_medium == k as u32);
-            if bounded && note_medium(&mut e, m.sigma_s, m.sigma_a, m.g) {
+            let g = m.phase.henyey_greenstein_g().unwrap_or(1.0);
+            if bounded && note_medium(&mut e, m.sigma_s, m.sigma_a, g) {
                 e.homogeneous_media = true;
             }
         }
@@ -89,7 +91,9 @@ impl Effects {
                 &mut e,
                 m.sigma_s_per_density(),
                 m.sigma_a_per_density(),
-                m.anisotropy,
+                m.phase
+                    .map_or(Some(m.anisotropy), |p| p.henyey_greenstein_g())
+                    .unwrap_or(1.0),
             ) {
                 e.heterogeneous_media = true;
             }

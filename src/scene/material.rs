@@ -16,6 +16,7 @@ use super::error::{Ctx, SceneError};
 use super::json::{check_all, check_f32, Obj};
 use super::texture::{texture_ref, TextureRef};
 use super::{BRUME_MATERIALS_VOLUME_SCATTERING, NO_INDEX};
+use crate::volume::phases::Phase;
 
 /// Surface description, 64 bytes, uploaded as is.
 #[repr(C)]
@@ -69,20 +70,19 @@ impl Default for Material {
     }
 }
 
-/// A homogeneous medium, 32 bytes: coefficients per metre, linear RGB.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+/// A homogeneous medium: coefficients per metre, linear RGB, and its phase function.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HomogeneousMedium {
     /// Absorption coefficient sigma_a, m^-1.
     pub sigma_a: [f32; 3],
-    /// Henyey-Greenstein asymmetry g in (-1, 1).
-    pub g: f32,
     /// Scattering coefficient sigma_s, m^-1.
     pub sigma_s: [f32; 3],
+    /// The phase function (`BRUME_materials_volume_scattering`'s `phase`, else
+    /// Henyey-Greenstein with its `anisotropy`).
+    pub phase: Phase,
     /// Index into `Scene::materials` of the material whose closed surfaces bound it.
     pub material: u32,
 }
-const _: () = assert!(std::mem::size_of::<HomogeneousMedium>() == 32);
 
 impl HomogeneousMedium {
     /// Extinction sigma_t = sigma_a + sigma_s, m^-1.
@@ -102,7 +102,7 @@ impl HomogeneousMedium {
         attenuation_color: [f32; 3],
         attenuation_distance: f32,
         albedo: [f32; 3],
-        g: f32,
+        phase: Phase,
         material: u32,
     ) -> Self {
         let sigma_t = attenuation_color.map(|c| {
@@ -116,8 +116,8 @@ impl HomogeneousMedium {
         });
         Self {
             sigma_a: [0, 1, 2].map(|c| (1.0 - albedo[c]) * sigma_t[c]),
-            g,
             sigma_s: [0, 1, 2].map(|c| albedo[c] * sigma_t[c]),
+            phase,
             material,
         }
     }
@@ -325,7 +325,7 @@ fn read_interior_medium(
         0.0,
         1.0,
     )?;
-    let (albedo, g) = read_volume_scattering(
+    let (albedo, phase) = read_volume_scattering(
         ctx,
         mat,
         &at(&format!("/extensions/{BRUME_MATERIALS_VOLUME_SCATTERING}")),
@@ -354,23 +354,25 @@ fn read_interior_medium(
         color = color.map(|c| c.max(MIN_ATTENUATION_COLOR));
     }
     Ok(Some(HomogeneousMedium::from_attenuation(
-        color, distance, albedo, g, i as u32,
+        color, distance, albedo, phase, i as u32,
     )))
 }
 
 /// `BRUME_materials_volume_scattering`: `albedo` (RGB in [0, 1], default 0: purely absorbing,
-/// as `KHR_materials_volume` alone implies) and Henyey-Greenstein `anisotropy` g in (-1, 1).
+/// as `KHR_materials_volume` alone implies) and the phase function: the `phase` object as
+/// `BRUME_medium_vdb` reads it, else Henyey-Greenstein with `anisotropy` g in (-1, 1).
 fn read_volume_scattering(
     ctx: &mut Ctx,
     mat: &gltf::Material,
     pointer: &str,
-) -> Result<([f32; 3], f32), SceneError> {
+) -> Result<([f32; 3], Phase), SceneError> {
     let Some(value) = mat.extension_value(BRUME_MATERIALS_VOLUME_SCATTERING) else {
-        return Ok(([0.0; 3], 0.0));
+        return Ok(([0.0; 3], Phase::hg(0.0)));
     };
     let obj = Obj::new(ctx, value, pointer.to_string())?;
-    obj.warn_unknown(ctx, &["albedo", "anisotropy"]);
+    obj.warn_unknown(ctx, &["albedo", "anisotropy", "phase"]);
     let albedo = obj.rgb(ctx, "albedo", [0.0; 3], 0.0, 1.0)?;
     let g = obj.number(ctx, "anisotropy", 0.0, -1.0, 1.0, true)?;
-    Ok((albedo, g))
+    let phase = super::phase::read_phase(ctx, &obj)?.unwrap_or(Phase::hg(g));
+    Ok((albedo, phase))
 }

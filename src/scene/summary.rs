@@ -144,10 +144,14 @@ fn write_media(s: &Scene, o: &mut String) -> std::fmt::Result {
         s.vdb_media.len()
     )?;
     for m in &s.homogeneous_media {
+        let phase = match m.phase.henyey_greenstein_g() {
+            Some(g) => format!("g {g}"),
+            None => format!("phase {}", m.phase.name()),
+        };
         writeln!(
             o,
-            "  homogeneous (material {}): sigma_a {:?}, sigma_s {:?}, g {}",
-            m.material, m.sigma_a, m.sigma_s, m.g
+            "  homogeneous (material {}): sigma_a {:?}, sigma_s {:?}, {phase}",
+            m.material, m.sigma_a, m.sigma_s
         )?;
     }
     for m in &s.vdb_media {

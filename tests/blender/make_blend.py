@@ -19,11 +19,19 @@ KIND:
 - `motion`: a plume with a velocity grid under a keyed empty, a keyed camera aimed by a Track
   To constraint at a keyed target, 29.97 fps, motion blur on (`--position`).
 - `procedural`: a Volume object with no file (what geometry nodes produce).
+- `phases`: Volume objects on cloud.vdb whose materials scatter through Volume Scatter nodes
+  (PHASE_VOLUMES: alone or added to a Principled Volume that only absorbs, each phase Brume
+  renders, two Henyey-Greenstein nodes as a two-lobe phase), render space World; the phase
+  objects and coefficients expected are written to the .blend's name with .json.
+- `phase_refused`: one Volume object with a set-up the add-on refuses (`--case`, one of
+  REFUSED_PHASES).
 """
 import argparse
+import json
 import math
 import os
 import shutil
+import struct
 import sys
 
 import bpy
@@ -252,6 +260,125 @@ def motion_scene(vdb_dir, position):
     scene.frame_set(5)
 
 
+def scatter(nt, phase, color, density, **sockets):
+    """A Volume Scatter node of `phase` scattering `color` * `density` * the density grid."""
+    sc = nt.nodes.new("ShaderNodeVolumeScatter")
+    sc.phase = phase
+    sc.inputs["Color"].default_value = tuple(color) + (1.0,)
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = "density"
+    mul = nt.nodes.new("ShaderNodeMath")
+    mul.operation = "MULTIPLY"
+    mul.inputs[1].default_value = density
+    nt.links.new(attr.outputs["Fac"], mul.inputs[0])
+    nt.links.new(mul.outputs[0], sc.inputs["Density"])
+    for name, value in sockets.items():
+        sc.inputs[name].default_value = value
+    return sc
+
+
+def summed(nt, shaders):
+    """`shaders` summed by Add Shader nodes into the material's Volume output."""
+    acc = shaders[0].outputs[0]
+    for sh in shaders[1:]:
+        add = nt.nodes.new("ShaderNodeAddShader")
+        nt.links.new(acc, add.inputs[0])
+        nt.links.new(sh.outputs[0], add.inputs[1])
+        acc = add.outputs[0]
+    nt.links.new(acc, nt.nodes["Material Output"].inputs["Volume"])
+
+
+# name: (Principled Volume Density and Absorption Color or None, [(phase, colour, density,
+# sockets)]).
+PHASE_VOLUMES = {
+    "hg_alone": (None, [("HENYEY_GREENSTEIN", (0.8, 0.7, 0.6), 3.0, {"Anisotropy": 0.4})]),
+    "draine_pv": ((3.0, (0.5, 0.6, 0.7)), [("DRAINE", (0.9, 0.9, 0.9), 3.0, {"Anisotropy": 0.6, "Alpha": 1.5})]),
+    "mie_alone": (None, [("MIE", (1.0, 1.0, 1.0), 2.0, {"Diameter": 15.0})]),
+    "rayleigh_pv": ((4.0, (0.9, 0.8, 0.95)), [("RAYLEIGH", (0.5, 0.6, 0.7), 4.0, {})]),
+    "two_lobe_pv": ((2.0, (0.7, 0.7, 0.7)), [
+        ("HENYEY_GREENSTEIN", (0.54, 0.48, 0.42), 2.0, {"Anisotropy": 0.8}),
+        ("HENYEY_GREENSTEIN", (0.36, 0.32, 0.28), 2.0, {"Anisotropy": -0.3}),
+    ]),
+}
+
+
+def phase_volume(vdb_dir, name, principled_part, lobes):
+    obj, mat = volume_object(name, os.path.join(vdb_dir, "cloud.vdb"))
+    obj.data.render.space = "WORLD"
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    nt.nodes.new("ShaderNodeOutputMaterial")
+    shaders = []
+    if principled_part is not None:
+        pv = nt.nodes.new("ShaderNodeVolumePrincipled")
+        pv.inputs["Density"].default_value = principled_part[0]
+        pv.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        pv.inputs["Absorption Color"].default_value = tuple(principled_part[1]) + (1.0,)
+        shaders.append(pv)
+    shaders += [scatter(nt, phase, c, d, **sockets) for phase, c, d, sockets in lobes]
+    summed(nt, shaders)
+    return obj, mat, shaders
+
+
+def expected_phase(lobes):
+    """The `phase` object Brume's add-on should export for `lobes`, and sigma_s per unit of
+    the density grid (Cycles: colour times density, summed)."""
+    f32 = lambda x: struct.unpack("f", struct.pack("f", x))[0]
+    s = [sum(f32(c[k]) * f32(d) for _, c, d, _ in lobes) for k in range(3)]
+    if len(lobes) == 2:
+        (_, c1, d1, s1), (_, c2, d2, s2) = lobes
+        w = f32(c1[0]) * d1 / (f32(c1[0]) * d1 + f32(c2[0]) * d2)
+        return {"type": "two-lobe", "g1": f32(s1["Anisotropy"]), "g2": f32(s2["Anisotropy"]), "weight": w}, s
+    phase, _, _, sockets = lobes[0]
+    kind = {"HENYEY_GREENSTEIN": "henyey-greenstein", "DRAINE": "draine", "MIE": "mie", "RAYLEIGH": "rayleigh"}[phase]
+    keys = {"Anisotropy": "g", "Alpha": "alpha", "Diameter": "diameter"}
+    return dict({"type": kind}, **{keys[k]: f32(v) for k, v in sockets.items()}), s
+
+
+def phases_scene(vdb_dir, out):
+    """The volumes of PHASE_VOLUMES; writes `out`.json beside the .blend: for each, the phase
+    object expected and the coefficients per unit of density grid, as Cycles renders them
+    (sigma_a: the Principled Volume's, `(1 - sqrt(absorptionColor)) * density` with its colour
+    black)."""
+    expect = {}
+    for name, (principled_part, lobes) in PHASE_VOLUMES.items():
+        phase_volume(vdb_dir, name, principled_part, lobes)
+        phase, sigma_s = expected_phase(lobes)
+        sigma_a = [0.0] * 3
+        if principled_part is not None:
+            d, ac = principled_part
+            sigma_a = [(1.0 - math.sqrt(c)) * d for c in ac]
+        expect[name] = {"phase": phase, "sigma_s": sigma_s, "sigma_a": sigma_a}
+    with open(os.path.splitext(out)[0] + ".json", "w") as f:
+        json.dump(expect, f, indent=1)
+
+
+# What the add-on refuses, by --case.
+REFUSED_PHASES = ["fournier_forand", "grid_anisotropy", "scattering_principled", "mix_shader"]
+
+
+def phase_refused_scene(vdb_dir, case):
+    if case == "fournier_forand":
+        phase_volume(vdb_dir, case, None, [("FOURNIER_FORAND", (0.8, 0.8, 0.8), 3.0, {})])
+    elif case == "grid_anisotropy":
+        _, mat, (sc,) = phase_volume(vdb_dir, case, None, [("HENYEY_GREENSTEIN", (0.8, 0.8, 0.8), 3.0, {})])
+        attr = mat.node_tree.nodes.new("ShaderNodeAttribute")
+        attr.attribute_name = "density"
+        mat.node_tree.links.new(attr.outputs["Fac"], sc.inputs["Anisotropy"])
+    elif case == "scattering_principled":
+        _, _, (pv, _) = phase_volume(vdb_dir, case, (3.0, (1.0, 1.0, 1.0)), [("RAYLEIGH", (0.8, 0.8, 0.8), 3.0, {})])
+        pv.inputs["Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    else:
+        _, mat, (a, b) = phase_volume(vdb_dir, case, None, [
+            ("RAYLEIGH", (0.8, 0.8, 0.8), 3.0, {}), ("MIE", (0.8, 0.8, 0.8), 3.0, {"Diameter": 10.0})])
+        nt = mat.node_tree
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        nt.links.new(a.outputs[0], mix.inputs[1])
+        nt.links.new(b.outputs[0], mix.inputs[2])
+        nt.links.new(mix.outputs[0], nt.nodes["Material Output"].inputs["Volume"])
+
+
 def procedural_scene():
     """A Volume object whose grids come from geometry nodes (a Volume Cube), no file."""
     obj, mat = volume_object("procedural", "")
@@ -267,12 +394,13 @@ def procedural_scene():
 
 def main(argv):
     p = argparse.ArgumentParser()
-    p.add_argument("kind", choices=["fire", "sequence", "sequence_extend", "motion", "procedural"])
+    p.add_argument("kind", choices=["fire", "sequence", "sequence_extend", "motion", "procedural", "phases", "phase_refused"])
     p.add_argument("out")
     p.add_argument("--vdb-dir", required=True)
     p.add_argument("--seq-dir")
     p.add_argument("--position", default="CENTER", choices=["CENTER", "START", "END", "OFF"],
                    help="motion: the shutter's position on the frame, or OFF (no motion blur)")
+    p.add_argument("--case", choices=REFUSED_PHASES, help="phase_refused: the set-up refused")
     args = p.parse_args(argv)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     vdb_dir = os.path.abspath(args.vdb_dir)
@@ -282,6 +410,10 @@ def main(argv):
         sequence_scene(vdb_dir, os.path.abspath(args.seq_dir), extend=args.kind == "sequence_extend")
     elif args.kind == "motion":
         motion_scene(vdb_dir, args.position)
+    elif args.kind == "phases":
+        phases_scene(vdb_dir, os.path.abspath(args.out))
+    elif args.kind == "phase_refused":
+        phase_refused_scene(vdb_dir, args.case)
     else:
         procedural_scene()
     bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.out))

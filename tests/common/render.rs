@@ -245,3 +245,28 @@ pub fn against_one(
     );
     (a, (mean, var))
 }
+
+/// `furnace.gltf` with its index-matched box filled by a white homogeneous medium of
+/// scattering coefficient `sigma_s` (m^-1, no absorption) and phase function `phase`, around
+/// the cloud where `cloud` (the media then add up) or alone: every pixel still estimates 1.
+pub fn homogeneous_furnace(
+    phase: brume::volume::phases::Phase,
+    sigma_s: f32,
+    cloud: bool,
+) -> Scene {
+    let mut scene = load_scene("furnace.gltf");
+    if !cloud {
+        scene.vdb_media.clear();
+    }
+    scene
+        .homogeneous_media
+        .push(brume::scene::material::HomogeneousMedium {
+            sigma_a: [0.0; 3],
+            sigma_s: [sigma_s; 3],
+            phase,
+            material: 0,
+        });
+    scene.materials[0].interior_medium = 0;
+    scene.validate().unwrap();
+    scene
+}

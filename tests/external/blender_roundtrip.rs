@@ -10,7 +10,10 @@
 //!   files stop following the frame), a procedural volume is refused, and an exporter-hook
 //!   exception fails the conversion with nothing written;
 //! - a moving shot exports its velocity grid, frame, frame rate, frame range and shutter, and
-//!   its exported animations place the camera and the medium as Blender does at each frame.
+//!   its exported animations place the camera and the medium as Blender does at each frame;
+//! - Volume Scatter nodes export as the `phase` object with Cycles' coefficients, what Brume's
+//!   phases cannot say is refused by name, and brume_to_cycles.py's phase set-up comes back as
+//!   the phase it was built from.
 //!
 //! Needs a Python that can `import bpy` (tools/cycles/ci.sh installs one); without it each test
 //! prints a SKIPPED line on stderr and passes. Seeds are fixed on both sides.
@@ -25,6 +28,11 @@ use brume::scene::media::VdbMediumDesc;
 impl BpyRun {
     /// tests/blender/make_blend.py KIND out.blend.
     fn make_blend(&self, kind: &str, name: &str) -> PathBuf {
+        self.make_blend_with(kind, name, &[])
+    }
+
+    /// tests/blender/make_blend.py KIND out.blend EXTRA.
+    fn make_blend_with(&self, kind: &str, name: &str, extra: &[&str]) -> PathBuf {
         let out = self.path(name);
         let o = Command::new(&self.python)
             .arg(root().join("tests/blender/make_blend.py"))
@@ -34,6 +42,7 @@ impl BpyRun {
             .arg(root().join("scenes/vdb"))
             .arg("--seq-dir")
             .arg(self.path("seq"))
+            .args(extra)
             .output()
             .unwrap();
         assert_ok(&o, "make_blend.py");
@@ -513,5 +522,150 @@ fn motion_velocity_and_shutter_export() {
     say(&format!(
         "blender_roundtrip: exported animations against Blender at frames {frames:?}: camera within {:.1e}, medium within {:.1e}",
         worst.0, worst.1
+    ));
+}
+
+/// Relative difference of two RGB triples, the largest channel's.
+fn rgb_difference(a: [f32; 3], b: [f32; 3]) -> f32 {
+    (0..3)
+        .map(|k| (a[k] - b[k]).abs() / a[k].abs().max(b[k].abs()).max(1e-3))
+        .fold(0.0, f32::max)
+}
+
+/// The numbers of a phase function, for comparisons to rounding.
+fn phase_numbers(p: &brume::volume::phases::Phase) -> (u32, [f32; 4]) {
+    let r = brume::gpu_types::GpuPhase::of(p);
+    (r.kind, [r.g_a, r.g_b, r.w, r.alpha])
+}
+
+#[test]
+fn volume_scatter_phases_export() {
+    let Some(cx) = BpyRun::new("blender_roundtrip", "phases") else {
+        return;
+    };
+    // Volume Scatter nodes of each phase, alone or added to a Principled Volume that absorbs,
+    // and two Henyey-Greenstein nodes: the phase set in Blender and Cycles' coefficients.
+    let blend = cx.make_blend("phases", "phases.blend");
+    let expect: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(cx.path("phases.json")).unwrap()).unwrap();
+    let gltf = cx.path("phases.gltf");
+    assert_ok(&cx.import_blend(&blend, &gltf, &[]), "import-blend phases");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&gltf).unwrap()).unwrap();
+    let s = brume::scene::load(&gltf).unwrap();
+    assert_eq!(s.vdb_media.len(), expect.as_object().unwrap().len());
+    let mut worst = 0f32;
+    for m in &s.vdb_media {
+        let node = &doc["nodes"][m.node];
+        let name = node["name"].as_str().unwrap().trim_end_matches("_medium");
+        let want = &expect[name];
+        let got = &node["extensions"]["BRUME_medium_vdb"]["phase"];
+        let (g, w) = (got.as_object().unwrap(), want["phase"].as_object().unwrap());
+        assert_eq!(
+            g.keys().collect::<Vec<_>>(),
+            w.keys().collect::<Vec<_>>(),
+            "{name}: {got}"
+        );
+        for (k, v) in w {
+            match v.as_f64() {
+                Some(x) => assert!((g[k].as_f64().unwrap() - x).abs() < 1e-6, "{name}: {got}"),
+                None => assert_eq!(&g[k], v, "{name}"),
+            }
+        }
+        assert!(m.phase.is_some(), "{name}");
+        let rgb = |v: &serde_json::Value| -> [f32; 3] {
+            std::array::from_fn(|k| v[k].as_f64().unwrap() as f32)
+        };
+        let d = rgb_difference(m.sigma_s_per_density(), rgb(&want["sigma_s"])).max(rgb_difference(
+            m.sigma_a_per_density(),
+            rgb(&want["sigma_a"]),
+        ));
+        assert!(d < 1e-5, "{name}: coefficients differ by {d}");
+        worst = worst.max(d);
+    }
+    say(&format!(
+        "blender_roundtrip: {} Volume Scatter set-ups export their phase; coefficients within {worst:.1e}",
+        s.vdb_media.len()
+    ));
+
+    // What Brume's phases cannot say is refused, naming the material and the node.
+    for (case, want) in [
+        ("fournier_forand", "Volume 'fournier_forand' material 'fournier_forand_material', Volume Scatter node 'Volume Scatter': phase Fournier-Forand has no Brume counterpart"),
+        ("grid_anisotropy", "'Anisotropy' reads grid 'density'; Brume's phase parameters are constants"),
+        ("scattering_principled", "Principled Volume node 'Principled Volume': 'Color' [0.5, 0.5, 0.5] scatters beside the Volume Scatter nodes"),
+        ("mix_shader", "material 'mix_shader_material': Mix Shader node 'Mix Shader' feeds the Volume output"),
+    ] {
+        let blend = cx.make_blend_with("phase_refused", &format!("{case}.blend"), &["--case", case]);
+        let out = cx.path(&format!("{case}.gltf"));
+        let o = cx.import_blend(&blend, &out, &[]);
+        assert!(!o.status.success(), "{case}: {}", text(&o));
+        let msg = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(msg.contains(want), "{case}: {msg}");
+        assert!(!out.exists(), "{case}");
+    }
+
+    // brume_to_cycles.py's set-up for a medium with a phase (a Principled Volume that absorbs
+    // plus Volume Scatter nodes: `phase_scattering`) exports the phase it was built from.
+    std::os::unix::fs::symlink(root().join("scenes/vdb"), cx.path("vdb")).unwrap();
+    let cloud: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root().join("scenes/cloud.gltf")).unwrap())
+            .unwrap();
+    let phases = [
+        serde_json::json!({"type": "henyey-greenstein", "g": -0.3}),
+        serde_json::json!({"type": "two-lobe", "g1": 0.85, "g2": -0.3, "weight": 0.9}),
+        serde_json::json!({"type": "draine", "g": 0.6, "alpha": 2.0}),
+        serde_json::json!({"type": "mie", "diameter": 20.0}),
+        serde_json::json!({"type": "rayleigh"}),
+    ];
+    let mut worst = 0f32;
+    for phase in phases {
+        let kind = phase["type"].as_str().unwrap().to_string();
+        let mut doc = cloud.clone();
+        for node in doc["nodes"].as_array_mut().unwrap() {
+            let ext = node.get_mut("extensions");
+            if let Some(m) = ext.and_then(|e| e.get_mut("BRUME_medium_vdb")) {
+                m["phase"] = phase.clone();
+                m["color"] = serde_json::json!([0.9, 0.8, 0.7]);
+                m["absorptionColor"] = serde_json::json!([0.2, 0.3, 0.1]);
+            }
+        }
+        let scene = cx.path(&format!("{kind}.gltf"));
+        std::fs::write(&scene, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
+        let blend = cx.path(&format!("{kind}.blend"));
+        let o = Command::new(&cx.python)
+            .arg(root().join("tools/cycles/brume_to_cycles.py"))
+            .arg(&scene)
+            .arg("-o")
+            .arg(cx.path("unused.exr"))
+            .arg("--save-blend")
+            .arg(&blend)
+            .arg("--no-render")
+            .output()
+            .unwrap();
+        assert_ok(&o, &format!("brume_to_cycles.py {kind}"));
+        let back = cx.path(&format!("{kind}_back.gltf"));
+        assert_ok(&cx.import_blend(&blend, &back, &[]), "brume import-blend");
+        let (a, b) = (
+            brume::scene::load(&scene).unwrap(),
+            brume::scene::load(&back).unwrap(),
+        );
+        let (ma, mb) = (&a.vdb_media[0], &b.vdb_media[0]);
+        let (pa, pb) = (
+            phase_numbers(&ma.phase.unwrap()),
+            phase_numbers(&mb.phase.expect("a phase object")),
+        );
+        assert_eq!(pa.0, pb.0, "{kind}");
+        for (x, y) in pa.1.iter().zip(pb.1) {
+            assert!((x - y).abs() < 1e-6, "{kind}: {pa:?} against {pb:?}");
+        }
+        let d = rgb_difference(ma.sigma_s_per_density(), mb.sigma_s_per_density()).max(
+            rgb_difference(ma.sigma_a_per_density(), mb.sigma_a_per_density()),
+        );
+        assert!(d < 1e-5, "{kind}: coefficients differ by {d}");
+        assert_eq!(ma.density_grid, mb.density_grid, "{kind}");
+        worst = worst.max(d);
+    }
+    say(&format!(
+        "blender_roundtrip: 5 phases through brume_to_cycles.py and back, coefficients within {worst:.1e}"
     ));
 }

@@ -240,7 +240,7 @@ fn glass_volume() {
     let sigma_t = [0.8f32, 0.6, 0.4].map(|c| -c.ln() / 0.5);
     assert!(close(&m.sigma_t(), &sigma_t, 1e-6));
     assert!(close(&m.sigma_s, &sigma_t.map(|x| 0.9 * x), 1e-6));
-    assert_eq!(m.g, 0.5);
+    assert_eq!(m.phase, brume::volume::phases::Phase::hg(0.5));
     let mat = &s.materials[m.material as usize];
     assert_eq!(
         (mat.transmission, mat.ior, mat.interior_medium),

@@ -248,3 +248,31 @@ fn every_phase_renders_the_cloud_as_the_cpu_does() {
         crate::render::print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
     }
 }
+
+/// A homogeneous medium of each phase function (`BRUME_materials_volume_scattering.phase`):
+/// the furnace's box filled with an absorbing, scattering medium, alone (the homogeneous
+/// variant) and around the cloud (the mixture variant, where an event picks whose phase
+/// applies), renders as the CPU does and replays its image with the same seed.
+#[test]
+fn homogeneous_phases_render_as_the_cpu_does() {
+    let Some(ctx) = common::gpu::gpu_or_skip("homogeneous_phases_render") else {
+        return;
+    };
+    let mut cases: Vec<(Phase, bool)> = render_phases().into_iter().map(|p| (p, false)).collect();
+    cases.extend([(Phase::Rayleigh, true), (Phase::mie(20.0).unwrap(), true)]);
+    let alpha = 1e-3 / cases.len() as f64;
+    for (i, (phase, cloud)) in cases.into_iter().enumerate() {
+        let mut scene = common::render::homogeneous_furnace(phase, 0.4, cloud);
+        scene.homogeneous_media[0].sigma_a = [0.15; 3];
+        let s = brume::render::RenderSettings {
+            width: 24,
+            height: 18,
+            spp: 32,
+            seed: 800 + i as u32,
+            ..Default::default()
+        };
+        let label = format!("homogeneous {} (cloud inside: {cloud})", phase.name());
+        let (g, c) = crate::render::gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
+        crate::render::print_parity(Some(&ctx), &label, &scene, &s, &g, &c);
+    }
+}

@@ -383,8 +383,8 @@ fn map_through_an_absorbing_slab_matches_the_analytic_transmittance() {
         .homogeneous_media
         .push(brume::scene::material::HomogeneousMedium {
             sigma_a,
-            g: 0.0,
             sigma_s: [0.0; 3],
+            phase: brume::volume::phases::Phase::hg(0.0),
             material: 0,
         });
     scene.materials[0].interior_medium = 0;

@@ -165,6 +165,49 @@ fn furnace_renders_one_under_a_constant_map() {
     }
 }
 
+/// The furnace's box filled with a white homogeneous medium of every phase function
+/// (`BRUME_materials_volume_scattering.phase`), alone and around the cloud (where the media
+/// add up and a scattering event takes the phase of the medium it picks): each pixel stays
+/// at 1.
+#[test]
+fn homogeneous_furnace_renders_one_for_every_phase_function() {
+    use brume::volume::phase::HenyeyGreenstein as Hg;
+    use brume::volume::phases::{Draine, Phase};
+    let phases = [
+        Phase::TwoLobe {
+            a: Hg::new(0.85),
+            b: Hg::new(-0.4),
+            w: 0.8,
+        },
+        Phase::Draine(Draine::new(0.5, 2.0)),
+        Phase::mie(20.0).unwrap(),
+        Phase::Rayleigh,
+    ];
+    let alpha = 1e-3 / (2 * phases.len()) as f64;
+    for (i, phase) in phases.into_iter().enumerate() {
+        for cloud in [false, true] {
+            let scene = homogeneous_furnace(phase, 0.4, cloud);
+            let settings = RenderSettings {
+                width: 24,
+                height: 18,
+                spp: 64,
+                seed: 700 + 2 * i as u32 + cloud as u32,
+                ..RenderSettings::default()
+            };
+            // The medium the integrator reads carries the scene's phase function.
+            let rs = brume::render::RenderScene::prepare(&scene, &settings).unwrap();
+            assert_eq!(rs.homogeneous[0].phase, phase);
+            drop(rs);
+            let out = render(&scene, &settings);
+            let label = format!("homogeneous {} (cloud inside: {cloud})", phase.name());
+            let (a, (mean, _)) = against_one(&out, alpha, &label);
+            assert!(mean.iter().all(|v| v.is_finite()), "{label}");
+            assert_eq!(a.failing, 0, "{label}: {a:?}");
+            assert!(a.mean_z < 3.3, "{label}: {a:?}");
+        }
+    }
+}
+
 /// The furnace with every phase function a medium can have (`BRUME_medium_vdb.phase`): the
 /// guided light choice, the sky sampled by the phase, and the rejection sampling of Draine's
 /// lobe must all leave each pixel at 1.

@@ -26,7 +26,8 @@ The Blender scene is built as follows (docs/comparing.md has the table and the r
 - base-colour and emissive textures as Image Texture nodes (sRGB, Linear or Closest, the
   sampler's wrap mode, KHR_texture_transform composed with glTF's flipped v into UV math);
 - `KHR_materials_volume` + `BRUME_materials_volume_scattering` as Volume Scatter + Volume
-  Absorption with sigma_s = albedo * sigma_t, sigma_a = (1 - albedo) * sigma_t;
+  Absorption with sigma_s = albedo * sigma_t, sigma_a = (1 - albedo) * sigma_t, the Volume
+  Scatter nodes of the `phase` object's phase (`scatter_lobes`), else Henyey-Greenstein;
 - each `BRUME_medium_vdb` node as a Volume object reading the .vdb, placed at
   (Y-up to Z-up) * (node world matrix); the grid's own transform is applied by Blender as by
   Brume; space WORLD, full precision, no clipping; a Principled Volume mapped one to one
@@ -106,17 +107,14 @@ def new_tree(mat):
     return nt, out
 
 
-def volume_nodes(nt, sigma_s, sigma_a, g):
-    """Volume Scatter (sigma_s = color * density) + Volume Absorption
-    (sigma_a = (1 - color) * density), colours normalised so they stay in [0, 1]."""
+def volume_nodes(nt, sigma_s, sigma_a, phase):
+    """Volume Scatter with Brume's `phase` object (sigma_s = color * density:
+    `scatter_lobes`) + Volume Absorption (sigma_a = (1 - color) * density), colours normalised
+    so they stay in [0, 1]."""
     shaders = []
     ds = max(sigma_s)
     if ds > 0:
-        sc = nt.nodes.new("ShaderNodeVolumeScatter")
-        sc.inputs["Color"].default_value = [c / ds for c in sigma_s] + [1.0]
-        sc.inputs["Density"].default_value = ds
-        sc.inputs["Anisotropy"].default_value = g
-        shaders.append(sc.outputs[0])
+        shaders += scatter_lobes(nt, phase, [c / ds for c in sigma_s], ds)
     da = max(sigma_a)
     if da > 0:
         ab = nt.nodes.new("ShaderNodeVolumeAbsorption")
@@ -296,10 +294,10 @@ def build_surface_material(mat, gm, gltf, base_dir):
         sigma_t = [0.0 if math.isinf(dist) else -math.log(max(c, 1e-30)) / dist for c in att]
         sc = ext.get("BRUME_materials_volume_scattering", {})
         albedo = sc.get("albedo", [0, 0, 0])
-        g = sc.get("anisotropy", 0.0)
+        phase = sc.get("phase", {"type": "henyey-greenstein", "g": sc.get("anisotropy", 0.0)})
         sigma_s = [a * t for a, t in zip(albedo, sigma_t)]
         sigma_a = [(1 - a) * t for a, t in zip(albedo, sigma_t)]
-        v = volume_nodes(nt, sigma_s, sigma_a, g)
+        v = volume_nodes(nt, sigma_s, sigma_a, phase)
         if v is not None:
             nt.links.new(v, out.inputs["Volume"])
 
@@ -516,14 +514,25 @@ def phase_scattering(nt, pv, ext):
     density.operation = "MULTIPLY"
     density.inputs[1].default_value = ext.get("densityScale", 1.0)
     nt.links.new(attr.outputs["Fac"], density.inputs[0])
-    phase = ext["phase"]
+    lobes = scatter_lobes(nt, ext["phase"], color, density.outputs[0])
+    return add_shaders(nt, [pv.outputs[0]] + lobes)
+
+
+def scatter_lobes(nt, phase, color, density):
+    """Volume Scatter nodes with Brume's `phase` object scattering `color * density`
+    (`density` a number or an output socket): one node of Cycles' phase of that name, or two
+    Henyey-Greenstein nodes splitting `color` by the weight for a two-lobe phase. Returns
+    their outputs."""
     kind = phase.get("type")
 
     def scatter(cycles_phase, share):
         sc = nt.nodes.new("ShaderNodeVolumeScatter")
         sc.phase = cycles_phase
         sc.inputs["Color"].default_value = [c * share for c in color] + [1.0]
-        nt.links.new(density.outputs[0], sc.inputs["Density"])
+        if isinstance(density, (int, float)):
+            sc.inputs["Density"].default_value = density
+        else:
+            nt.links.new(density, sc.inputs["Density"])
         return sc
 
     if kind == "two-lobe":
@@ -546,7 +555,7 @@ def phase_scattering(nt, pv, ext):
         lobes = [sc.outputs[0]]
     else:
         sys.exit(f"error: phase type {kind!r} has no Cycles counterpart")
-    return add_shaders(nt, [pv.outputs[0]] + lobes)
+    return lobes
 
 
 def build_environment_map(nt, bg, env, base_dir):

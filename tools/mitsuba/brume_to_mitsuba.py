@@ -17,10 +17,11 @@ Mapping (docs/comparing.md):
   = glTF znear, look-at from Brume's camera; `independent` sampler; `hdrfilm` with a `box`
   filter (each sample lands in its own pixel, Brume's uniform jitter), rgb, float32;
 - VDB media: `heterogeneous` with sigma_t = `gridvolume` (the extinction per metre, already
-  scaled), constant albedo, HG phase, inside a `cube` with a `null` BSDF spanning the grid's box;
-  the grid's and the cube's to_world is Brume's world_from_medium (index to world);
+  scaled), constant albedo, its phase (`hg`, `blendphase` of two `hg`, `rayleigh`), inside a
+  `cube` with a `null` BSDF spanning the grid's box; the grid's and the cube's to_world is
+  Brume's world_from_medium (index to world);
 - meshes: PLY with `brume_opaque` (below), `dielectric` or `null` BSDFs, `area` emitters,
-  `homogeneous` interiors for KHR_materials_volume;
+  `homogeneous` interiors for KHR_materials_volume (phases as for VDB media);
 - lights: `point` (intensity W/sr), `brume_spot` (a Python emitter with glTF's falloff, as
   Brume), `directional` (irradiance W/m^2); the environment as a `constant` emitter;
 - opaque surfaces: `brume_opaque`, Brume's Lambert + GGX model as a Python BSDF (or Mitsuba's
@@ -348,7 +349,7 @@ def build(desc):
                 "sigma_t": rgb([c / scale for c in h["sigma_t"]]),
                 "scale": scale,
                 "albedo": rgb(h["albedo"]),
-                "phase": {"type": "hg", "g": float(h["g"])},
+                "phase": h.get("phase", {"type": "hg", "g": float(h.get("g", 0.0))}),
             }
         scene[f"mesh{i}"] = shape
     return scene

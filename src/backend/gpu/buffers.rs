@@ -8,8 +8,9 @@ use super::graph::{Passes, Stage};
 use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
-    GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuQueue,
-    GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams, GPU_DATA_PASS_BYTES,
+    GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuPhase,
+    GpuQueue, GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
+    GPU_DATA_PASS_BYTES,
 };
 use crate::render::{blackbody, RenderScene};
 
@@ -211,6 +212,7 @@ impl Buffers {
                         g: m.phase.henyey_greenstein_g().unwrap_or(0.0),
                         sigma_s: m.sigma_s.to_array(),
                         _pad0: 0.0,
+                        phase: GpuPhase::of(&m.phase),
                     })
                     .collect();
                 storage_at_least_one(ctx, "homogeneous media", &h)

@@ -213,7 +213,7 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
         chromatic: features.chromatic && media,
         absorption: features.absorption && media,
         textures: features.textures && features.surfaces,
-        phases: features.phases && features.heterogeneous,
+        phases: features.phases && media,
         ..features
     }
 }

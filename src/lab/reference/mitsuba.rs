@@ -343,7 +343,15 @@ fn describe_mesh(
     if mat.interior_medium != NO_INDEX {
         let h = &scene.homogeneous_media[mat.interior_medium as usize];
         let sigma_t = h.sigma_t();
-        m["interior"] = json!({"sigma_t": sigma_t, "albedo": albedo(h.sigma_s, sigma_t), "g": h.g});
+        let at = format!(
+            "{}: {name}'s KHR_materials_volume medium",
+            scene.source.display()
+        );
+        m["interior"] = json!({
+            "sigma_t": sigma_t,
+            "albedo": albedo(h.sigma_s, sigma_t),
+            "phase": mitsuba_phase(Some(h.phase), 0.0, &at)?,
+        });
     }
     Ok(m)
 }

@@ -232,6 +232,23 @@ fn out_of_range_material_and_light_parameters() {
         ),
         &format!("{ext}/anisotropy"),
     );
+    // The phase object is checked as BRUME_medium_vdb's is.
+    for (k, (phase, pointer)) in [
+        (json!({"type": "cornette-shanks"}), "phase/type"),
+        (json!({"type": "mie", "diameter": 80}), "phase/diameter"),
+        (json!({"type": "draine", "g": 1.0}), "phase/g"),
+        (json!("rayleigh"), "phase"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut doc = scattering(json!([0.5, 0.5, 0.5]), json!(0));
+        doc["materials"][0]["extensions"]["BRUME_materials_volume_scattering"]["phase"] = phase;
+        load_err(
+            &write(&format!("phase{k}"), &doc, &triangle_bin()),
+            &format!("{ext}/{pointer}"),
+        );
+    }
 
     let mut doc = base();
     doc["materials"] = json!([{"pbrMetallicRoughness": {"baseColorFactor": [1.2, 0, 0, 1]}}]);

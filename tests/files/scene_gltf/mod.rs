@@ -9,6 +9,8 @@ mod bad_inputs;
 use std::path::{Path, PathBuf};
 
 use brume::scene::{self, lights, CameraSource, LoadOptions, Scene, SceneError};
+use brume::volume::phase::HenyeyGreenstein;
+use brume::volume::phases::{Draine, Phase};
 use glam::{Mat4, Quat, Vec3};
 use serde_json::{json, Value};
 
@@ -385,7 +387,61 @@ fn khr_materials_volume_follows_the_spec() {
         Vec3::from(media[2].sigma_a),
         Vec3::new(0.5 * ln10, 0.0, ln10)
     ));
-    assert_eq!(media[2].g, -0.3);
+    assert_eq!(media[2].phase, Phase::hg(-0.3));
+}
+
+#[test]
+fn volume_scattering_phase_replaces_anisotropy() {
+    let mut doc = base();
+    let phase = |phase: Value| {
+        json!({"extensions": {
+            "KHR_materials_transmission": {"transmissionFactor": 1},
+            "KHR_materials_volume": {"thicknessFactor": 1, "attenuationColor": [0.5, 0.5, 0.5], "attenuationDistance": 1},
+            "BRUME_materials_volume_scattering": {"albedo": [0.9, 0.9, 0.9], "anisotropy": 0.4, "phase": phase}
+        }})
+    };
+    doc["materials"] = json!([
+        phase(json!({"type": "henyey-greenstein", "g": -0.2})),
+        phase(json!({"type": "two-lobe", "g1": 0.8, "g2": -0.3, "weight": 0.7})),
+        phase(json!({"type": "draine", "g": 0.5, "alpha": 2.0})),
+        phase(json!({"type": "mie", "diameter": 20.0})),
+        phase(json!({"type": "rayleigh", "g": 0.3})),
+    ]);
+    // The triangle bounds the Rayleigh medium: a phase that is not isotropic.
+    doc["meshes"][0]["primitives"][0]["material"] = json!(4);
+    let s = load_ok(&write("volume_phase", &doc, &triangle_bin()));
+    let two_lobe = Phase::TwoLobe {
+        a: HenyeyGreenstein::new(0.8),
+        b: HenyeyGreenstein::new(-0.3),
+        w: 0.7,
+    };
+    let want = [
+        Phase::hg(-0.2),
+        two_lobe,
+        Phase::Draine(Draine::new(0.5, 2.0)),
+        Phase::mie(20.0).unwrap(),
+        Phase::Rayleigh,
+    ];
+    let got: Vec<Phase> = s.homogeneous_media.iter().map(|m| m.phase).collect();
+    assert_eq!(got, want);
+    // The phase object replaces `anisotropy`, with a warning on every material that gives
+    // both; a parameter its type does not take is reported.
+    let ext = "extensions/BRUME_materials_volume_scattering";
+    for k in 0..5 {
+        let at = format!("/materials/{k}/{ext}/anisotropy");
+        assert!(
+            s.warnings.iter().any(|w| w.starts_with(&at)),
+            "{at}: {:?}",
+            s.warnings
+        );
+    }
+    let at = format!("/materials/4/{ext}/phase/g");
+    assert!(
+        s.warnings.iter().any(|w| w.starts_with(&at)),
+        "{at}: {:?}",
+        s.warnings
+    );
+    assert!(s.effects().anisotropic_phase);
 }
 
 /// A closed cube [-1, 1]^3 (8 vertices, 12 outward triangles) as positions + u16 indices.

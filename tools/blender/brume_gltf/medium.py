@@ -1,5 +1,7 @@
 """A Blender Volume object with a Principled Volume material as `BRUME_medium_vdb` fields
-(docs/BRUME_medium_vdb.md), or a refusal naming what Brume cannot render.
+(docs/BRUME_medium_vdb.md), or a refusal naming what Brume cannot render. Volume Scatter nodes,
+alone or added to a Principled Volume that absorbs and emits (what
+`tools/cycles/brume_to_cycles.py`'s `phase_scattering` builds), give the `phase` object.
 
 Cycles' Principled Volume (intern/cycles/kernel/svm/closure.h) with render space World maps one
 to one onto the extension; `tools/cycles/brume_to_cycles.py` does the reverse. Facts used here:
@@ -176,8 +178,10 @@ def object_space_factor(obj):
     return 1.0 / length
 
 
-def principled_volume(obj):
-    """The object's material and its Principled Volume node."""
+def volume_shaders(obj):
+    """The object's material, its Principled Volume (or None) and its Volume Scatter nodes (at
+    most two): the shaders the Volume output sums through Add Shader nodes (docs/blender.md).
+    Anything else there is refused."""
     mats = [s.material for s in obj.material_slots if s.material is not None]
     if not mats:
         raise Refused("has no material: give it a Principled Volume material")
@@ -190,12 +194,32 @@ def principled_volume(obj):
     src = source(out.inputs["Volume"])
     if src is None:
         raise Refused(f"material '{mat.name}' has nothing in the Volume output: Brume needs a Principled Volume there")
-    if src.node.bl_idname != "ShaderNodeVolumePrincipled":
+    found = {"ShaderNodeVolumePrincipled": [], "ShaderNodeVolumeScatter": []}
+    pending = [src]
+    while pending:
+        node = pending.pop(0).node
+        if node.mute:
+            raise Refused(f"material '{mat.name}': {describe(node)} in the Volume output is muted")
+        if node.bl_idname == "ShaderNodeAddShader":
+            # In input order, so that two scatter nodes keep the order they were added in.
+            pending[:0] = [s for s in map(source, node.inputs) if s is not None]
+        elif node.bl_idname in found:
+            found[node.bl_idname].append(node)
+        else:
+            raise Refused(
+                f"material '{mat.name}': {describe(node)} feeds the Volume output; Brume renders a "
+                "Principled Volume, Volume Scatter nodes, or a Principled Volume plus Volume "
+                "Scatter nodes summed by Add Shader nodes (no mixing or other volume shaders)"
+            )
+    pvs, scatters = found.values()
+    if len(pvs) > 1:
+        raise Refused(f"material '{mat.name}': {len(pvs)} Principled Volume nodes are summed; Brume renders one")
+    if len(scatters) > 2:
         raise Refused(
-            f"material '{mat.name}': the Volume output comes from {describe(src.node)}; Brume "
-            "renders a Principled Volume linked straight to the output (no mixing or other volume shaders)"
+            f"material '{mat.name}': {len(scatters)} Volume Scatter nodes are summed; Brume's phase "
+            "functions take one, or two Henyey-Greenstein ones as a two-lobe phase"
         )
-    return mat, src.node
+    return mat, (pvs[0] if pvs else None), scatters
 
 
 def medium_fields(obj, scene, frame, depsgraph):
@@ -240,9 +264,31 @@ def medium_fields(obj, scene, frame, depsgraph):
         raise Refused(f"Blender cannot read {path}: {evaluated.grids.error_message}")
     grids = {g.name: g for g in evaluated.grids}
 
-    mat, pv = principled_volume(obj)
-    where = f"material '{mat.name}', {describe(pv)}"
+    mat, pv, scatters = volume_shaders(obj)
     f = object_space_factor(obj)
+    if pv is not None:
+        fields.update(principled_fields(mat, pv, grids, path, f, warnings))
+    if scatters:
+        scattering_fields(fields, mat, pv, scatters, grids, path, f)
+    fields.update(velocity_fields(obj, grids, path, scene, warnings))
+
+    if source(mat.node_tree.get_output_node("CYCLES").inputs["Surface"]) is not None:
+        warnings.append(f"material '{mat.name}': the Surface output is ignored on a Volume object")
+    if mat.cycles.volume_interpolation != "LINEAR":
+        warnings.append(f"material '{mat.name}': volume interpolation {mat.cycles.volume_interpolation} (Brume interpolates linearly)")
+    for k, v in fields.items():
+        for x in v if isinstance(v, list) else [v]:
+            if isinstance(x, float) and not math.isfinite(x):
+                raise Refused(f"material '{mat.name}': {k} is not finite ({v})")
+    return fields, origin, warnings
+
+
+def principled_fields(mat, pv, grids, path, f, warnings):
+    """The fields a Principled Volume `pv` of material `mat` gives: density grid and scale,
+    colours, anisotropy, emission and blackbody (`f`: `object_space_factor`). What Brume cannot
+    express outside the density is a warning in `warnings`."""
+    fields = {}
+    where = f"material '{mat.name}', {describe(pv)}"
     ins = pv.inputs
 
     def affine_of(name):
@@ -390,17 +436,130 @@ def medium_fields(obj, scene, frame, depsgraph):
         }
 
     fields.update(soft(blackbody, dict, "no blackbody emission exported"))
-    fields.update(velocity_fields(obj, grids, path, scene, warnings))
+    return fields
 
-    if source(mat.node_tree.get_output_node("CYCLES").inputs["Surface"]) is not None:
-        warnings.append(f"material '{mat.name}': the Surface output is ignored on a Volume object")
-    if mat.cycles.volume_interpolation != "LINEAR":
-        warnings.append(f"material '{mat.name}': volume interpolation {mat.cycles.volume_interpolation} (Brume interpolates linearly)")
-    for k, v in fields.items():
-        for x in v if isinstance(v, list) else [v]:
-            if isinstance(x, float) and not math.isfinite(x):
-                raise Refused(f"{where}: {k} is not finite ({v})")
-    return fields, origin, warnings
+
+def scatter_phase(node, where):
+    """The `phase` object of Volume Scatter `node` (its sockets constants)."""
+    kind = node.phase
+
+    def constant(name):
+        try:
+            a = affine(node.inputs[name])
+        except Unsupported as e:
+            raise Refused(f"{where}: '{name}': {e}; Brume's phase parameters are constants")
+        if a.grid is not None:
+            raise Refused(f"{where}: '{name}' reads grid '{a.grid}'; Brume's phase parameters are constants")
+        return a.offset
+
+    def mean_cosine():
+        g = constant("Anisotropy")
+        if not -1.0 < g < 1.0:
+            raise Refused(f"{where}: 'Anisotropy' {g} must lie strictly between -1 and 1")
+        return g
+
+    if kind == "HENYEY_GREENSTEIN":
+        return {"type": "henyey-greenstein", "g": mean_cosine()}
+    if kind == "DRAINE":
+        g, alpha = mean_cosine(), constant("Alpha")
+        if not -1.0 <= alpha <= 1e4:
+            raise Refused(f"{where}: 'Alpha' {alpha} lies outside [-1, 10000], Brume's range for Draine's alpha")
+        return {"type": "draine", "g": g, "alpha": alpha}
+    if kind == "MIE":
+        d = constant("Diameter")
+        if not 0.0 < d <= 50.0:
+            raise Refused(f"{where}: 'Diameter' {d} lies outside (0, 50] micrometres, where Brume's Mie fit holds")
+        return {"type": "mie", "diameter": d}
+    if kind == "RAYLEIGH":
+        return {"type": "rayleigh"}
+    label = node.bl_rna.properties["phase"].enum_items[kind].name
+    raise Refused(
+        f"{where}: phase {label} has no Brume counterpart; Brume renders Henyey-Greenstein, "
+        "Draine, Mie and Rayleigh (and two Henyey-Greenstein nodes as a two-lobe phase)"
+    )
+
+
+def scatter_coefficients(node, where, grid, grids, path):
+    """(per-channel sigma_s per unit of `grid`, the Density's scale) of Volume Scatter `node`,
+    whose Density must read `grid` (None: any grid of the file) times a constant; returns the
+    grid too."""
+    try:
+        a = affine(node.inputs["Density"])
+        c = color(node.inputs["Color"], "Brume reads a constant scattering colour")
+    except Unsupported as e:
+        raise Refused(f"{where}: {e}")
+    if a.grid is None:
+        raise Refused(
+            f"{where}: 'Density' is the constant {a.offset}; Brume needs it to read the density "
+            "grid (an Attribute node, times a constant)"
+        )
+    if a.grid not in grids:
+        raise Refused(f"{where}: 'Density' reads attribute '{a.grid}', not a grid of {path} (grids: {', '.join(grids)})")
+    if grid is not None and a.grid != grid:
+        raise Refused(f"{where}: 'Density' reads grid '{a.grid}' but the medium's density is grid '{grid}'; Brume has one density grid")
+    if a.offset != 0.0:
+        raise Refused(f"{where}: 'Density' = {a.scale} * {a.grid} + {a.offset}: Brume has no density offset")
+    if a.scale < 0.0 or min(c) < 0.0:
+        raise Refused(f"{where}: negative density scale {a.scale} or 'Color' {c}")
+    return [x * a.scale for x in c], a.scale, a.grid
+
+
+def scattering_fields(fields, mat, pv, scatters, grids, path, f):
+    """Volume Scatter nodes (`scatters`, beside the Principled Volume `pv` or alone) as the
+    `phase` object, with `densityScale`, `color` and `absorptionColor` giving their scattering
+    plus `pv`'s absorption; updates `fields` (`pv`'s own, or empty). `pv` must not scatter: its
+    Henyey-Greenstein lobe would be another one."""
+    if pv is not None and max(fields["color"]) > 0.0:
+        raise Refused(
+            f"material '{mat.name}', {describe(pv)}: 'Color' {fields['color']} scatters beside the "
+            "Volume Scatter nodes, a lobe Brume's phase cannot add; make it black (the Volume "
+            "Scatter nodes scatter, the Principled Volume absorbs and emits)"
+        )
+    grid = fields.get("densityGrid")
+    lobes, scales = [], []
+    for node in scatters:
+        where = f"material '{mat.name}', {describe(node)}"
+        sigma_s, scale, grid = scatter_coefficients(node, where, grid, grids, path)
+        lobes.append(([x * f for x in sigma_s], scatter_phase(node, where)))
+        scales.append(scale * f)
+    # Per unit of the density grid: scattering s and the Principled Volume's absorption a.
+    s = [sum(lobe[0][k] for lobe in lobes) for k in range(3)]
+    a = [0.0, 0.0, 0.0]
+    if pv is not None:
+        kept = [1.0 - math.sqrt(max(c, 0.0)) for c in fields["absorptionColor"]]
+        a = [max(k, 0.0) * fields["densityScale"] for k in kept]
+        scales.append(fields["densityScale"])
+    # Brume's densityScale D: the largest Density, raised where colour and absorption would
+    # not fit in [0, 1] (sigma_s = color D, sigma_a = (1 - color)(1 - sqrt(absorptionColor)) D).
+    d = max(scales)
+    if any(s[k] + a[k] > d * (1.0 + 1e-6) for k in range(3)):
+        d = max(s[k] + a[k] for k in range(3))
+    col, absorption = [0.0] * 3, [0.0] * 3
+    for k in range(3):
+        col[k] = min(s[k] / d, 1.0) if d > 0.0 else 0.0
+        rest = 1.0 - col[k]
+        x = min(a[k] / (d * rest), 1.0) if d > 0.0 and rest > 1e-7 else 1.0
+        absorption[k] = (1.0 - x) ** 2 if x < 1.0 - 1e-12 else 0.0
+    fields.update({"densityGrid": grid, "densityScale": d, "color": col, "absorptionColor": absorption})
+    fields.pop("anisotropy", None)
+    if len(lobes) == 1:
+        fields["phase"] = lobes[0][1]
+        return
+    (s1, p1), (s2, p2) = lobes
+    if p1["type"] != "henyey-greenstein" or p2["type"] != "henyey-greenstein":
+        raise Refused(
+            f"material '{mat.name}': two Volume Scatter nodes of phases {p1['type']} and "
+            f"{p2['type']}; Brume blends two Henyey-Greenstein lobes only (a two-lobe phase)"
+        )
+    weights = [s1[k] / (s1[k] + s2[k]) for k in range(3) if s1[k] + s2[k] > 0.0]
+    if weights and max(weights) - min(weights) > 1e-5:
+        raise Refused(
+            f"material '{mat.name}': the two Volume Scatter nodes' colour times density are not "
+            "proportional, so the lobes' weight would differ per channel; Brume's two-lobe phase "
+            "has one weight (scale one colour from the other)"
+        )
+    w = sum(weights) / len(weights) if weights else 0.5
+    fields["phase"] = {"type": "two-lobe", "g1": p1["g"], "g2": p2["g"], "weight": w}
 
 
 # Cycles' standard name of a volume's velocity grid (`Attribute::standard_name`): a grid so
