@@ -37,8 +37,7 @@ pub(super) fn emitter_event<F: Features>(
     let lookups = Cell::new(0);
     let le = e.radiance(s.y, &lookups);
     stats.emission_lookups += lookups.get();
-    // Kept with probability lum / bound: the bound holds, the `min` only guards rounding.
-    let keep = (le.max_element() / s.bound).min(1.0);
+    let keep = (le.max_element() / s.weight).min(1.0);
     if !(u_keep < keep) {
         return None;
     }

@@ -3,18 +3,21 @@
 //! Without it a flame is found only by the paths that happen to collide inside it, and the
 //! ground under a small fire is lit by the few that wander in. Every leaf cell of an emitting
 //! medium has an upper bound `Le_c` of its emission's largest channel
-//! ([`emission_bound`](super::emission_bounds::emission_bound)); the cells are chosen in
-//! proportion to `Le_c V_c` (`V_c` the cell's world volume), a point `y` uniformly inside the
-//! chosen cell, so the volume density of `y` is
+//! ([`emission_bound`](super::emission_bounds::emission_bound)), and a mean `m_c` of it taken
+//! at 4 x 4 x 4 points inside the cell when the render is prepared. The cells are chosen in
+//! proportion to `e_c V_c`, `e_c = m_c + Le_c / 100` (`V_c` the cell's world volume; the
+//! share of the bound keeps every cell that may emit reachable, so the estimate stays unbiased
+//! whatever the 64 points missed), and a point `y` uniformly inside the chosen cell, so the
+//! volume density of `y` is
 //!
 //! ```text
-//! p_V(y) = Le_c / W,    W = sum_c Le_c V_c
+//! p_V(y) = e_c / W,    W = sum_c e_c V_c
 //! ```
 //!
-//! and `y` is kept with probability `lum(Le(y)) / Le_c` (stochastic rejection against the
-//! bound: the shadow ray is traced only for kept points, which are distributed like the
-//! emission itself, and the estimate divides by that probability). From a shading point `x`
-//! with scattering factor `f` (phase function or BSDF times cosine):
+//! and `y` is kept with probability `P_keep = min(1, lum(Le(y)) / e_c)` (stochastic rejection:
+//! a point at least as bright as its cell's mean is always traced, a dimmer one in proportion,
+//! so shadow rays go where the light is, and the estimate divides by that probability). From
+//! a shading point `x` with scattering factor `f` (phase function or BSDF times cosine):
 //!
 //! ```text
 //! <L> = w_L f(wi) T^(x, y) Le(y) / (p_V(y) |y - x|^2 P_keep(y))
@@ -33,19 +36,23 @@
 //! and a collision's emission after a scattering event is weighted by `w_C = 1 - w_L` at its
 //! point (after the camera or a smooth dielectric, by 1). Moving or blurred media are left to
 //! the flights (their emission's place depends on the sample's time).
+use std::cell::Cell;
+
 use glam::{Affine3A, Vec3};
+use rayon::prelude::*;
 
 use super::emission_bounds::emission_bound;
 use super::lights::power_heuristic;
-use super::media::VdbMedium;
+use super::media::{Emission, VdbMedium};
 use crate::volume::bounds::CELL_WIDTH;
 
 /// One emitting medium's cells as a light.
 pub struct EmitterMedium {
     /// Its index in `RenderScene::vdb`.
     pub vdb: u32,
-    /// Per cell of the density's cell grid (x fastest): the emission bound `Le_c`.
-    bound: Vec<f32>,
+    /// Per cell of the density's cell grid (x fastest): `e_c` of the module doc (0 where the
+    /// cell cannot emit).
+    weight: Vec<f32>,
     /// Per cell: the walk's majorant `sigma_maj,c` (m^-1).
     sigma_maj: Vec<f32>,
     dims: [u32; 3],
@@ -93,8 +100,8 @@ pub struct EmitterSample {
     pub pdf_volume: f32,
     /// `sigma_maj,c` of its cell.
     pub sigma_maj: f32,
-    /// `Le_c` of its cell.
-    pub bound: f32,
+    /// `e_c` of its cell (what `P_keep` compares the point's emission with).
+    pub weight: f32,
 }
 
 impl MediaLights {
@@ -117,24 +124,35 @@ impl MediaLights {
             let sigma_maj: Vec<f32> = walk.cells.iter().map(|c| c.max * m.sigma_t_bound).collect();
             let world_from_index = m.density.index_from_world.inverse();
             let volume = world_from_index.matrix3.determinant().abs() * CELL_WIDTH.powi(3);
+            let (dims, cell_origin) = (walk.dims, walk.cell_origin);
+            // Only cells the walks collide in: the flights gather no emission anywhere else.
+            let weight: Vec<f32> = (0..bound.len())
+                .into_par_iter()
+                .map(|c| {
+                    let b = bound[c];
+                    if !(b > 0.0 && b.is_finite() && sigma_maj[c] > 0.0) {
+                        return 0.0;
+                    }
+                    let lo = cell_lo(dims, cell_origin, c);
+                    cell_mean(e, world_from_index, lo) + b * BOUND_SHARE
+                })
+                .collect();
             let slot = media.len() as u32;
             let mut any = false;
-            for (c, &b) in bound.iter().enumerate() {
-                // A cell the walk never collides in is left to nothing: it cannot emit.
-                if b > 0.0 && b.is_finite() && sigma_maj[c] > 0.0 {
+            for (c, &w) in weight.iter().enumerate() {
+                if w > 0.0 {
                     entries.push((slot, c as u32));
-                    weights.push(b as f64 * volume as f64);
+                    weights.push(w as f64 * volume as f64);
                     any = true;
                 }
             }
             if !any {
                 continue;
             }
-            let (dims, cell_origin) = (walk.dims, walk.cell_origin);
             m.emitter = Some(slot);
             media.push(EmitterMedium {
                 vdb: k as u32,
-                bound,
+                weight,
                 sigma_maj,
                 dims,
                 cell_origin,
@@ -173,18 +191,13 @@ impl MediaLights {
         let (slot, c) = self.entries[i];
         let m = &self.media[slot as usize];
         let c = c as usize;
-        let [nx, ny, _] = m.dims.map(|d| d as usize);
-        let cell = [c % nx, c / nx % ny, c / (nx * ny)];
-        let lo = Vec3::from_array(std::array::from_fn(|a| {
-            (m.cell_origin[a] + cell[a] as i32) as f32 * CELL_WIDTH
-        }));
-        let q = lo + u * CELL_WIDTH;
+        let q = cell_lo(m.dims, m.cell_origin, c) + u * CELL_WIDTH;
         Some(EmitterSample {
             slot,
             y: m.world_from_index.transform_point3(q),
-            pdf_volume: m.bound[c] / self.total,
+            pdf_volume: m.weight[c] / self.total,
             sigma_maj: m.sigma_maj[c],
-            bound: m.bound[c],
+            weight: m.weight[c],
         })
     }
 
@@ -197,14 +210,14 @@ impl MediaLights {
         let Some(c) = m.cell(q) else {
             return 1.0;
         };
-        let (b, s) = (m.bound[c], m.sigma_maj[c]);
-        if !(b > 0.0 && s > 0.0) {
+        let (e, s) = (m.weight[c], m.sigma_maj[c]);
+        if !(e > 0.0 && s > 0.0) {
             return 1.0;
         }
-        power_heuristic(pdf_dir * s, b / self.total * dist * dist)
+        power_heuristic(pdf_dir * s, e / self.total * dist * dist)
     }
 
-    /// `W`, the sum of every cell's bound times its volume.
+    /// `W`, the sum of every cell's `e_c V_c`.
     pub fn total(&self) -> f32 {
         self.total
     }
@@ -213,4 +226,30 @@ impl MediaLights {
     pub fn cells(&self) -> usize {
         self.entries.len()
     }
+}
+
+/// The share of a cell's emission bound its selection weight keeps beside its mean.
+const BOUND_SHARE: f32 = 0.01;
+
+/// The index-space corner of cell `c` of a `dims` grid of cells starting at `cell_origin`.
+fn cell_lo(dims: [u32; 3], cell_origin: [i32; 3], c: usize) -> Vec3 {
+    let [nx, ny, _] = dims.map(|d| d as usize);
+    let cell = [c % nx, c / nx % ny, c / (nx * ny)];
+    Vec3::from_array(std::array::from_fn(|a| {
+        (cell_origin[a] + cell[a] as i32) as f32 * CELL_WIDTH
+    }))
+}
+
+/// The mean of the emission's largest channel over 4 x 4 x 4 points of the cell at index
+/// corner `lo`.
+fn cell_mean(e: &Emission, world_from_index: Affine3A, lo: Vec3) -> f32 {
+    const N: usize = 4;
+    let lookups = Cell::new(0);
+    let mut sum = 0.0;
+    for k in 0..N * N * N {
+        let f = Vec3::new((k % N) as f32, (k / N % N) as f32, (k / (N * N)) as f32);
+        let q = lo + (f + 0.5) * (CELL_WIDTH / N as f32);
+        sum += e.radiance(world_from_index.transform_point3(q), &lookups).max_element();
+    }
+    sum / (N * N * N) as f32
 }
