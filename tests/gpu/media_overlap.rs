@@ -15,6 +15,7 @@
 //!
 //! Tiny images: lavapipe runs the kernels on the CPU.
 use crate::common;
+use crate::render::free_flight;
 use common::gpu::gpu_or_skip;
 use common::overlap::*;
 use common::render::*;
@@ -82,6 +83,7 @@ fn gpu_sum_agrees(
     alpha: f64,
     label: &str,
 ) {
+    let s = &free_flight(s);
     let (a, variant) = gpu_render(ctx, two, s, &format!("{label} two"));
     assert!(variant.contains("mixture"), "{label}: {variant}");
     let s1 = RenderSettings {
@@ -145,6 +147,7 @@ fn gpu_against_cpu(
     alpha: f64,
     label: &str,
 ) {
+    let s = &free_flight(s);
     let (g, variant) = gpu_render(ctx, scene, s, label);
     assert!(variant.contains("mixture"), "{label}: {variant}");
     let c = render(
