@@ -421,7 +421,7 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         None => eprintln!("pass done: {spp} spp, {secs:.2} s"),
     };
     let earlier = resume.as_ref().map_or(0.0, |(s, _)| *s);
-    let on_gpu = match choose_gpu(args, cpu_only, &rs)? {
+    let on_gpu = match choose_gpu(args, cpu_only, &rs, &settings)? {
         Some(ctx) => render_on_gpu(
             args,
             &ctx,
@@ -585,6 +585,7 @@ fn choose_gpu(
     args: &RenderArgs,
     cpu_only: bool,
     rs: &RenderScene,
+    settings: &RenderSettings,
 ) -> Result<Option<brume::backend::gpu::GpuContext>> {
     Ok(match args.backend {
         Backend::Cpu => None,
@@ -599,7 +600,7 @@ fn choose_gpu(
                 eprintln!("backend: cpu (the only GPU adapter, {}, is a software rasterizer; --backend gpu forces it)", ctx.adapter_info.name);
                 None
             }
-            Ok(ctx) => match brume::backend::gpu::supports(rs) {
+            Ok(ctx) => match brume::backend::gpu::supports_with(rs, settings) {
                 Ok(()) => Some(ctx),
                 Err(why) if args.backend == Backend::Gpu => {
                     return Err(anyhow!("--backend gpu: {why}"))

@@ -15,6 +15,7 @@
 //!
 //! Tiny images: lavapipe runs the kernels on the CPU.
 use crate::common;
+use crate::render::free_flight;
 use common::gpu::gpu_or_skip;
 use common::overlap::*;
 use common::render::*;
@@ -24,7 +25,9 @@ use std::sync::atomic::AtomicBool;
 
 use brume::backend::cpu::RenderOutput;
 use brume::backend::gpu::{self, render::render_with_timings, GpuContext};
-use brume::render::{Absorption, Estimator, MajorantMode, RenderScene, RenderSettings};
+use brume::render::{
+    Absorption, Estimator, MajorantMode, RenderScene, RenderSettings, VolumeSampling,
+};
 use serde_json::json;
 
 /// Renders on the GPU and checks what every render must hold; returns the image and the
@@ -82,6 +85,7 @@ fn gpu_sum_agrees(
     alpha: f64,
     label: &str,
 ) {
+    let s = &free_flight(s);
     let (a, variant) = gpu_render(ctx, two, s, &format!("{label} two"));
     assert!(variant.contains("mixture"), "{label}: {variant}");
     let s1 = RenderSettings {
@@ -145,6 +149,7 @@ fn gpu_against_cpu(
     alpha: f64,
     label: &str,
 ) {
+    let s = &free_flight(s);
     let (g, variant) = gpu_render(ctx, scene, s, label);
     assert!(variant.contains("mixture"), "{label}: {variant}");
     let c = render(
@@ -321,4 +326,33 @@ fn more_media_than_the_gpu_binds_are_refused_in_one_line() {
     let why = gpu::supports(&rs).expect_err("too many media");
     println!("{} VDB media: refused: {why}", rs.vdb.len());
     assert!(!why.contains('\n'));
+}
+
+/// The CPU's equiangular sampling towards the point light, alone and weighed by MIS, against
+/// the GPU's free flight on the two media: the same light by other strategies (z-tests,
+/// independent seeds).
+#[test]
+fn free_flight_on_the_gpu_agrees_with_equiangular_sampling_on_the_cpu() {
+    let Some(ctx) = gpu_or_skip("free_flight_on_the_gpu_agrees_with_equiangular_sampling") else {
+        return;
+    };
+    let (two, _) = pair(false);
+    let s = overlap_settings(Estimator::Delta, MajorantMode::Adaptive, 400);
+    let (g, _) = gpu_render(&ctx, &two, &free_flight(&s), "two media, free flight");
+    let alpha = 1e-3 / 2.0;
+    for (i, mode) in [VolumeSampling::Mis, VolumeSampling::Equiangular]
+        .into_iter()
+        .enumerate()
+    {
+        let c = render(
+            &two,
+            &RenderSettings {
+                volume_sampling: mode,
+                seed: s.seed + 1000 + i as u32,
+                ..s.clone()
+            },
+        );
+        let label = format!("GPU distance against CPU {}", mode.name());
+        agree(&g, &c, &s, 1, alpha, &label);
+    }
 }

@@ -20,7 +20,7 @@ use brume::gpu_types::{
     GPU_LIGHT_PASSES, PASS_BACKGROUND, PASS_EMISSION, PASS_SURFACE_DIRECT, PASS_VOLUME_DIRECT,
 };
 use brume::render::light_groups::LightGroups;
-use brume::render::RenderSettings;
+use brume::render::{RenderSettings, VolumeSampling};
 
 fn settings(light_passes: bool, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -29,6 +29,8 @@ fn settings(light_passes: bool, seed: u32) -> RenderSettings {
         spp: 16,
         seed,
         light_passes,
+        // Point lights in media render on the GPU with free flight alone (`gpu::supports_with`).
+        volume_sampling: VolumeSampling::Distance,
         ..RenderSettings::default()
     }
 }

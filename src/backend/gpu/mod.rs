@@ -5,8 +5,8 @@
 //!
 //! The wavefront integrator, one concept per module: the stage graph and its WGSL variants
 //! ([`graph`]), the scene as the GPU reads it (`upload`), every buffer and the kernels bound
-//! to them (`buffers`), the per-batch scheduler (`dispatch`) and the render loop over passes
-//! and batches ([`render`]).
+//! to them (`buffers`), the per-batch scheduler (`dispatch`), the render loop over passes
+//! and batches ([`render`]) and what it renders as the CPU would (`support`).
 pub mod device;
 pub mod shader;
 
@@ -17,6 +17,7 @@ mod dispatch;
 mod error;
 pub mod graph;
 pub mod render;
+mod support;
 mod upload;
 
-pub use render::{render, supports, GpuRenderError, Stage};
+pub use render::{render, supports, supports_with, GpuRenderError, Stage};

@@ -43,8 +43,9 @@
 //! (`RenderSettings::light_groups`: the `FEATURE_LIGHT_GROUPS` variant gathers each
 //! contribution into its source's group, after the light passes in the same per-slot
 //! accumulators, read back with them). [`supports`] refuses,
-//! with a one-line reason, more than [`GPU_MAX_VDB_MEDIA`] VDB media and media meshes nested
-//! deeper than three.
+//! with a one-line reason, more than [`crate::gpu_types::GPU_MAX_VDB_MEDIA`] VDB media and media meshes nested
+//! deeper than three; [`supports_with`] also refuses equiangular sampling towards point and
+//! spot lights in media (`RenderSettings::volume_sampling`), which renders on the CPU only.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!
@@ -62,13 +63,14 @@ pub use super::error::GpuRenderError;
 use super::graph::specs;
 pub use super::graph::{gpu_features, variant_name, variant_name_with_passes, Passes, Stage};
 use super::shader;
+pub use super::support::{supports, supports_with};
 use super::upload::{env_map_upload, upload_grid, wavefront_params, Geometry, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::passes::PassLayers;
 use crate::film::{Film, TileRecord, TileRect};
 use crate::gpu_types::{
-    GpuDataPasses, GpuPathState, GpuSample, GpuWavefrontCounters, GpuWideCounter, GPU_CAMERA_POSES,
-    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASSES, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE,
+    GpuDataPasses, GpuPathState, GpuSample, GpuWavefrontCounters, GpuWideCounter,
+    GPU_DATA_PASS_BYTES, GPU_LIGHT_PASSES,
 };
 use crate::integrator::path::DATA_PASS_COUNT;
 use crate::render::light_groups::MAX_LIGHT_GROUPS;
@@ -131,77 +133,6 @@ impl GpuTimings {
         }
         t
     }
-}
-
-/// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.
-pub fn supports(rs: &RenderScene) -> Result<(), String> {
-    if rs.nesting_depth > GPU_MAX_NESTED_MEDIA {
-        return Err(format!(
-            "KHR_materials_volume meshes nested {} deep; the GPU medium stack holds {GPU_MAX_NESTED_MEDIA}",
-            rs.nesting_depth
-        ));
-    }
-    if rs.features.nested && rs.homogeneous.len() >= STACK_NONE as usize {
-        return Err(format!(
-            "{} homogeneous media with nested meshes; the GPU medium stack indexes fewer than {STACK_NONE}",
-            rs.homogeneous.len()
-        ));
-    }
-    if rs.vdb.len() > GPU_MAX_VDB_MEDIA {
-        return Err(format!(
-            "{} VDB media; the GPU integrator binds at most {GPU_MAX_VDB_MEDIA}",
-            rs.vdb.len()
-        ));
-    }
-    if let Some(m) = rs
-        .scene
-        .camera_motion
-        .as_ref()
-        .filter(|m| m.poses.len() != GPU_CAMERA_POSES)
-    {
-        return Err(format!(
-            "a camera moving through {} poses; the GPU interpolates {GPU_CAMERA_POSES}",
-            m.poses.len()
-        ));
-    }
-    if rs.vdb.iter().any(|m| m.motion.is_some()) {
-        return Err(
-            "a medium node moving during the shutter (transformation blur of media renders on the \
-             CPU backend only)"
-                .into(),
-        );
-    }
-    if rs.scene.moving_meshes.is_some() {
-        return Err(
-            "a mesh moving during the shutter (transformation blur of meshes renders on the CPU \
-             backend only)"
-                .into(),
-        );
-    }
-    let of_voxels = |m: &crate::render::media::VdbMedium| {
-        let blackbody = m.emission.as_ref().and_then(|e| e.blackbody.as_ref());
-        blackbody.is_some_and(|b| b.of_voxels)
-    };
-    if rs.vdb.iter().any(of_voxels) {
-        return Err(
-            "the blackbody of each voxel (--blackbody voxels) renders on the CPU backend only"
-                .into(),
-        );
-    }
-    if rs.lights.moving() {
-        return Err(
-            "a light moving during the shutter (transformation blur of lights renders on the CPU \
-             backend only)"
-                .into(),
-        );
-    }
-    if rs.scene.triangles.len() >= crate::scene::NO_INDEX as usize {
-        return Err(format!(
-            "{} triangles; the GPU integrator indexes fewer than 2^32",
-            rs.scene.triangles.len()
-        ));
-    }
-    Ok(())
 }
 
 /// Renders `rs` on the GPU; see [`render_with_timings`].
@@ -380,7 +311,7 @@ fn wavefront<'a>(
 
 /// Refuses what the GPU integrator does not render as the CPU would, before any upload.
 fn check_supported(rs: &RenderScene, settings: &RenderSettings) -> Result<(), GpuRenderError> {
-    supports(rs).map_err(GpuRenderError::Unsupported)?;
+    supports_with(rs, settings).map_err(GpuRenderError::Unsupported)?;
     settings.validate().map_err(GpuRenderError::Unsupported)?;
     let groups = rs.groups.as_ref().map_or(&[][..], |g| &g.names[..]);
     if groups != settings.light_groups.as_slice() {
