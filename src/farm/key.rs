@@ -27,7 +27,11 @@ pub fn settings_key(s: &crate::render::RenderSettings, camera: Option<&str>) -> 
         crate::render::VolumeSampling::Mis => String::new(),
         other => format!(" volume_sampling={}", other.name()),
     };
-    let media_lights = if s.media_lights { "" } else { " media_lights=off" };
+    let media_lights = if s.media_lights {
+        ""
+    } else {
+        " media_lights=off"
+    };
     let adaptive = s.noise_threshold.map_or(String::new(), |e| {
         format!(" noise_threshold={e} min_spp={}", s.min_spp)
     });

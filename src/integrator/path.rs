@@ -6,10 +6,10 @@
 use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
+use super::emitters::emitter_event;
 use super::equiangular::{distance_weight, equiangular_estimate, media_extent, Segment};
 use super::features::Features;
 use super::flight::media_flight;
-use super::emitters::emitter_event;
 use super::media::{EmissionMis, Emitted, Flight, MediumEvent};
 use super::next_event::{next_event, EnvChoice, Vertex};
 use crate::accel::Hit;
@@ -148,12 +148,16 @@ impl PathState {
     /// (depth `depth + 1`), as [`Self::gather`] would there.
     #[inline(always)]
     fn gather_next(&mut self, limits: &PathLimits, x: Vec3, group: u8) {
+        // The event is the path's first only if it is at depth 1; the path itself may still
+        // meet a surface first.
+        let first_in_medium = self.first_in_medium;
         self.depth += 1;
         if self.depth == 1 {
             self.first_in_medium = true;
         }
         self.gather(limits, x, EMISSION, group);
         self.depth -= 1;
+        self.first_in_medium = first_in_medium;
     }
 
     #[inline(always)]
@@ -404,12 +408,14 @@ fn sample_medium<F: Features>(
                 l: &mut ps.l,
                 groups: limits.light_groups.then_some(&mut ps.groups),
                 // After a scattering event, emission is weighed against the media lights.
-                mis: rs.media_lights.as_ref().filter(|_| !ps.specular).map(|lights| {
-                    EmissionMis {
+                mis: rs
+                    .media_lights
+                    .as_ref()
+                    .filter(|_| !ps.specular)
+                    .map(|lights| EmissionMis {
                         lights,
                         pdf_dir: ps.prev_pdf,
-                    }
-                }),
+                    }),
             },
         },
     );

@@ -249,7 +249,9 @@ fn cell_mean(e: &Emission, world_from_index: Affine3A, lo: Vec3) -> f32 {
     for k in 0..N * N * N {
         let f = Vec3::new((k % N) as f32, (k / N % N) as f32, (k / (N * N)) as f32);
         let q = lo + (f + 0.5) * (CELL_WIDTH / N as f32);
-        sum += e.radiance(world_from_index.transform_point3(q), &lookups).max_element();
+        sum += e
+            .radiance(world_from_index.transform_point3(q), &lookups)
+            .max_element();
     }
     sum / (N * N * N) as f32
 }

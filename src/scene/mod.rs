@@ -480,7 +480,9 @@ impl Scene {
                 .iter()
                 .chain(&m.sigma_s)
                 .all(|s| s.is_finite() && *s >= 0.0)
-                && m.phase.henyey_greenstein_g().map_or(true, |g| g.abs() < 1.0)
+                && m.phase
+                    .henyey_greenstein_g()
+                    .map_or(true, |g| g.abs() < 1.0)
                 && (m.material as usize) < self.materials.len()
                 && self.materials[m.material as usize].interior_medium == k as u32;
             if !ok {

@@ -186,3 +186,45 @@ fn heterogeneous_medium_with_a_point_light_matches_free_flight() {
         );
     }
 }
+
+/// The Cornell smoke's light passes with MIS against free flight alone (8 x 8 blocks, pass by
+/// pass): an equiangular estimate is gathered as the light of the event it samples, so a
+/// camera ray that crosses the smoke and then meets a wall keeps its light in the surface
+/// passes.
+#[test]
+fn light_passes_with_equiangular_sampling_match_free_flight() {
+    use brume::film::passes::LIGHT_PASSES;
+    let scene = crate::common::render::load_scene("cornell_smoke.gltf");
+    let s = |spp, seed, sampling| RenderSettings {
+        width: 32,
+        height: 32,
+        light_passes: true,
+        ..settings(spp, seed, sampling, 8)
+    };
+    let mis = render(&scene, &s(512, 31, VolumeSampling::Mis));
+    let distance = render(&scene, &s(2048, 32, VolumeSampling::Distance));
+    let block = |out: &brume::backend::cpu::RenderOutput, k: usize| {
+        let passes = out.film.passes().expect("light passes kept");
+        let (mut m, mut v) = (vec![0.0; 48], vec![0.0; 48]);
+        for i in 0..32 * 32 {
+            let b = (i / 32 / 8) * 4 + (i % 32) / 8;
+            let count = out.film.pixels()[i].count;
+            let (mean, var) = (passes.mean(i, k), passes.variance_of_mean(i, k, count));
+            for c in 0..3 {
+                m[3 * b + c] += mean[c] / 64.0;
+                v[3 * b + c] += var[c] / 4096.0;
+            }
+        }
+        (m, v)
+    };
+    for (k, name) in LIGHT_PASSES.iter().enumerate() {
+        let (a, b) = (block(&mis, k), block(&distance, k));
+        let r = compare((&a.0, &a.1), (&b.0, &b.1), 1e-3 / LIGHT_PASSES.len() as f64);
+        println!(
+            "{name}: mis {:.5} against distance {:.5} (z {:.2}); {} of {} block values failing \
+             (worst z {:.2})",
+            r.mean_a, r.mean_b, r.mean_z, r.failing, r.pixels, r.worst_z
+        );
+        assert_eq!(r.failing, 0, "{name}");
+    }
+}

@@ -169,7 +169,11 @@ pub fn run(args: &PeersArgs) -> Result<()> {
     }
     if let Some([_, _, x1, y1]) = args.window {
         if x1 > args.width || y1 > args.height {
-            bail!("--window ends outside the {}x{} image", args.width, args.height);
+            bail!(
+                "--window ends outside the {}x{} image",
+                args.width,
+                args.height
+            );
         }
     }
     for r in &args.renderers {
