@@ -128,6 +128,20 @@ impl Pinhole {
         )
     }
 
+    /// Where world point `p` lies on the film (`[0, 1]^2` inside the image, as
+    /// [`Self::generate_ray`] takes it); `None` behind the camera.
+    pub fn film_point(&self, p: Vec3, aspect: f32) -> Option<glam::Vec2> {
+        let local = self.world_from_camera.inverse().transform_point3(p);
+        if !(local.z < 0.0) {
+            return None;
+        }
+        let (u, v) = (local.x / -local.z, local.y / -local.z);
+        Some(glam::Vec2::new(
+            0.5 * (u / (self.tan_half * aspect) + 1.0),
+            0.5 * (1.0 - v / self.tan_half),
+        ))
+    }
+
     /// [`Camera::primary_ray`]: the ray and where the near plane cuts it.
     #[inline]
     pub fn primary_ray(&self, x: f32, y: f32, aspect: f32) -> (Ray, f32) {
@@ -274,5 +288,35 @@ pub fn default_camera(bounds: &Aabb) -> Camera {
         file_aspect_ratio: None,
         name: None,
         source: CameraSource::Default,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point on the ray through a film point projects back onto that film point.
+    #[test]
+    fn film_point_inverts_the_primary_ray() {
+        let rotation = glam::Quat::from_euler(glam::EulerRot::YXZ, 0.4, -0.2, 0.1);
+        let world = Mat4::from_rotation_translation(rotation, Vec3::new(1.0, 2.0, 3.0));
+        let pinhole = Pinhole {
+            world_from_camera: world,
+            position: Vec3::new(1.0, 2.0, 3.0),
+            forward: rotation * Vec3::NEG_Z,
+            tan_half: 0.3,
+            znear: 0.01,
+        };
+        for (x, y) in [(0.5, 0.5), (0.1, 0.8), (0.93, 0.27)] {
+            let ray = pinhole.generate_ray(x, y, 1.5);
+            let f = pinhole.film_point(ray.at(4.0), 1.5).unwrap();
+            assert!(
+                (f.x - x).abs() < 1e-5 && (f.y - y).abs() < 1e-5,
+                "{f} vs {x}, {y}"
+            );
+        }
+        assert!(pinhole
+            .film_point(Vec3::new(1.0, 2.0, 3.0) - pinhole.forward, 1.5)
+            .is_none());
     }
 }

@@ -23,6 +23,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
 use crate::film::{read_exr, write_image, AttrValue, Image, Metadata};
+use crate::scene::lights::LIGHT_DIRECTIONAL;
 use crate::study::stats::{self, ImageMean};
 
 const RENDERERS: [&str; 15] = [
@@ -117,6 +118,48 @@ pub struct PeersArgs {
     /// under a fire); every renderer still renders the whole image.
     #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_window)]
     pub window: Option<[u32; 4]>,
+    /// Leave out of the statistics the 5 x 5 pixels around each point or spot light the
+    /// camera sees: a point light's glow in a medium falls off as 1 / d across the image, so
+    /// the pixel holding it has an infinite variance under any pixel sampling, and it would
+    /// set every figure.
+    #[arg(long)]
+    pub mask_lights: bool,
+}
+
+/// The pixels the statistics take, row by row: `--window`'s, less `--mask-lights`' (`None`:
+/// every pixel).
+fn kept_pixels(scene: &Path, args: &PeersArgs) -> Result<Option<Vec<bool>>> {
+    if args.window.is_none() && !args.mask_lights {
+        return Ok(None);
+    }
+    let (w, h) = (args.width as usize, args.height as usize);
+    let [x0, y0, x1, y1] = args.window.map_or([0, 0, w, h], |b| b.map(|v| v as usize));
+    let mut kept: Vec<bool> = (0..w * h)
+        .map(|i| (x0..x1).contains(&(i % w)) && (y0..y1).contains(&(i / w)))
+        .collect();
+    if args.mask_lights {
+        let s = crate::scene::load(scene)?;
+        let pinhole = s.camera.pinhole();
+        let positional = s.lights.iter().filter(|l| l.kind != LIGHT_DIRECTIONAL);
+        for l in positional {
+            let aspect = w as f32 / h as f32;
+            let Some(f) = pinhole.film_point(glam::Vec3::from(l.position), aspect) else {
+                continue;
+            };
+            let (px, py) = (
+                (f.x * w as f32).floor() as i64,
+                (f.y * h as f32).floor() as i64,
+            );
+            for y in py - 2..=py + 2 {
+                for x in px - 2..=px + 2 {
+                    if (0..w as i64).contains(&x) && (0..h as i64).contains(&y) {
+                        kept[y as usize * w + x as usize] = false;
+                    }
+                }
+            }
+        }
+    }
+    Ok(Some(kept))
 }
 
 /// `X0,Y0,X1,Y1`.
@@ -198,15 +241,16 @@ pub fn run(args: &PeersArgs) -> Result<()> {
             .into_owned();
         let dir = args.out.join(scene.file_stem().unwrap_or_default());
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        let kept = kept_pixels(scene, args)?;
         let mut rows = Vec::new();
         for renderer in RENDERERS {
             if !args.renderers.iter().any(|r| r == renderer) {
                 continue;
             }
             let outcome = match renderer {
-                "mitsuba" => peer_renders("mitsuba", scene, &dir, args)?,
-                "cycles" => peer_renders("cycles", scene, &dir, args)?,
-                brume => brume_renders(scene, &dir, args, brume)?,
+                "mitsuba" => peer_renders("mitsuba", scene, &dir, args, &kept)?,
+                "cycles" => peer_renders("cycles", scene, &dir, args, &kept)?,
+                brume => brume_renders(scene, &dir, args, brume, &kept)?,
             };
             match outcome {
                 Outcome::Done(row) => {
@@ -227,9 +271,12 @@ pub fn run(args: &PeersArgs) -> Result<()> {
         }
         table.add(&name, &rows);
     }
-    let window = args.window.map_or(String::new(), |[x0, y0, x1, y1]| {
+    let mut window = args.window.map_or(String::new(), |[x0, y0, x1, y1]| {
         format!(", statistics over pixels [{x0}, {x1}) x [{y0}, {y1})")
     });
+    if args.mask_lights {
+        window.push_str(", the 5 x 5 pixels around each point and spot light in view left out");
+    }
     let header = format!(
         "{}x{}, {} spp, {} threads, seeds 0..{} per renderer and scene{window}",
         args.width,
@@ -322,6 +369,7 @@ fn brume_renders(
     dir: &Path,
     args: &PeersArgs,
     name: &'static str,
+    kept: &Option<Vec<bool>>,
 ) -> Result<Outcome> {
     use crate::render::{Estimator, MajorantMode, RenderScene, RenderSettings};
     let scene = crate::scene::load(scene_path)?;
@@ -375,7 +423,9 @@ fn brume_renders(
         seconds.push(out.seconds);
         images.push(image);
     }
-    Ok(Outcome::Done(row(name, &images, &seconds, None, args)?))
+    Ok(Outcome::Done(row(
+        name, &images, &seconds, None, args, kept,
+    )?))
 }
 
 /// Mitsuba or Cycles through `brume mitsuba` / `brume cycles` (this executable), one process
@@ -385,6 +435,7 @@ fn peer_renders(
     scene: &Path,
     dir: &Path,
     args: &PeersArgs,
+    kept: &Option<Vec<bool>>,
 ) -> Result<Outcome> {
     let exe = std::env::current_exe().context("finding the brume executable")?;
     let mut images = Vec::new();
@@ -437,7 +488,9 @@ fn peer_renders(
         images.push(image);
     }
     let setup = (setups.len() == seconds.len()).then(|| stats::mean_std(&setups).0);
-    Ok(Outcome::Done(row(which, &images, &seconds, setup, args)?))
+    Ok(Outcome::Done(row(
+        which, &images, &seconds, setup, args, kept,
+    )?))
 }
 
 /// The seconds a peer reports, and the set-up part of them when it says so. Cycles:
@@ -488,15 +541,15 @@ fn sig3(x: f64) -> String {
     }
 }
 
-/// The pixels of `image` inside `window` (all of them without one), row by row.
-fn windowed(image: &Image, window: Option<[u32; 4]>) -> Vec<[f32; 3]> {
-    let Some([x0, y0, x1, y1]) = window.map(|w| w.map(|v| v as usize)) else {
-        return image.rgb.clone();
-    };
-    (y0..y1)
-        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
-        .map(|(x, y)| image.rgb[y * image.width + x])
-        .collect()
+/// The pixels of `image` that `kept` keeps (all of them without it).
+fn kept_of(image: &Image, kept: &Option<Vec<bool>>) -> Vec<[f32; 3]> {
+    match kept {
+        None => image.rgb.clone(),
+        Some(k) => (image.rgb.iter().zip(k))
+            .filter(|(_, &k)| k)
+            .map(|(p, _)| *p)
+            .collect(),
+    }
 }
 
 fn row(
@@ -505,9 +558,10 @@ fn row(
     seconds: &[f64],
     setup: Option<f64>,
     args: &PeersArgs,
+    kept: &Option<Vec<bool>>,
 ) -> Result<Row> {
     let spp = args.spp;
-    let pixels: Vec<Vec<[f32; 3]>> = images.iter().map(|i| windowed(i, args.window)).collect();
+    let pixels: Vec<Vec<[f32; 3]>> = images.iter().map(|i| kept_of(i, kept)).collect();
     let rgb: Vec<&[[f32; 3]]> = pixels.iter().map(|p| p.as_slice()).collect();
     let variance = stats::seed_variance_profile(&rgb, stats::TOP_FRACTION)
         .map_err(|e| anyhow!("{renderer}: {e}"))?;
