@@ -41,16 +41,11 @@ struct Row {
     mrays: [[f64; 2]; 3],
 }
 
-/// Measures each scene (default: every example scene) and a random triangle soup of `soup`
-/// triangles (none when 0), `rays` rays a kind, best of `runs`.
-pub fn run(scenes: Vec<PathBuf>, rays: usize, runs: usize, soup: usize) -> Result<()> {
-    let scenes = if scenes.is_empty() {
-        super::example_scenes()?
-    } else {
-        scenes
-    };
+/// Measures each scene and a random triangle soup of `soup` triangles (none when 0), `rays`
+/// rays a kind, best of `runs`.
+pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soup: usize) -> Result<()> {
     let mut meshes = Vec::new();
-    for path in &scenes {
+    for path in scenes {
         meshes.push(scene_mesh(path)?);
     }
     if soup > 0 {
@@ -164,7 +159,7 @@ fn measure(mesh: &Mesh, rays: usize, runs: usize) -> Result<Row> {
     let mut mrays = [[0.0; 2]; 3];
     for (k, set) in sets.iter().enumerate() {
         let occlusion = k == 1;
-        let bvh_s = super::best_of(runs, || {
+        let bvh_s = best_of(runs, || {
             for (ray, &t_max) in set.rays.iter().zip(&set.t_max) {
                 if occlusion {
                     black_box(bvh.any_hit(ray, 0.0, t_max));
@@ -173,7 +168,7 @@ fn measure(mesh: &Mesh, rays: usize, runs: usize) -> Result<Row> {
                 }
             }
         });
-        let embree_s = super::best_of(runs, || {
+        let embree_s = best_of(runs, || {
             for (ray, &t_max) in set.rays.iter().zip(&set.t_max) {
                 if occlusion {
                     black_box(embree.occluded(ray, 0.0, t_max));
@@ -248,4 +243,15 @@ fn bounce_rays(b: &crate::math::Aabb, n: usize) -> Rays {
         .collect();
     let t_max = vec![f32::INFINITY; n];
     Rays { rays, t_max }
+}
+
+/// The shortest of `runs` timings of `f`, in seconds.
+fn best_of(runs: usize, mut f: impl FnMut()) -> f64 {
+    (0..runs.max(1))
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
 }

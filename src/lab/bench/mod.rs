@@ -243,7 +243,14 @@ pub fn run(which: Which) -> Result<()> {
             rays,
             runs,
             soup,
-        } => accel::run(scenes, rays, runs, soup),
+        } => {
+            let scenes = if scenes.is_empty() {
+                example_scenes()?
+            } else {
+                scenes
+            };
+            accel::run(&scenes, rays, runs, soup)
+        }
         Which::Peers(args) => peers::run(&args),
     }
 }
