@@ -4,6 +4,10 @@
 //! `-lopenvdb -ltbb -lImath-3_1` (measured: blosc, zlib and boost_iostreams are not needed at
 //! link time). `OPENVDB_DIR` points at another installation (`include/` and `lib/` below it);
 //! `OPENVDB_LIBS` replaces the library list (comma-separated) for other distributions.
+//!
+//! The Embree shim (`shim/brume_embree.cpp`, Debian's `libembree-dev`, Embree 3) is a separate
+//! static library, so editing one shim does not recompile the other; `EMBREE_DIR` points at
+//! another Embree 3 installation.
 use std::env;
 use std::path::PathBuf;
 
@@ -42,6 +46,8 @@ fn main() {
         println!("cargo:rustc-link-lib={lib}");
     }
 
+    build_embree_shim();
+
     let bindings = bindgen::Builder::default()
         .header("shim/brume_vdb.h")
         .allowlist_function("brume_vdb_.*")
@@ -56,4 +62,46 @@ fn main() {
     bindings
         .write_to_file(out)
         .expect("cannot write bindings.rs");
+}
+
+/// The Embree shim, its link line (`-lembree3`) and its bindings (`embree_bindings.rs`).
+fn build_embree_shim() {
+    println!("cargo:rerun-if-changed=shim/brume_embree.h");
+    println!("cargo:rerun-if-changed=shim/brume_embree.cpp");
+    println!("cargo:rerun-if-env-changed=EMBREE_DIR");
+    let embree_dir = env::var_os("EMBREE_DIR").map(PathBuf::from);
+    let mut build = cc::Build::new();
+    build
+        .cpp(true)
+        .file("shim/brume_embree.cpp")
+        .include("shim")
+        .flag("-std=c++17")
+        .flag_if_supported("-Wall")
+        .flag_if_supported("-Wextra")
+        .opt_level(2)
+        .warnings(true);
+    if let Some(dir) = &embree_dir {
+        build.include(dir.join("include"));
+        println!(
+            "cargo:rustc-link-search=native={}",
+            dir.join("lib").display()
+        );
+    }
+    build.compile("brume_embree_shim");
+    println!("cargo:rustc-link-lib=embree3");
+
+    let bindings = bindgen::Builder::default()
+        .header("shim/brume_embree.h")
+        .allowlist_function("brume_embree_.*")
+        .allowlist_type("BrumeEmbree.*")
+        .allowlist_var("BRUME_EMBREE_.*")
+        .default_enum_style(bindgen::EnumVariation::Consts)
+        .prepend_enum_name(false)
+        .layout_tests(true)
+        .generate()
+        .expect("bindgen could not parse shim/brume_embree.h (is libclang-dev installed?)");
+    let out = PathBuf::from(env::var("OUT_DIR").unwrap()).join("embree_bindings.rs");
+    bindings
+        .write_to_file(out)
+        .expect("cannot write embree_bindings.rs");
 }

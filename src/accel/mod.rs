@@ -3,7 +3,8 @@
 //! BVHs"), built once and traversed on the CPU; its 80-byte nodes are ready for GPU upload.
 //! Meshes of at most [`SMALL_MESH_TRIANGLES`] triangles answer closest hits on the CPU by
 //! testing every triangle, four or eight at a time (`small`), which is faster there; the GPU
-//! traverses the CWBVH whatever the size.
+//! traverses the CWBVH whatever the size. [`embree`] answers the same closest hits through
+//! Intel Embree instead ([`Accel::Embree`]).
 use std::time::Duration;
 
 use glam::Vec3A;
@@ -12,12 +13,33 @@ use obvhs::BvhBuildParams;
 
 use crate::math::Ray;
 
+pub mod embree;
 mod lanes;
 mod small;
 #[cfg(target_arch = "x86_64")]
 mod small_avx;
 use small::TriangleBatches;
 pub use small::{SmallMeshLanes, SMALL_MESH_TRIANGLES};
+
+/// The CPU's closest-hit accelerator for static triangles. The GPU always traverses the
+/// CWBVH.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Accel {
+    /// The obvhs CWBVH (all-triangle tests on small meshes).
+    #[default]
+    Bvh,
+    /// Intel Embree 3 chooses the triangle; Brume's triangle test gives the hit.
+    Embree,
+}
+
+impl Accel {
+    pub fn name(self) -> &'static str {
+        match self {
+            Accel::Bvh => "bvh",
+            Accel::Embree => "embree",
+        }
+    }
+}
 
 /// A closest-hit record.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -134,6 +156,11 @@ impl TriangleBvh {
     /// [`SMALL_MESH_TRIANGLES`] (the BVH answers) or with no triangles.
     pub fn small_lanes(&self) -> Option<SmallMeshLanes> {
         self.small.as_ref().map(TriangleBatches::lanes)
+    }
+
+    /// Triangle corners in the caller's order.
+    pub fn triangles(&self) -> &[[Vec3A; 3]] {
+        &self.triangles
     }
 
     /// Number of triangles.

@@ -187,6 +187,12 @@ pub struct RenderArgs {
     /// and supports the scene, else the CPU with a one-line reason.
     #[arg(long, default_value = "auto")]
     pub backend: Backend,
+    /// The CPU backend's ray-query accelerator for static triangles: bvh (the obvhs CWBVH;
+    /// default) or embree (Intel Embree 3 chooses the triangle, Brume's own triangle test
+    /// gives the hit, so images agree). Scenes with moving meshes, and the GPU backend, use
+    /// the BVH.
+    #[arg(long, default_value = "bvh")]
+    pub accel: brume::render::settings::Accel,
     /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its
     /// default is 127.0.0.1:14158) as the render converges: the mean after a pass, at most
     /// every half second, and the final image, one tev image per output file, with the passes
@@ -292,6 +298,7 @@ impl RenderArgs {
             s.spp = end;
         }
         s.region = self.region;
+        s.accel = self.accel;
         Ok(s)
     }
 }
@@ -359,7 +366,7 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         let (a, b) = frames.resolve(&args.scene)?;
         return render_frames(args, a, b, display);
     }
-    let scene = load_scene(args)?;
+    let mut scene = load_scene(args)?;
     let args = &args.for_frame(scene.frame);
     let mut settings = args
         .settings(&scene.render)
@@ -382,6 +389,7 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         ));
     }
     check_outputs(args)?;
+    report_accel(&mut scene, settings.accel)?;
     let rs = RenderScene::prepare(&scene, &settings).map_err(|e| anyhow!(e))?;
     let features = if settings.generic {
         brume::render::FeatureFlags::ALL
@@ -461,6 +469,29 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         v.flush();
     }
     written
+}
+
+/// Builds the CPU's accelerator (`--accel`) and says which one renders where it is not the
+/// default BVH.
+fn report_accel(
+    scene: &mut brume::scene::Scene,
+    asked: brume::render::settings::Accel,
+) -> Result<()> {
+    let used = scene.use_accel(asked)?;
+    if let Some(e) = &scene.embree {
+        eprintln!(
+            "accel: embree ({} triangles, built in {:.1} ms, {:.1} KiB)",
+            scene.triangles.len(),
+            e.build_seconds() * 1e3,
+            e.memory_bytes() as f64 / 1024.0
+        );
+    } else if used != asked {
+        eprintln!(
+            "accel: {} (the scene's meshes move: Embree holds static triangles only)",
+            used.name()
+        );
+    }
+    Ok(())
 }
 
 /// Renders frames `a..=b` one after another as `--frame` would, once every frame's files are

@@ -4,6 +4,7 @@ use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+pub use crate::accel::Accel;
 pub use crate::sampling::SamplerKind;
 
 /// Free-flight (distance) sampling in heterogeneous media.
@@ -244,6 +245,7 @@ parse_names!(MajorantMode, "majorant mode", [
     "adaptive" => MajorantMode::Adaptive,
     "local" => MajorantMode::Adaptive,
 ]);
+parse_names!(Accel, "accelerator", ["bvh" => Accel::Bvh, "embree" => Accel::Embree]);
 parse_names!(ShadowEstimator, "shadow estimator", [
     "auto" => ShadowEstimator::Auto,
     "ratio" => ShadowEstimator::Ratio,
@@ -343,6 +345,11 @@ pub struct RenderSettings {
     pub noise_threshold: Option<f32>,
     /// Samples every pixel takes before adaptive sampling may stop it.
     pub min_spp: u32,
+    /// The CPU backend's closest-hit accelerator for static triangles ([`Scene::use_accel`]
+    /// builds it; the GPU always traverses its CWBVH).
+    ///
+    /// [`Scene::use_accel`]: crate::scene::Scene::use_accel
+    pub accel: Accel,
 }
 
 impl Default for RenderSettings {
@@ -381,6 +388,7 @@ impl Default for RenderSettings {
             blackbody: BlackbodyModel::Temperature,
             noise_threshold: None,
             min_spp: 16,
+            accel: Accel::Bvh,
         }
     }
 }

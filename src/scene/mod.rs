@@ -60,7 +60,8 @@ pub use mesh::{Instance, Triangle, Vertex};
 pub use render_settings::SceneRenderSettings;
 pub use texture::{TextureImage, TextureRef};
 
-use crate::accel::TriangleBvh;
+use crate::accel::embree::EmbreeTriangles;
+use crate::accel::{Accel, TriangleBvh};
 use crate::math::{Aabb, Ray};
 pub use velocity::{Shutter, VelocityDesc, VelocityUnit};
 
@@ -119,6 +120,9 @@ pub struct Scene {
     pub environment: Environment,
     /// BVH over `triangles` (same triangle order), as the frame places them.
     pub bvh: TriangleBvh,
+    /// Embree over the same triangles where [`Scene::use_accel`] chose it; `None`: the BVH
+    /// answers the CPU's closest hits.
+    pub embree: Option<EmbreeTriangles>,
     /// The mesh instances an animation moves during the shutter, `None` where none does; ray
     /// queries then go through [`Scene::closest_hit`] at the sample's time.
     pub moving_meshes: Option<moving_meshes::MovingMeshes>,
@@ -252,6 +256,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         light_names: read_lights.light_names,
         environment,
         bvh,
+        embree: None,
         moving_meshes,
         bounds,
         render,
@@ -335,10 +340,27 @@ impl Scene {
         t_max: f32,
         dt: f32,
     ) -> Option<crate::accel::Hit> {
-        match &self.moving_meshes {
-            None => self.bvh.closest_hit(ray, t_min, t_max),
-            Some(m) => m.closest_hit(ray, t_min, t_max, dt),
+        match (&self.moving_meshes, &self.embree) {
+            (None, None) => self.bvh.closest_hit(ray, t_min, t_max),
+            (None, Some(e)) => e.closest_hit(&self.bvh, ray, t_min, t_max),
+            (Some(m), _) => m.closest_hit(ray, t_min, t_max, dt),
         }
+    }
+
+    /// Chooses the CPU's closest-hit accelerator for the static triangles, building Embree's
+    /// scene where asked. Returns the one in use: a scene with moving meshes keeps the BVH
+    /// (Embree holds static triangles only). The error names the scene file.
+    pub fn use_accel(&mut self, accel: Accel) -> Result<Accel, SceneError> {
+        self.embree = None;
+        if accel == Accel::Bvh || self.moving_meshes.is_some() {
+            return Ok(Accel::Bvh);
+        }
+        let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();
+        let indices: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.vertices).collect();
+        let embree = EmbreeTriangles::build(&vertices, &indices)
+            .map_err(|e| ctx_invalid(&self.source, e))?;
+        self.embree = Some(embree);
+        Ok(Accel::Embree)
     }
 
     /// Where triangle `t`'s instance is at time offset `dt` relative to the frame, `None` where

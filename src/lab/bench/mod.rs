@@ -1,4 +1,5 @@
 //! `brume bench`: figures for the speed targets. Benchmarks print; they never assert.
+pub mod accel;
 pub mod adaptive;
 pub mod blur;
 pub mod env;
@@ -142,6 +143,22 @@ pub enum Which {
         #[arg(long, default_value_t = 8192)]
         reference_spp: u32,
     },
+    /// The CPU's closest-hit accelerators, the BVH against Embree: build time, memory and
+    /// rays per second (one thread) for camera, incoherent shadow and incoherent bounce rays,
+    /// as a markdown table.
+    Accel {
+        /// Scenes to measure (default: every scenes/*.gltf).
+        scenes: Vec<PathBuf>,
+        /// Rays of each kind, drawn from a fixed seed.
+        #[arg(long, default_value_t = 200_000)]
+        rays: usize,
+        /// Runs per accelerator and kind; the best is reported.
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Triangles of a random triangle soup measured after the scenes (0: none).
+        #[arg(long, default_value_t = 100_000)]
+        soup: usize,
+    },
     /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
     /// not installed): render time, per-pixel variance from two seeds, efficiency
     /// 1 / (time x variance), the ratios, and the image mean against Mitsuba's with its z-score.
@@ -221,6 +238,19 @@ pub fn run(which: Which) -> Result<()> {
             spp,
             reference_spp,
         } => adaptive::run(&scene, (width, height), threshold, spp, reference_spp),
+        Which::Accel {
+            scenes,
+            rays,
+            runs,
+            soup,
+        } => {
+            let scenes = if scenes.is_empty() {
+                example_scenes()?
+            } else {
+                scenes
+            };
+            accel::run(&scenes, rays, runs, soup)
+        }
         Which::Peers(args) => peers::run(&args),
     }
 }
