@@ -10,11 +10,11 @@
 use glam::Vec3;
 
 use super::features::{Features, NoFeatures};
+pub use super::views::EmissionMis;
 use super::views::{GreyView, RgbView};
 use crate::math::Ray;
 use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::media::{MediaStats, TrackingConfig, VdbMedium};
-use crate::render::media_lights::MediaLights;
 use crate::render::settings::{Absorption, Estimator, MajorantMode};
 use crate::sampling::Rng;
 use crate::volume::phases::Phase;
@@ -176,15 +176,6 @@ pub struct Emitted<'f> {
     pub l: &'f mut Vec3,
     pub groups: Option<&'f mut [Vec3; MAX_LIGHT_GROUPS]>,
     pub mis: Option<EmissionMis<'f>>,
-}
-
-/// What the MIS weight of a flight's emission against the media lights needs
-/// (`render::media_lights`): the lights, and the pdf of the direction the ray left its last
-/// scattering event by (the ray's origin).
-#[derive(Clone, Copy)]
-pub struct EmissionMis<'f> {
-    pub lights: &'f MediaLights,
-    pub pdf_dir: f32,
 }
 
 impl Emitted<'_> {

@@ -16,5 +16,6 @@ pub mod mixture;
 pub mod nested;
 pub mod next_event;
 pub mod path;
+pub mod path_state;
 pub mod tile;
 pub mod views;

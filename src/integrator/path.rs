@@ -7,14 +7,16 @@ use glam::{Vec2, Vec3};
 
 use super::bsdf::{fresnel_dielectric, refract, Principled};
 use super::emitters::emitter_event;
-use super::equiangular::{distance_weight, equiangular_estimate, media_extent, Segment};
+use super::equiangular::{distance_weight, equiangular_estimate, media_extent};
 use super::features::Features;
 use super::flight::media_flight;
 use super::media::{EmissionMis, Emitted, Flight, MediumEvent};
 use super::next_event::{next_event, EnvChoice, Vertex};
+use super::path_state::{group_of, PathState, ALBEDO, BACKGROUND, DEPTH, EMISSION, NORMAL};
+pub use super::path_state::{PathLimits, BACKGROUND_DEPTH, DATA_PASS_COUNT, LIGHT_PASS_COUNT};
 use crate::accel::Hit;
 use crate::math::Ray;
-use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
+use crate::render::light_groups::MAX_LIGHT_GROUPS;
 use crate::render::lights::{emitted, power_heuristic, LightSource};
 use crate::render::media::{MediaStats, TrackingConfig};
 use crate::render::prepare::{RenderScene, SurfaceKind};
@@ -24,33 +26,6 @@ use crate::sampling::sobol::{bounce_dim, DIM_DISTANCE, DIM_LOBE, DIM_RR, DIM_SCA
 use crate::sampling::warp::Frame;
 use crate::sampling::{Decision, Sampler};
 use crate::volume::phases::Phase;
-
-/// Limits of one path.
-#[derive(Clone, Copy, Debug)]
-pub struct PathLimits {
-    pub max_depth: u32,
-    pub rr_depth: u32,
-    /// Roulette also before `rr_depth` once `max(beta)` falls below this (0: never).
-    pub rr_throughput: f32,
-    pub max_collisions: u64,
-    /// Guided light selection at medium events (`LightSelection::guided`).
-    pub guided_lights: bool,
-    /// The share of a constant sky left to the continuation ray there
-    /// (`LightSelection::continuation_albedo`).
-    pub continuation_albedo: f32,
-    /// A transparent film: the environment seen straight through by the camera path is left
-    /// out of its radiance (`RenderSettings::film_transparent`).
-    pub film_transparent: bool,
-    /// Split the radiance into the light passes (`film::passes::LIGHT_PASSES`) as well.
-    pub light_passes: bool,
-    /// Record the data passes (`film::passes::DATA_PASSES`) as well.
-    pub data_passes: bool,
-    /// Split the radiance into the light groups (`RenderScene::groups`) as well.
-    pub light_groups: bool,
-    /// How scattering distances towards point and spot lights are sampled
-    /// (`integrator::equiangular`); `Distance` where the scene has no such light.
-    pub volume_sampling: VolumeSampling,
-}
 
 /// What one path cost and did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -74,111 +49,6 @@ fn offset(p: Vec3, n: Vec3, towards: Vec3) -> Vec3 {
     } else {
         p - n * eps
     }
-}
-
-/// One path between stages: the ray and where its next flight starts, the medium stack, the
-/// throughput, the radiance gathered so far, and what the MIS weights of emission and of the
-/// escape need of the last event (the CPU's `GpuPathState`).
-struct PathState {
-    ray: Ray,
-    t0: f32,
-    media: MediumStack,
-    beta: Vec3,
-    l: Vec3,
-    depth: u32,
-    /// Whether this bounce's free flight has drawn its sampler point (DIM_DISTANCE).
-    flight_started: bool,
-    /// Whether the last direction was chosen by a delta distribution (no MIS), and its pdf.
-    specular: bool,
-    prev_pdf: f32,
-    /// How the last event chose the environment (the escape's MIS weight).
-    prev_env: EnvChoice,
-    /// The camera path's transmittance to the background, the mean of `beta`'s channels where
-    /// it escapes before any scattering event, else 0: the sample's coverage is 1 minus it.
-    background: f32,
-    /// The radiance split into the light passes (`PathLimits::light_passes`), and whether the
-    /// path's first scattering event was in a medium (else at a surface).
-    passes: [Vec3; LIGHT_PASS_COUNT],
-    first_in_medium: bool,
-    /// The data passes (`PathLimits::data_passes`): albedo and normal, once recorded at the
-    /// first event that is not a smooth dielectric; depth, once the camera ray meets a surface,
-    /// scatters or escapes.
-    data: [Vec3; DATA_PASS_COUNT],
-    albedo_seen: bool,
-    depth_seen: bool,
-    /// The radiance by light group (`PathLimits::light_groups`).
-    groups: [Vec3; MAX_LIGHT_GROUPS],
-    /// The last flight's segment where equiangular sampling weighed it (the MIS weight of a
-    /// scattering event's next-event estimate there).
-    segment: Option<Segment>,
-}
-
-/// Number of data passes, and each one's index (`film::passes::DATA_PASSES` order).
-pub const DATA_PASS_COUNT: usize = 3;
-const ALBEDO: usize = 0;
-const NORMAL: usize = 1;
-const DEPTH: usize = 2;
-/// The depth pass of a camera ray that escapes (Cycles' Z of the background).
-pub const BACKGROUND_DEPTH: f32 = 1e10;
-
-/// Number of light passes, and each one's index (`film::passes::LIGHT_PASSES` order).
-pub const LIGHT_PASS_COUNT: usize = 6;
-const EMISSION: usize = 0;
-const BACKGROUND: usize = 1;
-const VOLUME_DIRECT: usize = 2;
-const SURFACE_DIRECT: usize = 4;
-
-impl PathState {
-    /// Adds `x` to the radiance and, where asked, to its light pass: `seen` (emission or
-    /// background) before any scattering event; after it, the first event's kind, direct at
-    /// that event (its next-event estimate and what the ray leaving it meets), indirect later;
-    /// and to light group `group`, the source's.
-    #[inline(always)]
-    fn gather(&mut self, limits: &PathLimits, x: Vec3, seen: usize, group: u8) {
-        self.l += x;
-        if limits.light_passes {
-            self.passes[self.pass_of(seen)] += x;
-        }
-        if limits.light_groups && group != NO_GROUP {
-            self.groups[group as usize] += x;
-        }
-    }
-
-    /// Adds `x`, a next-event estimate at a scattering event of the flight that follows
-    /// (depth `depth + 1`), as [`Self::gather`] would there.
-    #[inline(always)]
-    fn gather_next(&mut self, limits: &PathLimits, x: Vec3, group: u8) {
-        // The event is the path's first only if it is at depth 1; the path itself may still
-        // meet a surface first.
-        let first_in_medium = self.first_in_medium;
-        self.depth += 1;
-        if self.depth == 1 {
-            self.first_in_medium = true;
-        }
-        self.gather(limits, x, EMISSION, group);
-        self.depth -= 1;
-        self.first_in_medium = first_in_medium;
-    }
-
-    #[inline(always)]
-    fn pass_of(&self, seen: usize) -> usize {
-        let first = if self.first_in_medium {
-            VOLUME_DIRECT
-        } else {
-            SURFACE_DIRECT
-        };
-        match self.depth {
-            0 => seen,
-            1 => first,
-            _ => first + 1,
-        }
-    }
-}
-
-/// The light group of a light `source` (none without one, or without groups kept).
-#[inline(always)]
-fn group_of(rs: &RenderScene, source: Option<LightSource>) -> u8 {
-    source.map_or(NO_GROUP, |s| rs.light_group(s))
 }
 
 /// What one camera sample brings its pixel.
@@ -564,6 +434,32 @@ fn scatter_medium<F: Features>(
     Some(Scatterer::Phase { phase, p, wo })
 }
 
+/// Emission `le` of the surface hit `h` (cosine `cos_o` towards the path), weighed against
+/// the area lights' sampling unless a delta distribution chose the ray.
+#[inline(always)]
+fn surface_emission(
+    rs: &RenderScene,
+    limits: &PathLimits,
+    ps: &mut PathState,
+    h: Hit,
+    le: Vec3,
+    cos_o: f32,
+) {
+    if le == Vec3::ZERO {
+        return;
+    }
+    let w = if ps.specular {
+        1.0
+    } else {
+        power_heuristic(
+            ps.prev_pdf,
+            rs.lights.pdf_area(rs.scene, h.triangle, h.t, cos_o),
+        )
+    };
+    let group = rs.light_group(LightSource::Area);
+    ps.gather(limits, ps.beta * le * w, EMISSION, group);
+}
+
 /// Emission, null interfaces, smooth dielectrics and next-event estimation at opaque surfaces
 /// (`Stage::ShadeSurface`).
 #[inline(always)]
@@ -587,19 +483,7 @@ fn shade_surface<F: Features>(
     let cos_o = ng.dot(wo);
     let uv = scene.material_uv(mat, h.triangle as usize, h.b1, h.b2);
     if mat.emission != [0.0; 3] {
-        let le = emitted(scene, mat, uv, cos_o);
-        if le != Vec3::ZERO {
-            let w = if ps.specular {
-                1.0
-            } else {
-                power_heuristic(
-                    ps.prev_pdf,
-                    rs.lights.pdf_area(scene, h.triangle, h.t, cos_o),
-                )
-            };
-            let group = rs.light_group(LightSource::Area);
-            ps.gather(limits, ps.beta * le * w, EMISSION, group);
-        }
+        surface_emission(rs, limits, ps, h, emitted(scene, mat, uv, cos_o), cos_o);
     }
     let kind = rs.kinds[mat_index];
     if kind == SurfaceKind::Null {

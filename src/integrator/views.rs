@@ -10,12 +10,21 @@ use std::marker::PhantomData;
 use glam::Vec3;
 
 use super::features::Features;
-use super::media::EmissionMis;
 use crate::math::{per_channel_ratio, Ray};
 use crate::render::media::{TrackingConfig, VdbMedium, VelocityBlur};
+use crate::render::media_lights::MediaLights;
 use crate::render::settings::{Absorption, MajorantMode};
 use crate::volume::tracking::{Coeffs, CoeffsRgb, ControlExtinction, Medium, MediumRgb};
 use crate::volume::{LeafCulling, VoxelCulling};
+
+/// What the MIS weight of a flight's emission against the media lights needs
+/// (`render::media_lights`): the lights, and the pdf of the direction the ray left its last
+/// scattering event by (the ray's origin).
+#[derive(Clone, Copy)]
+pub struct EmissionMis<'f> {
+    pub lights: &'f MediaLights,
+    pub pdf_dir: f32,
+}
 
 /// The grey view of a VDB medium along one ray (`sigma_t` equal in all channels; the RGB
 /// albedo is applied as a weight at scattering events). It gathers emission if `F::EMIT`;
