@@ -268,3 +268,39 @@ pub(super) fn equiangular_estimate<F: Features>(
     let tr_c = trace_shadow::<F>(rs, cfg, &shadow, dist * (1.0 - 1e-4), seg.media, rng, stats);
     Some((tr_a * s * tr_c * li * (w / pdf), source))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The density integrates to 1 over its segment, and a sampled distance lies inside it
+    /// with the density the sample's cumulative distribution gives.
+    #[test]
+    fn equiangular_density_is_normalised_and_matches_its_samples() {
+        let ray = Ray::new(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0));
+        let light = Vec3::new(0.7, 0.3, -0.1);
+        let (a, b) = (0.2, 2.5);
+        let eq = Equiangular::new(&ray, light, a, b).unwrap();
+        let n = 200_000;
+        let h = (b - a) / n as f32;
+        let integral: f64 = (0..n)
+            .map(|k| eq.pdf(a + (k as f32 + 0.5) * h) as f64 * h as f64)
+            .sum();
+        assert!((integral - 1.0).abs() < 1e-4, "integral {integral}");
+        for u in [0.0, 0.1, 0.5, 0.9, 1.0] {
+            let t = eq.sample(u);
+            assert!(t >= a - 1e-5 && t <= b + 1e-5, "{t}");
+            // The cumulative distribution at t is u.
+            let m = 20_000;
+            let cdf: f64 = (0..m)
+                .map(|k| eq.pdf(a + (k as f32 + 0.5) * (t - a) / m as f32) as f64)
+                .sum::<f64>()
+                * ((t - a) / m as f32) as f64;
+            assert!((cdf - u as f64).abs() < 1e-3, "u {u}: cdf {cdf}");
+        }
+        // A light on the ray's line gives no density; an infinite segment still has one.
+        assert!(Equiangular::new(&ray, Vec3::new(1.0, 0.0, 0.0), a, b).is_none());
+        let far = Equiangular::new(&ray, light, a, f32::INFINITY).unwrap();
+        assert!(far.sample(0.999).is_finite() && far.pdf(1e3) > 0.0);
+    }
+}
