@@ -20,26 +20,12 @@ fn main() {
     println!("cargo:rerun-if-env-changed=OPENVDB_LIBS");
 
     let openvdb_dir = env::var_os("OPENVDB_DIR").map(PathBuf::from);
-    let mut build = cc::Build::new();
-    build
-        .cpp(true)
-        .file("shim/brume_vdb.cpp")
-        .file("shim/brume_vdb_vec3.cpp")
-        .include("shim")
-        .flag("-std=c++17")
-        .flag_if_supported("-Wall")
-        .flag_if_supported("-Wextra")
-        // OpenVDB's templates at -O0 compile slowly and run far slower still: always optimise.
-        .opt_level(2)
-        .warnings(true);
-    if let Some(dir) = &openvdb_dir {
-        build.include(dir.join("include"));
-        println!(
-            "cargo:rustc-link-search=native={}",
-            dir.join("lib").display()
-        );
-    }
-    build.compile("brume_vdb_shim");
+    // OpenVDB's templates at -O0 compile slowly and run far slower still: always optimise.
+    shim(
+        &["shim/brume_vdb.cpp", "shim/brume_vdb_vec3.cpp"],
+        openvdb_dir.as_ref(),
+    )
+    .compile("brume_vdb_shim");
 
     let libs = env::var("OPENVDB_LIBS").unwrap_or_else(|_| "openvdb,tbb,Imath-3_1".to_string());
     for lib in libs.split(',').map(str::trim).filter(|l| !l.is_empty()) {
@@ -70,24 +56,7 @@ fn build_embree_shim() {
     println!("cargo:rerun-if-changed=shim/brume_embree.cpp");
     println!("cargo:rerun-if-env-changed=EMBREE_DIR");
     let embree_dir = env::var_os("EMBREE_DIR").map(PathBuf::from);
-    let mut build = cc::Build::new();
-    build
-        .cpp(true)
-        .file("shim/brume_embree.cpp")
-        .include("shim")
-        .flag("-std=c++17")
-        .flag_if_supported("-Wall")
-        .flag_if_supported("-Wextra")
-        .opt_level(2)
-        .warnings(true);
-    if let Some(dir) = &embree_dir {
-        build.include(dir.join("include"));
-        println!(
-            "cargo:rustc-link-search=native={}",
-            dir.join("lib").display()
-        );
-    }
-    build.compile("brume_embree_shim");
+    shim(&["shim/brume_embree.cpp"], embree_dir.as_ref()).compile("brume_embree_shim");
     println!("cargo:rustc-link-lib=embree3");
 
     let bindings = bindgen::Builder::default()
@@ -104,4 +73,27 @@ fn build_embree_shim() {
     bindings
         .write_to_file(out)
         .expect("cannot write embree_bindings.rs");
+}
+
+/// A C++17 build of the shim `files`, optimised, with the library's headers and link path
+/// under `dir` where one is given (`OPENVDB_DIR`, `EMBREE_DIR`).
+fn shim(files: &[&str], dir: Option<&PathBuf>) -> cc::Build {
+    let mut build = cc::Build::new();
+    build
+        .cpp(true)
+        .files(files)
+        .include("shim")
+        .flag("-std=c++17")
+        .flag_if_supported("-Wall")
+        .flag_if_supported("-Wextra")
+        .opt_level(2)
+        .warnings(true);
+    if let Some(dir) = dir {
+        build.include(dir.join("include"));
+        println!(
+            "cargo:rustc-link-search=native={}",
+            dir.join("lib").display()
+        );
+    }
+    build
 }

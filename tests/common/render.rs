@@ -92,6 +92,23 @@ pub struct Agreement {
     pub mean_z: f64,
 }
 
+impl Agreement {
+    /// One line for a test's output: the image means, their z, and the failing values.
+    pub fn summary(&self) -> String {
+        format!(
+            "image mean {:.5} against {:.5} (z {:.2}); {} of {} values failing (worst z {:.2}, \
+             threshold {:.2})",
+            self.mean_a,
+            self.mean_b,
+            self.mean_z,
+            self.failing,
+            self.pixels,
+            self.worst_z,
+            self.z_threshold
+        )
+    }
+}
+
 /// Per-pixel (per channel) z-test of `a` against `b` with both variances, Sidak-corrected at
 /// overall level `alpha`, and a z-test of the image means. Values with zero variance on both
 /// sides must be equal to 1e-6.

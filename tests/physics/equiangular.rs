@@ -116,18 +116,7 @@ fn single_scattering_from_a_point_light_matches_quadrature() {
         let out = render(&scene, &settings(512, 3, sampling, 1));
         let (m, v) = moments(&out);
         let a = compare((&m, &v), (&expected, &zero), 1e-3);
-        println!(
-            "{}: image mean {:.5} against {:.5} (z {:.2}); {} of {} values failing (worst z \
-             {:.2}, threshold {:.2})",
-            sampling.name(),
-            a.mean_a,
-            a.mean_b,
-            a.mean_z,
-            a.failing,
-            a.pixels,
-            a.worst_z,
-            a.z_threshold
-        );
+        println!("{}: {}", sampling.name(), a.summary());
         assert_eq!(a.failing, 0, "{}", sampling.name());
         assert!(
             a.mean_z < 4.0,
@@ -165,18 +154,7 @@ fn heterogeneous_medium_with_a_point_light_matches_free_flight() {
     for sampling in [VolumeSampling::Mis, VolumeSampling::Equiangular] {
         let out = render(&scene, &settings(1024, 12, sampling, depth));
         let a = compare_renders(&out, &reference, W as usize, W as usize, 1, 1e-3);
-        println!(
-            "{} against distance: image mean {:.5} against {:.5} (z {:.2}); {} of {} values \
-             failing (worst z {:.2}, threshold {:.2})",
-            sampling.name(),
-            a.mean_a,
-            a.mean_b,
-            a.mean_z,
-            a.failing,
-            a.pixels,
-            a.worst_z,
-            a.z_threshold
-        );
+        println!("{} against distance: {}", sampling.name(), a.summary());
         assert_eq!(a.failing, 0, "{}", sampling.name());
         assert!(
             a.mean_z < 4.0,
@@ -221,9 +199,8 @@ fn light_passes_with_equiangular_sampling_match_free_flight() {
         let (a, b) = (block(&mis, k), block(&distance, k));
         let r = compare((&a.0, &a.1), (&b.0, &b.1), 1e-3 / LIGHT_PASSES.len() as f64);
         println!(
-            "{name}: mis {:.5} against distance {:.5} (z {:.2}); {} of {} block values failing \
-             (worst z {:.2})",
-            r.mean_a, r.mean_b, r.mean_z, r.failing, r.pixels, r.worst_z
+            "{name}: mis against distance, 8 x 8 blocks: {}",
+            r.summary()
         );
         assert_eq!(r.failing, 0, "{name}");
     }

@@ -161,16 +161,9 @@ fn emitting_sphere_lights_the_ground_as_quadrature_says() {
         let (m, v) = moments(&out);
         let a = compare((&m, &v), (&expected, &zero), 1e-3);
         println!(
-            "media lights {}: image mean {:.5} against {:.5} (z {:.2}); {} of {} values failing \
-             (worst z {:.2}, threshold {:.2})",
+            "media lights {}: {}",
             if media_lights { "on" } else { "off" },
-            a.mean_a,
-            a.mean_b,
-            a.mean_z,
-            a.failing,
-            a.pixels,
-            a.worst_z,
-            a.z_threshold
+            a.summary()
         );
         assert_eq!(a.failing, 0);
         assert!(a.mean_z < 4.0, "image mean z {}", a.mean_z);
@@ -192,9 +185,8 @@ fn fire_with_media_lights_matches_the_paths_alone() {
     let off = render(&scene, &sized(1024, 22, false));
     let a = compare_renders(&on, &off, w as usize, h as usize, 8, 1e-3);
     println!(
-        "fire, media lights against the paths alone: image mean {:.5} against {:.5} (z {:.2}); \
-         {} of {} block values failing (worst z {:.2}, threshold {:.2})",
-        a.mean_a, a.mean_b, a.mean_z, a.failing, a.pixels, a.worst_z, a.z_threshold
+        "fire, media lights against the paths alone, 8 x 8 blocks: {}",
+        a.summary()
     );
     assert_eq!(a.failing, 0);
     assert!(a.mean_z < 4.0, "image mean z {}", a.mean_z);
