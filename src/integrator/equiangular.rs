@@ -42,7 +42,7 @@
 use glam::Vec3;
 
 use super::features::{Features, NoFeatures};
-use super::flight::vdb_intervals;
+use super::flight::{vdb_intervals, Spans};
 use super::next_event::{media_transmittance, trace_shadow};
 use super::views::GreyView;
 use crate::math::Ray;
@@ -103,6 +103,8 @@ pub(super) struct Segment {
     pub(super) a: f32,
     pub(super) b: f32,
     pub(super) media: MediumStack,
+    /// The largest extinction of its media (their majorants' global bounds).
+    pub(super) sigma_max: f32,
 }
 
 /// The part of the flight `[t0, t1]` along `ray` where it crosses media: all of it inside a
@@ -114,23 +116,50 @@ pub(super) fn media_extent<F: Features>(
     t1: f32,
     media: MediumStack,
 ) -> Option<Segment> {
+    let hom = media
+        .top()
+        .filter(|_| F::HOM)
+        .map(|h| &rs.homogeneous[h as usize]);
+    let spans = if F::HET && (F::MIX || hom.is_none()) {
+        vdb_intervals(rs, ray, t0, t1)
+    } else {
+        Spans::Heap(Vec::new())
+    };
+    let sigma_vdb = spans
+        .iter()
+        .map(|s| s.0.bounds().global.max * s.0.sigma_t_bound)
+        .fold(0.0f32, f32::max);
+    let sigma_max = hom.map_or(0.0, |h| h.sigma_t().max_element()) + sigma_vdb;
     let seg = |a, b| Segment {
         ray: *ray,
         a,
         b,
         media,
+        sigma_max,
     };
-    if F::HOM && media.top().is_some() {
+    if hom.is_some() {
         return Some(seg(t0, t1));
     }
-    if !F::HET {
-        return None;
-    }
-    let spans = vdb_intervals(rs, ray, t0, t1);
     let a = spans.first()?.1;
     let b = spans.iter().fold(a, |b, s| b.max(s.2));
     Some(seg(a, b))
 }
+
+/// Light `c`'s equiangular density over `seg`, where the strategy is used: not where its
+/// largest density, `q / ((theta_b - theta_a) D)`, is below [`EQUIANGULAR_REACH`] times the
+/// media's largest extinction. There the light is many mean free paths from the segment, free
+/// flight samples its scattering well, and an equiangular sample, spread along the segment
+/// whatever the density, only adds its variance and a shadow ray. Both strategies ask this,
+/// so the MIS weights still sum to one.
+fn density_towards(seg: &Segment, c: Vec3, q: f32) -> Option<Equiangular> {
+    let eq = Equiangular::new(&seg.ray, c, seg.a, seg.b)?;
+    let peak = q / ((eq.theta_b - eq.theta_a) * eq.d);
+    (peak >= EQUIANGULAR_REACH * seg.sigma_max).then_some(eq)
+}
+
+/// See [`density_towards`]: equiangular sampling is used where its peak density reaches this
+/// share of the free-flight density in the densest medium.
+const EQUIANGULAR_REACH: f32 = 0.3;
 
 /// Sums `each(sigma_s, sigma_t, phase)` over the media at `ray.at(t)`: the homogeneous medium
 /// the segment is in and the VDB media whose bounds hold the point, with their coefficients
@@ -213,10 +242,10 @@ pub(super) fn distance_weight<F: Features>(
         return 1.0;
     }
     let c = Vec3::from(rs.lights.posed(k as usize, cfg.time).position);
-    let Some(eq) = Equiangular::new(&seg.ray, c, seg.a, seg.b) else {
+    let q = 1.0 / positional.len() as f32;
+    let Some(eq) = density_towards(seg, c, q) else {
         return 1.0;
     };
-    let q = 1.0 / positional.len() as f32;
     1.0 - equiangular_weight::<F>(rs, cfg, mode, seg, t, q * eq.pdf(t))
 }
 
@@ -238,7 +267,7 @@ pub(super) fn equiangular_estimate<F: Features>(
     let k = *positional.get(((u_select * n as f32) as usize).min(n.checked_sub(1)?))?;
     let source = LightSource::Punctual(k);
     let c = Vec3::from(rs.lights.posed(k as usize, cfg.time).position);
-    let eq = Equiangular::new(&seg.ray, c, seg.a, seg.b)?;
+    let eq = density_towards(seg, c, 1.0 / n as f32)?;
     let t = eq.sample(u_t).clamp(seg.a, seg.b);
     let x = seg.ray.at(t);
     let zero = Some((Vec3::ZERO, source));

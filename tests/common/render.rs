@@ -14,7 +14,7 @@ pub fn scene_path(name: &str) -> std::path::PathBuf {
 }
 
 /// Every scene in `scenes/` (a test checks that none is missing).
-pub const EXAMPLE_SCENES: [&str; 15] = [
+pub const EXAMPLE_SCENES: [&str; 16] = [
     "cloud.gltf",
     "cornell_smoke.gltf",
     "glass_volume.gltf",
@@ -25,6 +25,7 @@ pub const EXAMPLE_SCENES: [&str; 15] = [
     "plume_sun.gltf",
     "plume_sky.gltf",
     "plume_blur.gltf",
+    "plume_bulb.gltf",
     "dense_fog.gltf",
     "textured_backdrop.gltf",
     "cloud_sky.gltf",
