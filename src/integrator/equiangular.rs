@@ -38,7 +38,9 @@
 //! w_e    = (q_k p_e)^2 / ((q_k p_e)^2 + (P_k p_d)^2)     (power heuristic, P_k = 1 / lights)
 //! ```
 //!
-//! exact in a homogeneous medium, a local approximation in a heterogeneous one.
+//! exact in a homogeneous medium, a local approximation in a heterogeneous one. A light many
+//! mean free paths from a segment is left to free flight there (`density_towards`): its
+//! equiangular samples, spread along the segment whatever the density, would only add noise.
 use glam::Vec3;
 
 use super::features::{Features, NoFeatures};
