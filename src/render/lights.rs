@@ -225,13 +225,9 @@ impl Lights {
         self.punctual.len() + self.environment.is_some() as usize + self.area.is_some() as usize
     }
 
-    fn pmf(&self) -> f32 {
-        1.0 / self.count() as f32
-    }
-
     /// The probability of each light under uniform selection.
     pub fn uniform_pmf(&self) -> f32 {
-        self.pmf()
+        1.0 / self.count() as f32
     }
 
     /// Whether medium events select lights by contribution ([`Lights::phase_selection`]):
@@ -246,7 +242,7 @@ impl Lights {
     /// The uniform selection's probability of the environment (0 without one).
     pub fn uniform_env_pmf(&self) -> f32 {
         if self.environment.is_some() {
-            self.pmf()
+            self.uniform_pmf()
         } else {
             0.0
         }
@@ -449,7 +445,7 @@ impl Lights {
         if n == 0 {
             return None;
         }
-        let pmf = self.pmf();
+        let pmf = self.uniform_pmf();
         let mut k = ((u_select * n as f32) as usize).min(n - 1);
         if k < self.punctual.len() {
             return self.punctual_sample(k, p, pmf, dt);
@@ -512,7 +508,7 @@ impl Lights {
     /// environment (for MIS of paths that escape).
     pub fn pdf_environment(&self, wi: Vec3) -> f32 {
         match &self.environment {
-            Some(env) => self.pmf() * env.pdf(wi),
+            Some(env) => self.uniform_pmf() * env.pdf(wi),
             None => 0.0,
         }
     }
@@ -533,7 +529,7 @@ impl Lights {
             return 0.0;
         };
         let _ = scene;
-        self.pmf() * (area.lum[i] / area.total) * dist * dist / cos_l.abs().max(1e-8)
+        self.uniform_pmf() * (area.lum[i] / area.total) * dist * dist / cos_l.abs().max(1e-8)
     }
 }
 

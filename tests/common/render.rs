@@ -94,6 +94,14 @@ pub struct Agreement {
 }
 
 impl Agreement {
+    /// Prints `label` with [`Self::summary`] and asserts the agreement: no value failing its
+    /// z-test, and the image means within 4 standard errors.
+    pub fn assert_holds(&self, label: &str) {
+        println!("{label}: {}", self.summary());
+        assert_eq!(self.failing, 0, "{label}");
+        assert!(self.mean_z < 4.0, "{label}: image mean z {}", self.mean_z);
+    }
+
     /// One line for a test's output: the image means, their z, and the failing values.
     pub fn summary(&self) -> String {
         format!(
