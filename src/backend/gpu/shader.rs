@@ -78,6 +78,8 @@ pub mod files {
     pub const ENVMAP: ShaderFile = shader_file!("common/envmap.wgsl");
     /// `Lights::sample` for punctual lights, the environment and area lights, `power_heuristic`.
     pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
+    /// Shadow rays' transmittance through media and null interfaces.
+    pub const SHADOW: ShaderFile = shader_file!("common/shadow.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
     pub const QUEUES: ShaderFile = shader_file!("kernels/queues.wgsl");
     /// The wavefront stages, one file each (see `backend::gpu::render::Stage`).
@@ -586,7 +588,7 @@ macro_rules! wavefront_module {
             label: $label,
             files: &[
                 TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, ADVECTION, TRACKING, EMISSION,
-                WAVEFRONT, BSDF, TEXTURES, SURFACES, MEDIA, MIXTURE, ENVMAP, LIGHTS, $file,
+                WAVEFRONT, BSDF, TEXTURES, SURFACES, MEDIA, MIXTURE, ENVMAP, LIGHTS, SHADOW, $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,
