@@ -151,6 +151,10 @@ struct GpuPathState {
     time: f32,          // the camera sample's time offset, frames (0 without a shutter)
     shadow_group: u32,  // light group of the pending shadow ray's light (light-group variant)
     phase_medium: u32,  // VDB medium whose phase applies (wf.phases; NO_INDEX: the homogeneous one's)
+    seg_a: f32,         // the last flight's segment in media, relative to its event (PATH_FLAG_SEGMENT), m
+    seg_b: f32,
+    seg_sigma_max: f32, // the largest extinction of its media, m^-1
+    seg_sigma_t: f32,   // the mean extinction at the event, m^-1
     _pad2: u32,
 }
 
@@ -340,6 +344,12 @@ struct GpuWavefrontParams {
     environment_group: u32,      // LightGroups::environment (NO_GROUP: none)
     surfaces_group: u32,         // LightGroups::surfaces (NO_GROUP: none)
     punctual_groups: vec4<u32>,  // LightGroups::punctual, a byte each: light k in word k / 4
+    medium_sigma_s: vec3<f32>,   // the VDB medium's sigma_s per unit of its tracked extinction
+    medium_sigma_t: f32,         // its mean extinction per unit of the same
+    medium_sigma_max: f32,       // its global majorant, m^-1
+    volume_sampling: u32,        // VOLUME_SAMPLING_*
+    positional_count: u32,       // point and spot lights among the punctual ones
+    _pad_eq: u32,
     blur: GpuVelocityBlur,       // the VDB medium's velocity blur (factor 0: none)
     motion: GpuCameraMotion,     // the shutter and the camera's poses
     phases: array<GpuPhase, 8>,  // each VDB medium's phase function (FEATURE_PHASES)
@@ -366,8 +376,8 @@ struct GpuVdbMedium {
     control_albedo: f32,         // GreyView::control_albedo
     voxel_table: u32,            // 1: its walks thin by its per-voxel bounds (grid_voxels)
     shadow_majorant_mode: u32,   // its shadow rays' walk (WalkPlan::shadow)
-    _pad1: u32,
-    _pad2: u32,
+    sigma_t_mean: f32,           // mean true extinction per unit density
+    sigma_max: f32,              // global majorant, m^-1
     blur: GpuVelocityBlur,       // its velocity blur (factor 0: none)
 }
 

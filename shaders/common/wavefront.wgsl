@@ -44,6 +44,17 @@ fn gather_pass(slot: u32, ps: GpuPathState, x: vec3<f32>, seen: u32) {
     path_passes[i] = vec4<f32>(path_passes[i].xyz + x, 0.0);
 }
 
+// PathState::gather_next: `x`, a next-event estimate at a scattering event of the flight that
+// follows (depth + 1, the first event in a medium at depth 1), added as gather would there.
+fn gather_next_pass(slot: u32, ps: GpuPathState, x: vec3<f32>) {
+    var next = ps;
+    next.depth += 1u;
+    if (next.depth == 1u) {
+        next.flags |= PATH_FLAG_FIRST_IN_MEDIUM;
+    }
+    gather_pass(slot, next, x, PASS_EMISSION);
+}
+
 // A new path's passes: all zero (generate's PathState).
 fn clear_passes(slot: u32) {
     for (var k = 0u; k < LIGHT_PASSES; k++) {

@@ -8,7 +8,9 @@
 // scatter stage; escape -> the throughput takes the flight's weight and the path goes to the
 // surface stage when its ray hits one, else to the escape stage; absorption or the guard ->
 // done. With the light passes, the flight's emission goes to the pass PathState::pass_of
-// names; with the light groups, each medium's to its group (Emitted::add).
+// names; with the light groups, each medium's to its group (Emitted::add). With equiangular
+// sampling (wf.volume_sampling), the flight's segment in media then gets its equiangular
+// estimate (equiangular_flight, mirroring path.rs `equiangular`).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn sample_medium(slot: u32) {
@@ -102,6 +104,12 @@ fn sample_medium(slot: u32) {
     gather_flight_groups(slot);
 // #endif
 // #endif
+    // radiance's equiangular stage (equiangular.wgsl): one estimate over the flight's segment
+    // in media, with the path's throughput before the flight.
+    ps.flags &= ~PATH_FLAG_SEGMENT;
+    if (wf.volume_sampling != VOLUME_SAMPLING_DISTANCE && ps.depth < wf.max_depth) {
+        equiangular_flight(slot, &ps, t_hit, event == EVENT_SCATTER, t_event);
+    }
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {
         atomicAdd(&counters.guard_fired, 1u);
@@ -129,5 +137,34 @@ fn sample_medium(slot: u32) {
                 queue_push(QUEUE_ESCAPE, slot);
             }
         }
+    }
+}
+
+// path.rs `equiangular`: the estimate over the flight up to `t_hit`, gathered as the next
+// event's; a flight that scatters at `t_event` records its segment, relative to the event, for
+// the scattering stage's weight (distance_weight).
+fn equiangular_flight(slot: u32, ps: ptr<function, GpuPathState>, t_hit: f32, scatters: bool,
+                      t_event: f32) {
+    let seg = media_extent((*ps).o, (*ps).d, (*ps).t0, t_hit, (*ps).medium, (*ps).outer);
+    if (!seg.valid) {
+        return;
+    }
+    let est = equiangular_estimate(seg, ps);
+    if (est.valid && any(est.l != vec3<f32>(0.0))) {
+        let x = (*ps).beta * est.l;
+        (*ps).l += x;
+// #if FEATURE_LIGHT_PASSES
+        gather_next_pass(slot, *ps, x);
+// #endif
+// #if FEATURE_LIGHT_GROUPS
+        gather_group(slot, light_group_of(est.source), x);
+// #endif
+    }
+    if (scatters) {
+        (*ps).flags |= PATH_FLAG_SEGMENT;
+        (*ps).seg_a = seg.a - t_event;
+        (*ps).seg_b = seg.b - t_event;
+        (*ps).seg_sigma_max = seg.sigma_max;
+        (*ps).seg_sigma_t = media_at(seg, t_event, -seg.dir, -seg.dir, (*ps).time).sigma_t;
     }
 }

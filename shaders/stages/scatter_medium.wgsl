@@ -60,6 +60,8 @@ fn scatter_medium(slot: u32) {
             if (!ls.is_delta) {
                 w = power_heuristic(ls.pdf, f);
             }
+            // With equiangular sampling, the free-flight side of its MIS weight.
+            w *= distance_weight(ps, ls.source);
             push_shadow_ray(slot, p, ls.wi, ls.dist, ps.medium, ps.outer, ps.beta * ls.li * (f * w / ls.pdf));
 // #if FEATURE_LIGHT_GROUPS
             ps.shadow_group = light_group_of(ls.source);

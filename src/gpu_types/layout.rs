@@ -135,6 +135,10 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             time,
             shadow_group,
             phase_medium,
+            seg_a,
+            seg_b,
+            seg_sigma_max,
+            seg_sigma_t,
             _pad2
         ]
     ),
@@ -242,6 +246,12 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             environment_group,
             surfaces_group,
             punctual_groups,
+            medium_sigma_s,
+            medium_sigma_t,
+            medium_sigma_max,
+            volume_sampling,
+            positional_count,
+            _pad_eq,
             blur,
             motion,
             phases
@@ -270,8 +280,8 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             control_albedo,
             voxel_table,
             shadow_majorant_mode,
-            _pad1,
-            _pad2,
+            sigma_t_mean,
+            sigma_max,
             blur
         ]
     ),

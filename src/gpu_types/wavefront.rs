@@ -72,9 +72,19 @@ pub struct GpuPathState {
     /// ([`GpuWavefrontParams::phases`]), `NO_INDEX` where it is the homogeneous medium's the
     /// path is in (set by the mixture variant, as `phase_g` is).
     pub phase_medium: u32,
+    /// The last flight's segment in media as the equiangular strategy saw it
+    /// (`integrator::equiangular::Segment`), where [`PATH_FLAG_SEGMENT`] is set: its ends
+    /// relative to the scattering event the flight ended in, m (`seg_b` may be infinite)...
+    pub seg_a: f32,
+    pub seg_b: f32,
+    /// ...the largest extinction of its media, m^-1...
+    pub seg_sigma_max: f32,
+    /// ...and the mean extinction at the event, m^-1 (the free-flight density's, for the
+    /// scattering stage's MIS weight without a lookup).
+    pub seg_sigma_t: f32,
     pub _pad2: u32,
 }
-const _: () = assert!(size_of::<GpuPathState>() == 128);
+const _: () = assert!(size_of::<GpuPathState>() == 144);
 
 /// An empty 16-bit half of [`GpuPathState::outer`] and [`GpuShadowRay::outer`].
 pub const STACK_NONE: u32 = 0xFFFF;
@@ -111,6 +121,10 @@ pub const PATH_FLAG_ALBEDO_SEEN: u32 = 64;
 /// scattered before meeting a surface (`PathState::depth_seen`). Set only by the data-pass
 /// variant.
 pub const PATH_FLAG_DEPTH_SEEN: u32 = 128;
+/// [`GpuPathState::flags`] bit: the last flight had a segment in media that the equiangular
+/// strategy sampled (`PathState::segment`): the scattering event's next-event estimate of a
+/// point or spot light takes the free-flight MIS weight.
+pub const PATH_FLAG_SEGMENT: u32 = 256;
 
 /// Light passes a path fills (`film::passes::LIGHT_PASSES`, `integrator::path::LIGHT_PASS_COUNT`):
 /// the light-pass variant keeps one RGB accumulator per pass and path slot, and one per pass
@@ -380,6 +394,19 @@ pub struct GpuWavefrontParams {
     /// byte `k % 4` of word `k / 4` (a render keeps at most `MAX_LIGHT_GROUPS` groups, so at
     /// most 16 punctual lights).
     pub punctual_groups: [u32; 4],
+    /// The VDB medium's scattering coefficient per unit of the extinction its tracker reads
+    /// (`sigma_s / sigma_t_bound`), for the equiangular estimate's in-scattering...
+    pub medium_sigma_s: [f32; 3],
+    /// ...its mean extinction per unit of the same (`mean(sigma_s + sigma_a) / sigma_t_bound`)...
+    pub medium_sigma_t: f32,
+    /// ...and its largest extinction (the global majorant), m^-1 (`Segment::sigma_max`).
+    pub medium_sigma_max: f32,
+    /// `VolumeSampling` of the render: 0 distance, 1 equiangular, 2 mis (`VOLUME_SAMPLING_*`);
+    /// distance where the scene has no point or spot light.
+    pub volume_sampling: u32,
+    /// The point and spot lights among the punctual ones (`Lights::positional`).
+    pub positional_count: u32,
+    pub _pad_eq: u32,
     /// The velocity blur of the VDB medium (a scene with one; the mixture's are in
     /// [`GpuVdbMedium::blur`]).
     pub blur: GpuVelocityBlur,
@@ -391,7 +418,7 @@ pub struct GpuWavefrontParams {
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 336
+        == 368
             + size_of::<GpuVelocityBlur>()
             + size_of::<GpuCameraMotion>()
             + GPU_MAX_VDB_MEDIA * size_of::<GpuPhase>()
@@ -408,6 +435,11 @@ pub const WF_FLAG_FORCE_SPECTRAL: u32 = 2;
 /// [`GpuWavefrontParams::flags`] bit: a transparent film (`PathLimits::film_transparent`):
 /// the environment a camera ray sees unscattered is left out of its radiance.
 pub const WF_FLAG_FILM_TRANSPARENT: u32 = 8;
+/// [`GpuWavefrontParams::volume_sampling`]: free-flight distances only, the equiangular
+/// strategy alone, or both weighed by MIS (`VolumeSampling`).
+pub const VOLUME_SAMPLING_DISTANCE: u32 = 0;
+pub const VOLUME_SAMPLING_EQUIANGULAR: u32 = 1;
+pub const VOLUME_SAMPLING_MIS: u32 = 2;
 /// VDB media the GPU binds at most (the mixture variant walks up to this many majorant
 /// streams per ray at once).
 pub const GPU_MAX_VDB_MEDIA: usize = 8;
@@ -462,8 +494,11 @@ pub struct GpuVdbMedium {
     pub voxel_table: u32,
     /// As [`GpuWavefrontParams::shadow_majorant_mode`], for this medium.
     pub shadow_majorant_mode: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// Its mean extinction per unit density (`mean(sigma_s + sigma_a)`) and its largest
+    /// extinction (the global majorant), m^-1: the equiangular strategy's free-flight density
+    /// and segment bound (`integrator::equiangular`).
+    pub sigma_t_mean: f32,
+    pub sigma_max: f32,
     /// Its velocity blur (`factor` 0: none).
     pub blur: GpuVelocityBlur,
 }

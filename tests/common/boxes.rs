@@ -98,3 +98,35 @@ pub fn boxes_scene(
     super::write_whole(&p, doc.to_string().as_bytes());
     p
 }
+
+/// A homogeneous slab from `lo` to `hi` (`boxes_scene`: sigma_t 1.5, albedo 0.8, HG g 0.3) in
+/// the dark, lit by a point light at `light`, written to the scratch folder `name`.
+pub fn lit_slab_scene(
+    name: &str,
+    lo: [f32; 3],
+    hi: [f32; 3],
+    light: [f32; 3],
+) -> brume::scene::Scene {
+    let d = super::scratch::dir(name);
+    let path = boxes_scene(&d, &[(lo, hi, 1.5, 0.8)], false, 0.3);
+    let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "point", "color": [1.0, 0.8, 0.6], "intensity": 3.0}]}});
+    doc["extensionsUsed"] = json!([
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+        "KHR_lights_punctual"
+    ]);
+    let n = doc["nodes"].as_array().unwrap().len();
+    doc["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"translation": light, "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!(n));
+    let p = super::overlap::write_scene(&d, "lit_slab.gltf", &doc);
+    brume::scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
+}

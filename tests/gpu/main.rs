@@ -9,6 +9,7 @@ mod common;
 
 mod dda;
 mod distance;
+mod equiangular;
 mod farm;
 mod grid;
 mod math;

@@ -22,9 +22,6 @@ fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
         height: h,
         spp,
         seed,
-        // The scenes' point light in a medium renders on the GPU with free flight alone
-        // (`gpu::supports_with`).
-        volume_sampling: brume::render::VolumeSampling::Distance,
         ..RenderSettings::default()
     }
 }

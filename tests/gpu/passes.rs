@@ -20,7 +20,7 @@ use brume::gpu_types::{
     GPU_LIGHT_PASSES, PASS_BACKGROUND, PASS_EMISSION, PASS_SURFACE_DIRECT, PASS_VOLUME_DIRECT,
 };
 use brume::render::light_groups::LightGroups;
-use brume::render::{RenderSettings, VolumeSampling};
+use brume::render::RenderSettings;
 
 fn settings(light_passes: bool, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -29,9 +29,8 @@ fn settings(light_passes: bool, seed: u32) -> RenderSettings {
         spp: 16,
         seed,
         light_passes,
-        // Point lights in media render on the GPU with free flight alone, emitting media
-        // without media lights (`gpu::supports_with`).
-        volume_sampling: VolumeSampling::Distance,
+        // Emitting media render on the GPU without media lights (`gpu::supports_with`); point
+        // lights in media with the default equiangular sampling and MIS.
         media_lights: false,
         ..RenderSettings::default()
     }

@@ -14,19 +14,21 @@ use brume::render::{
     Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, VolumeSampling,
 };
 
+/// Tiny renders with the default sampling, emitting media found by paths alone (the GPU
+/// renders them only so, `gpu::supports_with`).
 fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
-    free_flight(&RenderSettings {
+    RenderSettings {
         width: w,
         height: h,
         spp,
         seed,
+        media_lights: false,
         ..RenderSettings::default()
-    })
+    }
 }
 
 /// `s` with scattering distances sampled by free flight alone and emitting media found by
-/// paths alone: the GPU renders point and spot lights in media and emitting media only so
-/// (`gpu::supports_with`), and the CPU it is compared with does too.
+/// paths alone (the GPU renders emitting media only so, `gpu::supports_with`).
 pub(crate) fn free_flight(s: &RenderSettings) -> RenderSettings {
     RenderSettings {
         volume_sampling: VolumeSampling::Distance,
@@ -376,43 +378,6 @@ fn surface_scenes_agree_with_the_cpu() {
         let (g, c) = gpu_against_cpu(&ctx, &scene, &s, &label, alpha);
         // With the same seed the GPU replays the CPU's streams: a parity figure, printed.
         print_parity(None, &label, &scene, &s, &g, &c);
-    }
-}
-
-/// Equiangular sampling towards point and spot lights in media renders on the CPU only: the
-/// GPU refuses it with its reason (`--backend auto` then renders on the CPU), and renders the
-/// same scene with free flight alone, or a scene without point lights whatever the mode.
-#[test]
-fn equiangular_sampling_in_media_is_refused_with_its_reason() {
-    let smoke = load_scene("cornell_smoke.gltf");
-    let cloud = load_scene("cloud.gltf");
-    for mode in [VolumeSampling::Mis, VolumeSampling::Equiangular] {
-        let s = RenderSettings {
-            volume_sampling: mode,
-            ..settings(8, 6, 1, 5)
-        };
-        let rs = RenderScene::prepare(&smoke, &s).unwrap();
-        gpu::supports(&rs).unwrap();
-        let why = gpu::supports_with(&rs, &s).expect_err("equiangular sampling on the GPU");
-        println!("{}: {why}", mode.name());
-        assert!(why.contains(mode.name()) && why.contains("CPU"), "{why}");
-        let rs = RenderScene::prepare(&cloud, &s).unwrap();
-        gpu::supports_with(&rs, &s).unwrap_or_else(|e| panic!("no point light: {e}"));
-    }
-    let rs = RenderScene::prepare(&smoke, &settings(8, 6, 1, 5)).unwrap();
-    gpu::supports_with(&rs, &settings(8, 6, 1, 5)).unwrap();
-    let Some(ctx) = gpu_or_skip("equiangular_sampling_in_media_is_refused_with_its_reason") else {
-        return;
-    };
-    let s = RenderSettings {
-        volume_sampling: VolumeSampling::Mis,
-        ..settings(8, 6, 1, 5)
-    };
-    let rs = RenderScene::prepare(&smoke, &s).unwrap();
-    match render_with_timings(&ctx, &rs, &s, &AtomicBool::new(false), &|_, _, _| {}) {
-        Err(gpu::GpuRenderError::Unsupported(why)) => assert!(why.contains("mis"), "{why}"),
-        Err(e) => panic!("refused for another reason: {e}"),
-        Ok(_) => panic!("the GPU rendered equiangular sampling"),
     }
 }
 

@@ -4,10 +4,9 @@
 //!   against the 1-D integral along its rays by quadrature, for every `--volume-sampling`;
 //! - a point light inside a heterogeneous blob, all orders of scattering: MIS and equiangular
 //!   sampling against free flight alone at four times the samples (per-pixel z-tests).
-use crate::common::boxes::boxes_scene;
+use crate::common::boxes::lit_slab_scene;
 use crate::common::overlap::{dir, medium, write_grid, write_scene, N};
 use crate::common::render::{compare, compare_renders, footprint_mean, moments, render};
-use crate::common::scratch::dir as scratch;
 use crate::common::stress::blob_voxels;
 
 use brume::math::Ray;
@@ -34,32 +33,9 @@ fn settings(spp: u32, seed: u32, sampling: VolumeSampling, max_depth: u32) -> Re
     }
 }
 
-/// The slab of `boxes_scene` (sigma_t 1.5, albedo 0.8, HG g 0.3) in the dark, lit by a point
-/// light at [`LIGHT`].
+/// The slab of `boxes_scene` in the dark, lit by a point light at [`LIGHT`].
 fn slab_scene() -> brume::scene::Scene {
-    let d = scratch("equiangular_slab");
-    let path = boxes_scene(&d, &[(LO, HI, 1.5, 0.8)], false, 0.3);
-    let mut doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    doc["extensions"] = json!({"KHR_lights_punctual": {"lights": [
-        {"type": "point", "color": [1.0, 0.8, 0.6], "intensity": 3.0}]}});
-    doc["extensionsUsed"] = json!([
-        "KHR_materials_transmission",
-        "KHR_materials_ior",
-        "KHR_materials_volume",
-        "KHR_lights_punctual"
-    ]);
-    let n = doc["nodes"].as_array().unwrap().len();
-    doc["nodes"]
-        .as_array_mut()
-        .unwrap()
-        .push(json!({"translation": LIGHT, "extensions": {"KHR_lights_punctual": {"light": 0}}}));
-    doc["scenes"][0]["nodes"]
-        .as_array_mut()
-        .unwrap()
-        .push(json!(n));
-    let p = write_scene(&d, "lit_slab.gltf", &doc);
-    brume::scene::load(&p).unwrap_or_else(|e| panic!("{e}"))
+    lit_slab_scene("equiangular_slab", LO, HI, LIGHT)
 }
 
 /// The single-scattered radiance along `ray` (one channel, intensity `i`): the integral over

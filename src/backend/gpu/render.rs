@@ -44,8 +44,8 @@
 //! contribution into its source's group, after the light passes in the same per-slot
 //! accumulators, read back with them). [`supports`] refuses,
 //! with a one-line reason, more than [`crate::gpu_types::GPU_MAX_VDB_MEDIA`] VDB media and media meshes nested
-//! deeper than three; [`supports_with`] also refuses equiangular sampling towards point and
-//! spot lights in media (`RenderSettings::volume_sampling`), which renders on the CPU only.
+//! deeper than three; [`supports_with`] also refuses emitting media sampled as lights
+//! (`RenderSettings::media_lights`), which render on the CPU only.
 //! The scene's [`FeatureFlags`] choose the stages ([`Stage::for_features`]) and the WGSL
 //! variant ([`variant_name`]): the code of a missing feature is cut at assembly.
 //!

@@ -80,6 +80,8 @@ pub mod files {
     pub const LIGHTS: ShaderFile = shader_file!("common/lights.wgsl");
     /// Shadow rays' transmittance through media and null interfaces.
     pub const SHADOW: ShaderFile = shader_file!("common/shadow.wgsl");
+    /// Equiangular sampling towards point and spot lights, weighed against free flight.
+    pub const EQUIANGULAR: ShaderFile = shader_file!("common/equiangular.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
     pub const QUEUES: ShaderFile = shader_file!("kernels/queues.wgsl");
     /// The wavefront stages, one file each (see `backend::gpu::render::Stage`).
@@ -227,6 +229,16 @@ pub fn shared_constants() -> String {
             "PATH_FLAG_DEPTH_SEEN",
             crate::gpu_types::PATH_FLAG_DEPTH_SEEN,
         ),
+        ("PATH_FLAG_SEGMENT", crate::gpu_types::PATH_FLAG_SEGMENT),
+        (
+            "VOLUME_SAMPLING_DISTANCE",
+            crate::gpu_types::VOLUME_SAMPLING_DISTANCE,
+        ),
+        (
+            "VOLUME_SAMPLING_EQUIANGULAR",
+            crate::gpu_types::VOLUME_SAMPLING_EQUIANGULAR,
+        ),
+        ("VOLUME_SAMPLING_MIS", crate::gpu_types::VOLUME_SAMPLING_MIS),
         ("LIGHT_PASSES", crate::gpu_types::GPU_LIGHT_PASSES),
         ("PASS_EMISSION", crate::gpu_types::PASS_EMISSION),
         ("PASS_BACKGROUND", crate::gpu_types::PASS_BACKGROUND),
@@ -587,8 +599,27 @@ macro_rules! wavefront_module {
         pub const $name: Module = Module {
             label: $label,
             files: &[
-                TYPES, MATH, RNG, SOBOL, GRID, DDA, PHASE, ADVECTION, TRACKING, EMISSION,
-                WAVEFRONT, BSDF, TEXTURES, SURFACES, MEDIA, MIXTURE, ENVMAP, LIGHTS, SHADOW, $file,
+                TYPES,
+                MATH,
+                RNG,
+                SOBOL,
+                GRID,
+                DDA,
+                PHASE,
+                ADVECTION,
+                TRACKING,
+                EMISSION,
+                WAVEFRONT,
+                BSDF,
+                TEXTURES,
+                SURFACES,
+                MEDIA,
+                MIXTURE,
+                ENVMAP,
+                LIGHTS,
+                SHADOW,
+                EQUIANGULAR,
+                $file,
             ],
             entry_point: $entry,
             default_specs: WAVEFRONT_SPECS,

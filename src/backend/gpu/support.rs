@@ -2,7 +2,7 @@
 //! and the settings that ask for CPU-only physics ([`supports_with`]); a render beyond them is
 //! refused with a one-line reason, and `--backend auto` renders it on the CPU.
 use crate::gpu_types::{GPU_CAMERA_POSES, GPU_MAX_NESTED_MEDIA, GPU_MAX_VDB_MEDIA, STACK_NONE};
-use crate::render::{RenderScene, RenderSettings, VolumeSampling};
+use crate::render::{RenderScene, RenderSettings};
 
 /// Whether the GPU integrator renders `rs` exactly as the CPU would, else a one-line reason.
 pub fn supports(rs: &RenderScene) -> Result<(), String> {
@@ -75,26 +75,14 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
     Ok(())
 }
 
-/// [`supports`], and whether `settings` ask only for what the GPU mirrors: equiangular
-/// sampling towards point and spot lights in media (`integrator::equiangular`, the
-/// `--volume-sampling` modes other than distance) and emitting media sampled as lights
-/// (`render::media_lights`) render on the CPU only.
+/// [`supports`], and whether `settings` ask only for what the GPU mirrors: emitting media
+/// sampled as lights (`render::media_lights`) render on the CPU only.
 pub fn supports_with(rs: &RenderScene, settings: &RenderSettings) -> Result<(), String> {
     supports(rs)?;
-    let media = rs.features.heterogeneous || rs.features.homogeneous;
-    if media
-        && !rs.lights.positional.is_empty()
-        && settings.volume_sampling != VolumeSampling::Distance
-    {
-        return Err(format!(
-            "equiangular sampling towards point and spot lights in media (--volume-sampling {}) \
-             renders on the CPU backend only (--volume-sampling distance renders on both)",
-            settings.volume_sampling.name()
-        ));
-    }
-    if rs.media_lights.is_some() {
+    if settings.media_lights && rs.media_lights.is_some() {
         return Err(
-            "emitting media sampled as lights (--media-lights on) renders on the CPU backend              only (--media-lights off renders on both)"
+            "emitting media sampled as lights (--media-lights on) renders on the CPU backend \
+             only (--media-lights off renders on both)"
                 .into(),
         );
     }

@@ -14,14 +14,17 @@ use crate::gpu_types::{
     CellBounds, GpuAreaLight, GpuCameraMotion, GpuControlMode, GpuEmissionParams, GpuEstimator,
     GpuGridInfo, GpuMajorantMode, GpuPhase, GpuTexture, GpuTrackingParams, GpuTriangle,
     GpuTriangleUv, GpuVdbMedium, GpuVelocityBlur, GpuWavefrontParams, GPU_CAMERA_POSES, STACK_NONE,
-    SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
+    SURFACE_DIELECTRIC, SURFACE_NULL, SURFACE_OPAQUE, VOLUME_SAMPLING_DISTANCE,
+    VOLUME_SAMPLING_EQUIANGULAR, VOLUME_SAMPLING_MIS, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
     WF_FLAG_GUIDED_LIGHTS,
 };
 use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::prepare::SurfaceKind;
 use crate::render::settings::Absorption;
 use crate::render::{media::GridField, media::TrackingConfig, media::VdbMedium};
-use crate::render::{Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings};
+use crate::render::{
+    Estimator, FeatureFlags, MajorantMode, RenderScene, RenderSettings, VolumeSampling,
+};
 use crate::volume::grid::BRICK_VOXELS;
 use crate::volume::SparseGrid;
 
@@ -198,6 +201,8 @@ pub(super) fn medium_record(
         sigma_s: m.sigma_s.to_array(),
         control_albedo: sigma_s / bound,
         shadow_majorant_mode: gpu_majorant_mode(m.walk(cfg.majorant).shadow) as u32,
+        sigma_t_mean: (m.sigma_s + m.sigma_a).element_sum() / 3.0,
+        sigma_max: m.bounds().global.max * bound,
         ..Default::default()
     })
 }
@@ -253,6 +258,13 @@ pub(super) fn medium_params(
     p.shadow_estimator = r.shadow_estimator;
     p.shadow_majorant_mode = r.shadow_majorant_mode;
     p.tracking = r.tracking;
+    // The equiangular estimate's in-scattering and free-flight density (`equiangular.wgsl`):
+    // per unit of the extinction the tracker reads, `sigma_t_bound` times the density.
+    let m = &rs.vdb[0];
+    let bound = m.sigma_t_bound;
+    p.medium_sigma_s = (m.sigma_s / bound).to_array();
+    p.medium_sigma_t = (m.sigma_s + m.sigma_a).element_sum() / 3.0 / bound;
+    p.medium_sigma_max = m.bounds().global.max * bound;
 }
 
 /// The scene's surfaces as the GPU reads them: obvhs' CWBVH nodes, the triangles in its
@@ -640,6 +652,14 @@ pub(super) fn wavefront_params(
     }
     params.motion = camera_motion(rs);
     light_group_params(rs, &mut params);
+    // As the CPU: the equiangular strategy only where the scene has point or spot lights.
+    params.positional_count = rs.lights.positional.len() as u32;
+    params.volume_sampling = match settings.volume_sampling {
+        _ if rs.lights.positional.is_empty() => VOLUME_SAMPLING_DISTANCE,
+        VolumeSampling::Distance => VOLUME_SAMPLING_DISTANCE,
+        VolumeSampling::Equiangular => VOLUME_SAMPLING_EQUIANGULAR,
+        VolumeSampling::Mis => VOLUME_SAMPLING_MIS,
+    };
     params
 }
 

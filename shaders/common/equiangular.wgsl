@@ -1,0 +1,318 @@
+// Mirrors src/integrator/equiangular.rs: equiangular sampling of scattering distances towards
+// point and spot lights (Kulla and Fajardo 2012), weighed against free flight by MIS with the
+// deterministic free-flight density sigma_t(x) exp(-sigma_t(x) (t - a)) (the module doc writes
+// the estimator). The medium stage draws one estimate per flight segment in media, after the
+// flight, from the path's stream (so in the CPU's order) and records the segment for the
+// scattering stage's weight of its next-event estimate (distance_weight). Needs shadow.wgsl,
+// lights.wgsl, media.wgsl, mixture.wgsl (vdb_spans, vdb_media), phase.wgsl and wavefront.wgsl.
+
+// Equiangular: the density of one segment [a, b] of a ray towards a light.
+struct Equiangular {
+    t_c: f32,
+    d: f32,
+    theta_a: f32,
+    theta_b: f32,
+    valid: bool,  // false where the CPU's Equiangular::new gives None
+}
+
+// atan2(t - t_c, d) for d > 0, with the infinite ends the CPU's atan2 gives.
+fn equiangular_angle(s: f32, d: f32) -> f32 {
+    if (s > F32_MAX) {
+        return 0.5 * PI;
+    }
+    if (s < -F32_MAX) {
+        return -0.5 * PI;
+    }
+    return atan2(s, d);
+}
+
+// Equiangular::new: the density along the ray (o, dir) over [a, b] towards `light`.
+fn equiangular_new(o: vec3<f32>, dir: vec3<f32>, light: vec3<f32>, a: f32, b: f32) -> Equiangular {
+    var eq: Equiangular;
+    eq.valid = false;
+    let t_c = dot(light - o, dir);
+    let d = length(o + dir * t_c - light);
+    let l = abs(light);
+    let scale = 1.0 + max(l.x, max(l.y, l.z));
+    if (!(d > 1e-6 * scale) || !(b > a)) {
+        return eq;
+    }
+    eq.t_c = t_c;
+    eq.d = d;
+    eq.theta_a = equiangular_angle(a - t_c, d);
+    eq.theta_b = equiangular_angle(b - t_c, d);
+    eq.valid = eq.theta_b > eq.theta_a;
+    return eq;
+}
+
+// Equiangular::sample.
+fn equiangular_sample(eq: Equiangular, u: f32) -> f32 {
+    let theta = eq.theta_a + u * (eq.theta_b - eq.theta_a);
+    return eq.t_c + eq.d * tan(theta);
+}
+
+// Equiangular::pdf.
+fn equiangular_pdf(eq: Equiangular, t: f32) -> f32 {
+    let s = t - eq.t_c;
+    return eq.d / ((eq.theta_b - eq.theta_a) * (eq.d * eq.d + s * s));
+}
+
+// Segment: the part [a, b] of a flight where its media are, the media the ray is in, and
+// their largest extinction.
+struct Segment {
+    o: vec3<f32>,
+    dir: vec3<f32>,
+    a: f32,
+    b: f32,
+    medium: u32,
+    outer: u32,
+    sigma_max: f32,
+    valid: bool,
+}
+
+// media_extent: all of the flight [t0, t1] inside a homogeneous medium, else the VDB
+// medium's part of it.
+fn media_extent(o: vec3<f32>, dir: vec3<f32>, t0: f32, t1: f32, medium: u32, outer: u32) -> Segment {
+    var seg: Segment;
+    seg.o = o;
+    seg.dir = dir;
+    seg.medium = medium;
+    seg.outer = outer;
+    seg.valid = false;
+    seg.sigma_max = 0.0;
+    var hom = false;
+// #if FEATURE_HOMOGENEOUS
+    hom = medium != NO_INDEX;
+    if (hom) {
+        let h = homogeneous[medium];
+        let st = h.sigma_a + h.sigma_s;
+        seg.sigma_max = max(st.x, max(st.y, st.z));
+        seg.a = t0;
+        seg.b = t1;
+        seg.valid = true;
+    }
+// #endif
+// #if FEATURE_MIXTURE
+// #if FEATURE_HETEROGENEOUS
+    // Every VDB medium along the flight, inside the homogeneous medium or not.
+    let spans = vdb_spans(o, dir, t0, t1);
+    var sigma_vdb = 0.0;
+    for (var i = 0u; i < spans.n; i++) {
+        sigma_vdb = max(sigma_vdb, vdb_media[spans.k[i]].sigma_max);
+    }
+    seg.sigma_max += sigma_vdb;
+    if (!hom && spans.n > 0u) {
+        seg.a = spans.a[0];
+        seg.b = seg.a;
+        for (var i = 0u; i < spans.n; i++) {
+            seg.b = max(seg.b, spans.b[i]);
+        }
+        seg.valid = true;
+    }
+// #endif
+// #endif
+// #if !FEATURE_MIXTURE
+// #if FEATURE_HETEROGENEOUS
+    var te = vec2<f32>(0.0);
+    if (!hom && medium_interval(o, dir, t0, t1, &te)) {
+        seg.sigma_max = wf.medium_sigma_max;
+        seg.a = te.x;
+        seg.b = te.y;
+        seg.valid = true;
+    }
+// #endif
+// #endif
+    return seg;
+}
+
+// density_towards: light c's density over the segment where the strategy is used (its peak
+// density reaches EQUIANGULAR_REACH times the media's largest extinction).
+const EQUIANGULAR_REACH: f32 = 0.3;
+
+fn density_towards(seg: Segment, c: vec3<f32>, q: f32) -> Equiangular {
+    var eq = equiangular_new(seg.o, seg.dir, c, seg.a, seg.b);
+    if (eq.valid) {
+        let peak = q / ((eq.theta_b - eq.theta_a) * eq.d);
+        eq.valid = peak >= EQUIANGULAR_REACH * seg.sigma_max;
+    }
+    return eq;
+}
+
+// media_at's two sums at ray parameter t: sigma_s p(wo, wi) and the mean extinction.
+struct MediaAt {
+    s: vec3<f32>,
+    sigma_t: f32,
+}
+
+// media_at: the homogeneous medium the segment is in, else the VDB medium where its bounds
+// hold the point, with the coefficients the trackers read there (blur at the path's time).
+fn media_at(seg: Segment, t: f32, wo: vec3<f32>, wi: vec3<f32>, time: f32) -> MediaAt {
+    var m = MediaAt(vec3<f32>(0.0), 0.0);
+// #if FEATURE_HOMOGENEOUS
+    if (seg.medium != NO_INDEX) {
+        let h = homogeneous[seg.medium];
+        var ph = phase_hg(h.g);
+// #if FEATURE_PHASES
+        ph = h.phase;
+// #endif
+        m.s = h.sigma_s * phase_p(ph, wo, wi);
+        let st = h.sigma_a + h.sigma_s;
+        m.sigma_t = (st.x + st.y + st.z) / 3.0;
+// #if !FEATURE_MIXTURE
+        return m;
+// #endif
+    }
+// #endif
+    let x = seg.o + seg.dir * t;
+// #if FEATURE_MIXTURE
+// #if FEATURE_HETEROGENEOUS
+    for (var k = 0u; k < min(wf.vdb_count, MAX_MIX); k++) {
+        if (all(x >= vdb_media[k].lo) && all(x <= vdb_media[k].hi)) {
+            let dens = vdb_density_at(k, x, time);
+            if (dens > 0.0) {
+                var ph = phase_hg(vdb_media[k].phase_g);
+// #if FEATURE_PHASES
+                ph = wf.phases[k];
+// #endif
+                m.s += vdb_media[k].sigma_s * dens * phase_p(ph, wo, wi);
+                m.sigma_t += vdb_media[k].sigma_t_mean * dens;
+            }
+        }
+    }
+// #endif
+// #endif
+// #if !FEATURE_MIXTURE
+// #if FEATURE_HETEROGENEOUS
+    if (wf.has_medium != 0u && all(x >= wf.medium_lo) && all(x <= wf.medium_hi)) {
+        var tr = medium_tracker(seg.o, seg.dir, Rng(0u, 1u, vec2<u32>(0u), 0u), wf.tracking.estimator);
+        tr.time = time;
+        let sigma = medium_sigma_t(&tr, t);
+        if (sigma > 0.0) {
+            var ph = phase_hg(wf.phase_g);
+// #if FEATURE_PHASES
+            ph = wf.phases[0];
+// #endif
+            m.s = wf.medium_sigma_s * sigma * phase_p(ph, wo, wi);
+            m.sigma_t = wf.medium_sigma_t * sigma;
+        }
+    }
+// #endif
+// #endif
+    return m;
+}
+
+// #if FEATURE_MIXTURE
+// GreyView::density_at for VDB medium k at world point x: the raw density its trackers read
+// (advected where it is blurred).
+fn vdb_density_at(k: u32, x: vec3<f32>, time: f32) -> f32 {
+    var p = grid_index_point(vdb_media[k].grid, x);
+// #if FEATURE_MOTION
+    p = blur_index_point(vdb_media[k].blur, p, time);
+// #endif
+    return grid_sample_trilinear_in(vdb_media[k].grid, p);
+}
+// #endif
+
+// distance_pdf: the free-flight density MIS weighs against, from the mean extinction at the
+// point and its distance from the segment's start.
+fn distance_pdf(sigma_t: f32, t_from_a: f32) -> f32 {
+    return sigma_t * exp(-sigma_t * max(t_from_a, 0.0));
+}
+
+// equiangular_weight: the strategy's weight (1 without MIS) for its density `eq_pdf` (with the
+// light's selection) against free flight's `p_d`.
+fn equiangular_weight(eq_pdf: f32, p_d: f32) -> f32 {
+    if (wf.volume_sampling == VOLUME_SAMPLING_MIS) {
+        return power_heuristic(eq_pdf, light_pmf() * p_d);
+    }
+    return 1.0;
+}
+
+// The punctual light of the i-th point or spot light (Lights::positional).
+fn positional_light(i: u32) -> u32 {
+    var seen = 0u;
+    for (var k = 0u; k < wf.light_count; k++) {
+        if (lights[k].kind != LIGHT_DIRECTIONAL) {
+            if (seen == i) {
+                return k;
+            }
+            seen += 1u;
+        }
+    }
+    return NO_INDEX;
+}
+
+// distance_weight: the weight of a free-flight event's next-event estimate of punctual light
+// `source` at the path's event, inside the segment its flight recorded (GpuPathState::seg_*):
+// 1 for lights the equiangular strategy does not sample, 1 - w_e for those it does.
+fn distance_weight(ps: GpuPathState, source: u32) -> f32 {
+    if (wf.volume_sampling == VOLUME_SAMPLING_DISTANCE || (ps.flags & PATH_FLAG_SEGMENT) == 0u
+        || source >= wf.light_count || lights[source].kind == LIGHT_DIRECTIONAL) {
+        return 1.0;
+    }
+    var seg: Segment;
+    seg.o = ps.o;
+    seg.dir = ps.d;
+    seg.a = ps.seg_a;
+    seg.b = ps.seg_b;
+    seg.sigma_max = ps.seg_sigma_max;
+    let q = 1.0 / f32(wf.positional_count);
+    let eq = density_towards(seg, lights[source].position, q);
+    if (!eq.valid) {
+        return 1.0;
+    }
+    let p_d = distance_pdf(ps.seg_sigma_t, -ps.seg_a);
+    return 1.0 - equiangular_weight(q * equiangular_pdf(eq, 0.0), p_d);
+}
+
+// What equiangular_estimate returns: the estimate before the path's throughput and the light
+// it sampled (valid false where the CPU's is None).
+struct EquiangularEstimate {
+    l: vec3<f32>,
+    source: u32,
+    valid: bool,
+}
+
+// equiangular_estimate: one equiangular sample over the segment, drawn from the path's
+// stream, with ratio-tracked transmittances to the point and from it to the light.
+fn equiangular_estimate(seg: Segment, ps: ptr<function, GpuPathState>) -> EquiangularEstimate {
+    var est = EquiangularEstimate(vec3<f32>(0.0), NO_INDEX, false);
+    let n = wf.positional_count;
+    var rng = path_rng(*ps);
+    let u_select = rng_uniform(&rng);
+    let u_t = rng_uniform(&rng);
+    (*ps).rng_state = rng.state;
+    (*ps).rng_inc = rng.inc;
+    if (n == 0u) {
+        return est;
+    }
+    let k = positional_light(min(u32(u_select * f32(n)), n - 1u));
+    let eq = density_towards(seg, lights[k].position, 1.0 / f32(n));
+    if (!eq.valid) {
+        return est;
+    }
+    est.source = k;
+    est.valid = true;
+    let t = clamp(equiangular_sample(eq, u_t), seg.a, seg.b);
+    let x = seg.o + seg.dir * t;
+    let ls = punctual_incident(k, x);
+    if (!ls.valid) {
+        return est;
+    }
+    let m = media_at(seg, t, -seg.dir, ls.wi, (*ps).time);
+    let pdf = equiangular_pdf(eq, t) / f32(n);
+    if (all(m.s == vec3<f32>(0.0)) || all(ls.li == vec3<f32>(0.0)) || !(pdf > 0.0)) {
+        return est;
+    }
+    let w = equiangular_weight(pdf, distance_pdf(m.sigma_t, t - seg.a));
+    if (!(w > 0.0)) {
+        return est;
+    }
+    let tr_a = media_transmittance(seg.o + seg.dir * seg.a, seg.dir, 0.0, t - seg.a, seg.medium, ps);
+    if (all(tr_a == vec3<f32>(0.0))) {
+        return est;
+    }
+    let tr_c = shadow_transmittance(x, ls.wi, ls.dist * (1.0 - 1e-4), seg.medium, seg.outer, ps);
+    est.l = tr_a * m.s * tr_c * ls.li * (w / pdf);
+    return est;
+}
