@@ -6,7 +6,8 @@
 //! TRS or matrices; perspective cameras; triangle meshes (lists, strips, fans); the
 //! metallic-roughness material factors with base-colour and emissive textures (PNG, JPEG,
 //! `KHR_texture_transform`); `KHR_lights_punctual`, `KHR_materials_emissive_strength`,
-//! `KHR_materials_transmission`, `KHR_materials_ior`, `KHR_materials_volume`; and Brume's own
+//! `KHR_materials_transmission`, `KHR_materials_ior`, `KHR_materials_volume`,
+//! `EXT_mesh_gpu_instancing` (each row one more placement of the mesh); and Brume's own
 //! `BRUME_environment` (scene), `BRUME_materials_volume_scattering` (material) and
 //! `BRUME_medium_vdb` (node, see `docs/BRUME_medium_vdb.md`).
 //!
@@ -27,6 +28,7 @@ pub mod camera;
 mod document;
 pub mod effects;
 pub mod envmap;
+pub mod gpu_instancing;
 pub mod error;
 mod json;
 pub mod lights;
