@@ -28,6 +28,7 @@ pub mod camera;
 mod document;
 pub mod effects;
 pub mod envmap;
+pub mod geometry_stats;
 pub mod gpu_instancing;
 pub mod error;
 mod json;
@@ -148,6 +149,8 @@ pub struct Scene {
     pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
     pub warnings: Vec<String>,
+    /// How long the load and the BVH's build took.
+    pub timings: geometry_stats::LoadTimings,
 }
 
 /// Loads `path` (`.gltf` or `.glb`) with default options.
@@ -157,6 +160,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 
 /// Loads `path` (`.gltf` or `.glb`).
 pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let start = std::time::Instant::now();
     let mut ctx = error::Ctx::new(path);
     let loaded = document::read(&mut ctx, path)?;
     let doc = &loaded.doc;
@@ -225,15 +229,12 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
 
-    let corners = geo
-        .triangles
-        .iter()
-        .map(|t| {
-            t.vertices
-                .map(|i| Vec3A::from(geo.vertices[i as usize].position))
-        })
-        .collect();
-    let bvh = TriangleBvh::build(corners);
+    let read_seconds = start.elapsed().as_secs_f64();
+    let bvh = world_bvh(&geo);
+    let timings = geometry_stats::LoadTimings {
+        read_seconds,
+        bvh_seconds: start.elapsed().as_secs_f64() - read_seconds,
+    };
     let moving_meshes = steps
         .as_ref()
         .and_then(|s| moving_meshes::MovingMeshes::of_steps(s, &nodes, &geo, shutter));
@@ -269,12 +270,26 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         light_motion,
         animated_nodes: pose.len(),
         warnings: ctx.warnings,
+        timings,
     };
     // A loader bug, not a user error, if this fails; still reported, never a panic.
     scene
         .validate()
         .map_err(|e| ctx_invalid(path, format!("internal consistency check failed: {e}")))?;
     Ok(scene)
+}
+
+/// The BVH over the world-space triangles of `geo`, in their order.
+fn world_bvh(geo: &mesh::Geometry) -> TriangleBvh {
+    let corners = geo
+        .triangles
+        .iter()
+        .map(|t| {
+            t.vertices
+                .map(|i| Vec3A::from(geo.vertices[i as usize].position))
+        })
+        .collect();
+    TriangleBvh::build(corners)
 }
 
 /// Warns about instances that bound a homogeneous medium but are not closed (some edge not
@@ -325,6 +340,11 @@ impl Scene {
     /// The effects this scene calls for.
     pub fn effects(&self) -> Effects {
         Effects::of(self)
+    }
+
+    /// Triangles stored and instanced, and the bytes of the geometry and its accelerators.
+    pub fn geometry_stats(&self) -> geometry_stats::GeometryStats {
+        geometry_stats::GeometryStats::of(self)
     }
 
     /// Human-readable description: camera, meshes, materials, lights, media and effects.

@@ -97,6 +97,14 @@ fn the_example_groves_place_the_same_triangles() {
     assert_same_world(&ext, &nodes);
     assert!(ext.warnings.is_empty(), "{:?}", ext.warnings);
     assert_eq!(ext.vdb_media.len(), 1);
+    // What `brume info` reports: the 5 primitives' triangles once, and every placement's.
+    for s in [&ext, &nodes] {
+        let g = s.geometry_stats();
+        assert_eq!((g.primitives, g.placements), (5, 41));
+        assert_eq!((g.stored_triangles, g.instanced_triangles), (1536, 8976));
+        assert_eq!(g.vertices, s.vertices.len());
+        assert!(g.bvh_bytes >= 48 * 8976 && g.array_bytes >= 16 * 8976, "{g:?}");
+    }
 }
 
 #[test]
@@ -115,6 +123,7 @@ fn the_heavy_generator_writes_what_it_counts() {
         let s = load_ok(&path);
         assert_eq!(s.triangles.len(), w.placed_triangles);
         assert_eq!(s.instances.len(), w.placements);
+        assert_eq!(s.geometry_stats().stored_triangles, w.stored_triangles);
         assert!(w.placed_triangles > 4 * w.stored_triangles, "{w:?}");
         println!("nodes {nodes}: {w:?}");
         scenes.push(s);
