@@ -268,7 +268,7 @@ fn placements(kind: usize, shares: &[f32], count: usize, scale: [f32; 2]) -> Vec
         if owner.unwrap_or(shares.len() - 1) != kind {
             continue;
         }
-        let r = 4.0 + (TERRAIN_HALF - 6.0) * hash(i as i32, 1, 102).sqrt();
+        let r = 7.0 + (TERRAIN_HALF - 9.0) * hash(i as i32, 1, 102).sqrt();
         let a = hash(i as i32, 2, 103) * std::f32::consts::TAU;
         let (x, mut z) = (r * a.cos(), r * a.sin());
         // Nothing right in front of the camera (at z = 15): mirrored to the far side instead.
@@ -383,8 +383,8 @@ pub fn write_scene(out: &Path, params: &Params) -> std::io::Result<Written> {
     let bin_path = out.with_extension("bin");
     let bin_uri = bin_path.file_name().unwrap().to_string_lossy().into_owned();
     let mut b = Builder { doc: skeleton(&bin_uri), bin: Vec::new() };
-    b.node(json!({"name": "camera_node", "camera": 0, "translation": [0.0, 2.5, CAMERA_Z],
-        "rotation": [-0.0697565, 0.0, 0.0, 0.9975641]}));
+    b.node(json!({"name": "camera_node", "camera": 0, "translation": [0.0, 4.5, CAMERA_Z],
+        "rotation": [-0.1045285, 0.0, 0.0, 0.9945219]}));
     b.node(json!({"name": "plume", "scale": [2.0, 2.0, 2.0], "extensions": {"BRUME_medium_vdb": {
         "uri": plume_uri, "densityGrid": "density", "densityScale": 20.0,
         "color": [0.9, 0.9, 0.9], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.0}}}));
