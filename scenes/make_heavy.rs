@@ -113,7 +113,10 @@ fn terrain(triangles: usize) -> Mesh {
     let mut m = Mesh::default();
     for j in 0..=n {
         for i in 0..=n {
-            let (x, z) = (-TERRAIN_HALF + i as f32 * step, -TERRAIN_HALF + j as f32 * step);
+            let (x, z) = (
+                -TERRAIN_HALF + i as f32 * step,
+                -TERRAIN_HALF + j as f32 * step,
+            );
             m.positions.push([x, height(x, z), z]);
             let e = 0.5 * step;
             let dx = (height(x + e, z) - height(x - e, z)) / (2.0 * e);
@@ -124,7 +127,12 @@ fn terrain(triangles: usize) -> Mesh {
     let w = (n + 1) as u32;
     for j in 0..n as u32 {
         for i in 0..n as u32 {
-            let (a, b, c, d) = (j * w + i, j * w + i + 1, (j + 1) * w + i, (j + 1) * w + i + 1);
+            let (a, b, c, d) = (
+                j * w + i,
+                j * w + i + 1,
+                (j + 1) * w + i,
+                (j + 1) * w + i + 1,
+            );
             // Counter-clockwise seen from above (+y).
             m.triangles.push([a, c, b]);
             m.triangles.push([b, c, d]);
@@ -160,10 +168,26 @@ fn rock(levels: u32, roughness: f32, seed: u32) -> Mesh {
     .map(normalize)
     .to_vec();
     let mut tris: Vec<[u32; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
-        [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
-        [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     for _ in 0..levels {
         let mut mid = std::collections::HashMap::new();
@@ -227,7 +251,12 @@ fn tree(sides: u32, rings: u32, tiers: u32) -> Mesh {
         for ring in 0..rings {
             for s in 0..sides {
                 let at = |ring: u32, s: u32| base + ring * sides + s % sides;
-                let (a, b, c, d) = (at(ring, s), at(ring, s + 1), at(ring + 1, s), at(ring + 1, s + 1));
+                let (a, b, c, d) = (
+                    at(ring, s),
+                    at(ring, s + 1),
+                    at(ring + 1, s),
+                    at(ring + 1, s + 1),
+                );
                 m.triangles.push([a, c, b]);
                 if !(r1 == 0.0 && ring + 1 == rings) {
                     m.triangles.push([b, c, d]);
@@ -242,10 +271,34 @@ fn tree(sides: u32, rings: u32, tiers: u32) -> Mesh {
 fn props(detail: u32) -> Vec<(&'static str, Mesh, usize, f32, [f32; 2])> {
     let d = detail.min(3);
     vec![
-        ("rock_large", rock(d + 2, 0.5, 3), MAT_ROCK, 0.25, [0.6, 1.4]),
-        ("rock_small", rock(d + 1, 0.7, 5), MAT_ROCK, 0.25, [0.2, 0.6]),
-        ("pine", tree(16 * (d + 1), 2 + 3 * d, 3), MAT_LEAVES, 0.3, [0.8, 1.5]),
-        ("fir", tree(8 + 12 * d, 2 + 2 * d, 4), MAT_LEAVES, 0.2, [0.7, 1.2]),
+        (
+            "rock_large",
+            rock(d + 2, 0.5, 3),
+            MAT_ROCK,
+            0.25,
+            [0.6, 1.4],
+        ),
+        (
+            "rock_small",
+            rock(d + 1, 0.7, 5),
+            MAT_ROCK,
+            0.25,
+            [0.2, 0.6],
+        ),
+        (
+            "pine",
+            tree(16 * (d + 1), 2 + 3 * d, 3),
+            MAT_LEAVES,
+            0.3,
+            [0.8, 1.5],
+        ),
+        (
+            "fir",
+            tree(8 + 12 * d, 2 + 2 * d, 4),
+            MAT_LEAVES,
+            0.2,
+            [0.7, 1.2],
+        ),
     ]
 }
 
@@ -291,7 +344,14 @@ struct Builder {
 
 impl Builder {
     /// Appends `data` as a buffer view and an accessor over it; returns the accessor's index.
-    fn accessor(&mut self, data: &[u8], component: u32, kind: &str, count: usize, bounds: Option<([f32; 3], [f32; 3])>) -> usize {
+    fn accessor(
+        &mut self,
+        data: &[u8],
+        component: u32,
+        kind: &str,
+        count: usize,
+        bounds: Option<([f32; 3], [f32; 3])>,
+    ) -> usize {
         while self.bin.len() % 4 != 0 {
             self.bin.push(0);
         }
@@ -299,7 +359,8 @@ impl Builder {
         views.push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": data.len()}));
         let view = views.len() - 1;
         self.bin.extend_from_slice(data);
-        let mut acc = json!({"bufferView": view, "componentType": component, "count": count, "type": kind});
+        let mut acc =
+            json!({"bufferView": view, "componentType": component, "count": count, "type": kind});
         if let Some((min, max)) = bounds {
             acc["min"] = json!(min);
             acc["max"] = json!(max);
@@ -310,7 +371,11 @@ impl Builder {
     }
 
     fn floats<const N: usize>(&mut self, rows: &[[f32; N]], kind: &str, bounds: bool) -> usize {
-        let bytes: Vec<u8> = rows.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let bytes: Vec<u8> = rows
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
         let b = bounds.then(|| {
             let mut lo = [f32::INFINITY; 3];
             let mut hi = [f32::NEG_INFINITY; 3];
@@ -329,7 +394,12 @@ impl Builder {
     fn mesh(&mut self, name: &str, mesh: &Mesh, material: usize) -> usize {
         let position = self.floats(&mesh.positions, "VEC3", true);
         let normal = self.floats(&mesh.normals, "VEC3", false);
-        let bytes: Vec<u8> = mesh.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+        let bytes: Vec<u8> = mesh
+            .triangles
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
         let indices = self.accessor(&bytes, 5125, "SCALAR", mesh.triangles.len() * 3, None);
         let meshes = self.doc["meshes"].as_array_mut().unwrap();
         meshes.push(json!({"name": name, "primitives": [{
@@ -342,7 +412,10 @@ impl Builder {
 
     fn node(&mut self, node: Value) {
         let index = self.doc["nodes"].as_array().map_or(0, Vec::len);
-        self.doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(index));
+        self.doc["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!(index));
         self.doc["nodes"].as_array_mut().unwrap().push(node);
     }
 }
@@ -376,20 +449,32 @@ fn skeleton(bin_uri: &str) -> Value {
 
 /// Writes the scene to `out` (`.gltf`) and `out` with extension `.bin`.
 pub fn write_scene(out: &Path, params: &Params) -> std::io::Result<Written> {
-    let dir = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let dir = out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
     let vdb = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/vdb/plume.vdb");
     let plume_uri = relative_uri(&dir.canonicalize()?, &vdb.canonicalize()?);
     let bin_path = out.with_extension("bin");
     let bin_uri = bin_path.file_name().unwrap().to_string_lossy().into_owned();
-    let mut b = Builder { doc: skeleton(&bin_uri), bin: Vec::new() };
-    b.node(json!({"name": "camera_node", "camera": 0, "translation": [0.0, 4.5, CAMERA_Z],
-        "rotation": [-0.1045285, 0.0, 0.0, 0.9945219]}));
-    b.node(json!({"name": "plume", "scale": [2.0, 2.0, 2.0], "extensions": {"BRUME_medium_vdb": {
+    let mut b = Builder {
+        doc: skeleton(&bin_uri),
+        bin: Vec::new(),
+    };
+    b.node(
+        json!({"name": "camera_node", "camera": 0, "translation": [0.0, 4.5, CAMERA_Z],
+        "rotation": [-0.1045285, 0.0, 0.0, 0.9945219]}),
+    );
+    b.node(
+        json!({"name": "plume", "scale": [2.0, 2.0, 2.0], "extensions": {"BRUME_medium_vdb": {
         "uri": plume_uri, "densityGrid": "density", "densityScale": 20.0,
-        "color": [0.9, 0.9, 0.9], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.0}}}));
-    b.node(json!({"name": "sun", "rotation": [-0.3303661, 0.2432103, 0.0885213, 0.9076734],
-        "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+        "color": [0.9, 0.9, 0.9], "absorptionColor": [0.0, 0.0, 0.0], "anisotropy": 0.0}}}),
+    );
+    b.node(
+        json!({"name": "sun", "rotation": [-0.3303661, 0.2432103, 0.0885213, 0.9076734],
+        "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+    );
     let ground = terrain(params.terrain_triangles);
     let mut written = Written {
         stored_triangles: ground.triangles.len(),
@@ -416,13 +501,22 @@ pub fn write_scene(out: &Path, params: &Params) -> std::io::Result<Written> {
             let t: Vec<[f32; 3]> = rows.iter().map(|r| [r[0], r[1], r[2]]).collect();
             let q: Vec<[f32; 4]> = rows.iter().map(|r| [r[3], r[4], r[5], r[6]]).collect();
             let s: Vec<[f32; 3]> = rows.iter().map(|r| [r[7]; 3]).collect();
-            let (t, q, s) = (b.floats(&t, "VEC3", false), b.floats(&q, "VEC4", false), b.floats(&s, "VEC3", false));
-            b.node(json!({"name": name, "mesh": m, "extensions": {"EXT_mesh_gpu_instancing": {
-                "attributes": {"TRANSLATION": t, "ROTATION": q, "SCALE": s}}}}));
+            let (t, q, s) = (
+                b.floats(&t, "VEC3", false),
+                b.floats(&q, "VEC4", false),
+                b.floats(&s, "VEC3", false),
+            );
+            b.node(
+                json!({"name": name, "mesh": m, "extensions": {"EXT_mesh_gpu_instancing": {
+                "attributes": {"TRANSLATION": t, "ROTATION": q, "SCALE": s}}}}),
+            );
         }
     }
     if !params.nodes {
-        b.doc["extensionsUsed"].as_array_mut().unwrap().push(json!("EXT_mesh_gpu_instancing"));
+        b.doc["extensionsUsed"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!("EXT_mesh_gpu_instancing"));
     }
     b.doc["buffers"][0]["byteLength"] = json!(b.bin.len());
     std::fs::write(&bin_path, &b.bin)?;
@@ -436,7 +530,11 @@ fn relative_uri(from: &Path, to: &Path) -> String {
     let b: Vec<Component> = to.components().collect();
     let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
     let mut parts: Vec<String> = vec!["..".into(); a.len() - common];
-    parts.extend(b[common..].iter().map(|c| c.as_os_str().to_string_lossy().into_owned()));
+    parts.extend(
+        b[common..]
+            .iter()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned()),
+    );
     parts.join("/")
 }
 

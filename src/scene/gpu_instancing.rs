@@ -26,7 +26,10 @@ pub fn instance_transforms(
     let Some(ext) = node.extension_value(EXT_MESH_GPU_INSTANCING) else {
         return Ok(vec![Mat4::IDENTITY]);
     };
-    let here = format!("/nodes/{}/extensions/{EXT_MESH_GPU_INSTANCING}", node.index());
+    let here = format!(
+        "/nodes/{}/extensions/{EXT_MESH_GPU_INSTANCING}",
+        node.index()
+    );
     if node.mesh().is_none() {
         ctx.warn(&here, "the node has no mesh to instance; ignored");
         return Ok(Vec::new());
@@ -38,8 +41,7 @@ pub fn instance_transforms(
         ));
     };
     for key in attributes.keys() {
-        if !key.starts_with('_') && !["TRANSLATION", "ROTATION", "SCALE"].contains(&key.as_str())
-        {
+        if !key.starts_with('_') && !["TRANSLATION", "ROTATION", "SCALE"].contains(&key.as_str()) {
             ctx.warn(
                 format!("{here}/attributes/{key}"),
                 "unknown attribute, ignored",
@@ -80,7 +82,9 @@ pub fn instance_transforms(
     }
     let mut out = Vec::with_capacity(count);
     for k in 0..count {
-        let t = translation.as_ref().map_or(Vec3::ZERO, |v| Vec3::from(v[k]));
+        let t = translation
+            .as_ref()
+            .map_or(Vec3::ZERO, |v| Vec3::from(v[k]));
         let q = rotation
             .as_ref()
             .map_or(Quat::IDENTITY, |v| Quat::from_array(v[k]));

@@ -105,7 +105,8 @@ pub fn flatten(
                 .map_or(default_material, |m| m as u32);
             for local_from_instance in &locals {
                 let fits = |have: usize, more: usize| {
-                    have.checked_add(more).is_some_and(|n| n <= NO_INDEX as usize)
+                    have.checked_add(more)
+                        .is_some_and(|n| n <= NO_INDEX as usize)
                 };
                 if !fits(geo.vertices.len(), local.positions.len())
                     || !fits(geo.triangles.len(), local.triangles.len())

@@ -51,14 +51,26 @@ fn two_rows() -> [[f32; 10]; 2] {
 
 #[test]
 fn gpu_instancing_rows_place_the_mesh_under_the_node() {
-    let s = load_ok(&write("gpu_instancing", &instanced_doc(), &instanced_bin(two_rows())));
+    let s = load_ok(&write(
+        "gpu_instancing",
+        &instanced_doc(),
+        &instanced_bin(two_rows()),
+    ));
     assert_eq!((s.instances.len(), s.triangles.len()), (2, 2));
     assert!(s.instances.iter().all(|i| i.node == 0 && i.mesh == 0));
     // By hand, node T(0,0,1) * T(5,0,0) R(90 about z) S(2): (0,0,0) -> (5,0,1);
     // (1,0,0) -> (2,0,0) -> (0,2,0) -> (5,2,1); (0,1,0) -> (0,2,0) -> (-2,0,0) -> (3,0,1).
     let expect = [
-        [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)],
-        [Vec3::new(5.0, 0.0, 1.0), Vec3::new(5.0, 2.0, 1.0), Vec3::new(3.0, 0.0, 1.0)],
+        [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ],
+        [
+            Vec3::new(5.0, 0.0, 1.0),
+            Vec3::new(5.0, 2.0, 1.0),
+            Vec3::new(3.0, 0.0, 1.0),
+        ],
     ];
     for (inst, want) in expect.iter().enumerate() {
         let p = positions(&s, inst);
@@ -71,7 +83,9 @@ fn gpu_instancing_rows_place_the_mesh_under_the_node() {
 
 /// The world-space corners of every triangle, instance by instance.
 fn world_triangles(s: &Scene) -> Vec<Vec3> {
-    (0..s.instances.len()).flat_map(|k| positions(s, k)).collect()
+    (0..s.instances.len())
+        .flat_map(|k| positions(s, k))
+        .collect()
 }
 
 /// Both scenes place the same triangles in the same order, to f32 rounding.
@@ -103,7 +117,10 @@ fn the_example_groves_place_the_same_triangles() {
         assert_eq!((g.primitives, g.placements), (5, 41));
         assert_eq!((g.stored_triangles, g.instanced_triangles), (1536, 8976));
         assert_eq!(g.vertices, s.vertices.len());
-        assert!(g.bvh_bytes >= 48 * 8976 && g.array_bytes >= 16 * 8976, "{g:?}");
+        assert!(
+            g.bvh_bytes >= 48 * 8976 && g.array_bytes >= 16 * 8976,
+            "{g:?}"
+        );
     }
 }
 
@@ -137,15 +154,26 @@ fn the_heavy_generator_writes_what_it_counts() {
 fn bad_instancing_attributes_are_refused() {
     let at = "/nodes/0/extensions/EXT_mesh_gpu_instancing/attributes";
     let edits: [(&str, fn(&mut Value)); 4] = [
-        ("/TRANSLATION", |d| d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"] = json!(99)),
+        ("/TRANSLATION", |d| {
+            d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"] =
+                json!(99)
+        }),
         ("/SCALE", |d| d["accessors"][4]["count"] = json!(1)),
-        ("", |d| d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = json!({})),
-        ("", |d| d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"] = json!({"attributes": 3})),
+        ("", |d| {
+            d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"] = json!({})
+        }),
+        ("", |d| {
+            d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"] = json!({"attributes": 3})
+        }),
     ];
     for (k, (suffix, edit)) in edits.into_iter().enumerate() {
         let mut doc = instanced_doc();
         edit(&mut doc);
-        let path = write(&format!("bad_instancing{k}"), &doc, &instanced_bin(two_rows()));
+        let path = write(
+            &format!("bad_instancing{k}"),
+            &doc,
+            &instanced_bin(two_rows()),
+        );
         let e = load_err(&path, &format!("{at}{suffix}"));
         println!("{e}");
     }
