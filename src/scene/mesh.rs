@@ -8,7 +8,7 @@ use glam::{Mat3, Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
-use std::collections::HashMap;
+use std::collections::hash_map::{Entry, HashMap};
 
 use super::accessor::check_accessor;
 use super::error::{Ctx, SceneError};
@@ -92,13 +92,18 @@ pub fn flatten(
         let locals = instance_transforms(ctx, doc, buffers, &node)?;
         for prim in mesh.primitives() {
             let key = (mesh.index(), prim.index());
-            if !read.contains_key(&key) {
-                let pointer = format!("/meshes/{}/primitives/{}", key.0, key.1);
-                let local = read_primitive(ctx, buffers, &prim, &pointer)
-                    .map_err(|e| placed_by(e, &node))?;
-                read.insert(key, local);
-            }
-            let Some(local) = &read[&key] else { continue };
+            let local = match read.entry(key) {
+                Entry::Occupied(e) => e.into_mut(),
+                Entry::Vacant(e) => {
+                    let pointer = format!("/meshes/{}/primitives/{}", key.0, key.1);
+                    let local = read_primitive(ctx, buffers, &prim, &pointer)
+                        .map_err(|e| placed_by(e, &node))?;
+                    e.insert(local)
+                }
+            };
+            let Some(local) = local.as_ref() else {
+                continue;
+            };
             let material = prim
                 .material()
                 .index()

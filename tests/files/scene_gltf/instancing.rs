@@ -150,10 +150,13 @@ fn the_heavy_generator_writes_what_it_counts() {
 
 // ---------------------------------------------------------------- bad instancing
 
+/// An edit of `instanced_doc` and the pointer suffix (after the attributes) its error names.
+type Edit = (&'static str, fn(&mut Value));
+
 #[test]
 fn bad_instancing_attributes_are_refused() {
     let at = "/nodes/0/extensions/EXT_mesh_gpu_instancing/attributes";
-    let edits: [(&str, fn(&mut Value)); 4] = [
+    let edits: [Edit; 4] = [
         ("/TRANSLATION", |d| {
             d["nodes"][0]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"] =
                 json!(99)
