@@ -88,8 +88,8 @@ pub fn flatten(
     let mut read: HashMap<(usize, usize), Option<LocalPrimitive>> = HashMap::new();
     for placed in nodes {
         let node = placed.in_doc(doc);
-        let Some(mesh) = node.mesh() else { continue };
         let locals = instance_transforms(ctx, doc, buffers, &node)?;
+        let Some(mesh) = node.mesh() else { continue };
         for prim in mesh.primitives() {
             let key = (mesh.index(), prim.index());
             let local = match read.entry(key) {

@@ -200,6 +200,17 @@ fn bad_instancing_attributes_are_refused() {
     let path = write("nan_translation", &instanced_doc(), &instanced_bin(rows));
     let e = load_err(&path, &format!("{at}/TRANSLATION"));
     assert!(e.to_string().contains("non-finite"), "{e}");
+    // On a node without a mesh the extension has nothing to place: a warning, not an error.
+    let mut doc = instanced_doc();
+    doc["nodes"][0].as_object_mut().unwrap().remove("mesh");
+    let s = load_ok(&write("no_mesh", &doc, &instanced_bin(two_rows())));
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.starts_with("/nodes/0/extensions/EXT_mesh_gpu_instancing")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 // ---------------------------------------------------------------- bad geometry
