@@ -172,6 +172,14 @@ impl TriangleBvh {
         self.triangles.is_empty()
     }
 
+    /// Bytes held: the nodes, the primitive indices and the triangle corners (the small-mesh
+    /// batches, at most [`SMALL_MESH_TRIANGLES`] triangles, left out).
+    pub fn memory_bytes(&self) -> usize {
+        self.bvh.as_ref().map_or(0, |b| {
+            std::mem::size_of_val(&b.nodes[..]) + std::mem::size_of_val(&b.primitive_indices[..])
+        }) + std::mem::size_of_val(&self.triangles[..])
+    }
+
     /// The obvhs BVH (nodes and primitive order) for GPU upload, `None` when empty.
     pub fn cwbvh(&self) -> Option<&CwBvh> {
         self.bvh.as_ref()

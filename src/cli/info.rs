@@ -23,6 +23,7 @@ pub fn run(path: &Path, layout: bool) -> Result<()> {
                 .validate()
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
             print!("{scene}");
+            println!("{}", scene.geometry_stats().report(&scene.timings));
             for w in &scene.warnings {
                 println!("warning: {w}");
             }

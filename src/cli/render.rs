@@ -471,8 +471,22 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
     written
 }
 
-/// Builds the CPU's accelerator (`--accel`) and says which one renders where it is not the
-/// default BVH.
+/// Prints the process's peak resident memory (Linux's `VmHWM`; nothing elsewhere): what a
+/// render of this scene needs, the geometry and the grids included.
+fn report_peak_memory() {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let peak = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().strip_suffix("kB"))
+        .and_then(|kb| kb.trim().parse::<f64>().ok());
+    if let Some(kb) = peak {
+        eprintln!("peak memory: {:.1} MiB resident", kb / 1024.0);
+    }
+}
+
+/// Builds the CPU's accelerator (`--accel`), says which one renders where it is not the
+/// default BVH, and what the geometry costs (triangles stored and instanced, memory, timings).
 fn report_accel(
     scene: &mut brume::scene::Scene,
     asked: brume::render::settings::Accel,
@@ -491,6 +505,7 @@ fn report_accel(
             used.name()
         );
     }
+    eprintln!("{}", scene.geometry_stats().report(&scene.timings));
     Ok(())
 }
 
@@ -799,6 +814,7 @@ fn write_outputs(
         )?;
     }
     super::render_report::report_totals(&args.output, settings, out, &t);
+    report_peak_memory();
     Ok(())
 }
 

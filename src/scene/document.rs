@@ -13,6 +13,7 @@ use super::error::{path_to_pointer, Ctx, SceneError};
 
 /// Extensions Brume honours, so a file may list them in `extensionsRequired`.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    super::gpu_instancing::EXT_MESH_GPU_INSTANCING,
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -58,8 +59,8 @@ pub fn read(ctx: &mut Ctx, path: &Path) -> Result<LoadedDocument, SceneError> {
 
     check_required_extensions(ctx, &mut value)?;
 
-    let root: gltf::json::Root =
-        serde_json::from_value(value).map_err(|e| parse_err(format!("glTF schema: {e}")))?;
+    let root = <gltf::json::Root as serde::Deserialize>::deserialize(&value)
+        .map_err(|e| parse_err(format!("glTF schema: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| match e {
         gltf::Error::Validation(errors) => {
             let (path, err) = &errors[0];
@@ -68,7 +69,12 @@ pub fn read(ctx: &mut Ctx, path: &Path) -> Result<LoadedDocument, SceneError> {
             } else {
                 String::new()
             };
-            ctx.invalid(path_to_pointer(path.as_str()), format!("{err}{more}"))
+            let pointer = path_to_pointer(path.as_str());
+            let what = match err {
+                gltf::json::validation::Error::IndexOutOfBounds => out_of_range(&value, &pointer),
+                other => other.to_string(),
+            };
+            ctx.invalid(pointer, format!("{what}{more}"))
         }
         other => parse_err(other.to_string()),
     })?;
@@ -81,6 +87,37 @@ pub fn read(ctx: &mut Ctx, path: &Path) -> Result<LoadedDocument, SceneError> {
         buffers,
         base_dir,
     })
+}
+
+/// What is wrong with the index at `pointer` that gltf-json found out of range: its value and
+/// the length of the array it indexes, where the pointer's last names say which array.
+fn out_of_range(value: &Value, pointer: &str) -> String {
+    let index = value.pointer(pointer).map_or("?".into(), Value::to_string);
+    let mut names = pointer.rsplit('/').filter(|s| s.parse::<u64>().is_err());
+    let array = match (names.next(), names.next()) {
+        (Some("mesh"), _) => "meshes",
+        (Some("camera"), _) => "cameras",
+        (Some("material"), _) => "materials",
+        (Some("skin"), _) => "skins",
+        (Some("children" | "nodes" | "node"), _) => "nodes",
+        (Some("indices"), _) | (_, Some("attributes" | "targets")) => "accessors",
+        (Some("input" | "output" | "inverseBindMatrices"), _) => "accessors",
+        (Some("bufferView"), _) => "bufferViews",
+        (Some("buffer"), _) => "buffers",
+        (Some("scene"), _) => "scenes",
+        (Some("sampler"), _) if !pointer.starts_with("/animations") => "samplers",
+        (Some("index"), _) => "textures",
+        (Some("source"), _) => "images",
+        _ => "",
+    };
+    match value.get(array).and_then(Value::as_array) {
+        Some(items) if !array.is_empty() => format!(
+            "index {index} is out of range: the file has {} {array}",
+            items.len()
+        ),
+        _ if !array.is_empty() => format!("index {index} is out of range: the file has no {array}"),
+        _ => format!("index {index} is out of range"),
+    }
 }
 
 /// Rejects required extensions Brume does not implement, then removes the ones it does from

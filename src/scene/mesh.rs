@@ -8,8 +8,11 @@ use glam::{Mat3, Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
+use std::collections::hash_map::{Entry, HashMap};
+
 use super::accessor::check_accessor;
 use super::error::{Ctx, SceneError};
+use super::gpu_instancing::instance_transforms;
 use super::nodes::PlacedNode;
 use super::NO_INDEX;
 
@@ -71,7 +74,9 @@ pub struct Geometry {
     pub instances: Vec<Instance>,
 }
 
-/// Flattens every mesh placed by `nodes`. `default_material` is used by primitives without one.
+/// Flattens every mesh placed by `nodes`, each `EXT_mesh_gpu_instancing` row as one more
+/// placement. Each primitive is read once however many nodes place it. `default_material` is
+/// used by primitives without one.
 pub fn flatten(
     ctx: &mut Ctx,
     doc: &gltf::Document,
@@ -80,31 +85,81 @@ pub fn flatten(
     default_material: u32,
 ) -> Result<Geometry, SceneError> {
     let mut geo = Geometry::default();
+    let mut read: HashMap<(usize, usize), Option<LocalPrimitive>> = HashMap::new();
     for placed in nodes {
         let node = placed.in_doc(doc);
+        let locals = instance_transforms(ctx, doc, buffers, &node)?;
         let Some(mesh) = node.mesh() else { continue };
         for prim in mesh.primitives() {
-            let pointer = format!("/meshes/{}/primitives/{}", mesh.index(), prim.index());
-            let local = read_primitive(ctx, buffers, &prim, &pointer)?;
-            let Some(local) = local else { continue };
+            let key = (mesh.index(), prim.index());
+            let local = match read.entry(key) {
+                Entry::Occupied(e) => e.into_mut(),
+                Entry::Vacant(e) => {
+                    let pointer = format!("/meshes/{}/primitives/{}", key.0, key.1);
+                    let local = read_primitive(ctx, buffers, &prim, &pointer)
+                        .map_err(|e| placed_by(e, &node))?;
+                    e.insert(local)
+                }
+            };
+            let Some(local) = local.as_ref() else {
+                continue;
+            };
             let material = prim
                 .material()
                 .index()
                 .map_or(default_material, |m| m as u32);
-            append(
-                &mut geo,
-                &local,
-                placed,
-                mesh.index(),
-                prim.index(),
-                material,
-            );
+            for local_from_instance in &locals {
+                let fits = |have: usize, more: usize| {
+                    have.checked_add(more)
+                        .is_some_and(|n| n <= NO_INDEX as usize)
+                };
+                if !fits(geo.vertices.len(), local.positions.len())
+                    || !fits(geo.triangles.len(), local.triangles.len())
+                {
+                    return Err(ctx.invalid(
+                        format!("/nodes/{}/mesh", node.index()),
+                        format!(
+                            "{}: placing mesh {} primitive {} again makes more than 2^32 - 1 \
+                             world-space vertices or triangles ({} and {} so far), more than \
+                             Brume's 32-bit indices address",
+                            node_label(&node),
+                            key.0,
+                            key.1,
+                            geo.vertices.len(),
+                            geo.triangles.len()
+                        ),
+                    ));
+                }
+                let world = placed.world_from_node * *local_from_instance;
+                append(&mut geo, local, world, placed.node, key, material);
+            }
         }
     }
-    if geo.vertices.len() > NO_INDEX as usize || geo.triangles.len() > NO_INDEX as usize {
-        return Err(ctx.invalid("/meshes", "more than 2^32 - 1 vertices or triangles"));
-    }
     Ok(geo)
+}
+
+/// `node 3 "rock"`, or `node 3` for a node without a name: how messages name a node.
+pub fn node_label(node: &gltf::Node) -> String {
+    match node.name() {
+        Some(name) => format!("node {} {name:?}", node.index()),
+        None => format!("node {}", node.index()),
+    }
+}
+
+/// Adds the node that places a primitive to an error met while reading it.
+fn placed_by(e: SceneError, node: &gltf::Node) -> SceneError {
+    match e {
+        SceneError::Invalid {
+            file,
+            pointer,
+            message,
+        } => SceneError::Invalid {
+            file,
+            pointer,
+            message: format!("{message} (primitive placed by {})", node_label(node)),
+        },
+        other => other,
+    }
 }
 
 /// A primitive in its mesh's local space.
@@ -139,13 +194,28 @@ pub fn read_primitive(
         buffers,
         pointer,
     };
+    src.check_u32_counts(ctx)?;
     let positions = src.positions(ctx)?;
     let n = positions.len();
     let normals = src.normals(ctx, n)?;
     let uvs = src.uvs(ctx, n)?;
     let indices = src.indices(ctx, n)?;
-    let triangles = assemble(mode, &indices);
-    if triangles.is_empty() {
+    let mut triangles = assemble(mode, &indices);
+    let all = triangles.len();
+    triangles.retain(|t| {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        (b - a).cross(c - a) != Vec3::ZERO
+    });
+    if triangles.len() < all {
+        ctx.warn(
+            pointer,
+            format!(
+                "{} of {all} triangles are degenerate (zero area) and were skipped",
+                all - triangles.len()
+            ),
+        );
+    }
+    if triangles.is_empty() && all == 0 {
         ctx.warn(pointer, "primitive has no complete triangle");
     }
     Ok(Some(LocalPrimitive {
@@ -170,6 +240,30 @@ impl<'a> PrimitiveSource<'a> {
         let buffers = self.buffers;
         self.prim
             .reader(move |b| buffers.get(b.index()).map(|v| v.as_slice()))
+    }
+
+    /// Refuses vertex and index counts that 32-bit indices cannot address, before any
+    /// accessor is read (a declared count alone may be that large).
+    fn check_u32_counts(&self, ctx: &Ctx) -> Result<(), SceneError> {
+        let attributes = self
+            .prim
+            .attributes()
+            .map(|(semantic, acc)| (format!("attributes/{}", semantic.to_string()), acc));
+        let indices = self.prim.indices().map(|acc| ("indices".to_string(), acc));
+        for (name, acc) in attributes.chain(indices) {
+            if acc.count() > NO_INDEX as usize {
+                return Err(ctx.invalid(
+                    format!("{}/{name}", self.pointer),
+                    format!(
+                        "accessor {} holds {} elements, more than Brume's 32-bit indices \
+                         address (2^32 - 1); split the mesh into primitives",
+                        acc.index(),
+                        acc.count()
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The POSITION attribute, which the primitive must have, as finite f32 vectors.
@@ -305,16 +399,16 @@ fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Transforms a local primitive to world space and appends it.
+/// Transforms a local primitive to world space by `world` (world_from_local) and appends it
+/// as one instance of `(mesh, primitive)` placed by glTF node `node`.
 fn append(
     geo: &mut Geometry,
     local: &LocalPrimitive,
-    placed: &PlacedNode,
-    mesh: usize,
-    prim: usize,
+    world: Mat4,
+    node: usize,
+    (mesh, prim): (usize, usize),
     material: u32,
 ) {
-    let world: Mat4 = placed.world_from_node;
     // Normals transform by the inverse transpose; a mirroring transform flips the winding.
     let normal_from_local = Mat3::from_mat4(world).inverse().transpose();
     let mirrored = world.determinant() < 0.0;
@@ -344,7 +438,7 @@ fn append(
         material,
         first_triangle: first,
         triangle_count: local.triangles.len() as u32,
-        node: placed.node as u32,
+        node: node as u32,
         mesh: mesh as u32,
         primitive: prim as u32,
         _pad: [0; 2],

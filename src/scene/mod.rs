@@ -6,7 +6,8 @@
 //! TRS or matrices; perspective cameras; triangle meshes (lists, strips, fans); the
 //! metallic-roughness material factors with base-colour and emissive textures (PNG, JPEG,
 //! `KHR_texture_transform`); `KHR_lights_punctual`, `KHR_materials_emissive_strength`,
-//! `KHR_materials_transmission`, `KHR_materials_ior`, `KHR_materials_volume`; and Brume's own
+//! `KHR_materials_transmission`, `KHR_materials_ior`, `KHR_materials_volume`,
+//! `EXT_mesh_gpu_instancing` (each row one more placement of the mesh); and Brume's own
 //! `BRUME_environment` (scene), `BRUME_materials_volume_scattering` (material) and
 //! `BRUME_medium_vdb` (node, see `docs/BRUME_medium_vdb.md`).
 //!
@@ -28,6 +29,8 @@ mod document;
 pub mod effects;
 pub mod envmap;
 pub mod error;
+pub mod geometry_stats;
+pub mod gpu_instancing;
 mod json;
 pub mod lights;
 pub mod material;
@@ -146,6 +149,8 @@ pub struct Scene {
     pub animated_nodes: usize,
     /// Non-fatal problems met while loading, each with its JSON pointer.
     pub warnings: Vec<String>,
+    /// How long the load and the BVH's build took.
+    pub timings: geometry_stats::LoadTimings,
 }
 
 /// Loads `path` (`.gltf` or `.glb`) with default options.
@@ -155,6 +160,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 
 /// Loads `path` (`.gltf` or `.glb`).
 pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let start = std::time::Instant::now();
     let mut ctx = error::Ctx::new(path);
     let loaded = document::read(&mut ctx, path)?;
     let doc = &loaded.doc;
@@ -223,15 +229,12 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
 
-    let corners = geo
-        .triangles
-        .iter()
-        .map(|t| {
-            t.vertices
-                .map(|i| Vec3A::from(geo.vertices[i as usize].position))
-        })
-        .collect();
-    let bvh = TriangleBvh::build(corners);
+    let read_seconds = start.elapsed().as_secs_f64();
+    let bvh = world_bvh(&geo);
+    let timings = geometry_stats::LoadTimings {
+        read_seconds,
+        bvh_seconds: start.elapsed().as_secs_f64() - read_seconds,
+    };
     let moving_meshes = steps
         .as_ref()
         .and_then(|s| moving_meshes::MovingMeshes::of_steps(s, &nodes, &geo, shutter));
@@ -267,12 +270,26 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         light_motion,
         animated_nodes: pose.len(),
         warnings: ctx.warnings,
+        timings,
     };
     // A loader bug, not a user error, if this fails; still reported, never a panic.
     scene
         .validate()
         .map_err(|e| ctx_invalid(path, format!("internal consistency check failed: {e}")))?;
     Ok(scene)
+}
+
+/// The BVH over the world-space triangles of `geo`, in their order.
+fn world_bvh(geo: &mesh::Geometry) -> TriangleBvh {
+    let corners = geo
+        .triangles
+        .iter()
+        .map(|t| {
+            t.vertices
+                .map(|i| Vec3A::from(geo.vertices[i as usize].position))
+        })
+        .collect();
+    TriangleBvh::build(corners)
 }
 
 /// Warns about instances that bound a homogeneous medium but are not closed (some edge not
@@ -323,6 +340,11 @@ impl Scene {
     /// The effects this scene calls for.
     pub fn effects(&self) -> Effects {
         Effects::of(self)
+    }
+
+    /// Triangles stored and instanced, and the bytes of the geometry and its accelerators.
+    pub fn geometry_stats(&self) -> geometry_stats::GeometryStats {
+        geometry_stats::GeometryStats::of(self)
     }
 
     /// Human-readable description: camera, meshes, materials, lights, media and effects.

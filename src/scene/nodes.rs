@@ -25,7 +25,7 @@ impl PlacedNode {
 
 /// Smallest |det| accepted for a node's local 3x3 part. glTF units are metres; a scale of
 /// 1e-4 on every axis (det 1e-12) is still a valid, if odd, transform.
-const MIN_ABS_DET: f32 = 1e-15;
+pub(super) const MIN_ABS_DET: f32 = 1e-15;
 
 /// Walks the scene chosen by the file (`scene`, else scene 0) depth first, in document order,
 /// each node in its own transform with the animated parts of `pose` in place of its own.

@@ -375,6 +375,42 @@ fn brume_info_prints_each_scenes_effects() {
     }
 }
 
+/// `brume info` and `brume render` say what the geometry costs: the grove's 5 primitives
+/// (1536 triangles) stored once and placed 41 times (8976 triangles), its memory and timings,
+/// and a render its peak memory.
+#[test]
+fn brume_info_and_render_count_stored_and_instanced_triangles() {
+    let grove = scene("instancing/grove_ext");
+    let o = brume(&["info", grove.to_str().unwrap()]);
+    let (stdout, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    let counts = "triangles: 1536 stored (5 primitives, each once), 8976 instanced (41 placements";
+    assert!(stdout.contains(counts), "{stdout}");
+    assert!(
+        stdout.contains("geometry memory: ") && stdout.contains("BVH built in "),
+        "{stdout}"
+    );
+    let out = scratch::file("grove.exr");
+    let o = brume(&[
+        "render",
+        grove.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "9",
+        "--spp",
+        "1",
+    ]);
+    let (_, stderr) = text(&o);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains(counts), "{stderr}");
+    if cfg!(target_os = "linux") {
+        assert!(stderr.contains("peak memory: "), "{stderr}");
+    }
+}
+
 /// A grid of background only (a simulation's frame before the smoke, Mantaflow's `shadow`)
 /// beside a density: `brume info` describes both, and says the empty one has no majorants.
 #[test]

@@ -5,6 +5,7 @@ use crate::common::scratch;
 
 mod animations;
 mod bad_inputs;
+mod instancing;
 
 use std::path::{Path, PathBuf};
 

@@ -1,0 +1,97 @@
+//! What a scene's geometry costs: triangles stored (each glTF primitive once) against
+//! triangles instanced (every placement counted), the bytes of the flat arrays and of the
+//! acceleration structures, and how long loading and building took. `brume info` and
+//! `brume render` print it, so the cost of production geometry is measured where it is paid.
+use std::collections::HashMap;
+
+use super::{Instance, Scene, Triangle, Vertex};
+
+/// Wall-clock seconds of a scene's load.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoadTimings {
+    /// Everything before the BVH: the file, its buffers, nodes, meshes flattened to world
+    /// space, materials, textures, lights and the media's descriptions.
+    pub read_seconds: f64,
+    /// Building the BVH over the world-space triangles.
+    pub bvh_seconds: f64,
+}
+
+/// Counts and bytes of a scene's geometry.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GeometryStats {
+    /// Distinct glTF primitives placed at least once.
+    pub primitives: usize,
+    /// Placements of primitives (`Scene::instances`).
+    pub placements: usize,
+    /// Triangles of the distinct primitives, each counted once.
+    pub stored_triangles: usize,
+    /// Triangles in the world, every placement counted (`Scene::triangles`).
+    pub instanced_triangles: usize,
+    /// World-space vertices (`Scene::vertices`).
+    pub vertices: usize,
+    /// Bytes of the flat vertex, triangle and instance arrays.
+    pub array_bytes: usize,
+    /// Bytes of the BVH: nodes, primitive indices and triangle corners.
+    pub bvh_bytes: usize,
+    /// Bytes Embree allocated, where it was built.
+    pub embree_bytes: Option<usize>,
+}
+
+impl GeometryStats {
+    /// The stats of `scene` as loaded (and with Embree where [`Scene::use_accel`] built it).
+    pub fn of(scene: &Scene) -> Self {
+        let mut distinct: HashMap<(u32, u32), u32> = HashMap::new();
+        for i in &scene.instances {
+            distinct.insert((i.mesh, i.primitive), i.triangle_count);
+        }
+        let size = std::mem::size_of::<Vertex>() * scene.vertices.len()
+            + std::mem::size_of::<Triangle>() * scene.triangles.len()
+            + std::mem::size_of::<Instance>() * scene.instances.len();
+        Self {
+            primitives: distinct.len(),
+            placements: scene.instances.len(),
+            stored_triangles: distinct.values().map(|&n| n as usize).sum(),
+            instanced_triangles: scene.triangles.len(),
+            vertices: scene.vertices.len(),
+            array_bytes: size,
+            bvh_bytes: scene.bvh.memory_bytes(),
+            embree_bytes: scene
+                .embree
+                .as_ref()
+                .map(|e| e.memory_bytes().max(0) as usize),
+        }
+    }
+
+    /// Bytes of the geometry in memory: the arrays, the BVH and Embree's scene.
+    pub fn total_bytes(&self) -> usize {
+        self.array_bytes + self.bvh_bytes + self.embree_bytes.unwrap_or(0)
+    }
+
+    /// Two lines for people: the triangle counts, then the memory and the load's timings.
+    pub fn report(&self, timings: &LoadTimings) -> String {
+        let mib = |b: usize| b as f64 / (1 << 20) as f64;
+        let per = |n: usize| self.total_bytes() as f64 / n.max(1) as f64;
+        let embree = self
+            .embree_bytes
+            .map_or(String::new(), |b| format!(" + {:.1} MiB Embree", mib(b)));
+        format!(
+            "triangles: {} stored ({} primitives, each once), {} instanced ({} placements, \
+             each flattened to world space), {} vertices\n\
+             geometry memory: {:.1} MiB arrays + {:.1} MiB BVH{embree} = {:.1} MiB \
+             ({:.0} bytes per stored triangle, {:.0} per instanced one); \
+             loaded in {:.2} s, BVH built in {:.2} s",
+            self.stored_triangles,
+            self.primitives,
+            self.instanced_triangles,
+            self.placements,
+            self.vertices,
+            mib(self.array_bytes),
+            mib(self.bvh_bytes),
+            mib(self.total_bytes()),
+            per(self.stored_triangles),
+            per(self.instanced_triangles),
+            timings.read_seconds,
+            timings.bvh_seconds,
+        )
+    }
+}
