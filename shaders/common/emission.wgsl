@@ -54,13 +54,9 @@ fn blackbody_emission(t_kelvin: f32, intensity: f32) -> vec3<f32> {
     return blackbody_rgb(t) * scale;
 }
 
-// Emission::radiance at world point p; counts its grid reads in the tracker.
-fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
-    return emission_radiance_of(tr, emission, p);
-}
-
-// Emission::radiance of the medium whose emission is `emission` (the uniform of a scene with
-// one VDB medium, or a vdb_media entry's).
+// Emission::radiance at world point p of the medium whose emission is `emission` (the
+// uniform of a scene with one VDB medium, or a vdb_media entry's); counts its grid reads in
+// the tracker.
 fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams, p: vec3<f32>) -> vec3<f32> {
     var e = vec3<f32>(0.0);
     // EmissionRegion::contains: nothing is emitted outside the region's box.
@@ -87,10 +83,20 @@ fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams,
             + emission.temperature_offset;
         e += emission.tint * blackbody_emission(t, emission.intensity);
     }
-// #if FEATURE_LIGHT_GROUPS
-    emit_to_group(emission.light_group, e);
-// #endif
     return e;
+}
+
+// The emission of VDB medium k met by a flight at world point p (index point q, t along the
+// ray): its radiance weighed against the media lights (emission_weight, media_lights.wgsl),
+// which the light-group variant also adds to the medium's group.
+fn emission_met(tr: ptr<function, Tracker>, e: GpuEmissionParams, k: u32, p: vec3<f32>,
+                q: vec3<f32>, t: f32) -> vec3<f32> {
+    var le = emission_radiance_of(tr, e, p);
+    le *= emission_mis_weight(k, q, t, le);
+// #if FEATURE_LIGHT_GROUPS
+    emit_to_group(e.light_group, le);
+// #endif
+    return le;
 }
 
 // Medium::on_collision of the wavefront's media: the emission at the tentative collision t
@@ -119,7 +125,7 @@ fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
     // Blur::world_point: a blurred medium emits what reaches the point at the sample's time.
     p = blur_world_point(wf.blur, p, (*tr).o + t * (*tr).d, (*tr).time);
 // #endif
-    le = emission_radiance(tr, p);
+    le = emission_met(tr, emission, 0u, p, (*tr).o + t * (*tr).d, t);
 // #endif
     if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
         (*tr).emitted += (*tr).beta * (*tr).w * le / sigma_maj;

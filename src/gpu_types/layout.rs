@@ -135,7 +135,9 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             time,
             shadow_group,
             phase_medium,
-            _pad2
+            _pad2,
+            surface_color,
+            dir_pdf
         ]
     ),
     layout!(
@@ -244,7 +246,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             punctual_groups,
             blur,
             motion,
-            phases
+            phases,
+            media_light_cells,
+            media_light_total,
+            _pad_media_lights0,
+            _pad_media_lights1
         ]
     ),
     layout!(

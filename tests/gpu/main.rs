@@ -12,6 +12,7 @@ mod distance;
 mod farm;
 mod grid;
 mod math;
+mod media_lights;
 mod media_overlap;
 mod motion_blur;
 mod passes;

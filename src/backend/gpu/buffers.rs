@@ -79,6 +79,8 @@ pub(super) struct Buffers {
     /// `GpuVdbMedium`s, indexed like `RenderScene::vdb` (the mixture variant; one zero entry
     /// otherwise).
     pub(super) vdb_media: wgpu::Buffer,
+    /// The media lights' table (`super::media_lights`; one zero word without them).
+    pub(super) media_lights: wgpu::Buffer,
     /// Bound in place of the grid's buffers when the scene has no VDB medium (the kernels
     /// specialised without one never read them).
     pub(super) no_grid: (wgpu::Buffer, wgpu::Buffer),
@@ -218,6 +220,10 @@ impl Buffers {
                 storage_at_least_one(ctx, "homogeneous media", &h)
             },
             vdb_media: storage_at_least_one(ctx, "vdb media", vdb_media),
+            media_lights: ctx.storage_buffer(
+                "media lights",
+                &super::media_lights::media_light_words(rs.media_lights.as_ref()),
+            ),
             no_grid: (
                 ctx.uniform_buffer("no grid", &GpuGridInfo::default()),
                 ctx.storage_buffer_zeroed("no grid data", 16),
@@ -279,6 +285,7 @@ impl Buffers {
             (1, 20) => &self.sample_passes,
             (1, 21) => &self.path_data,
             (1, 22) => &self.sample_data,
+            (1, 23) => &self.media_lights,
             _ => return None,
         })
     }

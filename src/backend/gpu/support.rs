@@ -77,8 +77,7 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
 
 /// [`supports`], and whether `settings` ask only for what the GPU mirrors: equiangular
 /// sampling towards point and spot lights in media (`integrator::equiangular`, the
-/// `--volume-sampling` modes other than distance) and emitting media sampled as lights
-/// (`render::media_lights`) render on the CPU only.
+/// `--volume-sampling` modes other than distance) render on the CPU only.
 pub fn supports_with(rs: &RenderScene, settings: &RenderSettings) -> Result<(), String> {
     supports(rs)?;
     let media = rs.features.heterogeneous || rs.features.homogeneous;
@@ -91,12 +90,6 @@ pub fn supports_with(rs: &RenderScene, settings: &RenderSettings) -> Result<(), 
              renders on the CPU backend only (--volume-sampling distance renders on both)",
             settings.volume_sampling.name()
         ));
-    }
-    if rs.media_lights.is_some() {
-        return Err(
-            "emitting media sampled as lights (--media-lights on) renders on the CPU backend              only (--media-lights off renders on both)"
-                .into(),
-        );
     }
     Ok(())
 }
