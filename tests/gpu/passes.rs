@@ -29,10 +29,9 @@ fn settings(light_passes: bool, seed: u32) -> RenderSettings {
         spp: 16,
         seed,
         light_passes,
-        // Point lights in media render on the GPU with free flight alone, emitting media
-        // without media lights (`gpu::supports_with`).
+        // Point lights in media render on the GPU with free flight alone
+        // (`gpu::supports_with`); emitting media are sampled as lights (the default).
         volume_sampling: VolumeSampling::Distance,
-        media_lights: false,
         ..RenderSettings::default()
     }
 }

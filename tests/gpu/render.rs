@@ -24,9 +24,10 @@ fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
     })
 }
 
-/// `s` with scattering distances sampled by free flight alone and emitting media found by
-/// paths alone: the GPU renders point and spot lights in media and emitting media only so
-/// (`gpu::supports_with`), and the CPU it is compared with does too.
+/// `s` with scattering distances sampled by free flight alone, as the GPU renders point and
+/// spot lights in media (`gpu::supports_with`), and emitting media found by paths alone (the
+/// flights' estimator on its own; `media_lights.rs` tests the media lights), on both
+/// backends.
 pub(crate) fn free_flight(s: &RenderSettings) -> RenderSettings {
     RenderSettings {
         volume_sampling: VolumeSampling::Distance,
