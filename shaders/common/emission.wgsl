@@ -10,11 +10,15 @@
 // tracking.wgsl (Tracker).
 
 @group(0) @binding(5) var<uniform> emission: GpuEmissionParams;
-// The unit-luminance Rec.709 colour table of blackbody::table(), 10 K apart (xyz; w unused).
-// Read-only storage rather than a uniform: as a third uniform block in group 0 it made Mesa
-// 22.3's lavapipe (Debian 12) write into its free heap creating the generic sample_medium
-// pipeline (tools/lavapipe_ubo/; MAX_UNIFORM_BLOCKS_PER_GROUP in src/backend/gpu/shader.rs).
-@group(0) @binding(6) var<storage, read> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
+// The emission's tables, as words: the unit-luminance Rec.709 colour table of
+// blackbody::table(), 10 K apart (the first BLACKBODY_TABLE_LEN entries, a colour's xyz bits
+// each; w unused), then the media lights' table (media_lights.wgsl), four words an entry. One
+// binding for both keeps the stages that reach the emission within their storage buffers.
+// Read-only storage rather than a uniform: as a third uniform block in group 0 the colour
+// table made Mesa 22.3's lavapipe (Debian 12) write into its free heap creating the generic
+// sample_medium pipeline (tools/lavapipe_ubo/; MAX_UNIFORM_BLOCKS_PER_GROUP in
+// src/backend/gpu/shader.rs).
+@group(0) @binding(6) var<storage, read> emission_tables: array<vec4<u32>>;
 
 // #if FEATURE_LIGHT_GROUPS
 // The emission of the invocation's flights by light group (each view's `emitted`, which
@@ -37,8 +41,8 @@ fn blackbody_rgb(t: f32) -> vec3<f32> {
     let x = max((clamp(t, BLACKBODY_T_MIN, BLACKBODY_T_MAX) - BLACKBODY_T_MIN) / BLACKBODY_STEP, 0.0);
     let i = min(u32(x), BLACKBODY_TABLE_LEN - 2u);
     let f = x - f32(i);
-    let a = blackbody_table[i].xyz;
-    let b = blackbody_table[i + 1u].xyz;
+    let a = bitcast<vec3<f32>>(emission_tables[i].xyz);
+    let b = bitcast<vec3<f32>>(emission_tables[i + 1u].xyz);
     // glam's lerp: a + (b - a) f.
     return a + (b - a) * f;
 }

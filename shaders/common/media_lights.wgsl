@@ -2,8 +2,12 @@
 // light, read from the table src/backend/gpu/media_lights.rs packs (its layout is described
 // there), and the MIS weight of the flights' emission against it (emission_weight,
 // src/integrator/views.rs). wf.media_light_cells is 0 where no medium is sampled as a light.
+// The table follows the blackbody colours in emission.wgsl's emission_tables.
 
-@group(1) @binding(23) var<storage, read> media_light_table: array<u32>;
+// Word i of the media lights' table.
+fn media_light_word(i: u32) -> u32 {
+    return emission_tables[BLACKBODY_TABLE_LEN + i / 4u][i % 4u];
+}
 
 // Header words of a medium record (MEDIA_LIGHT_RECORD_WORDS in all).
 const ML_VDB: u32 = 0u;
@@ -30,17 +34,17 @@ struct MediaLightSample {
 }
 
 fn media_light_f32(i: u32) -> f32 {
-    return bitcast<f32>(media_light_table[i]);
+    return bitcast<f32>(media_light_word(i));
 }
 
 // cell_lo: the index-space corner of cell c of the record at `rec`.
 fn media_light_cell_lo(rec: u32, c: u32) -> vec3<f32> {
-    let nx = media_light_table[rec + ML_DIMS];
-    let ny = media_light_table[rec + ML_DIMS + 1u];
+    let nx = media_light_word(rec + ML_DIMS);
+    let ny = media_light_word(rec + ML_DIMS + 1u);
     let cell = vec3<i32>(vec3<u32>(c % nx, c / nx % ny, c / (nx * ny)));
-    let origin = vec3<i32>(bitcast<i32>(media_light_table[rec + ML_ORIGIN]),
-        bitcast<i32>(media_light_table[rec + ML_ORIGIN + 1u]),
-        bitcast<i32>(media_light_table[rec + ML_ORIGIN + 2u]));
+    let origin = vec3<i32>(bitcast<i32>(media_light_word(rec + ML_ORIGIN)),
+        bitcast<i32>(media_light_word(rec + ML_ORIGIN + 1u)),
+        bitcast<i32>(media_light_word(rec + ML_ORIGIN + 2u)));
     return vec3<f32>(origin + cell) * CELL_WIDTH;
 }
 
@@ -59,8 +63,8 @@ fn media_light_sample(u_select: f32, u: vec3<f32>) -> MediaLightSample {
         }
     }
     let i = MAX_MIX + n + 2u * min(lo, n - 1u);
-    let rec = media_light_table[i];
-    let c = media_light_table[i + 1u];
+    let rec = media_light_word(i);
+    let c = media_light_word(i + 1u);
     let q = media_light_cell_lo(rec, c) + u * CELL_WIDTH;
     var y = vec3<f32>(0.0);
     for (var r = 0u; r < 3u; r++) {
@@ -68,9 +72,9 @@ fn media_light_sample(u_select: f32, u: vec3<f32>) -> MediaLightSample {
         y[r] = media_light_f32(m) * q.x + media_light_f32(m + 1u) * q.y
             + media_light_f32(m + 2u) * q.z + media_light_f32(m + 3u);
     }
-    let w = media_light_f32(media_light_table[rec + ML_WEIGHTS] + c);
-    let s = media_light_f32(media_light_table[rec + ML_MAJORANTS] + c);
-    return MediaLightSample(media_light_table[rec + ML_VDB], y, w / wf.media_light_total, s, w);
+    let w = media_light_f32(media_light_word(rec + ML_WEIGHTS) + c);
+    let s = media_light_f32(media_light_word(rec + ML_MAJORANTS) + c);
+    return MediaLightSample(media_light_word(rec + ML_VDB), y, w / wf.media_light_total, s, w);
 }
 
 // emission_weight and MediaLights::collision_weight: the weight of emission `le` met at
@@ -80,7 +84,7 @@ fn emission_mis_weight(k: u32, q: vec3<f32>, t: f32, le: vec3<f32>) -> f32 {
     if (!emission_mis_on || k >= MAX_MIX || all(le == vec3<f32>(0.0))) {
         return 1.0;
     }
-    let rec = media_light_table[k];
+    let rec = media_light_word(k);
     if (rec == NO_INDEX) {
         return 1.0;
     }
@@ -88,16 +92,16 @@ fn emission_mis_weight(k: u32, q: vec3<f32>, t: f32, le: vec3<f32>) -> f32 {
     var index = 0u;
     var stride = 1u;
     for (var a = 0u; a < 3u; a++) {
-        let dim = media_light_table[rec + ML_DIMS + a];
-        let c = i32(floor(q[a] / CELL_WIDTH)) - bitcast<i32>(media_light_table[rec + ML_ORIGIN + a]);
+        let dim = media_light_word(rec + ML_DIMS + a);
+        let c = i32(floor(q[a] / CELL_WIDTH)) - bitcast<i32>(media_light_word(rec + ML_ORIGIN + a));
         if (c < 0 || c >= i32(dim)) {
             return 1.0;
         }
         index += u32(c) * stride;
         stride *= dim;
     }
-    let e = media_light_f32(media_light_table[rec + ML_WEIGHTS] + index);
-    let s = media_light_f32(media_light_table[rec + ML_MAJORANTS] + index);
+    let e = media_light_f32(media_light_word(rec + ML_WEIGHTS) + index);
+    let s = media_light_f32(media_light_word(rec + ML_MAJORANTS) + index);
     if (!(e > 0.0 && s > 0.0)) {
         return 1.0;
     }

@@ -1,8 +1,9 @@
 //! Emitting media sampled as lights (`render::media_lights`) on the GPU against the CPU: the
 //! fire scenes (one emitting grid over a floor; a flame beside smoke under a sky, the mixture
-//! variant) with the media lights on replay the CPU's random streams with the same seed, agree
-//! with the CPU by per-pixel z-tests with another seed, and would not replay them without the
-//! media lights' stage (the lights change the image's streams).
+//! variant) with the media lights on replay the CPU's random streams with the same seed (the
+//! media lights' five uniforms and shadow ray drawn where the CPU draws them, the flights'
+//! emission weighed as the CPU weighs it) and agree with the CPU by per-pixel z-tests with
+//! another seed. `passes.rs` covers the light passes and groups with the media lights on.
 use crate::common;
 use crate::render::{agree, gpu_render, print_parity};
 use common::gpu::gpu_or_skip;

@@ -1,5 +1,6 @@
 //! The emitting media sampled as lights (`render::media_lights`) as the kernels read them: one
-//! table of words (`shaders/common/media_lights.wgsl`), floats as their bits.
+//! table of words (`shaders/common/media_lights.wgsl`), floats as their bits, after the
+//! blackbody colours in the emission's tables (`super::buffers`).
 //!
 //! ```text
 //! [0, MAX_MIX)            per VDB medium (RenderScene::vdb order): its record's offset, or NO_INDEX
@@ -19,10 +20,10 @@ use crate::scene::NO_INDEX;
 /// Words of a medium record's header.
 pub const MEDIA_LIGHT_RECORD_WORDS: u32 = 24;
 
-/// The table of `lights` (one zero word without them: a binding cannot be empty).
+/// The table of `lights` (empty without them).
 pub(super) fn media_light_words(lights: Option<&MediaLights>) -> Vec<u32> {
     let Some(lights) = lights else {
-        return vec![0];
+        return Vec::new();
     };
     let n = lights.cdf.len();
     let mut words = vec![NO_INDEX; GPU_MAX_VDB_MEDIA];
