@@ -10,11 +10,15 @@
 // tracking.wgsl (Tracker).
 
 @group(0) @binding(5) var<uniform> emission: GpuEmissionParams;
-// The unit-luminance Rec.709 colour table of blackbody::table(), 10 K apart (xyz; w unused).
-// Read-only storage rather than a uniform: as a third uniform block in group 0 it made Mesa
-// 22.3's lavapipe (Debian 12) write into its free heap creating the generic sample_medium
-// pipeline (tools/lavapipe_ubo/; MAX_UNIFORM_BLOCKS_PER_GROUP in src/backend/gpu/shader.rs).
-@group(0) @binding(6) var<storage, read> blackbody_table: array<vec4<f32>, BLACKBODY_TABLE_LEN>;
+// The emission's tables, as words: the unit-luminance Rec.709 colour table of
+// blackbody::table(), 10 K apart (the first BLACKBODY_TABLE_LEN entries, a colour's xyz bits
+// each; w unused), then the media lights' table (media_lights.wgsl), four words an entry. One
+// binding for both keeps the stages that reach the emission within their storage buffers.
+// Read-only storage rather than a uniform: as a third uniform block in group 0 the colour
+// table made Mesa 22.3's lavapipe (Debian 12) write into its free heap creating the generic
+// sample_medium pipeline (tools/lavapipe_ubo/; MAX_UNIFORM_BLOCKS_PER_GROUP in
+// src/backend/gpu/shader.rs).
+@group(0) @binding(6) var<storage, read> emission_tables: array<vec4<u32>>;
 
 // #if FEATURE_LIGHT_GROUPS
 // The emission of the invocation's flights by light group (each view's `emitted`, which
@@ -37,8 +41,8 @@ fn blackbody_rgb(t: f32) -> vec3<f32> {
     let x = max((clamp(t, BLACKBODY_T_MIN, BLACKBODY_T_MAX) - BLACKBODY_T_MIN) / BLACKBODY_STEP, 0.0);
     let i = min(u32(x), BLACKBODY_TABLE_LEN - 2u);
     let f = x - f32(i);
-    let a = blackbody_table[i].xyz;
-    let b = blackbody_table[i + 1u].xyz;
+    let a = bitcast<vec3<f32>>(emission_tables[i].xyz);
+    let b = bitcast<vec3<f32>>(emission_tables[i + 1u].xyz);
     // glam's lerp: a + (b - a) f.
     return a + (b - a) * f;
 }
@@ -54,13 +58,9 @@ fn blackbody_emission(t_kelvin: f32, intensity: f32) -> vec3<f32> {
     return blackbody_rgb(t) * scale;
 }
 
-// Emission::radiance at world point p; counts its grid reads in the tracker.
-fn emission_radiance(tr: ptr<function, Tracker>, p: vec3<f32>) -> vec3<f32> {
-    return emission_radiance_of(tr, emission, p);
-}
-
-// Emission::radiance of the medium whose emission is `emission` (the uniform of a scene with
-// one VDB medium, or a vdb_media entry's).
+// Emission::radiance at world point p of the medium whose emission is `emission` (the
+// uniform of a scene with one VDB medium, or a vdb_media entry's); counts its grid reads in
+// the tracker.
 fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams, p: vec3<f32>) -> vec3<f32> {
     var e = vec3<f32>(0.0);
     // EmissionRegion::contains: nothing is emitted outside the region's box.
@@ -87,10 +87,20 @@ fn emission_radiance_of(tr: ptr<function, Tracker>, emission: GpuEmissionParams,
             + emission.temperature_offset;
         e += emission.tint * blackbody_emission(t, emission.intensity);
     }
-// #if FEATURE_LIGHT_GROUPS
-    emit_to_group(emission.light_group, e);
-// #endif
     return e;
+}
+
+// The emission of VDB medium k met by a flight at world point p (index point q, t along the
+// ray): its radiance weighed against the media lights (emission_weight, media_lights.wgsl),
+// which the light-group variant also adds to the medium's group.
+fn emission_met(tr: ptr<function, Tracker>, e: GpuEmissionParams, k: u32, p: vec3<f32>,
+                q: vec3<f32>, t: f32) -> vec3<f32> {
+    var le = emission_radiance_of(tr, e, p);
+    le *= emission_mis_weight(k, q, t, le);
+// #if FEATURE_LIGHT_GROUPS
+    emit_to_group(e.light_group, le);
+// #endif
+    return le;
 }
 
 // Medium::on_collision of the wavefront's media: the emission at the tentative collision t
@@ -119,7 +129,7 @@ fn on_collision(tr: ptr<function, Tracker>, t: f32, sigma_maj: f32) {
     // Blur::world_point: a blurred medium emits what reaches the point at the sample's time.
     p = blur_world_point(wf.blur, p, (*tr).o + t * (*tr).d, (*tr).time);
 // #endif
-    le = emission_radiance(tr, p);
+    le = emission_met(tr, emission, 0u, p, (*tr).o + t * (*tr).d, t);
 // #endif
     if ((*tr).params.estimator == ESTIMATOR_SPECTRAL) {
         (*tr).emitted += (*tr).beta * (*tr).w * le / sigma_maj;

@@ -251,7 +251,8 @@ fn mix_emission(tr: ptr<function, Tracker>, p: vec3<f32>, t: f32) -> vec3<f32> {
             q = blur_world_point(vdb_media[m].blur, p, mix_streams[i].o + t * mix_streams[i].d,
                                  (*tr).time);
 // #endif
-            le += emission_radiance_of(tr, vdb_media[m].emission, q);
+            le += emission_met(tr, vdb_media[m].emission, m, q,
+                               mix_streams[i].o + t * mix_streams[i].d, t);
         }
         return le;
     }
@@ -269,10 +270,11 @@ fn mix_emission(tr: ptr<function, Tracker>, p: vec3<f32>, t: f32) -> vec3<f32> {
 // #if FEATURE_MOTION
     q = blur_world_point(blur, p, (*tr).o + t * (*tr).d, (*tr).time);
 // #endif
+    let qi = (*tr).o + t * (*tr).d;
     if ((*tr).mix == 0u) {
-        return emission_radiance(tr, q);
+        return emission_met(tr, emission, 0u, q, qi, t);
     }
-    return emission_radiance_of(tr, e, q);
+    return emission_met(tr, e, (*tr).mix - 1u, q, qi, t);
 }
 
 // Moves stream i to its next segment.

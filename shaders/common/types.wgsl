@@ -156,6 +156,8 @@ struct GpuPathState {
     seg_sigma_max: f32, // the largest extinction of its media, m^-1
     seg_sigma_t: f32,   // the mean extinction at the event, m^-1
     _pad2: u32,
+    surface_color: vec3<f32>, // base colour of the opaque surface stopped at (surface stage)
+    dir_pdf: f32,       // density of `d` as drawn (prev_pdf before guided selection rescales it)
 }
 
 // GpuShadowRay: a pending next-event-estimation shadow ray, one slot per path.
@@ -353,6 +355,10 @@ struct GpuWavefrontParams {
     blur: GpuVelocityBlur,       // the VDB medium's velocity blur (factor 0: none)
     motion: GpuCameraMotion,     // the shutter and the camera's poses
     phases: array<GpuPhase, 8>,  // each VDB medium's phase function (FEATURE_PHASES)
+    media_light_cells: u32,      // cells sampled as media lights (0: none)
+    media_light_total: f32,      // MediaLights::total
+    _pad_media_lights0: u32,
+    _pad_media_lights1: u32,
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).

@@ -8,9 +8,11 @@
 // scatter stage; escape -> the throughput takes the flight's weight and the path goes to the
 // surface stage when its ray hits one, else to the escape stage; absorption or the guard ->
 // done. With the light passes, the flight's emission goes to the pass PathState::pass_of
-// names; with the light groups, each medium's to its group (Emitted::add). With equiangular
-// sampling (wf.volume_sampling), the flight's segment in media then gets its equiangular
-// estimate (equiangular_flight, mirroring path.rs `equiangular`).
+// names; with the light groups, each medium's to its group (Emitted::add). After a
+// scattering event, where emitting media are sampled as lights, the emission is weighed
+// against them (EmissionMis, media_lights.wgsl). With equiangular sampling
+// (wf.volume_sampling), the flight's segment in media then gets its equiangular estimate
+// (equiangular_flight, mirroring path.rs `equiangular`).
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn sample_medium(slot: u32) {
@@ -33,6 +35,11 @@ fn sample_medium(slot: u32) {
     }
 // #if FEATURE_LIGHT_PASSES
     let l_before = ps.l;
+// #endif
+// #if FEATURE_EMISSION
+    // After a scattering event, emission is weighed against the media lights (EmissionMis).
+    emission_mis_on = wf.media_light_cells > 0u && (ps.flags & PATH_FLAG_SPECULAR) == 0u;
+    emission_mis_pdf = ps.dir_pdf;
 // #endif
 // #if FEATURE_MIXTURE
 // #if FEATURE_HETEROGENEOUS

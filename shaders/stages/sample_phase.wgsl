@@ -43,6 +43,7 @@ fn sample_phase(slot: u32) {
         ps.d = wi;
         // Surface events select lights uniformly.
         store_prev_pdf(&ps, s.pdf, uniform_env_pmf(), false);
+        ps.dir_pdf = s.pdf;
     }
 // #endif
     if (!at_surface) {
@@ -61,6 +62,7 @@ fn sample_phase(slot: u32) {
             by_phase = sel.env_by_phase;
         }
         store_prev_pdf(&ps, s.pdf, env_pmf, by_phase);
+        ps.dir_pdf = s.pdf;
     }
     ps.t0 = 0.0;
     ps.flags = ps.flags & ~PATH_FLAG_SPECULAR;

@@ -127,6 +127,7 @@ fn shade_surface(slot: u32) {
     ps.rng_state = rng.state;
     ps.rng_inc = rng.inc;
     ps.flags |= PATH_FLAG_SURFACE;
+    ps.surface_color = base_color;
     paths[slot] = ps;
     queue_push(QUEUE_PHASE, slot);
 }

@@ -139,7 +139,9 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             seg_b,
             seg_sigma_max,
             seg_sigma_t,
-            _pad2
+            _pad2,
+            surface_color,
+            dir_pdf
         ]
     ),
     layout!(
@@ -254,7 +256,11 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             _pad_eq,
             blur,
             motion,
-            phases
+            phases,
+            media_light_cells,
+            media_light_total,
+            _pad_media_lights0,
+            _pad_media_lights1
         ]
     ),
     layout!(

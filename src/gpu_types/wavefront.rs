@@ -83,8 +83,16 @@ pub struct GpuPathState {
     /// scattering stage's MIS weight without a lookup).
     pub seg_sigma_t: f32,
     pub _pad2: u32,
+    /// The base colour (textures applied) of the opaque surface the path stopped at, as the
+    /// surface stage found it: the media lights' stage evaluates the BSDF with it
+    /// (`Principled::new`) without binding the textures.
+    pub surface_color: [f32; 3],
+    /// The solid-angle density (sr^-1) with which `d` was sampled, as drawn (`prev_pdf`
+    /// before guided selection rescales it): the flights' emission is weighed against the
+    /// media lights with it (`EmissionMis::pdf_dir`).
+    pub dir_pdf: f32,
 }
-const _: () = assert!(size_of::<GpuPathState>() == 144);
+const _: () = assert!(size_of::<GpuPathState>() == 160);
 
 /// An empty 16-bit half of [`GpuPathState::outer`] and [`GpuShadowRay::outer`].
 pub const STACK_NONE: u32 = 0xFFFF;
@@ -415,10 +423,17 @@ pub struct GpuWavefrontParams {
     /// The phase function of each VDB medium, in `vdb_media` order (the variant with
     /// `FEATURE_PHASES` reads them; the others the Henyey-Greenstein `phase_g`).
     pub phases: [GpuPhase; GPU_MAX_VDB_MEDIA],
+    /// The cells the emitting media are sampled from as lights (`MediaLights::cells`; 0:
+    /// none, or `--media-lights off`), their table in `backend::gpu::media_lights`.
+    pub media_light_cells: u32,
+    /// `W`, the sum of their weights (`MediaLights::total`).
+    pub media_light_total: f32,
+    pub _pad_media_lights0: u32,
+    pub _pad_media_lights1: u32,
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 368
+        == 384
             + size_of::<GpuVelocityBlur>()
             + size_of::<GpuCameraMotion>()
             + GPU_MAX_VDB_MEDIA * size_of::<GpuPhase>()

@@ -52,12 +52,12 @@ pub struct EmitterMedium {
     pub vdb: u32,
     /// Per cell of the density's cell grid (x fastest): `e_c` of the module doc (0 where the
     /// cell cannot emit).
-    weight: Vec<f32>,
+    pub(crate) weight: Vec<f32>,
     /// Per cell: the walk's majorant `sigma_maj,c` (m^-1).
-    sigma_maj: Vec<f32>,
-    dims: [u32; 3],
-    cell_origin: [i32; 3],
-    world_from_index: Affine3A,
+    pub(crate) sigma_maj: Vec<f32>,
+    pub(crate) dims: [u32; 3],
+    pub(crate) cell_origin: [i32; 3],
+    pub(crate) world_from_index: Affine3A,
 }
 
 impl EmitterMedium {
@@ -83,8 +83,8 @@ pub struct MediaLights {
     pub media: Vec<EmitterMedium>,
     /// `(medium slot, cell)` of every cell that may emit, and the normalised cumulative
     /// `Le_c V_c` over them.
-    entries: Vec<(u32, u32)>,
-    cdf: Vec<f32>,
+    pub(crate) entries: Vec<(u32, u32)>,
+    pub(crate) cdf: Vec<f32>,
     /// `W`: the sum of `Le_c V_c`.
     total: f32,
 }

@@ -13,6 +13,7 @@ mod equiangular;
 mod farm;
 mod grid;
 mod math;
+mod media_lights;
 mod media_overlap;
 mod motion_blur;
 mod passes;

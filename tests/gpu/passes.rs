@@ -29,9 +29,6 @@ fn settings(light_passes: bool, seed: u32) -> RenderSettings {
         spp: 16,
         seed,
         light_passes,
-        // Emitting media render on the GPU without media lights (`gpu::supports_with`); point
-        // lights in media with the default equiangular sampling and MIS.
-        media_lights: false,
         ..RenderSettings::default()
     }
 }

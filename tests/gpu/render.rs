@@ -14,8 +14,8 @@ use brume::render::{
     Estimator, MajorantMode, RenderScene, RenderSettings, SamplerKind, VolumeSampling,
 };
 
-/// Tiny renders with the default sampling, emitting media found by paths alone (the GPU
-/// renders them only so, `gpu::supports_with`).
+/// Tiny renders with the default sampling, emitting media found by paths alone (the flights'
+/// estimators on their own; `media_lights.rs` tests the media lights).
 fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
     RenderSettings {
         width: w,
@@ -28,7 +28,8 @@ fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
 }
 
 /// `s` with scattering distances sampled by free flight alone and emitting media found by
-/// paths alone (the GPU renders emitting media only so, `gpu::supports_with`).
+/// paths alone: the overlapping-media tests compare the flights' estimators on their own
+/// (`equiangular.rs` and `media_lights.rs` test the other strategies).
 pub(crate) fn free_flight(s: &RenderSettings) -> RenderSettings {
     RenderSettings {
         volume_sampling: VolumeSampling::Distance,

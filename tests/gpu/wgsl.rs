@@ -391,7 +391,7 @@ fn variants_without_a_feature_hold_no_code_for_it() {
         ),
         (
             "FEATURE_EMISSION",
-            &["emission_radiance", "blackbody_emission"],
+            &["emission_met", "emission_mis_weight", "blackbody_emission"],
         ),
         (
             "FEATURE_LIGHT_PASSES",

@@ -5,6 +5,7 @@
 use super::device::{GpuContext, GpuGrid};
 use super::error::GpuRenderError;
 use super::graph::{Passes, Stage};
+use super::media_lights::media_light_words;
 use super::shader::{Module, Spec};
 use super::upload::{Geometry, Textures};
 use crate::gpu_types::{
@@ -55,8 +56,8 @@ pub(super) struct Buffers {
     pub(super) args: wgpu::Buffer,
     /// `GpuEmissionParams` (zero when the medium does not emit).
     pub(super) emission: wgpu::Buffer,
-    /// `blackbody::table()` as vec4 rows.
-    pub(super) blackbody: wgpu::Buffer,
+    /// `blackbody::table()` as vec4 rows, then the media lights' table ([`emission_tables`]).
+    pub(super) emission_tables: wgpu::Buffer,
     /// obvhs' CWBVH nodes (one zero node when the scene has no triangles).
     pub(super) bvh_nodes: wgpu::Buffer,
     /// `GpuTriangle`s in the BVH's primitive order.
@@ -100,22 +101,27 @@ fn storage_at_least_one<T: bytemuck::Pod>(
     }
 }
 
-/// The unit-luminance blackbody colours of `blackbody::table()` (xyz; w unused). A storage
-/// buffer, not a uniform: with the table as a fifth uniform block, Mesa 22.3's lavapipe
-/// (Debian 12) reads and writes freed memory compiling the generic variant's sample_medium
-/// stage. See shaders/common/emission.wgsl.
-fn blackbody_table(ctx: &GpuContext) -> wgpu::Buffer {
-    let rows: Vec<[f32; 4]> = blackbody::table()
+/// The emission's tables as words, four a row: the unit-luminance blackbody colours of
+/// `blackbody::table()` (xyz; w unused), then the media lights' table of `rs`
+/// (`super::media_lights`). One binding for both, so that no stage reaching the emission binds
+/// one more storage buffer for the media lights. A storage buffer, not a uniform: with the
+/// colours as a fifth uniform block, Mesa 22.3's lavapipe (Debian 12) reads and writes freed
+/// memory compiling the generic variant's sample_medium stage. See
+/// shaders/common/emission.wgsl.
+fn emission_tables(ctx: &GpuContext, rs: &RenderScene) -> wgpu::Buffer {
+    let mut words: Vec<u32> = blackbody::table()
         .iter()
-        .map(|c| [c.x, c.y, c.z, 0.0])
+        .flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits(), 0])
         .collect();
+    words.extend(media_light_words(rs.media_lights.as_ref()));
+    words.resize(words.len().next_multiple_of(4), 0);
     let b = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("blackbody table"),
-        size: (rows.len() * 16) as u64,
+        label: Some("emission tables"),
+        size: (words.len() * 4) as u64,
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&rows));
+    ctx.queue.write_buffer(&b, 0, bytemuck::cast_slice(&words));
     b
 }
 
@@ -222,7 +228,7 @@ impl Buffers {
                 ctx.uniform_buffer("no grid", &GpuGridInfo::default()),
                 ctx.storage_buffer_zeroed("no grid data", 16),
             ),
-            blackbody: blackbody_table(ctx),
+            emission_tables: emission_tables(ctx, rs),
             args: ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("dispatch args"),
                 size: GpuQueue::COUNT as u64 * 12,
@@ -254,7 +260,7 @@ impl Buffers {
             (0, 3) => grid.map_or(no_data, |g| &g.constants),
             (0, 4) => grid.map_or(no_data, |g| &g.bounds),
             (0, 5) => &self.emission,
-            (0, 6) => &self.blackbody,
+            (0, 6) => &self.emission_tables,
             (0, 7) => grid.map_or(no_data, |g| &g.voxels),
             (1, 0) => &self.params[parity],
             (1, 1) => &self.paths,

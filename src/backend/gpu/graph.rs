@@ -25,6 +25,9 @@ pub enum Stage {
     ShadeSurface,
     /// Shadow-ray transmittance through media and null interfaces (`next_event::trace_shadow`).
     TraceShadow,
+    /// Next-event estimation towards the emitting media at the events the phase stage
+    /// continues (`path::emitters`, `emitters::emitter_event`), after the event's shadow ray.
+    Emitters,
     /// The next direction (phase function or BSDF) and Russian roulette (`path::sample_phase`).
     SamplePhase,
     /// Environment light for rays that leave the scene (`path::escape`).
@@ -34,7 +37,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const COUNT: usize = 9;
+    pub const COUNT: usize = 10;
     pub const ALL: [Stage; Stage::COUNT] = [
         Stage::Generate,
         Stage::Intersect,
@@ -42,6 +45,7 @@ impl Stage {
         Stage::ScatterMedium,
         Stage::ShadeSurface,
         Stage::TraceShadow,
+        Stage::Emitters,
         Stage::SamplePhase,
         Stage::Escape,
         Stage::Accumulate,
@@ -60,6 +64,7 @@ impl Stage {
             Stage::ScatterMedium => shader::STAGE_SCATTER_MEDIUM_MODULE,
             Stage::ShadeSurface => shader::STAGE_SHADE_SURFACE_MODULE,
             Stage::TraceShadow => shader::STAGE_TRACE_SHADOW_MODULE,
+            Stage::Emitters => shader::STAGE_EMITTERS_MODULE,
             Stage::SamplePhase => shader::STAGE_SAMPLE_PHASE_MODULE,
             Stage::Escape => shader::STAGE_ESCAPE_MODULE,
             Stage::Accumulate => shader::STAGE_ACCUMULATE_MODULE,
@@ -76,7 +81,7 @@ impl Stage {
             Stage::ScatterMedium => GpuQueue::Scatter,
             Stage::ShadeSurface => GpuQueue::Surface,
             Stage::TraceShadow => GpuQueue::Shadow,
-            Stage::SamplePhase => GpuQueue::Phase,
+            Stage::Emitters | Stage::SamplePhase => GpuQueue::Phase,
             Stage::Escape => GpuQueue::Escape,
             Stage::Accumulate => pick(GpuQueue::Done1, GpuQueue::Done0),
         }
@@ -87,21 +92,24 @@ impl Stage {
     /// complete when the shadow stage's arguments are computed, whatever the stage list: only
     /// the scatter and surface stages, both earlier, append to it.)
     pub(super) fn needs_args(self) -> bool {
-        self != Stage::SamplePhase
+        !matches!(self, Stage::Emitters | Stage::SamplePhase)
     }
 
     /// The stages a scene with `features` needs: kernels for effects the scene lacks are not
     /// dispatched (no intersection or surface shading without surfaces, no medium scattering
-    /// without media, nothing between generation and escape with neither).
+    /// without media, nothing between generation and escape with neither, no media lights
+    /// without emitting media).
     pub fn for_features(features: FeatureFlags) -> Vec<Stage> {
         let media = features.heterogeneous || features.homogeneous;
         let surfaces = features.surfaces;
+        let emission = effective(features).emission;
         Stage::ALL
             .into_iter()
             .filter(|s| match s {
                 Stage::Generate | Stage::Escape | Stage::Accumulate => true,
                 Stage::Intersect | Stage::ShadeSurface => surfaces,
                 Stage::ScatterMedium => media,
+                Stage::Emitters => emission,
                 Stage::SampleMedium | Stage::TraceShadow | Stage::SamplePhase => media || surfaces,
             })
             .collect()

@@ -16,6 +16,7 @@ mod buffers;
 mod dispatch;
 mod error;
 pub mod graph;
+mod media_lights;
 pub mod render;
 mod support;
 mod upload;

@@ -15,11 +15,12 @@
 //!
 //! ```text
 //! reset -> Generate -> Intersect -> SampleMedium -> ScatterMedium -> ShadeSurface
-//!       -> TraceShadow -> SamplePhase -> Escape -> Accumulate
+//!       -> TraceShadow -> Emitters -> SamplePhase -> Escape -> Accumulate
 //! ```
 //!
 //! Each path keeps its own stream `Rng::new(pixel, sample, seed)` and draws from it in the
-//! CPU's order (the shadow stage runs before the direction stage for that reason). The
+//! CPU's order (the shadow stage, then the media lights' stage, run before the direction stage
+//! for that reason). The
 //! fixed-layout decisions (jitter, light selection and sample, lobe, direction, roulette) come
 //! from `shaders/common/sobol.wgsl` by dimension block when `settings.sampler` is Sobol (the
 //! `SAMPLER_SOBOL` specialisation), the path's pixel and sample index following from its batch
@@ -28,7 +29,8 @@
 //! transcendentals may flip a rare decision).
 //!
 //! What runs: everything the CPU integrator does for VDB media (every estimator, every
-//! majorant mode, spectral tracking of chromatic media, volume emission; several media,
+//! majorant mode, spectral tracking of chromatic media, volume emission, emitting media
+//! sampled as lights (`render::media_lights`, the `Emitters` stage); several media,
 //! overlapping or inside homogeneous ones, in the mixture variant, `mixture.wgsl`),
 //! homogeneous media in closed meshes (grey and chromatic, nested up to three deep on a
 //! per-path medium stack), opaque, dielectric and null-interface surfaces over obvhs' CWBVH,
@@ -191,6 +193,10 @@ pub fn render_observed(
     let slots = slot_count(limit, &plan, passes);
     let mut params = wavefront_params(rs, settings, &cfg, features, slots);
     params.blur = uploaded.blur;
+    if let Some(lights) = &rs.media_lights {
+        params.media_light_cells = lights.cells() as u32;
+        params.media_light_total = lights.total();
+    }
     let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
     let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
     let env_map = env_map_upload(rs, settings, limit).map_err(GpuRenderError::Limits)?;

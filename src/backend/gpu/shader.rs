@@ -82,6 +82,8 @@ pub mod files {
     pub const SHADOW: ShaderFile = shader_file!("common/shadow.wgsl");
     /// Equiangular sampling towards point and spot lights, weighed against free flight.
     pub const EQUIANGULAR: ShaderFile = shader_file!("common/equiangular.wgsl");
+    /// Emitting media sampled as lights, and the flights' MIS weight against them.
+    pub const MEDIA_LIGHTS: ShaderFile = shader_file!("common/media_lights.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
     pub const QUEUES: ShaderFile = shader_file!("kernels/queues.wgsl");
     /// The wavefront stages, one file each (see `backend::gpu::render::Stage`).
@@ -91,6 +93,7 @@ pub mod files {
     pub const STAGE_SAMPLE_MEDIUM: ShaderFile = shader_file!("stages/sample_medium.wgsl");
     pub const STAGE_SCATTER_MEDIUM: ShaderFile = shader_file!("stages/scatter_medium.wgsl");
     pub const STAGE_TRACE_SHADOW: ShaderFile = shader_file!("stages/trace_shadow.wgsl");
+    pub const STAGE_EMITTERS: ShaderFile = shader_file!("stages/emitters.wgsl");
     pub const STAGE_SAMPLE_PHASE: ShaderFile = shader_file!("stages/sample_phase.wgsl");
     pub const STAGE_ESCAPE: ShaderFile = shader_file!("stages/escape.wgsl");
     pub const STAGE_ACCUMULATE: ShaderFile = shader_file!("stages/accumulate.wgsl");
@@ -619,6 +622,7 @@ macro_rules! wavefront_module {
                 LIGHTS,
                 SHADOW,
                 EQUIANGULAR,
+                MEDIA_LIGHTS,
                 $file,
             ],
             entry_point: $entry,
@@ -644,6 +648,7 @@ wavefront_module!(STAGE_SHADE_SURFACE_MODULE, STAGE_SHADE_SURFACE, "shade_surfac
 wavefront_module!(STAGE_SAMPLE_MEDIUM_MODULE, STAGE_SAMPLE_MEDIUM, "sample_medium", queue "queue_medium_in()");
 wavefront_module!(STAGE_SCATTER_MEDIUM_MODULE, STAGE_SCATTER_MEDIUM, "scatter_medium", queue "QUEUE_SCATTER");
 wavefront_module!(STAGE_TRACE_SHADOW_MODULE, STAGE_TRACE_SHADOW, "trace_shadow", queue "QUEUE_SHADOW");
+wavefront_module!(STAGE_EMITTERS_MODULE, STAGE_EMITTERS, "emitters", queue "QUEUE_PHASE");
 wavefront_module!(STAGE_SAMPLE_PHASE_MODULE, STAGE_SAMPLE_PHASE, "sample_phase", queue "QUEUE_PHASE");
 wavefront_module!(STAGE_ESCAPE_MODULE, STAGE_ESCAPE, "escape", queue "QUEUE_ESCAPE");
 wavefront_module!(STAGE_ACCUMULATE_MODULE, STAGE_ACCUMULATE, "accumulate", queue "queue_done_out()");
@@ -671,6 +676,7 @@ pub const MODULES: &[Module] = &[
     STAGE_SAMPLE_MEDIUM_MODULE,
     STAGE_SCATTER_MEDIUM_MODULE,
     STAGE_TRACE_SHADOW_MODULE,
+    STAGE_EMITTERS_MODULE,
     STAGE_SAMPLE_PHASE_MODULE,
     STAGE_ESCAPE_MODULE,
     STAGE_ACCUMULATE_MODULE,

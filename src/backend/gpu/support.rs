@@ -75,16 +75,9 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
     Ok(())
 }
 
-/// [`supports`], and whether `settings` ask only for what the GPU mirrors: emitting media
-/// sampled as lights (`render::media_lights`) render on the CPU only.
-pub fn supports_with(rs: &RenderScene, settings: &RenderSettings) -> Result<(), String> {
-    supports(rs)?;
-    if settings.media_lights && rs.media_lights.is_some() {
-        return Err(
-            "emitting media sampled as lights (--media-lights on) renders on the CPU backend \
-             only (--media-lights off renders on both)"
-                .into(),
-        );
-    }
-    Ok(())
+/// [`supports`] for a render with `settings`: the GPU mirrors every sampling setting the CPU
+/// takes (equiangular sampling and emitting media sampled as lights included), so the scene
+/// alone decides.
+pub fn supports_with(rs: &RenderScene, _settings: &RenderSettings) -> Result<(), String> {
+    supports(rs)
 }
