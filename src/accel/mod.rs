@@ -8,7 +8,7 @@
 use std::time::Duration;
 
 use glam::Vec3A;
-use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
+use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::BvhBuildParams;
 
 use crate::math::Ray;
@@ -87,6 +87,30 @@ pub fn intersect_triangle(
     (t >= t_min && t <= t_max).then_some((t, b1, b2))
 }
 
+/// Slack on every side of each triangle's box, relative to the largest coordinate magnitude.
+/// obvhs's slab test gives a node flat along an axis (a flat or axis-aligned mesh) a slab of
+/// no thickness, where one rounding in its other slabs misses a hit on a child box's edge;
+/// boxes grown by about a hundred ulps of the largest coordinate keep such hits inside.
+const BOX_SLACK: f32 = 1e-5;
+
+/// The triangles' boxes, each grown by [`BOX_SLACK`] so that none is flat.
+fn padded_boxes(triangles: &[[Vec3A; 3]]) -> Vec<obvhs::aabb::Aabb> {
+    let scale = triangles
+        .iter()
+        .flatten()
+        .flat_map(|v| v.abs().to_array())
+        .filter(|x| x.is_finite())
+        .fold(0.0f32, f32::max);
+    let pad = Vec3A::splat(BOX_SLACK * scale.max(1e-30));
+    triangles
+        .iter()
+        .map(|t| {
+            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            obvhs::aabb::Aabb::new(lo - pad, hi + pad)
+        })
+        .collect()
+}
+
 /// A BVH over world-space triangles.
 pub struct TriangleBvh {
     /// `None` when there are no triangles (every query misses).
@@ -128,21 +152,13 @@ impl TriangleBvh {
                 small: None,
             };
         }
-        let tris: Vec<obvhs::triangle::Triangle> = triangles
-            .iter()
-            .map(|t| obvhs::triangle::Triangle {
-                v0: t[0],
-                v1: t[1],
-                v2: t[2],
-            })
-            .collect();
         // No spatial splits: every triangle then sits in exactly one leaf, which keeps
         // `primitive_indices` a permutation (simpler GPU layout and validation).
         let params = BvhBuildParams {
             pre_split: false,
             ..BvhBuildParams::medium_build()
         };
-        let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
+        let bvh = build_cwbvh(&padded_boxes(&triangles), params, &mut Duration::default());
         let small = (triangles.len() <= SMALL_MESH_TRIANGLES)
             .then(|| TriangleBatches::new(&triangles, lanes));
         Self {
