@@ -21,12 +21,21 @@ mod small_avx;
 use small::TriangleBatches;
 pub use small::{SmallMeshLanes, SMALL_MESH_TRIANGLES};
 
+/// Static triangles from which [`Accel::Auto`] takes Embree: from about this size on, random
+/// triangle soups trace camera, shadow and bounce rays faster through Embree than through the
+/// BVH, and the gap grows with the size (`brume bench accel --sweep`); below it the BVH, with
+/// its all-triangle tests of the smallest meshes, is as fast or faster.
+pub const EMBREE_FROM_TRIANGLES: usize = 300;
+
 /// The CPU's closest-hit accelerator for static triangles. The GPU always traverses the
 /// CWBVH.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Accel {
-    /// The obvhs CWBVH (all-triangle tests on small meshes).
+    /// Embree from [`EMBREE_FROM_TRIANGLES`] static triangles on, else the BVH; the BVH also
+    /// where Embree cannot be built.
     #[default]
+    Auto,
+    /// The obvhs CWBVH (all-triangle tests on small meshes).
     Bvh,
     /// Intel Embree 3 chooses the triangle; Brume's triangle test gives the hit.
     Embree,
@@ -35,8 +44,19 @@ pub enum Accel {
 impl Accel {
     pub fn name(self) -> &'static str {
         match self {
+            Accel::Auto => "auto",
             Accel::Bvh => "bvh",
             Accel::Embree => "embree",
+        }
+    }
+
+    /// The accelerator this choice means for `triangles` static triangles: [`Accel::Auto`]
+    /// resolved by [`EMBREE_FROM_TRIANGLES`], the others as they are.
+    pub fn for_triangles(self, triangles: usize) -> Accel {
+        match self {
+            Accel::Auto if triangles >= EMBREE_FROM_TRIANGLES => Accel::Embree,
+            Accel::Auto => Accel::Bvh,
+            other => other,
         }
     }
 }

@@ -187,11 +187,12 @@ pub struct RenderArgs {
     /// and supports the scene, else the CPU with a one-line reason.
     #[arg(long, default_value = "auto")]
     pub backend: Backend,
-    /// The CPU backend's ray-query accelerator for static triangles: bvh (the obvhs CWBVH;
-    /// default) or embree (Intel Embree 3 chooses the triangle, Brume's own triangle test
-    /// gives the hit, so images agree). Scenes with moving meshes, and the GPU backend, use
-    /// the BVH.
-    #[arg(long, default_value = "bvh")]
+    /// The CPU backend's ray-query accelerator for static triangles: auto (default: embree
+    /// from 300 static triangles on, where it is faster, else bvh; bvh with a warning where
+    /// Embree cannot be built), bvh (the obvhs CWBVH) or embree (Intel Embree 3 chooses the
+    /// triangle, Brume's own triangle test gives the hit, so images agree). Scenes with moving
+    /// meshes, and the GPU backend, use the BVH. The render prints which it used.
+    #[arg(long, default_value = "auto")]
     pub accel: brume::render::settings::Accel,
     /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its
     /// default is 127.0.0.1:14158) as the render converges: the mean after a pass, at most
@@ -485,25 +486,36 @@ fn report_peak_memory() {
     }
 }
 
-/// Builds the CPU's accelerator (`--accel`), says which one renders where it is not the
-/// default BVH, and what the geometry costs (triangles stored and instanced, memory, timings).
+/// Builds the CPU's accelerator (`--accel`), says which one renders and why (a warning where
+/// auto's Embree could not be built), and what the geometry costs (triangles stored and
+/// instanced, memory, timings).
 fn report_accel(
     scene: &mut brume::scene::Scene,
     asked: brume::render::settings::Accel,
 ) -> Result<()> {
+    use brume::render::settings::Accel;
     let used = scene.use_accel(asked)?;
-    if let Some(e) = &scene.embree {
-        eprintln!(
-            "accel: embree ({} triangles, built in {:.1} ms, {:.1} KiB)",
-            scene.triangles.len(),
+    let n = scene.triangles.len();
+    let threshold = brume::accel::EMBREE_FROM_TRIANGLES;
+    let why = if let Some(e) = &used.fallback {
+        eprintln!("warning: --accel auto: Embree could not be built ({e}); the BVH renders");
+        format!("auto: Embree failed, {n} static triangles")
+    } else if scene.moving_meshes.is_some() && asked != Accel::Bvh {
+        "the scene's meshes move: Embree holds static triangles only".to_string()
+    } else if asked == Accel::Auto && used.accel == Accel::Embree {
+        format!("auto: {n} static triangles, from {threshold} on")
+    } else if asked == Accel::Auto {
+        format!("auto: {n} triangles, below {threshold}")
+    } else {
+        format!("--accel {}, {n} triangles", asked.name())
+    };
+    match &scene.embree {
+        Some(e) => eprintln!(
+            "accel: embree ({why}; built in {:.1} ms, {:.1} KiB)",
             e.build_seconds() * 1e3,
             e.memory_bytes() as f64 / 1024.0
-        );
-    } else if used != asked {
-        eprintln!(
-            "accel: {} (the scene's meshes move: Embree holds static triangles only)",
-            used.name()
-        );
+        ),
+        None => eprintln!("accel: bvh ({why})"),
     }
     eprintln!("{}", scene.geometry_stats().report(&scene.timings));
     Ok(())

@@ -292,7 +292,7 @@ fn a_surface_scene_renders_the_same_image_through_embree() {
     let bvh_scene = load_scene("cornell_smoke.gltf");
     let mut embree_scene = load_scene("cornell_smoke.gltf");
     assert_eq!(
-        embree_scene.use_accel(Accel::Embree).unwrap(),
+        embree_scene.use_accel(Accel::Embree).unwrap().accel,
         Accel::Embree
     );
     let settings = RenderSettings {
