@@ -390,7 +390,7 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         ));
     }
     check_outputs(args)?;
-    report_accel(&mut scene, settings.accel)?;
+    super::render_report::report_accel(&mut scene, settings.accel)?;
     let rs = RenderScene::prepare(&scene, &settings).map_err(|e| anyhow!(e))?;
     let features = if settings.generic {
         brume::render::FeatureFlags::ALL
@@ -484,41 +484,6 @@ fn report_peak_memory() {
     if let Some(kb) = peak {
         eprintln!("peak memory: {:.1} MiB resident", kb / 1024.0);
     }
-}
-
-/// Builds the CPU's accelerator (`--accel`), says which one renders and why (a warning where
-/// auto's Embree could not be built), and what the geometry costs (triangles stored and
-/// instanced, memory, timings).
-fn report_accel(
-    scene: &mut brume::scene::Scene,
-    asked: brume::render::settings::Accel,
-) -> Result<()> {
-    use brume::render::settings::Accel;
-    let used = scene.use_accel(asked)?;
-    let n = scene.triangles.len();
-    let threshold = brume::accel::EMBREE_FROM_TRIANGLES;
-    let why = if let Some(e) = &used.fallback {
-        eprintln!("warning: --accel auto: Embree could not be built ({e}); the BVH renders");
-        format!("auto: Embree failed, {n} static triangles")
-    } else if scene.moving_meshes.is_some() && asked != Accel::Bvh {
-        "the scene's meshes move: Embree holds static triangles only".to_string()
-    } else if asked == Accel::Auto && used.accel == Accel::Embree {
-        format!("auto: {n} static triangles, from {threshold} on")
-    } else if asked == Accel::Auto {
-        format!("auto: {n} triangles, below {threshold}")
-    } else {
-        format!("--accel {}, {n} triangles", asked.name())
-    };
-    match &scene.embree {
-        Some(e) => eprintln!(
-            "accel: embree ({why}; built in {:.1} ms, {:.1} KiB)",
-            e.build_seconds() * 1e3,
-            e.memory_bytes() as f64 / 1024.0
-        ),
-        None => eprintln!("accel: bvh ({why})"),
-    }
-    eprintln!("{}", scene.geometry_stats().report(&scene.timings));
-    Ok(())
 }
 
 /// Renders frames `a..=b` one after another as `--frame` would, once every frame's files are
