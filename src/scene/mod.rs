@@ -401,8 +401,7 @@ impl Scene {
             accel: Accel::Bvh,
             fallback,
         };
-        if self.moving_meshes.is_some() || accel.for_triangles(self.triangles.len()) == Accel::Bvh
-        {
+        if self.moving_meshes.is_some() || accel.for_triangles(self.triangles.len()) == Accel::Bvh {
             return Ok(bvh(None));
         }
         let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();

@@ -490,7 +490,10 @@ fn brume_info_shows_vec3_grids_with_class_and_speed() {
 fn render_says_which_accelerator_it_used_and_why() {
     let threshold = brume::accel::EMBREE_FROM_TRIANGLES.to_string();
     let (help, _) = text(&brume(&["render", "--help"]));
-    assert!(help.contains(&format!("from {threshold} static triangles on")), "{help}");
+    assert!(
+        help.contains(&format!("from {threshold} static triangles on")),
+        "{help}"
+    );
     for (accel, line) in [
         (None, "accel: bvh (auto: "),
         (Some("bvh"), "accel: bvh (--accel bvh, "),
@@ -506,7 +509,10 @@ fn render_says_which_accelerator_it_used_and_why() {
         let o = brume(&[&["render"], &args[..]].concat());
         let (_, stderr) = text(&o);
         assert!(o.status.success(), "{stderr}");
-        let printed: Vec<&str> = stderr.lines().filter(|l| l.starts_with("accel: ")).collect();
+        let printed: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("accel: "))
+            .collect();
         assert_eq!(printed.len(), 1, "{stderr}");
         assert!(printed[0].starts_with(line), "{accel:?}: {}", printed[0]);
     }

@@ -272,7 +272,10 @@ fn rays_at_a_flat_grids_edges_and_corners_hit_what_brute_force_hits() {
         }
     }
     let bvh = TriangleBvh::build(tris.clone());
-    assert!(bvh.small_lanes().is_none(), "the BVH must answer, not brute force");
+    assert!(
+        bvh.small_lanes().is_none(),
+        "the BVH must answer, not brute force"
+    );
     let mut rng = Rng(13);
     let (rays, mut differ, mut occlusion_differs) = (20_000, 0, 0);
     for _ in 0..rays {
@@ -289,11 +292,20 @@ fn rays_at_a_flat_grids_edges_and_corners_hit_what_brute_force_hits() {
         if got != brute {
             differ += 1;
             if differ <= 5 {
-                eprintln!("ray {:?} -> {:?}: BVH t {got:?}, brute force t {brute:?}", ray.o, ray.d);
+                eprintln!(
+                    "ray {:?} -> {:?}: BVH t {got:?}, brute force t {brute:?}",
+                    ray.o, ray.d
+                );
             }
         }
         occlusion_differs += (bvh.any_hit(&ray, 0.0, 2.0) != brute.is_some()) as usize;
     }
-    assert_eq!(differ, 0, "{differ} of {rays} closest hits differ from brute force");
-    assert_eq!(occlusion_differs, 0, "{occlusion_differs} of {rays} occlusion answers differ");
+    assert_eq!(
+        differ, 0,
+        "{differ} of {rays} closest hits differ from brute force"
+    );
+    assert_eq!(
+        occlusion_differs, 0,
+        "{occlusion_differs} of {rays} occlusion answers differ"
+    );
 }
