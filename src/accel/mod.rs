@@ -8,7 +8,7 @@
 use std::time::Duration;
 
 use glam::Vec3A;
-use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
+use obvhs::cwbvh::{builder::build_cwbvh, CwBvh};
 use obvhs::BvhBuildParams;
 
 use crate::math::Ray;
@@ -21,12 +21,21 @@ mod small_avx;
 use small::TriangleBatches;
 pub use small::{SmallMeshLanes, SMALL_MESH_TRIANGLES};
 
+/// Static triangles from which [`Accel::Auto`] takes Embree: from about this size on, random
+/// triangle soups trace camera, shadow and bounce rays faster through Embree than through the
+/// BVH, and the gap grows with the size (`brume bench accel --sweep`); below it the BVH, with
+/// its all-triangle tests of the smallest meshes, is as fast or faster.
+pub const EMBREE_FROM_TRIANGLES: usize = 300;
+
 /// The CPU's closest-hit accelerator for static triangles. The GPU always traverses the
 /// CWBVH.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Accel {
-    /// The obvhs CWBVH (all-triangle tests on small meshes).
+    /// Embree from [`EMBREE_FROM_TRIANGLES`] static triangles on, else the BVH; the BVH also
+    /// where Embree cannot be built.
     #[default]
+    Auto,
+    /// The obvhs CWBVH (all-triangle tests on small meshes).
     Bvh,
     /// Intel Embree 3 chooses the triangle; Brume's triangle test gives the hit.
     Embree,
@@ -35,8 +44,19 @@ pub enum Accel {
 impl Accel {
     pub fn name(self) -> &'static str {
         match self {
+            Accel::Auto => "auto",
             Accel::Bvh => "bvh",
             Accel::Embree => "embree",
+        }
+    }
+
+    /// The accelerator this choice means for `triangles` static triangles: [`Accel::Auto`]
+    /// resolved by [`EMBREE_FROM_TRIANGLES`], the others as they are.
+    pub fn for_triangles(self, triangles: usize) -> Accel {
+        match self {
+            Accel::Auto if triangles >= EMBREE_FROM_TRIANGLES => Accel::Embree,
+            Accel::Auto => Accel::Bvh,
+            other => other,
         }
     }
 }
@@ -87,6 +107,30 @@ pub fn intersect_triangle(
     (t >= t_min && t <= t_max).then_some((t, b1, b2))
 }
 
+/// Slack on every side of each triangle's box, relative to the largest coordinate magnitude.
+/// obvhs's slab test gives a node flat along an axis (a flat or axis-aligned mesh) a slab of
+/// no thickness, where one rounding in its other slabs misses a hit on a child box's edge;
+/// boxes grown by about a hundred ulps of the largest coordinate keep such hits inside.
+const BOX_SLACK: f32 = 1e-5;
+
+/// The triangles' boxes, each grown by [`BOX_SLACK`] so that none is flat.
+fn padded_boxes(triangles: &[[Vec3A; 3]]) -> Vec<obvhs::aabb::Aabb> {
+    let scale = triangles
+        .iter()
+        .flatten()
+        .flat_map(|v| v.abs().to_array())
+        .filter(|x| x.is_finite())
+        .fold(0.0f32, f32::max);
+    let pad = Vec3A::splat(BOX_SLACK * scale.max(1e-30));
+    triangles
+        .iter()
+        .map(|t| {
+            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            obvhs::aabb::Aabb::new(lo - pad, hi + pad)
+        })
+        .collect()
+}
+
 /// A BVH over world-space triangles.
 pub struct TriangleBvh {
     /// `None` when there are no triangles (every query misses).
@@ -128,21 +172,13 @@ impl TriangleBvh {
                 small: None,
             };
         }
-        let tris: Vec<obvhs::triangle::Triangle> = triangles
-            .iter()
-            .map(|t| obvhs::triangle::Triangle {
-                v0: t[0],
-                v1: t[1],
-                v2: t[2],
-            })
-            .collect();
         // No spatial splits: every triangle then sits in exactly one leaf, which keeps
         // `primitive_indices` a permutation (simpler GPU layout and validation).
         let params = BvhBuildParams {
             pre_split: false,
             ..BvhBuildParams::medium_build()
         };
-        let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
+        let bvh = build_cwbvh(&padded_boxes(&triangles), params, &mut Duration::default());
         let small = (triangles.len() <= SMALL_MESH_TRIANGLES)
             .then(|| TriangleBatches::new(&triangles, lanes));
         Self {

@@ -187,11 +187,12 @@ pub struct RenderArgs {
     /// and supports the scene, else the CPU with a one-line reason.
     #[arg(long, default_value = "auto")]
     pub backend: Backend,
-    /// The CPU backend's ray-query accelerator for static triangles: bvh (the obvhs CWBVH;
-    /// default) or embree (Intel Embree 3 chooses the triangle, Brume's own triangle test
-    /// gives the hit, so images agree). Scenes with moving meshes, and the GPU backend, use
-    /// the BVH.
-    #[arg(long, default_value = "bvh")]
+    /// The CPU backend's ray-query accelerator for static triangles: auto (default: embree
+    /// from 300 static triangles on, where it is faster, else bvh; bvh with a warning where
+    /// Embree cannot be built), bvh (the obvhs CWBVH) or embree (Intel Embree 3 chooses the
+    /// triangle, Brume's own triangle test gives the hit, so images agree). Scenes with moving
+    /// meshes, and the GPU backend, use the BVH. The render prints which it used.
+    #[arg(long, default_value = "auto")]
     pub accel: brume::render::settings::Accel,
     /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its
     /// default is 127.0.0.1:14158) as the render converges: the mean after a pass, at most
@@ -389,7 +390,7 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         ));
     }
     check_outputs(args)?;
-    report_accel(&mut scene, settings.accel)?;
+    super::render_report::report_accel(&mut scene, settings.accel)?;
     let rs = RenderScene::prepare(&scene, &settings).map_err(|e| anyhow!(e))?;
     let features = if settings.generic {
         brume::render::FeatureFlags::ALL
@@ -483,30 +484,6 @@ fn report_peak_memory() {
     if let Some(kb) = peak {
         eprintln!("peak memory: {:.1} MiB resident", kb / 1024.0);
     }
-}
-
-/// Builds the CPU's accelerator (`--accel`), says which one renders where it is not the
-/// default BVH, and what the geometry costs (triangles stored and instanced, memory, timings).
-fn report_accel(
-    scene: &mut brume::scene::Scene,
-    asked: brume::render::settings::Accel,
-) -> Result<()> {
-    let used = scene.use_accel(asked)?;
-    if let Some(e) = &scene.embree {
-        eprintln!(
-            "accel: embree ({} triangles, built in {:.1} ms, {:.1} KiB)",
-            scene.triangles.len(),
-            e.build_seconds() * 1e3,
-            e.memory_bytes() as f64 / 1024.0
-        );
-    } else if used != asked {
-        eprintln!(
-            "accel: {} (the scene's meshes move: Embree holds static triangles only)",
-            used.name()
-        );
-    }
-    eprintln!("{}", scene.geometry_stats().report(&scene.timings));
-    Ok(())
 }
 
 /// Renders frames `a..=b` one after another as `--frame` would, once every frame's files are

@@ -1,9 +1,45 @@
-//! What `brume render` prints: the plan before it renders, the totals after.
+//! What `brume render` prints: the accelerator and the plan before it renders, the totals
+//! after.
 use std::path::Path;
 
 use brume::backend::cpu::RenderOutput;
 use brume::film::TileTotals;
 use brume::render::{RenderScene, RenderSettings};
+
+/// Builds the CPU's accelerator (`--accel`), says which one renders and why (a warning where
+/// auto's Embree could not be built), and what the geometry costs (triangles stored and
+/// instanced, memory, timings).
+pub fn report_accel(
+    scene: &mut brume::scene::Scene,
+    asked: brume::render::settings::Accel,
+) -> anyhow::Result<()> {
+    use brume::render::settings::Accel;
+    let used = scene.use_accel(asked)?;
+    let n = scene.triangles.len();
+    let threshold = brume::accel::EMBREE_FROM_TRIANGLES;
+    let why = if let Some(e) = &used.fallback {
+        eprintln!("warning: --accel auto: Embree could not be built ({e}); the BVH renders");
+        format!("auto: Embree failed, {n} static triangles")
+    } else if scene.moving_meshes.is_some() && asked != Accel::Bvh {
+        "the scene's meshes move: Embree holds static triangles only".to_string()
+    } else if asked == Accel::Auto && used.accel == Accel::Embree {
+        format!("auto: {n} static triangles, from {threshold} on")
+    } else if asked == Accel::Auto {
+        format!("auto: {n} triangles, below {threshold}")
+    } else {
+        format!("--accel {}, {n} triangles", asked.name())
+    };
+    match &scene.embree {
+        Some(e) => eprintln!(
+            "accel: embree ({why}; built in {:.1} ms, {:.1} KiB)",
+            e.build_seconds() * 1e3,
+            e.memory_bytes() as f64 / 1024.0
+        ),
+        None => eprintln!("accel: bvh ({why})"),
+    }
+    eprintln!("{}", scene.geometry_stats().report(&scene.timings));
+    Ok(())
+}
 
 /// What the render will simulate and how: the scene's effects, the CPU path's variant and
 /// estimator, and the walk each VDB medium's flights take under the majorant mode

@@ -245,7 +245,11 @@ parse_names!(MajorantMode, "majorant mode", [
     "adaptive" => MajorantMode::Adaptive,
     "local" => MajorantMode::Adaptive,
 ]);
-parse_names!(Accel, "accelerator", ["bvh" => Accel::Bvh, "embree" => Accel::Embree]);
+parse_names!(Accel, "accelerator", [
+    "auto" => Accel::Auto,
+    "bvh" => Accel::Bvh,
+    "embree" => Accel::Embree,
+]);
 parse_names!(ShadowEstimator, "shadow estimator", [
     "auto" => ShadowEstimator::Auto,
     "ratio" => ShadowEstimator::Ratio,
@@ -388,7 +392,7 @@ impl Default for RenderSettings {
             blackbody: BlackbodyModel::Temperature,
             noise_threshold: None,
             min_spp: 16,
-            accel: Accel::Bvh,
+            accel: Accel::Auto,
         }
     }
 }

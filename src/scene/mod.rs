@@ -153,6 +153,17 @@ pub struct Scene {
     pub timings: geometry_stats::LoadTimings,
 }
 
+/// The accelerator [`Scene::use_accel`] chose.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AccelUsed {
+    /// What was asked for.
+    pub asked: Accel,
+    /// [`Accel::Bvh`] or [`Accel::Embree`].
+    pub accel: Accel,
+    /// Why Embree could not be built where [`Accel::Auto`] picked it (the BVH answers).
+    pub fallback: Option<String>,
+}
+
 /// Loads `path` (`.gltf` or `.glb`) with default options.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     load_with(path, &LoadOptions::default())
@@ -370,19 +381,41 @@ impl Scene {
     }
 
     /// Chooses the CPU's closest-hit accelerator for the static triangles, building Embree's
-    /// scene where asked. Returns the one in use: a scene with moving meshes keeps the BVH
-    /// (Embree holds static triangles only). The error names the scene file.
-    pub fn use_accel(&mut self, accel: Accel) -> Result<Accel, SceneError> {
+    /// scene where asked or where [`Accel::Auto`] picks it for the scene's size. A scene with
+    /// moving meshes keeps the BVH (Embree holds static triangles only). The error names the
+    /// scene file; only an explicit [`Accel::Embree`] fails, `Auto` falls back to the BVH.
+    pub fn use_accel(&mut self, accel: Accel) -> Result<AccelUsed, SceneError> {
+        self.use_accel_with(accel, EmbreeTriangles::build)
+    }
+
+    /// [`Scene::use_accel`] with Embree's scene built by `build` from the vertices and the
+    /// triangles' indices (tests make it fail).
+    pub fn use_accel_with(
+        &mut self,
+        accel: Accel,
+        build: impl FnOnce(&[[f32; 3]], &[[u32; 3]]) -> Result<EmbreeTriangles, String>,
+    ) -> Result<AccelUsed, SceneError> {
         self.embree = None;
-        if accel == Accel::Bvh || self.moving_meshes.is_some() {
-            return Ok(Accel::Bvh);
+        let bvh = |fallback| AccelUsed {
+            asked: accel,
+            accel: Accel::Bvh,
+            fallback,
+        };
+        if self.moving_meshes.is_some() || accel.for_triangles(self.triangles.len()) == Accel::Bvh {
+            return Ok(bvh(None));
         }
         let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();
         let indices: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.vertices).collect();
-        let embree = EmbreeTriangles::build(&vertices, &indices)
-            .map_err(|e| ctx_invalid(&self.source, e))?;
-        self.embree = Some(embree);
-        Ok(Accel::Embree)
+        match build(&vertices, &indices) {
+            Ok(embree) => self.embree = Some(embree),
+            Err(e) if accel == Accel::Auto => return Ok(bvh(Some(e))),
+            Err(e) => return Err(ctx_invalid(&self.source, e)),
+        }
+        Ok(AccelUsed {
+            asked: accel,
+            accel: Accel::Embree,
+            fallback: None,
+        })
     }
 
     /// Where triangle `t`'s instance is at time offset `dt` relative to the frame, `None` where

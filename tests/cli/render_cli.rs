@@ -485,3 +485,35 @@ fn brume_info_shows_vec3_grids_with_class_and_speed() {
         "{stdout}"
     );
 }
+
+#[test]
+fn render_says_which_accelerator_it_used_and_why() {
+    let threshold = brume::accel::EMBREE_FROM_TRIANGLES.to_string();
+    let (help, _) = text(&brume(&["render", "--help"]));
+    assert!(
+        help.contains(&format!("from {threshold} static triangles on")),
+        "{help}"
+    );
+    for (accel, line) in [
+        (None, "accel: bvh (auto: "),
+        (Some("bvh"), "accel: bvh (--accel bvh, "),
+        (Some("embree"), "accel: embree (--accel embree, "),
+    ] {
+        let exr = scratch::file(&format!("accel_{}.exr", accel.unwrap_or("auto")));
+        let (path, out) = (scene("cornell_smoke"), exr.to_str().unwrap().to_string());
+        let mut args = vec![path.to_str().unwrap(), "-o", &out, "--spp", "1"];
+        args.extend(["--width", "8", "--height", "6", "--backend", "cpu"]);
+        if let Some(a) = accel {
+            args.extend(["--accel", a]);
+        }
+        let o = brume(&[&["render"], &args[..]].concat());
+        let (_, stderr) = text(&o);
+        assert!(o.status.success(), "{stderr}");
+        let printed: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("accel: "))
+            .collect();
+        assert_eq!(printed.len(), 1, "{stderr}");
+        assert!(printed[0].starts_with(line), "{accel:?}: {}", printed[0]);
+    }
+}

@@ -7,6 +7,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod accel_auto;
 mod accel_embree;
 mod adaptive;
 mod data_passes;

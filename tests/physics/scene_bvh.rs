@@ -257,3 +257,55 @@ fn empty_and_single_triangle_bvhs() {
         .closest_hit(&Ray::new(Vec3::NAN, Vec3::X), 0.0, 1.0)
         .is_none());
 }
+
+#[test]
+fn rays_at_a_flat_grids_edges_and_corners_hit_what_brute_force_hits() {
+    // A flat axis-aligned grid (its nodes' boxes have no thickness) and rays aimed at its
+    // vertices and edge midpoints, where a box test without slack loses hits to rounding.
+    // Several triangles are hit at the same t there, so only t and hit-or-miss must agree.
+    let mut tris: Vec<[Vec3A; 3]> = Vec::new();
+    for i in 0..16 {
+        for j in 0..16 {
+            let p = |a: f32, b: f32| Vec3A::new(i as f32 + a - 8.0, j as f32 + b - 8.0, 0.0);
+            tris.push([p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)]);
+            tris.push([p(0.0, 0.0), p(1.0, 1.0), p(0.0, 1.0)]);
+        }
+    }
+    let bvh = TriangleBvh::build(tris.clone());
+    assert!(
+        bvh.small_lanes().is_none(),
+        "the BVH must answer, not brute force"
+    );
+    let mut rng = Rng(13);
+    let (rays, mut differ, mut occlusion_differs) = (20_000, 0, 0);
+    for _ in 0..rays {
+        let o = rng.vec(0.0, 1.0) * Vec3::new(16.0, 16.0, 3.5) + Vec3::new(-8.0, -8.0, 0.5);
+        let half = |x: f32| (2.0 * x).round() / 2.0;
+        let target = Vec3::new(
+            half(o.x + rng.next() - 0.5),
+            half(o.y + rng.next() - 0.5),
+            0.0,
+        );
+        let ray = Ray::new(o, target - o);
+        let brute = brute_closest(&tris, &ray, f32::INFINITY).map(|h| h.0);
+        let got = bvh.closest_hit(&ray, 0.0, f32::INFINITY).map(|h| h.t);
+        if got != brute {
+            differ += 1;
+            if differ <= 5 {
+                eprintln!(
+                    "ray {:?} -> {:?}: BVH t {got:?}, brute force t {brute:?}",
+                    ray.o, ray.d
+                );
+            }
+        }
+        occlusion_differs += (bvh.any_hit(&ray, 0.0, 2.0) != brute.is_some()) as usize;
+    }
+    assert_eq!(
+        differ, 0,
+        "{differ} of {rays} closest hits differ from brute force"
+    );
+    assert_eq!(
+        occlusion_differs, 0,
+        "{occlusion_differs} of {rays} occlusion answers differ"
+    );
+}

@@ -41,16 +41,49 @@ struct Row {
     mrays: [[f64; 2]; 3],
 }
 
-/// Measures each scene and a random triangle soup of `soup` triangles (none when 0), `rays`
-/// rays a kind, best of `runs`.
-pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soup: usize) -> Result<()> {
+/// Soup sizes `--sweep` measures, from the small-mesh path's size to large meshes.
+pub const SWEEP_SOUPS: [usize; 10] = [
+    10, 30, 100, 300, 1_000, 3_000, 10_000, 30_000, 100_000, 300_000,
+];
+
+/// Measures each scene and a random triangle soup of each of `soups` triangles (none for
+/// 0), `rays` rays a kind, best of `runs`.
+pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soups: &[usize]) -> Result<()> {
+    table(&meshes(scenes, soups)?, rays, runs)?;
+    Ok(())
+}
+
+/// Measures `scenes` then soups of [`SWEEP_SOUPS`] triangles, and names the smallest soup from
+/// which Embree is faster for camera, shadow and bounce rays alike, every larger one too.
+pub fn sweep(scenes: &[PathBuf], rays: usize, runs: usize) -> Result<()> {
+    let rows = table(&meshes(scenes, &SWEEP_SOUPS)?, rays, runs)?;
+    let soups = &rows[rows.len() - SWEEP_SOUPS.len()..];
+    let faster = |r: &Row| r.mrays.iter().all(|m| m[1] > m[0]);
+    let from = (0..soups.len()).find(|&k| soups[k..].iter().all(faster));
+    println!();
+    match from {
+        Some(k) => println!(
+            "Embree is faster for every kind of ray from {} triangles (accel auto switches \
+             at {})",
+            soups[k].triangles,
+            crate::accel::EMBREE_FROM_TRIANGLES
+        ),
+        None => println!("Embree is not faster for every kind of ray at any soup size measured"),
+    }
+    Ok(())
+}
+
+fn meshes(scenes: &[PathBuf], soups: &[usize]) -> Result<Vec<Mesh>> {
     let mut meshes = Vec::new();
     for path in scenes {
         meshes.push(scene_mesh(path)?);
     }
-    if soup > 0 {
-        meshes.push(soup_mesh(soup));
-    }
+    meshes.extend(soups.iter().filter(|&&n| n > 0).map(|&n| soup_mesh(n)));
+    Ok(meshes)
+}
+
+/// Prints the table of `meshes` and returns its measured rows (empty meshes left out).
+fn table(meshes: &[Mesh], rays: usize, runs: usize) -> Result<Vec<Row>> {
     println!("{rays} rays a kind, one thread, best of {runs}; Mrays/s as BVH / Embree");
     println!(
         "Embree's memory is what its memory-monitor callback counts for the scene; the BVH's is \
@@ -61,7 +94,8 @@ pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soup: usize) -> Result<
         "| scene | triangles | build ms BVH / Embree | memory KiB BVH / Embree | camera | shadow | bounce |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|");
-    for mesh in &meshes {
+    let mut rows = Vec::new();
+    for mesh in meshes {
         if mesh.indices.is_empty() {
             println!("| {} | 0 | - | - | - | - | - |", mesh.name);
             continue;
@@ -78,8 +112,9 @@ pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soup: usize) -> Result<
             pair(row.mrays[1], 2),
             pair(row.mrays[2], 2),
         );
+        rows.push(row);
     }
-    Ok(())
+    Ok(rows)
 }
 
 fn scene_mesh(path: &Path) -> Result<Mesh> {

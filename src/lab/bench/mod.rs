@@ -158,6 +158,11 @@ pub enum Which {
         /// Triangles of a random triangle soup measured after the scenes (0: none).
         #[arg(long, default_value_t = 100_000)]
         soup: usize,
+        /// Instead of the example scenes and `--soup`, soups of 10 to 300k triangles, and the
+        /// smallest from which Embree is faster than the BVH for all three kinds of rays
+        /// (what `--accel auto` switches on).
+        #[arg(long)]
+        sweep: bool,
     },
     /// Brume against Mitsuba 3 and Blender Cycles 5 (each skipped with a one-line reason when
     /// not installed): render time, per-pixel variance from two seeds, efficiency
@@ -243,13 +248,17 @@ pub fn run(which: Which) -> Result<()> {
             rays,
             runs,
             soup,
+            sweep,
         } => {
+            if sweep {
+                return accel::sweep(&scenes, rays, runs);
+            }
             let scenes = if scenes.is_empty() {
                 example_scenes()?
             } else {
                 scenes
             };
-            accel::run(&scenes, rays, runs, soup)
+            accel::run(&scenes, rays, runs, &[soup])
         }
         Which::Peers(args) => peers::run(&args),
     }
