@@ -6,14 +6,20 @@ use brume::backend::cpu::RenderOutput;
 use brume::film::TileTotals;
 use brume::render::{RenderScene, RenderSettings};
 
-/// Builds the CPU's accelerator (`--accel`), says which one renders and why (a warning where
-/// auto's Embree could not be built), and what the geometry costs (triangles stored and
-/// instanced, memory, timings).
+/// Builds the CPU's accelerator (`--accel`; none where only the GPU renders, `gpu_only`), says
+/// which one renders and why (a warning where auto's Embree could not be built), and what the
+/// geometry costs (triangles stored and instanced, memory, timings).
 pub fn report_accel(
     scene: &mut brume::scene::Scene,
     asked: brume::render::settings::Accel,
+    gpu_only: bool,
 ) -> anyhow::Result<()> {
     use brume::render::settings::Accel;
+    if gpu_only {
+        eprintln!("accel: the GPU's BVH (--backend gpu)");
+        eprintln!("{}", scene.geometry_stats().report(&scene.timings));
+        return Ok(());
+    }
     let used = scene.use_accel(asked)?;
     let n = scene.triangles.len();
     let threshold = brume::accel::EMBREE_FROM_TRIANGLES;
