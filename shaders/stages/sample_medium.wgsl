@@ -117,6 +117,14 @@ fn sample_medium(slot: u32) {
     if (wf.volume_sampling != VOLUME_SAMPLING_DISTANCE && ps.depth < wf.max_depth) {
         equiangular_flight(slot, &ps, t_hit, event == EVENT_SCATTER, t_event);
     }
+    end_flight_stage(slot, ps, hit, event, t_event, weight);
+}
+
+// The guard, then where the path goes after its flight (sample_medium's match on the event):
+// the scattering stage, done, or the surface or escape stage with the flight's weight.
+fn end_flight_stage(slot: u32, ps_in: GpuPathState, hit: bool, event: u32, t_event: f32,
+                    weight: vec3<f32>) {
+    var ps = ps_in;
     // radiance's guard: tentative collisions of the whole path so far.
     if (ps.collisions > wf.max_collisions) {
         atomicAdd(&counters.guard_fired, 1u);

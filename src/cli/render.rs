@@ -390,7 +390,6 @@ fn render_all(args: &RenderArgs, display: Option<&brume::film::Display>) -> Resu
         ));
     }
     check_outputs(args)?;
-    // `--backend gpu` traces surfaces with the GPU's own BVH: no CPU accelerator to build.
     super::render_report::report_accel(&mut scene, settings.accel, args.backend == Backend::Gpu)?;
     let rs = RenderScene::prepare(&scene, &settings).map_err(|e| anyhow!(e))?;
     let features = if settings.generic {
