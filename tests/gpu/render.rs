@@ -382,6 +382,24 @@ fn surface_scenes_agree_with_the_cpu() {
     }
 }
 
+/// Meshes placed many times (`EXT_mesh_gpu_instancing`, and nodes sharing meshes): the GPU
+/// replays the CPU with the same seed and agrees with another seed's image.
+#[test]
+fn instanced_scenes_agree_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("instanced_scenes_agree_with_the_cpu") else {
+        return;
+    };
+    for (i, file) in ["instancing/grove_ext.gltf", "instancing/grove_nodes.gltf"]
+        .into_iter()
+        .enumerate()
+    {
+        let scene = load_scene(file);
+        let s = settings(24, 18, 16, 950 + i as u32);
+        let (g, c) = gpu_against_cpu(&ctx, &scene, &s, file, 1e-3 / 2.0);
+        print_parity(Some(&ctx), file, &scene, &s, &g, &c);
+    }
+}
+
 /// Base-colour, emissive (with light sampling of the textured emitter), nearest and bilinear,
 /// clamped and repeated textures with `KHR_texture_transform`: GPU against CPU.
 #[test]
