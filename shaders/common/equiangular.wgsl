@@ -1,9 +1,10 @@
 // Mirrors src/integrator/equiangular.rs: equiangular sampling of scattering distances towards
 // point and spot lights (Kulla and Fajardo 2012), weighed against free flight by MIS with the
 // deterministic free-flight density sigma_t(x) exp(-sigma_t(x) (t - a)) (the module doc writes
-// the estimator). The medium stage draws one estimate per flight segment in media, after the
-// flight, from the path's stream (so in the CPU's order) and records the segment for the
-// scattering stage's weight of its next-event estimate (distance_weight). Needs shadow.wgsl,
+// the estimator). The equiangular stage (stages/equiangular.wgsl) draws one estimate per
+// flight segment in media, before the flight, from the path's stream (so in the CPU's order)
+// and records the segment for the scattering stage's weight of its next-event estimate
+// (distance_weight). Needs shadow.wgsl,
 // lights.wgsl, media.wgsl, mixture.wgsl (vdb_spans, vdb_media), phase.wgsl and wavefront.wgsl.
 
 // Equiangular: the density of one segment [a, b] of a ray towards a light.
@@ -308,11 +309,9 @@ fn equiangular_estimate(seg: Segment, ps: ptr<function, GpuPathState>) -> Equian
     if (!(w > 0.0)) {
         return est;
     }
-    let tr_a = media_transmittance(seg.o + seg.dir * seg.a, seg.dir, 0.0, t - seg.a, seg.medium, ps);
-    if (all(tr_a == vec3<f32>(0.0))) {
-        return est;
-    }
-    let tr_c = shadow_transmittance(x, ls.wi, ls.dist * (1.0 - 1e-4), seg.medium, seg.outer, ps);
-    est.l = tr_a * m.s * tr_c * ls.li * (w / pdf);
+    // The transmittance to the point and from it to the light, walked as one.
+    let free = FreeLeg(seg.o + seg.dir * seg.a, seg.dir, t - seg.a, true);
+    let tr = walk_transmittance(free, x, ls.wi, ls.dist * (1.0 - 1e-4), seg.medium, seg.outer, ps);
+    est.l = tr * m.s * ls.li * (w / pdf);
     return est;
 }

@@ -59,13 +59,37 @@ fn media_transmittance(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32, medium: u32
 // scatters blocks it.
 fn shadow_transmittance(o: vec3<f32>, wi: vec3<f32>, dist: f32, medium_in: u32, outer_in: u32,
                         ps: ptr<function, GpuPathState>) -> vec3<f32> {
+    return walk_transmittance(FreeLeg(o, wi, 0.0, false), o, wi, dist, medium_in, outer_in, ps);
+}
+
+// FreeLeg: a stretch (o, d) over [0, t1] through the medium a walk starts in that no surface
+// crosses (the part of a flight before an equiangular sample), tracked before the shadow ray.
+struct FreeLeg {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    t1: f32,
+    on: bool,
+}
+
+// walk_transmittance: the free leg's transmittance (where `free.on`), then the shadow ray's,
+// in that order on the path's stream. One loop walks both so that a kernel holds a single copy
+// of the trackers and of the BVH traversal.
+fn walk_transmittance(free: FreeLeg, o: vec3<f32>, wi: vec3<f32>, dist: f32, medium_in: u32,
+                      outer_in: u32, ps: ptr<function, GpuPathState>) -> vec3<f32> {
     var t = vec3<f32>(1.0);
     var medium = medium_in;
     var outer = outer_in;
+    var in_free = free.on;
+    var ro = select(o, free.o, in_free);
+    var rd = select(wi, free.d, in_free);
+    var end = select(dist, free.t1, in_free);
     var t0 = 0.0;
     for (var crossing = 0u; crossing < MAX_SHADOW_CROSSINGS; crossing++) {
-        let h = bvh_closest_hit(o, wi, t0, dist);
-        var t1 = dist;
+        var h = Hit(NO_INDEX, 0.0, 0.0, 0.0);
+        if (!in_free) {
+            h = bvh_closest_hit(ro, rd, t0, end);
+        }
+        var t1 = end;
         if (h.prim != NO_INDEX) {
             t1 = h.t;
             // A surface that scatters blocks the ray before the media up to it are tracked.
@@ -73,19 +97,30 @@ fn shadow_transmittance(o: vec3<f32>, wi: vec3<f32>, dist: f32, medium_in: u32, 
                 return vec3<f32>(0.0);
             }
         }
-        t *= media_transmittance(o, wi, t0, t1, medium, ps);
-        if (all(t == vec3<f32>(0.0)) || h.prim == NO_INDEX) {
+        t *= media_transmittance(ro, rd, t0, t1, medium, ps);
+        if (all(t == vec3<f32>(0.0))) {
+            break;
+        }
+        if (in_free) {
+            // On to the shadow ray, from the same medium.
+            in_free = false;
+            ro = o;
+            rd = wi;
+            end = dist;
+            continue;
+        }
+        if (h.prim == NO_INDEX) {
             break;
         }
 // #if FEATURE_HOMOGENEOUS
         let tri = bvh_triangles[h.prim];
-        let entering = dot(triangle_cross(tri), wi) < 0.0;
+        let entering = dot(triangle_cross(tri), rd) < 0.0;
         let m = stack_cross(medium, outer, tri.interior, entering);
         medium = m.x;
         outer = m.y;
 // #endif
         t0 = h.t + 1e-4 * (1.0 + h.t);
-        if (t0 >= dist) {
+        if (t0 >= end) {
             break;
         }
     }

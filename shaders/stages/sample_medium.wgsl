@@ -10,9 +10,8 @@
 // done. With the light passes, the flight's emission goes to the pass PathState::pass_of
 // names; with the light groups, each medium's to its group (Emitted::add). After a
 // scattering event, where emitting media are sampled as lights, the emission is weighed
-// against them (EmissionMis, media_lights.wgsl). With equiangular sampling
-// (wf.volume_sampling), the flight's segment in media then gets its equiangular estimate
-// (equiangular_flight, mirroring path.rs `equiangular`).
+// against them (EmissionMis, media_lights.wgsl). The equiangular stage, before this one, has
+// drawn its estimate over the flight's span; a flight that scatters keeps its segment.
 
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn sample_medium(slot: u32) {
@@ -111,12 +110,12 @@ fn sample_medium(slot: u32) {
     gather_flight_groups(slot);
 // #endif
 // #endif
-    // radiance's equiangular stage (equiangular.wgsl): one estimate over the flight's segment
-    // in media, with the path's throughput before the flight.
-    ps.flags &= ~PATH_FLAG_SEGMENT;
-    if (wf.volume_sampling != VOLUME_SAMPLING_DISTANCE && ps.depth < wf.max_depth) {
-        equiangular_flight(slot, &ps, t_hit, event == EVENT_SCATTER, t_event);
+// #if FEATURE_EQUIANGULAR
+    // The segment the equiangular stage recorded, for the scattering stage's weight.
+    if ((ps.flags & PATH_FLAG_SEGMENT) != 0u) {
+        keep_segment(&ps, event == EVENT_SCATTER, t_event);
     }
+// #endif
     end_flight_stage(slot, ps, hit, event, t_event, weight);
 }
 
@@ -155,31 +154,20 @@ fn end_flight_stage(slot: u32, ps_in: GpuPathState, hit: bool, event: u32, t_eve
     }
 }
 
-// path.rs `equiangular`: the estimate over the flight up to `t_hit`, gathered as the next
-// event's; a flight that scatters at `t_event` records its segment, relative to the event, for
-// the scattering stage's weight (distance_weight).
-fn equiangular_flight(slot: u32, ps: ptr<function, GpuPathState>, t_hit: f32, scatters: bool,
-                      t_event: f32) {
-    let seg = media_extent((*ps).o, (*ps).d, (*ps).t0, t_hit, (*ps).medium, (*ps).outer);
-    if (!seg.valid) {
+// #if FEATURE_EQUIANGULAR
+// A flight that scatters at `t_event` keeps the segment the equiangular stage recorded,
+// relative to the event, with the extinction there (distance_weight); any other drops it.
+fn keep_segment(ps: ptr<function, GpuPathState>, scatters: bool, t_event: f32) {
+    if (!scatters) {
+        (*ps).flags &= ~PATH_FLAG_SEGMENT;
         return;
     }
-    let est = equiangular_estimate(seg, ps);
-    if (est.valid && any(est.l != vec3<f32>(0.0))) {
-        let x = (*ps).beta * est.l;
-        (*ps).l += x;
-// #if FEATURE_LIGHT_PASSES
-        gather_next_pass(slot, *ps, x);
-// #endif
-// #if FEATURE_LIGHT_GROUPS
-        gather_group(slot, light_group_of(est.source), x);
-// #endif
-    }
-    if (scatters) {
-        (*ps).flags |= PATH_FLAG_SEGMENT;
-        (*ps).seg_a = seg.a - t_event;
-        (*ps).seg_b = seg.b - t_event;
-        (*ps).seg_sigma_max = seg.sigma_max;
-        (*ps).seg_sigma_t = media_at(seg, t_event, -seg.dir, -seg.dir, (*ps).time).sigma_t;
-    }
+    var seg: Segment;
+    seg.o = (*ps).o;
+    seg.dir = (*ps).d;
+    seg.medium = (*ps).medium;
+    (*ps).seg_a -= t_event;
+    (*ps).seg_b -= t_event;
+    (*ps).seg_sigma_t = media_at(seg, t_event, -seg.dir, -seg.dir, (*ps).time).sigma_t;
 }
+// #endif

@@ -256,6 +256,12 @@ fn sample_medium<F: Features>(
     stats: &mut PathStats,
     start_collisions: u64,
 ) -> FlightEnd {
+    // The equiangular estimate over the flight's span comes first, from the path's stream:
+    // it needs only the span, and the GPU runs it in a stage of its own before the flight.
+    ps.segment = None;
+    if limits.volume_sampling != VolumeSampling::Distance && ps.depth < limits.max_depth {
+        equiangular::<F>(rs, cfg, limits, ps, t_hit, sampler, stats);
+    }
     // The first flight after each scattering event starts from the sampler's stratified
     // point; one continued past a null interface does not reuse it.
     if !ps.flight_started {
@@ -295,10 +301,6 @@ fn sample_medium<F: Features>(
         ps.passes[k] += ps.l - before;
     }
     sampler.rng.clear_queue();
-    ps.segment = None;
-    if limits.volume_sampling != VolumeSampling::Distance && ps.depth < limits.max_depth {
-        equiangular::<F>(rs, cfg, limits, ps, t_hit, sampler, stats);
-    }
     if collisions(&stats.media) - start_collisions > limits.max_collisions {
         stats.guard_fired += 1;
         return FlightEnd::Ended;

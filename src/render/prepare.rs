@@ -76,6 +76,10 @@ pub struct FeatureFlags {
     /// [`FeatureFlags::as_array`]: the CPU matches on the phase per event; the GPU variants
     /// keep only Henyey-Greenstein's code without it.
     pub phases: bool,
+    /// Some point or spot light shines where a medium is: flights get the equiangular
+    /// estimate (`RenderSettings::volume_sampling`). Not part of [`FeatureFlags::as_array`]:
+    /// the CPU tests the sampling mode per flight; the GPU variants cut the estimate without it.
+    pub equiangular: bool,
 }
 
 impl FeatureFlags {
@@ -92,6 +96,7 @@ impl FeatureFlags {
         nested: true,
         motion: true,
         phases: true,
+        equiangular: true,
     };
 
     /// The flags the CPU's tile renderer is specialised on (`textures` is not one).
@@ -293,6 +298,7 @@ impl<'s> RenderScene<'s> {
                 .map(|v| &v.phase)
                 .chain(homogeneous.iter().map(|h| &h.phase))
                 .any(|p| p.henyey_greenstein_g().is_none()),
+            equiangular: false,
         };
         let mut lights = Lights::new(scene);
         // Only media that scatter have medium events (a purely absorbing one, such as
@@ -318,6 +324,8 @@ impl<'s> RenderScene<'s> {
         let features = FeatureFlags {
             env_map: lights.environment.as_ref().is_some_and(|e| e.map.is_some()),
             motion: shutter.is_some(),
+            // The media part is `graph.rs`'s to add (the CPU's test is on the lights alone).
+            equiangular: !lights.positional.is_empty(),
             ..features
         };
         Ok(RenderScene {

@@ -13,6 +13,9 @@ pub enum Stage {
     /// The first surface along each ray (`path::intersect`: `TriangleBvh::closest_hit` over
     /// obvhs' CWBVH).
     Intersect,
+    /// The equiangular estimate over the flight's span towards a point or spot light
+    /// (`path::equiangular`), drawn before the flight.
+    Equiangular,
     /// Free flight up to that surface through the homogeneous medium the path is in or the
     /// VDB medium it crosses (`path::sample_medium`, `media::sample_vdb`,
     /// `homogeneous::sample_homogeneous`), gathering volume emission.
@@ -37,10 +40,11 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const COUNT: usize = 10;
+    pub const COUNT: usize = 11;
     pub const ALL: [Stage; Stage::COUNT] = [
         Stage::Generate,
         Stage::Intersect,
+        Stage::Equiangular,
         Stage::SampleMedium,
         Stage::ScatterMedium,
         Stage::ShadeSurface,
@@ -60,6 +64,7 @@ impl Stage {
         match self {
             Stage::Generate => shader::STAGE_GENERATE_MODULE,
             Stage::Intersect => shader::STAGE_INTERSECT_MODULE,
+            Stage::Equiangular => shader::STAGE_EQUIANGULAR_MODULE,
             Stage::SampleMedium => shader::STAGE_SAMPLE_MEDIUM_MODULE,
             Stage::ScatterMedium => shader::STAGE_SCATTER_MEDIUM_MODULE,
             Stage::ShadeSurface => shader::STAGE_SHADE_SURFACE_MODULE,
@@ -77,7 +82,9 @@ impl Stage {
         let pick = |a: GpuQueue, b: GpuQueue| if parity == 0 { a } else { b };
         match self {
             Stage::Generate => pick(GpuQueue::Done0, GpuQueue::Done1),
-            Stage::Intersect | Stage::SampleMedium => pick(GpuQueue::Medium0, GpuQueue::Medium1),
+            Stage::Intersect | Stage::Equiangular | Stage::SampleMedium => {
+                pick(GpuQueue::Medium0, GpuQueue::Medium1)
+            }
             Stage::ScatterMedium => GpuQueue::Scatter,
             Stage::ShadeSurface => GpuQueue::Surface,
             Stage::TraceShadow => GpuQueue::Shadow,
@@ -110,6 +117,7 @@ impl Stage {
                 Stage::Intersect | Stage::ShadeSurface => surfaces,
                 Stage::ScatterMedium => media,
                 Stage::Emitters => emission,
+                Stage::Equiangular => effective(features).equiangular,
                 Stage::SampleMedium | Stage::TraceShadow | Stage::SamplePhase => media || surfaces,
             })
             .collect()
@@ -118,8 +126,9 @@ impl Stage {
 
 /// The WGSL variant name of `features`: the effects the kernels are specialised for, in
 /// `FeatureFlags` order (`surfaces`, `vdb`, `homogeneous`, `emission`, `spectral`, `textures`,
-/// `envmap`, `mixture`, `motion`), e.g. `wavefront[surfaces+vdb+emission]`. `mixture` is `overlapping`
-/// as [`gpu_features`] sets it: several VDB media, overlapping or not.
+/// `envmap`, `mixture`, `motion`, `phases`, `equiangular`), e.g.
+/// `wavefront[surfaces+vdb+emission]`. `mixture` is `overlapping` as [`gpu_features`] sets it:
+/// several VDB media, overlapping or not.
 pub fn variant_name(features: FeatureFlags) -> String {
     let f = effective(features);
     let on: Vec<&str> = [
@@ -133,6 +142,7 @@ pub fn variant_name(features: FeatureFlags) -> String {
         (f.overlapping, "mixture"),
         (f.motion, "motion"),
         (f.phases, "phases"),
+        (f.equiangular, "equiangular"),
     ]
     .into_iter()
     .filter(|(b, _)| *b)
@@ -222,6 +232,7 @@ fn effective(features: FeatureFlags) -> FeatureFlags {
         absorption: features.absorption && media,
         textures: features.textures && features.surfaces,
         phases: features.phases && media,
+        equiangular: features.equiangular && media,
         ..features
     }
 }
@@ -242,6 +253,7 @@ pub fn specs(features: FeatureFlags, sampler: SamplerKind, passes: Passes) -> Ve
         Spec::bool("FEATURE_MIXTURE", f.overlapping),
         Spec::bool("FEATURE_MOTION", f.motion),
         Spec::bool("FEATURE_PHASES", f.phases),
+        Spec::bool("FEATURE_EQUIANGULAR", f.equiangular),
         Spec::bool("FEATURE_LIGHT_PASSES", passes.light),
         Spec::bool("FEATURE_DATA_PASSES", passes.data),
         Spec::bool("FEATURE_LIGHT_GROUPS", passes.groups > 0),

@@ -181,7 +181,11 @@ pub fn render_observed(
     let (scene_features, features) = if settings.generic {
         (FeatureFlags::ALL, FeatureFlags::ALL)
     } else {
-        (rs.features, super::graph::gpu_features(rs))
+        let f = super::graph::gpu_features(rs);
+        // Distance sampling alone carries no equiangular code.
+        let equiangular =
+            f.equiangular && settings.volume_sampling != crate::render::VolumeSampling::Distance;
+        (rs.features, FeatureFlags { equiangular, ..f })
     };
     let cfg = TrackingConfig::from_settings(settings);
     let (w, h) = (settings.width, settings.height);

@@ -90,6 +90,7 @@ pub mod files {
     pub const STAGE_GENERATE: ShaderFile = shader_file!("stages/generate.wgsl");
     pub const STAGE_INTERSECT: ShaderFile = shader_file!("stages/intersect.wgsl");
     pub const STAGE_SHADE_SURFACE: ShaderFile = shader_file!("stages/shade_surface.wgsl");
+    pub const STAGE_EQUIANGULAR: ShaderFile = shader_file!("stages/equiangular.wgsl");
     pub const STAGE_SAMPLE_MEDIUM: ShaderFile = shader_file!("stages/sample_medium.wgsl");
     pub const STAGE_SCATTER_MEDIUM: ShaderFile = shader_file!("stages/scatter_medium.wgsl");
     pub const STAGE_TRACE_SHADOW: ShaderFile = shader_file!("stages/trace_shadow.wgsl");
@@ -582,6 +583,8 @@ pub const WAVEFRONT_SPECS: &[Spec] = &[
     Spec::bool("FEATURE_MOTION", true),
     // Phase functions other than Henyey-Greenstein (`phase.wgsl`'s `phase_p`, `phase_sample`).
     Spec::bool("FEATURE_PHASES", true),
+    // Flights' equiangular estimate towards point and spot lights (`equiangular.wgsl`).
+    Spec::bool("FEATURE_EQUIANGULAR", true),
     // The radiance split into the light passes as well (`PathLimits::light_passes`).
     Spec::bool("FEATURE_LIGHT_PASSES", true),
     // The data passes a denoiser takes as well (`PathLimits::data_passes`).
@@ -645,6 +648,7 @@ macro_rules! wavefront_module {
 wavefront_module!(STAGE_GENERATE_MODULE, STAGE_GENERATE, "generate", queue "queue_done_in()");
 wavefront_module!(STAGE_INTERSECT_MODULE, STAGE_INTERSECT, "intersect", queue "queue_medium_in()");
 wavefront_module!(STAGE_SHADE_SURFACE_MODULE, STAGE_SHADE_SURFACE, "shade_surface", queue "QUEUE_SURFACE");
+wavefront_module!(STAGE_EQUIANGULAR_MODULE, STAGE_EQUIANGULAR, "equiangular", queue "queue_medium_in()");
 wavefront_module!(STAGE_SAMPLE_MEDIUM_MODULE, STAGE_SAMPLE_MEDIUM, "sample_medium", queue "queue_medium_in()");
 wavefront_module!(STAGE_SCATTER_MEDIUM_MODULE, STAGE_SCATTER_MEDIUM, "scatter_medium", queue "QUEUE_SCATTER");
 wavefront_module!(STAGE_TRACE_SHADOW_MODULE, STAGE_TRACE_SHADOW, "trace_shadow", queue "QUEUE_SHADOW");
@@ -673,6 +677,7 @@ pub const MODULES: &[Module] = &[
     STAGE_GENERATE_MODULE,
     STAGE_INTERSECT_MODULE,
     STAGE_SHADE_SURFACE_MODULE,
+    STAGE_EQUIANGULAR_MODULE,
     STAGE_SAMPLE_MEDIUM_MODULE,
     STAGE_SCATTER_MEDIUM_MODULE,
     STAGE_TRACE_SHADOW_MODULE,
