@@ -103,6 +103,9 @@ impl Scene {
         {
             return Ok(bvh(None));
         }
+        // Embree's hits are restated by Brume's test on the flat BVH's corners: build it now,
+        // before Embree holds its memory, rather than inside the first render thread's query.
+        self.bvh();
         let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();
         let indices: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.vertices).collect();
         match build(&vertices, &indices) {
@@ -110,9 +113,6 @@ impl Scene {
             Err(e) if accel == Accel::Auto => return Ok(bvh(Some(e))),
             Err(e) => return Err(ctx_invalid(&self.source, e)),
         }
-        // Embree's hits are restated by Brume's test on the flat BVH's corners: build it now
-        // rather than inside the first render thread's query.
-        self.bvh();
         Ok(AccelUsed {
             asked: accel,
             accel: Accel::Embree,

@@ -1,6 +1,7 @@
 //! glTF 2.0 scenes with participating media, loaded into one backend-neutral [`Scene`]: flat
 //! arrays that both the CPU and the GPU integrators consume (`#[repr(C)]` + `Pod` where they go
-//! to the GPU), a BVH over the triangles, and descriptions of the media.
+//! to the GPU), the CPU's accelerators over the triangles (a two-level BVH where a primitive is
+//! placed more than once, see `accelerators`), and descriptions of the media.
 //!
 //! Supported: `.gltf` (embedded base64 or external buffers) and `.glb`; node hierarchies with
 //! TRS or matrices; perspective cameras; triangle meshes (lists, strips, fans); the
