@@ -14,6 +14,7 @@ use obvhs::BvhBuildParams;
 use crate::math::Ray;
 
 pub mod embree;
+pub mod instanced;
 mod lanes;
 mod small;
 #[cfg(target_arch = "x86_64")]

@@ -12,7 +12,8 @@ pub struct LoadTimings {
     /// Everything before the BVH: the file, its buffers, nodes, meshes flattened to world
     /// space, materials, textures, lights and the media's descriptions.
     pub read_seconds: f64,
-    /// Building the BVH over the world-space triangles.
+    /// Building the scene's first accelerator: the two-level BVH where some primitive is
+    /// placed more than once and no mesh moves, else the BVH over the world-space triangles.
     pub bvh_seconds: f64,
 }
 
@@ -31,8 +32,12 @@ pub struct GeometryStats {
     pub vertices: usize,
     /// Bytes of the flat vertex, triangle and instance arrays.
     pub array_bytes: usize,
-    /// Bytes of the BVH: nodes, primitive indices and triangle corners.
+    /// Bytes of the flat BVH (nodes, primitive indices and triangle corners), where it has
+    /// been built.
     pub bvh_bytes: usize,
+    /// Bytes of the two-level BVH (each primitive's BVH and corners once, the placements and
+    /// their top-level BVH), where the scene has one.
+    pub two_level_bytes: Option<usize>,
     /// Bytes Embree allocated, where it was built.
     pub embree_bytes: Option<usize>,
 }
@@ -54,7 +59,8 @@ impl GeometryStats {
             instanced_triangles: scene.triangles.len(),
             vertices: scene.vertices.len(),
             array_bytes: size,
-            bvh_bytes: scene.bvh.memory_bytes(),
+            bvh_bytes: scene.built_flat_bvh().map_or(0, |b| b.memory_bytes()),
+            two_level_bytes: scene.instanced.as_ref().map(|i| i.memory_bytes()),
             embree_bytes: scene
                 .embree
                 .as_ref()
@@ -62,9 +68,12 @@ impl GeometryStats {
         }
     }
 
-    /// Bytes of the geometry in memory: the arrays, the BVH and Embree's scene.
+    /// Bytes of the geometry in memory: the arrays, the BVHs and Embree's scene.
     pub fn total_bytes(&self) -> usize {
-        self.array_bytes + self.bvh_bytes + self.embree_bytes.unwrap_or(0)
+        self.array_bytes
+            + self.bvh_bytes
+            + self.two_level_bytes.unwrap_or(0)
+            + self.embree_bytes.unwrap_or(0)
     }
 
     /// Two lines for people: the triangle counts, then the memory and the load's timings.
@@ -74,11 +83,14 @@ impl GeometryStats {
         let embree = self
             .embree_bytes
             .map_or(String::new(), |b| format!(" + {:.1} MiB Embree", mib(b)));
+        let two_level = self.two_level_bytes.map_or(String::new(), |b| {
+            format!(" + {:.1} MiB two-level BVH", mib(b))
+        });
         format!(
             "triangles: {} stored ({} primitives, each once), {} instanced ({} placements, \
              each flattened to world space), {} vertices\n\
-             geometry memory: {:.1} MiB arrays + {:.1} MiB BVH{embree} = {:.1} MiB \
-             ({:.0} bytes per stored triangle, {:.0} per instanced one); \
+             geometry memory: {:.1} MiB arrays + {:.1} MiB BVH{two_level}{embree} = \
+             {:.1} MiB ({:.0} bytes per stored triangle, {:.0} per instanced one); \
              loaded in {:.2} s, BVH built in {:.2} s",
             self.stored_triangles,
             self.primitives,

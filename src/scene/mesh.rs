@@ -1,10 +1,12 @@
 //! Triangle meshes flattened to world space: one vertex array, one triangle array and one
-//! instance record per (node, primitive), laid out for direct upload to the GPU.
+//! instance record per (node, primitive), laid out for direct upload to the GPU. Beside them,
+//! each distinct primitive's triangles in its mesh's local space and each instance's transform,
+//! from which the CPU's two-level BVH traces meshes placed many times without their copies.
 //!
 //! Points and lines have no surface to scatter from, so such primitives are skipped with a
 //! warning rather than rejected; triangle strips and fans are unrolled into triangles.
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec3, Vec3A};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
@@ -15,6 +17,7 @@ use super::error::{Ctx, SceneError};
 use super::gpu_instancing::instance_transforms;
 use super::nodes::PlacedNode;
 use super::NO_INDEX;
+use crate::accel::instanced::ShapePlacement;
 
 /// One world-space vertex, 32 bytes (two vec4s in WGSL: `position.xyz, u` and `normal.xyz, v`).
 #[repr(C)]
@@ -66,12 +69,28 @@ const _: () = assert!(std::mem::size_of::<Vertex>() == 32);
 const _: () = assert!(std::mem::size_of::<Triangle>() == 16);
 const _: () = assert!(std::mem::size_of::<Instance>() == 32);
 
-/// Flat mesh arrays of a scene.
+/// Flat mesh arrays of a scene, and the local shapes and placements they were flattened from.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
     pub vertices: Vec<Vertex>,
     pub triangles: Vec<Triangle>,
     pub instances: Vec<Instance>,
+    /// Each distinct primitive's triangle corners in its mesh's local space, once however
+    /// many nodes place it (local triangle `k` is triangle `k` of each of its instances).
+    pub shapes: Vec<Vec<[Vec3A; 3]>>,
+    /// Per instance (`instances` order): its shape and world transform.
+    pub placements: Vec<ShapePlacement>,
+}
+
+impl Geometry {
+    /// Whether some primitive is placed more than once, so that a two-level BVH stores fewer
+    /// triangles than the flat one.
+    pub fn repeats_a_shape(&self) -> bool {
+        let mut placed = vec![false; self.shapes.len()];
+        self.placements
+            .iter()
+            .any(|p| std::mem::replace(&mut placed[p.shape as usize], true))
+    }
 }
 
 /// Flattens every mesh placed by `nodes`, each `EXT_mesh_gpu_instancing` row as one more
@@ -85,7 +104,8 @@ pub fn flatten(
     default_material: u32,
 ) -> Result<Geometry, SceneError> {
     let mut geo = Geometry::default();
-    let mut read: HashMap<(usize, usize), Option<LocalPrimitive>> = HashMap::new();
+    // Each primitive read once: its triangles and, where it has any, its shape's index.
+    let mut read: HashMap<(usize, usize), Option<(LocalPrimitive, u32)>> = HashMap::new();
     for placed in nodes {
         let node = placed.in_doc(doc);
         let locals = instance_transforms(ctx, doc, buffers, &node)?;
@@ -98,10 +118,13 @@ pub fn flatten(
                     let pointer = format!("/meshes/{}/primitives/{}", key.0, key.1);
                     let local = read_primitive(ctx, buffers, &prim, &pointer)
                         .map_err(|e| placed_by(e, &node))?;
-                    e.insert(local)
+                    e.insert(local.map(|local| {
+                        geo.shapes.push(local_corners(&local));
+                        (local, geo.shapes.len() as u32 - 1)
+                    }))
                 }
             };
-            let Some(local) = local.as_ref() else {
+            let Some((local, shape)) = local.as_ref() else {
                 continue;
             };
             let material = prim
@@ -131,6 +154,11 @@ pub fn flatten(
                     ));
                 }
                 let world = placed.world_from_node * *local_from_instance;
+                geo.placements.push(ShapePlacement {
+                    shape: *shape,
+                    world_from_local: world,
+                    first_triangle: geo.triangles.len() as u32,
+                });
                 append(&mut geo, local, world, placed.node, key, material);
             }
         }
@@ -378,6 +406,15 @@ fn per_vertex<T>(
         ));
     }
     Ok(Some(v))
+}
+
+/// The corner positions of a local primitive's triangles, in its order.
+fn local_corners(local: &LocalPrimitive) -> Vec<[Vec3A; 3]> {
+    local
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| Vec3A::from(local.positions[i as usize])))
+        .collect()
 }
 
 /// Triangle list from a triangle list, strip or fan (glTF spec, section 3.7.2.1).

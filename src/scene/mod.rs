@@ -1,6 +1,7 @@
 //! glTF 2.0 scenes with participating media, loaded into one backend-neutral [`Scene`]: flat
 //! arrays that both the CPU and the GPU integrators consume (`#[repr(C)]` + `Pod` where they go
-//! to the GPU), a BVH over the triangles, and descriptions of the media.
+//! to the GPU), the CPU's accelerators over the triangles (a two-level BVH where a primitive is
+//! placed more than once, see `accelerators`), and descriptions of the media.
 //!
 //! Supported: `.gltf` (embedded base64 or external buffers) and `.glb`; node hierarchies with
 //! TRS or matrices; perspective cameras; triangle meshes (lists, strips, fans); the
@@ -21,6 +22,7 @@
 //! let scene = brume::scene::load(std::path::Path::new("scenes/cloud.gltf")).unwrap();
 //! println!("{}", scene.summary());
 //! ```
+mod accelerators;
 mod accessor;
 pub mod animation;
 pub mod bare_vdb;
@@ -64,6 +66,7 @@ pub use render_settings::SceneRenderSettings;
 pub use texture::{TextureImage, TextureRef};
 
 use crate::accel::embree::EmbreeTriangles;
+use crate::accel::instanced::InstancedBvh;
 use crate::accel::{Accel, TriangleBvh};
 use crate::math::{Aabb, Ray};
 pub use velocity::{Shutter, VelocityDesc, VelocityUnit};
@@ -121,8 +124,13 @@ pub struct Scene {
     /// Each punctual light's name (the glTF light's, else its node's), for its light group.
     pub light_names: Vec<Option<String>>,
     pub environment: Environment,
-    /// BVH over `triangles` (same triangle order), as the frame places them.
-    pub bvh: TriangleBvh,
+    /// BVH over `triangles` (same triangle order), as the frame places them: built with the
+    /// scene where no two-level BVH answers, else on first use ([`Scene::bvh`]).
+    flat_bvh: std::sync::OnceLock<TriangleBvh>,
+    /// The two-level BVH (each primitive once, in local space, under its placements) where
+    /// some primitive is placed more than once and no mesh moves; it then answers the CPU's
+    /// closest hits unless Embree was asked for.
+    pub instanced: Option<InstancedBvh>,
     /// Embree over the same triangles where [`Scene::use_accel`] chose it; `None`: the BVH
     /// answers the CPU's closest hits.
     pub embree: Option<EmbreeTriangles>,
@@ -193,7 +201,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     } = material::read_materials(&mut ctx, doc)?;
     let images = texture::read_images(&ctx, doc, &loaded.buffers, &loaded.base_dir, &mut textures)?;
     let default_material = (materials.len() - 1) as u32;
-    let geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
+    let mut geo = mesh::flatten(&mut ctx, doc, &loaded.buffers, &nodes, default_material)?;
     let read_lights = lights::read_lights(&mut ctx, doc, &nodes)?;
     let environment = lights::read_environment(&mut ctx, doc, &loaded.base_dir)?;
     let mut vdb_media = media::read_vdb_media(
@@ -240,15 +248,16 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
 
+    let moving_meshes = steps
+        .as_ref()
+        .and_then(|s| moving_meshes::MovingMeshes::of_steps(s, &nodes, &geo, shutter));
     let read_seconds = start.elapsed().as_secs_f64();
-    let bvh = world_bvh(&geo);
+    let (flat_bvh, instanced) =
+        accelerators::build(&mut geo, moving_meshes.is_some()).map_err(|e| ctx_invalid(path, e))?;
     let timings = geometry_stats::LoadTimings {
         read_seconds,
         bvh_seconds: start.elapsed().as_secs_f64() - read_seconds,
     };
-    let moving_meshes = steps
-        .as_ref()
-        .and_then(|s| moving_meshes::MovingMeshes::of_steps(s, &nodes, &geo, shutter));
     if let Some(m) = &moving_meshes {
         bounds = bounds.union(&m.swept_bounds());
     }
@@ -269,7 +278,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         lights: read_lights.lights,
         light_names: read_lights.light_names,
         environment,
-        bvh,
+        flat_bvh,
+        instanced,
         embree: None,
         moving_meshes,
         bounds,
@@ -288,19 +298,6 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         .validate()
         .map_err(|e| ctx_invalid(path, format!("internal consistency check failed: {e}")))?;
     Ok(scene)
-}
-
-/// The BVH over the world-space triangles of `geo`, in their order.
-fn world_bvh(geo: &mesh::Geometry) -> TriangleBvh {
-    let corners = geo
-        .triangles
-        .iter()
-        .map(|t| {
-            t.vertices
-                .map(|i| Vec3A::from(geo.vertices[i as usize].position))
-        })
-        .collect();
-    TriangleBvh::build(corners)
 }
 
 /// Warns about instances that bound a homogeneous medium but are not closed (some edge not
@@ -361,61 +358,6 @@ impl Scene {
     /// Human-readable description: camera, meshes, materials, lights, media and effects.
     pub fn summary(&self) -> String {
         summary::summary(self)
-    }
-
-    /// The nearest surface hit with `t` in `[t_min, t_max]` by a ray at time offset `dt`
-    /// (frames): moving meshes where they are then.
-    #[inline]
-    pub fn closest_hit(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        dt: f32,
-    ) -> Option<crate::accel::Hit> {
-        match (&self.moving_meshes, &self.embree) {
-            (None, None) => self.bvh.closest_hit(ray, t_min, t_max),
-            (None, Some(e)) => e.closest_hit(&self.bvh, ray, t_min, t_max),
-            (Some(m), _) => m.closest_hit(ray, t_min, t_max, dt),
-        }
-    }
-
-    /// Chooses the CPU's closest-hit accelerator for the static triangles, building Embree's
-    /// scene where asked or where [`Accel::Auto`] picks it for the scene's size. A scene with
-    /// moving meshes keeps the BVH (Embree holds static triangles only). The error names the
-    /// scene file; only an explicit [`Accel::Embree`] fails, `Auto` falls back to the BVH.
-    pub fn use_accel(&mut self, accel: Accel) -> Result<AccelUsed, SceneError> {
-        self.use_accel_with(accel, EmbreeTriangles::build)
-    }
-
-    /// [`Scene::use_accel`] with Embree's scene built by `build` from the vertices and the
-    /// triangles' indices (tests make it fail).
-    pub fn use_accel_with(
-        &mut self,
-        accel: Accel,
-        build: impl FnOnce(&[[f32; 3]], &[[u32; 3]]) -> Result<EmbreeTriangles, String>,
-    ) -> Result<AccelUsed, SceneError> {
-        self.embree = None;
-        let bvh = |fallback| AccelUsed {
-            asked: accel,
-            accel: Accel::Bvh,
-            fallback,
-        };
-        if self.moving_meshes.is_some() || accel.for_triangles(self.triangles.len()) == Accel::Bvh {
-            return Ok(bvh(None));
-        }
-        let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();
-        let indices: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.vertices).collect();
-        match build(&vertices, &indices) {
-            Ok(embree) => self.embree = Some(embree),
-            Err(e) if accel == Accel::Auto => return Ok(bvh(Some(e))),
-            Err(e) => return Err(ctx_invalid(&self.source, e)),
-        }
-        Ok(AccelUsed {
-            asked: accel,
-            accel: Accel::Embree,
-            fallback: None,
-        })
     }
 
     /// Where triangle `t`'s instance is at time offset `dt` relative to the frame, `None` where
@@ -594,9 +536,6 @@ impl Scene {
         if !(c.world_from_camera.is_finite() && c.yfov > 0.0 && c.yfov < std::f32::consts::PI) {
             return Err("camera is inconsistent".into());
         }
-        if self.bvh.len() != self.triangles.len() {
-            return Err("BVH and triangle counts differ".into());
-        }
-        self.bvh.validate()
+        self.validate_accelerators()
     }
 }

@@ -17,7 +17,7 @@ use crate::common::scratch;
 
 #[allow(dead_code)]
 #[path = "../../scenes/make_heavy.rs"]
-mod make_heavy;
+pub mod make_heavy;
 
 /// Random rays per scene on which the accelerators are compared.
 const RAYS: usize = 1_000_000;
@@ -167,7 +167,7 @@ fn embree_and_bvh_agree_on_every_example_scene() {
         // Origins in the scene's bounds grown by a tenth, so some rays start outside.
         let pad = 0.1 * (scene.bounds.max - scene.bounds.min);
         let (lo, hi) = (scene.bounds.min - pad, scene.bounds.max + pad);
-        let t = compare(&scene.bvh, &embree, lo, hi, RAYS, 1000 + k as u64);
+        let t = compare(scene.bvh(), &embree, lo, hi, RAYS, 1000 + k as u64);
         check(&format!("{name} ({} triangles)", scene.triangles.len()), &t);
         total.rays += t.rays;
         total.hits += t.hits;
@@ -191,7 +191,7 @@ fn embree_and_bvh_agree_on_the_heavy_scene() {
     let embree = embree_of(&scene);
     let pad = 0.1 * (scene.bounds.max - scene.bounds.min);
     let (lo, hi) = (scene.bounds.min - pad, scene.bounds.max + pad);
-    let t = compare(&scene.bvh, &embree, lo, hi, RAYS, 77);
+    let t = compare(scene.bvh(), &embree, lo, hi, RAYS, 77);
     check(
         &format!("heavy scene ({} triangles)", w.placed_triangles),
         &t,

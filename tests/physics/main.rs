@@ -9,6 +9,7 @@ mod common;
 
 mod accel_auto;
 mod accel_embree;
+mod accel_instanced;
 mod adaptive;
 mod data_passes;
 mod emission_support;

@@ -287,7 +287,7 @@ impl Geometry {
             triangle_uvs: vec![GpuTriangleUv::zeroed()],
             area_lights: vec![GpuAreaLight::zeroed()],
         };
-        let Some(bvh) = scene.bvh.cwbvh() else {
+        let Some(bvh) = scene.bvh().cwbvh() else {
             return Ok(g);
         };
         // Selection density of each area light, by scene triangle.

@@ -1,0 +1,139 @@
+//! The CPU's closest-hit accelerators of a scene and the choice among them: the flat BVH over
+//! the world-space triangles; the two-level BVH where some primitive is placed more than once,
+//! which stores each primitive's triangles once; and Embree over the flat triangles.
+//!
+//! A scene with a two-level BVH builds its flat BVH only when something asks for it (the GPU's
+//! upload, Embree's retest, comparisons in tests), so a CPU render of a scene of many
+//! placements never holds a copy of every placed triangle's corners and BVH leaves.
+use std::sync::OnceLock;
+
+use glam::Vec3A;
+
+use super::mesh::{Geometry, Triangle, Vertex};
+use super::{ctx_invalid, AccelUsed, Scene, SceneError};
+use crate::accel::embree::EmbreeTriangles;
+use crate::accel::instanced::InstancedBvh;
+use crate::accel::{Accel, Hit, TriangleBvh};
+use crate::math::Ray;
+
+/// The BVH over the world-space `triangles`, in their order.
+fn world_bvh(vertices: &[Vertex], triangles: &[Triangle]) -> TriangleBvh {
+    let corners = triangles
+        .iter()
+        .map(|t| {
+            t.vertices
+                .map(|i| Vec3A::from(vertices[i as usize].position))
+        })
+        .collect();
+    TriangleBvh::build(corners)
+}
+
+/// The accelerators a scene starts with: the two-level BVH where `geo` places some primitive
+/// more than once and no mesh moves (the flat BVH then waits for first use), else the flat
+/// BVH. Takes `geo`'s shapes and placements, which only the two-level BVH keeps.
+pub(super) fn build(
+    geo: &mut Geometry,
+    moving: bool,
+) -> Result<(OnceLock<TriangleBvh>, Option<InstancedBvh>), String> {
+    let two_level = !moving && geo.repeats_a_shape();
+    let shapes = std::mem::take(&mut geo.shapes);
+    let placements = std::mem::take(&mut geo.placements);
+    let flat = OnceLock::new();
+    if !two_level {
+        let _ = flat.set(world_bvh(&geo.vertices, &geo.triangles));
+        return Ok((flat, None));
+    }
+    let instanced = InstancedBvh::build(shapes, &placements)?;
+    Ok((flat, Some(instanced)))
+}
+
+impl Scene {
+    /// The BVH over the world-space triangles (same order as `triangles`), built here on first
+    /// use where the scene answers its closest hits through the two-level BVH.
+    pub fn bvh(&self) -> &TriangleBvh {
+        self.flat_bvh
+            .get_or_init(|| world_bvh(&self.vertices, &self.triangles))
+    }
+
+    /// The flat BVH where it has been built, `None` where only the two-level BVH has been
+    /// needed so far (what the geometry holds now).
+    pub fn built_flat_bvh(&self) -> Option<&TriangleBvh> {
+        self.flat_bvh.get()
+    }
+
+    /// The nearest surface hit with `t` in `[t_min, t_max]` by a ray at time offset `dt`
+    /// (frames): moving meshes where they are then.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32, dt: f32) -> Option<Hit> {
+        match (&self.moving_meshes, &self.embree, &self.instanced) {
+            (Some(m), _, _) => m.closest_hit(ray, t_min, t_max, dt),
+            (None, Some(e), _) => e.closest_hit(self.bvh(), ray, t_min, t_max),
+            (None, None, Some(i)) => i.closest_hit(ray, t_min, t_max),
+            (None, None, None) => self.bvh().closest_hit(ray, t_min, t_max),
+        }
+    }
+
+    /// Chooses the CPU's closest-hit accelerator for the static triangles, building Embree's
+    /// scene where asked or where [`Accel::Auto`] picks it for the scene's size. A scene with
+    /// moving meshes keeps the BVH (Embree holds static triangles only); a scene with a
+    /// two-level BVH keeps it unless Embree is asked for by name (Embree holds flat triangles
+    /// only, every placement a copy). The error names the scene file; only an explicit
+    /// [`Accel::Embree`] fails, `Auto` falls back to the BVH.
+    pub fn use_accel(&mut self, accel: Accel) -> Result<AccelUsed, SceneError> {
+        self.use_accel_with(accel, EmbreeTriangles::build)
+    }
+
+    /// [`Scene::use_accel`] with Embree's scene built by `build` from the vertices and the
+    /// triangles' indices (tests make it fail).
+    pub fn use_accel_with(
+        &mut self,
+        accel: Accel,
+        build: impl FnOnce(&[[f32; 3]], &[[u32; 3]]) -> Result<EmbreeTriangles, String>,
+    ) -> Result<AccelUsed, SceneError> {
+        self.embree = None;
+        let bvh = |fallback| AccelUsed {
+            asked: accel,
+            accel: Accel::Bvh,
+            fallback,
+        };
+        let two_level_kept = self.instanced.is_some() && accel != Accel::Embree;
+        if self.moving_meshes.is_some()
+            || two_level_kept
+            || accel.for_triangles(self.triangles.len()) == Accel::Bvh
+        {
+            return Ok(bvh(None));
+        }
+        // Embree's hits are restated by Brume's test on the flat BVH's corners: build it now,
+        // before Embree holds its memory, rather than inside the first render thread's query.
+        self.bvh();
+        let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();
+        let indices: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.vertices).collect();
+        match build(&vertices, &indices) {
+            Ok(embree) => self.embree = Some(embree),
+            Err(e) if accel == Accel::Auto => return Ok(bvh(Some(e))),
+            Err(e) => return Err(ctx_invalid(&self.source, e)),
+        }
+        Ok(AccelUsed {
+            asked: accel,
+            accel: Accel::Embree,
+            fallback: None,
+        })
+    }
+
+    /// Checks the accelerators built so far: each covers every triangle and is sound.
+    pub(super) fn validate_accelerators(&self) -> Result<(), String> {
+        if let Some(i) = &self.instanced {
+            if i.len() != self.triangles.len() {
+                return Err("two-level BVH and triangle counts differ".into());
+            }
+            i.validate()?;
+        }
+        if let Some(b) = self.flat_bvh.get() {
+            if b.len() != self.triangles.len() {
+                return Err("BVH and triangle counts differ".into());
+            }
+            b.validate()?;
+        }
+        Ok(())
+    }
+}
