@@ -213,13 +213,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         frame,
     )?;
 
-    let mut bounds = geo
-        .vertices
-        .iter()
-        .fold(Aabb::EMPTY, |b, v| b.union_point(Vec3::from(v.position)));
-    for m in &vdb_media {
-        bounds = bounds.union(&m.world_bounds);
-    }
+    let mut bounds = content_bounds(&geo, &vdb_media);
     let camera = camera::choose_camera(&mut ctx, doc, &nodes, options.camera.as_deref(), &bounds)?;
     let steps = motion::placements(path, doc, &animations, frame, fps, shutter)?;
     let camera_motion = match &steps {
@@ -298,6 +292,19 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         .validate()
         .map_err(|e| ctx_invalid(path, format!("internal consistency check failed: {e}")))?;
     Ok(scene)
+}
+
+/// The box around the meshes' world-space vertices and the VDB media: what a default camera
+/// frames.
+fn content_bounds(geo: &mesh::Geometry, vdb_media: &[VdbMediumDesc]) -> Aabb {
+    let mut bounds = geo
+        .vertices
+        .iter()
+        .fold(Aabb::EMPTY, |b, v| b.union_point(Vec3::from(v.position)));
+    for m in vdb_media {
+        bounds = bounds.union(&m.world_bounds);
+    }
+    bounds
 }
 
 /// Warns about instances that bound a homogeneous medium but are not closed (some edge not

@@ -176,17 +176,7 @@ pub fn render_observed(
 ) -> Result<(RenderOutput, GpuTimings), GpuRenderError> {
     let start = Instant::now();
     check_supported(rs, settings)?;
-    // As on the CPU: the generic variant has every feature on. The variant's flags also
-    // count disjoint VDB media as a mixture (`gpu_features`); the output keeps the scene's.
-    let (scene_features, features) = if settings.generic {
-        (FeatureFlags::ALL, FeatureFlags::ALL)
-    } else {
-        let f = super::graph::gpu_features(rs);
-        // Distance sampling alone carries no equiangular code.
-        let equiangular =
-            f.equiangular && settings.volume_sampling != crate::render::VolumeSampling::Distance;
-        (rs.features, FeatureFlags { equiangular, ..f })
-    };
+    let (scene_features, features) = variant_features(rs, settings);
     let cfg = TrackingConfig::from_settings(settings);
     let (w, h) = (settings.width, settings.height);
     let limit = ctx.limits.max_storage_buffer_binding_size;
@@ -289,6 +279,19 @@ pub fn render_observed(
         adapter: ctx.adapter_name().to_string(),
     };
     Ok((out, timings))
+}
+
+/// The flags the output reports and those the kernels are specialised for. As on the CPU,
+/// the generic variant has every feature on; the variant's flags also count disjoint VDB media
+/// as a mixture (`gpu_features`), and distance sampling alone carries no equiangular code.
+fn variant_features(rs: &RenderScene, settings: &RenderSettings) -> (FeatureFlags, FeatureFlags) {
+    if settings.generic {
+        return (FeatureFlags::ALL, FeatureFlags::ALL);
+    }
+    let f = super::graph::gpu_features(rs);
+    let equiangular =
+        f.equiangular && settings.volume_sampling != crate::render::VolumeSampling::Distance;
+    (rs.features, FeatureFlags { equiangular, ..f })
 }
 
 /// The stages' kernels for `features`, compiled for `settings`' sampler and passes, over
