@@ -9,6 +9,7 @@ pub mod farm;
 pub mod gpu;
 pub mod grids;
 pub mod overlap;
+pub mod rays;
 pub mod reference;
 pub mod render;
 pub mod scratch;

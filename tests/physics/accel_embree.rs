@@ -22,27 +22,7 @@ pub mod make_heavy;
 /// Random rays per scene on which the accelerators are compared.
 const RAYS: usize = 1_000_000;
 
-/// A small deterministic generator (SplitMix64), so failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn in_box(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
-        lo + (hi - lo) * Vec3::new(self.next(), self.next(), self.next())
-    }
-    /// A uniform direction on the sphere.
-    fn direction(&mut self) -> Vec3 {
-        let z = 1.0 - 2.0 * self.next();
-        let phi = std::f32::consts::TAU * self.next();
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
-    }
-}
+use crate::common::rays::Rng;
 
 /// What comparing the two accelerators over a set of rays found.
 #[derive(Default, Debug)]

@@ -4,20 +4,7 @@ use brume::accel::{intersect_triangle, TriangleBvh};
 use brume::math::Ray;
 use glam::{Vec3, Vec3A};
 
-/// A small deterministic generator (SplitMix64), so failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + Vec3::splat(lo)
-    }
-}
+use crate::common::rays::Rng;
 
 fn random_triangles(rng: &mut Rng, n: usize) -> Vec<[Vec3A; 3]> {
     (0..n)
