@@ -21,7 +21,7 @@ pub fn report_accel(
         return Ok(());
     }
     let used = scene.use_accel(asked)?;
-    let n = scene.triangles.len();
+    let n = scene.triangle_count();
     let threshold = brume::accel::EMBREE_FROM_TRIANGLES;
     let why = if let Some(e) = &used.fallback {
         eprintln!("warning: --accel auto: Embree could not be built ({e}); the BVH renders");

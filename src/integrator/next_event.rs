@@ -42,8 +42,8 @@ pub(super) fn trace_shadow<F: Features>(
         // the surface first too). Where the light lies behind a refractive boundary (a smoke
         // in a water tank lit by the sun) every shadow ray from inside is such a ray.
         let mat_index = hit.map(|h| {
-            let tri = &rs.scene.triangles[h.triangle as usize];
-            rs.scene.instances[tri.instance as usize].material as usize
+            let instance = rs.scene.triangle_instance(h.triangle as usize);
+            rs.scene.instances[instance as usize].material as usize
         });
         if mat_index.is_some_and(|m| rs.kinds[m] != SurfaceKind::Null) {
             return Vec3::ZERO;

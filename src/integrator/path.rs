@@ -477,8 +477,8 @@ fn shade_surface<F: Features>(
     let scene = rs.scene;
     let p = ps.ray.at(h.t);
     let wo = -ps.ray.d;
-    let tri = &scene.triangles[h.triangle as usize];
-    let mat_index = scene.instances[tri.instance as usize].material as usize;
+    let mat_index =
+        scene.instances[scene.triangle_instance(h.triangle as usize) as usize].material as usize;
     let mat = &scene.materials[mat_index];
     let [a, b, c] = scene.triangle_corners_at(h.triangle as usize, cfg.time);
     let ng = (b - a).cross(c - a).normalize_or_zero();
@@ -673,8 +673,8 @@ fn escape(rs: &RenderScene, limits: &PathLimits, ps: &mut PathState) {
 /// Interpolated vertex normal on `side`'s hemisphere; the geometric normal when the file
 /// gave none.
 fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3, dt: f32) -> Vec3 {
-    let v = rs.scene.triangles[t].vertices;
-    let n = |i: usize| Vec3::from(rs.scene.vertices[v[i] as usize].normal);
+    let v = rs.scene.triangle_vertices(t);
+    let n = |i: usize| Vec3::from(v[i].normal);
     let mut ns = n(0) * (1.0 - b1 - b2) + n(1) * b1 + n(2) * b2;
     if let Some(f) = rs.scene.triangle_motion(t, dt) {
         // Normals map by the inverse transpose of the motion's linear part.

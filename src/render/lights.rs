@@ -151,14 +151,18 @@ impl Lights {
         let mut tris = Vec::new();
         let mut weights = Vec::new();
         let mut lum = Vec::new();
-        for (k, t) in scene.triangles.iter().enumerate() {
-            let mat = &scene.materials[scene.instances[t.instance as usize].material as usize];
+        for (i, inst) in scene.instances.iter().enumerate() {
+            let mat = &scene.materials[inst.material as usize];
             // Weighted by the mean over its emissive texture: any positive weight where the
             // emission can be non-zero keeps the estimator unbiased; the mean keeps it efficient.
             let l = scene.mean_emission_luminance(mat);
             // A moving emitter is found by paths alone: `pdf_area` is then 0 and its MIS
             // weight 1, which stays unbiased where its position depends on the sample's time.
-            if l > 0.0 && !scene.instance_moves(t.instance) {
+            if !(l > 0.0) || scene.instance_moves(i as u32) {
+                continue;
+            }
+            let first = inst.first_triangle as usize;
+            for k in first..first + inst.triangle_count as usize {
                 let [a, b, c] = scene.triangle_corners(k);
                 let area = 0.5 * (b - a).cross(c - a).length();
                 if area > 0.0 {
@@ -489,7 +493,7 @@ impl Lights {
         }
         let wi = to / dist;
         let mat = &scene.materials
-            [scene.instances[scene.triangles[t].instance as usize].material as usize];
+            [scene.instances[scene.triangle_instance(t) as usize].material as usize];
         let cos_l = n_l.dot(-wi);
         let li = emitted(scene, mat, scene.material_uv(mat, t, b1, b2), cos_l);
         let pdf_area = area.lum[i] / area.total;

@@ -282,7 +282,7 @@ impl<'s> RenderScene<'s> {
                     s.x != s.y || s.y != s.z
                 }));
         let features = FeatureFlags {
-            surfaces: !scene.triangles.is_empty(),
+            surfaces: scene.triangle_count() > 0,
             heterogeneous: !vdb.is_empty(),
             homogeneous: used_homogeneous,
             emission: vdb.iter().any(|v| v.emission.is_some()),

@@ -2,14 +2,15 @@
 //! the world-space triangles; the two-level BVH where some primitive is placed more than once,
 //! which stores each primitive's triangles once; and Embree over the flat triangles.
 //!
-//! A scene with a two-level BVH builds its flat BVH only when something asks for it (the GPU's
-//! upload, Embree's retest, comparisons in tests), so a CPU render of a scene of many
-//! placements never holds a copy of every placed triangle's corners and BVH leaves.
+//! A scene with a two-level BVH builds its flat BVH and its world arrays only when something
+//! asks for them (the GPU's upload, Embree, comparisons in tests), so a CPU render of a scene
+//! of many placements never holds a copy of every placed triangle.
 use std::sync::OnceLock;
 
 use glam::Vec3A;
 
 use super::mesh::{Geometry, Triangle, Vertex};
+use super::world_mesh::WorldMesh;
 use super::{ctx_invalid, AccelUsed, Scene, SceneError};
 use crate::accel::embree::EmbreeTriangles;
 use crate::accel::instanced::InstancedBvh;
@@ -29,10 +30,12 @@ fn world_bvh(vertices: &[Vertex], triangles: &[Triangle]) -> TriangleBvh {
 }
 
 /// The accelerators a scene starts with: the two-level BVH where `geo` places some primitive
-/// more than once and no mesh moves (the flat BVH then waits for first use), else the flat
-/// BVH. Takes `geo`'s shapes and placements, which only the two-level BVH keeps.
+/// more than once and no mesh moves (the flat BVH and `world`'s arrays then wait for first
+/// use), else the flat BVH over `world`'s arrays, which alone are kept. Takes `geo`'s shapes
+/// and placements, which only the two-level BVH keeps.
 pub(super) fn build(
     geo: &mut Geometry,
+    world: &mut WorldMesh,
     moving: bool,
 ) -> Result<(OnceLock<TriangleBvh>, Option<InstancedBvh>), String> {
     let two_level = !moving && geo.repeats_a_shape();
@@ -40,7 +43,9 @@ pub(super) fn build(
     let placements = std::mem::take(&mut geo.placements);
     let flat = OnceLock::new();
     if !two_level {
-        let _ = flat.set(world_bvh(&geo.vertices, &geo.triangles));
+        world.keep_arrays_only();
+        let a = world.arrays();
+        let _ = flat.set(world_bvh(&a.vertices, &a.triangles));
         return Ok((flat, None));
     }
     let instanced = InstancedBvh::build(shapes, &placements)?;
@@ -52,7 +57,7 @@ impl Scene {
     /// use where the scene answers its closest hits through the two-level BVH.
     pub fn bvh(&self) -> &TriangleBvh {
         self.flat_bvh
-            .get_or_init(|| world_bvh(&self.vertices, &self.triangles))
+            .get_or_init(|| world_bvh(self.vertices(), self.triangles()))
     }
 
     /// The flat BVH where it has been built, `None` where only the two-level BVH has been
@@ -99,15 +104,15 @@ impl Scene {
         let two_level_kept = self.instanced.is_some() && accel != Accel::Embree;
         if self.moving_meshes.is_some()
             || two_level_kept
-            || accel.for_triangles(self.triangles.len()) == Accel::Bvh
+            || accel.for_triangles(self.triangle_count()) == Accel::Bvh
         {
             return Ok(bvh(None));
         }
         // Embree's hits are restated by Brume's test on the flat BVH's corners: build it now,
         // before Embree holds its memory, rather than inside the first render thread's query.
         self.bvh();
-        let vertices: Vec<[f32; 3]> = self.vertices.iter().map(|v| v.position).collect();
-        let indices: Vec<[u32; 3]> = self.triangles.iter().map(|t| t.vertices).collect();
+        let vertices: Vec<[f32; 3]> = self.vertices().iter().map(|v| v.position).collect();
+        let indices: Vec<[u32; 3]> = self.triangles().iter().map(|t| t.vertices).collect();
         match build(&vertices, &indices) {
             Ok(embree) => self.embree = Some(embree),
             Err(e) if accel == Accel::Auto => return Ok(bvh(Some(e))),
@@ -123,13 +128,13 @@ impl Scene {
     /// Checks the accelerators built so far: each covers every triangle and is sound.
     pub(super) fn validate_accelerators(&self) -> Result<(), String> {
         if let Some(i) = &self.instanced {
-            if i.len() != self.triangles.len() {
+            if i.len() != self.triangle_count() {
                 return Err("two-level BVH and triangle counts differ".into());
             }
             i.validate()?;
         }
         if let Some(b) = self.flat_bvh.get() {
-            if b.len() != self.triangles.len() {
+            if b.len() != self.triangle_count() {
                 return Err("BVH and triangle counts differ".into());
             }
             b.validate()?;

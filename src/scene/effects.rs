@@ -54,7 +54,7 @@ impl Effects {
     /// the presence of an emission or temperature grid with non-zero strength.
     pub fn of(scene: &Scene) -> Effects {
         let mut e = Effects {
-            surfaces: !scene.triangles.is_empty(),
+            surfaces: scene.triangle_count() > 0,
             ..Effects::default()
         };
         // Records one medium; false when it has no extinction at all.

@@ -28,10 +28,14 @@ pub struct GeometryStats {
     pub stored_triangles: usize,
     /// Triangles in the world, every placement counted (`Scene::triangles`).
     pub instanced_triangles: usize,
-    /// World-space vertices (`Scene::vertices`).
+    /// World-space vertices, every placement counted.
     pub vertices: usize,
-    /// Bytes of the flat vertex, triangle and instance arrays.
+    /// Bytes of the instance records and of the world-space vertex and triangle arrays where
+    /// they have been built (`Scene::world_arrays_built`).
     pub array_bytes: usize,
+    /// Bytes of the stored primitives (each in its local space, once) kept to place triangles
+    /// from where the world arrays wait for first use.
+    pub stored_bytes: usize,
     /// Bytes of the flat BVH (nodes, primitive indices and triangle corners), where it has
     /// been built.
     pub bvh_bytes: usize,
@@ -49,16 +53,21 @@ impl GeometryStats {
         for i in &scene.instances {
             distinct.insert((i.mesh, i.primitive), i.triangle_count);
         }
-        let size = std::mem::size_of::<Vertex>() * scene.vertices.len()
-            + std::mem::size_of::<Triangle>() * scene.triangles.len()
-            + std::mem::size_of::<Instance>() * scene.instances.len();
+        let world = if scene.world_arrays_built() {
+            std::mem::size_of::<Vertex>() * scene.vertex_count()
+                + std::mem::size_of::<Triangle>() * scene.triangle_count()
+        } else {
+            0
+        };
+        let size = world + std::mem::size_of::<Instance>() * scene.instances.len();
         Self {
             primitives: distinct.len(),
             placements: scene.instances.len(),
             stored_triangles: distinct.values().map(|&n| n as usize).sum(),
-            instanced_triangles: scene.triangles.len(),
-            vertices: scene.vertices.len(),
+            instanced_triangles: scene.triangle_count(),
+            vertices: scene.vertex_count(),
             array_bytes: size,
+            stored_bytes: scene.stored_primitive_bytes(),
             bvh_bytes: scene.built_flat_bvh().map_or(0, |b| b.memory_bytes()),
             two_level_bytes: scene.instanced.as_ref().map(|i| i.memory_bytes()),
             embree_bytes: scene
@@ -71,6 +80,7 @@ impl GeometryStats {
     /// Bytes of the geometry in memory: the arrays, the BVHs and Embree's scene.
     pub fn total_bytes(&self) -> usize {
         self.array_bytes
+            + self.stored_bytes
             + self.bvh_bytes
             + self.two_level_bytes.unwrap_or(0)
             + self.embree_bytes.unwrap_or(0)
@@ -86,10 +96,14 @@ impl GeometryStats {
         let two_level = self.two_level_bytes.map_or(String::new(), |b| {
             format!(" + {:.1} MiB two-level BVH", mib(b))
         });
+        let stored = match self.stored_bytes {
+            0 => String::new(),
+            b => format!(" + {:.1} MiB stored primitives", mib(b)),
+        };
         format!(
             "triangles: {} stored ({} primitives, each once), {} instanced ({} placements, \
-             each flattened to world space), {} vertices\n\
-             geometry memory: {:.1} MiB arrays + {:.1} MiB BVH{two_level}{embree} = \
+             each placed in world space), {} vertices\n\
+             geometry memory: {:.1} MiB arrays{stored} + {:.1} MiB BVH{two_level}{embree} = \
              {:.1} MiB ({:.0} bytes per stored triangle, {:.0} per instanced one); \
              loaded in {:.2} s, BVH built in {:.2} s",
             self.stored_triangles,

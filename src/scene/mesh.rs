@@ -1,12 +1,12 @@
-//! Triangle meshes flattened to world space: one vertex array, one triangle array and one
-//! instance record per (node, primitive), laid out for direct upload to the GPU. Beside them,
-//! each distinct primitive's triangles in its mesh's local space and each instance's transform,
-//! from which the CPU's two-level BVH traces meshes placed many times without their copies.
+//! Triangle meshes as a glTF file places them: each distinct primitive read once in its mesh's
+//! local space, and one instance record and transform per (node, primitive) placement, each
+//! `EXT_mesh_gpu_instancing` row one more. The vertex, triangle and instance records are laid
+//! out for direct upload to the GPU; [`super::world_mesh`] places the primitives in world space.
 //!
 //! Points and lines have no surface to scatter from, so such primitives are skipped with a
 //! warning rather than rejected; triangle strips and fans are unrolled into triangles.
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat3, Mat4, Vec3, Vec3A};
+use glam::{Vec3, Vec3A};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 
@@ -69,14 +69,16 @@ const _: () = assert!(std::mem::size_of::<Vertex>() == 32);
 const _: () = assert!(std::mem::size_of::<Triangle>() == 16);
 const _: () = assert!(std::mem::size_of::<Instance>() == 32);
 
-/// Flat mesh arrays of a scene, and the local shapes and placements they were flattened from.
+/// The meshes of a scene as read: each distinct primitive once in its local space, and each
+/// (node, primitive) placement as an instance record and a transform. [`super::world_mesh`]
+/// places them in world space.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
-    pub vertices: Vec<Vertex>,
-    pub triangles: Vec<Triangle>,
     pub instances: Vec<Instance>,
-    /// Each distinct primitive's triangle corners in its mesh's local space, once however
-    /// many nodes place it (local triangle `k` is triangle `k` of each of its instances).
+    /// Each distinct primitive in its mesh's local space, once however many nodes place it.
+    pub locals: Vec<LocalPrimitive>,
+    /// The triangle corners of `locals` (local triangle `k` is triangle `k` of each of its
+    /// instances), as the two-level BVH takes them.
     pub shapes: Vec<Vec<[Vec3A; 3]>>,
     /// Per instance (`instances` order): its shape and world transform.
     pub placements: Vec<ShapePlacement>,
@@ -104,29 +106,34 @@ pub fn flatten(
     default_material: u32,
 ) -> Result<Geometry, SceneError> {
     let mut geo = Geometry::default();
-    // Each primitive read once: its triangles and, where it has any, its shape's index.
-    let mut read: HashMap<(usize, usize), Option<(LocalPrimitive, u32)>> = HashMap::new();
+    // World-space vertices and triangles the placements make, which 32-bit indices address.
+    let (mut vertices, mut triangles) = (0usize, 0usize);
+    // Each primitive read once: its shape's index where it has triangles.
+    let mut read: HashMap<(usize, usize), Option<u32>> = HashMap::new();
     for placed in nodes {
         let node = placed.in_doc(doc);
         let locals = instance_transforms(ctx, doc, buffers, &node)?;
         let Some(mesh) = node.mesh() else { continue };
         for prim in mesh.primitives() {
             let key = (mesh.index(), prim.index());
-            let local = match read.entry(key) {
-                Entry::Occupied(e) => e.into_mut(),
+            let shape = match read.entry(key) {
+                Entry::Occupied(e) => *e.get(),
                 Entry::Vacant(e) => {
                     let pointer = format!("/meshes/{}/primitives/{}", key.0, key.1);
                     let local = read_primitive(ctx, buffers, &prim, &pointer)
                         .map_err(|e| placed_by(e, &node))?;
-                    e.insert(local.map(|local| {
+                    *e.insert(local.map(|local| {
                         geo.shapes.push(local_corners(&local));
-                        (local, geo.shapes.len() as u32 - 1)
+                        geo.locals.push(local);
+                        geo.shapes.len() as u32 - 1
                     }))
                 }
             };
-            let Some((local, shape)) = local.as_ref() else {
+            let Some(shape) = shape else {
                 continue;
             };
+            let local = &geo.locals[shape as usize];
+            let (n_vertices, n_triangles) = (local.positions.len(), local.triangles.len());
             let material = prim
                 .material()
                 .index()
@@ -136,9 +143,7 @@ pub fn flatten(
                     have.checked_add(more)
                         .is_some_and(|n| n <= NO_INDEX as usize)
                 };
-                if !fits(geo.vertices.len(), local.positions.len())
-                    || !fits(geo.triangles.len(), local.triangles.len())
-                {
+                if !fits(vertices, n_vertices) || !fits(triangles, n_triangles) {
                     return Err(ctx.invalid(
                         format!("/nodes/{}/mesh", node.index()),
                         format!(
@@ -148,18 +153,27 @@ pub fn flatten(
                             node_label(&node),
                             key.0,
                             key.1,
-                            geo.vertices.len(),
-                            geo.triangles.len()
+                            vertices,
+                            triangles
                         ),
                     ));
                 }
-                let world = placed.world_from_node * *local_from_instance;
                 geo.placements.push(ShapePlacement {
-                    shape: *shape,
-                    world_from_local: world,
-                    first_triangle: geo.triangles.len() as u32,
+                    shape,
+                    world_from_local: placed.world_from_node * *local_from_instance,
+                    first_triangle: triangles as u32,
                 });
-                append(&mut geo, local, world, placed.node, key, material);
+                geo.instances.push(Instance {
+                    material,
+                    first_triangle: triangles as u32,
+                    triangle_count: n_triangles as u32,
+                    node: placed.node as u32,
+                    mesh: key.0 as u32,
+                    primitive: key.1 as u32,
+                    _pad: [0; 2],
+                });
+                vertices += n_vertices;
+                triangles += n_triangles;
             }
         }
     }
@@ -191,6 +205,7 @@ fn placed_by(e: SceneError, node: &gltf::Node) -> SceneError {
 }
 
 /// A primitive in its mesh's local space.
+#[derive(Clone, Debug, Default)]
 pub struct LocalPrimitive {
     pub positions: Vec<Vec3>,
     pub normals: Option<Vec<Vec3>>,
@@ -434,50 +449,4 @@ fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
             .collect(),
         _ => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
     }
-}
-
-/// Transforms a local primitive to world space by `world` (world_from_local) and appends it
-/// as one instance of `(mesh, primitive)` placed by glTF node `node`.
-fn append(
-    geo: &mut Geometry,
-    local: &LocalPrimitive,
-    world: Mat4,
-    node: usize,
-    (mesh, prim): (usize, usize),
-    material: u32,
-) {
-    // Normals transform by the inverse transpose; a mirroring transform flips the winding.
-    let normal_from_local = Mat3::from_mat4(world).inverse().transpose();
-    let mirrored = world.determinant() < 0.0;
-    let base = geo.vertices.len() as u32;
-    for (k, p) in local.positions.iter().enumerate() {
-        let n = local.normals.as_ref().map_or(Vec3::ZERO, |ns| {
-            (normal_from_local * ns[k]).normalize_or_zero()
-        });
-        let [u, v] = local.uvs.as_ref().map_or([0.0, 0.0], |uv| uv[k]);
-        geo.vertices.push(Vertex {
-            position: world.transform_point3(*p).to_array(),
-            u,
-            normal: n.to_array(),
-            v,
-        });
-    }
-    let instance = geo.instances.len() as u32;
-    let first = geo.triangles.len() as u32;
-    for t in &local.triangles {
-        let [a, b, c] = if mirrored { [t[0], t[2], t[1]] } else { *t };
-        geo.triangles.push(Triangle {
-            vertices: [base + a, base + b, base + c],
-            instance,
-        });
-    }
-    geo.instances.push(Instance {
-        material,
-        first_triangle: first,
-        triangle_count: local.triangles.len() as u32,
-        node: node as u32,
-        mesh: mesh as u32,
-        primitive: prim as u32,
-        _pad: [0; 2],
-    });
 }

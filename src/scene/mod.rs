@@ -48,6 +48,7 @@ pub mod sequence;
 mod summary;
 pub mod texture;
 pub mod velocity;
+pub mod world_mesh;
 
 use std::path::{Path, PathBuf};
 
@@ -105,8 +106,10 @@ pub struct Scene {
     pub camera: Camera,
     /// Every camera the file places, including ones not chosen.
     pub cameras: Vec<CameraEntry>,
-    pub vertices: Vec<Vertex>,
-    pub triangles: Vec<Triangle>,
+    /// The meshes in world space: the vertex and triangle arrays ([`Scene::vertices`],
+    /// [`Scene::triangles`]), built on first use where the two-level BVH answers the ray
+    /// queries, and single triangles placed on demand ([`Scene::triangle_vertices`]).
+    world: world_mesh::WorldMesh,
     pub instances: Vec<Instance>,
     /// glTF materials in file order, then the glTF default material.
     pub materials: Vec<Material>,
@@ -213,7 +216,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         frame,
     )?;
 
-    let mut bounds = content_bounds(&geo, &vdb_media);
+    let mut world = world_mesh::WorldMesh::new(std::mem::take(&mut geo.locals), &geo.placements);
+    let mut bounds = content_bounds(&world, &vdb_media);
     let camera = camera::choose_camera(&mut ctx, doc, &nodes, options.camera.as_deref(), &bounds)?;
     let steps = motion::placements(path, doc, &animations, frame, fps, shutter)?;
     let camera_motion = match &steps {
@@ -242,12 +246,12 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         })
         .collect();
 
-    let moving_meshes = steps
-        .as_ref()
-        .and_then(|s| moving_meshes::MovingMeshes::of_steps(s, &nodes, &geo, shutter));
+    let moving_meshes = steps.as_ref().and_then(|s| {
+        moving_meshes::MovingMeshes::of_steps(s, &nodes, &world, &geo.instances, shutter)
+    });
     let read_seconds = start.elapsed().as_secs_f64();
-    let (flat_bvh, instanced) =
-        accelerators::build(&mut geo, moving_meshes.is_some()).map_err(|e| ctx_invalid(path, e))?;
+    let (flat_bvh, instanced) = accelerators::build(&mut geo, &mut world, moving_meshes.is_some())
+        .map_err(|e| ctx_invalid(path, e))?;
     let timings = geometry_stats::LoadTimings {
         read_seconds,
         bvh_seconds: start.elapsed().as_secs_f64() - read_seconds,
@@ -255,13 +259,12 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
     if let Some(m) = &moving_meshes {
         bounds = bounds.union(&m.swept_bounds());
     }
-    warn_open_medium_boundaries(&mut ctx, &geo, &materials);
+    warn_open_medium_boundaries(&mut ctx, &world, &geo.instances, &materials);
     let scene = Scene {
         source: path.to_path_buf(),
         camera,
         cameras: camera::list_cameras(doc, &nodes),
-        vertices: geo.vertices,
-        triangles: geo.triangles,
+        world,
         instances: geo.instances,
         materials,
         material_names,
@@ -296,11 +299,9 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
 
 /// The box around the meshes' world-space vertices and the VDB media: what a default camera
 /// frames.
-fn content_bounds(geo: &mesh::Geometry, vdb_media: &[VdbMediumDesc]) -> Aabb {
-    let mut bounds = geo
-        .vertices
-        .iter()
-        .fold(Aabb::EMPTY, |b, v| b.union_point(Vec3::from(v.position)));
+fn content_bounds(world: &world_mesh::WorldMesh, vdb_media: &[VdbMediumDesc]) -> Aabb {
+    let mut bounds = Aabb::EMPTY;
+    world.for_each_position(|p| bounds = bounds.union_point(p));
     for m in vdb_media {
         bounds = bounds.union(&m.world_bounds);
     }
@@ -310,18 +311,23 @@ fn content_bounds(geo: &mesh::Geometry, vdb_media: &[VdbMediumDesc]) -> Aabb {
 /// Warns about instances that bound a homogeneous medium but are not closed (some edge not
 /// shared by exactly two triangles, after welding equal positions): paths could then enter the
 /// medium without leaving it.
-fn warn_open_medium_boundaries(ctx: &mut error::Ctx, geo: &mesh::Geometry, materials: &[Material]) {
+fn warn_open_medium_boundaries(
+    ctx: &mut error::Ctx,
+    world: &world_mesh::WorldMesh,
+    instances: &[Instance],
+    materials: &[Material],
+) {
     use std::collections::HashMap;
-    for inst in &geo.instances {
+    for inst in instances {
         if materials[inst.material as usize].interior_medium == NO_INDEX {
             continue;
         }
-        let key = |v: u32| geo.vertices[v as usize].position.map(f32::to_bits);
         let mut edges: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
-        let tris = &geo.triangles[inst.first_triangle as usize..][..inst.triangle_count as usize];
-        for t in tris {
+        let first = inst.first_triangle as usize;
+        for t in first..first + inst.triangle_count as usize {
+            let key = world.corners(t).map(|v| v.position.map(f32::to_bits));
             for e in 0..3 {
-                let (a, b) = (key(t.vertices[e]), key(t.vertices[(e + 1) % 3]));
+                let (a, b) = (key[e], key[(e + 1) % 3]);
                 *edges
                     .entry(if a < b { (a, b) } else { (b, a) })
                     .or_default() += 1;
@@ -372,15 +378,61 @@ impl Scene {
     #[inline]
     pub fn triangle_motion(&self, t: usize, dt: f32) -> Option<glam::Affine3A> {
         let m = self.moving_meshes.as_ref()?;
-        m.of_instance(self.triangles[t].instance)
+        m.of_instance(self.triangle_instance(t))
             .map(|f| f.world_from_rest(dt))
     }
 
+    /// The world-space vertex array, every placement's vertices in instance order; built here
+    /// on first use where the scene kept only its stored primitives.
+    pub fn vertices(&self) -> &[Vertex] {
+        &self.world.arrays().vertices
+    }
+
+    /// The world-space triangle array, indexing [`Scene::vertices`], in instance order; built
+    /// here on first use where the scene kept only its stored primitives.
+    pub fn triangles(&self) -> &[Triangle] {
+        &self.world.arrays().triangles
+    }
+
+    /// Whether the world arrays are held (the flat BVH's scenes, or something asked for
+    /// them), rather than only the stored primitives they are built from.
+    pub fn world_arrays_built(&self) -> bool {
+        self.world.built().is_some()
+    }
+
+    /// Bytes of the stored primitives the scene keeps to place triangles from (none where it
+    /// keeps the world arrays alone).
+    pub fn stored_primitive_bytes(&self) -> usize {
+        self.world.stored_bytes()
+    }
+
+    /// Triangles placed in the world, every placement counted.
+    #[inline]
+    pub fn triangle_count(&self) -> usize {
+        self.world.triangle_count()
+    }
+
+    /// Vertices placed in the world, every placement counted.
+    pub fn vertex_count(&self) -> usize {
+        self.world.vertex_count()
+    }
+
+    /// The instance triangle `t` belongs to.
+    #[inline]
+    pub fn triangle_instance(&self, t: usize) -> u32 {
+        self.world.instance_of(t)
+    }
+
+    /// The three world-space vertices of triangle `t`, in its corner order.
+    #[inline]
+    pub fn triangle_vertices(&self, t: usize) -> [Vertex; 3] {
+        self.world.corners(t)
+    }
+
     /// Corner positions of triangle `t`.
+    #[inline]
     pub fn triangle_corners(&self, t: usize) -> [Vec3; 3] {
-        self.triangles[t]
-            .vertices
-            .map(|i| Vec3::from(self.vertices[i as usize].position))
+        self.world.corners(t).map(|v| Vec3::from(v.position))
     }
 
     /// Whether an animation moves instance `k` during the shutter.
@@ -456,35 +508,19 @@ impl Scene {
     /// tiling the triangle array, finite data, physical coefficients, a sound BVH.
     pub fn validate(&self) -> Result<(), String> {
         let finite = |xs: &[f32]| xs.iter().all(|x| x.is_finite());
-        for (k, v) in self.vertices.iter().enumerate() {
-            if !finite(&v.position) || !finite(&v.normal) || !v.u.is_finite() || !v.v.is_finite() {
-                return Err(format!("vertex {k} is not finite"));
-            }
-        }
-        for (k, t) in self.triangles.iter().enumerate() {
-            if t.vertices
-                .iter()
-                .any(|&i| i as usize >= self.vertices.len())
-                || t.instance as usize >= self.instances.len()
-            {
-                return Err(format!("triangle {k} indexes out of range"));
-            }
-        }
+        self.world.validate()?;
         let mut next = 0u32;
         for (k, inst) in self.instances.iter().enumerate() {
             if inst.first_triangle != next || inst.material as usize >= self.materials.len() {
                 return Err(format!("instance {k} has a bad triangle range or material"));
             }
             let end = inst.first_triangle + inst.triangle_count;
-            if self.triangles[inst.first_triangle as usize..end as usize]
-                .iter()
-                .any(|t| t.instance != k as u32)
-            {
+            if (inst.first_triangle..end).any(|t| self.triangle_instance(t as usize) != k as u32) {
                 return Err(format!("instance {k}'s triangles point elsewhere"));
             }
             next = end;
         }
-        if next as usize != self.triangles.len() {
+        if next as usize != self.triangle_count() {
             return Err("instances do not cover every triangle".into());
         }
         for (k, m) in self.materials.iter().enumerate() {

@@ -4,10 +4,11 @@
 //! motion-blurred instances). Still triangles share one BVH.
 use glam::{Affine3A, Vec3, Vec3A};
 
-use super::mesh::{Geometry, Instance, Triangle, Vertex};
+use super::mesh::{Instance, Triangle, Vertex};
 use super::motion::FrameMotion;
 use super::nodes::PlacedNode;
 use super::velocity::Shutter;
+use super::world_mesh::WorldMesh;
 use crate::accel::{Hit, TriangleBvh};
 use crate::math::{Aabb, Ray};
 
@@ -92,27 +93,32 @@ impl MovingMeshes {
         })
     }
 
-    /// The instances of `geo` that move across the shutter's `steps` (`motion::placements`;
+    /// The `instances` of `world` that move across the shutter's `steps` (`motion::placements`;
     /// `nodes`: the placements at the frame), `None` where none does.
     pub fn of_steps(
         steps: &[Vec<PlacedNode>],
         nodes: &[PlacedNode],
-        geo: &Geometry,
+        world: &WorldMesh,
+        instances: &[Instance],
         shutter: Shutter,
     ) -> Option<MovingMeshes> {
-        let motion = geo.instances.iter().map(|inst| {
-            let placement = nodes.iter().position(|p| p.node == inst.node as usize)?;
-            Some(FrameMotion {
-                node: super::motion::placement_motion(steps, placement, shutter)?,
-                frame_world_from_node: nodes[placement].world_from_node,
+        let motion: Vec<_> = instances
+            .iter()
+            .map(|inst| {
+                let placement = nodes.iter().position(|p| p.node == inst.node as usize)?;
+                Some(FrameMotion {
+                    node: super::motion::placement_motion(steps, placement, shutter)?,
+                    frame_world_from_node: nodes[placement].world_from_node,
+                })
             })
-        });
-        Self::build(
-            &geo.vertices,
-            &geo.triangles,
-            &geo.instances,
-            motion.collect(),
-        )
+            .collect();
+        // The world arrays only where something moves: a still scene may trace its placements
+        // through the two-level BVH without them.
+        if motion.iter().all(Option::is_none) {
+            return None;
+        }
+        let a = world.arrays();
+        Self::build(&a.vertices, &a.triangles, instances, motion)
     }
 
     /// The motion of instance `k`, `None` where it stands still.

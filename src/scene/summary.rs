@@ -44,8 +44,8 @@ fn write_summary(s: &Scene, o: &mut String) -> std::fmt::Result {
         o,
         "meshes: {} instances, {} triangles, {} vertices",
         s.instances.len(),
-        s.triangles.len(),
-        s.vertices.len()
+        s.triangle_count(),
+        s.vertex_count()
     )?;
     writeln!(
         o,

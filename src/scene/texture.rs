@@ -225,12 +225,8 @@ impl Scene {
     /// vertices.
     #[inline]
     pub fn uv_at(&self, t: usize, b1: f32, b2: f32) -> Vec2 {
-        let [i0, i1, i2] = self.triangles[t].vertices;
-        let uv = |i: u32| {
-            let v = &self.vertices[i as usize];
-            Vec2::new(v.u, v.v)
-        };
-        uv(i0) * (1.0 - b1 - b2) + uv(i1) * b1 + uv(i2) * b2
+        let uv = self.triangle_vertices(t).map(|v| Vec2::new(v.u, v.v));
+        uv[0] * (1.0 - b1 - b2) + uv[1] * b1 + uv[2] * b2
     }
 
     /// Linear RGB of texture `k` (`NO_INDEX`: white) at `uv`.

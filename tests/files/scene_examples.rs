@@ -76,12 +76,12 @@ fn close(a: &[f32], b: &[f32], tol: f32) -> bool {
 
 /// Every triangle of the examples is wound counter-clockwise around its shading normal.
 fn check_winding(s: &Scene) {
-    for (k, t) in s.triangles.iter().enumerate() {
+    for (k, t) in s.triangles().iter().enumerate() {
         let [a, b, c] = s.triangle_corners(k);
         let n: Vec3 = t
             .vertices
             .iter()
-            .map(|&i| Vec3::from(s.vertices[i as usize].normal))
+            .map(|&i| Vec3::from(s.vertices()[i as usize].normal))
             .sum();
         assert!(
             (b - a).cross(c - a).dot(n) > 0.0,
@@ -112,7 +112,7 @@ fn cloud() {
     let s = load("cloud.gltf");
     assert_eq!(
         (
-            s.triangles.len(),
+            s.triangle_count(),
             s.instances.len(),
             s.lights.len(),
             s.vdb_media.len()
@@ -155,7 +155,7 @@ fn cornell_smoke() {
     assert_eq!(
         (
             s.instances.len(),
-            s.triangles.len(),
+            s.triangle_count(),
             s.materials.len(),
             s.lights.len()
         ),
@@ -220,7 +220,7 @@ fn glass_volume() {
     assert_eq!(
         (
             s.instances.len(),
-            s.triangles.len(),
+            s.triangle_count(),
             s.homogeneous_media.len()
         ),
         (2, 2 + 320, 1)
@@ -228,9 +228,9 @@ fn glass_volume() {
     check_camera(&s, Vec3::new(0.0, 1.6, 5.0), Vec3::new(0.0, 0.9, 0.0), 0.6);
     // The ball node translates the unit icosphere to (0, 1, 0).
     let ball = &s.instances[1];
-    for t in &s.triangles[ball.first_triangle as usize..][..ball.triangle_count as usize] {
+    for t in &s.triangles()[ball.first_triangle as usize..][..ball.triangle_count as usize] {
         for &v in &t.vertices {
-            let p = Vec3::from(s.vertices[v as usize].position);
+            let p = Vec3::from(s.vertices()[v as usize].position);
             assert!((p.distance(Vec3::Y) - 1.0).abs() < 1e-5);
         }
     }
@@ -275,7 +275,7 @@ fn glass_volume() {
 fn fire() {
     let s = load("fire.gltf");
     assert_eq!(
-        (s.triangles.len(), s.lights.len(), s.vdb_media.len()),
+        (s.triangle_count(), s.lights.len(), s.vdb_media.len()),
         (2, 0, 1)
     );
     let m = &s.vdb_media[0];
@@ -292,7 +292,7 @@ fn fire() {
     assert!(m.emits());
     check_medium_bounds(m, Mat4::from_scale(Vec3::splat(1.5)));
     // The floor sits below the grid's box.
-    assert!(s.vertices.iter().all(|v| v.position[1] == -1.5));
+    assert!(s.vertices().iter().all(|v| v.position[1] == -1.5));
     assert!(
         close(&m.sigma_s_per_density(), &[0.6; 3], 1e-6)
             && close(&m.sigma_a_per_density(), &[1.4; 3], 1e-6)
@@ -315,7 +315,7 @@ fn fire() {
 fn fire2() {
     let s = load("fire2.gltf");
     assert_eq!(
-        (s.triangles.len(), s.lights.len(), s.vdb_media.len()),
+        (s.triangle_count(), s.lights.len(), s.vdb_media.len()),
         (2, 0, 2)
     );
     let files: Vec<_> = s
@@ -345,7 +345,7 @@ fn fire2() {
 fn smoke_tank() {
     let s = load("smoke_tank.gltf");
     assert_eq!(
-        (s.triangles.len(), s.lights.len(), s.vdb_media.len()),
+        (s.triangle_count(), s.lights.len(), s.vdb_media.len()),
         (14, 1, 1)
     );
     assert_eq!(s.homogeneous_media.len(), 1);
@@ -364,7 +364,11 @@ fn smoke_tank() {
 fn chromatic() {
     let s = load("chromatic.gltf");
     assert_eq!(
-        (s.triangles.len(), s.homogeneous_media.len(), s.lights.len()),
+        (
+            s.triangle_count(),
+            s.homogeneous_media.len(),
+            s.lights.len()
+        ),
         (14, 1, 1)
     );
     let sigma_t = [0.9f32, 0.3, 0.05].map(|c| -c.ln());
@@ -398,7 +402,7 @@ fn chromatic() {
 /// The plume scenes: one VDB medium of albedo 0.9 (color 0.9, absorptionColor 0:
 /// sigma_s = 0.9 * 20, sigma_a = (1 - 0.9) * (1 - sqrt 0) * 20 per unit density), isotropic.
 fn check_plume(s: &Scene) {
-    assert_eq!((s.triangles.len(), s.vdb_media.len()), (0, 1));
+    assert_eq!((s.triangle_count(), s.vdb_media.len()), (0, 1));
     let c = &s.camera;
     assert!(c.position().distance(Vec3::new(0.0, 0.0, 9.0)) < 1e-6);
     assert!(c.forward().dot(Vec3::NEG_Z) > 1.0 - 1e-6);
@@ -457,7 +461,7 @@ fn plume_sky() {
 fn dense_fog() {
     let s = load("dense_fog.gltf");
     assert_eq!(
-        (s.triangles.len(), s.vdb_media.len(), s.lights.len()),
+        (s.triangle_count(), s.vdb_media.len(), s.lights.len()),
         (0, 1, 1)
     );
     let m = &s.vdb_media[0];

@@ -177,18 +177,18 @@ fn textures_load_from_files_data_uris_and_buffer_views() {
         assert_eq!(at(0.75, 0.25), Vec3::Y, "{name}");
         assert_eq!(at(0.25, 0.75), Vec3::Z, "{name}");
         // The triangles carry the uvs: the quad's top-left corner is red.
-        let t = (0..s.triangles.len())
+        let t = (0..s.triangle_count())
             .find(|&t| {
-                s.triangles[t]
+                s.triangles()[t]
                     .vertices
                     .iter()
-                    .any(|&v| s.vertices[v as usize].position == [-1.0, 1.0, 0.0])
+                    .any(|&v| s.vertices()[v as usize].position == [-1.0, 1.0, 0.0])
             })
             .unwrap();
-        let k = s.triangles[t]
+        let k = s.triangles()[t]
             .vertices
             .iter()
-            .position(|&v| s.vertices[v as usize].position == [-1.0, 1.0, 0.0])
+            .position(|&v| s.vertices()[v as usize].position == [-1.0, 1.0, 0.0])
             .unwrap();
         let (b1, b2) = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)][k];
         assert_eq!(s.uv_at(t, b1, b2), Vec2::ZERO, "{name}");

@@ -44,7 +44,7 @@ fn scene_of(name: &str, n: usize) -> Scene {
     let path: PathBuf = dir.join(format!("{name}.gltf"));
     crate::common::write_whole(&path, doc.to_string().as_bytes());
     let scene = brume::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.triangles.len(), n);
+    assert_eq!(scene.triangle_count(), n);
     scene
 }
 

@@ -100,7 +100,7 @@ fn two_level_and_flat_bvh_agree_on_a_reduced_heavy_scene() {
         };
         let w = make_heavy::write_scene(&path, &params).unwrap();
         let scene = load(&path);
-        assert_eq!(scene.triangles.len(), w.placed_triangles);
+        assert_eq!(scene.triangle_count(), w.placed_triangles);
         let two_level = scene.instanced.as_ref().expect("a two-level BVH");
         assert_eq!(two_level.len(), w.placed_triangles);
         assert_eq!(two_level.placements(), w.placements);

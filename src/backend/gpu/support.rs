@@ -66,10 +66,10 @@ pub fn supports(rs: &RenderScene) -> Result<(), String> {
                 .into(),
         );
     }
-    if rs.scene.triangles.len() >= crate::scene::NO_INDEX as usize {
+    if rs.scene.triangle_count() >= crate::scene::NO_INDEX as usize {
         return Err(format!(
             "{} triangles; the GPU integrator indexes fewer than 2^32",
-            rs.scene.triangles.len()
+            rs.scene.triangle_count()
         ));
     }
     Ok(())

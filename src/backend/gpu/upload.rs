@@ -291,23 +291,23 @@ impl Geometry {
             return Ok(g);
         };
         // Selection density of each area light, by scene triangle.
-        let mut light_pdf = vec![0.0f32; scene.triangles.len()];
+        let mut light_pdf = vec![0.0f32; scene.triangle_count()];
         if let Some(area) = &rs.lights.area {
             for (i, &t) in area.triangles.iter().enumerate() {
                 light_pdf[t as usize] = area.selection_pdf(i);
             }
         }
-        let mut slot_of = vec![crate::scene::NO_INDEX; scene.triangles.len()];
+        let mut slot_of = vec![crate::scene::NO_INDEX; scene.triangle_count()];
         let mut triangles = Vec::with_capacity(bvh.primitive_indices.len());
         let mut triangle_uvs = Vec::with_capacity(bvh.primitive_indices.len());
         for (slot, &t) in bvh.primitive_indices.iter().enumerate() {
             let t = t as usize;
-            let tri = scene.triangles.get(t).ok_or_else(|| {
-                format!("the BVH names triangle {t} of {}", scene.triangles.len())
+            let tri = scene.triangles().get(t).ok_or_else(|| {
+                format!("the BVH names triangle {t} of {}", scene.triangle_count())
             })?;
             slot_of[t] = slot as u32;
             let [p0, p1, p2] = scene.triangle_corners(t);
-            let n = |k: usize| scene.vertices[tri.vertices[k] as usize].normal;
+            let n = |k: usize| scene.vertices()[tri.vertices[k] as usize].normal;
             let material = scene.instances[tri.instance as usize].material;
             triangles.push(GpuTriangle {
                 p0: p0.to_array(),
@@ -328,7 +328,7 @@ impl Geometry {
                 _pad0: 0,
             });
             let uv = |k: usize| {
-                let v = &scene.vertices[tri.vertices[k] as usize];
+                let v = &scene.vertices()[tri.vertices[k] as usize];
                 [v.u, v.v]
             };
             triangle_uvs.push(GpuTriangleUv {

@@ -2,7 +2,8 @@
 //! (with all-triangle tests on small meshes) and Embree (with Brume's triangle test on its
 //! hit): build time, memory and rays per second on one thread for camera rays, incoherent
 //! shadow rays (occlusion to a random point) and incoherent bounce rays (closest hit), the
-//! rays drawn from a fixed seed.
+//! rays drawn from a fixed seed. Scenes that place a primitive more than once get a second
+//! table: the two-level BVH the CPU traces them through, on the same rays.
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -11,6 +12,7 @@ use anyhow::{anyhow, Result};
 use glam::{Vec3, Vec3A};
 
 use crate::accel::embree::EmbreeTriangles;
+use crate::accel::instanced::InstancedBvh;
 use crate::accel::TriangleBvh;
 use crate::math::Ray;
 use crate::volume::check::SplitMix64;
@@ -29,6 +31,9 @@ struct Mesh {
     indices: Vec<[u32; 3]>,
     camera: crate::scene::Pinhole,
     aspect: f32,
+    /// The scene's two-level BVH and its build seconds, where it places a primitive more
+    /// than once.
+    two_level: Option<(InstancedBvh, f64)>,
 }
 
 /// One row of the table.
@@ -49,14 +54,63 @@ pub const SWEEP_SOUPS: [usize; 10] = [
 /// Measures each scene and a random triangle soup of each of `soups` triangles (none for
 /// 0), `rays` rays a kind, best of `runs`.
 pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soups: &[usize]) -> Result<()> {
-    table(&meshes(scenes, soups)?, rays, runs)?;
+    let meshes = meshes(scenes, soups)?;
+    table(&meshes, rays, runs)?;
+    two_level_table(&meshes, rays, runs);
     Ok(())
+}
+
+/// The two-level BVH of each mesh that has one, on the rays of [`table`]; the shadow rays are
+/// closest-hit queries to their end, as the renderer asks them (it needs the surface hit).
+fn two_level_table(meshes: &[Mesh], rays: usize, runs: usize) {
+    let placed: Vec<_> = meshes
+        .iter()
+        .filter_map(|m| m.two_level.as_ref().map(|t| (m, t)))
+        .collect();
+    if placed.is_empty() {
+        return;
+    }
+    println!();
+    println!("Two-level BVH (each primitive stored once under its placements), same rays:");
+    println!();
+    println!("| scene | placements | build ms | memory KiB | camera | shadow | bounce |");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for (mesh, (bvh, build_s)) in placed {
+        let bounds = mesh.vertices.iter().fold(crate::math::Aabb::EMPTY, |b, v| {
+            b.union_point(Vec3::from_array(*v))
+        });
+        let sets = [
+            camera_rays(mesh, rays),
+            shadow_rays(&bounds, rays),
+            bounce_rays(&bounds, rays),
+        ];
+        let mrays = sets.map(|set| {
+            let s = best_of(runs, || {
+                for (ray, &t_max) in set.rays.iter().zip(&set.t_max) {
+                    black_box(bvh.closest_hit(ray, 0.0, t_max));
+                }
+            });
+            set.rays.len() as f64 / s / 1e6
+        });
+        println!(
+            "| {} | {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} |",
+            mesh.name,
+            bvh.placements(),
+            build_s * 1e3,
+            bvh.memory_bytes() as f64 / 1024.0,
+            mrays[0],
+            mrays[1],
+            mrays[2],
+        );
+    }
 }
 
 /// Measures `scenes` then soups of [`SWEEP_SOUPS`] triangles, and names the smallest soup from
 /// which Embree is faster for camera, shadow and bounce rays alike, every larger one too.
 pub fn sweep(scenes: &[PathBuf], rays: usize, runs: usize) -> Result<()> {
-    let rows = table(&meshes(scenes, &SWEEP_SOUPS)?, rays, runs)?;
+    let meshes = meshes(scenes, &SWEEP_SOUPS)?;
+    let rows = table(&meshes, rays, runs)?;
+    two_level_table(&meshes, rays, runs);
     let soups = &rows[rows.len() - SWEEP_SOUPS.len()..];
     let faster = |r: &Row| r.mrays.iter().all(|m| m[1] > m[0]);
     let from = (0..soups.len()).find(|&k| soups[k..].iter().all(faster));
@@ -118,7 +172,7 @@ fn table(meshes: &[Mesh], rays: usize, runs: usize) -> Result<Vec<Row>> {
 }
 
 fn scene_mesh(path: &Path) -> Result<Mesh> {
-    let scene = crate::scene::load(path).map_err(|e| anyhow!("{e}"))?;
+    let mut scene = crate::scene::load(path).map_err(|e| anyhow!("{e}"))?;
     let name = path.file_name().map_or_else(
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -127,10 +181,14 @@ fn scene_mesh(path: &Path) -> Result<Mesh> {
     let (w, h) = (render.width.unwrap_or(320), render.height.unwrap_or(240));
     Ok(Mesh {
         name,
-        vertices: scene.vertices.iter().map(|v| v.position).collect(),
-        indices: scene.triangles.iter().map(|t| t.vertices).collect(),
+        vertices: scene.vertices().iter().map(|v| v.position).collect(),
+        indices: scene.triangles().iter().map(|t| t.vertices).collect(),
         camera: scene.camera.pinhole(),
         aspect: w as f32 / h.max(1) as f32,
+        two_level: scene
+            .instanced
+            .take()
+            .map(|b| (b, scene.timings.bvh_seconds)),
     })
 }
 
@@ -166,6 +224,7 @@ fn soup_mesh(n: usize) -> Mesh {
         indices,
         camera: camera.pinhole(),
         aspect: 4.0 / 3.0,
+        two_level: None,
     }
 }
 

@@ -125,7 +125,7 @@ pub fn run(args: &ImportBlendArgs) -> Result<()> {
         args.output.display(),
         scene.vdb_media.len(),
         scene.lights.len(),
-        scene.triangles.len()
+        scene.triangle_count()
     );
     Ok(())
 }

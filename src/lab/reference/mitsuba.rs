@@ -392,7 +392,7 @@ fn describe_bsdf(mat: &Material, name: &str, lambert_only: bool, notes: &mut Vec
 fn write_ply(scene: &Scene, inst: &crate::scene::Instance, path: &Path) -> Result<bool> {
     use std::collections::HashMap;
     use std::io::Write;
-    let tris = &scene.triangles[inst.first_triangle as usize..][..inst.triangle_count as usize];
+    let tris = &scene.triangles()[inst.first_triangle as usize..][..inst.triangle_count as usize];
     let mut index: HashMap<u32, u32> = HashMap::new();
     let mut order = Vec::new();
     let faces: Vec<[u32; 3]> = tris
@@ -406,7 +406,10 @@ fn write_ply(scene: &Scene, inst: &crate::scene::Instance, path: &Path) -> Resul
             })
         })
         .collect();
-    let verts: Vec<_> = order.iter().map(|&v| scene.vertices[v as usize]).collect();
+    let verts: Vec<_> = order
+        .iter()
+        .map(|&v| scene.vertices()[v as usize])
+        .collect();
     let has_normals = verts
         .iter()
         .all(|v| Vec3::from(v.normal).length_squared() > 0.0);

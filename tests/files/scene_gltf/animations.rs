@@ -47,18 +47,24 @@ fn an_animated_node_is_placed_at_the_frame_time() {
     let path = write("anim_linear", &doc, &bin);
     for (frame, x) in [(0, 0.0), (6, 2.0), (12, 4.0), (48, 8.0), (-5, 0.0)] {
         let s = scene::load_with(&path, &at_frame(frame)).unwrap_or_else(|e| panic!("{e}"));
-        let p = Vec3::from(s.vertices[1].position);
+        let p = Vec3::from(s.vertices()[1].position);
         assert_eq!(p, Vec3::new(1.0 + x, 0.0, 0.0), "frame {frame}");
     }
     let (doc, bin) = animated(&[0.0, 1.0], &[0.0, 8.0], "STEP");
     let s = scene::load_with(&write("anim_step", &doc, &bin), &at_frame(23)).unwrap();
-    assert_eq!(Vec3::from(s.vertices[1].position), Vec3::new(1.0, 0.0, 0.0));
+    assert_eq!(
+        Vec3::from(s.vertices()[1].position),
+        Vec3::new(1.0, 0.0, 0.0)
+    );
     // The scene's own frame and fps: frame 3 at 12 fps is t = 0.25.
     let (mut doc, bin) = animated(&[0.0, 1.0], &[0.0, 8.0], "LINEAR");
     doc["extensions"] = json!({"BRUME_render": {"frame": 3, "fps": 12}});
     doc["extensionsUsed"] = json!(["BRUME_render"]);
     let s = load_ok(&write("anim_scene_frame", &doc, &bin));
-    assert_eq!(Vec3::from(s.vertices[1].position), Vec3::new(3.0, 0.0, 0.0));
+    assert_eq!(
+        Vec3::from(s.vertices()[1].position),
+        Vec3::new(3.0, 0.0, 0.0)
+    );
 }
 
 #[test]

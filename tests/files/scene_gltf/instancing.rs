@@ -56,7 +56,7 @@ fn gpu_instancing_rows_place_the_mesh_under_the_node() {
         &instanced_doc(),
         &instanced_bin(two_rows()),
     ));
-    assert_eq!((s.instances.len(), s.triangles.len()), (2, 2));
+    assert_eq!((s.instances.len(), s.triangle_count()), (2, 2));
     assert!(s.instances.iter().all(|i| i.node == 0 && i.mesh == 0));
     // By hand, node T(0,0,1) * T(5,0,0) R(90 about z) S(2): (0,0,0) -> (5,0,1);
     // (1,0,0) -> (2,0,0) -> (0,2,0) -> (5,2,1); (0,1,0) -> (0,2,0) -> (-2,0,0) -> (3,0,1).
@@ -91,7 +91,7 @@ fn world_triangles(s: &Scene) -> Vec<Vec3> {
 /// Both scenes place the same triangles in the same order, to f32 rounding.
 fn assert_same_world(a: &Scene, b: &Scene) {
     assert_eq!(a.instances.len(), b.instances.len());
-    assert_eq!(a.triangles.len(), b.triangles.len());
+    assert_eq!(a.triangle_count(), b.triangle_count());
     let (pa, pb) = (world_triangles(a), world_triangles(b));
     let worst = pa
         .iter()
@@ -111,23 +111,32 @@ fn the_example_groves_place_the_same_triangles() {
     assert_same_world(&ext, &nodes);
     assert!(ext.warnings.is_empty(), "{:?}", ext.warnings);
     assert_eq!(ext.vdb_media.len(), 1);
-    // What `brume info` reports: the 5 primitives' triangles once, and every placement's.
-    for s in [&ext, &nodes] {
+    // What `brume info` reports: the 5 primitives' triangles once, and every placement's. As
+    // loaded: the comparison above built both scenes' world arrays.
+    for name in ["grove_ext.gltf", "grove_nodes.gltf"] {
+        let s = load_ok(&dir.join(name));
         let g = s.geometry_stats();
         assert_eq!((g.primitives, g.placements), (5, 41));
         assert_eq!((g.stored_triangles, g.instanced_triangles), (1536, 8976));
-        assert_eq!(g.vertices, s.vertices.len());
-        // The two-level BVH holds each primitive's corners once; the flat BVH waits for first
-        // use and then holds every placement's.
+        assert_eq!(g.vertices, s.vertex_count());
+        // The two-level BVH holds each primitive's corners once; the world arrays and the flat
+        // BVH wait for first use and then hold every placement's.
         let two_level = g.two_level_bytes.expect("a two-level BVH");
         assert!(
             g.bvh_bytes == 0
                 && (48 * 1536..48 * 8976).contains(&two_level)
-                && g.array_bytes >= 16 * 8976,
+                && g.array_bytes == 32 * 41
+                && (12 * 1536..16 * 8976).contains(&g.stored_bytes)
+                && !s.world_arrays_built(),
             "{g:?}"
         );
+        assert_eq!(s.vertices().len(), g.vertices);
         s.bvh();
-        assert!(s.geometry_stats().bvh_bytes >= 48 * 8976);
+        let built = s.geometry_stats();
+        assert!(
+            built.bvh_bytes >= 48 * 8976 && built.array_bytes >= 16 * 8976,
+            "{built:?}"
+        );
     }
 }
 
@@ -145,7 +154,7 @@ fn the_heavy_generator_writes_what_it_counts() {
         let path = dir.join(format!("heavy_{nodes}.gltf"));
         let w = make_heavy::write_scene(&path, &params).unwrap();
         let s = load_ok(&path);
-        assert_eq!(s.triangles.len(), w.placed_triangles);
+        assert_eq!(s.triangle_count(), w.placed_triangles);
         assert_eq!(s.instances.len(), w.placements);
         assert_eq!(s.geometry_stats().stored_triangles, w.stored_triangles);
         assert!(w.placed_triangles > 4 * w.stored_triangles, "{w:?}");
@@ -257,7 +266,7 @@ fn degenerate_triangles_are_skipped_with_one_warning_per_primitive() {
     let mut bin = triangle_bin();
     bin[24..36].copy_from_slice(&f32_bytes(&[2.0, 0.0, 0.0]));
     let s = load_ok(&write("degenerate", &doc, &bin));
-    assert_eq!(s.triangles.len(), 0);
+    assert_eq!(s.triangle_count(), 0);
     let warned: Vec<_> = s
         .warnings
         .iter()

@@ -89,11 +89,11 @@ fn load_err_with(path: &Path, pointer: &str, options: &LoadOptions) -> SceneErro
 
 fn positions(s: &Scene, instance: usize) -> Vec<Vec3> {
     let i = &s.instances[instance];
-    s.triangles[i.first_triangle as usize..][..i.triangle_count as usize]
+    s.triangles()[i.first_triangle as usize..][..i.triangle_count as usize]
         .iter()
         .flat_map(|t| {
             t.vertices
-                .map(|v| Vec3::from(s.vertices[v as usize].position))
+                .map(|v| Vec3::from(s.vertices()[v as usize].position))
         })
         .collect()
 }
@@ -652,7 +652,7 @@ fn glb_files_load() {
     let path = dir.join("scene.glb");
     std::fs::write(&path, glb(&doc, &triangle_bin())).unwrap();
     let s = load_ok(&path);
-    assert_eq!(s.triangles.len(), 1);
+    assert_eq!(s.triangle_count(), 1);
 
     // A binary chunk shorter than the buffer's byteLength.
     doc["buffers"] = json!([{"byteLength": 80}]);
