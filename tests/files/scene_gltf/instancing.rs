@@ -81,6 +81,46 @@ fn gpu_instancing_rows_place_the_mesh_under_the_node() {
     }
 }
 
+#[test]
+fn triangles_placed_on_demand_are_the_world_arrays_bit_for_bit() {
+    // Two placements of one mesh (the second mirrored in x, turned and scaled): the two-level
+    // BVH answers, so the world arrays wait; single triangles placed from the stored
+    // primitive must be what the arrays hold, winding included.
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let rows = [
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0],
+        [5.0, 0.0, 0.0, 0.0, 0.0, h, h, -2.0, 2.0, 0.5],
+    ];
+    let mirrored = load_ok(&write(
+        "placed_on_demand",
+        &instanced_doc(),
+        &instanced_bin(rows),
+    ));
+    // The grove's rocks and trees carry normals.
+    let grove = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/instancing/grove_ext.gltf");
+    for s in [mirrored, load_ok(&grove)] {
+        assert!(s.instanced.is_some() && !s.world_arrays_built());
+        let placed: Vec<(u32, [brume::scene::Vertex; 3])> = (0..s.triangle_count())
+            .map(|t| (s.triangle_instance(t), s.triangle_vertices(t)))
+            .collect();
+        assert!(
+            !s.world_arrays_built(),
+            "placing single triangles built the arrays"
+        );
+        let (vertices, triangles) = (s.vertices(), s.triangles());
+        assert_eq!(placed.len(), triangles.len());
+        for (t, (instance, corners)) in placed.iter().enumerate() {
+            let held = triangles[t].vertices.map(|i| vertices[i as usize]);
+            assert_eq!(*instance, triangles[t].instance, "triangle {t}");
+            assert_eq!(
+                bytemuck::bytes_of(corners),
+                bytemuck::bytes_of(&held),
+                "triangle {t}: {corners:?} placed, {held:?} held"
+            );
+        }
+    }
+}
+
 /// The world-space corners of every triangle, instance by instance.
 fn world_triangles(s: &Scene) -> Vec<Vec3> {
     (0..s.instances.len())
