@@ -76,14 +76,7 @@ fn two_level_table(meshes: &[Mesh], rays: usize, runs: usize) {
     println!("| scene | placements | build ms | memory KiB | camera | shadow | bounce |");
     println!("|---|---:|---:|---:|---:|---:|---:|");
     for (mesh, (bvh, build_s)) in placed {
-        let bounds = mesh.vertices.iter().fold(crate::math::Aabb::EMPTY, |b, v| {
-            b.union_point(Vec3::from_array(*v))
-        });
-        let sets = [
-            camera_rays(mesh, rays),
-            shadow_rays(&bounds, rays),
-            bounce_rays(&bounds, rays),
-        ];
+        let sets = ray_sets(mesh, rays);
         let mrays = sets.map(|set| {
             let s = best_of(runs, || {
                 for (ray, &t_max) in set.rays.iter().zip(&set.t_max) {
@@ -242,14 +235,7 @@ fn measure(mesh: &Mesh, rays: usize, runs: usize) -> Result<Row> {
     let bvh_bytes = bvh.cwbvh().map_or(0, |b| {
         std::mem::size_of_val(&b.nodes[..]) + std::mem::size_of_val(&b.primitive_indices[..])
     }) + std::mem::size_of_val(bvh.triangles());
-    let bounds = mesh.vertices.iter().fold(crate::math::Aabb::EMPTY, |b, v| {
-        b.union_point(Vec3::from_array(*v))
-    });
-    let sets = [
-        camera_rays(mesh, rays),
-        shadow_rays(&bounds, rays),
-        bounce_rays(&bounds, rays),
-    ];
+    let sets = ray_sets(mesh, rays);
     let mut mrays = [[0.0; 2]; 3];
     for (k, set) in sets.iter().enumerate() {
         let occlusion = k == 1;
@@ -284,6 +270,18 @@ fn measure(mesh: &Mesh, rays: usize, runs: usize) -> Result<Row> {
         ],
         mrays,
     })
+}
+
+/// The three sets of `n` rays a mesh is measured with: camera, shadow and bounce rays.
+fn ray_sets(mesh: &Mesh, n: usize) -> [Rays; 3] {
+    let bounds = mesh.vertices.iter().fold(crate::math::Aabb::EMPTY, |b, v| {
+        b.union_point(Vec3::from_array(*v))
+    });
+    [
+        camera_rays(mesh, n),
+        shadow_rays(&bounds, n),
+        bounce_rays(&bounds, n),
+    ]
 }
 
 /// Rays through a square grid of pixel centres of the scene's camera, row by row.
