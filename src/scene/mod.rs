@@ -325,7 +325,9 @@ fn warn_open_medium_boundaries(
         let mut edges: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
         let first = inst.first_triangle as usize;
         for t in first..first + inst.triangle_count as usize {
-            let key = world.corners(t).map(|v| v.position.map(f32::to_bits));
+            let key = world
+                .corner_positions(t)
+                .map(|p| p.to_array().map(f32::to_bits));
             for e in 0..3 {
                 let (a, b) = (key[e], key[(e + 1) % 3]);
                 *edges
@@ -432,7 +434,7 @@ impl Scene {
     /// Corner positions of triangle `t`.
     #[inline]
     pub fn triangle_corners(&self, t: usize) -> [Vec3; 3] {
-        self.world.corners(t).map(|v| Vec3::from(v.position))
+        self.world.corner_positions(t)
     }
 
     /// Whether an animation moves instance `k` during the shutter.
@@ -515,7 +517,11 @@ impl Scene {
                 return Err(format!("instance {k} has a bad triangle range or material"));
             }
             let end = inst.first_triangle + inst.triangle_count;
-            if (inst.first_triangle..end).any(|t| self.triangle_instance(t as usize) != k as u32) {
+            // Without the arrays a triangle's instance is derived from these very ranges.
+            let wrong = self.world_arrays_built()
+                && (inst.first_triangle..end)
+                    .any(|t| self.triangle_instance(t as usize) != k as u32);
+            if wrong {
                 return Err(format!("instance {k}'s triangles point elsewhere"));
             }
             next = end;

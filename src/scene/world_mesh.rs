@@ -205,6 +205,24 @@ impl WorldMesh {
         p.corner_order(tri).map(|i| p.vertex(local, i as usize))
     }
 
+    /// The three world-space corner positions of triangle `t`, in its corner order: what
+    /// [`WorldMesh::corners`] gives, without placing normals and texture coordinates.
+    #[inline]
+    pub fn corner_positions(&self, t: usize) -> [Vec3; 3] {
+        if let Some(a) = self.arrays.get() {
+            return a.triangles[t]
+                .vertices
+                .map(|i| Vec3::from(a.vertices[i as usize].position));
+        }
+        let p = &self.placements[self.placement_of(t)];
+        let local = &self.locals[p.shape as usize];
+        let tri = local.triangles[t - p.first_triangle as usize];
+        p.corner_order(tri).map(|i| {
+            p.world_from_local
+                .transform_point3(local.positions[i as usize])
+        })
+    }
+
     /// Calls `f` with every placed vertex's world position, without building the arrays.
     pub fn for_each_position(&self, mut f: impl FnMut(Vec3)) {
         if let Some(a) = self.arrays.get() {

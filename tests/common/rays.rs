@@ -1,17 +1,17 @@
-//! Random rays for the accelerator tests: a small deterministic generator (SplitMix64), so a
+//! Random rays for the accelerator tests: Brume's deterministic generator (SplitMix64), so a
 //! failure reproduces from its seed.
+use brume::volume::check::SplitMix64;
 use glam::Vec3;
 
-/// SplitMix64, drawing `f32`s in [0, 1) with 24 bits.
+/// SplitMix64 state, drawing `f32`s in [0, 1) with 24 bits.
 pub struct Rng(pub u64);
 
 impl Rng {
     pub fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        let mut s = SplitMix64(self.0);
+        let z = s.next_u64();
+        self.0 = s.0;
+        (z >> 40) as f32 / (1u64 << 24) as f32
     }
 
     /// A uniform point in the box [lo, hi].

@@ -100,8 +100,14 @@ fn triangles_placed_on_demand_are_the_world_arrays_bit_for_bit() {
     let grove = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/instancing/grove_ext.gltf");
     for s in [mirrored, load_ok(&grove)] {
         assert!(s.instanced.is_some() && !s.world_arrays_built());
-        let placed: Vec<(u32, [brume::scene::Vertex; 3])> = (0..s.triangle_count())
-            .map(|t| (s.triangle_instance(t), s.triangle_vertices(t)))
+        let placed: Vec<(u32, [brume::scene::Vertex; 3], [Vec3; 3])> = (0..s.triangle_count())
+            .map(|t| {
+                (
+                    s.triangle_instance(t),
+                    s.triangle_vertices(t),
+                    s.triangle_corners(t),
+                )
+            })
             .collect();
         assert!(
             !s.world_arrays_built(),
@@ -109,8 +115,13 @@ fn triangles_placed_on_demand_are_the_world_arrays_bit_for_bit() {
         );
         let (vertices, triangles) = (s.vertices(), s.triangles());
         assert_eq!(placed.len(), triangles.len());
-        for (t, (instance, corners)) in placed.iter().enumerate() {
+        for (t, (instance, corners, positions)) in placed.iter().enumerate() {
             let held = triangles[t].vertices.map(|i| vertices[i as usize]);
+            assert_eq!(
+                positions.map(|p| p.to_array().map(f32::to_bits)),
+                held.map(|v| v.position.map(f32::to_bits)),
+                "triangle {t}: corner positions"
+            );
             assert_eq!(*instance, triangles[t].instance, "triangle {t}");
             assert_eq!(
                 bytemuck::bytes_of(corners),
