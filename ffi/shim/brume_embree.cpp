@@ -14,6 +14,7 @@
 #include <mutex>
 #include <new>
 #include <string>
+#include <vector>
 
 struct BrumeEmbreeDevice {
     RTCDevice device = nullptr;
@@ -28,6 +29,7 @@ struct BrumeEmbreeDevice {
 struct BrumeEmbreeScene {
     BrumeEmbreeDevice *owner = nullptr;
     RTCScene scene = nullptr;
+    std::vector<RTCScene> meshes;  // an instanced scene's per-mesh scenes, released after it
 };
 
 namespace {
@@ -45,6 +47,17 @@ int32_t fail(char **error, int32_t status, const std::string &message) {
         *error = copy_string(message);
     }
     return status;
+}
+
+// The message a failed check stored in *error, taken back (and freed) to be prefixed.
+std::string take_string(char **error) {
+    std::string out;
+    if (error && *error) {
+        out = *error;
+        std::free(*error);
+        *error = nullptr;
+    }
+    return out;
 }
 
 const char *error_name(RTCError code) {
@@ -179,6 +192,79 @@ int32_t fill_scene(BrumeEmbreeDevice *d, RTCScene scene, const float *vertices,
     return take_device_error(d, "rtcCommitScene", error);
 }
 
+void release_scenes(RTCScene top, std::vector<RTCScene> &meshes) {
+    if (top) {
+        rtcReleaseScene(top);
+    }
+    for (RTCScene m : meshes) {
+        rtcReleaseScene(m);
+    }
+    meshes.clear();
+}
+
+// One instance of `mesh` under `top`, attached as geometry `id` so that hits name it by its
+// position in the caller's array.
+int32_t attach_instance(BrumeEmbreeDevice *d, RTCScene top, RTCScene mesh,
+                        const float world_from_local[12], unsigned id, char **error) {
+    RTCGeometry geom = rtcNewGeometry(d->device, RTC_GEOMETRY_TYPE_INSTANCE);
+    if (!geom) {
+        return take_device_error(d, "rtcNewGeometry(instance)", error);
+    }
+    rtcSetGeometryInstancedScene(geom, mesh);
+    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, world_from_local);
+    rtcCommitGeometry(geom);
+    rtcAttachGeometryByID(top, geom, id);
+    rtcReleaseGeometry(geom);
+    return take_device_error(d, "rtcAttachGeometryByID(instance)", error);
+}
+
+// The two-level scene into *top and *children; the caller releases both on failure.
+int32_t fill_instanced(BrumeEmbreeDevice *d, const BrumeEmbreeMesh *meshes, size_t mesh_count,
+                       const BrumeEmbreeInstance *instances, size_t instance_count,
+                       RTCScene *top, std::vector<RTCScene> &children, char **error) {
+    for (size_t k = 0; k < mesh_count; ++k) {
+        const BrumeEmbreeMesh &m = meshes[k];
+        if (int32_t s = check_mesh(m.vertices, m.vertex_count, m.indices, m.triangle_count,
+                                   error)) {
+            return fail(error, s, "mesh " + std::to_string(k) + ": " + take_string(error));
+        }
+        RTCScene scene = rtcNewScene(d->device);
+        if (!scene) {
+            return take_device_error(d, "rtcNewScene", error);
+        }
+        children.push_back(scene);
+        if (int32_t s = fill_scene(d, scene, m.vertices, m.vertex_count, m.indices,
+                                   m.triangle_count, error)) {
+            return s;
+        }
+    }
+    *top = rtcNewScene(d->device);
+    if (!*top) {
+        return take_device_error(d, "rtcNewScene", error);
+    }
+    rtcSetSceneFlags(*top, RTC_SCENE_FLAG_ROBUST);
+    for (size_t k = 0; k < instance_count; ++k) {
+        const BrumeEmbreeInstance &inst = instances[k];
+        if (inst.mesh >= mesh_count) {
+            return fail(error, BRUME_EMBREE_INVALID_ARGUMENT,
+                        "instance " + std::to_string(k) + " names mesh " +
+                            std::to_string(inst.mesh) + " of " + std::to_string(mesh_count));
+        }
+        for (float x : inst.world_from_local) {
+            if (!std::isfinite(x)) {
+                return fail(error, BRUME_EMBREE_INVALID_ARGUMENT,
+                            "instance " + std::to_string(k) + "'s transform is not finite");
+            }
+        }
+        if (int32_t s = attach_instance(d, *top, children[inst.mesh], inst.world_from_local,
+                                        static_cast<unsigned>(k), error)) {
+            return s;
+        }
+    }
+    rtcCommitScene(*top);
+    return take_device_error(d, "rtcCommitScene", error);
+}
+
 void ray_of(RTCRay &r, const float o[3], const float d[3], float t_near, float t_far) {
     r.org_x = o[0];
     r.org_y = o[1];
@@ -255,7 +341,43 @@ int32_t brume_embree_scene_new(BrumeEmbreeDevice *device, const float *vertices,
             return s;
         }
         device->refs.fetch_add(1, std::memory_order_relaxed);
-        *out = new BrumeEmbreeScene{device, scene};
+        *out = new BrumeEmbreeScene{device, scene, {}};
+        return BRUME_EMBREE_OK;
+    });
+}
+
+int32_t brume_embree_instanced_scene_new(BrumeEmbreeDevice *device,
+                                         const BrumeEmbreeMesh *meshes, size_t mesh_count,
+                                         const BrumeEmbreeInstance *instances,
+                                         size_t instance_count, BrumeEmbreeScene **out,
+                                         char **error) {
+    return guarded(error, [&]() -> int32_t {
+        if (!device || !out || (mesh_count && !meshes) || (instance_count && !instances)) {
+            return fail(error, BRUME_EMBREE_INVALID_ARGUMENT,
+                        "NULL device, output, mesh or instance pointer");
+        }
+        *out = nullptr;
+        if (instance_count > UINT32_MAX - 1) {
+            return fail(error, BRUME_EMBREE_INVALID_ARGUMENT,
+                        "more instances than 32-bit identifiers address");
+        }
+        clear_device_error(device);
+        // Owns the scenes built so far: released on any failure or exception.
+        struct Building {
+            RTCScene top = nullptr;
+            std::vector<RTCScene> children;
+            ~Building() { release_scenes(top, children); }
+        } b;
+        b.children.reserve(mesh_count);
+        if (int32_t s = fill_instanced(device, meshes, mesh_count, instances, instance_count,
+                                       &b.top, b.children, error)) {
+            return s;
+        }
+        auto *scene = new BrumeEmbreeScene{device, b.top, std::move(b.children)};
+        b.top = nullptr;
+        b.children.clear();
+        device->refs.fetch_add(1, std::memory_order_relaxed);
+        *out = scene;
         return BRUME_EMBREE_OK;
     });
 }
@@ -263,7 +385,7 @@ int32_t brume_embree_scene_new(BrumeEmbreeDevice *device, const float *vertices,
 void brume_embree_scene_free(BrumeEmbreeScene *scene) {
     try {
         if (scene) {
-            rtcReleaseScene(scene->scene);
+            release_scenes(scene->scene, scene->meshes);
             release_device(scene->owner);
             delete scene;
         }
@@ -286,7 +408,7 @@ int32_t brume_embree_intersect(const BrumeEmbreeScene *scene, const float origin
         if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
             return 0;
         }
-        *hit = BrumeEmbreeHit{rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v};
+        *hit = BrumeEmbreeHit{rh.hit.instID[0], rh.hit.primID, rh.ray.tfar, rh.hit.u, rh.hit.v};
         return 1;
     } catch (...) {
         return 0;  // not reached: Embree reports its own failures to the error callback

@@ -1,5 +1,5 @@
-/* Brume's narrow C ABI over Intel Embree 3: one device, scenes of one triangle mesh, and
- * single-ray closest-hit and occlusion queries.
+/* Brume's narrow C ABI over Intel Embree 3: one device, scenes of one triangle mesh or of
+ * instances of several (a two-level scene), and single-ray closest-hit and occlusion queries.
  *
  * Functions that can fail return a BrumeEmbreeStatus and, on failure, store a heap-allocated,
  * NUL-terminated message in *error (when error is non-NULL), owned by the caller and released
@@ -34,9 +34,12 @@ typedef enum BrumeEmbreeStatus {
 typedef struct BrumeEmbreeDevice BrumeEmbreeDevice;
 typedef struct BrumeEmbreeScene BrumeEmbreeScene;
 
-/* The closest hit of a ray: Embree's primitive (triangle) index, ray parameter and
- * barycentrics of the second and third vertex. */
+/* The closest hit of a ray: the instance hit (BRUME_EMBREE_NO_INSTANCE in a scene of one
+ * mesh), Embree's primitive (triangle) index in its mesh, ray parameter and barycentrics of
+ * the second and third vertex. */
+#define BRUME_EMBREE_NO_INSTANCE 0xffffffffu
 typedef struct BrumeEmbreeHit {
+    uint32_t inst;
     uint32_t prim;
     float t;
     float u;
@@ -57,6 +60,33 @@ int64_t brume_embree_device_memory(const BrumeEmbreeDevice *device);
 int32_t brume_embree_scene_new(BrumeEmbreeDevice *device, const float *vertices,
                                size_t vertex_count, const uint32_t *indices,
                                size_t triangle_count, BrumeEmbreeScene **out, char **error);
+
+/* One triangle mesh of an instanced scene: vertices (x, y, z floats) and triangles (three
+ * uint32 vertex indices each). */
+typedef struct BrumeEmbreeMesh {
+    const float *vertices;
+    size_t vertex_count;
+    const uint32_t *indices;
+    size_t triangle_count;
+} BrumeEmbreeMesh;
+
+/* One placement of a mesh: its index in the mesh array and its world-from-local transform as
+ * a 3x4 column-major matrix (the three axes, then the translation). */
+typedef struct BrumeEmbreeInstance {
+    uint32_t mesh;
+    float world_from_local[12];
+} BrumeEmbreeInstance;
+
+/* Builds and commits a two-level scene: one scene per mesh (checked and built as
+ * brume_embree_scene_new builds its mesh) under a scene of `instance_count` instances. A
+ * hit's `inst` is the instance's position in `instances` and its `prim` the triangle's
+ * position in that mesh's `indices`. Instances naming a mesh out of range or with
+ * non-finite transforms are errors. */
+int32_t brume_embree_instanced_scene_new(BrumeEmbreeDevice *device,
+                                         const BrumeEmbreeMesh *meshes, size_t mesh_count,
+                                         const BrumeEmbreeInstance *instances,
+                                         size_t instance_count, BrumeEmbreeScene **out,
+                                         char **error);
 void brume_embree_scene_free(BrumeEmbreeScene *scene);
 
 /* The closest hit with t in [t_near, t_far]: 1 (and *hit filled) on a hit, 0 on a miss.

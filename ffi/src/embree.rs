@@ -1,9 +1,9 @@
 //! Intel Embree 3 for Brume's CPU ray queries, behind `shim/brume_embree.{h,cpp}`.
 //!
-//! An [`EmbreeDevice`] makes [`EmbreeScene`]s of one triangle mesh each, which answer
-//! single-ray closest-hit and occlusion queries. Hits carry plain numbers (triangle index, `t`,
-//! barycentrics), so no Embree type leaves this module. One mesh a scene is all Brume needs
-//! today; an instanced (two-level) scene would be another constructor over several of them.
+//! An [`EmbreeDevice`] makes [`EmbreeScene`]s, of one triangle mesh or of instances of several
+//! (Embree's two-level scenes, each mesh stored and built once), which answer single-ray
+//! closest-hit and occlusion queries. Hits carry plain numbers (instance, triangle index, `t`,
+//! barycentrics), so no Embree type leaves this module.
 use std::ffi::{c_char, CStr, CString};
 use std::ptr::{self, NonNull};
 
@@ -156,6 +156,75 @@ impl EmbreeDevice {
         })?;
         Ok(EmbreeScene { raw })
     }
+
+    /// Builds and commits a two-level scene: each of `meshes` in its own scene (as
+    /// [`EmbreeDevice::triangle_scene`] builds it) under one instance per `instances` entry.
+    /// A hit names the instance by its position in `instances` and the triangle by its position
+    /// in its mesh. Errors name the mesh or instance at fault.
+    pub fn instanced_scene(
+        &self,
+        meshes: &[EmbreeMesh<'_>],
+        instances: &[EmbreeInstance],
+    ) -> Result<EmbreeScene, EmbreeError> {
+        let what = || {
+            format!(
+                "building a scene of {} instances of {} meshes",
+                instances.len(),
+                meshes.len()
+            )
+        };
+        let raw_meshes: Vec<sys::BrumeEmbreeMesh> = meshes
+            .iter()
+            .map(|m| sys::BrumeEmbreeMesh {
+                vertices: m.vertices.as_ptr().cast(),
+                vertex_count: m.vertices.len(),
+                indices: m.indices.as_ptr().cast(),
+                triangle_count: m.indices.len(),
+            })
+            .collect();
+        let raw_instances: Vec<sys::BrumeEmbreeInstance> = instances
+            .iter()
+            .map(|i| sys::BrumeEmbreeInstance {
+                mesh: i.mesh,
+                world_from_local: i.world_from_local,
+            })
+            .collect();
+        let mut raw = ptr::null_mut();
+        // SAFETY: every mesh's slices outlive the call and hold 3 floats / 3 indices an
+        // element; the shim copies them and writes a scene or null to `raw`.
+        call(what, |err| unsafe {
+            sys::brume_embree_instanced_scene_new(
+                self.raw.as_ptr(),
+                raw_meshes.as_ptr(),
+                raw_meshes.len(),
+                raw_instances.as_ptr(),
+                raw_instances.len(),
+                &mut raw,
+                err,
+            )
+        })?;
+        let raw = NonNull::new(raw).ok_or_else(|| EmbreeError {
+            what: what(),
+            kind: EmbreeErrorKind::Internal,
+            message: "no scene returned".into(),
+        })?;
+        Ok(EmbreeScene { raw })
+    }
+}
+
+/// One mesh of an instanced scene: vertices and triangles of three vertex indices.
+#[derive(Clone, Copy, Debug)]
+pub struct EmbreeMesh<'a> {
+    pub vertices: &'a [[f32; 3]],
+    pub indices: &'a [[u32; 3]],
+}
+
+/// One placement of a mesh: its index among the meshes and its world-from-local transform,
+/// 3x4 column-major (the x, y and z axes, then the translation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmbreeInstance {
+    pub mesh: u32,
+    pub world_from_local: [f32; 12],
 }
 
 impl Drop for EmbreeDevice {
@@ -175,10 +244,12 @@ impl std::fmt::Debug for EmbreeDevice {
     }
 }
 
-/// Embree's closest hit: the triangle (its index in the mesh), `t`, and the barycentric
-/// weights `u`, `v` of its second and third vertex, by Embree's own triangle test.
+/// Embree's closest hit: the instance (`None` in a scene of one mesh), the triangle (its
+/// index in its mesh), `t`, and the barycentric weights `u`, `v` of its second and third
+/// vertex, by Embree's own triangle test.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmbreeHit {
+    pub inst: Option<u32>,
     pub prim: u32,
     pub t: f32,
     pub u: f32,
@@ -208,6 +279,7 @@ impl EmbreeScene {
         t_max: f32,
     ) -> Option<EmbreeHit> {
         let mut hit = sys::BrumeEmbreeHit {
+            inst: 0,
             prim: 0,
             t: 0.0,
             u: 0.0,
@@ -225,6 +297,7 @@ impl EmbreeScene {
             )
         };
         (found == 1).then_some(EmbreeHit {
+            inst: (hit.inst != sys::BRUME_EMBREE_NO_INSTANCE).then_some(hit.inst),
             prim: hit.prim,
             t: hit.t,
             u: hit.u,

@@ -205,27 +205,56 @@ impl InstancedBvh {
             }
         });
         let (k, h) = best?;
-        let p = &self.placements[k];
-        let triangle = p.first_triangle + h.triangle;
-        let corners = self.world_corners(p, h.triangle as usize);
         // The world test runs without the t bounds' pruning margin: the local t decided the
         // order; the world one only restates the same hit in the flat triangle's terms.
-        Some(match intersect_triangle(ray, &corners, t_min, t_max) {
-            Some((t, b1, b2)) => Hit {
-                t,
-                triangle,
-                b1,
-                b2,
-            },
-            None if p.mirrored => Hit {
+        if let Some(hit) = self.restate(ray, k as u32, h.triangle, t_min, t_max) {
+            return Some(hit);
+        }
+        let p = &self.placements[k];
+        let triangle = p.first_triangle + h.triangle;
+        Some(if p.mirrored {
+            Hit {
                 triangle,
                 // Local corners (0, 1, 2) are world corners (0, 2, 1).
                 b1: h.b2,
                 b2: h.b1,
                 ..h
-            },
-            None => Hit { triangle, ..h },
+            }
+        } else {
+            Hit { triangle, ..h }
         })
+    }
+
+    /// The hit of `ray` on local triangle `local` of placement `placement` by Brume's triangle
+    /// test on its world-space corners, in flat triangle indices; `None` where that test
+    /// misses it or the indices are out of range.
+    pub fn restate(
+        &self,
+        ray: &Ray,
+        placement: u32,
+        local: u32,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        let p = self.placements.get(placement as usize)?;
+        if local as usize >= self.shapes[p.shape as usize].len() {
+            return None;
+        }
+        let corners = self.world_corners(p, local as usize);
+        let (t, b1, b2) = intersect_triangle(ray, &corners, t_min, t_max)?;
+        Some(Hit {
+            t,
+            triangle: p.first_triangle + local,
+            b1,
+            b2,
+        })
+    }
+
+    /// Each placement's shape and world-from-local transform, in placement order.
+    pub fn placement_transforms(&self) -> impl Iterator<Item = (u32, Mat4)> + '_ {
+        self.placements
+            .iter()
+            .map(|p| (p.shape, p.world_from_local))
     }
 
     /// Checks every shape's BVH and that the top level indexes each placement once.

@@ -191,9 +191,9 @@ pub struct RenderArgs {
     /// from 300 static triangles on, where it is faster, else bvh; bvh with a warning where
     /// Embree cannot be built), bvh (the obvhs CWBVH) or embree (Intel Embree 3 chooses the
     /// triangle, Brume's own triangle test gives the hit, so images agree). Scenes with moving
-    /// meshes, and the GPU backend, use the BVH; scenes that place some mesh more than once
-    /// use, for auto and bvh, a two-level BVH that stores each mesh once under a BVH of its
-    /// placements. The render prints which it used.
+    /// meshes, and the GPU backend, use the BVH. Scenes that place some mesh more than once
+    /// store each mesh once under its placements: embree then builds Embree's instances over
+    /// them, bvh a two-level BVH. The render prints which it used.
     #[arg(long, default_value = "auto")]
     pub accel: brume::render::settings::Accel,
     /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its

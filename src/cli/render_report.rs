@@ -28,16 +28,19 @@ pub fn report_accel(
         format!("auto: Embree failed, {n} static triangles")
     } else if scene.moving_meshes.is_some() && asked != Accel::Bvh {
         "the scene's meshes move: Embree holds static triangles only".to_string()
-    } else if let (Some(i), None) = (&scene.instanced, &scene.embree) {
-        format!(
-            "two-level: {} placements, {n} triangles placed; each primitive stored once{}",
-            i.placements(),
-            if asked == Accel::Auto {
-                ", where Embree would hold every placement's copy"
-            } else {
-                ""
-            }
-        )
+    } else if let Some(i) = &scene.instanced {
+        let stored = "each primitive stored once";
+        match (&scene.embree, asked) {
+            (Some(_), Accel::Auto) => format!(
+                "auto: {} placements of {n} triangles from {threshold} on; {stored}",
+                i.placements()
+            ),
+            (Some(_), _) => format!("--accel embree, {} placements; {stored}", i.placements()),
+            (None, _) => format!(
+                "two-level: {} placements, {n} triangles; {stored}",
+                i.placements()
+            ),
+        }
     } else if asked == Accel::Auto && used.accel == Accel::Embree {
         format!("auto: {n} static triangles, from {threshold} on")
     } else if asked == Accel::Auto {

@@ -1,6 +1,7 @@
 //! The CPU's closest-hit accelerators of a scene and the choice among them: the flat BVH over
 //! the world-space triangles; the two-level BVH where some primitive is placed more than once,
-//! which stores each primitive's triangles once; and Embree over the flat triangles.
+//! which stores each primitive's triangles once; and Embree, over the flat triangles or, where
+//! the two-level BVH is kept, over each primitive once under the same placements.
 //!
 //! A scene with a two-level BVH builds its flat BVH and its world arrays only when something
 //! asks for them (the GPU's upload, Embree, comparisons in tests), so a CPU render of a scene
@@ -12,7 +13,7 @@ use glam::Vec3A;
 use super::mesh::{Geometry, Triangle, Vertex};
 use super::world_mesh::WorldMesh;
 use super::{ctx_invalid, AccelUsed, Scene, SceneError};
-use crate::accel::embree::EmbreeTriangles;
+use crate::accel::embree::{EmbreeGeometry, EmbreeTriangles, LocalTriangles};
 use crate::accel::instanced::InstancedBvh;
 use crate::accel::{Accel, Hit, TriangleBvh};
 use crate::math::Ray;
@@ -72,6 +73,9 @@ impl Scene {
     pub fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32, dt: f32) -> Option<Hit> {
         match (&self.moving_meshes, &self.embree, &self.instanced) {
             (Some(m), _, _) => m.closest_hit(ray, t_min, t_max, dt),
+            (None, Some(e), Some(i)) if e.is_instanced() => {
+                e.closest_hit_instanced(i, ray, t_min, t_max)
+            }
             (None, Some(e), _) => e.closest_hit(self.bvh(), ray, t_min, t_max),
             (None, None, Some(i)) => i.closest_hit(ray, t_min, t_max),
             (None, None, None) => self.bvh().closest_hit(ray, t_min, t_max),
@@ -80,20 +84,19 @@ impl Scene {
 
     /// Chooses the CPU's closest-hit accelerator for the static triangles, building Embree's
     /// scene where asked or where [`Accel::Auto`] picks it for the scene's size. A scene with
-    /// moving meshes keeps the BVH (Embree holds static triangles only); a scene with a
-    /// two-level BVH keeps it unless Embree is asked for by name (Embree holds flat triangles
-    /// only, every placement a copy). The error names the scene file; only an explicit
-    /// [`Accel::Embree`] fails, `Auto` falls back to the BVH.
+    /// moving meshes keeps the BVH (Embree holds static triangles only). A scene with a
+    /// two-level BVH gives Embree each primitive once under the same placements, and keeps
+    /// the two-level BVH to restate Embree's hits. The error names the scene file; only an
+    /// explicit [`Accel::Embree`] fails, `Auto` falls back to the BVH.
     pub fn use_accel(&mut self, accel: Accel) -> Result<AccelUsed, SceneError> {
-        self.use_accel_with(accel, EmbreeTriangles::build)
+        self.use_accel_with(accel, EmbreeTriangles::build_geometry)
     }
 
-    /// [`Scene::use_accel`] with Embree's scene built by `build` from the vertices and the
-    /// triangles' indices (tests make it fail).
+    /// [`Scene::use_accel`] with Embree's scene built by `build` (tests make it fail).
     pub fn use_accel_with(
         &mut self,
         accel: Accel,
-        build: impl FnOnce(&[[f32; 3]], &[[u32; 3]]) -> Result<EmbreeTriangles, String>,
+        build: impl FnOnce(EmbreeGeometry<'_>) -> Result<EmbreeTriangles, String>,
     ) -> Result<AccelUsed, SceneError> {
         self.embree = None;
         let bvh = |fallback| AccelUsed {
@@ -101,19 +104,38 @@ impl Scene {
             accel: Accel::Bvh,
             fallback,
         };
-        let two_level_kept = self.instanced.is_some() && accel != Accel::Embree;
-        if self.moving_meshes.is_some()
-            || two_level_kept
-            || accel.for_triangles(self.triangle_count()) == Accel::Bvh
+        if self.moving_meshes.is_some() || accel.for_triangles(self.triangle_count()) == Accel::Bvh
         {
             return Ok(bvh(None));
         }
-        // Embree's hits are restated by Brume's test on the flat BVH's corners: build it now,
-        // before Embree holds its memory, rather than inside the first render thread's query.
-        self.bvh();
-        let vertices: Vec<[f32; 3]> = self.vertices().iter().map(|v| v.position).collect();
-        let indices: Vec<[u32; 3]> = self.triangles().iter().map(|t| t.vertices).collect();
-        match build(&vertices, &indices) {
+        let built = match &self.instanced {
+            Some(two_level) => {
+                let locals = self.world.locals();
+                let vertices: Vec<Vec<[f32; 3]>> = locals
+                    .iter()
+                    .map(|l| l.positions.iter().map(|p| p.to_array()).collect())
+                    .collect();
+                let meshes: Vec<LocalTriangles<'_>> = locals
+                    .iter()
+                    .zip(&vertices)
+                    .map(|(l, v)| (&v[..], &l.triangles[..]))
+                    .collect();
+                build(EmbreeGeometry::Instanced {
+                    meshes: &meshes,
+                    two_level,
+                })
+            }
+            None => {
+                // Embree's hits are restated by Brume's test on the flat BVH's corners: build
+                // it now, before Embree holds its memory, rather than inside the first render
+                // thread's query.
+                self.bvh();
+                let vertices: Vec<[f32; 3]> = self.vertices().iter().map(|v| v.position).collect();
+                let indices: Vec<[u32; 3]> = self.triangles().iter().map(|t| t.vertices).collect();
+                build(EmbreeGeometry::Flat((&vertices, &indices)))
+            }
+        };
+        match built {
             Ok(embree) => self.embree = Some(embree),
             Err(e) if accel == Accel::Auto => return Ok(bvh(Some(e))),
             Err(e) => return Err(ctx_invalid(&self.source, e)),

@@ -159,6 +159,12 @@ impl WorldMesh {
         self.vertices
     }
 
+    /// The stored primitives, local space, indexed by `ShapePlacement::shape`; empty once the
+    /// arrays alone are kept.
+    pub fn locals(&self) -> &[LocalPrimitive] {
+        &self.locals
+    }
+
     /// Bytes of the stored primitives kept to place triangles from (none once the arrays
     /// alone are kept).
     pub fn stored_bytes(&self) -> usize {

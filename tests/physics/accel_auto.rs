@@ -3,6 +3,7 @@
 //! cannot be built; an explicit `--accel embree` that cannot be built is an error.
 use std::path::PathBuf;
 
+use brume::accel::embree::EmbreeGeometry;
 use brume::accel::{Accel, EMBREE_FROM_TRIANGLES};
 use brume::scene::Scene;
 use serde_json::json;
@@ -68,7 +69,7 @@ fn auto_takes_the_bvh_below_the_threshold_and_embree_from_it() {
 #[test]
 fn auto_falls_back_to_the_bvh_where_embree_fails_and_embree_by_name_is_an_error() {
     let mut scene = scene_of("failing", EMBREE_FROM_TRIANGLES);
-    let fail = |_: &[[f32; 3]], _: &[[u32; 3]]| Err("no Embree device".to_string());
+    let fail = |_: EmbreeGeometry<'_>| Err("no Embree device".to_string());
     let used = scene.use_accel_with(Accel::Auto, fail).unwrap();
     assert_eq!(used.accel, Accel::Bvh);
     assert_eq!(used.fallback.as_deref(), Some("no Embree device"));

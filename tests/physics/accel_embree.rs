@@ -164,12 +164,13 @@ fn embree_and_bvh_agree_on_every_example_scene() {
 }
 
 /// The heavy scene (`scenes/make_heavy.rs` at its defaults: 511,120 triangles stored,
-/// 6.3 million placed), the same comparison.
+/// 6.3 million placed), the same comparison; then Embree over the stored primitives under
+/// their placements (what `--accel auto` renders it with) against the flat BVH.
 #[test]
 fn embree_and_bvh_agree_on_the_heavy_scene() {
     let path = scratch::dir("accel_heavy").join("heavy.gltf");
     let w = make_heavy::write_scene(&path, &make_heavy::Params::default()).unwrap();
-    let scene = brume::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut scene = brume::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.triangle_count(), w.placed_triangles);
     let embree = embree_of(&scene);
     let pad = 0.1 * (scene.bounds.max - scene.bounds.min);
@@ -179,6 +180,12 @@ fn embree_and_bvh_agree_on_the_heavy_scene() {
         &format!("heavy scene ({} triangles)", w.placed_triangles),
         &t,
     );
+    drop(embree);
+    assert_eq!(scene.use_accel(Accel::Auto).unwrap().accel, Accel::Embree);
+    assert!(scene.embree.as_ref().is_some_and(|e| e.is_instanced()));
+    crate::accel_instanced::compare_with(&scene, "instanced Embree", 78, RAYS, |ray| {
+        scene.closest_hit(ray, 0.0, f32::INFINITY, 0.0)
+    });
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! hit): build time, memory and rays per second on one thread for camera rays, incoherent
 //! shadow rays (occlusion to a random point) and incoherent bounce rays (closest hit), the
 //! rays drawn from a fixed seed. Scenes that place a primitive more than once get a second
-//! table: the two-level BVH the CPU traces them through, on the same rays.
+//! table on the same rays: the two-level BVH, and Embree over the same stored primitives and
+//! placements (what `--accel auto` traces such scenes through).
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -31,9 +32,9 @@ struct Mesh {
     indices: Vec<[u32; 3]>,
     camera: crate::scene::Pinhole,
     aspect: f32,
-    /// The scene's two-level BVH and its build seconds, where it places a primitive more
-    /// than once.
-    two_level: Option<(InstancedBvh, f64)>,
+    /// The scene's two-level BVH and its build seconds, and Embree over the same placements,
+    /// where it places a primitive more than once.
+    two_level: Option<(InstancedBvh, f64, EmbreeTriangles)>,
 }
 
 /// One row of the table.
@@ -60,8 +61,9 @@ pub fn run(scenes: &[PathBuf], rays: usize, runs: usize, soups: &[usize]) -> Res
     Ok(())
 }
 
-/// The two-level BVH of each mesh that has one, on the rays of [`table`]; the shadow rays are
-/// closest-hit queries to their end, as the renderer asks them (it needs the surface hit).
+/// The two-level BVH and instanced Embree of each mesh that has them, on the rays of
+/// [`table`]; the shadow rays are closest-hit queries to their end, as the renderer asks them
+/// (it needs the surface hit).
 fn two_level_table(meshes: &[Mesh], rays: usize, runs: usize) {
     let placed: Vec<_> = meshes
         .iter()
@@ -71,30 +73,47 @@ fn two_level_table(meshes: &[Mesh], rays: usize, runs: usize) {
         return;
     }
     println!();
-    println!("Two-level BVH (each primitive stored once under its placements), same rays:");
+    println!("Each primitive stored once under its placements, same rays:");
     println!();
-    println!("| scene | placements | build ms | memory KiB | camera | shadow | bounce |");
-    println!("|---|---:|---:|---:|---:|---:|---:|");
-    for (mesh, (bvh, build_s)) in placed {
+    println!("| scene | accel | placements | build ms | memory KiB | camera | shadow | bounce |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for (mesh, (bvh, build_s, embree)) in placed {
         let sets = ray_sets(mesh, rays);
-        let mrays = sets.map(|set| {
-            let s = best_of(runs, || {
-                for (ray, &t_max) in set.rays.iter().zip(&set.t_max) {
-                    black_box(bvh.closest_hit(ray, 0.0, t_max));
-                }
-            });
-            set.rays.len() as f64 / s / 1e6
-        });
-        println!(
-            "| {} | {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} |",
-            mesh.name,
-            bvh.placements(),
-            build_s * 1e3,
-            bvh.memory_bytes() as f64 / 1024.0,
-            mrays[0],
-            mrays[1],
-            mrays[2],
-        );
+        let mrays = |query: &dyn Fn(&Ray, f32) -> Option<crate::accel::Hit>| {
+            sets.each_ref().map(|set| {
+                let s = best_of(runs, || {
+                    for (ray, &t_max) in set.rays.iter().zip(&set.t_max) {
+                        black_box(query(ray, t_max));
+                    }
+                });
+                set.rays.len() as f64 / s / 1e6
+            })
+        };
+        let rows = [
+            (
+                "two-level BVH",
+                build_s * 1e3,
+                bvh.memory_bytes() as f64,
+                mrays(&|ray, t_max| bvh.closest_hit(ray, 0.0, t_max)),
+            ),
+            (
+                "Embree, instanced",
+                embree.build_seconds() * 1e3,
+                embree.memory_bytes() as f64,
+                mrays(&|ray, t_max| embree.closest_hit_instanced(bvh, ray, 0.0, t_max)),
+            ),
+        ];
+        for (accel, build_ms, bytes, m) in rows {
+            println!(
+                "| {} | {accel} | {} | {build_ms:.2} | {:.1} | {:.2} | {:.2} | {:.2} |",
+                mesh.name,
+                bvh.placements(),
+                bytes / 1024.0,
+                m[0],
+                m[1],
+                m[2],
+            );
+        }
     }
 }
 
@@ -178,11 +197,24 @@ fn scene_mesh(path: &Path) -> Result<Mesh> {
         indices: scene.triangles().iter().map(|t| t.vertices).collect(),
         camera: scene.camera.pinhole(),
         aspect: w as f32 / h.max(1) as f32,
-        two_level: scene
-            .instanced
-            .take()
-            .map(|b| (b, scene.timings.bvh_seconds)),
+        two_level: instanced_pair(&mut scene)?,
     })
+}
+
+/// The scene's two-level BVH, its build seconds and Embree over the same placements, where
+/// it has a two-level BVH.
+fn instanced_pair(
+    scene: &mut crate::scene::Scene,
+) -> Result<Option<(InstancedBvh, f64, EmbreeTriangles)>> {
+    if scene.instanced.is_none() {
+        return Ok(None);
+    }
+    scene
+        .use_accel(crate::accel::Accel::Embree)
+        .map_err(|e| anyhow!("{e}"))?;
+    let embree = scene.embree.take().expect("instanced Embree");
+    let bvh = scene.instanced.take().expect("two-level BVH");
+    Ok(Some((bvh, scene.timings.bvh_seconds, embree)))
 }
 
 /// `n` random triangles of random sizes in a 40 m cube, seen from outside it.
