@@ -76,6 +76,22 @@ fn call(
     })
 }
 
+/// Runs a shim call that writes a new scene to its first argument, as [`call`] does, and
+/// takes ownership of that scene.
+fn new_scene(
+    what: impl Fn() -> String,
+    f: impl FnOnce(*mut *mut sys::BrumeEmbreeScene, *mut *mut c_char) -> i32,
+) -> Result<EmbreeScene, EmbreeError> {
+    let mut raw = ptr::null_mut();
+    call(&what, |err| f(&mut raw, err))?;
+    let raw = NonNull::new(raw).ok_or_else(|| EmbreeError {
+        what: what(),
+        kind: EmbreeErrorKind::Internal,
+        message: "no scene returned".into(),
+    })?;
+    Ok(EmbreeScene { raw })
+}
+
 /// An Embree device: Embree's thread pool and the error and memory callbacks of every scene
 /// made from it.
 pub struct EmbreeDevice {
@@ -135,26 +151,19 @@ impl EmbreeDevice {
                 vertices.len()
             )
         };
-        let mut raw = ptr::null_mut();
         // SAFETY: the slices are valid for their lengths (3 floats / 3 indices an element);
         // the shim copies them and writes a scene or null to `raw`.
-        call(what, |err| unsafe {
+        new_scene(what, |raw, err| unsafe {
             sys::brume_embree_scene_new(
                 self.raw.as_ptr(),
                 vertices.as_ptr().cast(),
                 vertices.len(),
                 indices.as_ptr().cast(),
                 indices.len(),
-                &mut raw,
+                raw,
                 err,
             )
-        })?;
-        let raw = NonNull::new(raw).ok_or_else(|| EmbreeError {
-            what: what(),
-            kind: EmbreeErrorKind::Internal,
-            message: "no scene returned".into(),
-        })?;
-        Ok(EmbreeScene { raw })
+        })
     }
 
     /// Builds and commits a two-level scene: each of `meshes` in its own scene (as
@@ -189,26 +198,19 @@ impl EmbreeDevice {
                 world_from_local: i.world_from_local,
             })
             .collect();
-        let mut raw = ptr::null_mut();
         // SAFETY: every mesh's slices outlive the call and hold 3 floats / 3 indices an
         // element; the shim copies them and writes a scene or null to `raw`.
-        call(what, |err| unsafe {
+        new_scene(what, |raw, err| unsafe {
             sys::brume_embree_instanced_scene_new(
                 self.raw.as_ptr(),
                 raw_meshes.as_ptr(),
                 raw_meshes.len(),
                 raw_instances.as_ptr(),
                 raw_instances.len(),
-                &mut raw,
+                raw,
                 err,
             )
-        })?;
-        let raw = NonNull::new(raw).ok_or_else(|| EmbreeError {
-            what: what(),
-            kind: EmbreeErrorKind::Internal,
-            message: "no scene returned".into(),
-        })?;
-        Ok(EmbreeScene { raw })
+        })
     }
 }
 
