@@ -132,9 +132,10 @@ pub struct Scene {
     flat_bvh: std::sync::OnceLock<TriangleBvh>,
     /// The two-level BVH (each primitive once, in local space, under its placements) where
     /// some primitive is placed more than once and no mesh moves; it then answers the CPU's
-    /// closest hits unless Embree was asked for.
+    /// closest hits where Embree is not used, and restates Embree's hits where it is.
     pub instanced: Option<InstancedBvh>,
-    /// Embree over the same triangles where [`Scene::use_accel`] chose it; `None`: the BVH
+    /// Embree over the same triangles (over each primitive once under the two-level BVH's
+    /// placements, where there is one) where [`Scene::use_accel`] chose it; `None`: the BVH
     /// answers the CPU's closest hits.
     pub embree: Option<EmbreeTriangles>,
     /// The mesh instances an animation moves during the shutter, `None` where none does; ray
