@@ -10,11 +10,11 @@ use std::sync::OnceLock;
 
 use glam::Vec3A;
 
-use super::mesh::{Geometry, Triangle, Vertex};
+use super::mesh::{repeats_a_shape, LocalPrimitive, Triangle, Vertex};
 use super::world_mesh::WorldMesh;
 use super::{ctx_invalid, AccelUsed, Scene, SceneError};
 use crate::accel::embree::{EmbreeGeometry, EmbreeTriangles, LocalTriangles};
-use crate::accel::instanced::InstancedBvh;
+use crate::accel::instanced::{InstancedBvh, ShapePlacement};
 use crate::accel::{Accel, Hit, TriangleBvh};
 use crate::math::Ray;
 
@@ -30,26 +30,24 @@ fn world_bvh(vertices: &[Vertex], triangles: &[Triangle]) -> TriangleBvh {
     TriangleBvh::build(corners)
 }
 
-/// The accelerators a scene starts with: the two-level BVH where `geo` places some primitive
-/// more than once and no mesh moves (the flat BVH and `world`'s arrays then wait for first
-/// use), else the flat BVH over `world`'s arrays, which alone are kept. Takes `geo`'s shapes
-/// and placements, which only the two-level BVH keeps.
+/// The accelerators a scene starts with: the two-level BVH over `world`'s stored primitives
+/// where `placements` place some primitive more than once and no mesh moves (the flat BVH and
+/// `world`'s arrays then wait for first use), else the flat BVH over `world`'s arrays, which
+/// alone are kept.
 pub(super) fn build(
-    geo: &mut Geometry,
+    placements: &[ShapePlacement],
     world: &mut WorldMesh,
     moving: bool,
 ) -> Result<(OnceLock<TriangleBvh>, Option<InstancedBvh>), String> {
-    let two_level = !moving && geo.repeats_a_shape();
-    let shapes = std::mem::take(&mut geo.shapes);
-    let placements = std::mem::take(&mut geo.placements);
     let flat = OnceLock::new();
-    if !two_level {
+    if moving || !repeats_a_shape(placements) {
         world.keep_arrays_only();
         let a = world.arrays();
         let _ = flat.set(world_bvh(&a.vertices, &a.triangles));
         return Ok((flat, None));
     }
-    let instanced = InstancedBvh::build(shapes, &placements)?;
+    let shapes = world.locals().iter().map(LocalPrimitive::corners).collect();
+    let instanced = InstancedBvh::build(shapes, placements)?;
     Ok((flat, Some(instanced)))
 }
 

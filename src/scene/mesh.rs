@@ -75,24 +75,26 @@ const _: () = assert!(std::mem::size_of::<Instance>() == 32);
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
     pub instances: Vec<Instance>,
-    /// Each distinct primitive in its mesh's local space, once however many nodes place it.
+    /// Each distinct primitive in its mesh's local space, once however many nodes place it
+    /// (local triangle `k` is triangle `k` of each of its instances).
     pub locals: Vec<LocalPrimitive>,
-    /// The triangle corners of `locals` (local triangle `k` is triangle `k` of each of its
-    /// instances), as the two-level BVH takes them.
-    pub shapes: Vec<Vec<[Vec3A; 3]>>,
-    /// Per instance (`instances` order): its shape and world transform.
+    /// Per instance (`instances` order): its primitive (index into `locals`) and world
+    /// transform.
     pub placements: Vec<ShapePlacement>,
 }
 
-impl Geometry {
-    /// Whether some primitive is placed more than once, so that a two-level BVH stores fewer
-    /// triangles than the flat one.
-    pub fn repeats_a_shape(&self) -> bool {
-        let mut placed = vec![false; self.shapes.len()];
-        self.placements
-            .iter()
-            .any(|p| std::mem::replace(&mut placed[p.shape as usize], true))
-    }
+/// Whether some of `placements` places a primitive more than once, so that a two-level BVH
+/// stores fewer triangles than the flat one.
+pub fn repeats_a_shape(placements: &[ShapePlacement]) -> bool {
+    let shapes = placements
+        .iter()
+        .map(|p| p.shape as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut placed = vec![false; shapes];
+    placements
+        .iter()
+        .any(|p| std::mem::replace(&mut placed[p.shape as usize], true))
 }
 
 /// Flattens every mesh placed by `nodes`, each `EXT_mesh_gpu_instancing` row as one more
@@ -123,9 +125,8 @@ pub fn flatten(
                     let local = read_primitive(ctx, buffers, &prim, &pointer)
                         .map_err(|e| placed_by(e, &node))?;
                     *e.insert(local.map(|local| {
-                        geo.shapes.push(local_corners(&local));
                         geo.locals.push(local);
-                        geo.shapes.len() as u32 - 1
+                        geo.locals.len() as u32 - 1
                     }))
                 }
             };
@@ -424,12 +425,14 @@ fn per_vertex<T>(
 }
 
 /// The corner positions of a local primitive's triangles, in its order.
-fn local_corners(local: &LocalPrimitive) -> Vec<[Vec3A; 3]> {
-    local
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| Vec3A::from(local.positions[i as usize])))
-        .collect()
+impl LocalPrimitive {
+    /// The triangles' corners, local space, as the two-level BVH takes them.
+    pub fn corners(&self) -> Vec<[Vec3A; 3]> {
+        self.triangles
+            .iter()
+            .map(|t| t.map(|i| Vec3A::from(self.positions[i as usize])))
+            .collect()
+    }
 }
 
 /// Triangle list from a triangle list, strip or fan (glTF spec, section 3.7.2.1).

@@ -251,8 +251,9 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError
         moving_meshes::MovingMeshes::of_steps(s, &nodes, &world, &geo.instances, shutter)
     });
     let read_seconds = start.elapsed().as_secs_f64();
-    let (flat_bvh, instanced) = accelerators::build(&mut geo, &mut world, moving_meshes.is_some())
-        .map_err(|e| ctx_invalid(path, e))?;
+    let (flat_bvh, instanced) =
+        accelerators::build(&geo.placements, &mut world, moving_meshes.is_some())
+            .map_err(|e| ctx_invalid(path, e))?;
     let timings = geometry_stats::LoadTimings {
         read_seconds,
         bvh_seconds: start.elapsed().as_secs_f64() - read_seconds,

@@ -205,10 +205,8 @@ impl WorldMesh {
         if let Some(a) = self.arrays.get() {
             return a.triangles[t].vertices.map(|i| a.vertices[i as usize]);
         }
-        let p = &self.placements[self.placement_of(t)];
-        let local = &self.locals[p.shape as usize];
-        let tri = local.triangles[t - p.first_triangle as usize];
-        p.corner_order(tri).map(|i| p.vertex(local, i as usize))
+        let (p, local, tri) = self.placed_triangle(t);
+        tri.map(|i| p.vertex(local, i as usize))
     }
 
     /// The three world-space corner positions of triangle `t`, in its corner order: what
@@ -220,13 +218,23 @@ impl WorldMesh {
                 .vertices
                 .map(|i| Vec3::from(a.vertices[i as usize].position));
         }
-        let p = &self.placements[self.placement_of(t)];
-        let local = &self.locals[p.shape as usize];
-        let tri = local.triangles[t - p.first_triangle as usize];
-        p.corner_order(tri).map(|i| {
+        let (p, local, tri) = self.placed_triangle(t);
+        tri.map(|i| {
             p.world_from_local
                 .transform_point3(local.positions[i as usize])
         })
+    }
+
+    /// Triangle `t`'s placement, stored primitive and local vertex indices in world corner
+    /// order, where the arrays are not built.
+    fn placed_triangle(&self, t: usize) -> (&Placement, &LocalPrimitive, [u32; 3]) {
+        let p = &self.placements[self.placement_of(t)];
+        let local = &self.locals[p.shape as usize];
+        (
+            p,
+            local,
+            p.corner_order(local.triangles[t - p.first_triangle as usize]),
+        )
     }
 
     /// Calls `f` with every placed vertex's world position, without building the arrays.
