@@ -357,8 +357,9 @@ struct GpuWavefrontParams {
     phases: array<GpuPhase, 8>,  // each VDB medium's phase function (FEATURE_PHASES)
     media_light_cells: u32,      // cells sampled as media lights (0: none)
     media_light_total: f32,      // MediaLights::total
-    _pad_media_lights0: u32,
-    _pad_media_lights1: u32,
+    glow_count: u32,             // lamps in media drawing pixel jitter (Glows::count)
+    _pad_glow: u32,
+    glows: array<vec4<f32>, 2>,  // their film points in pixels, two to a row
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).

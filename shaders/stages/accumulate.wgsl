@@ -26,19 +26,27 @@ fn accumulate(slot: u32) {
     if ((ps.flags & PATH_FLAG_ESCAPED) != 0u && ps.depth == 0u) {
         background = (ps.beta.x + ps.beta.y + ps.beta.z) / 3.0;
     }
-    samples[ps.sample_id] = GpuSample(ps.l, ps.lookups, 1.0 - background, 0u, 0u, 0u);
+    // CameraSample::scale: every channel times the glow sampling weight.
+    let w = glow_weight(ps.sample_id);
+    samples[ps.sample_id] = GpuSample(ps.l * w, ps.lookups, (1.0 - background) * w, 0u, 0u, 0u);
 // #if FEATURE_LIGHT_PASSES
     for (var k = 0u; k < LIGHT_PASSES; k++) {
-        sample_passes[ps.sample_id * LIGHT_ENTRIES + k] = path_passes[slot * LIGHT_ENTRIES + k];
+        sample_passes[ps.sample_id * LIGHT_ENTRIES + k] =
+            path_passes[slot * LIGHT_ENTRIES + k] * w;
     }
 // #endif
 // #if FEATURE_LIGHT_GROUPS
     for (var k = PASS_ENTRIES; k < LIGHT_ENTRIES; k++) {
-        sample_passes[ps.sample_id * LIGHT_ENTRIES + k] = path_passes[slot * LIGHT_ENTRIES + k];
+        sample_passes[ps.sample_id * LIGHT_ENTRIES + k] =
+            path_passes[slot * LIGHT_ENTRIES + k] * w;
     }
 // #endif
 // #if FEATURE_DATA_PASSES
-    sample_data[ps.sample_id] = path_data[slot];
+    var data = path_data[slot];
+    data.albedo *= w;
+    data.depth *= w;
+    data.normal *= w;
+    sample_data[ps.sample_id] = data;
 // #endif
     add_wide(WIDE_DEPTH_SUM, ps.depth);
     atomicSub(&counters.live, 1u);

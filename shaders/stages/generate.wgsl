@@ -22,7 +22,10 @@ fn generate(slot: u32) {
     let pixel = wf.pixel0 + sample_id / wf.spp_batch;
     let sample = wf.s0 + sample_id % wf.spp_batch;
     var rng = rng_new(pixel, sample, wf.seed);
-    let j = sampler_2d(sample_id, DIM_JITTER, &rng);
+    // Glows::jitter: towards lamps inside media where their film points are near; the
+    // weight it gives is applied by the accumulate stage (glow_weight).
+    let j = glow_jitter(pixel % wf.width, pixel / wf.width,
+                        sampler_2d(sample_id, DIM_JITTER, &rng)).xy;
     let fx = (f32(pixel % wf.width) + j.x) / f32(wf.width);
     let fy = (f32(pixel / wf.width) + j.y) / f32(wf.height);
     var time = 0.0;

@@ -6,10 +6,11 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::film::{tiles, Film, TileRecord, TileRect};
+use crate::integrator::glow::Glows;
 use crate::integrator::path::PathLimits;
 use crate::integrator::tile::{specialised, TileContext, TileFn, TileOutput};
 use crate::render::media::TrackingConfig;
-use crate::render::{FeatureFlags, RenderScene, RenderSettings, VolumeSampling};
+use crate::render::{FeatureFlags, RenderScene, RenderSettings};
 
 /// What a render produced.
 pub struct RenderOutput {
@@ -239,9 +240,12 @@ pub fn render_resumed(
 
 /// The tile loop's context for a render of `rs` with `settings`.
 fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileContext<'a> {
+    let cfg = TrackingConfig::from_settings(settings);
+    let (width, height) = (settings.width, settings.height);
     TileContext {
         rs,
-        cfg: TrackingConfig::from_settings(settings),
+        glows: Glows::of_scene(rs, rs.volume_sampling(settings), cfg.time, width, height),
+        cfg,
         limits: PathLimits {
             max_depth: settings.max_depth,
             rr_depth: settings.rr_depth,
@@ -255,16 +259,12 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             light_passes: settings.light_passes,
             data_passes: settings.data_passes,
             light_groups: !settings.light_groups.is_empty(),
-            volume_sampling: if rs.lights.positional.is_empty() {
-                VolumeSampling::Distance
-            } else {
-                settings.volume_sampling
-            },
+            volume_sampling: rs.volume_sampling(settings),
         },
         passes: settings.pass_names(),
         noisy: None,
-        width: settings.width,
-        height: settings.height,
+        width,
+        height,
         seed: settings.seed,
         sampler: settings.sampler,
     }

@@ -259,8 +259,9 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             phases,
             media_light_cells,
             media_light_total,
-            _pad_media_lights0,
-            _pad_media_lights1
+            glow_count,
+            _pad_glow,
+            glows
         ]
     ),
     layout!(

@@ -428,12 +428,16 @@ pub struct GpuWavefrontParams {
     pub media_light_cells: u32,
     /// `W`, the sum of their weights (`MediaLights::total`).
     pub media_light_total: f32,
-    pub _pad_media_lights0: u32,
-    pub _pad_media_lights1: u32,
+    /// Lamps inside media whose film points draw pixel jitter (`Glows::count`; 0: none).
+    pub glow_count: u32,
+    pub _pad_glow: u32,
+    /// Their film points in pixels (`Glows::centres`), two to a row: glow `k` in `xy` (even
+    /// `k`) or `zw` (odd `k`) of row `k / 2`.
+    pub glows: [[f32; 4]; 2],
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 384
+        == 416
             + size_of::<GpuVelocityBlur>()
             + size_of::<GpuCameraMotion>()
             + GPU_MAX_VDB_MEDIA * size_of::<GpuPhase>()

@@ -10,6 +10,7 @@ pub mod emitters;
 pub mod equiangular;
 pub mod features;
 pub mod flight;
+pub mod glow;
 pub mod homogeneous;
 pub mod media;
 pub mod mixture;

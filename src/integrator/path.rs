@@ -75,6 +75,16 @@ impl CameraSample {
     pub fn rgba(&self) -> [f32; 4] {
         [self.l.x, self.l.y, self.l.z, self.alpha]
     }
+
+    /// Every channel times `w`: the sample's weight under glow sampling (`glow`).
+    pub fn scale(&mut self, w: f32) {
+        self.l *= w;
+        self.alpha *= w;
+        let channels = self.passes.iter_mut().chain(&mut self.data);
+        for v in channels.chain(&mut self.groups) {
+            *v *= w;
+        }
+    }
 }
 
 /// How a path scatters after shading, for [`sample_phase`] to draw the next direction.

@@ -4,6 +4,7 @@ use std::time::Instant;
 use glam::Vec2;
 
 use super::features::{AllFeatures, Features, Variant};
+use super::glow::Glows;
 use super::path::{radiance, PathLimits, PathStats};
 use super::path::{DATA_PASS_COUNT, LIGHT_PASS_COUNT};
 use crate::film::{TileBuffer, TileRecord, TileRect};
@@ -27,6 +28,8 @@ pub struct TileContext<'a> {
     /// Under adaptive sampling, the pixels (row-major over the image) that still take
     /// samples this pass; `None`: all of them.
     pub noisy: Option<Vec<bool>>,
+    /// Where the jitter is drawn towards lamps seen through media ([`Glows`]).
+    pub glows: Glows,
 }
 
 const _: () = assert!(LIGHT_PASS_COUNT == crate::film::passes::LIGHT_PASSES.len());
@@ -77,12 +80,12 @@ pub fn render_tile<F: Features>(
             sampler.set_pixel(pixel);
             for s in s0..s0 + n {
                 sampler.start(s);
-                let jitter = sampler.get2d(DIM_JITTER);
+                let (jitter, weight) = ctx.glows.jitter(x, y, sampler.get2d(DIM_JITTER));
                 let film = Vec2::new(
                     (x as f32 + jitter.x) / ctx.width as f32,
                     (y as f32 + jitter.y) / ctx.height as f32,
                 );
-                let sample = radiance::<F>(
+                let mut sample = radiance::<F>(
                     ctx.rs,
                     &ctx.cfg,
                     &ctx.limits,
@@ -91,6 +94,9 @@ pub fn render_tile<F: Features>(
                     &mut sampler,
                     &mut total,
                 );
+                if weight != 1.0 {
+                    sample.scale(weight);
+                }
                 let limits = &ctx.limits;
                 if limits.light_passes || limits.data_passes || limits.light_groups {
                     // Light passes, data passes, then light groups: `RenderSettings::pass_names`'

@@ -10,7 +10,7 @@ use super::media::{
     VelocityBlur, WalkPlan,
 };
 use super::media_lights::MediaLights;
-use super::settings::{BlackbodyModel, RenderSettings};
+use super::settings::{BlackbodyModel, RenderSettings, VolumeSampling};
 use super::stack::{MediumStack, MAX_NESTED_MEDIA};
 use crate::math::Aabb;
 use crate::scene::motion::FrameMotion;
@@ -183,6 +183,16 @@ impl RenderScene<'_> {
         self.groups
             .as_ref()
             .map_or(NO_GROUP, |g| g.of_source(source))
+    }
+
+    /// How the render samples distances in media: `settings`' choice, distance-only where
+    /// the scene has no point or spot light for the equiangular strategy.
+    pub fn volume_sampling(&self, settings: &RenderSettings) -> VolumeSampling {
+        if self.lights.positional.is_empty() {
+            VolumeSampling::Distance
+        } else {
+            settings.volume_sampling
+        }
     }
 }
 

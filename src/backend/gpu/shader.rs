@@ -82,6 +82,8 @@ pub mod files {
     pub const SHADOW: ShaderFile = shader_file!("common/shadow.wgsl");
     /// Equiangular sampling towards point and spot lights, weighed against free flight.
     pub const EQUIANGULAR: ShaderFile = shader_file!("common/equiangular.wgsl");
+    /// Pixel jitter towards lamps inside media (`integrator::glow`).
+    pub const GLOW: ShaderFile = shader_file!("common/glow.wgsl");
     /// Emitting media sampled as lights, and the flights' MIS weight against them.
     pub const MEDIA_LIGHTS: ShaderFile = shader_file!("common/media_lights.wgsl");
     /// Queue bookkeeping between stages: counter resets and indirect dispatch arguments.
@@ -616,6 +618,7 @@ macro_rules! wavefront_module {
                 TRACKING,
                 EMISSION,
                 WAVEFRONT,
+                GLOW,
                 BSDF,
                 TEXTURES,
                 SURFACES,

@@ -18,6 +18,7 @@ use crate::gpu_types::{
     VOLUME_SAMPLING_EQUIANGULAR, VOLUME_SAMPLING_MIS, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
     WF_FLAG_GUIDED_LIGHTS,
 };
+use crate::integrator::glow::Glows;
 use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::prepare::SurfaceKind;
 use crate::render::settings::Absorption;
@@ -654,12 +655,16 @@ pub(super) fn wavefront_params(
     light_group_params(rs, &mut params);
     // As the CPU: the equiangular strategy only where the scene has point or spot lights.
     params.positional_count = rs.lights.positional.len() as u32;
-    params.volume_sampling = match settings.volume_sampling {
-        _ if rs.lights.positional.is_empty() => VOLUME_SAMPLING_DISTANCE,
+    params.volume_sampling = match rs.volume_sampling(settings) {
         VolumeSampling::Distance => VOLUME_SAMPLING_DISTANCE,
         VolumeSampling::Equiangular => VOLUME_SAMPLING_EQUIANGULAR,
         VolumeSampling::Mis => VOLUME_SAMPLING_MIS,
     };
+    let glows = Glows::of_scene(rs, rs.volume_sampling(settings), cfg.time, w, h);
+    params.glow_count = glows.count as u32;
+    for (k, c) in glows.centres.iter().enumerate() {
+        params.glows[k / 2][2 * (k % 2)..][..2].copy_from_slice(&c.to_array());
+    }
     params
 }
 
