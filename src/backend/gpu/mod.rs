@@ -17,6 +17,7 @@ mod dispatch;
 mod error;
 pub mod graph;
 mod media_lights;
+mod params;
 pub mod render;
 mod support;
 mod upload;
