@@ -3,6 +3,7 @@ pub mod info;
 pub mod merge;
 pub mod passes;
 pub mod render;
+pub mod render_args;
 pub mod render_report;
 pub mod study;
 pub mod viewer;
