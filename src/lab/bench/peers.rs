@@ -120,8 +120,8 @@ pub struct PeersArgs {
     pub window: Option<[u32; 4]>,
     /// Leave out of the statistics the 5 x 5 pixels around each point or spot light the
     /// camera sees: a point light's glow in a medium falls off as 1 / d across the image, so
-    /// the pixel holding it has an infinite variance under any pixel sampling, and it would
-    /// set every figure.
+    /// under uniform pixel jitter (the peers', and Brume's with `--volume-sampling distance`)
+    /// the pixel holding it has an infinite variance, and it would set every figure.
     #[arg(long)]
     pub mask_lights: bool,
 }
