@@ -14,6 +14,13 @@ fn glow_centre(k: u32) -> vec2<f32> {
     return row.zw;
 }
 
+// reaches (glow.rs): the distance from the glow's centre c to the pixel's square is below
+// GLOW_RADIUS.
+fn glow_reaches(c: vec2<f32>, corner: vec2<f32>) -> bool {
+    let d = max(max(corner - c, c - (corner + vec2<f32>(1.0))), vec2<f32>(0.0));
+    return dot(d, d) < GLOW_RADIUS * GLOW_RADIUS;
+}
+
 // Glows::jitter: pixel (x, y)'s jitter for the uniform numbers u in .xy, its weight in .z.
 fn glow_jitter(x: u32, y: u32, u: vec2<f32>) -> vec3<f32> {
     if (wf.glow_count == 0u) {
@@ -23,10 +30,7 @@ fn glow_jitter(x: u32, y: u32, u: vec2<f32>) -> vec3<f32> {
     var near: array<u32, 4>;
     var n = 0u;
     for (var k = 0u; k < wf.glow_count; k++) {
-        // The distance from the glow's centre to the pixel's square.
-        let c = glow_centre(k);
-        let d = max(max(corner - c, c - (corner + vec2<f32>(1.0))), vec2<f32>(0.0));
-        if (dot(d, d) < GLOW_RADIUS * GLOW_RADIUS) {
+        if (glow_reaches(glow_centre(k), corner)) {
             near[n] = k;
             n++;
         }
@@ -58,12 +62,18 @@ fn glow_jitter(x: u32, y: u32, u: vec2<f32>) -> vec3<f32> {
 }
 
 // The weight generate's jitter gave camera sample `sample_id` (render_tile's `weight`), from
-// its stream opened afresh: the accumulate stage scales the sample by it.
+// its stream opened afresh: the accumulate stage scales the sample by it. Pixels no glow
+// reaches weigh 1 without drawing the sampler's point again.
 fn glow_weight(sample_id: u32) -> f32 {
-    if (wf.glow_count == 0u) {
+    let pixel = path_pixel(sample_id);
+    let corner = vec2<f32>(f32(pixel % wf.width), f32(pixel / wf.width));
+    var reached = false;
+    for (var k = 0u; k < wf.glow_count; k++) {
+        reached = reached || glow_reaches(glow_centre(k), corner);
+    }
+    if (!reached) {
         return 1.0;
     }
-    let pixel = path_pixel(sample_id);
     var rng = rng_new(pixel, path_sample_index(sample_id), wf.seed);
     let u = sampler_2d(sample_id, DIM_JITTER, &rng);
     return glow_jitter(pixel % wf.width, pixel / wf.width, u).z;

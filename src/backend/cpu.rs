@@ -242,9 +242,10 @@ pub fn render_resumed(
 fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileContext<'a> {
     let cfg = TrackingConfig::from_settings(settings);
     let (width, height) = (settings.width, settings.height);
+    let volume_sampling = rs.volume_sampling(settings);
     TileContext {
         rs,
-        glows: Glows::of_scene(rs, rs.volume_sampling(settings), cfg.time, width, height),
+        glows: Glows::of_scene(rs, volume_sampling, cfg.time, width, height),
         cfg,
         limits: PathLimits {
             max_depth: settings.max_depth,
@@ -259,7 +260,7 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             light_passes: settings.light_passes,
             data_passes: settings.data_passes,
             light_groups: !settings.light_groups.is_empty(),
-            volume_sampling: rs.volume_sampling(settings),
+            volume_sampling,
         },
         passes: settings.pass_names(),
         noisy: None,

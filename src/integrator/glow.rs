@@ -66,10 +66,7 @@ impl Glows {
             return glows;
         }
         let aspect = width as f32 / height as f32;
-        let pinhole = match &rs.scene.camera_motion {
-            None => rs.pinhole,
-            Some(motion) => rs.pinhole.posed(motion.world_from_node(time)),
-        };
+        let pinhole = rs.pinhole_at(time);
         for &k in &rs.lights.positional {
             let p = Vec3::from(rs.lights.posed(k as usize, time).position);
             let in_media = !rs.homogeneous.is_empty()
@@ -102,9 +99,7 @@ impl Glows {
         let mut near = [0usize; MAX_GLOWS];
         let mut n = 0;
         for (k, c) in self.centres[..self.count].iter().enumerate() {
-            // The distance from the glow's centre to the pixel's square.
-            let d = (corner - *c).max(*c - (corner + Vec2::ONE)).max(Vec2::ZERO);
-            if d.length_squared() < GLOW_RADIUS * GLOW_RADIUS {
+            if reaches(*c, corner) {
                 near[n] = k;
                 n += 1;
             }
@@ -133,6 +128,13 @@ impl Glows {
         }
         (q, 1.0 / ((1.0 - GLOW_SHARE) + GLOW_SHARE / n as f32 * glow))
     }
+}
+
+/// Whether the glow centred at `c` reaches the pixel whose top-left corner is `corner`: the
+/// distance from `c` to the pixel's square is below [`GLOW_RADIUS`].
+fn reaches(c: Vec2, corner: Vec2) -> bool {
+    let d = (corner - c).max(c - (corner + Vec2::ONE)).max(Vec2::ZERO);
+    d.length_squared() < GLOW_RADIUS * GLOW_RADIUS
 }
 
 #[cfg(test)]

@@ -206,13 +206,7 @@ pub fn radiance<F: Features>(
 /// (`Stage::Generate`).
 #[inline(always)]
 fn generate<F: Features>(rs: &RenderScene, film: Vec2, aspect: f32, time: f32) -> PathState {
-    let (ray, t0) = match &rs.scene.camera_motion {
-        None => rs.pinhole.primary_ray(film.x, film.y, aspect),
-        Some(motion) => rs
-            .pinhole
-            .posed(motion.world_from_node(time))
-            .primary_ray(film.x, film.y, aspect),
-    };
+    let (ray, t0) = rs.pinhole_at(time).primary_ray(film.x, film.y, aspect);
     PathState {
         ray,
         t0,

@@ -185,6 +185,15 @@ impl RenderScene<'_> {
             .map_or(NO_GROUP, |g| g.of_source(source))
     }
 
+    /// The camera's pinhole at time offset `time`: posed where the camera moves.
+    #[inline(always)]
+    pub fn pinhole_at(&self, time: f32) -> Pinhole {
+        match &self.scene.camera_motion {
+            None => self.pinhole,
+            Some(motion) => self.pinhole.posed(motion.world_from_node(time)),
+        }
+    }
+
     /// How the render samples distances in media: `settings`' choice, distance-only where
     /// the scene has no point or spot light for the equiangular strategy.
     pub fn volume_sampling(&self, settings: &RenderSettings) -> VolumeSampling {
