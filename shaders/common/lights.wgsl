@@ -119,7 +119,7 @@ fn light_sample(p: vec3<f32>, u_select: f32, u: vec2<f32>) -> LightSample {
         lo = area_lights[i - 1u].cdf;
     }
     let ux = clamp((u.x - lo) / (area_lights[i].cdf - lo), 0.0, 1.0 - 1.1920929e-7);
-    let t = bvh_triangles[area_lights[i].prim];
+    let t = scene_triangle(area_lights[i].prim);
     // Uniform point on the triangle (square-root parameterisation).
     let su = sqrt(ux);
     let b1 = 1.0 - su;

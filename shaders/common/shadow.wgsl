@@ -93,7 +93,7 @@ fn walk_transmittance(free: FreeLeg, o: vec3<f32>, wi: vec3<f32>, dist: f32, med
         if (h.prim != NO_INDEX) {
             t1 = h.t;
             // A surface that scatters blocks the ray before the media up to it are tracked.
-            if (bvh_triangles[h.prim].kind != SURFACE_NULL) {
+            if (bvh_triangles[placed_slot(h.prim).x].kind != SURFACE_NULL) {
                 return vec3<f32>(0.0);
             }
         }
@@ -113,7 +113,7 @@ fn walk_transmittance(free: FreeLeg, o: vec3<f32>, wi: vec3<f32>, dist: f32, med
             break;
         }
 // #if FEATURE_HOMOGENEOUS
-        let tri = bvh_triangles[h.prim];
+        let tri = scene_triangle(h.prim);
         let entering = dot(triangle_cross(tri), rd) < 0.0;
         let m = stack_cross(medium, outer, tri.interior, entering);
         medium = m.x;

@@ -5,8 +5,10 @@
 // offset, shading_normal (src/integrator/path.rs), emitted and Lights::pdf_area
 // (src/render/lights.rs). The nodes are obvhs' 80-byte CwBvhNode as built for the CPU;
 // the triangles are uploaded in the BVH's primitive order (GpuTriangle), so a leaf's
-// primitive slot indexes them directly. Needs wavefront.wgsl (wf), tracking.wgsl (F32_MAX)
-// and textures.wgsl (emission_at).
+// primitive slot indexes them directly. Where the GPU keeps instancing, the shapes' BVHs
+// follow the top-level one in bvh_nodes, each searched in its placement's local space
+// (InstancedBvh::closest_hit, placements.wgsl). Needs wavefront.wgsl (wf), tracking.wgsl
+// (F32_MAX), placements.wgsl and textures.wgsl (emission_at).
 
 @group(1) @binding(8) var<storage, read> bvh_nodes: array<CwBvhNode>;
 @group(1) @binding(9) var<storage, read> bvh_triangles: array<GpuTriangle>;
@@ -104,61 +106,164 @@ fn bvh_intersect_node(n: CwBvhNode, o: vec3<f32>, d: vec3<f32>, inv_d: vec3<f32>
     return hit_mask;
 }
 
-// TriangleBvh::closest_hit: the nearest triangle with t in [t_min, t_max] (obvhs' traversal:
-// node groups and primitive groups, nearest-first by the ray octant, a stack of groups).
+// A ray as obvhs' traversal reads it: origin, direction, their safe inverse and the octant.
+struct BvhRay {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    inv_d: vec3<f32>,
+    oct_inv4: u32,
+}
+
+fn bvh_ray(o: vec3<f32>, d: vec3<f32>) -> BvhRay {
+    let inv_d = vec3<f32>(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
+    // ray_get_octant_inv4.
+    let oct_inv4 = select(0x04040404u, 0u, d.x < 0.0) | select(0x02020202u, 0u, d.y < 0.0)
+        | select(0x01010101u, 0u, d.z < 0.0);
+    return BvhRay(o, d, inv_d, oct_inv4);
+}
+
+// obvhs' traversal state (the `traverse!` macro): the node group being descended, the
+// primitive group being tested, and a stack of node groups, nearest-first by the ray octant.
+struct BvhWalk {
+    stack: array<vec2<u32>, BVH_STACK_SIZE>,
+    sp: u32,
+    current: vec2<u32>,
+    prims: vec2<u32>,
+}
+
+fn bvh_walk_start() -> BvhWalk {
+    var w: BvhWalk;
+    w.sp = 0u;
+    w.current = vec2<u32>(0u, 0x80000000u);
+    w.prims = vec2<u32>(0u);
+    return w;
+}
+
+// The next primitive slot of the current leaf group (relative to the BVH's first primitive),
+// NO_INDEX when the group is done.
+fn bvh_walk_prim(w: ptr<function, BvhWalk>) -> u32 {
+    if ((*w).prims.y == 0u) {
+        return NO_INDEX;
+    }
+    let local = firstLeadingBit((*w).prims.y);
+    (*w).prims.y &= ~(1u << local);
+    return (*w).prims.x + local;
+}
+
+// Descends to the next node group of the BVH whose root is node `node_base`, or pops one;
+// false when the traversal is over.
+fn bvh_walk_next(w: ptr<function, BvhWalk>, node_base: u32, r: BvhRay, tmax: f32) -> bool {
+    (*w).prims = vec2<u32>(0u);
+    if (((*w).current.y & 0xff000000u) != 0u) {
+        let hits_imask = (*w).current.y;
+        let child_index_offset = firstLeadingBit(hits_imask);
+        let child_index_base = (*w).current.x;
+        (*w).current.y &= ~(1u << child_index_offset);
+        if (((*w).current.y & 0xff000000u) != 0u && (*w).sp < BVH_STACK_SIZE) {
+            (*w).stack[(*w).sp] = (*w).current;
+            (*w).sp += 1u;
+        }
+        let slot_index = (child_index_offset - 24u) ^ (r.oct_inv4 & 0xffu);
+        let relative_index = countOneBits(hits_imask & ~(0xffffffffu << slot_index));
+        let node = bvh_nodes[node_base + child_index_base + relative_index];
+        let hitmask = bvh_intersect_node(node, r.o, r.d, r.inv_d, tmax, r.oct_inv4);
+        (*w).current = vec2<u32>(node.child_base_idx,
+                                 (hitmask & 0xff000000u) | (node.e_imask >> 24u));
+        (*w).prims = vec2<u32>(node.primitive_base_idx, hitmask & 0x00ffffffu);
+    } else {
+        (*w).current = vec2<u32>(0u);
+    }
+    if ((*w).prims.y == 0u && ((*w).current.y & 0xff000000u) == 0u) {
+        if ((*w).sp == 0u) {
+            return false;
+        }
+        (*w).sp -= 1u;
+        (*w).current = (*w).stack[(*w).sp];
+    }
+    return true;
+}
+
+// TriangleBvh::closest_hit over one BVH whose root is node `node_base` and whose triangles
+// start at `prim_base`: the nearest triangle with t in [t_min, t_max]; `prim` is its slot
+// relative to `prim_base`.
+fn bvh_closest_in(node_base: u32, prim_base: u32, o: vec3<f32>, d: vec3<f32>, t_min: f32,
+                  t_max: f32) -> Hit {
+    var best = Hit(NO_INDEX, 0.0, 0.0, 0.0);
+    let r = bvh_ray(o, d);
+    var w = bvh_walk_start();
+    var tmax = t_max;
+    loop {
+        for (var s = bvh_walk_prim(&w); s != NO_INDEX; s = bvh_walk_prim(&w)) {
+            let tri = bvh_triangles[prim_base + s];
+            var h = vec3<f32>(0.0);
+            if (intersect_triangle(o, d, tri.p0, tri.p1, tri.p2, t_min, tmax, &h)) {
+                best = Hit(s, h.x, h.y, h.z);
+                tmax = h.x;
+            }
+        }
+        if (!bvh_walk_next(&w, node_base, r, tmax)) {
+            break;
+        }
+    }
+    return best;
+}
+
+// InstancedBvh::closest_hit: the top-level BVH (from node 0) over the placements; each one
+// the ray reaches is searched in its shape's local space with the running closest t, and the
+// winning triangle's hit is restated by the triangle test on its world corners (the local
+// hit, its barycentrics in world corner order, where rounding makes that test miss).
+fn bvh_closest_placed(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
+    var best = Hit(NO_INDEX, 0.0, 0.0, 0.0);
+    var best_k = 0u;
+    let r = bvh_ray(o, d);
+    var w = bvh_walk_start();
+    var tmax = t_max;
+    loop {
+        for (var k = bvh_walk_prim(&w); k != NO_INDEX; k = bvh_walk_prim(&w)) {
+            let pl = bvh_placements[k];
+            if ((pl.flags & PLACEMENT_EMPTY) != 0u) {
+                continue;
+            }
+            let h = bvh_closest_in(pl.node_base, pl.prim_base, local_point(pl, o),
+                                   local_vector(pl, d), t_min, tmax);
+            if (h.prim != NO_INDEX) {
+                best = h;
+                best_k = k;
+                tmax = h.t;
+            }
+        }
+        if (!bvh_walk_next(&w, 0u, r, tmax)) {
+            break;
+        }
+    }
+    if (best.prim == NO_INDEX) {
+        return best;
+    }
+    let pl = bvh_placements[best_k];
+    let prim = pl.first_slot + best.prim;
+    let tri = place_triangle(pl, bvh_triangles[pl.prim_base + best.prim]);
+    var h = vec3<f32>(0.0);
+    if (intersect_triangle(o, d, tri.p0, tri.p1, tri.p2, t_min, t_max, &h)) {
+        return Hit(prim, h.x, h.y, h.z);
+    }
+    if ((pl.flags & PLACEMENT_MIRRORED) != 0u) {
+        return Hit(prim, best.t, best.b2, best.b1);
+    }
+    return Hit(prim, best.t, best.b1, best.b2);
+}
+
+// Scene::closest_hit over the static triangles: the nearest with t in [t_min, t_max], its
+// `prim` a scene-wide slot (placements.wgsl).
 fn bvh_closest_hit(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Hit {
     var best = Hit(NO_INDEX, 0.0, 0.0, 0.0);
 // #if FEATURE_SURFACES
     if (!(all(abs(o) <= vec3<f32>(F32_MAX)) && all(abs(d) <= vec3<f32>(F32_MAX)))) {
         return best;
     }
-    let inv_d = vec3<f32>(safe_inverse(d.x), safe_inverse(d.y), safe_inverse(d.z));
-    // ray_get_octant_inv4.
-    let oct_inv4 = select(0x04040404u, 0u, d.x < 0.0) | select(0x02020202u, 0u, d.y < 0.0)
-        | select(0x01010101u, 0u, d.z < 0.0);
-    var stack: array<vec2<u32>, BVH_STACK_SIZE>;
-    var sp = 0u;
-    var current = vec2<u32>(0u, 0x80000000u);
-    var prims = vec2<u32>(0u);
-    var tmax = t_max;
-    loop {
-        while (prims.y != 0u) {
-            let local = firstLeadingBit(prims.y);
-            prims.y &= ~(1u << local);
-            let slot = prims.x + local;
-            let tri = bvh_triangles[slot];
-            var h = vec3<f32>(0.0);
-            if (intersect_triangle(o, d, tri.p0, tri.p1, tri.p2, t_min, tmax, &h)) {
-                best = Hit(slot, h.x, h.y, h.z);
-                tmax = h.x;
-            }
-        }
-        prims = vec2<u32>(0u);
-        if ((current.y & 0xff000000u) != 0u) {
-            let hits_imask = current.y;
-            let child_index_offset = firstLeadingBit(hits_imask);
-            let child_index_base = current.x;
-            current.y &= ~(1u << child_index_offset);
-            if ((current.y & 0xff000000u) != 0u && sp < BVH_STACK_SIZE) {
-                stack[sp] = current;
-                sp += 1u;
-            }
-            let slot_index = (child_index_offset - 24u) ^ (oct_inv4 & 0xffu);
-            let relative_index = countOneBits(hits_imask & ~(0xffffffffu << slot_index));
-            let node = bvh_nodes[child_index_base + relative_index];
-            let hitmask = bvh_intersect_node(node, o, d, inv_d, tmax, oct_inv4);
-            current = vec2<u32>(node.child_base_idx, (hitmask & 0xff000000u) | (node.e_imask >> 24u));
-            prims = vec2<u32>(node.primitive_base_idx, hitmask & 0x00ffffffu);
-        } else {
-            current = vec2<u32>(0u);
-        }
-        if (prims.y == 0u && (current.y & 0xff000000u) == 0u) {
-            if (sp == 0u) {
-                break;
-            }
-            sp -= 1u;
-            current = stack[sp];
-        }
+    if (wf.placement_count == 0u) {
+        best = bvh_closest_in(0u, 0u, o, d, t_min, t_max);
+    } else {
+        best = bvh_closest_placed(o, d, t_min, t_max);
     }
 // #endif
     return best;

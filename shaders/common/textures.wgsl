@@ -63,12 +63,16 @@ fn texture_sample(t: GpuTexture, uv: vec2<f32>) -> vec4<f32> {
 }
 // #endif
 
-// Scene::uv_at for the triangle in BVH slot `prim`.
+// Scene::uv_at for the triangle at scene-wide slot `prim` (placements.wgsl).
 fn triangle_uv(prim: u32, b1: f32, b2: f32) -> vec2<f32> {
     var uv = vec2<f32>(0.0);
 // #if FEATURE_TEXTURES
-    let t = triangle_uvs[prim];
-    uv = t.uv0 * (1.0 - b1 - b2) + t.uv1 * b1 + t.uv2 * b2;
+    let slot = placed_slot(prim);
+    let t = triangle_uvs[slot.x];
+    // A mirroring placement's world corners 1 and 2 are its local corners 2 and 1.
+    let uv1 = select(t.uv1, t.uv2, slot.y != 0u);
+    let uv2 = select(t.uv2, t.uv1, slot.y != 0u);
+    uv = t.uv0 * (1.0 - b1 - b2) + uv1 * b1 + uv2 * b2;
 // #endif
     return uv;
 }

@@ -186,6 +186,32 @@ struct GpuTriangle {
     _pad0: u32,
 }
 
+// GpuPlacement: one placement of a stored shape where the GPU keeps instancing.
+struct GpuPlacement {
+    world_x: vec3<f32>,     // world_from_local's columns
+    node_base: u32,         // the shape's first CWBVH node
+    world_y: vec3<f32>,
+    prim_base: u32,         // the shape's first GpuTriangle
+    world_z: vec3<f32>,
+    first_slot: u32,        // scene-wide slot of the shape's slot 0 here
+    world_w: vec3<f32>,
+    first_triangle: u32,    // index into Scene::triangles of its first triangle
+    local_x: vec3<f32>,     // local_from_world's columns
+    flags: u32,             // PLACEMENT_* bits
+    local_y: vec3<f32>,
+    _pad0: u32,
+    local_z: vec3<f32>,
+    _pad1: u32,
+    local_w: vec3<f32>,
+    _pad2: u32,
+    normal_x: vec3<f32>,    // inverse transpose of the upper 3x3: columns
+    _pad3: u32,
+    normal_y: vec3<f32>,
+    _pad4: u32,
+    normal_z: vec3<f32>,
+    _pad5: u32,
+}
+
 // GpuTriangleUv: TEXCOORD_0 at a GpuTriangle's corners, same slot.
 struct GpuTriangleUv {
     uv0: vec2<f32>,
@@ -358,7 +384,7 @@ struct GpuWavefrontParams {
     media_light_cells: u32,      // cells sampled as media lights (0: none)
     media_light_total: f32,      // MediaLights::total
     glow_count: u32,             // lamps in media drawing pixel jitter (Glows::count)
-    _pad_glow: u32,
+    placement_count: u32,        // GpuPlacements (0: flat world-space triangles)
     glows: array<vec4<f32>, 2>,  // their film points in pixels, two to a row
 }
 

@@ -16,7 +16,7 @@ fn emitter_scatter(ps: GpuPathState, wi: vec3<f32>) -> vec4<f32> {
     let wo = -ps.d;
 // #if FEATURE_SURFACES
     if ((ps.flags & PATH_FLAG_SURFACE) != 0u) {
-        let tri = bvh_triangles[ps.hit_prim];
+        let tri = scene_triangle(ps.hit_prim);
         let mat = materials[tri.material];
         let ng = normalize_or_zero(triangle_cross(tri));
         let n_side = select(-ng, ng, dot(ng, wo) >= 0.0);
@@ -40,7 +40,7 @@ fn emitter_scatter(ps: GpuPathState, wi: vec3<f32>) -> vec4<f32> {
 fn emitter_origin(ps: GpuPathState) -> vec3<f32> {
 // #if FEATURE_SURFACES
     if ((ps.flags & PATH_FLAG_SURFACE) != 0u) {
-        let tri = bvh_triangles[ps.hit_prim];
+        let tri = scene_triangle(ps.hit_prim);
         let ng = normalize_or_zero(triangle_cross(tri));
         let n_side = select(-ng, ng, dot(ng, -ps.d) >= 0.0);
         return offset_origin(ps.o + ps.hit_t * ps.d, n_side, n_side);

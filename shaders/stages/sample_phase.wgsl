@@ -15,7 +15,7 @@ fn sample_phase(slot: u32) {
     if (at_surface) {
         ps.flags &= ~PATH_FLAG_SURFACE;
         // The shading frame and BSDF of the hit, as the surface stage built them.
-        let tri = bvh_triangles[ps.hit_prim];
+        let tri = scene_triangle(ps.hit_prim);
         let mat = materials[tri.material];
         let p = ps.o + ps.hit_t * ps.d;
         let wo = -ps.d;

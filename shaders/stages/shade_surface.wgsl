@@ -18,7 +18,7 @@
 // Run on every path slot of its queue (the entry point src/backend/gpu/shader.rs adds).
 fn shade_surface(slot: u32) {
     var ps = paths[slot];
-    let tri = bvh_triangles[ps.hit_prim];
+    let tri = scene_triangle(ps.hit_prim);
     let mat = materials[tri.material];
     let p = ps.o + ps.hit_t * ps.d;
     let wo = -ps.d;

@@ -33,14 +33,14 @@ pub struct ShapePlacement {
 
 /// A placement as queries need it: the inverse transform and whether it mirrors.
 #[derive(Clone, Copy, Debug)]
-struct Placed {
-    shape: u32,
-    world_from_local: Mat4,
-    local_from_world: Affine3A,
+pub struct Placed {
+    pub shape: u32,
+    pub world_from_local: Mat4,
+    pub local_from_world: Affine3A,
     /// A mirroring transform flips the winding; flattening swaps two corners to keep triangles
     /// counter-clockwise, and the world-space retest swaps the same two.
-    mirrored: bool,
-    first_triangle: u32,
+    pub mirrored: bool,
+    pub first_triangle: u32,
 }
 
 /// Shapes in local space, each with its own BVH, under a BVH of their placements.
@@ -248,6 +248,23 @@ impl InstancedBvh {
             b1,
             b2,
         })
+    }
+
+    /// The stored shapes' BVHs over their local-space corners, indexed by
+    /// `ShapePlacement::shape`.
+    pub fn shapes(&self) -> &[TriangleBvh] {
+        &self.shapes
+    }
+
+    /// The placements in placement order, with their inverse transforms.
+    pub fn placed(&self) -> &[Placed] {
+        &self.placements
+    }
+
+    /// The BVH over the placements' world boxes (its primitives are placement indices);
+    /// `None` when nothing is placed.
+    pub fn top(&self) -> Option<&CwBvh> {
+        self.top.as_ref()
     }
 
     /// Each placement's shape and world-from-local transform, in placement order.

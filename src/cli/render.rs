@@ -343,6 +343,7 @@ fn render_on_gpu(
     match rendered {
         Ok((out, timings)) => {
             eprintln!("gpu variant: {}", timings.variant);
+            eprintln!("gpu geometry: {}", timings.geometry);
             Ok(Some((
                 out,
                 format!("wgpu: {}", ctx.describe()),

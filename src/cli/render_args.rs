@@ -184,7 +184,7 @@ pub struct RenderArgs {
     /// triangle, Brume's own triangle test gives the hit, so images agree). Scenes with moving
     /// meshes, and the GPU backend, use the BVH. Scenes that place some mesh more than once
     /// store each mesh once under its placements: embree then builds Embree's instances over
-    /// them, bvh a two-level BVH. The render prints which it used.
+    /// them, bvh (and the GPU) a two-level BVH. The render prints which it used.
     #[arg(long, default_value = "auto")]
     pub accel: brume::render::settings::Accel,
     /// Show the image in the tev viewer listening at HOST:PORT (start `tev` first; its

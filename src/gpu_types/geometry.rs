@@ -40,13 +40,65 @@ pub struct GpuTriangle {
 }
 const _: () = assert!(size_of::<GpuTriangle>() == 96);
 
+/// One placement of a stored shape, where the GPU keeps instancing (a scene whose two-level
+/// BVH answers the CPU's queries): its transforms, and where its shape's CWBVH nodes and
+/// local-space [`GpuTriangle`]s start in the node and triangle buffers. A hit names a
+/// scene-wide slot: slot `s` of the placement's shape is `first_slot + s`. The buffer holds
+/// the placements in the top-level BVH's primitive order, so `first_slot` grows with the index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPlacement {
+    /// `world_from_local`'s columns: x axis...
+    pub world_x: [f32; 3],
+    /// First node of the shape's CWBVH in the node buffer.
+    pub node_base: u32,
+    /// ...y axis...
+    pub world_y: [f32; 3],
+    /// First of the shape's triangles in the triangle buffer (its BVH's primitive order).
+    pub prim_base: u32,
+    /// ...z axis...
+    pub world_z: [f32; 3],
+    /// Scene-wide slot of the shape's first triangle slot in this placement.
+    pub first_slot: u32,
+    /// ...and translation.
+    pub world_w: [f32; 3],
+    /// Index into `Scene::triangles` of the placement's first triangle.
+    pub first_triangle: u32,
+    /// `local_from_world` (`Affine3A`): x axis...
+    pub local_x: [f32; 3],
+    /// `PLACEMENT_*` bits.
+    pub flags: u32,
+    /// ...y axis...
+    pub local_y: [f32; 3],
+    pub _pad0: u32,
+    /// ...z axis...
+    pub local_z: [f32; 3],
+    pub _pad1: u32,
+    /// ...and translation.
+    pub local_w: [f32; 3],
+    pub _pad2: u32,
+    /// Normals map by the inverse transpose of `world_from_local`'s upper 3x3: its columns.
+    pub normal_x: [f32; 3],
+    pub _pad3: u32,
+    pub normal_y: [f32; 3],
+    pub _pad4: u32,
+    pub normal_z: [f32; 3],
+    pub _pad5: u32,
+}
+const _: () = assert!(size_of::<GpuPlacement>() == 176);
+
+/// [`GpuPlacement::flags`] bit: the transform mirrors, so its world corners 1 and 2 swap.
+pub const PLACEMENT_MIRRORED: u32 = 1;
+/// [`GpuPlacement::flags`] bit: the shape has no triangles (no ray enters it).
+pub const PLACEMENT_EMPTY: u32 = 2;
+
 /// One entry of the area lights' selection CDF (`AreaLights::cdf`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuAreaLight {
     /// Cumulative `area * luminance / total` up to and including this light.
     pub cdf: f32,
-    /// Its slot in the [`GpuTriangle`] buffer.
+    /// Its scene-wide slot: in the [`GpuTriangle`] buffer, or through its [`GpuPlacement`].
     pub prim: u32,
 }
 const _: () = assert!(size_of::<GpuAreaLight>() == 8);

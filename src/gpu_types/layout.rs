@@ -156,6 +156,34 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
     ),
     layout!(GpuTriangleUv, "GpuTriangleUv", [uv0, uv1, uv2]),
     layout!(
+        GpuPlacement,
+        "GpuPlacement",
+        [
+            world_x,
+            node_base,
+            world_y,
+            prim_base,
+            world_z,
+            first_slot,
+            world_w,
+            first_triangle,
+            local_x,
+            flags,
+            local_y,
+            _pad0,
+            local_z,
+            _pad1,
+            local_w,
+            _pad2,
+            normal_x,
+            _pad3,
+            normal_y,
+            _pad4,
+            normal_z,
+            _pad5
+        ]
+    ),
+    layout!(
         GpuTexture,
         "GpuTexture",
         [row0, offset, row1, width, height, wrap_s, wrap_t, nearest]
@@ -260,7 +288,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             media_light_cells,
             media_light_total,
             glow_count,
-            _pad_glow,
+            placement_count,
             glows
         ]
     ),

@@ -430,7 +430,9 @@ pub struct GpuWavefrontParams {
     pub media_light_total: f32,
     /// Lamps inside media whose film points draw pixel jitter (`Glows::count`; 0: none).
     pub glow_count: u32,
-    pub _pad_glow: u32,
+    /// Placements the GPU keeps instancing with (`GpuPlacement`s; 0: the triangles are flat,
+    /// in world space).
+    pub placement_count: u32,
     /// Their film points in pixels (`Glows::centres`), two to a row: glow `k` in `xy` (even
     /// `k`) or `zw` (odd `k`) of row `k / 2`.
     pub glows: [[f32; 4]; 2],

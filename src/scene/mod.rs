@@ -410,6 +410,12 @@ impl Scene {
         self.world.stored_bytes()
     }
 
+    /// The stored primitives in local space, indexed by the two-level BVH's shapes (empty
+    /// where the scene keeps the world arrays alone).
+    pub fn stored_primitives(&self) -> &[mesh::LocalPrimitive] {
+        self.world.locals()
+    }
+
     /// Triangles placed in the world, every placement counted.
     #[inline]
     pub fn triangle_count(&self) -> usize {

@@ -383,7 +383,9 @@ fn surface_scenes_agree_with_the_cpu() {
 }
 
 /// Meshes placed many times (`EXT_mesh_gpu_instancing`, and nodes sharing meshes): the GPU
-/// replays the CPU with the same seed and agrees with another seed's image.
+/// keeps them instanced (two-level BVH, each shape stored once: neither the flat BVH nor the
+/// world-space arrays are ever built), replays the CPU with the same seed and agrees with
+/// another seed's image.
 #[test]
 fn instanced_scenes_agree_with_the_cpu() {
     let Some(ctx) = gpu_or_skip("instanced_scenes_agree_with_the_cpu") else {
@@ -394,10 +396,57 @@ fn instanced_scenes_agree_with_the_cpu() {
         .enumerate()
     {
         let scene = load_scene(file);
+        assert!(scene.instanced.is_some(), "{file}: no two-level BVH");
         let s = settings(24, 18, 16, 950 + i as u32);
         let (g, c) = gpu_against_cpu(&ctx, &scene, &s, file, 1e-3 / 2.0);
+        assert!(
+            !scene.world_arrays_built() && scene.built_flat_bvh().is_none(),
+            "{file}: the GPU flattened the placements"
+        );
         print_parity(Some(&ctx), file, &scene, &s, &g, &c);
     }
+}
+
+/// The textured backdrop with its emissive, textured sign placed twice, once mirrored: the
+/// GPU keeps it instanced with a copy of the sign per placement (each placed triangle has its
+/// own light selection density), swaps the mirrored placement's corners and texture
+/// coordinates as flattening does, and replays the CPU.
+#[test]
+fn instanced_mirrored_emitters_agree_with_the_cpu() {
+    let Some(ctx) = gpu_or_skip("instanced_mirrored_emitters_agree_with_the_cpu") else {
+        return;
+    };
+    let src = scene_path("textured_backdrop.gltf");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&src).unwrap()).unwrap();
+    let scenes = src.parent().unwrap();
+    for image in doc["images"].as_array_mut().unwrap() {
+        let uri = scenes.join(image["uri"].as_str().unwrap());
+        image["uri"] = uri.to_str().unwrap().into();
+    }
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    let cloud = nodes.iter_mut().find(|n| n["name"] == "cloud").unwrap();
+    let vdb = &mut cloud["extensions"]["BRUME_medium_vdb"]["uri"];
+    *vdb = scenes.join(vdb.as_str().unwrap()).to_str().unwrap().into();
+    nodes.push(serde_json::json!({"name": "sign_mirrored", "mesh": 2,
+        "translation": [0.6, -0.4, 0.5], "scale": [-1.0, 0.8, 1.0]}));
+    let last = nodes.len() - 1;
+    doc["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(last.into());
+    let path = common::scratch::dir("instanced_emitters").join("signs.gltf");
+    std::fs::write(&path, serde_json::to_string(&doc).unwrap()).unwrap();
+    let scene = brume::scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.instanced.is_some(), "the sign is placed twice");
+    let s = settings(32, 24, 32, 1750);
+    let label = "textured_backdrop.gltf with a mirrored second sign";
+    let (g, c) = gpu_against_cpu(&ctx, &scene, &s, label, 1e-3);
+    assert!(
+        !scene.world_arrays_built(),
+        "the GPU flattened the placements"
+    );
+    print_parity(None, label, &scene, &s, &g, &c);
 }
 
 /// Base-colour, emissive (with light sampling of the textured emitter), nearest and bilinear,

@@ -4,10 +4,11 @@
 
 use super::device::{GpuContext, GpuGrid};
 use super::error::GpuRenderError;
+use super::geometry::Geometry;
 use super::graph::{Passes, Stage};
 use super::media_lights::media_light_words;
 use super::shader::{Module, Spec};
-use super::upload::{Geometry, Textures};
+use super::upload::Textures;
 use crate::gpu_types::{
     GpuEmissionParams, GpuEnvMap, GpuGridInfo, GpuHomogeneousMedium, GpuPathState, GpuPhase,
     GpuQueue, GpuShadowRay, GpuVdbMedium, GpuWavefrontCounters, GpuWavefrontParams,
@@ -62,6 +63,8 @@ pub(super) struct Buffers {
     pub(super) bvh_nodes: wgpu::Buffer,
     /// `GpuTriangle`s in the BVH's primitive order.
     pub(super) bvh_triangles: wgpu::Buffer,
+    /// `GpuPlacement`s where the GPU keeps instancing (one zero entry otherwise).
+    pub(super) bvh_placements: wgpu::Buffer,
     /// The scene's materials, as loaded.
     pub(super) materials: wgpu::Buffer,
     /// `GpuAreaLight`s: the area lights' selection CDF.
@@ -202,6 +205,7 @@ impl Buffers {
             emission: ctx.uniform_buffer("emission", emission),
             bvh_nodes: ctx.storage_buffer("bvh nodes", &geometry.nodes),
             bvh_triangles: ctx.storage_buffer("bvh triangles", &geometry.triangles),
+            bvh_placements: ctx.storage_buffer("bvh placements", &geometry.placements),
             materials: storage_at_least_one(ctx, "materials", &rs.scene.materials),
             area_lights: ctx.storage_buffer("area lights", &geometry.area_lights),
             triangle_uvs: ctx.storage_buffer("triangle uvs", &geometry.triangle_uvs),
@@ -285,6 +289,7 @@ impl Buffers {
             (1, 20) => &self.sample_passes,
             (1, 21) => &self.path_data,
             (1, 22) => &self.sample_data,
+            (1, 23) => &self.bvh_placements,
             _ => return None,
         })
     }

@@ -4,7 +4,8 @@
 //! declared once in [`crate::gpu_types`].
 //!
 //! The wavefront integrator, one concept per module: the stage graph and its WGSL variants
-//! ([`graph`]), the scene as the GPU reads it (`upload`), every buffer and the kernels bound
+//! ([`graph`]), the scene as the GPU reads it (`upload`,
+//! `geometry`), every buffer and the kernels bound
 //! to them (`buffers`), the per-batch scheduler (`dispatch`), the render loop over passes
 //! and batches ([`render`]) and what it renders as the CPU would (`support`).
 pub mod device;
@@ -15,6 +16,7 @@ pub use shader::{Module, ShaderFile, Spec};
 mod buffers;
 mod dispatch;
 mod error;
+mod geometry;
 pub mod graph;
 mod media_lights;
 mod params;

@@ -62,12 +62,13 @@ use super::buffers::{kernel, Buffers};
 use super::device::{byte_size, GpuContext, GpuGrid};
 use super::dispatch::{BatchSamples, Wavefront};
 pub use super::error::GpuRenderError;
+use super::geometry::Geometry;
 use super::graph::specs;
 pub use super::graph::{gpu_features, variant_name, variant_name_with_passes, Passes, Stage};
 use super::params::wavefront_params;
 use super::shader;
 pub use super::support::{supports, supports_with};
-use super::upload::{env_map_upload, upload_grid, Geometry, Textures};
+use super::upload::{env_map_upload, upload_grid, Textures};
 use crate::backend::cpu::{pass_schedule, Progress, RenderOutput};
 use crate::film::passes::PassLayers;
 use crate::film::{Film, TileRecord, TileRect};
@@ -123,6 +124,8 @@ pub struct GpuTimings {
     /// The WGSL variant: the features the kernels were specialised for.
     pub variant: String,
     pub adapter: String,
+    /// The surfaces as uploaded: bytes, and triangles stored and placed.
+    pub geometry: String,
 }
 
 impl GpuTimings {
@@ -192,7 +195,8 @@ pub fn render_observed(
         params.media_light_cells = lights.cells() as u32;
         params.media_light_total = lights.total();
     }
-    let geometry = Geometry::new(rs).map_err(GpuRenderError::Unsupported)?;
+    let geometry = Geometry::new(rs, limit).map_err(GpuRenderError::Limits)?;
+    params.placement_count = geometry.placement_count;
     let textures = Textures::new(rs.scene, limit).map_err(GpuRenderError::Unsupported)?;
     let env_map = env_map_upload(rs, settings, limit).map_err(GpuRenderError::Limits)?;
 
@@ -278,6 +282,7 @@ pub fn render_observed(
         batches,
         variant: variant_name_with_passes(features, passes),
         adapter: ctx.adapter_name().to_string(),
+        geometry: geometry.describe(),
     };
     Ok((out, timings))
 }

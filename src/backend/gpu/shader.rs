@@ -65,6 +65,8 @@ pub mod files {
     pub const BSDF: ShaderFile = shader_file!("common/bsdf.wgsl");
     /// The CWBVH closest-hit query, `intersect_triangle`, `shading_normal`, `emitted`.
     pub const SURFACES: ShaderFile = shader_file!("common/surfaces.wgsl");
+    /// The placements of the two-level BVH: scene-wide slots and transforms.
+    pub const PLACEMENTS: ShaderFile = shader_file!("common/placements.wgsl");
     /// `TextureRef::sample`, `Scene::uv_at`, `base_color_at`, `emission_at`.
     pub const TEXTURES: ShaderFile = shader_file!("common/textures.wgsl");
     /// `sample_homogeneous`, `transmittance_homogeneous`, `stack_cross`.
@@ -257,6 +259,8 @@ pub fn shared_constants() -> String {
         ("SURFACE_OPAQUE", SURFACE_OPAQUE),
         ("SURFACE_DIELECTRIC", SURFACE_DIELECTRIC),
         ("SURFACE_NULL", SURFACE_NULL),
+        ("PLACEMENT_MIRRORED", crate::gpu_types::PLACEMENT_MIRRORED),
+        ("PLACEMENT_EMPTY", crate::gpu_types::PLACEMENT_EMPTY),
         ("NO_INDEX", crate::scene::NO_INDEX),
         ("WF_FLAG_ABSORPTION", crate::gpu_types::WF_FLAG_ABSORPTION),
         (
@@ -620,6 +624,7 @@ macro_rules! wavefront_module {
                 WAVEFRONT,
                 GLOW,
                 BSDF,
+                PLACEMENTS,
                 TEXTURES,
                 SURFACES,
                 MEDIA,

@@ -1,7 +1,6 @@
 //! The scene as the GPU reads it: the VDB medium's grid, tracking parameters and emission,
-//! the surfaces (CWBVH, triangles, area lights, texture coordinates) and the textures, each
-//! built from the CPU's `RenderScene` exactly as the CPU integrator would use it (the
-//! per-render parameters are `params`).
+//! and the textures, each built from the CPU's `RenderScene` exactly as the CPU integrator
+//! would use it (the surfaces are `geometry`, the per-render parameters `params`).
 use std::borrow::Cow;
 
 use bytemuck::Zeroable;
@@ -11,12 +10,10 @@ use super::device::{bounds_layout, byte_size, GpuContext, GpuGrid};
 use super::error::GpuRenderError;
 use crate::gpu_types::grid::daffine_rows;
 use crate::gpu_types::{
-    CellBounds, GpuAreaLight, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo,
-    GpuMajorantMode, GpuPhase, GpuTexture, GpuTrackingParams, GpuTriangle, GpuTriangleUv,
-    GpuVdbMedium, GpuVelocityBlur, GpuWavefrontParams, SURFACE_DIELECTRIC, SURFACE_NULL,
-    SURFACE_OPAQUE, WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
+    CellBounds, GpuControlMode, GpuEmissionParams, GpuEstimator, GpuGridInfo, GpuMajorantMode,
+    GpuPhase, GpuTexture, GpuTrackingParams, GpuVdbMedium, GpuVelocityBlur, GpuWavefrontParams,
+    WF_FLAG_ABSORPTION, WF_FLAG_FORCE_SPECTRAL,
 };
-use crate::render::prepare::SurfaceKind;
 use crate::render::settings::Absorption;
 use crate::render::{media::GridField, media::TrackingConfig, media::VdbMedium};
 use crate::render::{Estimator, FeatureFlags, MajorantMode, RenderScene};
@@ -237,101 +234,6 @@ pub(super) fn medium_params(
     p.medium_sigma_s = (m.sigma_s / bound).to_array();
     p.medium_sigma_t = (m.sigma_s + m.sigma_a).element_sum() / 3.0 / bound;
     p.medium_sigma_max = m.bounds().global.max * bound;
-}
-
-/// The scene's surfaces as the GPU reads them: obvhs' CWBVH nodes, the triangles in its
-/// primitive order and the area lights' selection CDF (each at least one element: a binding
-/// cannot be empty; a zero node has no children, so traversal ends at once).
-pub(super) struct Geometry {
-    pub(super) nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
-    pub(super) triangles: Vec<GpuTriangle>,
-    /// Texture coordinates of `triangles`, same order.
-    pub(super) triangle_uvs: Vec<GpuTriangleUv>,
-    pub(super) area_lights: Vec<GpuAreaLight>,
-}
-
-impl Geometry {
-    pub(super) fn new(rs: &RenderScene) -> Result<Geometry, String> {
-        let scene = rs.scene;
-        let mut g = Geometry {
-            nodes: vec![bytemuck::Zeroable::zeroed()],
-            triangles: vec![GpuTriangle::zeroed()],
-            triangle_uvs: vec![GpuTriangleUv::zeroed()],
-            area_lights: vec![GpuAreaLight::zeroed()],
-        };
-        let Some(bvh) = scene.bvh().cwbvh() else {
-            return Ok(g);
-        };
-        // Selection density of each area light, by scene triangle.
-        let mut light_pdf = vec![0.0f32; scene.triangle_count()];
-        if let Some(area) = &rs.lights.area {
-            for (i, &t) in area.triangles.iter().enumerate() {
-                light_pdf[t as usize] = area.selection_pdf(i);
-            }
-        }
-        let mut slot_of = vec![crate::scene::NO_INDEX; scene.triangle_count()];
-        let mut triangles = Vec::with_capacity(bvh.primitive_indices.len());
-        let mut triangle_uvs = Vec::with_capacity(bvh.primitive_indices.len());
-        for (slot, &t) in bvh.primitive_indices.iter().enumerate() {
-            let t = t as usize;
-            let tri = scene.triangles().get(t).ok_or_else(|| {
-                format!("the BVH names triangle {t} of {}", scene.triangle_count())
-            })?;
-            slot_of[t] = slot as u32;
-            let [p0, p1, p2] = scene.triangle_corners(t);
-            let n = |k: usize| scene.vertices()[tri.vertices[k] as usize].normal;
-            let material = scene.instances[tri.instance as usize].material;
-            triangles.push(GpuTriangle {
-                p0: p0.to_array(),
-                triangle: t as u32,
-                p1: p1.to_array(),
-                material,
-                p2: p2.to_array(),
-                light_pdf: light_pdf[t],
-                n0: n(0),
-                kind: match rs.kinds[material as usize] {
-                    SurfaceKind::Opaque => SURFACE_OPAQUE,
-                    SurfaceKind::Dielectric => SURFACE_DIELECTRIC,
-                    SurfaceKind::Null => SURFACE_NULL,
-                },
-                n1: n(1),
-                interior: scene.materials[material as usize].interior_medium,
-                n2: n(2),
-                _pad0: 0,
-            });
-            let uv = |k: usize| {
-                let v = &scene.vertices()[tri.vertices[k] as usize];
-                [v.u, v.v]
-            };
-            triangle_uvs.push(GpuTriangleUv {
-                uv0: uv(0),
-                uv1: uv(1),
-                uv2: uv(2),
-            });
-        }
-        if bvh.nodes.is_empty() || triangles.is_empty() {
-            return Ok(g);
-        }
-        let mut area_lights = Vec::new();
-        if let Some(area) = &rs.lights.area {
-            for (&t, &cdf) in area.triangles.iter().zip(area.cdf()) {
-                let prim = slot_of[t as usize];
-                if prim == crate::scene::NO_INDEX {
-                    return Err(format!(
-                        "emissive triangle {t} is not in the BVH; the GPU cannot sample it"
-                    ));
-                }
-                area_lights.push(GpuAreaLight { cdf, prim });
-            }
-        }
-        g.nodes = bvh.nodes.clone();
-        g.triangles = triangles;
-        g.triangle_uvs = triangle_uvs;
-        if !area_lights.is_empty() {
-            g.area_lights = area_lights;
-        }
-        Ok(g)
-    }
 }
 
 /// The grids the emission of `m` reads, in the order [`emission_params`] expects them: the
