@@ -1,5 +1,6 @@
 // Mirrors src/integrator/glow.rs: pixel jitter drawn towards the film points of lamps inside
-// media (Glows::jitter), and the weight 1 / p(q) each camera sample then carries.
+// media (Glows::jitter), the weight 1 / p(q) each camera sample then carries, and the
+// directions medium events draw towards those lamps (Lamps).
 
 const GLOW_RADIUS: f32 = 0.5;
 const GLOW_SHARE: f32 = 0.5;
@@ -77,4 +78,51 @@ fn glow_weight(sample_id: u32) -> f32 {
     var rng = rng_new(pixel, path_sample_index(sample_id), wf.seed);
     let u = sampler_2d(sample_id, DIM_JITTER, &rng);
     return glow_jitter(pixel % wf.width, pixel / wf.width, u).z;
+}
+
+const CONE_SHARE: f32 = 0.1;
+const CONE_ANGLE: f32 = 0.25;
+
+// Lamps::pdf: the cones' mixture density at x.
+fn lamps_pdf(x: vec3<f32>, wi: vec3<f32>) -> f32 {
+    var sum = 0.0;
+    for (var k = 0u; k < wf.lamp_count; k++) {
+        let axis = normalize_or_zero(wf.lamps[k].xyz - x);
+        let c = clamp(dot(axis, wi), -1.0, 1.0);
+        if (acos(c) < CONE_ANGLE) {
+            let s = sqrt(max(1.0 - c * c, 0.0));
+            sum += 1.0 / (GLOW_TAU * CONE_ANGLE * max(s, 1e-7));
+        }
+    }
+    return sum / f32(wf.lamp_count);
+}
+
+// Lamps::sample: a direction at x in lamp `pick`'s cone.
+fn lamps_sample(x: vec3<f32>, pick: u32, u: vec2<f32>) -> vec3<f32> {
+    let axis = normalize_or_zero(wf.lamps[pick].xyz - x);
+    let theta = CONE_ANGLE * u.x;
+    let phi = GLOW_TAU * u.y;
+    let local = vec3<f32>(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+    return normalize(frame_from_z_to_world(axis, local));
+}
+
+// sample_phase's medium event with lamps (wf.lamp_count > 0): a share CONE_SHARE of the
+// directions from the lamps' cones, the rest from the phase function, weighed by the mixture.
+fn lamps_phase_sample(ph: GpuPhase, x: vec3<f32>, wo: vec3<f32>, u: vec2<f32>,
+                      rng: ptr<function, Rng>) -> PhaseSample {
+    let u_c = rng_uniform(rng);
+    var wi: vec3<f32>;
+    if (u_c < CONE_SHARE) {
+        let pick = min(u32(u_c / CONE_SHARE * f32(wf.lamp_count)), wf.lamp_count - 1u);
+        wi = lamps_sample(x, pick, u);
+    } else {
+        wi = phase_sample(ph, wo, u, rng).wi;
+    }
+    let f = phase_p(ph, wo, wi);
+    let pdf = (1.0 - CONE_SHARE) * f + CONE_SHARE * lamps_pdf(x, wi);
+    var w = 0.0;
+    if (pdf > 0.0) {
+        w = f / pdf;
+    }
+    return PhaseSample(wi, pdf, w);
 }

@@ -377,7 +377,7 @@ struct GpuWavefrontParams {
     medium_sigma_max: f32,       // its global majorant, m^-1
     volume_sampling: u32,        // VOLUME_SAMPLING_*
     positional_count: u32,       // point and spot lights among the punctual ones
-    _pad_eq: u32,
+    lamp_count: u32,             // lamps in media drawing directions (Lamps::count)
     blur: GpuVelocityBlur,       // the VDB medium's velocity blur (factor 0: none)
     motion: GpuCameraMotion,     // the shutter and the camera's poses
     phases: array<GpuPhase, 8>,  // each VDB medium's phase function (FEATURE_PHASES)
@@ -386,6 +386,7 @@ struct GpuWavefrontParams {
     glow_count: u32,             // lamps in media drawing pixel jitter (Glows::count)
     placement_count: u32,        // GpuPlacements (0: flat world-space triangles)
     glows: array<vec4<f32>, 2>,  // their film points in pixels, two to a row
+    lamps: array<vec4<f32>, 4>,  // the lamps' positions, world space
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).

@@ -1,6 +1,7 @@
 // Mirrors sample_phase (src/integrator/path.rs) and russian_roulette: Stage::SamplePhase, the
 // next direction once the shadow stage has drawn its numbers from the same stream. In a medium:
-// Phase::sample with the phase function of the medium that scattered. At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
+// Phase::sample with the phase function of the medium that scattered, mixed with the lamps'
+// cones where some lamp is inside media (glow::Lamps). At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
 // shading frame of the hit, the path ending when it fails or points below the surface. Then
 // Russian roulette on the throughput after rr_depth events; survivors go back to the
 // intersect and medium stages next iteration.
@@ -50,7 +51,12 @@ fn sample_phase(slot: u32) {
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
         let ph = path_phase(ps);
         let wo = -ps.d;
-        let s = phase_sample(ph, wo, u_dir, &rng);
+        var s: PhaseSample;
+        if (wf.lamp_count == 0u) {
+            s = phase_sample(ph, wo, u_dir, &rng);
+        } else {
+            s = lamps_phase_sample(ph, ps.o, wo, u_dir, &rng);
+        }
         ps.beta *= s.weight;
         ps.d = s.wi;
         // The scatter stage's selection, recomputed (a function of the event alone).

@@ -6,7 +6,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::film::{tiles, Film, TileRecord, TileRect};
-use crate::integrator::glow::Glows;
+use crate::integrator::glow::{Glows, Lamps};
 use crate::integrator::path::PathLimits;
 use crate::integrator::tile::{specialised, TileContext, TileFn, TileOutput};
 use crate::render::media::TrackingConfig;
@@ -261,6 +261,7 @@ fn tile_context<'a>(rs: &'a RenderScene<'a>, settings: &RenderSettings) -> TileC
             data_passes: settings.data_passes,
             light_groups: !settings.light_groups.is_empty(),
             volume_sampling,
+            lamps: Lamps::of_scene(rs, volume_sampling, cfg.time),
         },
         passes: settings.pass_names(),
         noisy: None,

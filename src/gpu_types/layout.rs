@@ -281,7 +281,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             medium_sigma_max,
             volume_sampling,
             positional_count,
-            _pad_eq,
+            lamp_count,
             blur,
             motion,
             phases,
@@ -289,7 +289,8 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             media_light_total,
             glow_count,
             placement_count,
-            glows
+            glows,
+            lamps
         ]
     ),
     layout!(

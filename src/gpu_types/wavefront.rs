@@ -414,7 +414,9 @@ pub struct GpuWavefrontParams {
     pub volume_sampling: u32,
     /// The point and spot lights among the punctual ones (`Lights::positional`).
     pub positional_count: u32,
-    pub _pad_eq: u32,
+    /// Lamps inside media that medium events draw part of their directions towards
+    /// (`Lamps::count`; 0: none).
+    pub lamp_count: u32,
     /// The velocity blur of the VDB medium (a scene with one; the mixture's are in
     /// [`GpuVdbMedium::blur`]).
     pub blur: GpuVelocityBlur,
@@ -436,10 +438,12 @@ pub struct GpuWavefrontParams {
     /// Their film points in pixels (`Glows::centres`), two to a row: glow `k` in `xy` (even
     /// `k`) or `zw` (odd `k`) of row `k / 2`.
     pub glows: [[f32; 4]; 2],
+    /// The positions of the `lamp_count` lamps, world space (`Lamps::positions`; `w` unused).
+    pub lamps: [[f32; 4]; 4],
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 416
+        == 480
             + size_of::<GpuVelocityBlur>()
             + size_of::<GpuCameraMotion>()
             + GPU_MAX_VDB_MEDIA * size_of::<GpuPhase>()

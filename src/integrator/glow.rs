@@ -27,6 +27,8 @@ use glam::{Vec2, Vec3};
 
 use crate::render::prepare::RenderScene;
 use crate::render::settings::VolumeSampling;
+use crate::volume::phase::PhaseSample;
+use crate::volume::phases::Phase;
 
 /// Glows a render keeps at most (the first lights in `Lights::positional` order).
 pub const MAX_GLOWS: usize = 4;
@@ -67,14 +69,8 @@ impl Glows {
         }
         let aspect = width as f32 / height as f32;
         let pinhole = rs.pinhole_at(time);
-        for &k in &rs.lights.positional {
-            let p = Vec3::from(rs.lights.posed(k as usize, time).position);
-            let in_media = !rs.homogeneous.is_empty()
-                || rs.vdb.iter().any(|m| {
-                    let b = &m.world_bounds;
-                    p.cmpge(b.min).all() && p.cmple(b.max).all()
-                });
-            let Some(f) = pinhole.film_point(p, aspect).filter(|_| in_media) else {
+        for p in lamps_in_media(rs, time) {
+            let Some(f) = pinhole.film_point(p, aspect) else {
                 continue;
             };
             let c = Vec2::new(f.x * width as f32, f.y * height as f32);
@@ -137,6 +133,107 @@ fn reaches(c: Vec2, corner: Vec2) -> bool {
     d.length_squared() < GLOW_RADIUS * GLOW_RADIUS
 }
 
+/// The positions at `time` of the point and spot lights inside media: where some VDB
+/// medium's bounds hold them, or anywhere in a scene with a homogeneous medium.
+fn lamps_in_media<'a>(rs: &'a RenderScene, time: f32) -> impl Iterator<Item = Vec3> + 'a {
+    rs.lights.positional.iter().filter_map(move |&k| {
+        let p = Vec3::from(rs.lights.posed(k as usize, time).position);
+        let inside = |b: &crate::math::Aabb| p.cmpge(b.min).all() && p.cmple(b.max).all();
+        let in_media = !rs.homogeneous.is_empty() || rs.vdb.iter().any(|m| inside(&m.world_bounds));
+        in_media.then_some(p)
+    })
+}
+
+/// `b`: the share of a medium scattering event's directions drawn towards lamps in media.
+pub const CONE_SHARE: f32 = 0.1;
+/// `theta_max`: the half-angle of the cone around a lamp's direction, radians.
+pub const CONE_ANGLE: f32 = 0.25;
+
+/// Directions drawn towards lamps inside media at medium scattering events: the light a
+/// scattered path then meets near a lamp, at a distance `D` from it, is about `1 / D`, and
+/// under the phase function alone `D ~ R theta` has a density `~ theta`, so the estimate's
+/// second moment diverges (as log). A share `b` of the directions is drawn with `theta`
+/// uniform in `[0, theta_max]` about one lamp's direction (a density `1 / (2 pi theta_max
+/// sin theta)`), the rest from the phase function, weighed by the mixture:
+///
+/// ```text
+/// p(wi) = (1 - b) p_phase(wi) + (b / n) sum_k p_cone,k(wi),    beta *= p_phase(wi) / p(wi)
+/// ```
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lamps {
+    pub positions: [Vec3; MAX_GLOWS],
+    pub count: usize,
+}
+
+impl Lamps {
+    /// The lamps of `rs` at `time`; none under distance-only sampling.
+    pub fn of_scene(rs: &RenderScene, sampling: VolumeSampling, time: f32) -> Lamps {
+        let mut lamps = Lamps::default();
+        if sampling == VolumeSampling::Distance {
+            return lamps;
+        }
+        for p in lamps_in_media(rs, time).take(MAX_GLOWS) {
+            lamps.positions[lamps.count] = p;
+            lamps.count += 1;
+        }
+        lamps
+    }
+
+    /// The cones' mixture density `(1 / n) sum_k p_cone,k(wi)` at `x`.
+    pub fn pdf(&self, x: Vec3, wi: Vec3) -> f32 {
+        let mut sum = 0.0;
+        for c in &self.positions[..self.count] {
+            let axis = (*c - x).normalize_or_zero();
+            let cos = axis.dot(wi).clamp(-1.0, 1.0);
+            let theta = cos.acos();
+            if theta < CONE_ANGLE {
+                let sin = (1.0 - cos * cos).max(0.0).sqrt();
+                sum += 1.0 / (std::f32::consts::TAU * CONE_ANGLE * sin.max(1e-7));
+            }
+        }
+        sum / self.count as f32
+    }
+
+    /// A medium event's next direction at `x` (`u` the event's point, `u_c` picks the
+    /// strategy and the lamp, `more` feeds the phase function's rejections): a share
+    /// [`CONE_SHARE`] from the lamps' cones, the rest from `phase`, weighed by the mixture.
+    pub fn sample_phase(
+        &self,
+        phase: &Phase,
+        x: Vec3,
+        wo: Vec3,
+        u: Vec2,
+        u_c: f32,
+        more: &mut dyn FnMut() -> Vec2,
+    ) -> PhaseSample {
+        let wi = if u_c < CONE_SHARE {
+            let pick = ((u_c / CONE_SHARE * self.count as f32) as usize).min(self.count - 1);
+            self.sample(x, pick, u)
+        } else {
+            phase.sample(wo, u, more).wi
+        };
+        let f = phase.p(wo, wi);
+        let pdf = (1.0 - CONE_SHARE) * f + CONE_SHARE * self.pdf(x, wi);
+        let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
+        PhaseSample { wi, pdf, weight }
+    }
+
+    /// A direction at `x` in lamp `pick`'s cone for uniform `u`.
+    pub fn sample(&self, x: Vec3, pick: usize, u: Vec2) -> Vec3 {
+        let axis = (self.positions[pick] - x).normalize_or_zero();
+        let theta = CONE_ANGLE * u.x;
+        let phi = std::f32::consts::TAU * u.y;
+        let local = Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        );
+        crate::sampling::warp::Frame::from_z(axis)
+            .from_local(local)
+            .normalize()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,6 +276,75 @@ mod tests {
         let u = Vec2::new(0.3, 0.7);
         assert_eq!(glows.jitter(20, 5, u), (u, 1.0));
         assert_eq!(Glows::NONE.jitter(10, 5, u), (u, 1.0));
+    }
+
+    /// The lamps' cones integrate to 1 over the sphere, and the mixture's weighted directions
+    /// integrate the phase function without bias: the mean weight is 1 and the mean weight in
+    /// a lamp's cone is the phase function's mass there (forward HG, a lamp to the side).
+    #[test]
+    fn lamp_cones_keep_the_phase_integral() {
+        let lamps = Lamps {
+            positions: [
+                Vec3::new(2.0, 0.5, 0.0),
+                Vec3::new(-1.0, 0.0, 3.0),
+                Vec3::ZERO,
+                Vec3::ZERO,
+            ],
+            count: 2,
+        };
+        let x = Vec3::new(0.1, 0.0, 0.2);
+        // The cones' density over the sphere, by a fine grid in (cos, phi).
+        let m = 2000;
+        let mut total = 0.0f64;
+        for i in 0..m {
+            let cos = -1.0 + 2.0 * (i as f64 + 0.5) / m as f64;
+            let sin = (1.0 - cos * cos).sqrt();
+            for j in 0..m {
+                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
+                let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
+                total += lamps.pdf(x, wi) as f64;
+            }
+        }
+        total *= 4.0 * std::f64::consts::PI / (m * m) as f64;
+        assert!((total - 1.0).abs() < 2e-3, "cones integrate to {total}");
+        let phase = Phase::hg(0.6);
+        let wo = Vec3::new(1.0, 0.0, 0.0);
+        let axis = (lamps.positions[0] - x).normalize();
+        let mut rng = crate::sampling::Rng::new(3, 4, 5);
+        let n = 2_000_000;
+        let (mut sum, mut in_cone) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let (u, u_c) = (rng.uniform_vec2(), rng.uniform_f32());
+            let s = lamps.sample_phase(&phase, x, wo, u, u_c, &mut || rng.uniform_vec2());
+            sum += s.weight as f64;
+            if axis.dot(s.wi).clamp(-1.0, 1.0).acos() < CONE_ANGLE {
+                in_cone += s.weight as f64;
+            }
+        }
+        // The phase function's mass in lamp 0's cone, by quadrature about its axis.
+        let frame = crate::sampling::warp::Frame::from_z(axis);
+        let q = 400;
+        let mut mass = 0.0f64;
+        for i in 0..q {
+            let theta = CONE_ANGLE as f64 * (i as f64 + 0.5) / q as f64;
+            for j in 0..q {
+                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / q as f64;
+                let local = glam::DVec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                );
+                let wi = frame.from_local(local.as_vec3());
+                mass += phase.p(wo, wi) as f64 * theta.sin();
+            }
+        }
+        mass *= CONE_ANGLE as f64 * std::f64::consts::TAU / (q * q) as f64;
+        let (mean, cone) = (sum / n as f64, in_cone / n as f64);
+        assert!((mean - 1.0).abs() < 3e-3, "mean weight {mean}");
+        assert!(
+            (cone - mass).abs() < 0.02 * mass + 1e-4,
+            "cone {cone} against {mass}"
+        );
     }
 
     /// A glow's `1 / d` falloff, the quantity that has no finite variance under uniform

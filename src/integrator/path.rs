@@ -593,7 +593,14 @@ fn sample_phase(
     match scatterer {
         Scatterer::Phase { phase, p, wo } => {
             let u = sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER));
-            let s = phase.sample(wo, u, &mut || sampler.rng.uniform_vec2());
+            let s = if limits.lamps.count == 0 {
+                phase.sample(wo, u, &mut || sampler.rng.uniform_vec2())
+            } else {
+                // glow::Lamps: a share of the directions drawn towards lamps inside media.
+                let u_c = sampler.rng.uniform_f32();
+                let more = &mut || sampler.rng.uniform_vec2();
+                limits.lamps.sample_phase(&phase, p, wo, u, u_c, more)
+            };
             ps.beta *= s.weight;
             ps.ray = Ray::new(p, s.wi);
             ps.t0 = 0.0;

@@ -37,6 +37,9 @@ pub struct PathLimits {
     /// How scattering distances towards point and spot lights are sampled
     /// (`integrator::equiangular`); `Distance` where the scene has no such light.
     pub volume_sampling: VolumeSampling,
+    /// The lamps inside media that medium scattering events draw part of their directions
+    /// towards (`glow::Lamps`; none under distance-only sampling).
+    pub lamps: super::glow::Lamps,
 }
 
 /// One path between stages: the ray and where its next flight starts, the medium stack, the

@@ -502,6 +502,7 @@ fn a_dense_chromatic_medium_keeps_path_weights_bounded() {
             data_passes: false,
             light_groups: false,
             volume_sampling: brume::render::VolumeSampling::Distance,
+            lamps: Default::default(),
         };
         let (mut sum, mut sum2, mut max_beta, mut max_l) = (0f64, 0f64, 0f32, 0f32);
         for i in 0..n {

@@ -8,7 +8,7 @@ use crate::gpu_types::{
     GpuCameraMotion, GpuWavefrontParams, GPU_CAMERA_POSES, STACK_NONE, VOLUME_SAMPLING_DISTANCE,
     VOLUME_SAMPLING_EQUIANGULAR, VOLUME_SAMPLING_MIS, WF_FLAG_GUIDED_LIGHTS,
 };
-use crate::integrator::glow::Glows;
+use crate::integrator::glow::{Glows, Lamps};
 use crate::render::light_groups::{MAX_LIGHT_GROUPS, NO_GROUP};
 use crate::render::settings::Absorption;
 use crate::render::{
@@ -121,6 +121,11 @@ pub(super) fn wavefront_params(
     params.glow_count = glows.count as u32;
     for (k, c) in glows.centres.iter().enumerate() {
         params.glows[k / 2][2 * (k % 2)..][..2].copy_from_slice(&c.to_array());
+    }
+    let lamps = Lamps::of_scene(rs, rs.volume_sampling(settings), cfg.time);
+    params.lamp_count = lamps.count as u32;
+    for (k, p) in lamps.positions.iter().enumerate() {
+        params.lamps[k] = p.extend(0.0).to_array();
     }
     params
 }
