@@ -132,11 +132,11 @@ fn uniform_velocity_blur_is_the_shutter_average_of_translated_renders() {
     // The test has power: the blur differs from the frame's instant.
     let still = render(
         &statics[K / 2],
-        &settings(Estimator::Delta, MajorantMode::Adaptive, 512, 9),
+        &settings(Estimator::Delta, MajorantMode::Adaptive, 2048, 9),
     );
     let blurred_out = render(
         &blurred,
-        &settings(Estimator::Delta, MajorantMode::Adaptive, 512, 10),
+        &settings(Estimator::Delta, MajorantMode::Adaptive, 2048, 10),
     );
     let apart = compare_renders(&blurred_out, &still, 16, 16, 1, 1e-3);
     println!(
