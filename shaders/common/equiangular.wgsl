@@ -7,13 +7,49 @@
 // (distance_weight). Needs shadow.wgsl,
 // lights.wgsl, media.wgsl, mixture.wgsl (vdb_spans, vdb_media), phase.wgsl and wavefront.wgsl.
 
-// Equiangular: the density of one segment [a, b] of a ray towards a light.
+// Equiangular: the density of one segment [a, b] of a ray towards a light, its angle shaped
+// by the lobe h (0: uniform in theta).
 struct Equiangular {
     t_c: f32,
     d: f32,
     theta_a: f32,
     theta_b: f32,
+    h: f32,
+    rho: f32,     // (1 - h) / (1 + h)
+    g_b: f32,     // atan(rho tan(alpha / 2)) at alpha = pi / 2 - theta_b
+    g_a: f32,     // the same at theta_a
     valid: bool,  // false where the CPU's Equiangular::new gives None
+}
+
+// lobe_of: the lobe of the angle's density for a phase function of mean cosine g.
+fn lobe_of(g: f32) -> f32 {
+    let g_abs = min(abs(g), 0.99);
+    let r = pow((1.0 + g_abs) / (1.0 - g_abs), 1.5);
+    let h = min((r - 1.0) / (r + 1.0), 0.9);
+    return select(h, -h, g < 0.0);
+}
+
+// The lobe of a segment in `medium` (Segment::h): the homogeneous medium's phase function
+// where it is in one, else the first VDB medium's.
+fn segment_lobe(medium: u32) -> f32 {
+    var ph = phase_hg(wf.phase_g);
+// #if FEATURE_PHASES
+    ph = wf.phases[0];
+// #endif
+// #if FEATURE_HOMOGENEOUS
+    if (medium != NO_INDEX) {
+        ph = phase_hg(homogeneous[medium].g);
+// #if FEATURE_PHASES
+        ph = homogeneous[medium].phase;
+// #endif
+    }
+// #endif
+    return lobe_of(phase_mean_cosine(ph));
+}
+
+// The angle's cumulative function G(alpha) at alpha = pi / 2 - theta.
+fn equiangular_g(rho: f32, theta: f32) -> f32 {
+    return atan(rho * tan(0.5 * (0.5 * PI - theta)));
 }
 
 // atan2(t - t_c, d) for d > 0, with the infinite ends the CPU's atan2 gives.
@@ -28,7 +64,8 @@ fn equiangular_angle(s: f32, d: f32) -> f32 {
 }
 
 // Equiangular::new: the density along the ray (o, dir) over [a, b] towards `light`.
-fn equiangular_new(o: vec3<f32>, dir: vec3<f32>, light: vec3<f32>, a: f32, b: f32) -> Equiangular {
+fn equiangular_new(o: vec3<f32>, dir: vec3<f32>, light: vec3<f32>, a: f32, b: f32, h: f32)
+    -> Equiangular {
     var eq: Equiangular;
     eq.valid = false;
     let t_c = dot(light - o, dir);
@@ -42,20 +79,36 @@ fn equiangular_new(o: vec3<f32>, dir: vec3<f32>, light: vec3<f32>, a: f32, b: f3
     eq.d = d;
     eq.theta_a = equiangular_angle(a - t_c, d);
     eq.theta_b = equiangular_angle(b - t_c, d);
+    eq.h = h;
+    eq.rho = (1.0 - h) / (1.0 + h);
+    eq.g_b = equiangular_g(eq.rho, eq.theta_b);
+    eq.g_a = equiangular_g(eq.rho, eq.theta_a);
     eq.valid = eq.theta_b > eq.theta_a;
     return eq;
 }
 
 // Equiangular::sample.
 fn equiangular_sample(eq: Equiangular, u: f32) -> f32 {
-    let theta = eq.theta_a + u * (eq.theta_b - eq.theta_a);
-    return eq.t_c + eq.d * tan(theta);
+    if (eq.h == 0.0) {
+        let theta = eq.theta_a + u * (eq.theta_b - eq.theta_a);
+        return eq.t_c + eq.d * tan(theta);
+    }
+    let g = eq.g_b + u * (eq.g_a - eq.g_b);
+    let alpha = 2.0 * atan(tan(g) / eq.rho);
+    return eq.t_c + eq.d / tan(alpha);
 }
 
 // Equiangular::pdf.
 fn equiangular_pdf(eq: Equiangular, t: f32) -> f32 {
     let s = t - eq.t_c;
-    return eq.d / ((eq.theta_b - eq.theta_a) * (eq.d * eq.d + s * s));
+    let r2 = eq.d * eq.d + s * s;
+    if (eq.h == 0.0) {
+        return eq.d / ((eq.theta_b - eq.theta_a) * r2);
+    }
+    let h = eq.h;
+    let sin_theta = s / sqrt(r2);
+    let angle = (1.0 - h * h) / ((1.0 + h * h + 2.0 * h * sin_theta) * 2.0 * (eq.g_a - eq.g_b));
+    return angle * eq.d / r2;
 }
 
 // Segment: the part [a, b] of a flight where its media are, the media the ray is in, and
@@ -68,6 +121,7 @@ struct Segment {
     medium: u32,
     outer: u32,
     sigma_max: f32,
+    h: f32,       // the lobe of the angle's density (segment_lobe)
     valid: bool,
 }
 
@@ -81,6 +135,7 @@ fn media_extent(o: vec3<f32>, dir: vec3<f32>, t0: f32, t1: f32, medium: u32, out
     seg.outer = outer;
     seg.valid = false;
     seg.sigma_max = 0.0;
+    seg.h = segment_lobe(medium);
     var hom = false;
 // #if FEATURE_HOMOGENEOUS
     hom = medium != NO_INDEX;
@@ -131,7 +186,7 @@ fn media_extent(o: vec3<f32>, dir: vec3<f32>, t0: f32, t1: f32, medium: u32, out
 const EQUIANGULAR_REACH: f32 = 0.3;
 
 fn density_towards(seg: Segment, c: vec3<f32>, q: f32) -> Equiangular {
-    var eq = equiangular_new(seg.o, seg.dir, c, seg.a, seg.b);
+    var eq = equiangular_new(seg.o, seg.dir, c, seg.a, seg.b, seg.h);
     if (eq.valid) {
         let peak = q / ((eq.theta_b - eq.theta_a) * eq.d);
         eq.valid = peak >= EQUIANGULAR_REACH * seg.sigma_max;
@@ -257,6 +312,7 @@ fn distance_weight(ps: GpuPathState, source: u32) -> f32 {
     seg.a = ps.seg_a;
     seg.b = ps.seg_b;
     seg.sigma_max = ps.seg_sigma_max;
+    seg.h = segment_lobe(ps.medium);
     let q = 1.0 / f32(wf.positional_count);
     let eq = density_towards(seg, lights[source].position, q);
     if (!eq.valid) {

@@ -82,6 +82,28 @@ fn phase_p(ph: GpuPhase, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     return hg_p(ph.g_a, wo, wi);
 }
 
+// Phase::mean_cosine: the mean scattering cosine (Draine::mean_cosine for Draine's lobes).
+fn phase_mean_cosine(ph: GpuPhase) -> f32 {
+// #if FEATURE_PHASES
+    switch ph.kind {
+        case PHASE_TWO_LOBE: {
+            return ph.w * ph.g_a + (1.0 - ph.w) * ph.g_b;
+        }
+        case PHASE_DRAINE: {
+            return draine_mean_cosine(ph.g_a, ph.alpha);
+        }
+        case PHASE_MIE: {
+            return (1.0 - ph.w) * ph.g_a + ph.w * draine_mean_cosine(ph.g_b, ph.alpha);
+        }
+        case PHASE_RAYLEIGH: {
+            return 0.0;
+        }
+        default: {}
+    }
+// #endif
+    return ph.g_a;
+}
+
 // Phase::sample: u decides, rng gives the further points a rejection needs (Draine), drawn
 // from the path's own stream as the CPU draws them.
 fn phase_sample(ph: GpuPhase, wo: vec3<f32>, u: vec2<f32>, rng: ptr<function, Rng>) -> PhaseSample {
@@ -97,6 +119,11 @@ fn phase_sample(ph: GpuPhase, wo: vec3<f32>, u: vec2<f32>, rng: ptr<function, Rn
 // Draine::shape: HG reshaped by (1 + alpha mu^2), normalised.
 fn draine_shape(g: f32, alpha: f32, mu: f32) -> f32 {
     return (1.0 + alpha * mu * mu) / (1.0 + alpha * (1.0 + 2.0 * g * g) / 3.0);
+}
+
+// Draine::mean_cosine.
+fn draine_mean_cosine(g: f32, alpha: f32) -> f32 {
+    return g * (1.0 + alpha * (3.0 + 2.0 * g * g) / 5.0) / (1.0 + alpha * (1.0 + 2.0 * g * g) / 3.0);
 }
 
 // Draine::p.

@@ -42,6 +42,7 @@
 //! mean free paths from a segment is left to free flight there (`density_towards`): its
 //! equiangular samples, spread along the segment whatever the density, would only add noise.
 use glam::Vec3;
+use std::f32::consts::FRAC_PI_2;
 
 use super::features::{Features, NoFeatures};
 use super::flight::{vdb_intervals, Spans};
@@ -55,19 +56,28 @@ use crate::render::settings::VolumeSampling;
 use crate::render::stack::MediumStack;
 use crate::sampling::Rng;
 
-/// The equiangular density of one segment `[a, b]` of a ray towards a light.
+/// The equiangular density of one segment `[a, b]` of a ray towards a light, its angle
+/// shaped by the phase function (module doc).
 #[derive(Clone, Copy, Debug)]
 pub struct Equiangular {
     t_c: f32,
     d: f32,
     theta_a: f32,
     theta_b: f32,
+    /// `h`: the lobe of the angle's density (0: uniform in `theta`).
+    h: f32,
+    /// `rho = (1 - h) / (1 + h)`, and `G(alpha) = atan(rho tan(alpha / 2))` at the segment's
+    /// far end (`alpha_b = pi / 2 - theta_b`) and near end.
+    rho: f32,
+    g_b: f32,
+    g_a: f32,
 }
 
 impl Equiangular {
     /// The density along `ray` (unit direction) over `[a, b]` (`b` may be infinite) towards
-    /// `light`; `None` where the light lies on the ray's line (a density of no width).
-    pub fn new(ray: &Ray, light: Vec3, a: f32, b: f32) -> Option<Equiangular> {
+    /// `light`, its angle shaped by the lobe `h` ([`lobe_of`]); `None` where the light lies on
+    /// the ray's line (a density of no width).
+    pub fn new(ray: &Ray, light: Vec3, a: f32, b: f32, h: f32) -> Option<Equiangular> {
         let t_c = (light - ray.o).dot(ray.d);
         let d = (ray.at(t_c) - light).length();
         let scale = 1.0 + light.abs().max_element();
@@ -76,25 +86,53 @@ impl Equiangular {
         }
         let theta_a = (a - t_c).atan2(d);
         let theta_b = (b - t_c).atan2(d);
+        let rho = (1.0 - h) / (1.0 + h);
+        let g = |theta: f32| (rho * (0.5 * (FRAC_PI_2 - theta)).tan()).atan();
         (theta_b > theta_a).then_some(Equiangular {
             t_c,
             d,
             theta_a,
             theta_b,
+            h,
+            rho,
+            g_b: g(theta_b),
+            g_a: g(theta_a),
         })
     }
 
     /// The distance for uniform `u`.
     pub fn sample(&self, u: f32) -> f32 {
-        let theta = self.theta_a + u * (self.theta_b - self.theta_a);
-        self.t_c + self.d * theta.tan()
+        if self.h == 0.0 {
+            let theta = self.theta_a + u * (self.theta_b - self.theta_a);
+            return self.t_c + self.d * theta.tan();
+        }
+        let g = self.g_b + u * (self.g_a - self.g_b);
+        let alpha = 2.0 * (g.tan() / self.rho).atan();
+        self.t_c + self.d / alpha.tan()
     }
 
     /// The density of `t` (in `[a, b]`).
     pub fn pdf(&self, t: f32) -> f32 {
         let s = t - self.t_c;
-        self.d / ((self.theta_b - self.theta_a) * (self.d * self.d + s * s))
+        let r2 = self.d * self.d + s * s;
+        if self.h == 0.0 {
+            return self.d / ((self.theta_b - self.theta_a) * r2);
+        }
+        let h = self.h;
+        let sin = s / r2.sqrt();
+        let angle = (1.0 - h * h) / ((1.0 + h * h + 2.0 * h * sin) * 2.0 * (self.g_a - self.g_b));
+        angle * self.d / r2
     }
+}
+
+/// The lobe `h` of the equiangular angle's density for a medium whose phase function has the
+/// mean cosine `g`: the density `(1 - h^2) / (1 + h^2 + 2 h sin theta)` spans as many times
+/// from its peak to its trough as Henyey-Greenstein's `((1 + g) / (1 - g))^3` does, so
+/// `(1 + |h|) / (1 - |h|) = ((1 + |g|) / (1 - |g|))^(3/2)`; at most 0.9.
+pub fn lobe_of(g: f32) -> f32 {
+    let g_abs = g.abs().min(0.99);
+    let r = ((1.0 + g_abs) / (1.0 - g_abs)).powf(1.5);
+    ((r - 1.0) / (r + 1.0)).min(0.9).copysign(g)
 }
 
 /// One flight segment as both strategies weigh it: the ray, the part `[a, b]` of the flight
@@ -107,6 +145,9 @@ pub(super) struct Segment {
     pub(super) media: MediumStack,
     /// The largest extinction of its media (their majorants' global bounds).
     pub(super) sigma_max: f32,
+    /// The lobe of the equiangular angle's density ([`lobe_of`]): from the homogeneous
+    /// medium's phase function where the segment is in one, else from the first VDB medium's.
+    pub(super) h: f32,
 }
 
 /// The part of the flight `[t0, t1]` along `ray` where it crosses media: all of it inside a
@@ -132,12 +173,18 @@ pub(super) fn media_extent<F: Features>(
         .map(|s| s.0.bounds().global.max * s.0.sigma_t_bound)
         .fold(0.0f32, f32::max);
     let sigma_max = hom.map_or(0.0, |h| h.sigma_t().max_element()) + sigma_vdb;
+    let phase = match hom {
+        Some(h) => Some(&h.phase),
+        None => rs.vdb.first().map(|m| &m.phase),
+    };
+    let h = lobe_of(phase.map_or(0.0, |p| p.mean_cosine()));
     let seg = |a, b| Segment {
         ray: *ray,
         a,
         b,
         media,
         sigma_max,
+        h,
     };
     if hom.is_some() {
         return Some(seg(t0, t1));
@@ -154,7 +201,7 @@ pub(super) fn media_extent<F: Features>(
 /// whatever the density, only adds its variance and a shadow ray. Both strategies ask this,
 /// so the MIS weights still sum to one.
 fn density_towards(seg: &Segment, c: Vec3, q: f32) -> Option<Equiangular> {
-    let eq = Equiangular::new(&seg.ray, c, seg.a, seg.b)?;
+    let eq = Equiangular::new(&seg.ray, c, seg.a, seg.b, seg.h)?;
     let peak = q / ((eq.theta_b - eq.theta_a) * eq.d);
     (peak >= EQUIANGULAR_REACH * seg.sigma_max).then_some(eq)
 }
@@ -305,33 +352,71 @@ mod tests {
     use super::*;
 
     /// The density integrates to 1 over its segment, and a sampled distance lies inside it
-    /// with the density the sample's cumulative distribution gives.
+    /// with the density the sample's cumulative distribution gives, uniform in angle and
+    /// shaped by forward and backward lobes.
     #[test]
     fn equiangular_density_is_normalised_and_matches_its_samples() {
         let ray = Ray::new(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0));
         let light = Vec3::new(0.7, 0.3, -0.1);
         let (a, b) = (0.2, 2.5);
-        let eq = Equiangular::new(&ray, light, a, b).unwrap();
-        let n = 200_000;
-        let h = (b - a) / n as f32;
-        let integral: f64 = (0..n)
-            .map(|k| eq.pdf(a + (k as f32 + 0.5) * h) as f64 * h as f64)
-            .sum();
-        assert!((integral - 1.0).abs() < 1e-4, "integral {integral}");
-        for u in [0.0, 0.1, 0.5, 0.9, 1.0] {
-            let t = eq.sample(u);
-            assert!(t >= a - 1e-5 && t <= b + 1e-5, "{t}");
-            // The cumulative distribution at t is u.
-            let m = 20_000;
-            let cdf: f64 = (0..m)
-                .map(|k| eq.pdf(a + (k as f32 + 0.5) * (t - a) / m as f32) as f64)
-                .sum::<f64>()
-                * ((t - a) / m as f32) as f64;
-            assert!((cdf - u as f64).abs() < 1e-3, "u {u}: cdf {cdf}");
+        for h in [0.0, lobe_of(0.6), lobe_of(-0.5)] {
+            let eq = Equiangular::new(&ray, light, a, b, h).unwrap();
+            let n = 200_000;
+            let dt = (b - a) / n as f32;
+            let integral: f64 = (0..n)
+                .map(|k| eq.pdf(a + (k as f32 + 0.5) * dt) as f64 * dt as f64)
+                .sum();
+            assert!((integral - 1.0).abs() < 1e-4, "h {h}: integral {integral}");
+            for u in [0.0, 0.1, 0.5, 0.9, 1.0] {
+                let t = eq.sample(u);
+                assert!(t >= a - 1e-5 && t <= b + 1e-5, "h {h}: {t}");
+                // The cumulative distribution at t is u (from a) or 1 - u (from b).
+                let m = 20_000;
+                let cdf: f64 = (0..m)
+                    .map(|k| eq.pdf(a + (k as f32 + 0.5) * (t - a) / m as f32) as f64)
+                    .sum::<f64>()
+                    * ((t - a) / m as f32) as f64;
+                let expected = if h == 0.0 { u } else { 1.0 - u };
+                assert!(
+                    (cdf - expected as f64).abs() < 1e-3,
+                    "h {h}, u {u}: cdf {cdf}"
+                );
+            }
+            // A light on the ray's line gives no density; an infinite segment still has one.
+            assert!(Equiangular::new(&ray, Vec3::new(1.0, 0.0, 0.0), a, b, h).is_none());
+            let far = Equiangular::new(&ray, light, a, f32::INFINITY, h).unwrap();
+            assert!(far.sample(0.999).is_finite() && far.pdf(1e3) > 0.0);
         }
-        // A light on the ray's line gives no density; an infinite segment still has one.
-        assert!(Equiangular::new(&ray, Vec3::new(1.0, 0.0, 0.0), a, b).is_none());
-        let far = Equiangular::new(&ray, light, a, f32::INFINITY).unwrap();
-        assert!(far.sample(0.999).is_finite() && far.pdf(1e3) > 0.0);
+    }
+
+    /// The shaped density follows Henyey-Greenstein's angle: along a ray passing a light, the
+    /// phase function over the density varies less than under the uniform angle.
+    #[test]
+    fn the_lobe_flattens_the_phase_over_the_density() {
+        let ray = Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X);
+        let light = Vec3::new(0.0, 0.01, 0.0);
+        let wo = -ray.d;
+        for g in [0.3f32, 0.7, -0.4] {
+            let phase = crate::volume::phases::Phase::hg(g);
+            let spread = |h: f32| {
+                let eq = Equiangular::new(&ray, light, 0.0, 10.0, h).unwrap();
+                let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+                for k in 0..1000 {
+                    let t = eq.sample((k as f32 + 0.5) / 1000.0);
+                    let wi = (light - ray.at(t)).normalize();
+                    // The single-scattering integrand's angular part over the density.
+                    let r2 = (light - ray.at(t)).length_squared();
+                    let v = phase.p(wo, wi) / (r2 * eq.pdf(t));
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+                hi / lo
+            };
+            let (uniform, shaped) = (spread(0.0), spread(lobe_of(g)));
+            assert!(
+                shaped < 0.2 * uniform && shaped < 3.0,
+                "g {g}: {shaped} against {uniform}"
+            );
+        }
     }
 }

@@ -31,6 +31,13 @@ impl Draine {
         }
     }
 
+    /// The mean scattering cosine, `g (1 + alpha (3 + 2 g^2) / 5) / (1 + alpha (1 + 2 g^2) / 3)`
+    /// (Draine's equation 4).
+    pub fn mean_cosine(&self) -> f32 {
+        let (g, alpha) = (self.hg.g, self.alpha);
+        g * (1.0 + alpha * (3.0 + 2.0 * g * g) / 5.0) / (1.0 + alpha * (1.0 + 2.0 * g * g) / 3.0)
+    }
+
     fn shape(&self, mu: f32) -> f32 {
         let g = self.hg.g;
         (1.0 + self.alpha * mu * mu) / (1.0 + self.alpha * (1.0 + 2.0 * g * g) / 3.0)
@@ -146,6 +153,18 @@ impl Phase {
         })
     }
 
+    /// The mean scattering cosine `<mu>` (forward positive), which equiangular sampling
+    /// shapes its density by (`integrator::equiangular`).
+    pub fn mean_cosine(&self) -> f32 {
+        match self {
+            Phase::HenyeyGreenstein(hg) => hg.g,
+            Phase::TwoLobe { a, b, w } => w * a.g + (1.0 - w) * b.g,
+            Phase::Draine(d) => d.mean_cosine(),
+            Phase::Mie { hg, draine, w_d } => (1.0 - w_d) * hg.g + w_d * draine.mean_cosine(),
+            Phase::Rayleigh => 0.0,
+        }
+    }
+
     /// `p(wo, wi)` per steradian.
     #[inline]
     pub fn p(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -224,4 +243,45 @@ fn rayleigh_direction(wo: Vec3, u: Vec2) -> Vec3 {
     Frame::from_z(-wo)
         .from_local(Vec3::new(sin_theta * cp, sin_theta * sp, mu))
         .normalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `mean_cosine` is `int mu p(mu)` over the sphere, by quadrature in `mu`, for every kind.
+    #[test]
+    fn mean_cosine_is_the_integral_of_mu() {
+        let kinds = [
+            Phase::hg(0.6),
+            Phase::hg(-0.3),
+            Phase::TwoLobe {
+                a: HenyeyGreenstein::new(0.8),
+                b: HenyeyGreenstein::new(-0.4),
+                w: 0.7,
+            },
+            Phase::Draine(Draine::new(0.5, 1.5)),
+            Phase::mie(8.0).unwrap(),
+            Phase::Rayleigh,
+        ];
+        let wo = Vec3::Z;
+        for phase in kinds {
+            let m = 200_000;
+            let mut sum = 0.0f64;
+            for i in 0..m {
+                let mu = -1.0 + 2.0 * (i as f64 + 0.5) / m as f64;
+                let sin = (1.0 - mu * mu).sqrt() as f32;
+                // mu = -dot(wo, wi): wi = -mu along z.
+                let wi = Vec3::new(sin, 0.0, -mu as f32);
+                sum += mu * phase.p(wo, wi) as f64;
+            }
+            let mean = sum * 2.0 / m as f64 * std::f64::consts::TAU;
+            let expected = phase.mean_cosine() as f64;
+            assert!(
+                (mean - expected).abs() < 2e-3,
+                "{}: {mean} against {expected}",
+                phase.name()
+            );
+        }
+    }
 }

@@ -25,6 +25,8 @@ struct Agreement {
     pdf_rel: f32,
     /// Relative difference of the GPU's `p(wo, wi)` from the CPU's, at the GPU's direction.
     p_rel: f32,
+    /// `|mean_cosine_gpu - mean_cosine_cpu|` (what shapes equiangular sampling).
+    mean_cos: f32,
     /// Samples whose direction differs by more than 1e-3 (a different candidate or lobe).
     diverged: usize,
     samples: usize,
@@ -69,6 +71,9 @@ fn compare(ctx: &GpuContext, phases: &[Phase], n: usize, seed: u64) -> Agreement
         let s = phase.sample(wo, u, &mut || more.uniform_vec2());
         let (wi_gpu, pdf_gpu) = (Vec3::from_slice(&gpu[2 * i][..3]), gpu[2 * i][3]);
         let p_gpu = gpu[2 * i + 1][0];
+        a.mean_cos = a
+            .mean_cos
+            .max((gpu[2 * i + 1][1] - phase.mean_cosine()).abs());
         let dir = (wi_gpu - s.wi).length();
         if dir > 1e-3 {
             a.diverged += 1;
@@ -153,8 +158,13 @@ fn wgsl_phases_match_cpu() {
         let a = compare(&ctx, &phases, 20_000, 0x9A5E + k as u64);
         println!(
             "{name}: {} samples, max |wi_gpu - wi_cpu| {:.2e}, max pdf rel diff {:.2e}, max \
-             p(wo, wi) rel diff {:.2e}, {} diverged",
-            a.samples, a.dir, a.pdf_rel, a.p_rel, a.diverged
+             p(wo, wi) rel diff {:.2e}, max mean cosine diff {:.2e}, {} diverged",
+            a.samples, a.dir, a.pdf_rel, a.p_rel, a.mean_cos, a.diverged
+        );
+        assert!(
+            a.mean_cos < 1e-6,
+            "{name}: mean cosines differ by {}",
+            a.mean_cos
         );
         // Draine's accept test compares against a threshold: rounding may flip it only for a
         // candidate within an ulp of it.
