@@ -1,10 +1,9 @@
 // Mirrors src/integrator/glow.rs: pixel jitter drawn towards the film points of lamps inside
 // media (Glows::jitter), the weight 1 / p(q) each camera sample then carries, and the
-// directions medium events draw towards those lamps (Lamps).
+// directions medium and surface events draw towards those lamps (Lamps).
 
-const GLOW_RADIUS: f32 = 0.5;
-const GLOW_SHARE: f32 = 0.5;
 const GLOW_TAU: f32 = 6.28318530717958647692;
+const GLOW_PI: f32 = 3.14159265358979323846;
 
 // Glows::centres[k]: two film points to a row of wf.glows.
 fn glow_centre(k: u32) -> vec2<f32> {
@@ -20,6 +19,69 @@ fn glow_centre(k: u32) -> vec2<f32> {
 fn glow_reaches(c: vec2<f32>, corner: vec2<f32>) -> bool {
     let d = max(max(corner - c, c - (corner + vec2<f32>(1.0))), vec2<f32>(0.0));
     return dot(d, d) < GLOW_RADIUS * GLOW_RADIUS;
+}
+
+// fan (glow.rs): the directions from c that meet the pixel, as the first one's angle in .x
+// and the fan's angle in .y (2 pi where c is inside the pixel).
+fn glow_fan(c: vec2<f32>, corner: vec2<f32>) -> vec2<f32> {
+    if (all(c > corner) && all(c < corner + vec2<f32>(1.0))) {
+        return vec2<f32>(0.0, GLOW_TAU);
+    }
+    let mid = corner + vec2<f32>(0.5) - c;
+    let base = atan2(mid.y, mid.x);
+    var lo = 0.0;
+    var hi = 0.0;
+    for (var k = 0u; k < 4u; k++) {
+        let v = corner + vec2<f32>(f32(k & 1u), f32(k >> 1u)) - c;
+        if (any(v != vec2<f32>(0.0))) {
+            var rel = atan2(v.y, v.x) - base;
+            if (rel > GLOW_PI) {
+                rel -= GLOW_TAU;
+            } else if (rel < -GLOW_PI) {
+                rel += GLOW_TAU;
+            }
+            lo = min(lo, rel);
+            hi = max(hi, rel);
+        }
+    }
+    return vec2<f32>(base + lo, hi - lo);
+}
+
+// chord (glow.rs): the part [t_in, t_out] of the ray from c along unit e inside the pixel.
+fn glow_chord(c: vec2<f32>, e: vec2<f32>, corner: vec2<f32>) -> vec2<f32> {
+    var t_in = 0.0;
+    var t_out = 3.0e38;
+    for (var i = 0u; i < 2u; i++) {
+        let lo = corner[i] - c[i];
+        let hi = corner[i] + 1.0 - c[i];
+        if (e[i] == 0.0) {
+            if (!(lo <= 0.0 && hi >= 0.0)) {
+                return vec2<f32>(0.0);
+            }
+        } else {
+            let t1 = lo / e[i];
+            let t2 = hi / e[i];
+            t_in = max(t_in, min(t1, t2));
+            t_out = min(t_out, max(t1, t2));
+        }
+    }
+    return vec2<f32>(t_in, t_out);
+}
+
+// density (glow.rs): the glow centred at c's density at the point q of the pixel.
+fn glow_density(c: vec2<f32>, corner: vec2<f32>, q: vec2<f32>) -> f32 {
+    let v = corner + q - c;
+    let r = length(v);
+    if (!(r > 0.0)) {
+        return 0.0;
+    }
+    let chord = glow_chord(c, v / r, corner);
+    let fan = glow_fan(c, corner).y;
+    let len = chord.y - chord.x;
+    if (len > 0.0 && fan > 0.0) {
+        return 1.0 / (fan * r * len);
+    }
+    return 0.0;
 }
 
 // Glows::jitter: pixel (x, y)'s jitter for the uniform numbers u in .xy, its weight in .z.
@@ -43,9 +105,12 @@ fn glow_jitter(x: u32, y: u32, u: vec2<f32>) -> vec3<f32> {
     if (u.x < GLOW_SHARE) {
         let s = u.x / GLOW_SHARE * f32(n);
         let pick = min(u32(s), n - 1u);
-        let r = GLOW_RADIUS * (s - f32(pick));
-        let phi = GLOW_TAU * u.y;
-        q = glow_centre(near[pick]) + r * vec2<f32>(cos(phi), sin(phi)) - corner;
+        let c = glow_centre(near[pick]);
+        let fan = glow_fan(c, corner);
+        let phi = fan.x + fan.y * (s - f32(pick));
+        let e = vec2<f32>(cos(phi), sin(phi));
+        let chord = glow_chord(c, e, corner);
+        q = c + (chord.x + u.y * (chord.y - chord.x)) * e - corner;
     } else {
         q = vec2<f32>((u.x - GLOW_SHARE) / (1.0 - GLOW_SHARE), u.y);
     }
@@ -54,10 +119,7 @@ fn glow_jitter(x: u32, y: u32, u: vec2<f32>) -> vec3<f32> {
     }
     var glow = 0.0;
     for (var i = 0u; i < n; i++) {
-        let r = length(corner + q - glow_centre(near[i]));
-        if (r < GLOW_RADIUS) {
-            glow += 1.0 / (GLOW_TAU * GLOW_RADIUS * max(r, 1e-12));
-        }
+        glow += glow_density(glow_centre(near[i]), corner, q);
     }
     return vec3<f32>(q, 1.0 / ((1.0 - GLOW_SHARE) + GLOW_SHARE / f32(n) * glow));
 }
@@ -80,16 +142,13 @@ fn glow_weight(sample_id: u32) -> f32 {
     return glow_jitter(pixel % wf.width, pixel / wf.width, u).z;
 }
 
-const CONE_SHARE: f32 = 0.1;
-const CONE_ANGLE: f32 = 0.25;
-
 // Lamps::pdf: the cones' mixture density at x.
 fn lamps_pdf(x: vec3<f32>, wi: vec3<f32>) -> f32 {
     var sum = 0.0;
     for (var k = 0u; k < wf.lamp_count; k++) {
         let axis = normalize_or_zero(wf.lamps[k].xyz - x);
         let c = clamp(dot(axis, wi), -1.0, 1.0);
-        if (acos(c) < CONE_ANGLE) {
+        if (c > COS_CONE_ANGLE) {
             let s = sqrt(max(1.0 - c * c, 0.0));
             sum += 1.0 / (GLOW_TAU * CONE_ANGLE * max(s, 1e-7));
         }
@@ -125,4 +184,36 @@ fn lamps_phase_sample(ph: GpuPhase, x: vec3<f32>, wo: vec3<f32>, u: vec2<f32>,
         w = f / pdf;
     }
     return PhaseSample(wi, pdf, w);
+}
+
+// Lamps::sample_bsdf: a surface's next direction (in the shading frame) with lamps
+// (wf.lamp_count > 0): a share CONE_SHARE from the lamps' cones, the rest from the BSDF,
+// weighed by the mixture; not valid below the surface or where the BSDF's sampling fails.
+fn lamps_bsdf_sample(b: Principled, frame: Frame, wo: vec3<f32>, x: vec3<f32>, u_lobe: f32,
+                     u: vec2<f32>, rng: ptr<function, Rng>) -> BsdfSample {
+    let u_c = rng_uniform(rng);
+    var s: BsdfSample;
+    s.valid = false;
+    var wi: vec3<f32>;
+    if (u_c < CONE_SHARE) {
+        let pick = min(u32(u_c / CONE_SHARE * f32(wf.lamp_count)), wf.lamp_count - 1u);
+        wi = frame_to_local(frame, lamps_sample(x, pick, u));
+    } else {
+        let t = principled_sample(b, wo, u_lobe, u);
+        if (!t.valid) {
+            return s;
+        }
+        wi = t.wi;
+    }
+    let pdf_bsdf = principled_pdf(b, wo, wi);
+    if (!(wi.z > 0.0 && pdf_bsdf > 0.0)) {
+        return s;
+    }
+    let pdf = (1.0 - CONE_SHARE) * pdf_bsdf
+        + CONE_SHARE * lamps_pdf(x, frame_from_local(frame, wi));
+    s.wi = wi;
+    s.weight = principled_eval(b, wo, wi) * wi.z / pdf;
+    s.pdf = pdf;
+    s.valid = true;
+    return s;
 }

@@ -1,8 +1,9 @@
 // Mirrors sample_phase (src/integrator/path.rs) and russian_roulette: Stage::SamplePhase, the
 // next direction once the shadow stage has drawn its numbers from the same stream. In a medium:
 // Phase::sample with the phase function of the medium that scattered, mixed with the lamps'
-// cones where some lamp is inside media (glow::Lamps). At an opaque surface (PATH_FLAG_SURFACE): Principled::sample in the
-// shading frame of the hit, the path ending when it fails or points below the surface. Then
+// cones where some lamp is inside media (glow::Lamps). At an opaque surface (PATH_FLAG_SURFACE):
+// Principled::sample in the shading frame of the hit, mixed with the same cones, the path
+// ending when it fails or points below the surface. Then
 // Russian roulette on the throughput after rr_depth events; survivors go back to the
 // intersect and medium stages next iteration.
 
@@ -27,7 +28,14 @@ fn sample_phase(slot: u32) {
         let bsdf = principled_new(base_color_at(mat, uv), mat.metallic, mat.roughness);
         let u_lobe = sampler_1d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_LOBE), &rng);
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
-        let s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, u_dir);
+        let p_off = offset_origin(p, n_side, n_side);
+        var s: BsdfSample;
+        if (wf.lamp_count == 0u) {
+            s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, u_dir);
+        } else {
+            s = lamps_bsdf_sample(bsdf, frame, frame_to_local(frame, wo), p_off, u_lobe, u_dir,
+                                  &rng);
+        }
         var wi = vec3<f32>(0.0);
         if (s.valid) {
             wi = frame_from_local(frame, s.wi);
@@ -40,7 +48,7 @@ fn sample_phase(slot: u32) {
             return;
         }
         ps.beta *= s.weight;
-        ps.o = offset_origin(p, n_side, n_side);
+        ps.o = p_off;
         ps.d = wi;
         // Surface events select lights uniformly.
         store_prev_pdf(&ps, s.pdf, uniform_env_pmf(), false);

@@ -9,30 +9,36 @@
 //! number of samples makes that pixel's variance estimate settle.
 //!
 //! Glow sampling draws a share `a` of the jitter of every pixel within `R` of some `c_k` from a
-//! density proportional to `1 / d` around one of them (`r = R u`, `phi = 2 pi v`), the rest
+//! density proportional to `1 / d` around one of them, restricted to the pixel, the rest
 //! uniformly, and weighs each sample by the mixture's density (one-sample MIS, balance
-//! heuristic), in pixel units:
+//! heuristic), in pixel units. The glow's density takes the directions from `c_k` that meet
+//! the pixel (a fan of angle `Phi_k`: all of them where `c_k` is inside it), its angle `phi`
+//! uniform in the fan and its distance `r` uniform along the chord `[t_in, t_out]` that the
+//! pixel cuts from the ray at `phi`:
 //!
 //! ```text
-//! p(q) = (1 - a) + (a / n) sum_k g_k(q),    g_k(q) = 1 / (2 pi R |q - c_k|)  where |q - c_k| < R
-//! <I>  = f(q) / p(q)     (0 where a glow sample lands outside the pixel)
+//! p(q) = (1 - a) + (a / n) sum_k g_k(q),    g_k(q) = 1 / (Phi_k |q - c_k| (t_out - t_in))
+//! <I>  = f(q) / p(q)
 //! ```
 //!
-//! with `n` the glows whose discs reach the pixel. Near `c_k`, `f / p` is bounded by
-//! `2 pi R n f(q) |q - c_k| / a`, so the pixel's variance is finite. Every other pixel keeps its
-//! uniform jitter bit for bit. The estimate is unbiased for any `c_k`, so the film points are
-//! taken once per render, at the render's time: a moving camera or light only makes the
-//! density less well aimed.
+//! with `n` the glows that reach the pixel. Every sample lands in its pixel, and near `c_k`,
+//! `f / p` is bounded by `n Phi_k (t_out - t_in) f(q) |q - c_k| / a`, so the pixel's variance
+//! is finite. Every other pixel keeps its uniform jitter bit for bit. The estimate is unbiased
+//! for any `c_k`, so the film points are taken once per render, at the render's time: a moving
+//! camera or light only makes the density less well aimed.
 use glam::{Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
 
+use super::bsdf::{BsdfSample, Principled};
 use crate::render::prepare::RenderScene;
 use crate::render::settings::VolumeSampling;
+use crate::sampling::warp::Frame;
 use crate::volume::phase::PhaseSample;
 use crate::volume::phases::Phase;
 
 /// Glows a render keeps at most (the first lights in `Lights::positional` order).
 pub const MAX_GLOWS: usize = 4;
-/// `R`: the radius of a glow's disc, pixels.
+/// `R`: how far from a glow's film point its pixels reach, pixels.
 pub const GLOW_RADIUS: f32 = 0.5;
 /// `a`: the share of a reached pixel's samples drawn around its glows.
 pub const GLOW_SHARE: f32 = 0.5;
@@ -87,9 +93,9 @@ impl Glows {
         glows
     }
 
-    /// Pixel `(x, y)`'s jitter (in `[0, 1)^2` inside the pixel; outside it for a glow sample
-    /// that left it) for the uniform numbers `u`, and the sample's weight `1 / p(q)` (module
-    /// doc): `(u, 1)` where no glow reaches the pixel.
+    /// Pixel `(x, y)`'s jitter (in `[0, 1)^2`) for the uniform numbers `u`, and the sample's
+    /// weight `1 / p(q)` (module doc; 0 where rounding left a glow sample outside the
+    /// pixel): `(u, 1)` where no glow reaches the pixel.
     pub fn jitter(&self, x: u32, y: u32, u: Vec2) -> (Vec2, f32) {
         let corner = Vec2::new(x as f32, y as f32);
         let mut near = [0usize; MAX_GLOWS];
@@ -106,9 +112,12 @@ impl Glows {
         let q = if u.x < GLOW_SHARE {
             let s = u.x / GLOW_SHARE * n as f32;
             let pick = (s as usize).min(n - 1);
-            let r = GLOW_RADIUS * (s - pick as f32);
-            let phi = std::f32::consts::TAU * u.y;
-            self.centres[near[pick]] + r * Vec2::new(phi.cos(), phi.sin()) - corner
+            let c = self.centres[near[pick]];
+            let (phi_0, fan) = fan(c, corner);
+            let phi = phi_0 + fan * (s - pick as f32);
+            let e = Vec2::new(phi.cos(), phi.sin());
+            let (t_in, t_out) = chord(c, e, corner);
+            c + (t_in + u.y * (t_out - t_in)) * e - corner
         } else {
             Vec2::new((u.x - GLOW_SHARE) / (1.0 - GLOW_SHARE), u.y)
         };
@@ -117,10 +126,7 @@ impl Glows {
         }
         let mut glow = 0.0;
         for &k in &near[..n] {
-            let r = (corner + q - self.centres[k]).length();
-            if r < GLOW_RADIUS {
-                glow += 1.0 / (std::f32::consts::TAU * GLOW_RADIUS * r.max(1e-12));
-            }
+            glow += density(self.centres[k], corner, q);
         }
         (q, 1.0 / ((1.0 - GLOW_SHARE) + GLOW_SHARE / n as f32 * glow))
     }
@@ -131,6 +137,70 @@ impl Glows {
 fn reaches(c: Vec2, corner: Vec2) -> bool {
     let d = (corner - c).max(c - (corner + Vec2::ONE)).max(Vec2::ZERO);
     d.length_squared() < GLOW_RADIUS * GLOW_RADIUS
+}
+
+/// The directions from `c` that meet the pixel whose top-left corner is `corner`: the angle
+/// of the first and the fan's angle `Phi` (`2 pi` where `c` is inside the pixel, at most `pi`
+/// elsewhere, the pixel being convex), measured from its centre's direction.
+fn fan(c: Vec2, corner: Vec2) -> (f32, f32) {
+    let inside = c.cmpgt(corner).all() && c.cmplt(corner + Vec2::ONE).all();
+    if inside {
+        return (0.0, TAU);
+    }
+    let mid = corner + Vec2::splat(0.5) - c;
+    let base = mid.y.atan2(mid.x);
+    let (mut lo, mut hi) = (0.0f32, 0.0f32);
+    for k in 0..4 {
+        let v = corner + Vec2::new((k & 1) as f32, (k >> 1) as f32) - c;
+        if v != Vec2::ZERO {
+            let mut rel = v.y.atan2(v.x) - base;
+            if rel > PI {
+                rel -= TAU;
+            } else if rel < -PI {
+                rel += TAU;
+            }
+            lo = lo.min(rel);
+            hi = hi.max(rel);
+        }
+    }
+    (base + lo, hi - lo)
+}
+
+/// The part `[t_in, t_out]` (`t_in >= 0`) of the ray from `c` along unit `e` inside the
+/// pixel whose top-left corner is `corner`; empty (`t_out <= t_in`) where it misses it.
+fn chord(c: Vec2, e: Vec2, corner: Vec2) -> (f32, f32) {
+    let (mut t_in, mut t_out) = (0.0f32, f32::INFINITY);
+    for i in 0..2 {
+        let (lo, hi) = (corner[i] - c[i], corner[i] + 1.0 - c[i]);
+        if e[i] == 0.0 {
+            if !(lo <= 0.0 && hi >= 0.0) {
+                return (0.0, 0.0);
+            }
+        } else {
+            let (t1, t2) = (lo / e[i], hi / e[i]);
+            t_in = t_in.max(t1.min(t2));
+            t_out = t_out.min(t1.max(t2));
+        }
+    }
+    (t_in, t_out)
+}
+
+/// `g(q)`: the density of the glow centred at `c` at the point `q` of the pixel whose
+/// top-left corner is `corner` (module doc).
+fn density(c: Vec2, corner: Vec2, q: Vec2) -> f32 {
+    let v = corner + q - c;
+    let r = v.length();
+    if !(r > 0.0) {
+        return 0.0;
+    }
+    let (t_in, t_out) = chord(c, v / r, corner);
+    let (_, fan) = fan(c, corner);
+    let length = t_out - t_in;
+    if length > 0.0 && fan > 0.0 {
+        1.0 / (fan * r * length)
+    } else {
+        0.0
+    }
 }
 
 /// The positions at `time` of the point and spot lights inside media: where some VDB
@@ -148,16 +218,20 @@ fn lamps_in_media<'a>(rs: &'a RenderScene, time: f32) -> impl Iterator<Item = Ve
 pub const CONE_SHARE: f32 = 0.1;
 /// `theta_max`: the half-angle of the cone around a lamp's direction, radians.
 pub const CONE_ANGLE: f32 = 0.25;
+/// `cos(theta_max)`: a direction is in a cone where its cosine to the axis is above it.
+pub const COS_CONE_ANGLE: f32 = 0.968_912_4;
 
-/// Directions drawn towards lamps inside media at medium scattering events: the light a
-/// scattered path then meets near a lamp, at a distance `D` from it, is about `1 / D`, and
-/// under the phase function alone `D ~ R theta` has a density `~ theta`, so the estimate's
-/// second moment diverges (as log). A share `b` of the directions is drawn with `theta`
-/// uniform in `[0, theta_max]` about one lamp's direction (a density `1 / (2 pi theta_max
-/// sin theta)`), the rest from the phase function, weighed by the mixture:
+/// Directions drawn towards lamps inside media at scattering events, in media and on
+/// surfaces: the light a scattered path then meets near a lamp, at a distance `D` from it, is
+/// about `1 / D`, and under the phase function or BSDF alone `D ~ R theta` has a density
+/// `~ theta`, so the estimate's second moment diverges (as log): a wall beside a bulb in
+/// smoke shows fireflies. A share `b` of the directions is drawn with `theta` uniform in
+/// `[0, theta_max]` about one lamp's direction (a density `1 / (2 pi theta_max sin theta)`),
+/// the rest from the phase function or BSDF, weighed by the mixture:
 ///
 /// ```text
 /// p(wi) = (1 - b) p_phase(wi) + (b / n) sum_k p_cone,k(wi),    beta *= p_phase(wi) / p(wi)
+/// p(wi) = (1 - b) p_bsdf(wi)  + (b / n) sum_k p_cone,k(wi),    beta *= f(wi) cos / p(wi)
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Lamps {
@@ -185,8 +259,7 @@ impl Lamps {
         for c in &self.positions[..self.count] {
             let axis = (*c - x).normalize_or_zero();
             let cos = axis.dot(wi).clamp(-1.0, 1.0);
-            let theta = cos.acos();
-            if theta < CONE_ANGLE {
+            if cos > COS_CONE_ANGLE {
                 let sin = (1.0 - cos * cos).max(0.0).sqrt();
                 sum += 1.0 / (std::f32::consts::TAU * CONE_ANGLE * sin.max(1e-7));
             }
@@ -218,6 +291,38 @@ impl Lamps {
         PhaseSample { wi, pdf, weight }
     }
 
+    /// A surface's next direction at `x`, in the shading frame `frame` (`(u_lobe, u)` the
+    /// BSDF's numbers, `u_c` picks the strategy and the lamp): a share [`CONE_SHARE`] from
+    /// the lamps' cones, the rest from `bsdf`, weighed by the mixture. `None` where the
+    /// direction is below the surface or the BSDF's sampling fails.
+    pub fn sample_bsdf(
+        &self,
+        bsdf: &Principled,
+        frame: &Frame,
+        wo_l: Vec3,
+        x: Vec3,
+        (u_lobe, u): (f32, Vec2),
+        u_c: f32,
+    ) -> Option<BsdfSample> {
+        let wi_l = if u_c < CONE_SHARE {
+            let pick = ((u_c / CONE_SHARE * self.count as f32) as usize).min(self.count - 1);
+            frame.to_local(self.sample(x, pick, u))
+        } else {
+            bsdf.sample(wo_l, u_lobe, u)?.wi
+        };
+        let pdf_bsdf = bsdf.pdf(wo_l, wi_l);
+        if !(wi_l.z > 0.0 && pdf_bsdf > 0.0) {
+            return None;
+        }
+        let wi = frame.from_local(wi_l);
+        let pdf = (1.0 - CONE_SHARE) * pdf_bsdf + CONE_SHARE * self.pdf(x, wi);
+        Some(BsdfSample {
+            wi: wi_l,
+            weight: bsdf.eval(wo_l, wi_l) * wi_l.z / pdf,
+            pdf,
+        })
+    }
+
     /// A direction at `x` in lamp `pick`'s cone for uniform `u`.
     pub fn sample(&self, x: Vec3, pick: usize, u: Vec2) -> Vec3 {
         let axis = (self.positions[pick] - x).normalize_or_zero();
@@ -228,9 +333,7 @@ impl Lamps {
             theta.sin() * phi.sin(),
             theta.cos(),
         );
-        crate::sampling::warp::Frame::from_z(axis)
-            .from_local(local)
-            .normalize()
+        Frame::from_z(axis).from_local(local).normalize()
     }
 }
 
@@ -247,14 +350,14 @@ mod tests {
             centres: [
                 Vec2::new(10.3, 5.6),
                 Vec2::new(12.0, 5.5),
-                Vec2::ZERO,
+                Vec2::new(14.0, 5.0),
                 Vec2::ZERO,
             ],
-            count: 2,
+            count: 3,
         };
         let f = |q: Vec2| 1.0 + q.x * q.x + 0.5 * q.y;
         let exact = 1.0 + 1.0 / 3.0 + 0.25;
-        for (x, y) in [(10, 5), (11, 5), (12, 5), (9, 5)] {
+        for (x, y) in [(10, 5), (11, 5), (12, 5), (9, 5), (13, 4), (14, 5), (13, 5)] {
             let m = 1500;
             let mut sum = 0.0f64;
             for i in 0..m {
@@ -347,28 +450,108 @@ mod tests {
         );
     }
 
+    /// At a surface, the mixture's weighted directions integrate `f cos` without bias: the
+    /// mean weight is the BSDF's albedo by quadrature, in total and in a lamp's cone (one
+    /// lamp above the surface, one below it, whose cone directions end the path).
+    #[test]
+    fn lamp_cones_keep_the_bsdf_integral() {
+        let lamps = Lamps {
+            positions: [
+                Vec3::new(0.8, 0.3, 1.0),
+                Vec3::new(-0.5, 0.2, -2.0),
+                Vec3::ZERO,
+                Vec3::ZERO,
+            ],
+            count: 2,
+        };
+        let x = Vec3::new(0.1, -0.2, 0.0);
+        let frame = Frame::from_z(Vec3::Z);
+        let bsdf = Principled::new(Vec3::new(0.7, 0.5, 0.3), 0.2, 0.4);
+        let wo_l = Vec3::new(-0.5, 0.1, 0.8).normalize();
+        let axis = (lamps.positions[0] - x).normalize();
+        let in_cone = |wi: Vec3| axis.dot(wi) > COS_CONE_ANGLE;
+        // `f cos` over the hemisphere and over lamp 0's cone, by a grid in (cos, phi).
+        let m = 1500;
+        let (mut albedo, mut mass) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+        for i in 0..m {
+            let cos = (i as f64 + 0.5) / m as f64;
+            let sin = (1.0 - cos * cos).sqrt();
+            for j in 0..m {
+                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
+                let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
+                let v = (bsdf.eval(wo_l, wi) * wi.z).as_dvec3();
+                albedo += v;
+                if in_cone(frame.from_local(wi)) {
+                    mass += v;
+                }
+            }
+        }
+        let cell = std::f64::consts::TAU / (m * m) as f64;
+        (albedo, mass) = (albedo * cell, mass * cell);
+        let mut rng = crate::sampling::Rng::new(7, 8, 9);
+        let n = 2_000_000;
+        let (mut sum, mut cone) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+        for _ in 0..n {
+            let (u_lobe, u, u_c) = (rng.uniform_f32(), rng.uniform_vec2(), rng.uniform_f32());
+            if let Some(s) = lamps.sample_bsdf(&bsdf, &frame, wo_l, x, (u_lobe, u), u_c) {
+                sum += s.weight.as_dvec3();
+                if in_cone(frame.from_local(s.wi)) {
+                    cone += s.weight.as_dvec3();
+                }
+            }
+        }
+        let (sum, cone) = (sum / n as f64, cone / n as f64);
+        for c in 0..3 {
+            assert!(
+                (sum[c] - albedo[c]).abs() < 5e-3 * albedo[c],
+                "channel {c}: mean weight {} against {}",
+                sum[c],
+                albedo[c]
+            );
+            assert!(
+                (cone[c] - mass[c]).abs() < 0.02 * mass[c],
+                "channel {c}: cone {} against {}",
+                cone[c],
+                mass[c]
+            );
+        }
+    }
+
+    /// The cone test by cosine is the test by angle.
+    #[test]
+    fn cone_cosine_is_the_cone_angle_cosine() {
+        assert!((COS_CONE_ANGLE - CONE_ANGLE.cos()).abs() <= f32::EPSILON);
+    }
+
     /// A glow's `1 / d` falloff, the quantity that has no finite variance under uniform
-    /// jitter, keeps a bounded weighted value under glow sampling.
+    /// jitter, keeps a bounded weighted value under glow sampling, and no glow sample leaves
+    /// its pixel: one glow inside the pixel, one on its edge, one on its corner, one a
+    /// little outside it.
     #[test]
     fn weighted_glow_is_bounded() {
-        let glows = Glows {
-            centres: [Vec2::new(3.5, 7.25), Vec2::ZERO, Vec2::ZERO, Vec2::ZERO],
-            count: 1,
-        };
-        let c = glows.centres[0];
-        let mut largest = 0.0f32;
-        let m = 600;
-        for i in 0..m {
-            for j in 0..m {
-                let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
-                let (q, w) = glows.jitter(3, 7, u);
-                if w > 0.0 {
+        for c in [
+            Vec2::new(3.5, 7.25),
+            Vec2::new(4.0, 7.6),
+            Vec2::new(3.0, 7.0),
+            Vec2::new(3.7, 8.3),
+        ] {
+            let glows = Glows {
+                centres: [c, Vec2::ZERO, Vec2::ZERO, Vec2::ZERO],
+                count: 1,
+            };
+            let mut largest = 0.0f32;
+            let m = 600;
+            for i in 0..m {
+                for j in 0..m {
+                    let u = Vec2::new((i as f32 + 0.5) / m as f32, (j as f32 + 0.5) / m as f32);
+                    let (q, w) = glows.jitter(3, 7, u);
+                    assert!(w > 0.0, "{c}: a sample at {q} left the pixel");
                     let d = (Vec2::new(3.0, 7.0) + q - c).length();
                     largest = largest.max(w / d);
                 }
             }
+            let bound = TAU * std::f32::consts::SQRT_2 / GLOW_SHARE;
+            assert!(largest <= bound * 1.0001, "{c}: {largest} above {bound}");
         }
-        let bound = std::f32::consts::TAU * GLOW_RADIUS / GLOW_SHARE;
-        assert!(largest <= bound * 1.0001, "{largest} above {bound}");
     }
 }

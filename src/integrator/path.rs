@@ -616,7 +616,16 @@ fn sample_phase(
         } => {
             let u_lobe = sampler.get1d(bounce_dim(ps.depth - 1, DIM_LOBE));
             let u_dir = sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER));
-            let Some(s) = bsdf.sample(wo_l, u_lobe, u_dir) else {
+            let s = if limits.lamps.count == 0 {
+                bsdf.sample(wo_l, u_lobe, u_dir)
+            } else {
+                // glow::Lamps: a share of the directions drawn towards lamps inside media.
+                let u_c = sampler.rng.uniform_f32();
+                limits
+                    .lamps
+                    .sample_bsdf(&bsdf, &frame, wo_l, p_off, (u_lobe, u_dir), u_c)
+            };
+            let Some(s) = s else {
                 return false;
             };
             let wi = frame.from_local(s.wi);

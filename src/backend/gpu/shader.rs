@@ -295,6 +295,7 @@ pub fn shared_constants() -> String {
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
+    use crate::integrator::glow;
     use crate::render::blackbody;
     writeln!(
         s,
@@ -315,6 +316,11 @@ pub fn shared_constants() -> String {
             "BACKGROUND_DEPTH",
             crate::integrator::path::BACKGROUND_DEPTH,
         ),
+        ("GLOW_RADIUS", glow::GLOW_RADIUS),
+        ("GLOW_SHARE", glow::GLOW_SHARE),
+        ("CONE_SHARE", glow::CONE_SHARE),
+        ("CONE_ANGLE", glow::CONE_ANGLE),
+        ("COS_CONE_ANGLE", glow::COS_CONE_ANGLE),
     ] {
         writeln!(s, "const {name}: f32 = {v:?}f;").unwrap();
     }
