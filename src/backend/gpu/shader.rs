@@ -295,14 +295,21 @@ pub fn shared_constants() -> String {
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
-    use crate::integrator::glow;
-    use crate::render::blackbody;
     writeln!(
         s,
         "const BLACKBODY_TABLE_LEN: u32 = {}u;",
-        blackbody::TABLE_LEN
+        crate::render::blackbody::TABLE_LEN
     )
     .unwrap();
+    s.push_str(&shared_f32_constants());
+    s
+}
+
+/// The `f32` constants the WGSL shares with Rust, as WGSL declarations.
+fn shared_f32_constants() -> String {
+    use crate::integrator::glow;
+    use crate::render::blackbody;
+    let mut s = String::new();
     for (name, v) in [
         (
             "GUIDED_UNIFORM_SHARE",
