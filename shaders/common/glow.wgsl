@@ -142,6 +142,15 @@ fn glow_weight(sample_id: u32) -> f32 {
     return glow_jitter(pixel % wf.width, pixel / wf.width, u).z;
 }
 
+// Lamps::mixture_pdf: the density of a scattering direction whose phase function or BSDF
+// density is `pdf`, mixed with the cones where some lamp is inside media.
+fn lamps_mixture_pdf(x: vec3<f32>, wi: vec3<f32>, pdf: f32) -> f32 {
+    if (wf.lamp_count == 0u) {
+        return pdf;
+    }
+    return (1.0 - CONE_SHARE) * pdf + CONE_SHARE * lamps_pdf(x, wi);
+}
+
 // Lamps::pdf: the cones' mixture density at x.
 fn lamps_pdf(x: vec3<f32>, wi: vec3<f32>) -> f32 {
     var sum = 0.0;

@@ -58,7 +58,7 @@ fn scatter_medium(slot: u32) {
         if (f > 0.0 && ls.pdf > 0.0) {
             var w = 1.0;
             if (!ls.is_delta) {
-                w = power_heuristic(ls.pdf, f);
+                w = power_heuristic(ls.pdf, lamps_mixture_pdf(p, ls.wi, f));
             }
             // With equiangular sampling, the free-flight side of its MIS weight.
             w *= distance_weight(ps, ls.source);

@@ -253,6 +253,18 @@ impl Lamps {
         lamps
     }
 
+    /// The density of a scattering direction `wi` at `x` whose phase function or BSDF has the
+    /// density `pdf` there: the mixture's with the cones (`pdf` itself without lamps). What
+    /// next-event estimation weighs a light's sample against, so that its MIS weight and
+    /// that of the scattered direction that meets the same light sum to one.
+    pub fn mixture_pdf(&self, x: Vec3, wi: Vec3, pdf: f32) -> f32 {
+        if self.count == 0 {
+            pdf
+        } else {
+            (1.0 - CONE_SHARE) * pdf + CONE_SHARE * self.pdf(x, wi)
+        }
+    }
+
     /// The cones' mixture density `(1 / n) sum_k p_cone,k(wi)` at `x`.
     pub fn pdf(&self, x: Vec3, wi: Vec3) -> f32 {
         let mut sum = 0.0;

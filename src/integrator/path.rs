@@ -414,7 +414,7 @@ fn scatter_medium<F: Features>(
         .then_some((&phase, wo, limits.continuation_albedo));
     let scatter = |wi| {
         let f = phase.p(wo, wi);
-        (Vec3::splat(f), f)
+        (Vec3::splat(f), limits.lamps.mixture_pdf(p, wi, f))
     };
     let (mut ld, choice, source) = next_event::<F>(
         rs,
@@ -551,7 +551,8 @@ fn shade_surface<F: Features>(
             return (Vec3::ZERO, 0.0);
         }
         let wi_l = frame.to_local(wi);
-        (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), bsdf.pdf(wo_l, wi_l))
+        let pdf = limits.lamps.mixture_pdf(p_off, wi, bsdf.pdf(wo_l, wi_l));
+        (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), pdf)
     };
     let (ld, choice, source) = next_event::<F>(
         rs,
