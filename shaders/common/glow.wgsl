@@ -187,7 +187,7 @@ fn lamps_phase_sample(ph: GpuPhase, x: vec3<f32>, wo: vec3<f32>, u: vec2<f32>,
         wi = phase_sample(ph, wo, u, rng).wi;
     }
     let f = phase_p(ph, wo, wi);
-    let pdf = (1.0 - CONE_SHARE) * f + CONE_SHARE * lamps_pdf(x, wi);
+    let pdf = lamps_mixture_pdf(x, wi, f);
     var w = 0.0;
     if (pdf > 0.0) {
         w = f / pdf;
@@ -218,8 +218,7 @@ fn lamps_bsdf_sample(b: Principled, frame: Frame, wo: vec3<f32>, x: vec3<f32>, u
     if (!(wi.z > 0.0 && pdf_bsdf > 0.0)) {
         return s;
     }
-    let pdf = (1.0 - CONE_SHARE) * pdf_bsdf
-        + CONE_SHARE * lamps_pdf(x, frame_from_local(frame, wi));
+    let pdf = lamps_mixture_pdf(x, frame_from_local(frame, wi), pdf_bsdf);
     s.wi = wi;
     s.weight = principled_eval(b, wo, wi) * wi.z / pdf;
     s.pdf = pdf;

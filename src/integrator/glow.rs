@@ -298,7 +298,7 @@ impl Lamps {
             phase.sample(wo, u, more).wi
         };
         let f = phase.p(wo, wi);
-        let pdf = (1.0 - CONE_SHARE) * f + CONE_SHARE * self.pdf(x, wi);
+        let pdf = self.mixture_pdf(x, wi, f);
         let weight = if pdf > 0.0 { f / pdf } else { 0.0 };
         PhaseSample { wi, pdf, weight }
     }
@@ -327,7 +327,7 @@ impl Lamps {
             return None;
         }
         let wi = frame.from_local(wi_l);
-        let pdf = (1.0 - CONE_SHARE) * pdf_bsdf + CONE_SHARE * self.pdf(x, wi);
+        let pdf = self.mixture_pdf(x, wi, pdf_bsdf);
         Some(BsdfSample {
             wi: wi_l,
             weight: bsdf.eval(wo_l, wi_l) * wi_l.z / pdf,
