@@ -382,7 +382,7 @@ struct GpuWavefrontParams {
     motion: GpuCameraMotion,     // the shutter and the camera's poses
     phases: array<GpuPhase, 8>,  // each VDB medium's phase function (FEATURE_PHASES)
     media_light_cells: u32,      // cells sampled as media lights (0: none)
-    media_light_total: f32,      // MediaLights::total
+    media_light_nodes: u32,      // the word at which the light tree's nodes start
     glow_count: u32,             // lamps in media drawing pixel jitter (Glows::count)
     placement_count: u32,        // GpuPlacements (0: flat world-space triangles)
     glows: array<vec4<f32>, 2>,  // their film points in pixels, two to a row

@@ -65,7 +65,12 @@ fn emitters(slot: u32) {
     let u_keep = rng_uniform(&rng);
     ps.rng_state = rng.state;
     ps.rng_inc = rng.inc;
-    let s = media_light_sample(u_select, vec3<f32>(ux, uy, uz));
+    let p = emitter_origin(ps);
+    let s = media_light_sample(p, u_select, vec3<f32>(ux, uy, uz));
+    if (!(s.pdf_volume > 0.0)) {
+        paths[slot] = ps;
+        return;
+    }
     var e = emission;
 // #if FEATURE_MIXTURE
     e = vdb_media[s.vdb].emission;
@@ -75,7 +80,6 @@ fn emitters(slot: u32) {
     ps.lookups += tr.emission_lookups;
     add_wide(WIDE_EMISSION_LOOKUPS, tr.emission_lookups);
     let keep = min(max(le.x, max(le.y, le.z)) / s.weight, 1.0);
-    let p = emitter_origin(ps);
     let to = s.y - p;
     let d2 = dot(to, to);
     let dist = sqrt(d2);

@@ -39,6 +39,7 @@ fn sample_medium(slot: u32) {
     // After a scattering event, emission is weighed against the media lights (EmissionMis).
     emission_mis_on = wf.media_light_cells > 0u && (ps.flags & PATH_FLAG_SPECULAR) == 0u;
     emission_mis_pdf = ps.dir_pdf;
+    emission_mis_origin = ps.o;
 // #endif
 // #if FEATURE_MIXTURE
 // #if FEATURE_HETEROGENEOUS

@@ -286,7 +286,7 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             motion,
             phases,
             media_light_cells,
-            media_light_total,
+            media_light_nodes,
             glow_count,
             placement_count,
             glows,

@@ -428,8 +428,8 @@ pub struct GpuWavefrontParams {
     /// The cells the emitting media are sampled from as lights (`MediaLights::cells`; 0:
     /// none, or `--media-lights off`), their table in `backend::gpu::media_lights`.
     pub media_light_cells: u32,
-    /// `W`, the sum of their weights (`MediaLights::total`).
-    pub media_light_total: f32,
+    /// The word of their table at which the light tree's nodes start.
+    pub media_light_nodes: u32,
     /// Lamps inside media whose film points draw pixel jitter (`Glows::count`; 0: none).
     pub glow_count: u32,
     /// Placements the GPU keeps instancing with (`GpuPlacement`s; 0: the triangles are flat,

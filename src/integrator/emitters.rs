@@ -31,7 +31,7 @@ pub(super) fn emitter_event<F: Features>(
     let u_select = rng.uniform_f32();
     let u = Vec3::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32());
     let u_keep = rng.uniform_f32();
-    let s = lights.sample(u_select, u)?;
+    let s = lights.sample(p, u_select, u)?;
     let vdb = lights.media[s.slot as usize].vdb;
     let e = rs.vdb[vdb as usize].emission.as_ref()?;
     let lookups = Cell::new(0);

@@ -181,7 +181,7 @@ impl<F: Features, const ABS: bool> Medium for GreyView<'_, F, ABS> {
             if let Some(e) = &self.m.emission {
                 let p = self.blur.world_point(&self.ray_w, &self.ray_i, t);
                 let le = e.radiance(p, &self.emission_lookups);
-                let w = w * emission_weight(self.m, self.mis, &self.ray_i, t, le);
+                let w = w * emission_weight(self.m, self.mis, &self.ray_i, self.ray_w.o, t, le);
                 self.emitted
                     .set(self.emitted.get() + self.beta * (w / sigma_maj) * le);
             }
@@ -191,14 +191,21 @@ impl<F: Features, const ABS: bool> Medium for GreyView<'_, F, ABS> {
 
 /// The MIS weight of emission `le` met at `ray_i(t)` in medium `m` against the media lights
 /// (`MediaLights::collision_weight`; the ray leaves its last event at `t = 0`, and `m` is
-/// sampled as a light only where it stands still, so `t` is the distance from it): 1 without
-/// MIS or where `m` is not sampled.
+/// sampled as a light only where it stands still, so `t` is the distance from it, the world
+/// point `x`): 1 without MIS or where `m` is not sampled.
 #[inline(always)]
-fn emission_weight(m: &VdbMedium, mis: Option<EmissionMis>, ray_i: &Ray, t: f32, le: Vec3) -> f32 {
+fn emission_weight(
+    m: &VdbMedium,
+    mis: Option<EmissionMis>,
+    ray_i: &Ray,
+    x: Vec3,
+    t: f32,
+    le: Vec3,
+) -> f32 {
     match (mis, m.emitter) {
         (Some(mis), Some(slot)) if le != Vec3::ZERO => {
             mis.lights
-                .collision_weight(slot, ray_i.at(t), t, mis.pdf_dir)
+                .collision_weight(slot, ray_i.at(t), x, t, mis.pdf_dir)
         }
         _ => 1.0,
     }
@@ -334,7 +341,7 @@ impl<F: Features> MediumRgb for RgbView<'_, F> {
             if let Some(e) = &self.m.emission {
                 let p = self.blur.world_point(&self.ray_w, &self.ray_i, t);
                 let le = e.radiance(p, &self.emission_lookups);
-                let w = w * emission_weight(self.m, self.mis, &self.ray_i, t, le);
+                let w = w * emission_weight(self.m, self.mis, &self.ray_i, self.ray_w.o, t, le);
                 self.emitted
                     .set(self.emitted.get() + self.beta * w * le / sigma_maj);
             }

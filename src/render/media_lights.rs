@@ -4,14 +4,17 @@
 //! ground under a small fire is lit by the few that wander in. Every leaf cell of an emitting
 //! medium has an upper bound `Le_c` of its emission's largest channel
 //! ([`emission_bound`](super::emission_bounds::emission_bound)), and a mean `m_c` of it taken
-//! at 4 x 4 x 4 points inside the cell when the render is prepared. The cells are chosen in
-//! proportion to `e_c V_c`, `e_c = m_c + Le_c / 100` (`V_c` the cell's world volume; the
-//! share of the bound keeps every cell that may emit reachable, so the estimate stays unbiased
-//! whatever the 64 points missed), and a point `y` uniformly inside the chosen cell, so the
-//! volume density of `y` is
+//! at 4 x 4 x 4 points inside the cell when the render is prepared. A cell's power is
+//! `e_c V_c`, `e_c = m_c + Le_c / 100` (`V_c` the cell's world volume; the share of the bound
+//! keeps every cell that may emit reachable, so the estimate stays unbiased whatever the 64
+//! points missed). From shading point `x` a light tree over the cells
+//! ([`CellTree`](super::cell_tree::CellTree)) chooses cell `c` with probability `P(c | x)`,
+//! about its power over its squared distance, so a point on the ground beside a fire draws the
+//! flames near it more often than the far side; a point `y` is drawn uniformly inside the
+//! cell, so the volume density of `y` is
 //!
 //! ```text
-//! p_V(y) = e_c / W,    W = sum_c e_c V_c
+//! p_V(y | x) = P(c | x) / V_c
 //! ```
 //!
 //! and `y` is kept with probability `P_keep = min(1, lum(Le(y)) / e_c)` (stochastic rejection:
@@ -30,7 +33,7 @@
 //! the walk's majorant in the cell (the rate of its collisions there):
 //!
 //! ```text
-//! p_L = p_V(y) |y - x|^2,    p_C = pdf(wi) sigma_maj,c,    w_L = p_L^2 / (p_L^2 + p_C^2)
+//! p_L = p_V(y | x) |y - x|^2,    p_C = pdf(wi) sigma_maj,c,    w_L = p_L^2 / (p_L^2 + p_C^2)
 //! ```
 //!
 //! and a collision's emission after a scattering event is weighted by `w_C = 1 - w_L` at its
@@ -41,9 +44,11 @@ use std::cell::Cell;
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
 
+use super::cell_tree::CellTree;
 use super::emission_bounds::emission_bound;
 use super::lights::power_heuristic;
 use super::media::{Emission, VdbMedium};
+use crate::scene::NO_INDEX;
 use crate::volume::bounds::CELL_WIDTH;
 
 /// One emitting medium's cells as a light.
@@ -55,6 +60,10 @@ pub struct EmitterMedium {
     pub(crate) weight: Vec<f32>,
     /// Per cell: the walk's majorant `sigma_maj,c` (m^-1).
     pub(crate) sigma_maj: Vec<f32>,
+    /// Per cell: its item in the light tree, `NO_INDEX` where it cannot emit.
+    pub(crate) entry: Vec<u32>,
+    /// `V_c`, a cell's world volume (m^3).
+    pub(crate) volume: f32,
     pub(crate) dims: [u32; 3],
     pub(crate) cell_origin: [i32; 3],
     pub(crate) world_from_index: Affine3A,
@@ -81,12 +90,10 @@ impl EmitterMedium {
 /// Every emitting medium's cells as one light ([module doc](self)).
 pub struct MediaLights {
     pub media: Vec<EmitterMedium>,
-    /// `(medium slot, cell)` of every cell that may emit, and the normalised cumulative
-    /// `Le_c V_c` over them.
+    /// `(medium slot, cell)` of every cell that may emit: the light tree's items.
     pub(crate) entries: Vec<(u32, u32)>,
-    pub(crate) cdf: Vec<f32>,
-    /// `W`: the sum of `Le_c V_c`.
-    total: f32,
+    /// The tree over them, each with power `e_c V_c` and the cell's world box.
+    pub(crate) tree: CellTree,
 }
 
 /// A point sampled on the emitting media.
@@ -96,7 +103,7 @@ pub struct EmitterSample {
     pub slot: u32,
     /// World position.
     pub y: Vec3,
-    /// `p_V(y)`, per cubic metre.
+    /// `p_V(y | x)`, per cubic metre.
     pub pdf_volume: f32,
     /// `sigma_maj,c` of its cell.
     pub sigma_maj: f32,
@@ -110,7 +117,8 @@ impl MediaLights {
     pub fn build(vdb: &mut [VdbMedium]) -> Option<MediaLights> {
         let mut media = Vec::new();
         let mut entries = Vec::new();
-        let mut weights = Vec::new();
+        let mut powers = Vec::new();
+        let mut boxes = Vec::new();
         for (k, m) in vdb.iter_mut().enumerate() {
             let Some(e) = &m.emission else { continue };
             if m.blur.is_some() || m.motion.is_some() {
@@ -138,15 +146,17 @@ impl MediaLights {
                 })
                 .collect();
             let slot = media.len() as u32;
-            let mut any = false;
+            let mut entry = vec![NO_INDEX; weight.len()];
             for (c, &w) in weight.iter().enumerate() {
-                if w > 0.0 {
+                let p = w * volume;
+                if p > 0.0 && p.is_finite() {
+                    entry[c] = entries.len() as u32;
                     entries.push((slot, c as u32));
-                    weights.push(w as f64 * volume as f64);
-                    any = true;
+                    powers.push(p);
+                    boxes.push(world_box(world_from_index, cell_lo(dims, cell_origin, c)));
                 }
             }
-            if !any {
+            if entry.iter().all(|&e| e == NO_INDEX) {
                 continue;
             }
             m.emitter = Some(slot);
@@ -154,78 +164,76 @@ impl MediaLights {
                 vdb: k as u32,
                 weight,
                 sigma_maj,
+                entry,
+                volume,
                 dims,
                 cell_origin,
                 world_from_index,
             });
         }
-        let total: f64 = weights.iter().sum();
-        if !(total > 0.0 && total.is_finite()) {
+        let tree = CellTree::build(&boxes, &powers).filter(|t| t.nodes[0].power.is_finite());
+        let Some(tree) = tree else {
             for m in vdb.iter_mut() {
                 m.emitter = None;
             }
             return None;
-        }
-        let mut acc = 0.0;
-        let cdf = weights
-            .iter()
-            .map(|w| {
-                acc += w / total;
-                acc as f32
-            })
-            .collect();
+        };
         Some(MediaLights {
             media,
             entries,
-            cdf,
-            total: total as f32,
+            tree,
         })
     }
 
-    /// A point drawn by `u_select` (the cell) and `u` (the point in it).
-    pub fn sample(&self, u_select: f32, u: Vec3) -> Option<EmitterSample> {
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u_select)
-            .min(self.cdf.len() - 1);
-        let (slot, c) = self.entries[i];
+    /// A point drawn for shading point `x` by `u_select` (the cell) and `u` (the point in it).
+    pub fn sample(&self, x: Vec3, u_select: f32, u: Vec3) -> Option<EmitterSample> {
+        let (i, pmf) = self.tree.sample(x, u_select)?;
+        let (slot, c) = self.entries[i as usize];
         let m = &self.media[slot as usize];
         let c = c as usize;
         let q = cell_lo(m.dims, m.cell_origin, c) + u * CELL_WIDTH;
         Some(EmitterSample {
             slot,
             y: m.world_from_index.transform_point3(q),
-            pdf_volume: m.weight[c] / self.total,
+            pdf_volume: pmf / m.volume,
             sigma_maj: m.sigma_maj[c],
             weight: m.weight[c],
         })
     }
 
     /// The weight of a flight's emission at index-space point `q` of medium `slot`, a
-    /// distance `dist` from the event the ray left in a direction of pdf `pdf_dir`:
+    /// distance `dist` from the event `x` the ray left in a direction of pdf `pdf_dir`:
     /// `w_C` of the module doc (1 where the light cannot draw the point).
     #[inline]
-    pub fn collision_weight(&self, slot: u32, q: Vec3, dist: f32, pdf_dir: f32) -> f32 {
+    pub fn collision_weight(&self, slot: u32, q: Vec3, x: Vec3, dist: f32, pdf_dir: f32) -> f32 {
         let m = &self.media[slot as usize];
         let Some(c) = m.cell(q) else {
             return 1.0;
         };
-        let (e, s) = (m.weight[c], m.sigma_maj[c]);
-        if !(e > 0.0 && s > 0.0) {
+        let (item, s) = (m.entry[c], m.sigma_maj[c]);
+        if item == NO_INDEX || !(s > 0.0) {
             return 1.0;
         }
-        power_heuristic(pdf_dir * s, e / self.total * dist * dist)
-    }
-
-    /// `W`, the sum of every cell's `e_c V_c`.
-    pub fn total(&self) -> f32 {
-        self.total
+        let p_v = self.tree.pmf(x, item) / m.volume;
+        power_heuristic(pdf_dir * s, p_v * dist * dist)
     }
 
     /// The number of cells that may emit.
     pub fn cells(&self) -> usize {
         self.entries.len()
     }
+}
+
+/// The world box of the cell at index corner `lo`.
+fn world_box(world_from_index: Affine3A, lo: Vec3) -> (Vec3, Vec3) {
+    let (mut a, mut b) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for k in 0..8 {
+        let corner = Vec3::new((k & 1) as f32, (k >> 1 & 1) as f32, (k >> 2) as f32);
+        let w = world_from_index.transform_point3(lo + corner * CELL_WIDTH);
+        a = a.min(w);
+        b = b.max(w);
+    }
+    (a, b)
 }
 
 /// The share of a cell's emission bound its selection weight keeps beside its mean.

@@ -5,6 +5,7 @@
 //! path tracer (`crate::integrator`) and the GPU wavefront (`crate::backend::gpu`) both read
 //! it; neither is read by it.
 pub mod blackbody;
+pub mod cell_tree;
 pub mod emission;
 pub mod emission_bounds;
 pub mod envmap;

@@ -193,7 +193,7 @@ pub fn render_observed(
     params.blur = uploaded.blur;
     if let Some(lights) = &rs.media_lights {
         params.media_light_cells = lights.cells() as u32;
-        params.media_light_total = lights.total();
+        params.media_light_nodes = super::media_lights::media_light_nodes(lights);
     }
     let geometry = Geometry::new(rs, limit).map_err(GpuRenderError::Limits)?;
     params.placement_count = geometry.placement_count;
