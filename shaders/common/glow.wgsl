@@ -158,7 +158,8 @@ fn lamps_pdf(x: vec3<f32>, wi: vec3<f32>) -> f32 {
         let axis = normalize_or_zero(wf.lamps[k].xyz - x);
         let c = clamp(dot(axis, wi), -1.0, 1.0);
         if (c > COS_CONE_ANGLE) {
-            let s = sqrt(max(1.0 - c * c, 0.0));
+            // From the cross product: near the axis 1 - c^2 loses every digit.
+            let s = length(cross(axis, wi));
             sum += 1.0 / (GLOW_TAU * CONE_ANGLE * max(s, 1e-7));
         }
     }

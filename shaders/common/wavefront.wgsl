@@ -295,13 +295,13 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
     return te.y > te.x;
 }
 
-// russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput after
-// rr_depth events, or earlier once max(beta) < rr_throughput: survive with probability
-// min(sqrt(max(beta)), 0.95), then divide by it.
-fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, sample_id: u32,
+// russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput (times
+// `scale`, cone_scale's) after rr_depth events, or earlier once it is below rr_throughput:
+// survive with probability min(sqrt(max(beta) scale), 0.95), then divide by it.
+fn russian_roulette(beta: ptr<function, vec3<f32>>, scale: f32, depth: u32, sample_id: u32,
                     rng: ptr<function, Rng>) -> bool {
     let a = abs(*beta);
-    let q_beta = max(a.x, max(a.y, a.z));
+    let q_beta = max(a.x, max(a.y, a.z)) * scale;
     if (depth < wf.rr_depth && !(q_beta < wf.rr_throughput)) {
         return true;
     }
@@ -314,12 +314,22 @@ fn russian_roulette(beta: ptr<function, vec3<f32>>, depth: u32, sample_id: u32,
 }
 
 // The end of radiance's loop body: russian_roulette, then the next iteration or done.
-fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng) {
+// cone_scale (src/integrator/path.rs): the ratio of a direction's mixture density with the
+// lamps' cones to the phase function's or BSDF's alone, at least 1.
+fn cone_scale(pdf: f32, pdf_alone: f32) -> f32 {
+    if (pdf_alone > 0.0) {
+        return max(pdf / pdf_alone, 1.0);
+    }
+    return 1.0;
+}
+
+// `rr_scale` is the roulette's scale (cone_scale; 1 without the lamps' cones).
+fn continue_or_finish(ps_in: GpuPathState, slot: u32, rng_in: Rng, rr_scale: f32) {
     var ps = ps_in;
     var rng = rng_in;
     // (beta is copied out and back: naga 30's SPIR-V writer panics on `&ps.beta`.)
     var beta = ps.beta;
-    let alive = russian_roulette(&beta, ps.depth, ps.sample_id, &rng);
+    let alive = russian_roulette(&beta, rr_scale, ps.depth, ps.sample_id, &rng);
     ps.beta = beta;
     ps.rng_state = rng.state;
     ps.rng_inc = rng.inc;

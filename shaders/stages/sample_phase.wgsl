@@ -12,6 +12,7 @@ fn sample_phase(slot: u32) {
     var ps = paths[slot];
     var rng = path_rng(ps);
     var at_surface = false;
+    var rr_scale = 1.0;
 // #if FEATURE_SURFACES
     at_surface = (ps.flags & PATH_FLAG_SURFACE) != 0u;
     if (at_surface) {
@@ -33,8 +34,11 @@ fn sample_phase(slot: u32) {
         if (wf.lamp_count == 0u) {
             s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, u_dir);
         } else {
-            s = lamps_bsdf_sample(bsdf, frame, frame_to_local(frame, wo), p_off, u_lobe, u_dir,
-                                  &rng);
+            let wo_l = frame_to_local(frame, wo);
+            s = lamps_bsdf_sample(bsdf, frame, wo_l, p_off, u_lobe, u_dir, &rng);
+            if (s.valid) {
+                rr_scale = cone_scale(s.pdf, principled_pdf(bsdf, wo_l, s.wi));
+            }
         }
         var wi = vec3<f32>(0.0);
         if (s.valid) {
@@ -64,6 +68,7 @@ fn sample_phase(slot: u32) {
             s = phase_sample(ph, wo, u_dir, &rng);
         } else {
             s = lamps_phase_sample(ph, ps.o, wo, u_dir, &rng);
+            rr_scale = cone_scale(s.pdf, phase_p(ph, wo, s.wi));
         }
         ps.beta *= s.weight;
         ps.d = s.wi;
@@ -80,5 +85,5 @@ fn sample_phase(slot: u32) {
     }
     ps.t0 = 0.0;
     ps.flags = ps.flags & ~PATH_FLAG_SPECULAR;
-    continue_or_finish(ps, slot, rng);
+    continue_or_finish(ps, slot, rng, rr_scale);
 }

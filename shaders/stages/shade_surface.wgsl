@@ -91,7 +91,7 @@ fn shade_surface(slot: u32) {
         ps.d = wi;
         ps.t0 = 0.0;
         ps.flags |= PATH_FLAG_SPECULAR;
-        continue_or_finish(ps, slot, rng);
+        continue_or_finish(ps, slot, rng, 1.0);
         return;
     }
     // Opaque: next-event estimation with the BSDF from just above the surface.

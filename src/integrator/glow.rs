@@ -272,7 +272,8 @@ impl Lamps {
             let axis = (*c - x).normalize_or_zero();
             let cos = axis.dot(wi).clamp(-1.0, 1.0);
             if cos > COS_CONE_ANGLE {
-                let sin = (1.0 - cos * cos).max(0.0).sqrt();
+                // From the cross product: near the axis 1 - cos^2 loses every digit.
+                let sin = axis.cross(wi).length();
                 sum += 1.0 / (std::f32::consts::TAU * CONE_ANGLE * sin.max(1e-7));
             }
         }

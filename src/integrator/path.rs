@@ -591,6 +591,9 @@ fn sample_phase(
     sampler: &mut Sampler,
     stats: &mut PathStats,
 ) -> bool {
+    // The roulette reads the throughput the direction would carry under the phase function or
+    // BSDF alone where the lamps' cones drew it more often (`rr_scale`, 1 without cones).
+    let mut rr_scale = 1.0;
     match scatterer {
         Scatterer::Phase { phase, p, wo } => {
             let u = sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER));
@@ -600,7 +603,9 @@ fn sample_phase(
                 // glow::Lamps: a share of the directions drawn towards lamps inside media.
                 let u_c = sampler.rng.uniform_f32();
                 let more = &mut || sampler.rng.uniform_vec2();
-                limits.lamps.sample_phase(&phase, p, wo, u, u_c, more)
+                let s = limits.lamps.sample_phase(&phase, p, wo, u, u_c, more);
+                rr_scale = cone_scale(s.pdf, phase.p(wo, s.wi));
+                s
             };
             ps.beta *= s.weight;
             ps.ray = Ray::new(p, s.wi);
@@ -625,6 +630,7 @@ fn sample_phase(
                 limits
                     .lamps
                     .sample_bsdf(&bsdf, &frame, wo_l, p_off, (u_lobe, u_dir), u_c)
+                    .inspect(|s| rr_scale = cone_scale(s.pdf, bsdf.pdf(wo_l, s.wi)))
             };
             let Some(s) = s else {
                 return false;
@@ -642,7 +648,7 @@ fn sample_phase(
         Scatterer::Chosen => {}
     }
     let rr = &mut Decision::new(sampler, bounce_dim(ps.depth - 1, DIM_RR));
-    if !russian_roulette(&mut ps.beta, ps.depth, limits, rr) {
+    if !russian_roulette(&mut ps.beta, rr_scale, ps.depth, limits, rr) {
         return false;
     }
     stats.max_beta = stats.max_beta.max(ps.beta.max_element());
@@ -711,6 +717,17 @@ fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3, dt: 
     }
 }
 
+/// `russian_roulette`'s scale for a direction of mixture density `pdf` whose phase function
+/// or BSDF alone has density `pdf_alone` there: their ratio, at least 1.
+#[inline(always)]
+fn cone_scale(pdf: f32, pdf_alone: f32) -> f32 {
+    if pdf_alone > 0.0 {
+        (pdf / pdf_alone).max(1.0)
+    } else {
+        1.0
+    }
+}
+
 /// Unbiased Russian roulette on the throughput after `rr_depth` events, or earlier once the
 /// throughput's largest channel is below `rr_throughput` (a path darkened by absorption
 /// weights): survive with probability `min(sqrt(max(beta)), 0.95)`, then divide by it.
@@ -720,8 +737,20 @@ fn shading_normal(rs: &RenderScene, t: usize, b1: f32, b2: f32, side: Vec3, dt: 
 /// still at most 1, so the bound on the throughput is unchanged. It pays most in dark media,
 /// where every bounce meets the roulette (`brume bench peers` on the dark scenes of
 /// `scenes/ablation/`).
-fn russian_roulette(beta: &mut Vec3, depth: u32, limits: &PathLimits, rng: &mut Decision) -> bool {
-    let q = beta.abs().max_element();
+///
+/// The throughput it reads is `beta` times `scale`: how much more often the lamps' cones drew
+/// the direction than the phase function or BSDF would have. A direction that passes a lamp
+/// carries a small `beta` because its density is large, and the light it then meets grows as
+/// that density does; judged by `beta` alone it would be killed and its survivors weighted up
+/// into fireflies. Any survival probability keeps the estimate unbiased.
+fn russian_roulette(
+    beta: &mut Vec3,
+    scale: f32,
+    depth: u32,
+    limits: &PathLimits,
+    rng: &mut Decision,
+) -> bool {
+    let q = beta.abs().max_element() * scale;
     if depth < limits.rr_depth && !(q < limits.rr_throughput) {
         return true;
     }
