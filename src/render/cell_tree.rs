@@ -137,6 +137,33 @@ impl CellTree {
     /// The item drawn for point `p` by `u` in [0, 1), and its probability; `None` where no item
     /// has any importance from `p` (only where every power is zero).
     pub fn sample(&self, p: Vec3, mut u: f32) -> Option<(u32, f32)> {
+        self.descend(p, |p_l| {
+            let right = u >= p_l;
+            u = if right {
+                (u - p_l) / (1.0 - p_l)
+            } else {
+                u / p_l
+            }
+            .min(ONE_MINUS_EPSILON);
+            right
+        })
+    }
+
+    /// The probability that [`sample`](Self::sample) draws `item` for point `p`.
+    pub fn pmf(&self, p: Vec3, item: u32) -> f32 {
+        let trail = self.trails[item as usize];
+        let mut depth = 0;
+        self.descend(p, |_| {
+            depth += 1;
+            trail >> (depth - 1) & 1 != 0
+        })
+        .map_or(0.0, |(_, pmf)| pmf)
+    }
+
+    /// The walk from the root to a leaf, `go_right(P(left))` choosing each step; the leaf's item
+    /// and the product of the probabilities taken.
+    #[inline(always)]
+    fn descend(&self, p: Vec3, mut go_right: impl FnMut(f32) -> bool) -> Option<(u32, f32)> {
         let mut at = 0usize;
         let mut pmf = 1.0f32;
         loop {
@@ -146,42 +173,13 @@ impl CellTree {
             }
             let (left, right) = (at + 1, node.link as usize);
             let p_l = left_probability(&self.nodes[left], &self.nodes[right], p)?;
-            if u < p_l {
-                u = (u / p_l).min(ONE_MINUS_EPSILON);
-                pmf *= p_l;
-                at = left;
-            } else {
-                let p_r = 1.0 - p_l;
-                u = ((u - p_l) / p_r).min(ONE_MINUS_EPSILON);
-                pmf *= p_r;
-                at = right;
-            }
-        }
-    }
-
-    /// The probability that [`sample`](Self::sample) draws `item` for point `p`.
-    pub fn pmf(&self, p: Vec3, item: u32) -> f32 {
-        let trail = self.trails[item as usize];
-        let mut at = 0usize;
-        let mut pmf = 1.0f32;
-        let mut depth = 0;
-        loop {
-            let node = &self.nodes[at];
-            if node.link & LEAF != 0 {
-                return pmf;
-            }
-            let (left, right) = (at + 1, node.link as usize);
-            let Some(p_l) = left_probability(&self.nodes[left], &self.nodes[right], p) else {
-                return 0.0;
-            };
-            if trail >> depth & 1 == 0 {
-                pmf *= p_l;
-                at = left;
-            } else {
+            if go_right(p_l) {
                 pmf *= 1.0 - p_l;
                 at = right;
+            } else {
+                pmf *= p_l;
+                at = left;
             }
-            depth += 1;
         }
     }
 }
