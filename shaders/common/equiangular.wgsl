@@ -330,8 +330,60 @@ struct EquiangularEstimate {
     valid: bool,
 }
 
+// A resampled candidate (equiangular.rs's Candidate): the distance, the light's direction,
+// distance and incident radiance there, the media's sum sigma_s p, their mean extinction (for
+// the MIS weight) and the target p_hat.
+struct Candidate {
+    t: f32,
+    wi: vec3<f32>,
+    dist: f32,
+    li: vec3<f32>,
+    s: vec3<f32>,
+    sigma_t: f32,
+    p_hat: f32,
+    valid: bool,
+}
+
+// resample (equiangular.rs): `candidates` equiangular distances (the first from u_t), one kept
+// in proportion to p_hat / p_e; the sum of those ratios in w_sum.
+fn resample(seg: Segment, eq: Equiangular, k: u32, n: u32, u_t: f32, candidates: u32,
+            time: f32, rng: ptr<function, Rng>, w_sum: ptr<function, f32>) -> Candidate {
+    var kept: Candidate;
+    kept.valid = false;
+    *w_sum = 0.0;
+    for (var i = 0u; i < candidates; i++) {
+        var u = u_t;
+        if (i > 0u) {
+            u = rng_uniform(rng);
+        }
+        let t = clamp(equiangular_sample(eq, u), seg.a, seg.b);
+        let ls = punctual_incident(k, seg.o + seg.dir * t);
+        if (!ls.valid) {
+            continue;
+        }
+        let m = media_at(seg, t, -seg.dir, ls.wi, time);
+        let p_e = equiangular_pdf(eq, t) / f32(n);
+        let sl = m.s * ls.li;
+        let p_hat = max(max(sl.x, sl.y), sl.z);
+        if (!(p_hat > 0.0 && p_e > 0.0)) {
+            continue;
+        }
+        let w_i = p_hat / p_e;
+        *w_sum += w_i;
+        var take = candidates == 1u;
+        if (!take) {
+            take = rng_uniform(rng) * *w_sum < w_i;
+        }
+        if (take) {
+            kept = Candidate(t, ls.wi, ls.dist, ls.li, m.s, m.sigma_t, p_hat, true);
+        }
+    }
+    return kept;
+}
+
 // equiangular_estimate: one equiangular sample over the segment, drawn from the path's
-// stream, with ratio-tracked transmittances to the point and from it to the light.
+// stream (resampled near the light), with ratio-tracked transmittances to the point and from
+// it to the light (averaged over SHADOW_WALKS walks near the light).
 fn equiangular_estimate(seg: Segment, ps: ptr<function, GpuPathState>) -> EquiangularEstimate {
     var est = EquiangularEstimate(vec3<f32>(0.0), NO_INDEX, false);
     let n = wf.positional_count;
@@ -350,24 +402,32 @@ fn equiangular_estimate(seg: Segment, ps: ptr<function, GpuPathState>) -> Equian
     }
     est.source = k;
     est.valid = true;
-    let t = clamp(equiangular_sample(eq, u_t), seg.a, seg.b);
-    let x = seg.o + seg.dir * t;
-    let ls = punctual_incident(k, x);
-    if (!ls.valid) {
+    var candidates = 1u;
+    var walks = 1u;
+    if (eq.d * seg.sigma_max < NEAR_LIGHT) {
+        candidates = EQUIANGULAR_CANDIDATES;
+        walks = SHADOW_WALKS;
+    }
+    var w_sum = 0.0;
+    let c = resample(seg, eq, k, n, u_t, candidates, (*ps).time, &rng, &w_sum);
+    (*ps).rng_state = rng.state;
+    (*ps).rng_inc = rng.inc;
+    if (!c.valid) {
         return est;
     }
-    let m = media_at(seg, t, -seg.dir, ls.wi, (*ps).time);
-    let pdf = equiangular_pdf(eq, t) / f32(n);
-    if (all(m.s == vec3<f32>(0.0)) || all(ls.li == vec3<f32>(0.0)) || !(pdf > 0.0)) {
-        return est;
-    }
-    let w = equiangular_weight(pdf, distance_pdf(m.sigma_t, t - seg.a));
+    let pdf = equiangular_pdf(eq, c.t) / f32(n);
+    let w = equiangular_weight(pdf, distance_pdf(c.sigma_t, c.t - seg.a));
     if (!(w > 0.0)) {
         return est;
     }
     // The transmittance to the point and from it to the light, walked as one.
-    let free = FreeLeg(seg.o + seg.dir * seg.a, seg.dir, t - seg.a, true);
-    let tr = walk_transmittance(free, x, ls.wi, ls.dist * (1.0 - 1e-4), seg.medium, seg.outer, ps);
-    est.l = tr * m.s * ls.li * (w / pdf);
+    let x = seg.o + seg.dir * c.t;
+    let free = FreeLeg(seg.o + seg.dir * seg.a, seg.dir, c.t - seg.a, true);
+    var tr = vec3<f32>(0.0);
+    for (var j = 0u; j < walks; j++) {
+        tr += walk_transmittance(free, x, c.wi, c.dist * (1.0 - 1e-4), seg.medium, seg.outer, ps);
+    }
+    let resampled = w_sum / f32(candidates) / c.p_hat;
+    est.l = tr * c.s * c.li * (w * resampled / f32(walks));
     return est;
 }

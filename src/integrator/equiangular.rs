@@ -51,6 +51,19 @@
 //! exact in a homogeneous medium, a local approximation in a heterogeneous one. A light many
 //! mean free paths from a segment is left to free flight there (`density_towards`): its
 //! equiangular samples, spread along the segment whatever the density, would only add noise.
+//!
+//! Where the light passes within `NEAR_LIGHT` mean free paths of the segment (`D sigma_max`),
+//! what the equiangular density leaves is the medium's `S(x)` varying along its footprint
+//! and the ratio trackers' noise. There the estimate resamples `M` distances `t_i` from `p_e`
+//! (Talbot, Cline and Egbert 2005), keeps `t` with probability `r_i / sum r`, and averages `W`
+//! independent transmittance walks:
+//!
+//! ```text
+//! r_i    = p^(t_i) / (q_k p_e(t_i)),    p^(t) = max_channel(S(x) I_k / |c - x|^2)
+//! <L>_e  = w_e(t) S(x) I_k / |c - x|^2 (1/W) sum_j T^_j(a, t) T^_j(x, c) sum_i r_i / (M p^(t))
+//! ```
+//!
+//! unbiased for the same `w_e(t)`. The weight stays the one the free-flight side computes.
 use glam::Vec3;
 use std::f32::consts::FRAC_PI_2;
 
@@ -310,7 +323,8 @@ pub(super) fn distance_weight<F: Features>(
 
 /// The equiangular strategy's estimate over `seg` (module doc), before the path's throughput,
 /// and the light it sampled; `None` without point or spot lights or where the light lies on
-/// the ray's line.
+/// the ray's line. Near the light ([`NEAR_LIGHT`]) it resamples [`CANDIDATES`] distances and
+/// averages [`SHADOW_WALKS`] transmittance walks (module doc).
 pub(super) fn equiangular_estimate<F: Features>(
     rs: &RenderScene,
     cfg: &TrackingConfig,
@@ -327,34 +341,129 @@ pub(super) fn equiangular_estimate<F: Features>(
     let source = LightSource::Punctual(k);
     let c = Vec3::from(rs.lights.posed(k as usize, cfg.time).position);
     let eq = density_towards(seg, c, 1.0 / n as f32)?;
-    let t = eq.sample(u_t).clamp(seg.a, seg.b);
-    let x = seg.ray.at(t);
+    let near = eq.d * seg.sigma_max < NEAR_LIGHT;
+    let (candidates, walks) = if near {
+        (CANDIDATES, SHADOW_WALKS)
+    } else {
+        (1, 1)
+    };
     let zero = Some((Vec3::ZERO, source));
-    let Some((wi, dist, li)) = rs.lights.punctual_incident(k as usize, x, cfg.time) else {
+    let Some((c, w_sum)) = resample::<F>(rs, cfg, seg, &eq, k, n, u_t, candidates, rng) else {
         return zero;
     };
-    let wo = -seg.ray.d;
-    let mut s = Vec3::ZERO;
-    media_at::<F>(rs, cfg, seg, t, |sigma_s, _, phase| {
-        s += sigma_s * phase.p(wo, wi)
-    });
-    let pdf = eq.pdf(t) / n as f32;
-    if s == Vec3::ZERO || li == Vec3::ZERO || !(pdf > 0.0) {
-        return zero;
-    }
-    let w = equiangular_weight::<F>(rs, cfg, mode, seg, t, pdf);
+    let pdf = eq.pdf(c.t) / n as f32;
+    let w = equiangular_weight::<F>(rs, cfg, mode, seg, c.t, pdf);
     if !(w > 0.0) {
         return zero;
     }
     let ray_a = Ray::new(seg.ray.at(seg.a), seg.ray.d);
-    let tr_a =
-        media_transmittance::<F>(rs, cfg, &ray_a, 0.0, t - seg.a, seg.media.top(), rng, stats);
-    if tr_a == Vec3::ZERO {
-        return zero;
+    let shadow = Ray::new(seg.ray.at(c.t), c.wi);
+    let mut tr = Vec3::ZERO;
+    for _ in 0..walks {
+        let tr_a = media_transmittance::<F>(
+            rs,
+            cfg,
+            &ray_a,
+            0.0,
+            c.t - seg.a,
+            seg.media.top(),
+            rng,
+            stats,
+        );
+        if tr_a != Vec3::ZERO {
+            let tr_c = trace_shadow::<F>(
+                rs,
+                cfg,
+                &shadow,
+                c.dist * (1.0 - 1e-4),
+                seg.media,
+                rng,
+                stats,
+            );
+            tr += tr_a * tr_c;
+        }
     }
-    let shadow = Ray::new(x, wi);
-    let tr_c = trace_shadow::<F>(rs, cfg, &shadow, dist * (1.0 - 1e-4), seg.media, rng, stats);
-    Some((tr_a * s * tr_c * li * (w / pdf), source))
+    let resampled = w_sum / candidates as f32 / c.p_hat;
+    Some((tr * c.s * c.li * (w * resampled / walks as f32), source))
+}
+
+/// A light's distance within one mean free path of the segment's densest medium times this
+/// makes its estimate resample ([`resample`]) and average its transmittance walks: there
+/// the light's `1 / D` dominates the pixel, and the density's variation along the
+/// equiangular footprint and the ratio trackers' noise are most of what is left.
+pub(crate) const NEAR_LIGHT: f32 = 0.3;
+/// `M`: the equiangular distances drawn near a light, one kept by resampling.
+pub(crate) const CANDIDATES: usize = 8;
+/// The transmittance walks averaged near a light.
+pub(crate) const SHADOW_WALKS: usize = 4;
+
+/// One candidate distance of [`resample`]: the point's distance along the ray, the light's
+/// direction, distance and incident radiance there, the media's `sum sigma_s p` and the
+/// target `p_hat`.
+struct Candidate {
+    t: f32,
+    wi: Vec3,
+    dist: f32,
+    li: Vec3,
+    s: Vec3,
+    p_hat: f32,
+}
+
+/// Resampled importance sampling (Talbot, Cline and Egbert 2005, "Importance Resampling for
+/// Global Illumination") of light `k`'s equiangular distances: `candidates` distances from
+/// `eq` (the first from `u_t`), one kept in proportion to `p_hat / p_e`, with the target
+/// `p_hat = max_channel(S(x) I_k / |c - x|^2)` (the integrand without its transmittances).
+/// Returns the kept candidate and the sum of `p_hat / p_e` over all of them; the estimate then
+/// weighs the integrand at the kept point by `sum / (M p_hat)`, which is unbiased for any
+/// weight the MIS gives it. One candidate is plain equiangular sampling, with no extra number
+/// drawn.
+#[allow(clippy::too_many_arguments)]
+fn resample<F: Features>(
+    rs: &RenderScene,
+    cfg: &TrackingConfig,
+    seg: &Segment,
+    eq: &Equiangular,
+    k: u32,
+    n: usize,
+    u_t: f32,
+    candidates: usize,
+    rng: &mut Rng,
+) -> Option<(Candidate, f32)> {
+    let wo = -seg.ray.d;
+    let mut kept = None;
+    let mut w_sum = 0.0f32;
+    for i in 0..candidates {
+        let u = if i == 0 { u_t } else { rng.uniform_f32() };
+        let t = eq.sample(u).clamp(seg.a, seg.b);
+        let Some((wi, dist, li)) = rs
+            .lights
+            .punctual_incident(k as usize, seg.ray.at(t), cfg.time)
+        else {
+            continue;
+        };
+        let mut s = Vec3::ZERO;
+        media_at::<F>(rs, cfg, seg, t, |sigma_s, _, phase| {
+            s += sigma_s * phase.p(wo, wi)
+        });
+        let p_e = eq.pdf(t) / n as f32;
+        let p_hat = (s * li).max_element();
+        if !(p_hat > 0.0 && p_e > 0.0) {
+            continue;
+        }
+        let w_i = p_hat / p_e;
+        w_sum += w_i;
+        if candidates == 1 || rng.uniform_f32() * w_sum < w_i {
+            kept = Some(Candidate {
+                t,
+                wi,
+                dist,
+                li,
+                s,
+                p_hat,
+            });
+        }
+    }
+    kept.map(|c| (c, w_sum))
 }
 
 #[cfg(test)]

@@ -292,6 +292,14 @@ pub fn shared_constants() -> String {
             "MATERIAL_DOUBLE_SIDED",
             crate::scene::material::MATERIAL_DOUBLE_SIDED,
         ),
+        (
+            "EQUIANGULAR_CANDIDATES",
+            crate::integrator::equiangular::CANDIDATES as u32,
+        ),
+        (
+            "SHADOW_WALKS",
+            crate::integrator::equiangular::SHADOW_WALKS as u32,
+        ),
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
@@ -328,6 +336,7 @@ fn shared_f32_constants() -> String {
         ("CONE_SHARE", glow::CONE_SHARE),
         ("CONE_ANGLE", glow::CONE_ANGLE),
         ("COS_CONE_ANGLE", glow::COS_CONE_ANGLE),
+        ("NEAR_LIGHT", crate::integrator::equiangular::NEAR_LIGHT),
     ] {
         writeln!(s, "const {name}: f32 = {v:?}f;").unwrap();
     }
