@@ -268,27 +268,35 @@ fn media_at<F: Features>(
 }
 
 /// The free-flight density that MIS weighs against the equiangular one at `t` (module doc).
-fn distance_pdf<F: Features>(rs: &RenderScene, cfg: &TrackingConfig, seg: &Segment, t: f32) -> f32 {
+/// `sigma_t` is the media's mean extinction at the point ([`sigma_t_at`]), `dt` its distance
+/// from the segment's start.
+fn distance_pdf(sigma_t: f32, dt: f32) -> f32 {
+    sigma_t * (-sigma_t * dt.max(0.0)).exp()
+}
+
+/// The media's extinction at `ray.at(t)`, the mean of its channels, summed over the media there.
+fn sigma_t_at<F: Features>(rs: &RenderScene, cfg: &TrackingConfig, seg: &Segment, t: f32) -> f32 {
     let mut sigma_t = 0.0;
     media_at::<F>(rs, cfg, seg, t, |_, st, _| {
         sigma_t += st.element_sum() / 3.0
     });
-    sigma_t * (-sigma_t * (t - seg.a).max(0.0)).exp()
+    sigma_t
 }
 
-/// The equiangular strategy's weight at `(t, k)` (1 without MIS); `eq` is light `k`'s density
-/// and `q` its selection probability among the point and spot lights.
-fn equiangular_weight<F: Features>(
+/// The equiangular strategy's weight at `(t, k)` (1 without MIS), for light `k`'s density
+/// `eq_pdf` (with its selection probability among the point and spot lights) and the media's
+/// extinction `sigma_t` there (read only under MIS).
+fn equiangular_weight(
     rs: &RenderScene,
-    cfg: &TrackingConfig,
     mode: VolumeSampling,
     seg: &Segment,
     t: f32,
+    sigma_t: impl FnOnce() -> f32,
     eq_pdf: f32,
 ) -> f32 {
     match mode {
         VolumeSampling::Mis => {
-            let p_d = rs.lights.uniform_pmf() * distance_pdf::<F>(rs, cfg, seg, t);
+            let p_d = rs.lights.uniform_pmf() * distance_pdf(sigma_t(), t - seg.a);
             power_heuristic(eq_pdf, p_d)
         }
         _ => 1.0,
@@ -318,7 +326,8 @@ pub(super) fn distance_weight<F: Features>(
     let Some(eq) = density_towards(seg, c, q) else {
         return 1.0;
     };
-    1.0 - equiangular_weight::<F>(rs, cfg, mode, seg, t, q * eq.pdf(t))
+    let sigma_t = || sigma_t_at::<F>(rs, cfg, seg, t);
+    1.0 - equiangular_weight(rs, mode, seg, t, sigma_t, q * eq.pdf(t))
 }
 
 /// The equiangular strategy's estimate over `seg` (module doc), before the path's throughput,
@@ -352,7 +361,7 @@ pub(super) fn equiangular_estimate<F: Features>(
         return zero;
     };
     let pdf = eq.pdf(c.t) / n as f32;
-    let w = equiangular_weight::<F>(rs, cfg, mode, seg, c.t, pdf);
+    let w = equiangular_weight(rs, mode, seg, c.t, || c.sigma_t, pdf);
     if !(w > 0.0) {
         return zero;
     }
@@ -387,10 +396,11 @@ pub(super) fn equiangular_estimate<F: Features>(
     Some((tr * c.s * c.li * (w * resampled / walks as f32), source))
 }
 
-/// A light's distance within one mean free path of the segment's densest medium times this
-/// makes its estimate resample ([`resample`]) and average its transmittance walks: there
-/// the light's `1 / D` dominates the pixel, and the density's variation along the
-/// equiangular footprint and the ratio trackers' noise are most of what is left.
+/// Resampling ([`resample`]) and averaged transmittance walks apply where the light's
+/// distance `D` from the segment is below this many mean free paths of its densest medium
+/// (`D sigma_max`): there the light's `1 / D` dominates the pixel, and the density's
+/// variation along the equiangular footprint and the ratio trackers' noise are most of what
+/// is left.
 pub(crate) const NEAR_LIGHT: f32 = 0.3;
 /// `M`: the equiangular distances drawn near a light, one kept by resampling.
 pub(crate) const CANDIDATES: usize = 8;
@@ -398,14 +408,15 @@ pub(crate) const CANDIDATES: usize = 8;
 pub(crate) const SHADOW_WALKS: usize = 4;
 
 /// One candidate distance of [`resample`]: the point's distance along the ray, the light's
-/// direction, distance and incident radiance there, the media's `sum sigma_s p` and the
-/// target `p_hat`.
+/// direction, distance and incident radiance there, the media's `sum sigma_s p`, their
+/// extinction (as [`sigma_t_at`], for the MIS weight) and the target `p_hat`.
 struct Candidate {
     t: f32,
     wi: Vec3,
     dist: f32,
     li: Vec3,
     s: Vec3,
+    sigma_t: f32,
     p_hat: f32,
 }
 
@@ -441,9 +452,10 @@ fn resample<F: Features>(
         else {
             continue;
         };
-        let mut s = Vec3::ZERO;
-        media_at::<F>(rs, cfg, seg, t, |sigma_s, _, phase| {
-            s += sigma_s * phase.p(wo, wi)
+        let (mut s, mut sigma_t) = (Vec3::ZERO, 0.0);
+        media_at::<F>(rs, cfg, seg, t, |sigma_s, st, phase| {
+            s += sigma_s * phase.p(wo, wi);
+            sigma_t += st.element_sum() / 3.0;
         });
         let p_e = eq.pdf(t) / n as f32;
         let p_hat = (s * li).max_element();
@@ -459,6 +471,7 @@ fn resample<F: Features>(
                 dist,
                 li,
                 s,
+                sigma_t,
                 p_hat,
             });
         }
