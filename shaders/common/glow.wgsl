@@ -151,6 +151,49 @@ fn lamps_mixture_pdf(x: vec3<f32>, wi: vec3<f32>, pdf: f32) -> f32 {
     return (1.0 - CONE_SHARE) * pdf + CONE_SHARE * lamps_pdf(x, wi);
 }
 
+// Lamps::guides_surfaces: whether surface events draw some of their directions from the
+// lamps or the lit media.
+fn lamps_guide_surfaces() -> bool {
+    return wf.lamp_count > 0u || wf.lit_count > 0u;
+}
+
+// Lamps::surface_mixture_pdf: lamps_mixture_pdf at a surface, mixed with the lit media's
+// boxes too.
+fn surface_mixture_pdf(x: vec3<f32>, wi: vec3<f32>, pdf: f32) -> f32 {
+    if (wf.lit_count == 0u) {
+        return lamps_mixture_pdf(x, wi, pdf);
+    }
+    let cones = select(0.0, CONE_SHARE, wf.lamp_count > 0u);
+    var p = (1.0 - cones - LIT_SHARE) * pdf + LIT_SHARE * lit_pdf(x, wi);
+    if (wf.lamp_count > 0u) {
+        p += cones * lamps_pdf(x, wi);
+    }
+    return p;
+}
+
+// LitMedia::pdf (src/integrator/lit_media.rs): the boxes' mixture density at x, each box's
+// (t_1^3 - t_0^3) / (3 V) along the chord wi cuts from it.
+fn lit_pdf(x: vec3<f32>, wi: vec3<f32>) -> f32 {
+    var sum = 0.0;
+    for (var k = 0u; k < wf.lit_count; k++) {
+        let lo = wf.lit_boxes[2u * k].xyz;
+        let hi = wf.lit_boxes[2u * k + 1u].xyz;
+        var t = vec2<f32>(0.0);
+        if (aabb_intersect(lo, hi, x, wi, 0.0, f32_inf(), &t)) {
+            let e = max(hi - lo, vec3<f32>(0.0));
+            sum += (t.y * t.y * t.y - t.x * t.x * t.x) / (3.0 * (e.x * e.y * e.z));
+        }
+    }
+    return sum / f32(wf.lit_count);
+}
+
+// LitMedia::sample: a direction from x towards the point u of box `pick`.
+fn lit_sample(x: vec3<f32>, pick: u32, u: vec3<f32>) -> vec3<f32> {
+    let lo = wf.lit_boxes[2u * pick].xyz;
+    let hi = wf.lit_boxes[2u * pick + 1u].xyz;
+    return normalize_or_zero(lo + u * (hi - lo) - x);
+}
+
 // Lamps::pdf: the cones' mixture density at x.
 fn lamps_pdf(x: vec3<f32>, wi: vec3<f32>) -> f32 {
     var sum = 0.0;
@@ -196,18 +239,27 @@ fn lamps_phase_sample(ph: GpuPhase, x: vec3<f32>, wo: vec3<f32>, u: vec2<f32>,
     return PhaseSample(wi, pdf, w);
 }
 
-// Lamps::sample_bsdf: a surface's next direction (in the shading frame) with lamps
-// (wf.lamp_count > 0): a share CONE_SHARE from the lamps' cones, the rest from the BSDF,
-// weighed by the mixture; not valid below the surface or where the BSDF's sampling fails.
+// Lamps::sample_bsdf: a surface's next direction (in the shading frame) with lamps or lit
+// media (lamps_guide_surfaces): a share CONE_SHARE from the lamps' cones, a share LIT_SHARE
+// from the lit media's boxes, the rest from the BSDF, weighed by the mixture; not valid below
+// the surface or where the BSDF's sampling fails.
 fn lamps_bsdf_sample(b: Principled, frame: Frame, wo: vec3<f32>, x: vec3<f32>, u_lobe: f32,
                      u: vec2<f32>, rng: ptr<function, Rng>) -> BsdfSample {
     let u_c = rng_uniform(rng);
     var s: BsdfSample;
     s.valid = false;
     var wi: vec3<f32>;
-    if (u_c < CONE_SHARE) {
-        let pick = min(u32(u_c / CONE_SHARE * f32(wf.lamp_count)), wf.lamp_count - 1u);
+    let cones = select(0.0, CONE_SHARE, wf.lamp_count > 0u);
+    let boxes = select(0.0, LIT_SHARE, wf.lit_count > 0u);
+    if (u_c < cones) {
+        let pick = min(u32(u_c / cones * f32(wf.lamp_count)), wf.lamp_count - 1u);
         wi = frame_to_local(frame, lamps_sample(x, pick, u));
+    } else if (u_c < cones + boxes) {
+        // The box and the point's third coordinate from what is left of u_c.
+        let sb = (u_c - cones) / boxes * f32(wf.lit_count);
+        let pick = min(u32(sb), wf.lit_count - 1u);
+        let w = clamp(sb - f32(pick), 0.0, ONE_MINUS_EPSILON);
+        wi = frame_to_local(frame, lit_sample(x, pick, vec3<f32>(u, w)));
     } else {
         let t = principled_sample(b, wo, u_lobe, u);
         if (!t.valid) {
@@ -219,7 +271,7 @@ fn lamps_bsdf_sample(b: Principled, frame: Frame, wo: vec3<f32>, x: vec3<f32>, u
     if (!(wi.z > 0.0 && pdf_bsdf > 0.0)) {
         return s;
     }
-    let pdf = lamps_mixture_pdf(x, frame_from_local(frame, wi), pdf_bsdf);
+    let pdf = surface_mixture_pdf(x, frame_from_local(frame, wi), pdf_bsdf);
     s.wi = wi;
     s.weight = principled_eval(b, wo, wi) * wi.z / pdf;
     s.pdf = pdf;

@@ -387,6 +387,11 @@ struct GpuWavefrontParams {
     placement_count: u32,        // GpuPlacements (0: flat world-space triangles)
     glows: array<vec4<f32>, 2>,  // their film points in pixels, two to a row
     lamps: array<vec4<f32>, 4>,  // the lamps' positions, world space
+    lit_count: u32,              // boxes of the media emitting media light (LitMedia::count)
+    _lit_pad0: u32,
+    _lit_pad1: u32,
+    _lit_pad2: u32,
+    lit_boxes: array<vec4<f32>, 8>, // box k's lowest corner in row 2k, its highest in 2k + 1
 }
 
 // GpuVdbMedium: one VDB medium of the mixture variant (entry of vdb_media).

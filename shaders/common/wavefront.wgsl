@@ -296,13 +296,15 @@ fn medium_interval(o: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32,
 }
 
 // russian_roulette (src/integrator/path.rs): unbiased roulette on the throughput (times
-// `scale`, cone_scale's) after rr_depth events, or earlier once it is below rr_throughput:
-// survive with probability min(sqrt(max(beta) scale), 0.95), then divide by it.
+// `scale`, cone_scale's) after rr_depth events, or earlier, from the EARLY_RR_DEPTH-th event
+// on, once it is below rr_throughput: survive with probability min(sqrt(max(beta) scale),
+// 0.95), then divide by it.
 fn russian_roulette(beta: ptr<function, vec3<f32>>, scale: f32, depth: u32, sample_id: u32,
                     rng: ptr<function, Rng>) -> bool {
     let a = abs(*beta);
     let q_beta = max(a.x, max(a.y, a.z)) * scale;
-    if (depth < wf.rr_depth && !(q_beta < wf.rr_throughput)) {
+    let early = depth >= EARLY_RR_DEPTH && q_beta < wf.rr_throughput;
+    if (depth < wf.rr_depth && !early) {
         return true;
     }
     let q = min(sqrt(q_beta), 0.95);

@@ -28,8 +28,8 @@ fn emitter_scatter(ps: GpuPathState, wi: vec3<f32>) -> vec4<f32> {
         let wo_l = frame_to_local(frame, wo);
         let wi_l = frame_to_local(frame, wi);
         let f = principled_eval(bsdf, wo_l, wi_l) * abs(wi_l.z);
-        return vec4<f32>(f, lamps_mixture_pdf(emitter_origin(ps), wi,
-                                              principled_pdf(bsdf, wo_l, wi_l)));
+        return vec4<f32>(f, surface_mixture_pdf(emitter_origin(ps), wi,
+                                                principled_pdf(bsdf, wo_l, wi_l)));
     }
 // #endif
     let f = phase_p(path_phase(ps), wo, wi);

@@ -31,7 +31,7 @@ fn sample_phase(slot: u32) {
         let u_dir = sampler_2d(ps.sample_id, bounce_dim(ps.depth - 1u, DIM_SCATTER), &rng);
         let p_off = offset_origin(p, n_side, n_side);
         var s: BsdfSample;
-        if (wf.lamp_count == 0u) {
+        if (!lamps_guide_surfaces()) {
             s = principled_sample(bsdf, frame_to_local(frame, wo), u_lobe, u_dir);
         } else {
             let wo_l = frame_to_local(frame, wo);

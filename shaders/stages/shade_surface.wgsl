@@ -116,7 +116,7 @@ fn shade_surface(slot: u32) {
         if (any(f != vec3<f32>(0.0)) && ls.pdf > 0.0) {
             var w = 1.0;
             if (!ls.is_delta) {
-                w = power_heuristic(ls.pdf, lamps_mixture_pdf(p_off, ls.wi, pdf_bsdf));
+                w = power_heuristic(ls.pdf, surface_mixture_pdf(p_off, ls.wi, pdf_bsdf));
             }
             push_shadow_ray(slot, p_off, ls.wi, ls.dist, ps.medium, ps.outer, ps.beta * ls.li * f * (w / ls.pdf));
 // #if FEATURE_LIGHT_GROUPS

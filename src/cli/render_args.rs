@@ -120,8 +120,8 @@ pub struct RenderArgs {
     /// that meet the emission find it).
     #[arg(long, value_name = "on|off", default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     pub media_lights: bool,
-    /// Russian roulette also before the 8th bounce once the throughput's largest channel is
-    /// below this (0 disables; default 0.5).
+    /// Russian roulette also before the 8th bounce, from the 3rd on, once the throughput's
+    /// largest channel is below this (0 disables; default 0.5).
     #[arg(long)]
     pub rr_throughput: Option<f32>,
     /// Run the unspecialised path (all effects enabled) to measure what specialisation saves.

@@ -290,7 +290,12 @@ pub const SHARED_STRUCTS: &[StructLayout] = &[
             glow_count,
             placement_count,
             glows,
-            lamps
+            lamps,
+            lit_count,
+            _lit_pad0,
+            _lit_pad1,
+            _lit_pad2,
+            lit_boxes
         ]
     ),
     layout!(

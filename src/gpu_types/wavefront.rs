@@ -440,10 +440,19 @@ pub struct GpuWavefrontParams {
     pub glows: [[f32; 4]; 2],
     /// The positions of the `lamp_count` lamps, world space (`Lamps::positions`; `w` unused).
     pub lamps: [[f32; 4]; 4],
+    /// Boxes of the media that emitting media light, which surface events draw part of their
+    /// directions towards (`LitMedia::count`; 0: none).
+    pub lit_count: u32,
+    pub _lit_pad0: u32,
+    pub _lit_pad1: u32,
+    pub _lit_pad2: u32,
+    /// Their world corners (`LitMedia::boxes`): box `k`'s lowest in row `2 k`, its highest in
+    /// row `2 k + 1` (`w` unused).
+    pub lit_boxes: [[f32; 4]; 8],
 }
 const _: () = assert!(
     size_of::<GpuWavefrontParams>()
-        == 480
+        == 624
             + size_of::<GpuVelocityBlur>()
             + size_of::<GpuCameraMotion>()
             + GPU_MAX_VDB_MEDIA * size_of::<GpuPhase>()

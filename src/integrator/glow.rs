@@ -30,6 +30,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
 
 use super::bsdf::{BsdfSample, Principled};
+use super::lit_media::{LitMedia, LIT_SHARE};
 use crate::render::prepare::RenderScene;
 use crate::render::settings::VolumeSampling;
 use crate::sampling::warp::Frame;
@@ -214,6 +215,9 @@ fn lamps_in_media<'a>(rs: &'a RenderScene, time: f32) -> impl Iterator<Item = Ve
     })
 }
 
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// `b`: the share of a medium scattering event's directions drawn towards lamps in media.
 pub const CONE_SHARE: f32 = 0.1;
 /// `theta_max`: the half-angle of the cone around a lamp's direction, radians.
@@ -233,16 +237,28 @@ pub const COS_CONE_ANGLE: f32 = 0.968_912_4;
 /// p(wi) = (1 - b) p_phase(wi) + (b / n) sum_k p_cone,k(wi),    beta *= p_phase(wi) / p(wi)
 /// p(wi) = (1 - b) p_bsdf(wi)  + (b / n) sum_k p_cone,k(wi),    beta *= f(wi) cos / p(wi)
 /// ```
+///
+/// Surface events also draw a share towards the media that emitting media light
+/// ([`LitMedia`]); medium events find those by their phase function.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Lamps {
     pub positions: [Vec3; MAX_GLOWS],
     pub count: usize,
+    /// The boxes of the media that emitting media light (none without media lights).
+    pub lit: LitMedia,
 }
 
 impl Lamps {
-    /// The lamps of `rs` at `time`; none under distance-only sampling.
+    /// The lamps of `rs` at `time` (none under distance-only sampling) and the media its
+    /// emitting media light.
     pub fn of_scene(rs: &RenderScene, sampling: VolumeSampling, time: f32) -> Lamps {
-        let mut lamps = Lamps::default();
+        let mut lamps = Lamps {
+            lit: rs
+                .media_lights
+                .as_ref()
+                .map_or(LitMedia::NONE, |m| LitMedia::new(&m.lit)),
+            ..Lamps::default()
+        };
         if sampling == VolumeSampling::Distance {
             return lamps;
         }
@@ -263,6 +279,33 @@ impl Lamps {
         } else {
             (1.0 - CONE_SHARE) * pdf + CONE_SHARE * self.pdf(x, wi)
         }
+    }
+
+    /// Whether surface events draw some of their directions from the lamps or the lit media.
+    pub fn guides_surfaces(&self) -> bool {
+        self.count > 0 || self.lit.count > 0
+    }
+
+    /// The shares of a surface event's directions drawn from the lamps' cones and from the
+    /// lit media's boxes.
+    fn surface_shares(&self) -> (f32, f32) {
+        let cones = if self.count > 0 { CONE_SHARE } else { 0.0 };
+        let boxes = if self.lit.count > 0 { LIT_SHARE } else { 0.0 };
+        (cones, boxes)
+    }
+
+    /// [`mixture_pdf`](Self::mixture_pdf) at a surface: the BSDF's density `pdf` mixed with
+    /// the lamps' cones and the lit media's boxes.
+    pub fn surface_mixture_pdf(&self, x: Vec3, wi: Vec3, pdf: f32) -> f32 {
+        if self.lit.count == 0 {
+            return self.mixture_pdf(x, wi, pdf);
+        }
+        let (cones, boxes) = self.surface_shares();
+        let mut p = (1.0 - cones - boxes) * pdf + boxes * self.lit.pdf(x, wi);
+        if self.count > 0 {
+            p += cones * self.pdf(x, wi);
+        }
+        p
     }
 
     /// The cones' mixture density `(1 / n) sum_k p_cone,k(wi)` at `x`.
@@ -305,9 +348,10 @@ impl Lamps {
     }
 
     /// A surface's next direction at `x`, in the shading frame `frame` (`(u_lobe, u)` the
-    /// BSDF's numbers, `u_c` picks the strategy and the lamp): a share [`CONE_SHARE`] from
-    /// the lamps' cones, the rest from `bsdf`, weighed by the mixture. `None` where the
-    /// direction is below the surface or the BSDF's sampling fails.
+    /// BSDF's numbers, `u_c` picks the strategy and the lamp or box): a share [`CONE_SHARE`]
+    /// from the lamps' cones, a share [`LIT_SHARE`] from the lit media's boxes, the rest from
+    /// `bsdf`, weighed by the mixture. `None` where the direction is below the surface or the
+    /// BSDF's sampling fails.
     pub fn sample_bsdf(
         &self,
         bsdf: &Principled,
@@ -317,9 +361,16 @@ impl Lamps {
         (u_lobe, u): (f32, Vec2),
         u_c: f32,
     ) -> Option<BsdfSample> {
-        let wi_l = if u_c < CONE_SHARE {
-            let pick = ((u_c / CONE_SHARE * self.count as f32) as usize).min(self.count - 1);
+        let (cones, boxes) = self.surface_shares();
+        let wi_l = if u_c < cones {
+            let pick = ((u_c / cones * self.count as f32) as usize).min(self.count - 1);
             frame.to_local(self.sample(x, pick, u))
+        } else if u_c < cones + boxes {
+            // The box and the point's third coordinate from what is left of `u_c`.
+            let s = (u_c - cones) / boxes * self.lit.count as f32;
+            let pick = (s as usize).min(self.lit.count - 1);
+            let w = (s - pick as f32).clamp(0.0, ONE_MINUS_EPSILON);
+            frame.to_local(self.lit.sample(x, pick, u.extend(w)))
         } else {
             bsdf.sample(wo_l, u_lobe, u)?.wi
         };
@@ -328,7 +379,7 @@ impl Lamps {
             return None;
         }
         let wi = frame.from_local(wi_l);
-        let pdf = self.mixture_pdf(x, wi, pdf_bsdf);
+        let pdf = self.surface_mixture_pdf(x, wi, pdf_bsdf);
         Some(BsdfSample {
             wi: wi_l,
             weight: bsdf.eval(wo_l, wi_l) * wi_l.z / pdf,
@@ -407,6 +458,7 @@ mod tests {
                 Vec3::ZERO,
             ],
             count: 2,
+            lit: LitMedia::NONE,
         };
         let x = Vec3::new(0.1, 0.0, 0.2);
         // The cones' density over the sphere, by a fine grid in (cos, phi).
@@ -476,6 +528,7 @@ mod tests {
                 Vec3::ZERO,
             ],
             count: 2,
+            lit: LitMedia::NONE,
         };
         let x = Vec3::new(0.1, -0.2, 0.0);
         let frame = Frame::from_z(Vec3::Z);
@@ -527,6 +580,61 @@ mod tests {
                 cone[c],
                 mass[c]
             );
+        }
+    }
+
+    /// With the lit media's boxes beside the lamps' cones (and alone), a surface's weighted
+    /// directions still integrate `f cos` without bias: the mean weight is the BSDF's albedo
+    /// by quadrature (a box above the surface, one across it).
+    #[test]
+    fn lit_boxes_keep_the_bsdf_integral() {
+        let lit = LitMedia::new(&[
+            crate::math::Aabb::new(Vec3::new(1.0, -0.5, 0.5), Vec3::new(2.5, 1.0, 1.5)),
+            crate::math::Aabb::new(Vec3::new(-2.0, -1.0, -0.5), Vec3::new(-1.0, 0.0, 0.8)),
+        ]);
+        let x = Vec3::new(0.1, -0.2, 0.0);
+        let frame = Frame::from_z(Vec3::Z);
+        let bsdf = Principled::new(Vec3::new(0.7, 0.5, 0.3), 0.2, 0.4);
+        let wo_l = Vec3::new(-0.5, 0.1, 0.8).normalize();
+        let m = 1000;
+        let mut albedo = glam::DVec3::ZERO;
+        for i in 0..m {
+            let cos = (i as f64 + 0.5) / m as f64;
+            let sin = (1.0 - cos * cos).sqrt();
+            for j in 0..m {
+                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
+                let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
+                albedo += (bsdf.eval(wo_l, wi) * wi.z).as_dvec3();
+            }
+        }
+        albedo *= std::f64::consts::TAU / (m * m) as f64;
+        for count in [0, 1] {
+            let lamps = Lamps {
+                positions: [Vec3::new(0.8, 0.3, 1.0), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],
+                count,
+                lit,
+            };
+            let mut rng = crate::sampling::Rng::new(11, 12, 13);
+            let n = 2_000_000;
+            let mut sum = glam::DVec3::ZERO;
+            for _ in 0..n {
+                let (u_lobe, u, u_c) = (rng.uniform_f32(), rng.uniform_vec2(), rng.uniform_f32());
+                if let Some(s) = lamps.sample_bsdf(&bsdf, &frame, wo_l, x, (u_lobe, u), u_c) {
+                    let pdf =
+                        lamps.surface_mixture_pdf(x, frame.from_local(s.wi), bsdf.pdf(wo_l, s.wi));
+                    assert_eq!(pdf, s.pdf);
+                    sum += s.weight.as_dvec3();
+                }
+            }
+            let sum = sum / n as f64;
+            for c in 0..3 {
+                assert!(
+                    (sum[c] - albedo[c]).abs() < 5e-3 * albedo[c],
+                    "{count} lamps, channel {c}: mean weight {} against {}",
+                    sum[c],
+                    albedo[c]
+                );
+            }
         }
     }
 

@@ -2,7 +2,8 @@
 //! sample ([`path::radiance`]) over the tiles of the image ([`tile`]), its free flights through
 //! the media ([`media`], [`homogeneous`], [`mixture`], [`nested`], [`views`]), the scattering
 //! distances it samples towards point lights ([`equiangular`]), its light samples on emitting
-//! media ([`emitters`]) and its BSDFs
+//! media ([`emitters`]), the directions surfaces draw towards the media those light
+//! ([`lit_media`]) and its BSDFs
 //! ([`bsdf`]), each compiled for the scene's [`features`]. What it renders, the prepared scene
 //! and settings, is `crate::render`.
 pub mod bsdf;
@@ -12,6 +13,7 @@ pub mod features;
 pub mod flight;
 pub mod glow;
 pub mod homogeneous;
+pub mod lit_media;
 pub mod media;
 pub mod mixture;
 pub mod nested;

@@ -551,7 +551,9 @@ fn shade_surface<F: Features>(
             return (Vec3::ZERO, 0.0);
         }
         let wi_l = frame.to_local(wi);
-        let pdf = limits.lamps.mixture_pdf(p_off, wi, bsdf.pdf(wo_l, wi_l));
+        let pdf = limits
+            .lamps
+            .surface_mixture_pdf(p_off, wi, bsdf.pdf(wo_l, wi_l));
         (bsdf.eval(wo_l, wi_l) * wi_l.z.abs(), pdf)
     };
     let (ld, choice, source) = next_event::<F>(
@@ -622,10 +624,11 @@ fn sample_phase(
         } => {
             let u_lobe = sampler.get1d(bounce_dim(ps.depth - 1, DIM_LOBE));
             let u_dir = sampler.get2d(bounce_dim(ps.depth - 1, DIM_SCATTER));
-            let s = if limits.lamps.count == 0 {
+            let s = if !limits.lamps.guides_surfaces() {
                 bsdf.sample(wo_l, u_lobe, u_dir)
             } else {
-                // glow::Lamps: a share of the directions drawn towards lamps inside media.
+                // glow::Lamps: a share of the directions drawn towards lamps inside media and
+                // towards the media that emitting media light.
                 let u_c = sampler.rng.uniform_f32();
                 limits
                     .lamps
@@ -728,9 +731,19 @@ fn cone_scale(pdf: f32, pdf_alone: f32) -> f32 {
     }
 }
 
-/// Unbiased Russian roulette on the throughput after `rr_depth` events, or earlier once the
-/// throughput's largest channel is below `rr_throughput` (a path darkened by absorption
-/// weights): survive with probability `min(sqrt(max(beta)), 0.95)`, then divide by it.
+/// The first event after which the early roulette (`PathLimits::rr_throughput`) may end a
+/// path. The early roulette stands in for the analog absorption that weighted collisions
+/// replace, which pays in long chains of events in a dark medium; a path's first two events
+/// are where a dim throughput still finds most of its light. The floor under a fire (albedo
+/// 0.2) is lit in part by the smoke its bounces reach, and the smoke (albedo 0.3) by the flame
+/// just past it: rouletted after either event, the survivors' weights double that light's
+/// second moment (`brume bench peers scenes/fire.gltf`, `brume-no-rr-guard`).
+pub const EARLY_RR_DEPTH: u32 = 3;
+
+/// Unbiased Russian roulette on the throughput after `rr_depth` events, or earlier, from the
+/// [`EARLY_RR_DEPTH`]th event on, once the throughput's largest channel is below
+/// `rr_throughput` (a path darkened by absorption weights): survive with probability
+/// `min(sqrt(max(beta)), 0.95)`, then divide by it.
 ///
 /// The square root (Cycles' `path_state_continuation_probability`) kills fewer dim paths than
 /// `max(beta)` itself: a survivor's weight grows to `sqrt(max(beta))` instead of 1, which is
@@ -751,7 +764,8 @@ fn russian_roulette(
     rng: &mut Decision,
 ) -> bool {
     let q = beta.abs().max_element() * scale;
-    if depth < limits.rr_depth && !(q < limits.rr_throughput) {
+    let early = depth >= EARLY_RR_DEPTH && q < limits.rr_throughput;
+    if depth < limits.rr_depth && !early {
         return true;
     }
     let q = q.sqrt().min(0.95);

@@ -17,7 +17,8 @@ use crate::render::stack::MediumStack;
 pub struct PathLimits {
     pub max_depth: u32,
     pub rr_depth: u32,
-    /// Roulette also before `rr_depth` once `max(beta)` falls below this (0: never).
+    /// Roulette also before `rr_depth`, from the third event on, once `max(beta)` falls
+    /// below this (0: never).
     pub rr_throughput: f32,
     pub max_collisions: u64,
     /// Guided light selection at medium events (`LightSelection::guided`).

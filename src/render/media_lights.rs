@@ -48,6 +48,7 @@ use super::cell_tree::CellTree;
 use super::emission_bounds::emission_bound;
 use super::lights::power_heuristic;
 use super::media::{Emission, VdbMedium};
+use crate::math::Aabb;
 use crate::scene::NO_INDEX;
 use crate::volume::bounds::CELL_WIDTH;
 
@@ -94,6 +95,9 @@ pub struct MediaLights {
     pub(crate) entries: Vec<(u32, u32)>,
     /// The tree over them, each with power `e_c V_c` and the cell's world box.
     pub(crate) tree: CellTree,
+    /// World boxes of the media they light: each emitting medium's cells that hold density,
+    /// and every other still medium's that overlaps one of those (`integrator::lit_media`).
+    pub lit: Vec<Aabb>,
 }
 
 /// A point sampled on the emitting media.
@@ -178,10 +182,12 @@ impl MediaLights {
             }
             return None;
         };
+        let lit = lit_boxes(vdb, &media);
         Some(MediaLights {
             media,
             entries,
             tree,
+            lit,
         })
     }
 
@@ -222,6 +228,37 @@ impl MediaLights {
     pub fn cells(&self) -> usize {
         self.entries.len()
     }
+}
+
+/// The world boxes of the media the emitters `media` light ([`MediaLights::lit`]): the
+/// emitting media first, then the other still media whose box meets one of theirs.
+fn lit_boxes(vdb: &[VdbMedium], media: &[EmitterMedium]) -> Vec<Aabb> {
+    let dense = |m: &VdbMedium| {
+        let walk = m.bounds();
+        let world_from_index = m.density.index_from_world.inverse();
+        let mut b = Aabb::EMPTY;
+        for (c, cell) in walk.cells.iter().enumerate() {
+            if cell.max > 0.0 {
+                let (lo, hi) = world_box(world_from_index, cell_lo(walk.dims, walk.cell_origin, c));
+                b = b.union(&Aabb::new(lo, hi));
+            }
+        }
+        b
+    };
+    let mut lit: Vec<Aabb> = media.iter().map(|e| dense(&vdb[e.vdb as usize])).collect();
+    let emitting = lit.clone();
+    let meets = |a: &Aabb, b: &Aabb| a.min.cmple(b.max).all() && b.min.cmple(a.max).all();
+    for (k, m) in vdb.iter().enumerate() {
+        let still = m.blur.is_none() && m.motion.is_none();
+        if still && !media.iter().any(|e| e.vdb as usize == k) {
+            let b = dense(m);
+            if !b.is_empty() && emitting.iter().any(|e| meets(e, &b)) {
+                lit.push(b);
+            }
+        }
+    }
+    lit.retain(|b| !b.is_empty());
+    lit
 }
 
 /// The world box of the cell at index corner `lo`.

@@ -309,7 +309,8 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// Russian roulette starts after this many scattering events.
     pub rr_depth: u32,
-    /// ... or earlier, as soon as the throughput's largest channel falls below this. With
+    /// ... or earlier, from the third event on, as soon as the throughput's largest channel
+    /// falls below this. With
     /// absorption as a weight, a dark medium (albedo 0.2) does not end paths at absorption
     /// events; without this guard such paths carry tiny weights through `rr_depth` bounces
     /// of full-cost tracking, less efficient than absorption events; the guard at 0.5 makes

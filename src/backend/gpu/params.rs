@@ -127,6 +127,11 @@ pub(super) fn wavefront_params(
     for (k, p) in lamps.positions.iter().enumerate() {
         params.lamps[k] = p.extend(0.0).to_array();
     }
+    params.lit_count = lamps.lit.count as u32;
+    for (k, b) in lamps.lit.boxes[..lamps.lit.count].iter().enumerate() {
+        params.lit_boxes[2 * k] = b.min.extend(0.0).to_array();
+        params.lit_boxes[2 * k + 1] = b.max.extend(0.0).to_array();
+    }
     params
 }
 

@@ -300,6 +300,7 @@ pub fn shared_constants() -> String {
             "SHADOW_WALKS",
             crate::integrator::equiangular::SHADOW_WALKS as u32,
         ),
+        ("EARLY_RR_DEPTH", crate::integrator::path::EARLY_RR_DEPTH),
     ] {
         writeln!(s, "const {name}: u32 = {v}u;").unwrap();
     }
@@ -336,6 +337,7 @@ fn shared_f32_constants() -> String {
         ("CONE_SHARE", glow::CONE_SHARE),
         ("CONE_ANGLE", glow::CONE_ANGLE),
         ("COS_CONE_ANGLE", glow::COS_CONE_ANGLE),
+        ("LIT_SHARE", crate::integrator::lit_media::LIT_SHARE),
         ("NEAR_LIGHT", crate::integrator::equiangular::NEAR_LIGHT),
     ] {
         writeln!(s, "const {name}: f32 = {v:?}f;").unwrap();
