@@ -404,6 +404,7 @@ impl Lamps {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::warp::direction_grid;
 
     /// The weighted jitter integrates any function over the pixel without bias: the mean of
     /// `w f(q)` over a fine grid of `u` is `f`'s integral, for a pixel holding a glow's centre
@@ -462,18 +463,9 @@ mod tests {
         };
         let x = Vec3::new(0.1, 0.0, 0.2);
         // The cones' density over the sphere, by a fine grid in (cos, phi).
-        let m = 2000;
         let mut total = 0.0f64;
-        for i in 0..m {
-            let cos = -1.0 + 2.0 * (i as f64 + 0.5) / m as f64;
-            let sin = (1.0 - cos * cos).sqrt();
-            for j in 0..m {
-                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
-                let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
-                total += lamps.pdf(x, wi) as f64;
-            }
-        }
-        total *= 4.0 * std::f64::consts::PI / (m * m) as f64;
+        let cell = direction_grid(2000, false, |wi| total += lamps.pdf(x, wi) as f64);
+        total *= cell;
         assert!((total - 1.0).abs() < 2e-3, "cones integrate to {total}");
         let phase = Phase::hg(0.6);
         let wo = Vec3::new(1.0, 0.0, 0.0);
@@ -537,22 +529,14 @@ mod tests {
         let axis = (lamps.positions[0] - x).normalize();
         let in_cone = |wi: Vec3| axis.dot(wi) > COS_CONE_ANGLE;
         // `f cos` over the hemisphere and over lamp 0's cone, by a grid in (cos, phi).
-        let m = 1500;
         let (mut albedo, mut mass) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-        for i in 0..m {
-            let cos = (i as f64 + 0.5) / m as f64;
-            let sin = (1.0 - cos * cos).sqrt();
-            for j in 0..m {
-                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
-                let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
-                let v = (bsdf.eval(wo_l, wi) * wi.z).as_dvec3();
-                albedo += v;
-                if in_cone(frame.from_local(wi)) {
-                    mass += v;
-                }
+        let cell = direction_grid(1500, true, |wi| {
+            let v = (bsdf.eval(wo_l, wi) * wi.z).as_dvec3();
+            albedo += v;
+            if in_cone(frame.from_local(wi)) {
+                mass += v;
             }
-        }
-        let cell = std::f64::consts::TAU / (m * m) as f64;
+        });
         (albedo, mass) = (albedo * cell, mass * cell);
         let mut rng = crate::sampling::Rng::new(7, 8, 9);
         let n = 2_000_000;
@@ -596,18 +580,11 @@ mod tests {
         let frame = Frame::from_z(Vec3::Z);
         let bsdf = Principled::new(Vec3::new(0.7, 0.5, 0.3), 0.2, 0.4);
         let wo_l = Vec3::new(-0.5, 0.1, 0.8).normalize();
-        let m = 1000;
         let mut albedo = glam::DVec3::ZERO;
-        for i in 0..m {
-            let cos = (i as f64 + 0.5) / m as f64;
-            let sin = (1.0 - cos * cos).sqrt();
-            for j in 0..m {
-                let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
-                let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
-                albedo += (bsdf.eval(wo_l, wi) * wi.z).as_dvec3();
-            }
-        }
-        albedo *= std::f64::consts::TAU / (m * m) as f64;
+        let cell = direction_grid(1000, true, |wi| {
+            albedo += (bsdf.eval(wo_l, wi) * wi.z).as_dvec3();
+        });
+        albedo *= cell;
         for count in [0, 1] {
             let lamps = Lamps {
                 positions: [Vec3::new(0.8, 0.3, 1.0), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO],

@@ -96,20 +96,12 @@ mod tests {
             Aabb::new(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.5, 1.0)),
         ]);
         for x in [Vec3::new(0.2, -2.0, 0.1), Vec3::new(0.0, 0.25, 0.0)] {
-            let m = 1500;
             let (mut total, mut covered) = (0.0f64, 0.0f64);
-            for i in 0..m {
-                let cos = -1.0 + 2.0 * (i as f64 + 0.5) / m as f64;
-                let sin = (1.0 - cos * cos).sqrt();
-                for j in 0..m {
-                    let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
-                    let wi = glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3();
-                    let p = media.pdf(x, wi) as f64;
-                    total += p;
-                    covered += (p > 0.0) as u32 as f64;
-                }
-            }
-            let cell = 4.0 * std::f64::consts::PI / (m * m) as f64;
+            let cell = crate::sampling::warp::direction_grid(1500, false, |wi| {
+                let p = media.pdf(x, wi) as f64;
+                total += p;
+                covered += (p > 0.0) as u32 as f64;
+            });
             (total, covered) = (total * cell, covered * cell);
             assert!(
                 (total - 1.0).abs() < 3e-3,

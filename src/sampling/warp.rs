@@ -100,3 +100,19 @@ impl Frame {
         v.x * self.x + v.y * self.y + v.z * self.z
     }
 }
+
+/// Test quadrature over directions: calls `f(wi)` at the centres of an `m x m` grid in
+/// `(cos theta, phi)` over the sphere (over `z > 0` with `upper`); returns a cell's solid angle.
+#[cfg(test)]
+pub(crate) fn direction_grid(m: usize, upper: bool, mut f: impl FnMut(Vec3)) -> f64 {
+    let lo = if upper { 0.0 } else { -1.0 };
+    for i in 0..m {
+        let cos = lo + (1.0 - lo) * (i as f64 + 0.5) / m as f64;
+        let sin = (1.0 - cos * cos).sqrt();
+        for j in 0..m {
+            let phi = std::f64::consts::TAU * (j as f64 + 0.5) / m as f64;
+            f(glam::DVec3::new(sin * phi.cos(), sin * phi.sin(), cos).as_vec3());
+        }
+    }
+    (1.0 - lo) * std::f64::consts::TAU / (m * m) as f64
+}
