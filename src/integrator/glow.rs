@@ -33,6 +33,7 @@ use super::bsdf::{BsdfSample, Principled};
 use super::lit_media::{LitMedia, LIT_SHARE};
 use crate::render::prepare::RenderScene;
 use crate::render::settings::VolumeSampling;
+use crate::sampling::discrete::ONE_MINUS_EPSILON;
 use crate::sampling::warp::Frame;
 use crate::volume::phase::PhaseSample;
 use crate::volume::phases::Phase;
@@ -214,9 +215,6 @@ fn lamps_in_media<'a>(rs: &'a RenderScene, time: f32) -> impl Iterator<Item = Ve
         in_media.then_some(p)
     })
 }
-
-/// The largest f32 below 1.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// `b`: the share of a medium scattering event's directions drawn towards lamps in media.
 pub const CONE_SHARE: f32 = 0.1;
